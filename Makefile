@@ -1,0 +1,44 @@
+# plsr: two commands do everything on a fresh Debian 12 machine with Rust.
+#   make demo   installs missing packages, builds, renders the default scene
+#   make test   installs missing packages, builds, runs every test
+# Both install the Debian packages plsr needs (as root, or through sudo).
+
+SHELL := /bin/bash
+CARGO ?= cargo
+DEB_PACKAGES := libembree-dev libopenimageio-dev libclang-dev clang pkg-config
+# Embree's own pathtracer, the peer of `plsr bench` (optional at run time).
+DEB_BENCH_PACKAGES := embree-tools
+DEMO_SCENE := assets/scenes/demo/demo.toml
+OUT := out
+
+.PHONY: demo test deps bench-deps bench build fmt clippy install-deps-if-missing
+
+demo: deps
+	$(CARGO) build --release
+	mkdir -p $(OUT)
+	./target/release/plsr render $(DEMO_SCENE) -o $(OUT)/demo.exr --png $(OUT)/demo.png
+	@echo "wrote $(OUT)/demo.exr and $(OUT)/demo.png"
+
+test: deps
+	$(CARGO) test --workspace --no-fail-fast
+
+build: deps
+	$(CARGO) build --release
+
+bench: deps bench-deps
+	$(CARGO) build --release
+	./target/release/plsr bench
+
+# Installs the Debian packages that are missing (apt-get update once, only
+# when something must be installed).
+deps:
+	@bash scripts/install-deps.sh $(DEB_PACKAGES)
+
+bench-deps:
+	@bash scripts/install-deps.sh $(DEB_BENCH_PACKAGES)
+
+fmt:
+	$(CARGO) fmt --all
+
+clippy:
+	$(CARGO) clippy --workspace --all-targets -- -D warnings

@@ -1,0 +1,599 @@
+//! Safe layer over Embree 3: device, scene, triangle geometry and ray queries.
+//!
+//! This is the only module (with `sys/`) that talks to Embree. The life cycle is:
+//!
+//! 1. [`Device::new`] creates an Embree device and installs an error callback
+//!    that records Embree's error code and message, so that every failing call
+//!    turns into an [`EmbreeError`] instead of a silent null handle.
+//! 2. [`SceneBuilder`] collects triangle meshes (each attached under an explicit
+//!    geometry id, so `Hit::geom_id` is the caller's shape index) and is turned
+//!    by [`SceneBuilder::commit`] into an immutable [`Accel`].
+//! 3. [`Accel`] answers closest-hit ([`Accel::intersect`]) and any-hit
+//!    ([`Accel::occluded`]) queries for single rays, and for batches through
+//!    Embree's stream API ([`Accel::intersect_stream`], [`Accel::occluded_stream`]),
+//!    which the integrator uses for the coherent rays of a tile.
+//!
+//! Threads: Embree's ray queries on a committed scene are thread-safe, and
+//! every worker that traces rays must run with flush-to-zero and
+//! denormals-are-zero set (Embree's documented requirement for speed); see
+//! [`enable_flush_to_zero`], which plsr's thread pools call in their start
+//! handler.
+
+use crate::sys;
+use glam::Vec3;
+use std::ffi::{c_void, CStr, CString};
+use std::fmt;
+use std::sync::Mutex;
+
+/// Embree's "no geometry" id (`RTC_INVALID_GEOMETRY_ID`).
+pub const INVALID_ID: u32 = u32::MAX;
+
+/// An error reported by Embree: its error code and message.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EmbreeError {
+    /// Embree's `RTCError` code (1 = unknown, 2 = invalid argument, 3 = invalid
+    /// operation, 4 = out of memory, 5 = unsupported CPU, 6 = cancelled).
+    pub code: u32,
+    /// Embree's message, or a description of the failing call.
+    pub message: String,
+}
+
+impl fmt::Display for EmbreeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let name = match self.code {
+            sys::RTC_ERROR_UNKNOWN => "unknown error",
+            sys::RTC_ERROR_INVALID_ARGUMENT => "invalid argument",
+            sys::RTC_ERROR_INVALID_OPERATION => "invalid operation",
+            sys::RTC_ERROR_OUT_OF_MEMORY => "out of memory",
+            sys::RTC_ERROR_UNSUPPORTED_CPU => "unsupported CPU",
+            sys::RTC_ERROR_CANCELLED => "cancelled",
+            _ => "error",
+        };
+        write!(f, "Embree {name}: {}", self.message)
+    }
+}
+
+impl std::error::Error for EmbreeError {}
+
+/// Where the error callback of one device writes; boxed so its address is stable.
+#[derive(Default)]
+struct ErrorSlot {
+    first: Mutex<Option<EmbreeError>>,
+}
+
+unsafe extern "C" fn error_callback(
+    user_ptr: *mut c_void,
+    code: sys::RTCError,
+    message: *const std::os::raw::c_char,
+) {
+    // A panic must not unwind into Embree's C++ frames.
+    let _ = std::panic::catch_unwind(|| {
+        // SAFETY: `user_ptr` is the `ErrorSlot` boxed in the `Device` that
+        // registered this callback; the device (and so the box) outlives every
+        // Embree call made through it. `message` is null or a NUL-terminated
+        // string owned by Embree for the duration of the call.
+        let slot = unsafe { &*(user_ptr as *const ErrorSlot) };
+        let text = if message.is_null() {
+            String::from("(no message)")
+        } else {
+            unsafe { CStr::from_ptr(message) }
+                .to_string_lossy()
+                .into_owned()
+        };
+        if let Ok(mut first) = slot.first.lock() {
+            first.get_or_insert(EmbreeError {
+                code,
+                message: text,
+            });
+        }
+    });
+}
+
+/// Sets flush-to-zero and denormals-are-zero in this thread's MXCSR register.
+///
+/// Embree asks for both on every thread that traces rays; plsr's rayon pools
+/// call this from their start handler. A no-op on targets other than x86-64.
+pub fn enable_flush_to_zero() {
+    #[cfg(target_arch = "x86_64")]
+    {
+        const FTZ: u32 = 1 << 15;
+        const DAZ: u32 = 1 << 6;
+        let mut csr: u32 = 0;
+        // SAFETY: stmxcsr/ldmxcsr only read and write the calling thread's
+        // SSE control register; setting FTZ and DAZ changes how denormals are
+        // rounded and cannot cause undefined behaviour.
+        unsafe {
+            std::arch::asm!("stmxcsr [{}]", in(reg) &mut csr, options(nostack));
+            csr |= FTZ | DAZ;
+            std::arch::asm!("ldmxcsr [{}]", in(reg) &csr, options(nostack, readonly));
+        }
+    }
+}
+
+/// Whether flush-to-zero and denormals-are-zero are set on this thread.
+pub fn flush_to_zero_enabled() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let mut csr: u32 = 0;
+        // SAFETY: stmxcsr only stores the calling thread's control register.
+        unsafe { std::arch::asm!("stmxcsr [{}]", in(reg) &mut csr, options(nostack)) };
+        csr & (1 << 15) != 0 && csr & (1 << 6) != 0
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        true
+    }
+}
+
+/// An Embree device: the context that owns scenes and geometries.
+///
+/// Released (`rtcReleaseDevice`) on drop; scenes keep their own reference, so
+/// a device may be dropped before the `Accel`s built on it.
+pub struct Device {
+    raw: sys::RTCDevice,
+    errors: Box<ErrorSlot>,
+}
+
+// SAFETY: an Embree device is reference counted and internally synchronised;
+// Embree's API may be called on it from any thread. The error slot is a Mutex.
+unsafe impl Send for Device {}
+// SAFETY: as above; `&Device` only allows creating scenes and reading errors,
+// both thread-safe in Embree.
+unsafe impl Sync for Device {}
+
+impl Device {
+    /// Creates a device with Embree's default configuration.
+    pub fn new() -> Result<Device, EmbreeError> {
+        Device::with_config("")
+    }
+
+    /// Creates a device with an Embree configuration string (e.g. `"threads=1"`).
+    pub fn with_config(config: &str) -> Result<Device, EmbreeError> {
+        let c_config = CString::new(config).map_err(|_| EmbreeError {
+            code: sys::RTC_ERROR_INVALID_ARGUMENT,
+            message: "device configuration contains a NUL byte".into(),
+        })?;
+        // SAFETY: `c_config` is a valid NUL-terminated string for the call.
+        let raw = unsafe { sys::rtcNewDevice(c_config.as_ptr()) };
+        if raw.is_null() {
+            // SAFETY: rtcGetDeviceError(NULL) reads the thread-local error of a
+            // failed device creation.
+            let code = unsafe { sys::rtcGetDeviceError(std::ptr::null_mut()) };
+            return Err(EmbreeError {
+                code,
+                message: format!("cannot create a device with configuration {config:?}"),
+            });
+        }
+        let errors = Box::<ErrorSlot>::default();
+        // SAFETY: `raw` is a live device; the slot pointer stays valid as long as
+        // the device, which owns the box, lives.
+        unsafe {
+            sys::rtcSetDeviceErrorFunction(
+                raw,
+                Some(error_callback),
+                &*errors as *const ErrorSlot as *mut c_void,
+            )
+        };
+        Ok(Device { raw, errors })
+    }
+
+    /// Takes the first error Embree reported since the last check, if any.
+    pub fn take_error(&self) -> Option<EmbreeError> {
+        // SAFETY: `self.raw` is a live device; the call resets its error code.
+        let code = unsafe { sys::rtcGetDeviceError(self.raw) };
+        let recorded = self.errors.first.lock().ok().and_then(|mut e| e.take());
+        match (recorded, code) {
+            (Some(e), _) => Some(e),
+            (None, sys::RTC_ERROR_NONE) => None,
+            (None, code) => Some(EmbreeError {
+                code,
+                message: "(no message)".into(),
+            }),
+        }
+    }
+
+    fn check(&self, what: &str) -> Result<(), EmbreeError> {
+        match self.take_error() {
+            None => Ok(()),
+            Some(mut e) => {
+                e.message = format!("{what}: {}", e.message);
+                Err(e)
+            }
+        }
+    }
+
+    /// Starts building a scene on this device.
+    pub fn scene_builder(&self, options: SceneOptions) -> Result<SceneBuilder<'_>, EmbreeError> {
+        // SAFETY: `self.raw` is a live device.
+        let raw = unsafe { sys::rtcNewScene(self.raw) };
+        self.check("rtcNewScene")?;
+        if raw.is_null() {
+            return Err(EmbreeError {
+                code: sys::RTC_ERROR_UNKNOWN,
+                message: "rtcNewScene returned no scene".into(),
+            });
+        }
+        let mut flags = sys::RTC_SCENE_FLAG_NONE;
+        if options.robust {
+            flags |= sys::RTC_SCENE_FLAG_ROBUST;
+        }
+        // SAFETY: `raw` is the scene just created on this device.
+        unsafe {
+            sys::rtcSetSceneFlags(raw, flags);
+            sys::rtcSetSceneBuildQuality(raw, sys::RTC_BUILD_QUALITY_HIGH);
+        }
+        self.check("rtcSetSceneFlags")?;
+        Ok(SceneBuilder {
+            device: self,
+            scene: SceneHandle(raw),
+        })
+    }
+}
+
+impl Drop for Device {
+    fn drop(&mut self) {
+        // SAFETY: we own one reference to the device; the error callback is
+        // removed first so it can no longer reach the slot we are about to free
+        // (scenes may keep the device alive past this point).
+        unsafe {
+            sys::rtcSetDeviceErrorFunction(self.raw, None, std::ptr::null_mut());
+            sys::rtcReleaseDevice(self.raw);
+        }
+    }
+}
+
+/// Options of an Embree scene.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SceneOptions {
+    /// Embree's robust mode (`RTC_SCENE_FLAG_ROBUST`): watertight traversal
+    /// and intersection, a little slower. Off by default.
+    pub robust: bool,
+}
+
+/// Owns one reference to an `RTCScene`.
+struct SceneHandle(sys::RTCScene);
+
+impl Drop for SceneHandle {
+    fn drop(&mut self) {
+        // SAFETY: we own one reference to the scene.
+        unsafe { sys::rtcReleaseScene(self.0) };
+    }
+}
+
+/// A scene being built: triangle meshes are attached, then [`commit`](Self::commit)ed.
+pub struct SceneBuilder<'d> {
+    device: &'d Device,
+    scene: SceneHandle,
+}
+
+impl SceneBuilder<'_> {
+    /// Attaches a triangle mesh under geometry id `geom_id`.
+    ///
+    /// `positions` are world-space vertices (any unit), `triangles` index them.
+    /// Fails if an index is out of range, a position is not finite, or the id is
+    /// already used.
+    pub fn add_triangle_mesh(
+        &mut self,
+        geom_id: u32,
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+    ) -> Result<(), EmbreeError> {
+        let invalid = |message: String| EmbreeError {
+            code: sys::RTC_ERROR_INVALID_ARGUMENT,
+            message,
+        };
+        if let Some(t) = triangles
+            .iter()
+            .find(|t| t.iter().any(|&i| i as usize >= positions.len()))
+        {
+            return Err(invalid(format!(
+                "triangle {t:?} indexes past the {} vertices of geometry {geom_id}",
+                positions.len()
+            )));
+        }
+        if positions.iter().any(|p| !p.is_finite()) {
+            return Err(invalid(format!(
+                "geometry {geom_id} has a non-finite vertex"
+            )));
+        }
+        let device = self.device;
+        // SAFETY: the device is live; the geometry is released by `GeometryHandle`.
+        let geom = GeometryHandle(unsafe {
+            sys::rtcNewGeometry(device.raw, sys::RTC_GEOMETRY_TYPE_TRIANGLE)
+        });
+        device.check("rtcNewGeometry")?;
+        // SAFETY: `rtcSetNewGeometryBuffer` allocates Embree-owned buffers of the
+        // requested size (with the padding Embree needs) and returns pointers to
+        // them, or null on failure, which is checked before writing. We write
+        // exactly `len` elements of the declared layout into each.
+        unsafe {
+            let vb = sys::rtcSetNewGeometryBuffer(
+                geom.0,
+                sys::RTC_BUFFER_TYPE_VERTEX,
+                0,
+                sys::RTC_FORMAT_FLOAT3,
+                12,
+                positions.len(),
+            ) as *mut [f32; 3];
+            device.check("vertex buffer")?;
+            let ib = sys::rtcSetNewGeometryBuffer(
+                geom.0,
+                sys::RTC_BUFFER_TYPE_INDEX,
+                0,
+                sys::RTC_FORMAT_UINT3,
+                12,
+                triangles.len(),
+            ) as *mut [u32; 3];
+            device.check("index buffer")?;
+            if vb.is_null() || ib.is_null() {
+                return Err(EmbreeError {
+                    code: sys::RTC_ERROR_OUT_OF_MEMORY,
+                    message: format!("cannot allocate buffers of geometry {geom_id}"),
+                });
+            }
+            for (i, p) in positions.iter().enumerate() {
+                vb.add(i).write(p.to_array());
+            }
+            for (i, t) in triangles.iter().enumerate() {
+                ib.add(i).write(*t);
+            }
+            sys::rtcCommitGeometry(geom.0);
+            device.check("rtcCommitGeometry")?;
+            sys::rtcAttachGeometryByID(self.scene.0, geom.0, geom_id);
+            device.check(&format!("attaching geometry {geom_id}"))?;
+        }
+        Ok(())
+    }
+
+    /// Builds the acceleration structure and returns the immutable scene.
+    pub fn commit(self) -> Result<Accel, EmbreeError> {
+        // SAFETY: the scene is live and only reachable through `self`.
+        unsafe { sys::rtcCommitScene(self.scene.0) };
+        self.device.check("rtcCommitScene")?;
+        let mut bounds = sys::RTCBounds::default();
+        // SAFETY: the scene is committed; `bounds` is a valid, aligned RTCBounds.
+        unsafe { sys::rtcGetSceneBounds(self.scene.0, &mut bounds) };
+        Ok(Accel {
+            scene: self.scene,
+            lower: Vec3::new(bounds.lower_x, bounds.lower_y, bounds.lower_z),
+            upper: Vec3::new(bounds.upper_x, bounds.upper_y, bounds.upper_z),
+        })
+    }
+}
+
+/// Owns one reference to an `RTCGeometry`.
+struct GeometryHandle(sys::RTCGeometry);
+
+impl Drop for GeometryHandle {
+    fn drop(&mut self) {
+        // SAFETY: we own one reference; an attached scene holds its own.
+        unsafe { sys::rtcReleaseGeometry(self.0) };
+    }
+}
+
+/// A ray segment `org + t·dir` for `t` in `[tnear, tfar]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ray {
+    /// Origin (scene units).
+    pub org: Vec3,
+    /// Direction; need not be normalised (t is then in units of |dir|).
+    pub dir: Vec3,
+    /// Start of the segment.
+    pub tnear: f32,
+    /// End of the segment (`f32::INFINITY` for an unbounded ray).
+    pub tfar: f32,
+}
+
+impl Ray {
+    /// An unbounded ray starting at `tnear = 0`.
+    pub fn new(org: Vec3, dir: Vec3) -> Ray {
+        Ray {
+            org,
+            dir,
+            tnear: 0.0,
+            tfar: f32::INFINITY,
+        }
+    }
+
+    fn to_rtc(self) -> sys::RTCRay {
+        sys::RTCRay {
+            org_x: self.org.x,
+            org_y: self.org.y,
+            org_z: self.org.z,
+            tnear: self.tnear,
+            dir_x: self.dir.x,
+            dir_y: self.dir.y,
+            dir_z: self.dir.z,
+            time: 0.0,
+            tfar: self.tfar,
+            mask: u32::MAX,
+            id: 0,
+            flags: 0,
+        }
+    }
+}
+
+/// The closest intersection found along a ray.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    /// Ray parameter of the hit.
+    pub t: f32,
+    /// Geometry id given to [`SceneBuilder::add_triangle_mesh`].
+    pub geom_id: u32,
+    /// Triangle index within that geometry.
+    pub prim_id: u32,
+    /// Barycentric coordinate of vertex 1.
+    pub u: f32,
+    /// Barycentric coordinate of vertex 2.
+    pub v: f32,
+    /// Unnormalised geometric normal, `(p1 − p0) × (p2 − p0)`.
+    pub ng: Vec3,
+}
+
+/// A ray and its hit record in Embree's layout, for batched queries.
+///
+/// After [`Accel::intersect_stream`], [`RayHit::hit`] reads the result.
+#[derive(Clone, Copy, Default)]
+#[repr(transparent)]
+pub struct RayHit(sys::RTCRayHit);
+
+impl RayHit {
+    /// A ray with no hit yet.
+    pub fn new(ray: Ray) -> RayHit {
+        RayHit(sys::RTCRayHit {
+            ray: ray.to_rtc(),
+            hit: sys::RTCHit {
+                geomID: INVALID_ID,
+                primID: INVALID_ID,
+                instID: [INVALID_ID],
+                ..Default::default()
+            },
+        })
+    }
+
+    /// The ray (with `tfar` shortened to the hit distance after a query).
+    #[inline]
+    pub fn ray(&self) -> Ray {
+        let r = &self.0.ray;
+        Ray {
+            org: Vec3::new(r.org_x, r.org_y, r.org_z),
+            dir: Vec3::new(r.dir_x, r.dir_y, r.dir_z),
+            tnear: r.tnear,
+            tfar: r.tfar,
+        }
+    }
+
+    /// The hit found by the last query, if any.
+    #[inline]
+    pub fn hit(&self) -> Option<Hit> {
+        let h = &self.0.hit;
+        (h.geomID != INVALID_ID).then(|| Hit {
+            t: self.0.ray.tfar,
+            geom_id: h.geomID,
+            prim_id: h.primID,
+            u: h.u,
+            v: h.v,
+            ng: Vec3::new(h.Ng_x, h.Ng_y, h.Ng_z),
+        })
+    }
+}
+
+/// A shadow ray in Embree's layout, for batched occlusion queries.
+#[derive(Clone, Copy, Default)]
+#[repr(transparent)]
+pub struct ShadowRay(sys::RTCRay);
+
+impl ShadowRay {
+    /// A shadow ray over `[tnear, tfar]`.
+    pub fn new(ray: Ray) -> ShadowRay {
+        ShadowRay(ray.to_rtc())
+    }
+
+    /// Whether the last occlusion query found a blocker.
+    #[inline]
+    pub fn occluded(&self) -> bool {
+        self.0.tfar == f32::NEG_INFINITY
+    }
+}
+
+/// A committed, immutable Embree scene answering ray queries.
+pub struct Accel {
+    scene: SceneHandle,
+    lower: Vec3,
+    upper: Vec3,
+}
+
+// SAFETY: a committed Embree scene is immutable and Embree documents its
+// rtcIntersect*/rtcOccluded* calls as thread-safe on it; the handle is only
+// released on drop, which needs exclusive ownership.
+unsafe impl Send for Accel {}
+// SAFETY: as above: `&Accel` only permits queries, which are thread-safe.
+unsafe impl Sync for Accel {}
+
+fn context(coherent: bool) -> sys::RTCIntersectContext {
+    // Equivalent of the header's inline rtcInitIntersectContext.
+    sys::RTCIntersectContext {
+        flags: if coherent {
+            sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT
+        } else {
+            sys::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT
+        },
+        filter: None,
+        instID: [INVALID_ID],
+    }
+}
+
+impl Accel {
+    /// Axis-aligned bounds of the scene: (lower, upper) corners.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        (self.lower, self.upper)
+    }
+
+    /// The closest hit along `ray`, if any.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let mut rh = RayHit::new(*ray);
+        let mut ctx = context(false);
+        // SAFETY: the scene is committed; `ctx` and `rh` are valid, aligned
+        // (RTCRayHit is 16-byte aligned by its repr) and live for the call.
+        unsafe { sys::rtcIntersect1(self.scene.0, &mut ctx, &mut rh.0) };
+        rh.hit()
+    }
+
+    /// Whether anything blocks `ray` within `[tnear, tfar]`.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        let mut r = ray.to_rtc();
+        let mut ctx = context(false);
+        // SAFETY: as in `intersect`.
+        unsafe { sys::rtcOccluded1(self.scene.0, &mut ctx, &mut r) };
+        r.tfar == f32::NEG_INFINITY
+    }
+
+    /// Closest-hit queries for a batch (Embree's stream API, `rtcIntersect1M`).
+    ///
+    /// `coherent` tells Embree the rays are coherent (camera rays of a tile),
+    /// letting it trace them as packets.
+    pub fn intersect_stream(&self, rays: &mut [RayHit], coherent: bool) {
+        if rays.is_empty() {
+            return;
+        }
+        let mut ctx = context(coherent);
+        // SAFETY: `RayHit` is a transparent RTCRayHit, so the slice is an array
+        // of `rays.len()` RTCRayHit with stride size_of::<RTCRayHit>().
+        unsafe {
+            sys::rtcIntersect1M(
+                self.scene.0,
+                &mut ctx,
+                rays.as_mut_ptr() as *mut sys::RTCRayHit,
+                rays.len() as u32,
+                std::mem::size_of::<sys::RTCRayHit>(),
+            )
+        };
+    }
+
+    /// Occlusion queries for a batch (Embree's stream API, `rtcOccluded1M`).
+    pub fn occluded_stream(&self, rays: &mut [ShadowRay], coherent: bool) {
+        if rays.is_empty() {
+            return;
+        }
+        let mut ctx = context(coherent);
+        // SAFETY: `ShadowRay` is a transparent RTCRay; see `intersect_stream`.
+        unsafe {
+            sys::rtcOccluded1M(
+                self.scene.0,
+                &mut ctx,
+                rays.as_mut_ptr() as *mut sys::RTCRay,
+                rays.len() as u32,
+                std::mem::size_of::<sys::RTCRay>(),
+            )
+        };
+    }
+}
+
+/// Version of the Embree library linked at run time, e.g. `"3.13.5"`.
+pub fn embree_version(device: &Device) -> String {
+    // SAFETY: `device.raw` is live; the property query has no side effects.
+    let v = unsafe { sys::rtcGetDeviceProperty(device.raw, sys::RTC_DEVICE_PROPERTY_VERSION) };
+    format!("{}.{}.{}", v / 10000, (v / 100) % 100, v % 100)
+}

@@ -1,0 +1,252 @@
+//! `plsr bench`: throughput of the path tracer against its ceiling and a peer.
+//!
+//! On the Cornell box configuration of Embree's tutorial, it measures
+//! 1. raw Embree throughput for incoherent random rays (origins uniform in the
+//!    scene's bounds, directions uniform on the sphere, `rtcIntersect1`), the
+//!    ceiling of any path tracer over Embree on this scene;
+//! 2. plsr's path tracer (Msamples/s, Mrays/s) and its efficiency, the ratio
+//!    of its ray rate to that ceiling;
+//! 3. where Debian's `embree-tools` is installed, Embree's own `pathtracer` on
+//!    the same configuration (`--benchmark 1 3 --legacy`, its render-only
+//!    timing), plsr's samples/s against it, and the mean of both images.
+
+use crate::accel::{Ray, RayHit};
+use crate::error::{Error, Result};
+use crate::film::Film;
+use crate::render::{render, thread_pool, RenderOptions, RenderStats};
+use crate::sampler::Rng;
+use crate::sampling::square_to_uniform_sphere;
+use crate::scene::Scene;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+/// What `plsr bench` runs.
+#[derive(Debug, Clone)]
+pub struct BenchOptions {
+    /// plsr scene reproducing Embree's demo configuration.
+    pub scene: PathBuf,
+    /// Embree's `pathtracer` binary, or `None` to skip the peer.
+    pub pathtracer: Option<PathBuf>,
+    /// Embree's model configuration file.
+    pub ecs: PathBuf,
+    /// Square image size.
+    pub size: u32,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Number of random rays for the raw measurement.
+    pub random_rays: usize,
+    /// Worker threads (None: all cores).
+    pub threads: Option<usize>,
+}
+
+/// Raw Embree throughput in Mrays/s for incoherent random closest-hit rays.
+pub fn random_ray_throughput(scene: &Scene, count: usize, threads: Option<usize>) -> Result<f64> {
+    let (lo, hi) = scene.accel.bounds();
+    let extent = hi - lo;
+    let mut rng = Rng::new(12345, 678);
+    let mut rays: Vec<RayHit> = (0..count)
+        .map(|_| {
+            let o = lo + extent * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            RayHit::new(Ray::new(o, square_to_uniform_sphere(rng.next_2d())))
+        })
+        .collect();
+    let pool = thread_pool(threads)?;
+    let accel = &scene.accel;
+    // One untimed pass warms caches and the pool.
+    let trace = |rays: &mut [RayHit]| {
+        pool.install(|| {
+            rays.par_chunks_mut(4096).for_each(|chunk| {
+                for r in chunk {
+                    let ray = r.ray();
+                    if let Some(h) = accel.intersect(&ray) {
+                        std::hint::black_box(h);
+                    }
+                }
+            })
+        })
+    };
+    trace(&mut rays[..count.min(100_000)]);
+    let start = Instant::now();
+    trace(&mut rays);
+    Ok(count as f64 / start.elapsed().as_secs_f64() / 1e6)
+}
+
+/// Result of one run of Embree's pathtracer.
+#[derive(Debug, Clone)]
+pub struct PeerRun {
+    /// Mean frames per second over the timed frames (BENCHMARK_RENDER_AVG).
+    pub fps: f64,
+    /// Mean of the written image, per channel, in [0, 1].
+    pub image_mean: Option<Vec3>,
+}
+
+fn run_embree_pathtracer(bin: &Path, ecs: &Path, size: u32, spp: u32) -> Result<PeerRun> {
+    let out = std::env::temp_dir().join(format!("plsr-bench-embree-{}.ppm", std::process::id()));
+    let output = Command::new(bin)
+        .arg("-c")
+        .arg(ecs)
+        .args(["--size", &size.to_string(), &size.to_string()])
+        .args(["--spp", &spp.to_string()])
+        .args(["--benchmark", "1", "3", "--legacy", "-o"])
+        .arg(&out)
+        .output()
+        .map_err(|e| Error::InvalidArgument(format!("cannot run {}: {e}", bin.display())))?;
+    let text = String::from_utf8_lossy(&output.stdout);
+    let fps = text
+        .lines()
+        .find_map(|l| l.strip_prefix("BENCHMARK_RENDER_AVG "))
+        .and_then(|v| v.trim().parse::<f64>().ok())
+        .ok_or_else(|| {
+            Error::InvalidArgument(format!(
+                "{} printed no BENCHMARK_RENDER_AVG line: {}{}",
+                bin.display(),
+                text,
+                String::from_utf8_lossy(&output.stderr)
+            ))
+        })?;
+    let image_mean = read_ppm_mean(&out).ok();
+    let _ = std::fs::remove_file(&out);
+    Ok(PeerRun { fps, image_mean })
+}
+
+/// Mean of a binary PPM (P6, maxval 255) per channel, in [0, 1].
+fn read_ppm_mean(path: &Path) -> std::io::Result<Vec3> {
+    let data = std::fs::read(path)?;
+    let bad = || std::io::Error::new(std::io::ErrorKind::InvalidData, "not a P6 PPM");
+    // Header: "P6", width, height, maxval, each separated by whitespace.
+    let mut fields = Vec::new();
+    let mut i = 0;
+    while fields.len() < 4 {
+        while i < data.len() && data[i].is_ascii_whitespace() {
+            i += 1;
+        }
+        let s = i;
+        while i < data.len() && !data[i].is_ascii_whitespace() {
+            i += 1;
+        }
+        if s == i {
+            return Err(bad());
+        }
+        fields.push(String::from_utf8_lossy(&data[s..i]).into_owned());
+    }
+    if fields[0] != "P6" || fields[3] != "255" {
+        return Err(bad());
+    }
+    let pixels = &data[i + 1..];
+    let mut sum = [0u64; 3];
+    for px in pixels.chunks_exact(3) {
+        for c in 0..3 {
+            sum[c] += px[c] as u64;
+        }
+    }
+    let n = (pixels.len() / 3).max(1) as f32 * 255.0;
+    Ok(Vec3::new(
+        sum[0] as f32 / n,
+        sum[1] as f32 / n,
+        sum[2] as f32 / n,
+    ))
+}
+
+/// Mean of the film's colour clamped to [0, 1], as an 8-bit display shows it.
+pub fn clamped_mean(film: &Film) -> Vec3 {
+    let sum: glam::DVec3 = film
+        .color
+        .iter()
+        .map(|c| c.clamp(Vec3::ZERO, Vec3::ONE).as_dvec3())
+        .sum();
+    (sum / film.color.len() as f64).as_vec3()
+}
+
+/// Runs the benchmark and prints its table.
+pub fn run(o: &BenchOptions) -> Result<()> {
+    let mut scene = Scene::load(&o.scene)?;
+    scene.settings.spp = o.spp;
+    let cam = scene.camera.clone();
+    scene.camera = crate::camera::PinholeCamera::look_at(
+        cam.position,
+        cam.position + cam.forward,
+        cam.up,
+        cam.vfov_deg(),
+        o.size,
+        o.size,
+    )
+    .map_err(|e| Error::InvalidArgument(e.to_string()))?;
+    let threads = thread_pool(o.threads)?.current_num_threads();
+    println!(
+        "plsr bench: {} ({} triangles), {}×{} at {} spp, max depth {}, {} threads",
+        o.scene.display(),
+        scene.triangle_count(),
+        o.size,
+        o.size,
+        o.spp,
+        scene.settings.max_depth,
+        threads
+    );
+
+    let raw = random_ray_throughput(&scene, o.random_rays, o.threads)?;
+
+    // Best of two renders (the first also warms up).
+    let opts = RenderOptions {
+        threads: o.threads,
+        ..Default::default()
+    };
+    let mut best: Option<(Film, RenderStats)> = None;
+    for _ in 0..2 {
+        let r = render(&scene, &opts, &|_, _| true)?;
+        if best.as_ref().is_none_or(|b| r.1.seconds < b.1.seconds) {
+            best = Some(r);
+        }
+    }
+    let (film, stats) = best.expect("two renders ran");
+    let eff = stats.mrays_per_s() / raw;
+
+    println!();
+    println!("| measurement                               | value        |");
+    println!("|-------------------------------------------|--------------|");
+    println!("| raw Embree, incoherent random rays        | {raw:8.2} Mrays/s |");
+    println!(
+        "| plsr path tracing                         | {:8.3} Msamples/s |",
+        stats.msamples_per_s()
+    );
+    println!(
+        "| plsr path tracing, all rays               | {:8.2} Mrays/s |",
+        stats.mrays_per_s()
+    );
+    println!(
+        "|   rays per sample (camera+bounce+shadow)  | {:8.2}     |",
+        stats.rays.total() as f64 / stats.samples as f64
+    );
+    println!("| efficiency (path-tracing / raw rays)      | {eff:8.3}     |");
+    let ours = clamped_mean(&film);
+
+    match &o.pathtracer {
+        None => println!("| Embree pathtracer                         | skipped      |"),
+        Some(bin) => match run_embree_pathtracer(bin, &o.ecs, o.size, o.spp) {
+            Err(e) => println!("| Embree pathtracer                         | not run: {e} |"),
+            Ok(peer) => {
+                let peer_sps = peer.fps * (o.size as f64).powi(2) * o.spp as f64 / 1e6;
+                println!(
+                    "| Embree pathtracer (--legacy)              | {peer_sps:8.3} Msamples/s |"
+                );
+                println!(
+                    "| plsr / Embree pathtracer, samples/s       | {:8.2}×    |",
+                    stats.msamples_per_s() / peer_sps
+                );
+                if let Some(m) = peer.image_mean {
+                    println!(
+                        "| image mean, clamped [0,1] RGB: Embree     | {:.4} {:.4} {:.4} |",
+                        m.x, m.y, m.z
+                    );
+                    println!(
+                        "| image mean, clamped [0,1] RGB: plsr       | {:.4} {:.4} {:.4} |",
+                        ours.x, ours.y, ours.z
+                    );
+                }
+            }
+        },
+    }
+    Ok(())
+}

@@ -1,0 +1,220 @@
+//! The `plsr` command-line program.
+
+use crate::bench::{self, BenchOptions};
+use crate::error::{Error, Result};
+use crate::film::ToneMap;
+use crate::render::{render, RenderOptions, DEFAULT_TILE_SIZE};
+use crate::scene::Scene;
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::ffi::OsString;
+use std::path::{Path, PathBuf};
+
+/// plsr: a physically based renderer for placing virtual objects into
+/// photographs, lit by parametric light sources or HDR panoramas.
+#[derive(Debug, Parser)]
+#[command(name = "plsr", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Render a scene file (TOML or JSON; see docs/scene-format.md) to OpenEXR
+    /// (colour plus variance, alpha, object id, depth, normal and albedo
+    /// layers) and optionally to a tone-mapped PNG.
+    Render(RenderArgs),
+    /// Measure throughput: raw Embree rays, path tracing, and Embree's own
+    /// `pathtracer` (Debian's embree-tools) on the same Cornell box.
+    Bench(BenchArgs),
+}
+
+/// Arguments of `plsr render`.
+#[derive(Debug, clap::Args)]
+pub struct RenderArgs {
+    /// The scene file.
+    pub scene: PathBuf,
+    /// Output OpenEXR file (linear float, all layers).
+    #[arg(short, long, value_name = "OUT.exr")]
+    pub output: PathBuf,
+    /// Also write an 8-bit sRGB PNG here.
+    #[arg(long, value_name = "OUT.png")]
+    pub png: Option<PathBuf>,
+    /// Samples per pixel (overrides the scene's render.spp).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Maximum number of scattering events (overrides render.max_depth).
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Random seed (overrides render.seed); the image depends only on the
+    /// scene, seed and spp, never on the thread count.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Tile edge in pixels.
+    #[arg(long, default_value_t = DEFAULT_TILE_SIZE)]
+    pub tile_size: u32,
+    /// PNG exposure compensation in stops (+1 doubles brightness).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub exposure: f32,
+    /// PNG tone mapping: a filmic curve (ACES fit) instead of a plain clamp.
+    #[arg(long)]
+    pub filmic: bool,
+    /// No progress bar.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+/// Arguments of `plsr bench`.
+#[derive(Debug, clap::Args)]
+pub struct BenchArgs {
+    /// The plsr scene reproducing Embree's demo configuration.
+    #[arg(long, default_value = "assets/scenes/cornell/embree-demo.toml")]
+    pub scene: PathBuf,
+    /// Embree's `pathtracer` binary (skipped if it cannot be found).
+    #[arg(long, default_value = "pathtracer")]
+    pub pathtracer: PathBuf,
+    /// Embree's model configuration (.ecs) for its pathtracer.
+    #[arg(long, default_value = "/usr/share/doc/embree3/models/cornell_box.ecs")]
+    pub ecs: PathBuf,
+    /// Image size (square) for the path-tracing comparison.
+    #[arg(long, default_value_t = 512)]
+    pub size: u32,
+    /// Samples per pixel for the path-tracing comparison.
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
+    /// Random rays for the raw Embree measurement (millions).
+    #[arg(long, default_value_t = 4.0)]
+    pub mrays: f64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Skip Embree's pathtracer.
+    #[arg(long)]
+    pub no_peer: bool,
+}
+
+/// Runs the program on the given arguments (including the program name).
+pub fn run<I, T>(args: I) -> Result<()>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    let cli = match Cli::try_parse_from(args) {
+        Ok(c) => c,
+        Err(e) => {
+            // --help and --version print and succeed; usage errors print and fail.
+            let _ = e.print();
+            if e.use_stderr() {
+                std::process::exit(2);
+            }
+            return Ok(());
+        }
+    };
+    match cli.command {
+        Command::Render(a) => render_command(&a),
+        Command::Bench(a) => bench::run(&BenchOptions {
+            scene: a.scene,
+            pathtracer: (!a.no_peer).then_some(a.pathtracer),
+            ecs: a.ecs,
+            size: a.size,
+            spp: a.spp,
+            random_rays: (a.mrays * 1e6) as usize,
+            threads: a.threads,
+        }),
+    }
+}
+
+fn check_output_dir(path: &Path) -> Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(Error::Output {
+            file: path.to_path_buf(),
+            message: format!("folder {} does not exist", dir.display()),
+        });
+    }
+    Ok(())
+}
+
+fn render_command(a: &RenderArgs) -> Result<()> {
+    check_output_dir(&a.output)?;
+    if let Some(p) = &a.png {
+        check_output_dir(p)?;
+    }
+    let mut scene = Scene::load(&a.scene)?;
+    if let Some(spp) = a.spp {
+        if spp == 0 {
+            return Err(Error::InvalidArgument("--spp must be at least 1".into()));
+        }
+        scene.settings.spp = spp;
+    }
+    if let Some(d) = a.max_depth {
+        if d == 0 {
+            return Err(Error::InvalidArgument(
+                "--max-depth must be at least 1".into(),
+            ));
+        }
+        scene.settings.max_depth = d;
+    }
+    if let Some(s) = a.seed {
+        scene.settings.seed = s;
+    }
+    let options = RenderOptions {
+        threads: a.threads,
+        tile_size: a.tile_size,
+        ..Default::default()
+    };
+    let bar = if a.quiet {
+        ProgressBar::hidden()
+    } else {
+        let b = ProgressBar::new(0);
+        b.set_style(
+            ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} tiles (eta {eta})",
+            )
+            .expect("valid template"),
+        );
+        b
+    };
+    let progress = |done: usize, total: usize| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+        true
+    };
+    let (film, stats) = render(&scene, &options, &progress)?;
+    bar.finish_and_clear();
+    film.write_exr(&a.output)?;
+    if let Some(p) = &a.png {
+        film.write_png(
+            p,
+            ToneMap {
+                exposure: a.exposure,
+                filmic: a.filmic,
+            },
+        )?;
+    }
+    eprintln!(
+        "rendered {}×{} at {} spp in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s on {} threads → {}{}",
+        film.width,
+        film.height,
+        film.spp,
+        stats.seconds,
+        stats.msamples_per_s(),
+        stats.mrays_per_s(),
+        stats.threads,
+        a.output.display(),
+        a.png
+            .as_ref()
+            .map(|p| format!(", {}", p.display()))
+            .unwrap_or_default()
+    );
+    Ok(())
+}

@@ -1,0 +1,320 @@
+//! The film: per-pixel radiance and auxiliary layers (AOVs), and their output
+//! as OpenEXR (all layers, linear float) and PNG (tone-mapped 8-bit sRGB).
+//!
+//! Layers, all `width × height`, row-major from the top-left pixel:
+//! - `color`: mean radiance of the pixel's samples (linear RGB);
+//! - `variance`: estimated variance *of that mean* per channel (sample
+//!   variance / spp), for statistical comparisons of renders;
+//! - `alpha`: fraction of camera samples that hit geometry (coverage);
+//! - `object_id`: object (scene-file shape index) seen by the pixel's first
+//!   sample, −1 where it saw nothing;
+//! - `depth`: mean camera-space depth (distance along the view axis) of the
+//!   samples that hit, 0 where none did;
+//! - `normal`: mean world-space shading normal at the first hit (facing the camera);
+//! - `albedo`: mean albedo at the first hit.
+//!
+//! EXR channel names: `R G B A`, `variance.R/G/B`, `albedo.R/G/B`,
+//! `normal.X/Y/Z`, `Z` (depth) and `object_id`.
+
+use crate::error::{Error, Result};
+use crate::output::write_atomically;
+use exr::prelude::{self as exrp, AnyChannel, AnyChannels, FlatSamples, WritableImage};
+use glam::Vec3;
+use std::path::Path;
+
+/// A rendered image with its auxiliary layers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Film {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Samples per pixel that went into it.
+    pub spp: u32,
+    /// Mean radiance per pixel (linear RGB).
+    pub color: Vec<Vec3>,
+    /// Variance of the mean radiance per pixel and channel.
+    pub variance: Vec<Vec3>,
+    /// Coverage in `[0, 1]`.
+    pub alpha: Vec<f32>,
+    /// Object id of the first sample's hit, −1 for none.
+    pub object_id: Vec<f32>,
+    /// Mean camera-space depth of hits (scene units), 0 for none.
+    pub depth: Vec<f32>,
+    /// Mean world-space normal at first hits.
+    pub normal: Vec<Vec3>,
+    /// Mean albedo at first hits.
+    pub albedo: Vec<Vec3>,
+}
+
+/// How radiance becomes display values in [`Film::write_png`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToneMap {
+    /// Exposure compensation in stops: values are multiplied by `2^exposure`.
+    pub exposure: f32,
+    /// Filmic curve (ACES fit of Narkowicz 2015) instead of a plain clamp.
+    pub filmic: bool,
+}
+
+impl Default for ToneMap {
+    fn default() -> Self {
+        ToneMap {
+            exposure: 0.0,
+            filmic: false,
+        }
+    }
+}
+
+/// sRGB opto-electronic transfer function for a linear value in `[0, 1]`.
+#[inline]
+pub fn srgb_encode(x: f32) -> f32 {
+    if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// ACES filmic curve fit (Narkowicz 2015), mapping `[0, ∞)` to `[0, 1)`.
+#[inline]
+pub fn aces_filmic(x: f32) -> f32 {
+    let (a, b, c, d, e) = (2.51, 0.03, 2.43, 0.59, 0.14);
+    ((x * (a * x + b)) / (x * (c * x + d) + e)).clamp(0.0, 1.0)
+}
+
+impl Film {
+    /// An empty (black) film.
+    pub fn new(width: u32, height: u32) -> Film {
+        let n = (width as usize) * (height as usize);
+        Film {
+            width,
+            height,
+            spp: 0,
+            color: vec![Vec3::ZERO; n],
+            variance: vec![Vec3::ZERO; n],
+            alpha: vec![0.0; n],
+            object_id: vec![-1.0; n],
+            depth: vec![0.0; n],
+            normal: vec![Vec3::ZERO; n],
+            albedo: vec![Vec3::ZERO; n],
+        }
+    }
+
+    /// Index of pixel `(x, y)`.
+    #[inline]
+    pub fn index(&self, x: u32, y: u32) -> usize {
+        y as usize * self.width as usize + x as usize
+    }
+
+    /// Mean of the colour layer over the image, per channel.
+    pub fn mean_color(&self) -> Vec3 {
+        let sum: glam::DVec3 = self.color.iter().map(|c| c.as_dvec3()).sum();
+        (sum / self.color.len().max(1) as f64).as_vec3()
+    }
+
+    /// Writes all layers to an OpenEXR file (32-bit float, ZIP compression),
+    /// atomically.
+    pub fn write_exr(&self, path: &Path) -> Result<()> {
+        let split3 = |v: &[Vec3], i: usize| -> FlatSamples {
+            FlatSamples::F32(v.iter().map(|c| c[i]).collect())
+        };
+        let mut list: exrp::SmallVec<[AnyChannel<FlatSamples>; 4]> = exrp::SmallVec::new();
+        for (i, n) in ["R", "G", "B"].iter().enumerate() {
+            list.push(AnyChannel::new(*n, split3(&self.color, i)));
+            list.push(AnyChannel::new(
+                format!("variance.{n}").as_str(),
+                split3(&self.variance, i),
+            ));
+            list.push(AnyChannel::new(
+                format!("albedo.{n}").as_str(),
+                split3(&self.albedo, i),
+            ));
+        }
+        for (i, n) in ["X", "Y", "Z"].iter().enumerate() {
+            list.push(AnyChannel::new(
+                format!("normal.{n}").as_str(),
+                split3(&self.normal, i),
+            ));
+        }
+        list.push(AnyChannel::new("A", FlatSamples::F32(self.alpha.clone())));
+        list.push(AnyChannel::new("Z", FlatSamples::F32(self.depth.clone())));
+        list.push(AnyChannel::new(
+            "object_id",
+            FlatSamples::F32(self.object_id.clone()),
+        ));
+        let attributes = exrp::LayerAttributes {
+            software_name: Some(exrp::Text::from(
+                format!("plsr {} ({} spp)", env!("CARGO_PKG_VERSION"), self.spp).as_str(),
+            )),
+            ..Default::default()
+        };
+        let layer = exrp::Layer::new(
+            (self.width as usize, self.height as usize),
+            attributes,
+            exrp::Encoding::SMALL_LOSSLESS,
+            AnyChannels::sort(list),
+        );
+        let image = exrp::Image::from_layer(layer);
+        write_atomically(path, |w| {
+            image.write().to_buffered(w).map_err(|e| Error::Output {
+                file: path.to_path_buf(),
+                message: format!("cannot write EXR: {e}"),
+            })
+        })
+    }
+
+    /// Reads an EXR written by [`Film::write_exr`] (missing layers stay at
+    /// their defaults; `R G B` are required).
+    pub fn read_exr(path: &Path) -> Result<Film> {
+        let image = exrp::read_first_flat_layer_from_file(path).map_err(|e| Error::Input {
+            file: path.to_path_buf(),
+            field: String::new(),
+            message: format!("cannot read EXR: {e}"),
+        })?;
+        let layer = image.layer_data;
+        let (w, h) = (layer.size.0 as u32, layer.size.1 as u32);
+        let mut film = Film::new(w, h);
+        let channel = |name: &str| -> Option<Vec<f32>> {
+            layer
+                .channel_data
+                .list
+                .iter()
+                .find(|c| c.name.to_string() == name)
+                .map(|c| c.sample_data.values_as_f32().collect())
+        };
+        let set3 = |names: [&str; 3], dst: &mut Vec<Vec3>, required: bool| -> Result<()> {
+            for (i, n) in names.iter().enumerate() {
+                match channel(n) {
+                    Some(v) => {
+                        for (d, x) in dst.iter_mut().zip(v) {
+                            d[i] = x;
+                        }
+                    }
+                    None if required => {
+                        return Err(Error::input(path, *n, "channel missing from the EXR file"))
+                    }
+                    None => {}
+                }
+            }
+            Ok(())
+        };
+        set3(["R", "G", "B"], &mut film.color, true)?;
+        set3(
+            ["variance.R", "variance.G", "variance.B"],
+            &mut film.variance,
+            false,
+        )?;
+        set3(
+            ["albedo.R", "albedo.G", "albedo.B"],
+            &mut film.albedo,
+            false,
+        )?;
+        set3(
+            ["normal.X", "normal.Y", "normal.Z"],
+            &mut film.normal,
+            false,
+        )?;
+        if let Some(v) = channel("A") {
+            film.alpha = v;
+        }
+        if let Some(v) = channel("Z") {
+            film.depth = v;
+        }
+        if let Some(v) = channel("object_id") {
+            film.object_id = v;
+        }
+        Ok(film)
+    }
+
+    /// 8-bit sRGB pixels after exposure and tone mapping, row-major RGB.
+    pub fn to_srgb8(&self, tone: ToneMap) -> Vec<u8> {
+        let scale = tone.exposure.exp2();
+        let mut out = Vec::with_capacity(self.color.len() * 3);
+        for c in &self.color {
+            for x in c.to_array() {
+                let v = (x * scale).max(0.0);
+                let v = if tone.filmic {
+                    aces_filmic(v)
+                } else {
+                    v.min(1.0)
+                };
+                let v = if v.is_finite() { v } else { 0.0 };
+                out.push((srgb_encode(v) * 255.0 + 0.5) as u8);
+            }
+        }
+        out
+    }
+
+    /// Writes a tone-mapped 8-bit sRGB PNG, atomically.
+    pub fn write_png(&self, path: &Path, tone: ToneMap) -> Result<()> {
+        let pixels = self.to_srgb8(tone);
+        write_atomically(path, |w| {
+            image::write_buffer_with_format(
+                w,
+                &pixels,
+                self.width,
+                self.height,
+                image::ExtendedColorType::Rgb8,
+                image::ImageFormat::Png,
+            )
+            .map_err(|e| Error::Output {
+                file: path.to_path_buf(),
+                message: format!("cannot write PNG: {e}"),
+            })
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_encoding_hits_known_values() {
+        assert_eq!(srgb_encode(0.0), 0.0);
+        assert!((srgb_encode(1.0) - 1.0).abs() < 1e-6);
+        assert!((srgb_encode(0.18) - 0.4614).abs() < 1e-3);
+    }
+
+    #[test]
+    fn exr_round_trip_keeps_every_layer() {
+        let mut film = Film::new(5, 3);
+        film.spp = 7;
+        for i in 0..15 {
+            let f = i as f32;
+            film.color[i] = Vec3::new(f, f * 0.5, 1e-3 * f);
+            film.variance[i] = Vec3::splat(f * 1e-4);
+            film.alpha[i] = f / 15.0;
+            film.object_id[i] = (i % 3) as f32 - 1.0;
+            film.depth[i] = 10.0 + f;
+            film.normal[i] = Vec3::new(0.0, 1.0, -f);
+            film.albedo[i] = Vec3::new(0.1, 0.2, f * 0.01);
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.exr");
+        film.write_exr(&path).unwrap();
+        let back = Film::read_exr(&path).unwrap();
+        assert_eq!(back.color, film.color);
+        assert_eq!(back.variance, film.variance);
+        assert_eq!(back.alpha, film.alpha);
+        assert_eq!(back.object_id, film.object_id);
+        assert_eq!(back.depth, film.depth);
+        assert_eq!(back.normal, film.normal);
+        assert_eq!(back.albedo, film.albedo);
+        // Nothing but the output is left in the folder.
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn png_exposure_doubles_per_stop() {
+        let mut film = Film::new(1, 1);
+        film.color[0] = Vec3::splat(0.1);
+        let a = film.to_srgb8(ToneMap::default());
+        let b = film.to_srgb8(ToneMap {
+            exposure: 1.0,
+            filmic: false,
+        });
+        assert_eq!(a[0], (srgb_encode(0.1) * 255.0 + 0.5) as u8);
+        assert_eq!(b[0], (srgb_encode(0.2) * 255.0 + 0.5) as u8);
+    }
+}

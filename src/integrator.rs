@@ -1,0 +1,372 @@
+//! The unidirectional path tracer.
+//!
+//! Per camera sample: next-event estimation at every scattering vertex (one
+//! light picked by power, one point on it), BSDF sampling to continue the
+//! path, multiple importance sampling of the two strategies with the power
+//! heuristic (Veach 1997), and Russian roulette from the fourth vertex on.
+//! `max_depth` counts scattering events, as pbrt's `maxdepth` does: a path of
+//! `max_depth = 1` is direct lighting only.
+//!
+//! The work is organised as a small wavefront per image tile: all paths of
+//! one sample pass over a tile advance together, so their rays go to Embree in
+//! batches: camera rays as a coherent stream, then each bounce's continuation
+//! rays and shadow rays as streams. Every path draws from its own random
+//! stream ([`Rng::for_sample`]) and every pixel adds its samples in sample
+//! order, so an image is bit-identical whatever the number of threads.
+
+use crate::accel::{Ray, RayHit, ShadowRay};
+use crate::light::Light;
+use crate::sampler::Rng;
+use crate::sampling::{power_heuristic, Frame};
+use crate::scene::Scene;
+use glam::{DVec3, Vec2, Vec3};
+
+/// Number of scattering events after which Russian roulette may end a path.
+pub const RUSSIAN_ROULETTE_DEPTH: u32 = 3;
+
+const COHERENT_SECONDARY: bool = false;
+const COHERENT_CAMERA: bool = true;
+
+/// A rectangle of pixels `[x0, x0+width) × [y0, y0+height)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Tile {
+    /// Left column.
+    pub x0: u32,
+    /// Top row.
+    pub y0: u32,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+}
+
+/// Counts of rays traced, for throughput reports.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RayStats {
+    /// Camera rays (closest hit).
+    pub camera: u64,
+    /// Continuation rays after scattering (closest hit).
+    pub bounce: u64,
+    /// Shadow rays of next-event estimation (any hit).
+    pub shadow: u64,
+}
+
+impl RayStats {
+    /// All rays.
+    pub fn total(&self) -> u64 {
+        self.camera + self.bounce + self.shadow
+    }
+
+    /// Adds another count.
+    pub fn add(&mut self, o: &RayStats) {
+        self.camera += o.camera;
+        self.bounce += o.bounce;
+        self.shadow += o.shadow;
+    }
+}
+
+/// What one pixel accumulated over its samples.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct PixelSums {
+    /// Sum of sample radiance.
+    pub sum: DVec3,
+    /// Sum of squared sample radiance.
+    pub sum_sq: DVec3,
+    /// Camera samples that hit geometry.
+    pub hits: u32,
+    /// Sum of camera-space depths of hits.
+    pub depth: f64,
+    /// Sum of first-hit normals.
+    pub normal: Vec3,
+    /// Sum of first-hit albedos.
+    pub albedo: Vec3,
+    /// Object id of the first sample's hit (−1: none).
+    pub object_id: f32,
+}
+
+/// The result of rendering one tile.
+#[derive(Debug, Clone)]
+pub struct TileResult {
+    /// The tile.
+    pub tile: Tile,
+    /// Per-pixel sums, row-major within the tile.
+    pub pixels: Vec<PixelSums>,
+    /// Rays traced.
+    pub rays: RayStats,
+}
+
+#[derive(Clone)]
+struct PathState {
+    pixel: u32,
+    rng: Rng,
+    beta: Vec3,
+    radiance: Vec3,
+    /// Solid-angle pdf of the BSDF sample that produced the current ray.
+    prev_pdf: f32,
+    prev_point: Vec3,
+    /// Scattering events so far.
+    depth: u32,
+    alive: bool,
+}
+
+/// A shadow ray's pending contribution: path index and radiance if unoccluded.
+struct PendingLight {
+    path: u32,
+    radiance: Vec3,
+}
+
+/// Scratch buffers reused across the sample passes of a tile.
+#[derive(Default)]
+struct Wavefront {
+    paths: Vec<PathState>,
+    rays: Vec<RayHit>,
+    shadow_rays: Vec<ShadowRay>,
+    pending: Vec<PendingLight>,
+}
+
+/// Offset along the normal that keeps spawned rays off their own surface,
+/// relative to the magnitude of the coordinates.
+#[inline]
+fn ray_epsilon(p: Vec3) -> f32 {
+    1e-4 * (1.0 + p.abs().max_element())
+}
+
+/// Renders samples `samples` of every pixel of `tile`.
+pub fn render_tile(scene: &Scene, tile: Tile, samples: std::ops::Range<u32>) -> TileResult {
+    let n = (tile.width * tile.height) as usize;
+    let mut pixels = vec![
+        PixelSums {
+            object_id: -1.0,
+            ..Default::default()
+        };
+        n
+    ];
+    let mut rays = RayStats::default();
+    let mut wf = Wavefront::default();
+    let first_sample = samples.start;
+    for s in samples {
+        trace_pass(
+            scene,
+            tile,
+            s,
+            s == first_sample,
+            &mut wf,
+            &mut pixels,
+            &mut rays,
+        );
+    }
+    TileResult { tile, pixels, rays }
+}
+
+fn trace_pass(
+    scene: &Scene,
+    tile: Tile,
+    sample: u32,
+    first: bool,
+    wf: &mut Wavefront,
+    pixels: &mut [PixelSums],
+    stats: &mut RayStats,
+) {
+    let settings = &scene.settings;
+    let camera = &scene.camera;
+    wf.paths.clear();
+    wf.rays.clear();
+    for py in 0..tile.height {
+        for px in 0..tile.width {
+            let (x, y) = (tile.x0 + px, tile.y0 + py);
+            let mut rng = Rng::for_sample(settings.seed, x, y, sample);
+            let film = Vec2::new(x as f32, y as f32) + rng.next_2d();
+            wf.rays.push(RayHit::new(camera.generate_ray(film)));
+            wf.paths.push(PathState {
+                pixel: py * tile.width + px,
+                rng,
+                beta: Vec3::ONE,
+                radiance: Vec3::ZERO,
+                prev_pdf: 0.0,
+                prev_point: camera.position,
+                depth: 0,
+                alive: true,
+            });
+        }
+    }
+    stats.camera += wf.rays.len() as u64;
+    scene.accel.intersect_stream(&mut wf.rays, COHERENT_CAMERA);
+
+    let mut camera_vertex = true;
+    while !wf.paths.is_empty() {
+        wf.shadow_rays.clear();
+        wf.pending.clear();
+        for (i, (path, rh)) in wf.paths.iter_mut().zip(wf.rays.iter_mut()).enumerate() {
+            let pixel = &mut pixels[path.pixel as usize];
+            let queue = (&mut wf.shadow_rays, &mut wf.pending);
+            shade(
+                scene,
+                path,
+                rh,
+                i as u32,
+                camera_vertex && first,
+                pixel,
+                queue,
+            );
+        }
+        stats.shadow += wf.shadow_rays.len() as u64;
+        scene
+            .accel
+            .occluded_stream(&mut wf.shadow_rays, COHERENT_SECONDARY);
+        for (ray, p) in wf.shadow_rays.iter().zip(&wf.pending) {
+            if !ray.occluded() {
+                wf.paths[p.path as usize].radiance += p.radiance;
+            }
+        }
+        // Retire finished paths (in order) and compact the live ones.
+        let mut live = 0;
+        for i in 0..wf.paths.len() {
+            if wf.paths[i].alive {
+                wf.paths.swap(live, i);
+                wf.rays.swap(live, i);
+                live += 1;
+            } else {
+                let path = &wf.paths[i];
+                let l = path.radiance.as_dvec3();
+                let px = &mut pixels[path.pixel as usize];
+                px.sum += l;
+                px.sum_sq += l * l;
+            }
+        }
+        wf.paths.truncate(live);
+        wf.rays.truncate(live);
+        stats.bounce += live as u64;
+        scene
+            .accel
+            .intersect_stream(&mut wf.rays, COHERENT_SECONDARY);
+        camera_vertex = false;
+    }
+}
+
+/// Processes the hit of one path: emission, next-event estimation, and the
+/// next ray (written back into `rh`), or ends the path.
+#[inline]
+fn shade(
+    scene: &Scene,
+    path: &mut PathState,
+    rh: &mut RayHit,
+    index: u32,
+    record_aovs_first: bool,
+    pixel: &mut PixelSums,
+    (shadow_rays, pending): (&mut Vec<ShadowRay>, &mut Vec<PendingLight>),
+) {
+    let ray = rh.ray();
+    let Some(hit) = rh.hit() else {
+        path.alive = false;
+        return;
+    };
+    let mesh = &scene.meshes[hit.geom_id as usize];
+    let p = ray.org + hit.t * ray.dir;
+    let wo = -ray.dir;
+    let ng = hit.ng.normalize_or_zero();
+    let n = if ng.dot(wo) >= 0.0 { ng } else { -ng };
+    let bsdf = &scene.materials[mesh.material as usize].bsdf;
+
+    if path.depth == 0 {
+        pixel.hits += 1;
+        pixel.depth += (hit.t * ray.dir.dot(scene.camera.forward)) as f64;
+        pixel.normal += n;
+        pixel.albedo += bsdf.albedo();
+        if record_aovs_first {
+            pixel.object_id = mesh.object_id as f32;
+        }
+    }
+
+    // Emission found by the camera ray or by BSDF sampling, MIS-weighted
+    // against next-event estimation (which could have found it too).
+    if let Some(li) = scene.light_index(hit.geom_id, hit.prim_id) {
+        if let Light::Triangle(tl) = &scene.lights.lights[li] {
+            let le = tl.emitted(wo);
+            if le != Vec3::ZERO {
+                let weight = if path.depth == 0 {
+                    1.0
+                } else {
+                    let light_pdf =
+                        scene.lights.pick_pmf(li) * tl.pdf_li(path.prev_point, p, ray.dir);
+                    power_heuristic(path.prev_pdf, light_pdf)
+                };
+                path.radiance += path.beta * le * weight;
+            }
+        }
+    }
+
+    let max_depth = scene.settings.max_depth;
+    if path.depth >= max_depth {
+        path.alive = false;
+        return;
+    }
+
+    let frame = Frame::from_normal(n);
+    let wo_local = frame.to_local(wo);
+    let eps = ray_epsilon(p);
+    let origin = p + n * eps;
+
+    // Next-event estimation.
+    if let Some((light, pick_pmf)) = scene.lights.pick(path.rng.next_f32()) {
+        let u = path.rng.next_2d();
+        if let Some(ls) = light.sample_li(p, u) {
+            let wi_local = frame.to_local(ls.wi);
+            let f = bsdf.eval(wo_local, wi_local) * wi_local.z.abs();
+            if f != Vec3::ZERO {
+                let light_pdf = pick_pmf * ls.pdf;
+                let weight = if ls.delta {
+                    1.0
+                } else {
+                    power_heuristic(light_pdf, bsdf.pdf(wo_local, wi_local))
+                };
+                let target = p + ls.wi * ls.dist;
+                let d = target - origin;
+                let tfar = 1.0 - ray_epsilon(target) / d.length().max(f32::MIN_POSITIVE);
+                if tfar > 0.0 {
+                    shadow_rays.push(ShadowRay::new(Ray {
+                        org: origin,
+                        dir: d,
+                        tnear: 0.0,
+                        tfar,
+                    }));
+                    pending.push(PendingLight {
+                        path: index,
+                        radiance: path.beta * f * ls.radiance * (weight / light_pdf),
+                    });
+                }
+            }
+        }
+    }
+
+    // The ray after the last light sample only matters if it can hit a light.
+    if path.depth + 1 == max_depth && !scene.has_hittable_lights {
+        path.alive = false;
+        return;
+    }
+
+    // BSDF sampling for the next ray.
+    let Some(bs) = bsdf.sample(wo_local, path.rng.next_2d()) else {
+        path.alive = false;
+        return;
+    };
+    path.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+    path.prev_pdf = bs.pdf;
+    path.prev_point = p;
+    path.depth += 1;
+    if path.depth >= RUSSIAN_ROULETTE_DEPTH {
+        let q = path.beta.max_element();
+        if q < 1.0 {
+            if path.rng.next_f32() >= q {
+                path.alive = false;
+                return;
+            }
+            path.beta /= q;
+        }
+    }
+    if path.beta == Vec3::ZERO {
+        path.alive = false;
+        return;
+    }
+    let wi = frame.to_world(bs.wi);
+    *rh = RayHit::new(Ray::new(origin, wi));
+}

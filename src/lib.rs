@@ -1,0 +1,32 @@
+//! plsr: a physically based renderer for placing virtual objects into
+//! photographs, with parametric light sources (PLS) and HDR-panorama lighting.
+//!
+//! Module map, dependencies pointing downwards:
+//! - [`sys`] (the `plsr-embree-sys` crate): raw Embree 3 bindings;
+//! - [`accel`]: the safe Embree layer (device, scene, ray queries);
+//! - [`sampler`], [`sampling`]: random streams, warps, discrete distributions;
+//! - [`camera`], [`bsdf`], [`light`]: the models, each behind one interface;
+//! - [`scene`]: scene files and the built scene;
+//! - [`integrator`], [`render`]: the path tracer and the tile scheduler;
+//! - [`film`], [`output`]: the image with its AOVs, EXR and PNG output;
+//! - [`bench`], [`cli`]: the `plsr` program.
+
+pub use plsr_embree_sys as sys;
+
+pub mod accel;
+pub mod bench;
+pub mod bsdf;
+pub mod camera;
+pub mod chi2;
+pub mod cli;
+pub mod error;
+pub mod film;
+pub mod integrator;
+pub mod light;
+pub mod output;
+pub mod render;
+pub mod sampler;
+pub mod sampling;
+pub mod scene;
+
+pub use error::{Error, Result};

@@ -1,0 +1,45 @@
+//! Isotropic point light.
+//!
+//! ```toml
+//! [[lights]]
+//! type = "point"
+//! position = [213, 300, 227]
+//! intensity = [100000, 100000, 100000]   # radiant intensity, W/sr per RGB channel
+//! ```
+
+use super::{luminance, LightSample};
+use glam::Vec3;
+
+/// A point light of constant radiant intensity in every direction.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PointLight {
+    /// Position (scene units).
+    pub position: Vec3,
+    /// Radiant intensity, W/sr per linear RGB channel.
+    pub intensity: Vec3,
+}
+
+impl PointLight {
+    /// Irradiance-producing sample: `I / r²` along the direction to the light.
+    #[inline]
+    pub fn sample_li(&self, p: Vec3) -> Option<LightSample> {
+        let d = self.position - p;
+        let dist2 = d.length_squared();
+        if dist2 == 0.0 {
+            return None;
+        }
+        let dist = dist2.sqrt();
+        Some(LightSample {
+            radiance: self.intensity / dist2,
+            wi: d / dist,
+            dist,
+            pdf: 1.0,
+            delta: true,
+        })
+    }
+
+    /// Emitted power `4π·I` (luminance).
+    pub fn power(&self) -> f32 {
+        4.0 * std::f32::consts::PI * luminance(self.intensity)
+    }
+}

@@ -1,0 +1,99 @@
+//! One triangle of an emissive mesh: a uniform, Lambertian area emitter.
+//!
+//! A shape becomes an area light by giving it an `emission`:
+//!
+//! ```toml
+//! [[shapes]]
+//! type = "rectangle"
+//! emission = [17, 12, 4]   # emitted radiance, W/(m²·sr) per RGB channel
+//! two_sided = false        # default: emit on the geometric normal's side only
+//! ```
+
+use super::{luminance, LightSample};
+use crate::sampling::square_to_uniform_triangle;
+use glam::{Vec2, Vec3};
+
+/// A triangle emitting constant radiance.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TriangleLight {
+    /// Vertices (scene units).
+    pub p: [Vec3; 3],
+    /// Unit geometric normal, the emitting side when one-sided.
+    pub n: Vec3,
+    /// Area (scene units²).
+    pub area: f32,
+    /// Emitted radiance, per linear RGB channel.
+    pub radiance: Vec3,
+    /// Whether both sides emit.
+    pub two_sided: bool,
+}
+
+impl TriangleLight {
+    /// A triangle light; `None` for a degenerate (zero-area) triangle.
+    pub fn new(p: [Vec3; 3], radiance: Vec3, two_sided: bool) -> Option<TriangleLight> {
+        let c = (p[1] - p[0]).cross(p[2] - p[0]);
+        let len = c.length();
+        (len > 0.0 && len.is_finite()).then(|| TriangleLight {
+            p,
+            n: c / len,
+            area: 0.5 * len,
+            radiance,
+            two_sided,
+        })
+    }
+
+    /// Radiance leaving the triangle towards direction `w` (unit, pointing
+    /// away from the triangle).
+    #[inline]
+    pub fn emitted(&self, w: Vec3) -> Vec3 {
+        if self.two_sided || self.n.dot(w) > 0.0 {
+            self.radiance
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    /// Uniform-area sample converted to solid angle at `p`:
+    /// `pdf = r² / (|cos θ_light| · A)`.
+    #[inline]
+    pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
+        let b = square_to_uniform_triangle(u);
+        let x = self.p[0] * (1.0 - b.x - b.y) + self.p[1] * b.x + self.p[2] * b.y;
+        let d = x - p;
+        let dist2 = d.length_squared();
+        if dist2 == 0.0 {
+            return None;
+        }
+        let dist = dist2.sqrt();
+        let wi = d / dist;
+        let cos_light = self.n.dot(-wi);
+        let radiance = self.emitted(-wi);
+        if cos_light == 0.0 || radiance == Vec3::ZERO {
+            return None;
+        }
+        Some(LightSample {
+            radiance,
+            wi,
+            dist,
+            pdf: dist2 / (cos_light.abs() * self.area),
+            delta: false,
+        })
+    }
+
+    /// Solid-angle density of [`TriangleLight::sample_li`] for the point `x`
+    /// on the triangle seen from `p` along `wi`.
+    #[inline]
+    pub fn pdf_li(&self, p: Vec3, x: Vec3, wi: Vec3) -> f32 {
+        let cos_light = self.n.dot(wi).abs();
+        if cos_light == 0.0 {
+            return 0.0;
+        }
+        (x - p).length_squared() / (cos_light * self.area)
+    }
+
+    /// Emitted power `π·A·L` (luminance), doubled when two-sided.
+    pub fn power(&self) -> f32 {
+        let sides = if self.two_sided { 2.0 } else { 1.0 };
+        std::f32::consts::PI * self.area * luminance(self.radiance) * sides
+    }
+}

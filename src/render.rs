@@ -1,0 +1,175 @@
+//! Rendering a whole image: tiles spread over a rayon pool, progress and
+//! cancellation, and assembly of the film.
+
+use crate::accel::enable_flush_to_zero;
+use crate::error::{Error, Result};
+use crate::film::Film;
+use crate::integrator::{render_tile, RayStats, Tile, TileResult};
+use crate::scene::Scene;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// Default tile edge in pixels: 16×16 = 256 paths per wavefront.
+pub const DEFAULT_TILE_SIZE: u32 = 16;
+
+/// How to run a render (what to render is in the scene's settings).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RenderOptions {
+    /// Worker threads; `None` uses every core.
+    pub threads: Option<usize>,
+    /// Tile edge in pixels.
+    pub tile_size: u32,
+    /// First sample index: a render of samples `[start, start + spp)`; pieces
+    /// with disjoint ranges merge exactly (see `Film::merge` in later work).
+    pub sample_start: u32,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            threads: None,
+            tile_size: DEFAULT_TILE_SIZE,
+            sample_start: 0,
+        }
+    }
+}
+
+/// What a render did and how fast.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RenderStats {
+    /// Wall-clock seconds.
+    pub seconds: f64,
+    /// Camera samples taken (pixels × spp).
+    pub samples: u64,
+    /// Rays traced.
+    pub rays: RayStats,
+    /// Worker threads used.
+    pub threads: usize,
+}
+
+impl RenderStats {
+    /// Millions of camera samples per second.
+    pub fn msamples_per_s(&self) -> f64 {
+        self.samples as f64 / self.seconds / 1e6
+    }
+
+    /// Millions of rays per second.
+    pub fn mrays_per_s(&self) -> f64 {
+        self.rays.total() as f64 / self.seconds / 1e6
+    }
+}
+
+/// A rayon pool whose workers run with flush-to-zero and denormals-are-zero,
+/// as Embree requires of every thread that traces rays.
+pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let mut b = rayon::ThreadPoolBuilder::new().start_handler(|_| enable_flush_to_zero());
+    if let Some(n) = threads {
+        if n == 0 {
+            return Err(Error::InvalidArgument(
+                "thread count must be at least 1".into(),
+            ));
+        }
+        b = b.num_threads(n);
+    }
+    b.build()
+        .map_err(|e| Error::InvalidArgument(format!("cannot start worker threads: {e}")))
+}
+
+/// The tiles covering a `width × height` image, in scanline order.
+pub fn tiles(width: u32, height: u32, size: u32) -> Vec<Tile> {
+    let size = size.max(1);
+    let mut out = Vec::new();
+    for y0 in (0..height).step_by(size as usize) {
+        for x0 in (0..width).step_by(size as usize) {
+            out.push(Tile {
+                x0,
+                y0,
+                width: size.min(width - x0),
+                height: size.min(height - y0),
+            });
+        }
+    }
+    out
+}
+
+/// Renders the scene. `progress(done_tiles, total_tiles)` is called from worker
+/// threads after each tile; returning `false` cancels the render.
+pub fn render(
+    scene: &Scene,
+    options: &RenderOptions,
+    progress: &(dyn Fn(usize, usize) -> bool + Sync),
+) -> Result<(Film, RenderStats)> {
+    let cam = &scene.camera;
+    let spp = scene.settings.spp;
+    let samples = options.sample_start
+        ..options
+            .sample_start
+            .checked_add(spp)
+            .ok_or_else(|| Error::InvalidArgument("sample range overflows".into()))?;
+    let tiles = tiles(cam.width, cam.height, options.tile_size);
+    let pool = thread_pool(options.threads)?;
+    let done = AtomicUsize::new(0);
+    let cancelled = AtomicBool::new(false);
+    let start = Instant::now();
+    let results: Vec<Option<TileResult>> = pool.install(|| {
+        tiles
+            .par_iter()
+            .map(|&tile| {
+                if cancelled.load(Ordering::Relaxed) {
+                    return None;
+                }
+                let r = render_tile(scene, tile, samples.clone());
+                let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+                if !progress(n, tiles.len()) {
+                    cancelled.store(true, Ordering::Relaxed);
+                }
+                Some(r)
+            })
+            .collect()
+    });
+    if cancelled.load(Ordering::Relaxed) {
+        return Err(Error::Cancelled);
+    }
+    let seconds = start.elapsed().as_secs_f64();
+
+    let mut film = Film::new(cam.width, cam.height);
+    film.spp = spp;
+    let mut rays = RayStats::default();
+    let n = spp as f64;
+    for r in results.into_iter().flatten() {
+        rays.add(&r.rays);
+        let t = r.tile;
+        for py in 0..t.height {
+            for px in 0..t.width {
+                let s = &r.pixels[(py * t.width + px) as usize];
+                let i = film.index(t.x0 + px, t.y0 + py);
+                let mean = s.sum / n;
+                film.color[i] = mean.as_vec3();
+                film.variance[i] = if spp > 1 {
+                    ((s.sum_sq - s.sum * mean) / (n * (n - 1.0)))
+                        .max(glam::DVec3::ZERO)
+                        .as_vec3()
+                } else {
+                    Vec3::ZERO
+                };
+                film.alpha[i] = s.hits as f32 / spp as f32;
+                film.object_id[i] = s.object_id;
+                if s.hits > 0 {
+                    let h = s.hits as f32;
+                    film.depth[i] = (s.depth / s.hits as f64) as f32;
+                    film.normal[i] = s.normal / h;
+                    film.albedo[i] = s.albedo / h;
+                }
+            }
+        }
+    }
+    let stats = RenderStats {
+        seconds,
+        samples: cam.width as u64 * cam.height as u64 * spp as u64,
+        rays,
+        threads: pool.current_num_threads(),
+    };
+    Ok((film, stats))
+}

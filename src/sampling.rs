@@ -1,0 +1,230 @@
+//! Warps from the unit square to directions and points, discrete
+//! distributions, and the MIS heuristic.
+//!
+//! Every warp comes with its density so that `sample` and `pdf` cannot drift
+//! apart; the chi-square tests in `tests/sampling_chi2.rs` check each pair.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// An orthonormal basis around a unit normal `n` (Duff et al. 2017).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame {
+    /// First tangent.
+    pub s: Vec3,
+    /// Second tangent.
+    pub t: Vec3,
+    /// The normal.
+    pub n: Vec3,
+}
+
+impl Frame {
+    /// A frame whose third axis is the unit vector `n`.
+    #[inline]
+    pub fn from_normal(n: Vec3) -> Frame {
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        let s = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+        let t = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+        Frame { s, t, n }
+    }
+
+    /// World to local coordinates.
+    #[inline]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+
+    /// Local to world coordinates.
+    #[inline]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.s * v.x + self.t * v.y + self.n * v.z
+    }
+}
+
+/// Concentric map of the unit square onto the unit disk (Shirley–Chiu).
+#[inline]
+pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, (PI / 4.0) * (o.y / o.x))
+    } else {
+        (o.y, PI / 2.0 - (PI / 4.0) * (o.x / o.y))
+    };
+    r * Vec2::new(theta.cos(), theta.sin())
+}
+
+/// Cosine-weighted direction on the hemisphere around +z (local frame).
+#[inline]
+pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = square_to_disk_concentric(u);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+/// Solid-angle density of [`square_to_cosine_hemisphere`]: `cos θ / π`.
+#[inline]
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    if cos_theta > 0.0 {
+        cos_theta * FRAC_1_PI
+    } else {
+        0.0
+    }
+}
+
+/// Uniform direction on the unit sphere.
+#[inline]
+pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Solid-angle density of [`square_to_uniform_sphere`]: `1 / 4π`.
+pub const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * PI);
+
+/// Barycentrics `(b1, b2)` of a uniform point on a triangle (the point is
+/// `(1 − b1 − b2)·p0 + b1·p1 + b2·p2`); area density is `1 / area`.
+#[inline]
+pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
+    // Heitz 2019, "A low-distortion map between triangle and square".
+    let (b0, b1);
+    if u.y > u.x {
+        b0 = u.x / 2.0;
+        b1 = u.y - b0;
+    } else {
+        b1 = u.y / 2.0;
+        b0 = u.x - b1;
+    }
+    Vec2::new(b1, 1.0 - b0 - b1)
+}
+
+/// The power heuristic with β = 2 (Veach 1997) for two strategies with
+/// `n = 1` sample each: the MIS weight of the strategy with density `pdf_a`.
+#[inline]
+pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
+    let a = pdf_a * pdf_a;
+    let b = pdf_b * pdf_b;
+    if a == 0.0 {
+        0.0
+    } else if a.is_infinite() {
+        1.0
+    } else {
+        a / (a + b)
+    }
+}
+
+/// A discrete distribution over `n` items, sampled by binary search on its CDF.
+#[derive(Debug, Clone, Default)]
+pub struct Distribution1D {
+    pmf: Vec<f32>,
+    cdf: Vec<f32>,
+}
+
+impl Distribution1D {
+    /// A distribution proportional to `weights` (non-negative, finite). All-zero
+    /// weights give an empty distribution that never samples.
+    pub fn new(weights: &[f32]) -> Distribution1D {
+        let total: f64 = weights.iter().map(|&w| w.max(0.0) as f64).sum();
+        if total <= 0.0 || !total.is_finite() {
+            return Distribution1D {
+                pmf: vec![0.0; weights.len()],
+                cdf: vec![],
+            };
+        }
+        let mut acc = 0.0f64;
+        let mut cdf = Vec::with_capacity(weights.len());
+        let pmf = weights
+            .iter()
+            .map(|&w| {
+                let p = w.max(0.0) as f64 / total;
+                acc += p;
+                cdf.push(acc as f32);
+                p as f32
+            })
+            .collect();
+        if let Some(last) = cdf.last_mut() {
+            *last = 1.0;
+        }
+        Distribution1D { pmf, cdf }
+    }
+
+    /// Number of items.
+    pub fn len(&self) -> usize {
+        self.pmf.len()
+    }
+
+    /// Whether nothing can be sampled (no items or all weights zero).
+    pub fn is_empty(&self) -> bool {
+        self.cdf.is_empty()
+    }
+
+    /// Picks an item for `u ∈ [0, 1)`; returns `(index, probability)`.
+    #[inline]
+    pub fn sample(&self, u: f32) -> Option<(usize, f32)> {
+        if self.cdf.is_empty() {
+            return None;
+        }
+        let mut i = self
+            .cdf
+            .partition_point(|&c| c <= u)
+            .min(self.cdf.len() - 1);
+        // Skip zero-probability items a rounding tie may land on.
+        while self.pmf[i] == 0.0 && i + 1 < self.pmf.len() {
+            i += 1;
+        }
+        Some((i, self.pmf[i]))
+    }
+
+    /// Probability of item `i`.
+    #[inline]
+    pub fn pmf(&self, i: usize) -> f32 {
+        self.pmf.get(i).copied().unwrap_or(0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_is_orthonormal_for_all_normals() {
+        for n in [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::X,
+            Vec3::new(0.3, -0.5, 0.8).normalize(),
+            Vec3::new(1e-8, 0.0, -1.0).normalize(),
+        ] {
+            let f = Frame::from_normal(n);
+            assert!((f.s.length() - 1.0).abs() < 1e-5);
+            assert!((f.t.length() - 1.0).abs() < 1e-5);
+            assert!(f.s.dot(f.t).abs() < 1e-5 && f.s.dot(n).abs() < 1e-5);
+            let v = Vec3::new(0.2, 0.4, -0.7);
+            assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn distribution_matches_its_weights() {
+        let d = Distribution1D::new(&[1.0, 0.0, 3.0]);
+        assert_eq!(d.pmf(1), 0.0);
+        assert!((d.pmf(2) - 0.75).abs() < 1e-6);
+        assert_eq!(d.sample(0.1).unwrap().0, 0);
+        assert_eq!(d.sample(0.25).unwrap().0, 2);
+        assert_eq!(d.sample(0.9999).unwrap().0, 2);
+        assert!(Distribution1D::new(&[0.0, 0.0]).sample(0.5).is_none());
+    }
+
+    #[test]
+    fn power_heuristic_weights_sum_to_one() {
+        let (a, b) = (0.3, 1.7);
+        assert!((power_heuristic(a, b) + power_heuristic(b, a) - 1.0).abs() < 1e-6);
+        assert_eq!(power_heuristic(f32::INFINITY, 1.0), 1.0);
+    }
+}

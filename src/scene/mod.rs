@@ -1,0 +1,213 @@
+//! The scene: meshes, materials, lights, camera and render settings, plus the
+//! Embree acceleration structure built over them.
+//!
+//! A scene is described either by a file ([`Scene::load`], see
+//! `docs/scene-format.md` and [`file`]) or in code ([`SceneDescription`]), and
+//! turned by [`Scene::build`] into a [`Scene`] ready to render. Geometry id
+//! `i` in Embree is `meshes[i]`, so a hit names its mesh directly.
+
+pub mod file;
+pub mod shapes;
+
+use crate::accel::{Accel, Device, SceneOptions};
+use crate::bsdf::Bsdf;
+use crate::camera::PinholeCamera;
+use crate::error::{Error, Result};
+use crate::light::{Light, LightSet, PointLight, TriangleLight};
+use glam::Vec3;
+use std::path::Path;
+
+/// Environment variable holding extra Embree device configuration (e.g.
+/// `verbose=1`), passed to `rtcNewDevice`.
+pub const EMBREE_CONFIG_VAR: &str = "PLSR_EMBREE_CONFIG";
+
+/// A named material.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    /// Name used by shapes to refer to it.
+    pub name: String,
+    /// Its scattering model.
+    pub bsdf: Bsdf,
+}
+
+/// Emission of an area light: constant radiance over a mesh.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Emission {
+    /// Emitted radiance, W/(m²·sr) per linear RGB channel.
+    pub radiance: Vec3,
+    /// Whether both sides emit (default: the geometric normal's side only).
+    pub two_sided: bool,
+}
+
+/// A triangle mesh in world space.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mesh {
+    /// Name (from the scene file or the OBJ object), for messages.
+    pub name: String,
+    /// World-space vertex positions (scene units).
+    pub positions: Vec<Vec3>,
+    /// Counter-clockwise triangles (seen from the geometric normal's side).
+    pub triangles: Vec<[u32; 3]>,
+    /// Index into the scene's materials.
+    pub material: u32,
+    /// Emission, when the mesh is an area light.
+    pub emission: Option<Emission>,
+    /// Object identity written to the film's object AOV (the scene-file shape
+    /// index), so that later compositing can cut objects out.
+    pub object_id: u32,
+}
+
+/// Settings of a render.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RenderSettings {
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Maximum number of scattering events on a path.
+    pub max_depth: u32,
+    /// Seed of the random streams.
+    pub seed: u64,
+    /// Embree's robust intersection mode.
+    pub robust: bool,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            spp: 16,
+            max_depth: 8,
+            seed: 0,
+            robust: false,
+        }
+    }
+}
+
+/// Everything needed to build a scene, before Embree sees it.
+#[derive(Debug, Clone)]
+pub struct SceneDescription {
+    /// Meshes; their order is their Embree geometry id.
+    pub meshes: Vec<Mesh>,
+    /// Materials, indexed by `Mesh::material`.
+    pub materials: Vec<Material>,
+    /// Point lights.
+    pub point_lights: Vec<PointLight>,
+    /// The camera.
+    pub camera: PinholeCamera,
+    /// Render settings.
+    pub settings: RenderSettings,
+}
+
+/// A scene ready to render.
+pub struct Scene {
+    /// Meshes, indexed by Embree geometry id.
+    pub meshes: Vec<Mesh>,
+    /// For each mesh, the index in `lights.lights` of its first triangle's
+    /// light (emissive meshes only).
+    pub first_light: Vec<Option<u32>>,
+    /// Materials.
+    pub materials: Vec<Material>,
+    /// All lights.
+    pub lights: LightSet,
+    /// The camera.
+    pub camera: PinholeCamera,
+    /// Render settings.
+    pub settings: RenderSettings,
+    /// Embree's acceleration structure over `meshes`.
+    pub accel: Accel,
+    /// Whether any light can be hit by a ray (area lights): otherwise a path
+    /// need not trace the ray after its last light sample.
+    pub has_hittable_lights: bool,
+}
+
+impl Scene {
+    /// Loads a scene file (TOML, or JSON with the same schema by extension).
+    pub fn load(path: &Path) -> Result<Scene> {
+        let desc = file::load(path)?;
+        Scene::build(desc)
+    }
+
+    /// Builds the lights and the Embree scene of a description.
+    pub fn build(desc: SceneDescription) -> Result<Scene> {
+        let SceneDescription {
+            meshes,
+            materials,
+            point_lights,
+            camera,
+            settings,
+        } = desc;
+        if meshes.len() >= u32::MAX as usize {
+            return Err(Error::InvalidArgument("too many meshes".into()));
+        }
+        for (i, m) in meshes.iter().enumerate() {
+            if m.material as usize >= materials.len() {
+                return Err(Error::InvalidArgument(format!(
+                    "mesh {i} ({}) uses material {} of {}",
+                    m.name,
+                    m.material,
+                    materials.len()
+                )));
+            }
+        }
+        let mut lights: Vec<Light> = point_lights.into_iter().map(Light::Point).collect();
+        let mut first_light = Vec::with_capacity(meshes.len());
+        for m in &meshes {
+            match m.emission {
+                Some(e) if e.radiance.max_element() > 0.0 => {
+                    first_light.push(Some(lights.len() as u32));
+                    for t in &m.triangles {
+                        let p = t.map(|i| m.positions[i as usize]);
+                        // Zero-area triangles keep their slot (with zero power,
+                        // never picked) so that light index = first + prim id.
+                        let light = TriangleLight::new(p, e.radiance, e.two_sided).unwrap_or(
+                            TriangleLight {
+                                p,
+                                n: Vec3::Z,
+                                area: 0.0,
+                                radiance: Vec3::ZERO,
+                                two_sided: false,
+                            },
+                        );
+                        lights.push(Light::Triangle(light));
+                    }
+                }
+                _ => first_light.push(None),
+            }
+        }
+        let has_hittable_lights = first_light.iter().any(Option::is_some);
+
+        let config = std::env::var(EMBREE_CONFIG_VAR).unwrap_or_default();
+        let device = Device::with_config(&config)?;
+        let mut builder = device.scene_builder(SceneOptions {
+            robust: settings.robust,
+        })?;
+        for (i, m) in meshes.iter().enumerate() {
+            builder
+                .add_triangle_mesh(i as u32, &m.positions, &m.triangles)
+                .map_err(|mut e| {
+                    e.message = format!("mesh {i} ({}): {}", m.name, e.message);
+                    e
+                })?;
+        }
+        let accel = builder.commit()?;
+        Ok(Scene {
+            meshes,
+            first_light,
+            materials,
+            lights: LightSet::new(lights),
+            camera,
+            settings,
+            accel,
+            has_hittable_lights,
+        })
+    }
+
+    /// Index in `lights.lights` of the light of triangle `prim` of mesh `geom`.
+    #[inline]
+    pub fn light_index(&self, geom: u32, prim: u32) -> Option<usize> {
+        self.first_light[geom as usize].map(|f| (f + prim) as usize)
+    }
+
+    /// Number of triangles in the scene.
+    pub fn triangle_count(&self) -> usize {
+        self.meshes.iter().map(|m| m.triangles.len()).sum()
+    }
+}

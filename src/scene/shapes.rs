@@ -1,0 +1,258 @@
+//! Mesh sources: built-in shapes and Wavefront OBJ files (through tobj).
+//!
+//! Built-in shapes, in their own coordinates before the shape's transform:
+//! - `rectangle`: the square `[-1, 1]²` in the `z = 0` plane, normal `+z`.
+//! - `sphere`: an icosphere of `radius` around `center`, normals outwards
+//!   (`flip_normals = true` turns them inwards, e.g. for an enclosure).
+
+use crate::error::{Error, Result};
+use glam::{Mat4, Vec3};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Vertex positions and counter-clockwise triangles.
+pub type TriangleSoup = (Vec<Vec3>, Vec<[u32; 3]>);
+
+/// The square `[-1, 1]²` at `z = 0`, facing `+z`, as two triangles.
+pub fn rectangle() -> TriangleSoup {
+    let p = vec![
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(-1.0, 1.0, 0.0),
+    ];
+    (p, vec![[0, 1, 2], [0, 2, 3]])
+}
+
+/// An icosphere: an icosahedron subdivided `subdivisions` times, projected
+/// onto the sphere; outward-facing triangles (20·4^subdivisions of them).
+pub fn icosphere(center: Vec3, radius: f32, subdivisions: u32) -> TriangleSoup {
+    let t = (1.0 + 5.0f32.sqrt()) / 2.0;
+    let mut p: Vec<Vec3> = [
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ]
+    .iter()
+    .map(|v| Vec3::from_array(*v).normalize())
+    .collect();
+    let mut tris: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..subdivisions {
+        let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut midpoint = |a: u32, b: u32, p: &mut Vec<Vec3>| -> u32 {
+            let key = (a.min(b), a.max(b));
+            *mid.entry(key).or_insert_with(|| {
+                p.push(((p[a as usize] + p[b as usize]) * 0.5).normalize());
+                (p.len() - 1) as u32
+            })
+        };
+        let mut next = Vec::with_capacity(tris.len() * 4);
+        for [a, b, c] in tris {
+            let ab = midpoint(a, b, &mut p);
+            let bc = midpoint(b, c, &mut p);
+            let ca = midpoint(c, a, &mut p);
+            next.extend_from_slice(&[[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        tris = next;
+    }
+    let p = p.into_iter().map(|v| center + radius * v).collect();
+    (p, tris)
+}
+
+/// Reverses the winding of every triangle (flips geometric normals).
+pub fn flip_winding(triangles: &mut [[u32; 3]]) {
+    for t in triangles {
+        t.swap(1, 2);
+    }
+}
+
+/// Applies an affine transform to positions; a transform that mirrors
+/// (negative determinant) also reverses the winding, so that geometric normals
+/// keep pointing to the same side of the surface.
+pub fn transform_mesh(m: &Mat4, positions: &mut [Vec3], triangles: &mut [[u32; 3]]) {
+    for p in positions.iter_mut() {
+        *p = m.transform_point3(*p);
+    }
+    if m.determinant() < 0.0 {
+        flip_winding(triangles);
+    }
+}
+
+/// One object of an OBJ file, with the index of its MTL material.
+#[derive(Debug, Clone)]
+pub struct ObjObject {
+    /// Object or group name.
+    pub name: String,
+    /// Vertex positions (file units).
+    pub positions: Vec<Vec3>,
+    /// Triangles (polygons are fan-triangulated by tobj).
+    pub triangles: Vec<[u32; 3]>,
+    /// Index into [`ObjFile::materials`].
+    pub material: Option<usize>,
+}
+
+/// An MTL material as plsr reads it.
+#[derive(Debug, Clone)]
+pub struct ObjMaterial {
+    /// `newmtl` name.
+    pub name: String,
+    /// `Kd`, diffuse albedo.
+    pub diffuse: Option<Vec3>,
+    /// `Ke`, emitted radiance.
+    pub emission: Option<Vec3>,
+}
+
+/// The contents of an OBJ file and its MTL library.
+#[derive(Debug, Clone)]
+pub struct ObjFile {
+    /// Objects, in file order.
+    pub objects: Vec<ObjObject>,
+    /// MTL materials, in library order.
+    pub materials: Vec<ObjMaterial>,
+}
+
+/// Loads an OBJ file and its MTL library; `field` names the scene field that
+/// referred to it, for error messages.
+pub fn load_obj(path: &Path, field: &str) -> Result<ObjFile> {
+    if !path.is_file() {
+        return Err(Error::input(
+            path,
+            field,
+            "OBJ file not found (paths are relative to the scene file)",
+        ));
+    }
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let (models, materials) = tobj::load_obj(path, &options)
+        .map_err(|e| Error::input(path, field, format!("cannot read OBJ: {e}")))?;
+    let materials = match materials {
+        // An OBJ without `mtllib` gives an empty list: its objects get the
+        // shape's material.
+        Ok(m) => m,
+        Err(e) => {
+            return Err(Error::input(
+                path,
+                format!("{field} (mtllib)"),
+                format!("cannot read the MTL library: {e}"),
+            ))
+        }
+    };
+    let mut objects = Vec::with_capacity(models.len());
+    for m in models {
+        let mesh = m.mesh;
+        let positions: Vec<Vec3> = mesh
+            .positions
+            .chunks_exact(3)
+            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .collect();
+        if positions.iter().any(|p| !p.is_finite()) {
+            return Err(Error::input(
+                path,
+                field,
+                format!("object `{}` has a non-finite vertex position", m.name),
+            ));
+        }
+        let triangles: Vec<[u32; 3]> = mesh
+            .indices
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect();
+        if let Some(t) = triangles
+            .iter()
+            .find(|t| t.iter().any(|&i| i as usize >= positions.len()))
+        {
+            return Err(Error::input(
+                path,
+                field,
+                format!("object `{}`: face {t:?} refers to a missing vertex", m.name),
+            ));
+        }
+        if triangles.is_empty() {
+            continue;
+        }
+        objects.push(ObjObject {
+            name: m.name,
+            positions,
+            triangles,
+            material: mesh.material_id,
+        });
+    }
+    let materials = materials
+        .into_iter()
+        .map(|m| ObjMaterial {
+            name: m.name,
+            diffuse: m.diffuse.map(Vec3::from_array),
+            emission: m.emissive.map(Vec3::from_array),
+        })
+        .collect();
+    Ok(ObjFile { objects, materials })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn icosphere_is_closed_and_outward() {
+        let (p, t) = icosphere(Vec3::new(1.0, 2.0, 3.0), 2.0, 2);
+        assert_eq!(t.len(), 20 * 16);
+        // Closed: every edge is shared by exactly two triangles, in opposite directions.
+        let mut edges = HashMap::new();
+        for tri in &t {
+            for k in 0..3 {
+                *edges.entry((tri[k], tri[(k + 1) % 3])).or_insert(0) += 1;
+            }
+        }
+        for (&(a, b), &n) in &edges {
+            assert_eq!(n, 1);
+            assert_eq!(edges.get(&(b, a)), Some(&1));
+        }
+        for tri in &t {
+            let [a, b, c] = tri.map(|i| p[i as usize]);
+            let n = (b - a).cross(c - a);
+            assert!(n.dot(a - Vec3::new(1.0, 2.0, 3.0)) > 0.0);
+        }
+    }
+
+    #[test]
+    fn mirroring_keeps_normals_on_the_same_side() {
+        let (mut p, mut t) = rectangle();
+        transform_mesh(&Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)), &mut p, &mut t);
+        let [a, b, c] = t[0].map(|i| p[i as usize]);
+        assert!((b - a).cross(c - a).z > 0.0);
+    }
+}

@@ -1,0 +1,239 @@
+//! Analytic radiometry: the white furnace and closed-form irradiance from a
+//! rectangular Lambertian emitter.
+
+use glam::{Mat4, Vec3};
+use plsr::bsdf::Bsdf;
+use plsr::camera::PinholeCamera;
+use plsr::film::Film;
+use plsr::render::{render, RenderOptions};
+use plsr::scene::shapes::{flip_winding, icosphere, rectangle, transform_mesh};
+use plsr::scene::{Emission, Material, Mesh, RenderSettings, Scene, SceneDescription};
+
+fn material(name: &str, albedo: f32) -> Material {
+    Material {
+        name: name.into(),
+        bsdf: Bsdf::diffuse(Vec3::splat(albedo)),
+    }
+}
+
+fn mesh(
+    name: &str,
+    (positions, triangles): (Vec<Vec3>, Vec<[u32; 3]>),
+    material: u32,
+    emission: Option<Emission>,
+) -> Mesh {
+    Mesh {
+        name: name.into(),
+        positions,
+        triangles,
+        material,
+        emission,
+        object_id: 0,
+    }
+}
+
+fn render_scene(desc: SceneDescription) -> Film {
+    let scene = Scene::build(desc).unwrap();
+    render(&scene, &RenderOptions::default(), &|_, _| true)
+        .unwrap()
+        .0
+}
+
+/// A diffuse sphere of albedo 1 inside an enclosure of uniform radiance 1
+/// (that reflects nothing) must look exactly like the enclosure: radiance 1
+/// everywhere, whatever the viewpoint.
+#[test]
+fn white_furnace() {
+    let (p, mut t) = icosphere(Vec3::ZERO, 10.0, 3);
+    flip_winding(&mut t); // emit inwards
+    let enclosure = mesh(
+        "enclosure",
+        (p, t),
+        0,
+        Some(Emission {
+            radiance: Vec3::ONE,
+            two_sided: false,
+        }),
+    );
+    let sphere = mesh("sphere", icosphere(Vec3::ZERO, 1.0, 4), 1, None);
+    let film = render_scene(SceneDescription {
+        meshes: vec![enclosure, sphere],
+        materials: vec![material("black", 0.0), material("white", 1.0)],
+        point_lights: vec![],
+        camera: PinholeCamera::look_at(
+            Vec3::new(0.0, -3.0, 0.5),
+            Vec3::ZERO,
+            Vec3::Z,
+            60.0,
+            24,
+            24,
+        )
+        .unwrap(),
+        settings: RenderSettings {
+            spp: 64,
+            max_depth: 16,
+            seed: 3,
+            robust: false,
+        },
+    });
+    // The sphere fills the middle of the image.
+    let centre = film.index(12, 12);
+    assert_eq!(film.object_id[centre], 0.0);
+    let mean = film.mean_color();
+    for c in mean.to_array() {
+        assert!((c - 1.0).abs() < 0.01, "furnace mean {mean}");
+    }
+    // Every pixel agrees with 1 within 5 of its own standard errors (plus
+    // a floor for pixels whose estimate has no variance).
+    for (i, (c, v)) in film.color.iter().zip(&film.variance).enumerate() {
+        for k in 0..3 {
+            let tol = 5.0 * v[k].sqrt() + 1e-4;
+            assert!((c[k] - 1.0).abs() <= tol, "pixel {i}: {c} ± {v}");
+        }
+    }
+}
+
+/// Irradiance at a point at height 0 below one corner of an `a × b` rectangle
+/// parallel to the plane at height `h`, of radiance `l` (form factor of a
+/// differential area to a parallel rectangle, e.g. Howell's catalogue, C-11).
+fn corner_irradiance(a: f64, b: f64, h: f64, l: f64) -> f64 {
+    let (x, y) = (a / h, b / h);
+    let f = (x / (1.0 + x * x).sqrt() * (y / (1.0 + x * x).sqrt()).atan()
+        + y / (1.0 + y * y).sqrt() * (x / (1.0 + y * y).sqrt()).atan())
+        / (2.0 * std::f64::consts::PI);
+    std::f64::consts::PI * l * f
+}
+
+/// Irradiance at `(px, py, 0)` from the rectangle `[x0, x1] × [y0, y1]` at
+/// height `h`, by superposition of corner rectangles.
+fn rectangle_irradiance(
+    px: f64,
+    py: f64,
+    (x0, x1, y0, y1): (f64, f64, f64, f64),
+    h: f64,
+    l: f64,
+) -> f64 {
+    let signed = |dx: f64, dy: f64| -> f64 {
+        dx.signum() * dy.signum() * corner_irradiance(dx.abs(), dy.abs(), h, l)
+    };
+    signed(x1 - px, y1 - py) - signed(x0 - px, y1 - py) - signed(x1 - px, y0 - py)
+        + signed(x0 - px, y0 - py)
+}
+
+#[test]
+fn closed_form_irradiance_under_a_rectangular_emitter() {
+    let (albedo, radiance, h) = (0.5f32, 3.0f32, 1.0f32);
+    // Emitter [−0.5, 0.5] × [−0.25, 0.25] at z = h, facing down.
+    let (mut ep, mut et) = rectangle();
+    transform_mesh(
+        &(Mat4::from_translation(Vec3::new(0.0, 0.0, h))
+            * Mat4::from_rotation_x(std::f32::consts::PI)
+            * Mat4::from_scale(Vec3::new(0.5, 0.25, 1.0))),
+        &mut ep,
+        &mut et,
+    );
+    let (mut fp, mut ft) = rectangle();
+    transform_mesh(&Mat4::from_scale(Vec3::splat(10.0)), &mut fp, &mut ft);
+    for (px, py) in [(0.0f32, 0.0f32), (0.4, 0.1), (1.2, -0.7)] {
+        // A narrow camera looking down at (px, py) from below the emitter's
+        // height, off to the side so it does not shadow the point.
+        let target = Vec3::new(px, py, 0.0);
+        let eye = target + Vec3::new(0.05, -0.3, 0.6);
+        let camera = PinholeCamera::look_at(eye, target, Vec3::Z, 0.5, 5, 5).unwrap();
+        let film = render_scene(SceneDescription {
+            meshes: vec![
+                mesh("floor", (fp.clone(), ft.clone()), 1, None),
+                mesh(
+                    "emitter",
+                    (ep.clone(), et.clone()),
+                    0,
+                    Some(Emission {
+                        radiance: Vec3::splat(radiance),
+                        two_sided: false,
+                    }),
+                ),
+            ],
+            materials: vec![material("black", 0.0), material("floor", albedo)],
+            point_lights: vec![],
+            camera,
+            settings: RenderSettings {
+                spp: 2048,
+                max_depth: 1,
+                seed: 9,
+                robust: false,
+            },
+        });
+        let (mean, var) = film
+            .color
+            .iter()
+            .zip(&film.variance)
+            .fold((0.0f64, 0.0f64), |(m, v), (c, s)| {
+                (m + c.x as f64, v + s.x as f64)
+            });
+        let n = film.color.len() as f64;
+        let (mean, stderr) = (mean / n, var.sqrt() / n);
+        let e = rectangle_irradiance(
+            px as f64,
+            py as f64,
+            (-0.5, 0.5, -0.25, 0.25),
+            h as f64,
+            radiance as f64,
+        );
+        let want = albedo as f64 / std::f64::consts::PI * e;
+        assert!(
+            (mean - want).abs() < 0.02 * want,
+            "at ({px}, {py}): rendered {mean:.5} ± {stderr:.5}, closed form {want:.5}"
+        );
+        // The film's variance estimate is consistent with the error too.
+        assert!(
+            (mean - want).abs() < 5.0 * stderr + 1e-3 * want,
+            "{mean} vs {want} ± {stderr}"
+        );
+        eprintln!(
+            "irradiance at ({px}, {py}): rendered {mean:.5} ± {stderr:.5}, closed form {want:.5}"
+        );
+    }
+}
+
+/// A point light gives irradiance I cos θ / r² on a plane: the inverse-square
+/// law, which Embree's demo scene relies on.
+#[test]
+fn point_light_inverse_square_law() {
+    let (mut fp, mut ft) = rectangle();
+    transform_mesh(&Mat4::from_scale(Vec3::splat(20.0)), &mut fp, &mut ft);
+    for (height, px) in [(1.0f32, 0.0f32), (2.0, 0.0), (2.0, 1.5)] {
+        let target = Vec3::new(px, 0.0, 0.0);
+        let camera = PinholeCamera::look_at(
+            target + Vec3::new(0.0, -0.5, 0.5),
+            target,
+            Vec3::Z,
+            0.5,
+            3,
+            3,
+        )
+        .unwrap();
+        let film = render_scene(SceneDescription {
+            meshes: vec![mesh("floor", (fp.clone(), ft.clone()), 0, None)],
+            materials: vec![material("floor", 0.7)],
+            point_lights: vec![plsr::light::PointLight {
+                position: Vec3::new(0.0, 0.0, height),
+                intensity: Vec3::splat(5.0),
+            }],
+            camera,
+            settings: RenderSettings {
+                spp: 4,
+                max_depth: 1,
+                seed: 0,
+                robust: false,
+            },
+        });
+        let r2 = height * height + px * px;
+        let cos = height / r2.sqrt();
+        let want = 0.7 / std::f32::consts::PI * 5.0 * cos / r2;
+        let got = film.color[film.index(1, 1)].x;
+        assert!(
+            (got - want).abs() < 0.005 * want,
+            "h={height}, x={px}: {got} vs {want}"
+        );
+    }
+}
