@@ -22,6 +22,9 @@ use exr::prelude::{self as exrp, AnyChannel, AnyChannels, FlatSamples, WritableI
 use glam::Vec3;
 use std::path::Path;
 
+/// Name of the EXR layer attribute holding the samples per pixel.
+pub const SPP_ATTRIBUTE: &str = "plsrSpp";
+
 /// A rendered image with its auxiliary layers.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Film {
@@ -146,6 +149,12 @@ impl Film {
             software_name: Some(exrp::Text::from(
                 format!("plsr {} ({} spp)", env!("CARGO_PKG_VERSION"), self.spp).as_str(),
             )),
+            other: [(
+                exrp::Text::from(SPP_ATTRIBUTE),
+                exrp::AttributeValue::I32(self.spp.min(i32::MAX as u32) as i32),
+            )]
+            .into_iter()
+            .collect(),
             ..Default::default()
         };
         let layer = exrp::Layer::new(
@@ -174,6 +183,11 @@ impl Film {
         let layer = image.layer_data;
         let (w, h) = (layer.size.0 as u32, layer.size.1 as u32);
         let mut film = Film::new(w, h);
+        if let Some(exrp::AttributeValue::I32(spp)) =
+            layer.attributes.other.get(&exrp::Text::from(SPP_ATTRIBUTE))
+        {
+            film.spp = (*spp).max(0) as u32;
+        }
         let channel = |name: &str| -> Option<Vec<f32>> {
             layer
                 .channel_data
@@ -294,6 +308,7 @@ mod tests {
         let path = dir.path().join("f.exr");
         film.write_exr(&path).unwrap();
         let back = Film::read_exr(&path).unwrap();
+        assert_eq!(back.spp, 7);
         assert_eq!(back.color, film.color);
         assert_eq!(back.variance, film.variance);
         assert_eq!(back.alpha, film.alpha);

@@ -1,0 +1,162 @@
+//! Bad input: each case is a clear error naming the file and the field, exits
+//! with status 1 (not a panic), and writes no output file.
+
+use std::path::Path;
+use std::process::Command;
+
+const CAMERA: &str = r#"
+[camera]
+position = [0, -3, 1]
+look_at = [0, 0, 0]
+up = [0, 0, 1]
+vfov = 40
+resolution = [8, 8]
+"#;
+
+/// Runs `plsr render` on `scene_text` in a fresh folder; returns stderr after
+/// checking the common expectations.
+fn expect_error(scene_text: &str, extra_args: &[&str]) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, scene_text).unwrap();
+    let out = dir.path().join("out.exr");
+    let png = dir.path().join("out.png");
+    let output = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .arg("render")
+        .arg(&scene)
+        .arg("-o")
+        .arg(&out)
+        .arg("--png")
+        .arg(&png)
+        .arg("--quiet")
+        .args(extra_args)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert_eq!(output.status.code(), Some(1), "stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(
+        stderr.contains("scene.toml"),
+        "the error names the file: {stderr}"
+    );
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(
+        left,
+        vec![std::ffi::OsString::from("scene.toml")],
+        "no output written"
+    );
+    stderr
+}
+
+#[test]
+fn missing_obj() {
+    let e = expect_error(
+        &format!("{CAMERA}\n[[shapes]]\ntype = \"obj\"\nfile = \"meshes/missing.obj\"\n"),
+        &[],
+    );
+    assert!(e.contains("shapes[0].file"), "{e}");
+    assert!(e.contains("missing.obj") && e.contains("not found"), "{e}");
+}
+
+#[test]
+fn malformed_toml() {
+    let e = expect_error(&format!("{CAMERA}\n[[shapes]\ntype = \"sphere\"\n"), &[]);
+    assert!(e.contains("line 9"), "the error gives the line: {e}");
+}
+
+#[test]
+fn nan_in_a_transform() {
+    let e = expect_error(
+        &format!(
+            "{CAMERA}\n[[shapes]]\ntype = \"sphere\"\ntransform = {{ translate = [0, nan, 0] }}\n"
+        ),
+        &[],
+    );
+    assert!(e.contains("shapes[0].transform.translate[1]"), "{e}");
+    assert!(e.contains("finite"), "{e}");
+}
+
+#[test]
+fn nan_in_a_matrix() {
+    let e = expect_error(
+        &format!(
+            "{CAMERA}\n[[shapes]]\ntype = \"rectangle\"\ntransform = {{ matrix = [[1,0,0,0],[0,1,0,0],[0,0,1,inf],[0,0,0,1]] }}\n"
+        ),
+        &[],
+    );
+    assert!(e.contains("shapes[0].transform.matrix[2][3]"), "{e}");
+}
+
+#[test]
+fn negative_spp() {
+    let e = expect_error(&format!("[render]\nspp = -4\n{CAMERA}"), &[]);
+    assert!(e.contains("render.spp") && e.contains("-4"), "{e}");
+}
+
+#[test]
+fn unknown_key() {
+    let e = expect_error(&format!("[render]\nsamples = 4\n{CAMERA}"), &[]);
+    assert!(e.contains("unknown field `samples`"), "{e}");
+    assert!(e.contains("line 2"), "{e}");
+}
+
+#[test]
+fn unknown_material_reference() {
+    let e = expect_error(
+        &format!("{CAMERA}\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"gold\"\n"),
+        &[],
+    );
+    assert!(
+        e.contains("shapes[0].material") && e.contains("gold"),
+        "{e}"
+    );
+}
+
+#[test]
+fn reflectance_above_one() {
+    let e = expect_error(
+        &format!("{CAMERA}\n[[materials]]\nname = \"m\"\ntype = \"diffuse\"\nreflectance = [1.5, 0, 0]\n"),
+        &[],
+    );
+    assert!(e.contains("materials[0].reflectance"), "{e}");
+}
+
+#[test]
+fn camera_without_field_of_view() {
+    let e = expect_error(
+        "[camera]\nposition = [0, -3, 1]\nlook_at = [0, 0, 0]\nup = [0, 0, 1]\nresolution = [8, 8]\n",
+        &[],
+    );
+    assert!(e.contains("camera.vfov"), "{e}");
+}
+
+#[test]
+fn a_good_scene_renders_and_writes_both_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(
+        &scene,
+        format!("{CAMERA}\n[[shapes]]\ntype = \"sphere\"\nemission = [1, 1, 1]\n"),
+    )
+    .unwrap();
+    let out = dir.path().join("out.exr");
+    let png = dir.path().join("out.png");
+    let status = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .args(["render", "--quiet", "--spp", "2"])
+        .arg(&scene)
+        .arg("-o")
+        .arg(&out)
+        .arg("--png")
+        .arg(&png)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let film = plsr::film::Film::read_exr(&out).unwrap();
+    assert_eq!((film.width, film.height, film.spp), (8, 8, 2));
+    assert!(Path::new(&png).is_file());
+    // The sphere emits 1 towards the camera: the centre pixel is 1.
+    assert!((film.color[film.index(4, 4)].x - 1.0).abs() < 1e-6);
+}
