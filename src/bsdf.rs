@@ -11,6 +11,9 @@
 //!   cosine factor.
 //! - [`Bsdf::sample`] draws `wi` and returns the BSDF value and the density
 //!   **separately** (a [`BsdfSample`]); the density is in solid angle measure.
+//!   It also returns their ratio `weight = f·|cos θi| / pdf`, computed in
+//!   closed form where the model allows (exactly the albedo for Lambert),
+//!   which is what the path throughput is multiplied by.
 //!   A sample that fails (absorbed, below the horizon) is `None`, never a zero pdf.
 //! - [`Bsdf::pdf`] is the density `sample` would have produced for `wi`, used
 //!   as the MIS counterpart when a light sample is weighted.
@@ -52,6 +55,8 @@ pub struct BsdfSample {
     pub f: Vec3,
     /// Solid-angle density of `wi`.
     pub pdf: f32,
+    /// `f · |cos θi| / pdf`, the factor the path throughput is multiplied by.
+    pub weight: Vec3,
 }
 
 impl Bsdf {
@@ -84,10 +89,12 @@ impl Bsdf {
                 }
                 let wi = square_to_cosine_hemisphere(u);
                 let pdf = cosine_hemisphere_pdf(wi.z);
+                // f·cos/pdf = (ρ/π)·cos / (cos/π) = ρ.
                 (pdf > 0.0).then(|| BsdfSample {
                     wi,
                     f: p.reflectance * FRAC_1_PI,
                     pdf,
+                    weight: p.reflectance,
                 })
             }
         }

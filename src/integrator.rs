@@ -24,7 +24,6 @@ use glam::{DVec3, Vec2, Vec3};
 /// Number of scattering events after which Russian roulette may end a path.
 pub const RUSSIAN_ROULETTE_DEPTH: u32 = 3;
 
-const COHERENT_SECONDARY: bool = false;
 const COHERENT_CAMERA: bool = true;
 
 /// A rectangle of pixels `[x0, x0+width) × [y0, y0+height)`.
@@ -210,9 +209,7 @@ fn trace_pass(
             );
         }
         stats.shadow += wf.shadow_rays.len() as u64;
-        scene
-            .accel
-            .occluded_stream(&mut wf.shadow_rays, COHERENT_SECONDARY);
+        scene.accel.occluded_stream(&mut wf.shadow_rays, false);
         for (ray, p) in wf.shadow_rays.iter().zip(&wf.pending) {
             if !ray.occluded() {
                 wf.paths[p.path as usize].radiance += p.radiance;
@@ -236,9 +233,7 @@ fn trace_pass(
         wf.paths.truncate(live);
         wf.rays.truncate(live);
         stats.bounce += live as u64;
-        scene
-            .accel
-            .intersect_stream(&mut wf.rays, COHERENT_SECONDARY);
+        scene.accel.intersect_stream(&mut wf.rays, false);
         camera_vertex = false;
     }
 }
@@ -319,9 +314,11 @@ fn shade(
                 } else {
                     power_heuristic(light_pdf, bsdf.pdf(wo_local, wi_local))
                 };
+                // The shadow ray runs from the offset origin to just short
+                // of the light point: t ∈ [0, tfar] along d = target − origin.
                 let target = p + ls.wi * ls.dist;
                 let d = target - origin;
-                let tfar = 1.0 - ray_epsilon(target) / d.length().max(f32::MIN_POSITIVE);
+                let tfar = 1.0 - ray_epsilon(target) / ls.dist;
                 if tfar > 0.0 {
                     shadow_rays.push(ShadowRay::new(Ray {
                         org: origin,
@@ -349,7 +346,7 @@ fn shade(
         path.alive = false;
         return;
     };
-    path.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+    path.beta *= bs.weight;
     path.prev_pdf = bs.pdf;
     path.prev_point = p;
     path.depth += 1;

@@ -100,7 +100,36 @@ fn negative_spp() {
 fn unknown_key() {
     let e = expect_error(&format!("[render]\nsamples = 4\n{CAMERA}"), &[]);
     assert!(e.contains("unknown field `samples`"), "{e}");
+    assert!(
+        e.contains("render.samples"),
+        "the error names the field: {e}"
+    );
     assert!(e.contains("line 2"), "{e}");
+}
+
+#[test]
+fn wrong_type() {
+    let e = expect_error(&format!("{CAMERA}\n[[shapes]]\ntype = \"sphere\"\n\n[[shapes]]\ntype = \"sphere\"\nradius = \"big\"\n"), &[]);
+    assert!(e.contains("shapes[1].radius"), "{e}");
+}
+
+#[test]
+fn missing_mtl_library() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("box.obj"),
+        "mtllib gone.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    let scene = format!(
+        "{CAMERA}\n[[shapes]]\ntype = \"obj\"\nfile = \"{}\"\n",
+        dir.path().join("box.obj").display()
+    );
+    let e = expect_error(&scene, &[]);
+    assert!(
+        e.contains("shapes[0].file") && e.contains("gone.mtl"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -62,6 +62,12 @@ fn lambertian_bsdf_sampling_matches_its_pdf() {
         // eval and sample agree on the value.
         let s = bsdf.sample(wo, Vec2::new(0.3, 0.7)).unwrap();
         assert_eq!(s.f, bsdf.eval(wo, s.wi));
+        let w = s.f * s.wi.z.abs() / s.pdf;
+        assert!(
+            (s.weight - w).abs().max_element() < 1e-5,
+            "{} vs {w}",
+            s.weight
+        );
     }
 }
 

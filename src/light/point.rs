@@ -28,11 +28,11 @@ impl PointLight {
         if dist2 == 0.0 {
             return None;
         }
-        let dist = dist2.sqrt();
+        let inv_dist = dist2.sqrt().recip();
         Some(LightSample {
-            radiance: self.intensity / dist2,
-            wi: d / dist,
-            dist,
+            radiance: self.intensity * (inv_dist * inv_dist),
+            wi: d * inv_dist,
+            dist: dist2 * inv_dist,
             pdf: 1.0,
             delta: true,
         })

@@ -9,7 +9,7 @@
 use super::shapes::{self, flip_winding, transform_mesh};
 use super::{Emission, Material, Mesh, RenderSettings, SceneDescription};
 use crate::bsdf::Bsdf;
-use crate::camera::PinholeCamera;
+use crate::camera::{CameraError, PinholeCamera};
 use crate::error::{Error, Result};
 use crate::light::PointLight;
 use glam::{Mat4, Quat, Vec3};
@@ -107,7 +107,7 @@ struct RotateSection {
 }
 
 #[derive(Debug, Deserialize)]
-#[serde(untagged)]
+#[serde(untagged, expecting = "a number or an array of three numbers")]
 enum ScaleValue {
     Uniform(f32),
     PerAxis([f32; 3]),
@@ -135,19 +135,54 @@ pub fn load(path: &Path) -> Result<SceneDescription> {
         serde_json::from_str(&text).map_err(|e| Error::input(path, "", e.to_string()))?
     } else {
         toml::from_str(&text).map_err(|e| {
-            let at = e
+            let (field, at) = e
                 .span()
                 .map(|s| {
                     let line = text[..s.start].matches('\n').count() + 1;
                     let col = s.start - text[..s.start].rfind('\n').map_or(0, |i| i + 1) + 1;
-                    format!("line {line}, column {col}: ")
+                    (
+                        field_at(&text, s.start),
+                        format!("line {line}, column {col}: "),
+                    )
                 })
                 .unwrap_or_default();
-            Error::input(path, "", format!("{at}{}", e.message().trim_end()))
+            Error::input(path, field, format!("{at}{}", e.message().trim_end()))
         })?
     };
     let base = path.parent().unwrap_or(Path::new("."));
     Builder { file: path, base }.build(parsed)
+}
+
+/// Best-effort dotted path (`shapes[2].transform`) of the key at byte
+/// `offset` of a TOML text, from the table headers above it and the key on
+/// its line; empty when it cannot tell.
+fn field_at(text: &str, offset: usize) -> String {
+    let offset = offset.min(text.len());
+    let line_start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
+    let line = text[line_start..].lines().next().unwrap_or("");
+    let mut table = String::new();
+    let mut arrays: HashMap<String, usize> = HashMap::new();
+    for l in text[..line_start].lines() {
+        let l = l.trim();
+        if let Some(name) = l.strip_prefix("[[").and_then(|r| r.split("]]").next()) {
+            let name = name.trim().to_string();
+            let n = arrays.entry(name.clone()).or_insert(0);
+            table = format!("{name}[{n}]");
+            *n += 1;
+        } else if let Some(name) = l.strip_prefix('[').and_then(|r| r.split(']').next()) {
+            table = name.trim().to_string();
+        }
+    }
+    let key = line
+        .split_once('=')
+        .map(|(k, _)| k.trim())
+        .filter(|k| !k.is_empty() && !k.starts_with('[') && !k.starts_with('#'))
+        .unwrap_or("");
+    match (table.is_empty(), key.is_empty()) {
+        (_, true) => table,
+        (true, false) => key.to_string(),
+        (false, false) => format!("{table}.{key}"),
+    }
 }
 
 struct Builder<'a> {
@@ -208,6 +243,15 @@ impl Builder<'_> {
         let mut by_name = HashMap::new();
         for (i, m) in f.materials.iter().enumerate() {
             let field = format!("materials[{i}]");
+            if m.name.is_empty() || m.name.starts_with('(') {
+                return Err(self.err(
+                    format!("{field}.name"),
+                    format!(
+                        "`{}` is not a valid material name (empty, or reserved: starts with `(`)",
+                        m.name
+                    ),
+                ));
+            }
             if by_name.contains_key(&m.name) {
                 return Err(self.err(
                     format!("{field}.name"),
@@ -342,8 +386,15 @@ impl Builder<'_> {
         };
         let w = self.positive_count("camera.resolution[0]", c.resolution[0], 1 << 16)?;
         let h = self.positive_count("camera.resolution[1]", c.resolution[1], 1 << 16)?;
-        PinholeCamera::look_at(position, look_at, up, vfov, w, h)
-            .map_err(|e| self.err("camera", e.to_string()))
+        PinholeCamera::look_at(position, look_at, up, vfov, w, h).map_err(|e| {
+            let field = match e {
+                CameraError::NoViewDirection => "camera.look_at",
+                CameraError::UpParallelToView => "camera.up",
+                CameraError::BadFov(_) => "camera.vfov",
+                CameraError::EmptyImage => "camera.resolution",
+            };
+            self.err(field, e.to_string())
+        })
     }
 
     fn transform(&self, field: &str, t: &TransformSection) -> Result<Mat4> {
@@ -402,7 +453,7 @@ impl Builder<'_> {
             Some(ScaleValue::PerAxis(s)) => self.vec3(&format!("{field}.scale"), *s)?,
             None => Vec3::ONE,
         };
-        if scale.x * scale.y * scale.z == 0.0 {
+        if scale.cmpeq(Vec3::ZERO).any() {
             return Err(self.err(format!("{field}.scale"), "must not be zero"));
         }
         // Scale first, then rotate, then translate.
@@ -449,7 +500,13 @@ impl Builder<'_> {
                 two_sided: s.two_sided.unwrap_or(false),
             }),
             None => {
-                unused("two_sided", s.two_sided.is_some())?;
+                // On OBJ shapes, two_sided also applies to MTL `Ke` emission.
+                if s.two_sided.is_some() && s.kind != "obj" {
+                    return Err(self.err(
+                        format!("{field}.two_sided"),
+                        "only used together with `emission`",
+                    ));
+                }
                 None
             }
         };
@@ -484,8 +541,7 @@ impl Builder<'_> {
                     self.err(format!("{field}.file"), "required for an OBJ shape")
                 })?;
                 let path = self.base.join(rel);
-                let obj =
-                    shapes::load_obj(&path, &format!("{} {field}.file", self.file.display()))?;
+                let obj = shapes::load_obj(&path, self.file, &format!("{field}.file"))?;
                 if obj.objects.is_empty() {
                     return Err(self.err(
                         format!("{field}.file"),
@@ -500,21 +556,48 @@ impl Builder<'_> {
                     let mtl = o.material.and_then(|m| obj.materials.get(m));
                     let mat = match (material, o.material, mtl) {
                         (Some(m), _, _) => m,
-                        (None, Some(mi), Some(mtl)) => *mtl_index.entry(mi).or_insert_with(|| {
-                            let kd = mtl.diffuse.unwrap_or(Vec3::splat(DEFAULT_REFLECTANCE));
-                            materials.push(Material {
-                                name: format!("{}:{}", rel.display(), mtl.name),
-                                bsdf: Bsdf::diffuse(kd.clamp(Vec3::ZERO, Vec3::ONE)),
-                            });
-                            (materials.len() - 1) as u32
-                        }),
+                        (None, Some(mi), Some(mtl)) => match mtl_index.get(&mi) {
+                            Some(&m) => m,
+                            None => {
+                                let kd = mtl.diffuse.unwrap_or(Vec3::splat(DEFAULT_REFLECTANCE));
+                                if !kd.is_finite()
+                                    || kd.min_element() < 0.0
+                                    || kd.max_element() > 1.0
+                                {
+                                    return Err(self.err(
+                                        format!("{field}.file"),
+                                        format!(
+                                            "{}: MTL material `{}`: Kd must be in [0, 1], got {kd}",
+                                            path.display(),
+                                            mtl.name
+                                        ),
+                                    ));
+                                }
+                                materials.push(Material {
+                                    name: format!("{}:{}", rel.display(), mtl.name),
+                                    bsdf: Bsdf::diffuse(kd),
+                                });
+                                let m = (materials.len() - 1) as u32;
+                                mtl_index.insert(mi, m);
+                                m
+                            }
+                        },
                         _ => default_material(materials),
                     };
+                    if let Some((name, e)) = mtl.and_then(|m| m.emission.map(|e| (&m.name, e))) {
+                        if !e.is_finite() || e.min_element() < 0.0 {
+                            return Err(self.err(
+                                format!("{field}.file"),
+                                format!(
+                                    "{}: MTL material `{name}`: Ke must be finite and not negative, got {e}",
+                                    path.display()
+                                ),
+                            ));
+                        }
+                    }
                     let mtl_emission = mtl
                         .and_then(|m| m.emission)
-                        .filter(|e| {
-                            e.is_finite() && e.min_element() >= 0.0 && e.max_element() > 0.0
-                        })
+                        .filter(|e| e.max_element() > 0.0)
                         .map(|radiance| Emission {
                             radiance,
                             two_sided: s.two_sided.unwrap_or(false),

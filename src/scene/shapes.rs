@@ -141,15 +141,33 @@ pub struct ObjFile {
     pub materials: Vec<ObjMaterial>,
 }
 
-/// Loads an OBJ file and its MTL library; `field` names the scene field that
-/// referred to it, for error messages.
-pub fn load_obj(path: &Path, field: &str) -> Result<ObjFile> {
+/// Loads an OBJ file and its MTL libraries. Errors name `scene_file` and
+/// `field`, the scene field that referred to the OBJ, and the OBJ or MTL file
+/// at fault.
+pub fn load_obj(path: &Path, scene_file: &Path, field: &str) -> Result<ObjFile> {
+    let fail = |message: String| Error::input(scene_file, field, message);
     if !path.is_file() {
-        return Err(Error::input(
-            path,
-            field,
-            "OBJ file not found (paths are relative to the scene file)",
-        ));
+        return Err(fail(format!(
+            "{}: OBJ file not found (paths are relative to the scene file)",
+            path.display()
+        )));
+    }
+    // tobj does not say which MTL library is missing: check them first.
+    let text = std::fs::read(path).map_err(|e| fail(format!("{}: {e}", path.display())))?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    for line in String::from_utf8_lossy(&text).lines() {
+        if let Some(libs) = line.trim_start().strip_prefix("mtllib ") {
+            for lib in libs.split_whitespace() {
+                let mtl = base.join(lib);
+                if !mtl.is_file() {
+                    return Err(fail(format!(
+                        "{}: MTL library {} not found",
+                        path.display(),
+                        mtl.display()
+                    )));
+                }
+            }
+        }
     }
     let options = tobj::LoadOptions {
         triangulate: true,
@@ -158,17 +176,16 @@ pub fn load_obj(path: &Path, field: &str) -> Result<ObjFile> {
         ignore_lines: true,
     };
     let (models, materials) = tobj::load_obj(path, &options)
-        .map_err(|e| Error::input(path, field, format!("cannot read OBJ: {e}")))?;
+        .map_err(|e| fail(format!("{}: cannot read OBJ: {e}", path.display())))?;
     let materials = match materials {
         // An OBJ without `mtllib` gives an empty list: its objects get the
         // shape's material.
         Ok(m) => m,
         Err(e) => {
-            return Err(Error::input(
-                path,
-                format!("{field} (mtllib)"),
-                format!("cannot read the MTL library: {e}"),
-            ))
+            return Err(fail(format!(
+                "{}: cannot read its MTL library: {e}",
+                path.display()
+            )))
         }
     };
     let mut objects = Vec::with_capacity(models.len());
@@ -180,11 +197,11 @@ pub fn load_obj(path: &Path, field: &str) -> Result<ObjFile> {
             .map(|c| Vec3::new(c[0], c[1], c[2]))
             .collect();
         if positions.iter().any(|p| !p.is_finite()) {
-            return Err(Error::input(
-                path,
-                field,
-                format!("object `{}` has a non-finite vertex position", m.name),
-            ));
+            return Err(fail(format!(
+                "{}: object `{}` has a non-finite vertex position",
+                path.display(),
+                m.name
+            )));
         }
         let triangles: Vec<[u32; 3]> = mesh
             .indices
@@ -195,11 +212,11 @@ pub fn load_obj(path: &Path, field: &str) -> Result<ObjFile> {
             .iter()
             .find(|t| t.iter().any(|&i| i as usize >= positions.len()))
         {
-            return Err(Error::input(
-                path,
-                field,
-                format!("object `{}`: face {t:?} refers to a missing vertex", m.name),
-            ));
+            return Err(fail(format!(
+                "{}: object `{}`: face {t:?} refers to a missing vertex",
+                path.display(),
+                m.name
+            )));
         }
         if triangles.is_empty() {
             continue;
