@@ -24,6 +24,7 @@ pub mod film;
 pub mod integrator;
 pub mod light;
 pub mod output;
+pub mod pls;
 pub mod render;
 pub mod sampler;
 pub mod sampling;

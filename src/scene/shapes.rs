@@ -228,14 +228,34 @@ pub fn load_obj(path: &Path, scene_file: &Path, field: &str) -> Result<ObjFile> 
             material: mesh.material_id,
         });
     }
-    let materials = materials
-        .into_iter()
-        .map(|m| ObjMaterial {
+    // Every MTL entry is checked, used or not: bad input is an error wherever it is.
+    let mut checked = Vec::with_capacity(materials.len());
+    for m in materials {
+        let diffuse = m.diffuse.map(Vec3::from_array);
+        let emission = m.emissive.map(Vec3::from_array);
+        if let Some(kd) =
+            diffuse.filter(|kd| !kd.is_finite() || kd.min_element() < 0.0 || kd.max_element() > 1.0)
+        {
+            return Err(fail(format!(
+                "{}: MTL material `{}`: Kd must be in [0, 1], got {kd}",
+                path.display(),
+                m.name
+            )));
+        }
+        if let Some(ke) = emission.filter(|ke| !ke.is_finite() || ke.min_element() < 0.0) {
+            return Err(fail(format!(
+                "{}: MTL material `{}`: Ke must be finite and not negative, got {ke}",
+                path.display(),
+                m.name
+            )));
+        }
+        checked.push(ObjMaterial {
             name: m.name,
-            diffuse: m.diffuse.map(Vec3::from_array),
-            emission: m.emissive.map(Vec3::from_array),
-        })
-        .collect();
+            diffuse,
+            emission,
+        });
+    }
+    let materials = checked;
     Ok(ObjFile { objects, materials })
 }
 

@@ -1,0 +1,202 @@
+//! `plsr pls check | mesh | transform`.
+
+use super::{file, BrightnessMode, PlsLighting};
+use crate::cli::PlsCommand;
+use crate::error::{Error, Result};
+use crate::light::luminance;
+use crate::output::write_atomically;
+use glam::{Mat4, Quat, Vec3};
+use std::io::Write;
+use std::path::Path;
+
+/// Runs one `plsr pls` subcommand.
+pub fn run(command: PlsCommand) -> Result<()> {
+    match command {
+        PlsCommand::Check { file, nf } => check(&file, nf),
+        PlsCommand::Mesh { file, output, nf } => mesh(&file, &output, nf),
+        PlsCommand::Transform {
+            file,
+            output,
+            matrix,
+            translate,
+            rotate_axis,
+            rotate_deg,
+            scale,
+        } => {
+            let m = transform_matrix(
+                matrix.as_deref(),
+                translate.as_deref(),
+                rotate_axis.as_deref(),
+                rotate_deg,
+                scale,
+            )?;
+            let lighting = file::load(&file)?;
+            file::save(&lighting.transform(&m), &output)?;
+            eprintln!(
+                "transformed {} light(s) from {} → {}",
+                lighting.lights.len(),
+                file.display(),
+                output.display()
+            );
+            Ok(())
+        }
+    }
+}
+
+fn check(path: &Path, nf: u32) -> Result<()> {
+    let lighting = file::load(path)?;
+    let mode = match lighting.mode {
+        BrightnessMode::Intensity => "intensity (b in W/sr along n)",
+        BrightnessMode::Radiance => "radiance (b in W/(m²·sr))",
+    };
+    println!(
+        "{}: {} light(s), brightness mode {mode}",
+        path.display(),
+        lighting.lights.len()
+    );
+    println!();
+    println!(
+        "| # | name | area (m², Nf={nf}) | outline area (m²) | centre (m) | n | a (°) | radiance (RGB) | power (W, luminance) |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for (i, l) in lighting.lights.iter().enumerate() {
+        let area = l.tessellate(nf).area();
+        let c = l.centre();
+        let n = l.normal();
+        let r = l.radiance(lighting.mode, area);
+        let p = luminance(l.power(lighting.mode, area));
+        println!(
+            "| {i} | {} | {area:.6} | {:.6} | ({:.3}, {:.3}, {:.3}) | ({:.3}, {:.3}, {:.3}) | {:.3} | ({:.3}, {:.3}, {:.3}) | {p:.4} |",
+            l.name.as_deref().unwrap_or("-"),
+            l.outline_area(),
+            c.x,
+            c.y,
+            c.z,
+            n.x,
+            n.y,
+            n.z,
+            l.a_deg,
+            r.x,
+            r.y,
+            r.z,
+        );
+    }
+    Ok(())
+}
+
+/// Writes the tessellated lights as an OBJ: one object per light, faces
+/// counter-clockwise seen from the emitting side.
+pub fn write_obj(lighting: &PlsLighting, nf: u32, path: &Path) -> Result<()> {
+    let io = |source| Error::Io {
+        file: path.to_path_buf(),
+        source,
+    };
+    write_atomically(path, |w| {
+        writeln!(
+            w,
+            "# plsr pls mesh: {} light(s), Nf = {nf}",
+            lighting.lights.len()
+        )
+        .map_err(io)?;
+        let mut base = 1u32;
+        for (i, l) in lighting.lights.iter().enumerate() {
+            let m = l.tessellate(nf);
+            let name = l.name.clone().unwrap_or_else(|| format!("light{i}"));
+            writeln!(w, "o {}", name.replace(char::is_whitespace, "_")).map_err(io)?;
+            for p in &m.positions {
+                writeln!(w, "v {} {} {}", p.x, p.y, p.z).map_err(io)?;
+            }
+            for t in &m.triangles {
+                writeln!(w, "f {} {} {}", t[0] + base, t[1] + base, t[2] + base).map_err(io)?;
+            }
+            base += m.positions.len() as u32;
+        }
+        Ok(())
+    })
+}
+
+fn mesh(path: &Path, output: &Path, nf: u32) -> Result<()> {
+    if nf == 0 {
+        return Err(Error::InvalidArgument("--nf must be at least 1".into()));
+    }
+    let lighting = file::load(path)?;
+    write_obj(&lighting, nf, output)?;
+    eprintln!(
+        "wrote {} light(s) at Nf = {nf} → {}",
+        lighting.lights.len(),
+        output.display()
+    );
+    Ok(())
+}
+
+fn numbers(what: &str, text: &str, count: usize) -> Result<Vec<f32>> {
+    let v: Vec<f32> = text
+        .split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|s| !s.is_empty())
+        .map(|s| s.parse::<f32>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|e| Error::InvalidArgument(format!("--{what}: {e} in {text:?}")))?;
+    if v.len() != count || v.iter().any(|x| !x.is_finite()) {
+        return Err(Error::InvalidArgument(format!(
+            "--{what}: expected {count} finite numbers, got {text:?}"
+        )));
+    }
+    Ok(v)
+}
+
+/// Builds the transform of `plsr pls transform` from its flags.
+pub fn transform_matrix(
+    matrix: Option<&str>,
+    translate: Option<&str>,
+    rotate_axis: Option<&str>,
+    rotate_deg: Option<f32>,
+    scale: Option<f32>,
+) -> Result<Mat4> {
+    if let Some(m) = matrix {
+        if translate.is_some() || rotate_axis.is_some() || rotate_deg.is_some() || scale.is_some() {
+            return Err(Error::InvalidArgument(
+                "--matrix cannot be combined with --translate/--rotate-*/--scale".into(),
+            ));
+        }
+        let v = numbers("matrix", m, 16)?;
+        if v[12..16] != [0.0, 0.0, 0.0, 1.0] {
+            return Err(Error::InvalidArgument(format!(
+                "--matrix: the last row must be 0 0 0 1 for an affine transform, got {:?}",
+                &v[12..16]
+            )));
+        }
+        let mat = Mat4::from_cols_slice(&v).transpose();
+        if mat.determinant() == 0.0 {
+            return Err(Error::InvalidArgument("--matrix is singular".into()));
+        }
+        return Ok(mat);
+    }
+    let t = match translate {
+        Some(t) => Vec3::from_slice(&numbers("translate", t, 3)?),
+        None => Vec3::ZERO,
+    };
+    let r = match (rotate_axis, rotate_deg) {
+        (Some(a), Some(deg)) if deg.is_finite() => {
+            let axis = Vec3::from_slice(&numbers("rotate-axis", a, 3)?)
+                .try_normalize()
+                .ok_or_else(|| Error::InvalidArgument("--rotate-axis must not be zero".into()))?;
+            Quat::from_axis_angle(axis, deg.to_radians())
+        }
+        (None, None) => Quat::IDENTITY,
+        _ => {
+            return Err(Error::InvalidArgument(
+                "--rotate-axis and --rotate-deg (finite) go together".into(),
+            ))
+        }
+    };
+    let s = match scale {
+        Some(s) if s.is_finite() && s > 0.0 => s,
+        Some(s) => {
+            return Err(Error::InvalidArgument(format!(
+                "--scale must be positive, got {s}"
+            )))
+        }
+        None => 1.0,
+    };
+    Ok(Mat4::from_scale_rotation_translation(Vec3::splat(s), r, t))
+}
