@@ -8,7 +8,7 @@ CARGO ?= cargo
 DEB_PACKAGES := libembree-dev libopenimageio-dev libclang-dev clang pkg-config
 # Embree's own pathtracer, the peer of `plsr bench` (optional at run time).
 DEB_BENCH_PACKAGES := embree-tools
-DEMO_SCENE := assets/scenes/demo/demo.toml
+DEMO_SCENE := assets/scenes/pls-room/pls-room.toml
 OUT := out
 
 .PHONY: demo test deps bench-deps bench build fmt clippy install-deps-if-missing

@@ -268,7 +268,12 @@ fn shade(
         pixel.normal += n;
         pixel.albedo += bsdf.albedo();
         if record_aovs_first {
-            pixel.object_id = mesh.object_id as f32;
+            // Light fixtures (u32::MAX) are not objects.
+            pixel.object_id = if mesh.object_id == u32::MAX {
+                -1.0
+            } else {
+                mesh.object_id as f32
+            };
         }
     }
 
@@ -281,8 +286,8 @@ fn shade(
                 let weight = if path.depth == 0 {
                     1.0
                 } else {
-                    let light_pdf =
-                        scene.lights.pick_pmf(li) * tl.pdf_li(path.prev_point, p, ray.dir);
+                    let light_pdf = scene.lights.pick_pmf(li, path.prev_point)
+                        * tl.pdf_li(path.prev_point, p, ray.dir);
                     power_heuristic(path.prev_pdf, light_pdf)
                 };
                 path.radiance += path.beta * le * weight;
@@ -302,9 +307,9 @@ fn shade(
     let origin = p + n * eps;
 
     // Next-event estimation.
-    if let Some((light, pick_pmf)) = scene.lights.pick(path.rng.next_f32()) {
+    if let Some((li, pick_pmf)) = scene.lights.pick(p, path.rng.next_2d()) {
         let u = path.rng.next_2d();
-        if let Some(ls) = light.sample_li(p, u) {
+        if let Some(ls) = scene.lights.lights[li].sample_li(p, u) {
             let wi_local = frame.to_local(ls.wi);
             let f = bsdf.eval(wo_local, wi_local) * wi_local.z.abs();
             if f != Vec3::ZERO {

@@ -53,6 +53,7 @@ fn white_furnace() {
         Some(Emission {
             radiance: Vec3::ONE,
             two_sided: false,
+            cone: None,
         }),
     );
     let sphere = mesh("sphere", icosphere(Vec3::ZERO, 1.0, 4), 1, None);
@@ -150,6 +151,7 @@ fn closed_form_irradiance_under_a_rectangular_emitter() {
                     Some(Emission {
                         radiance: Vec3::splat(radiance),
                         two_sided: false,
+                        cone: None,
                     }),
                 ),
             ],

@@ -154,13 +154,9 @@ fn light_selection_is_proportional_to_power() {
     let mut observed = vec![0.0; 4];
     let mut rng = Rng::new(16, 1);
     for _ in 0..n {
-        let (light, pmf) = set.pick(rng.next_f32()).unwrap();
-        let i = set
-            .lights
-            .iter()
-            .position(|l| std::ptr::eq(l, light))
-            .unwrap();
+        let (i, pmf) = set.pick(Vec3::ZERO, rng.next_2d()).unwrap();
         assert!((pmf as f64 - powers[i] / total).abs() < 1e-6);
+        assert_eq!(pmf, set.pick_pmf(i, Vec3::ZERO));
         observed[i] += 1.0;
     }
     assert_eq!(observed[2], 0.0, "a light of zero power was picked");

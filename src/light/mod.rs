@@ -16,17 +16,27 @@
 //!   its geometric normal `(p1 − p0) × (p2 − p0)` (counter-clockwise winding
 //!   seen from the lit side); `two_sided = true` makes it emit on both.
 //!
-//! [`LightSet`] picks one light per shading point with probability
-//! proportional to its power; the integrator multiplies by that probability.
+//! [`LightSet`] picks one light per shading point: first a *group* (a point
+//! light, the triangles of one emissive mesh, or the triangles of one
+//! parametric light source) with probability proportional to its power among
+//! the groups that can reach the point (for a parametric light, the power it
+//! would have without its window, `π·A·L`), then a light of the group in
+//! proportion to its power. A parametric light whose cone cannot reach the
+//! shading point is never picked ([`Reach`]). The integrator divides by the
+//! probability returned with the pick ([`LightSet::pick`]) and uses
+//! [`LightSet::pick_pmf`] for MIS.
 
 mod point;
+mod reach;
 mod triangle;
 
 pub use point::PointLight;
-pub use triangle::TriangleLight;
+pub use reach::Reach;
+pub use triangle::{Cone, TriangleLight};
 
 use crate::sampling::Distribution1D;
 use glam::{Vec2, Vec3};
+use std::ops::Range;
 
 /// One light source; a closed set of kinds, dispatched by `match`.
 #[derive(Debug, Clone, PartialEq)]
@@ -88,38 +98,171 @@ impl Light {
     }
 }
 
-/// All lights of a scene and the distribution used to pick one.
+/// Lights picked together: `lights[range]`, optionally limited in where they
+/// can send light.
+#[derive(Debug, Clone)]
+pub struct LightGroup {
+    /// Indices into [`LightSet::lights`].
+    pub range: Range<u32>,
+    /// Where the group can send light; `None`: everywhere.
+    pub reach: Option<Reach>,
+    /// Selection weight: emitted power, or for a cone-limited group the
+    /// power it would emit without its window.
+    power: f32,
+    within: Distribution1D,
+}
+
+/// All lights of a scene and how one is picked per shading point.
 #[derive(Debug, Clone, Default)]
 pub struct LightSet {
-    /// The lights; triangle lights of one mesh are contiguous.
+    /// The lights; the lights of one group are contiguous.
     pub lights: Vec<Light>,
-    select: Distribution1D,
+    groups: Vec<LightGroup>,
+    group_of: Vec<u32>,
+    /// Groups without a reach limit, picked by power.
+    everywhere: Distribution1D,
+    everywhere_groups: Vec<u32>,
+    everywhere_power: f32,
+    /// Groups with a reach limit (parametric lights).
+    limited_groups: Vec<u32>,
 }
 
 impl LightSet {
-    /// A light set picking lights in proportion to their power.
+    /// A light set where every light is its own group, picked by power.
     pub fn new(lights: Vec<Light>) -> LightSet {
-        let weights: Vec<f32> = lights.iter().map(Light::power).collect();
+        let groups = (0..lights.len() as u32).map(|i| (i..i + 1, None)).collect();
+        LightSet::with_groups(lights, groups)
+    }
+
+    /// A light set with explicit groups: `(range of lights, reach)`; every
+    /// light must be in exactly one group, in order.
+    pub fn with_groups(lights: Vec<Light>, groups: Vec<(Range<u32>, Option<Reach>)>) -> LightSet {
+        let mut group_of = vec![u32::MAX; lights.len()];
+        let mut built = Vec::with_capacity(groups.len());
+        for (g, (range, reach)) in groups.into_iter().enumerate() {
+            let powers: Vec<f32> = lights[range.start as usize..range.end as usize]
+                .iter()
+                .map(Light::power)
+                .collect();
+            for i in range.clone() {
+                group_of[i as usize] = g as u32;
+            }
+            let total: f32 = powers.iter().map(|&p| p.max(0.0)).sum();
+            // A cone-limited group is weighted by the power it would have
+            // without its window (π·A·L): wherever it reaches, a point gets its
+            // full radiance, so a narrow beam must not be picked less often
+            // than a wide one of the same radiance and area.
+            let weight = match &reach {
+                Some(r) if r.sin_a() > 0.0 => total / (r.sin_a() * r.sin_a()),
+                _ => total,
+            };
+            built.push(LightGroup {
+                power: weight,
+                within: Distribution1D::new(&powers),
+                range,
+                reach,
+            });
+        }
+        assert!(
+            group_of.iter().all(|&g| g != u32::MAX),
+            "every light must be in a group"
+        );
+        let everywhere_groups: Vec<u32> = (0..built.len() as u32)
+            .filter(|&g| built[g as usize].reach.is_none())
+            .collect();
+        let limited_groups = (0..built.len() as u32)
+            .filter(|&g| built[g as usize].reach.is_some())
+            .collect();
+        let weights: Vec<f32> = everywhere_groups
+            .iter()
+            .map(|&g| built[g as usize].power)
+            .collect();
         LightSet {
-            select: Distribution1D::new(&weights),
+            everywhere: Distribution1D::new(&weights),
+            everywhere_power: weights.iter().sum(),
+            everywhere_groups,
+            limited_groups,
+            groups: built,
+            group_of,
             lights,
         }
     }
 
     /// Whether the scene has no light that can be sampled.
     pub fn is_empty(&self) -> bool {
-        self.select.is_empty()
+        self.groups.iter().all(|g| g.power <= 0.0)
     }
 
-    /// Picks a light for `u ∈ [0, 1)`: `(light, probability)`.
-    #[inline]
-    pub fn pick(&self, u: f32) -> Option<(&Light, f32)> {
-        self.select.sample(u).map(|(i, p)| (&self.lights[i], p))
+    /// The groups.
+    pub fn groups(&self) -> &[LightGroup] {
+        &self.groups
     }
 
-    /// Probability that [`LightSet::pick`] returns light `index`.
     #[inline]
-    pub fn pick_pmf(&self, index: usize) -> f32 {
-        self.select.pmf(index)
+    fn limited_power(&self, g: u32, p: Vec3) -> f32 {
+        let group = &self.groups[g as usize];
+        match &group.reach {
+            Some(r) if group.power > 0.0 && r.can_reach(p) => group.power,
+            _ => 0.0,
+        }
+    }
+
+    #[inline]
+    fn total_power(&self, p: Vec3) -> f32 {
+        self.everywhere_power
+            + self
+                .limited_groups
+                .iter()
+                .map(|&g| self.limited_power(g, p))
+                .sum::<f32>()
+    }
+
+    /// Picks a light for shading point `p`: `u.x` picks the group, `u.y` the
+    /// light within it. Returns `(light index, probability)`. Lights that
+    /// cannot reach `p` are never picked.
+    #[inline]
+    pub fn pick(&self, p: Vec3, u: Vec2) -> Option<(usize, f32)> {
+        let total = self.total_power(p);
+        if total <= 0.0 {
+            return None;
+        }
+        let mut target = u.x * total;
+        let group = if target < self.everywhere_power {
+            let (k, _) = self.everywhere.sample(target / self.everywhere_power)?;
+            self.everywhere_groups[k]
+        } else {
+            target -= self.everywhere_power;
+            let mut chosen = None;
+            for &g in &self.limited_groups {
+                let w = self.limited_power(g, p);
+                if w > 0.0 {
+                    chosen = Some(g);
+                    if target < w {
+                        break;
+                    }
+                    target -= w;
+                }
+            }
+            chosen?
+        };
+        let g = &self.groups[group as usize];
+        let (k, pk) = g.within.sample(u.y)?;
+        Some((g.range.start as usize + k, g.power / total * pk))
+    }
+
+    /// Probability that [`LightSet::pick`] returns light `index` at `p`.
+    #[inline]
+    pub fn pick_pmf(&self, index: usize, p: Vec3) -> f32 {
+        let g = self.group_of[index];
+        let group = &self.groups[g as usize];
+        let w = if group.reach.is_some() {
+            self.limited_power(g, p)
+        } else {
+            group.power
+        };
+        if w <= 0.0 {
+            return 0.0;
+        }
+        w / self.total_power(p) * group.within.pmf(index - group.range.start as usize)
     }
 }

@@ -1,4 +1,6 @@
-//! One triangle of an emissive mesh: a uniform, Lambertian area emitter.
+//! One triangle of an emissive mesh: a uniform area emitter, optionally
+//! limited to a cone of directions (the window function of a parametric light
+//! source, paper eq. 12–14).
 //!
 //! A shape becomes an area light by giving it an `emission`:
 //!
@@ -13,6 +15,32 @@ use super::{luminance, LightSample};
 use crate::sampling::square_to_uniform_triangle;
 use glam::{Vec2, Vec3};
 
+/// A hard-edged cone of emission: light leaves only along directions `u`
+/// with `acos(u·axis) ≤ a` (the PLS window function `W(u)`, eq. 12).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cone {
+    /// Unit axis (the PLS normal `n`).
+    pub axis: Vec3,
+    /// `cos a`, with `a` the divergence half-angle.
+    pub cos_a: f32,
+}
+
+impl Cone {
+    /// A cone around `axis` (normalised here) of half-angle `a_deg` degrees.
+    pub fn new(axis: Vec3, a_deg: f32) -> Cone {
+        Cone {
+            axis: axis.normalize(),
+            cos_a: a_deg.to_radians().cos(),
+        }
+    }
+
+    /// `W(u)`: whether the unit direction `u` (leaving the light) is inside.
+    #[inline]
+    pub fn contains(&self, u: Vec3) -> bool {
+        u.dot(self.axis) >= self.cos_a
+    }
+}
+
 /// A triangle emitting constant radiance.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TriangleLight {
@@ -26,6 +54,9 @@ pub struct TriangleLight {
     pub radiance: Vec3,
     /// Whether both sides emit.
     pub two_sided: bool,
+    /// The emission cone of a parametric light source; `None` emits into
+    /// the whole hemisphere (a Lambertian emitter).
+    pub cone: Option<Cone>,
 }
 
 impl TriangleLight {
@@ -39,14 +70,23 @@ impl TriangleLight {
             area: 0.5 * len,
             radiance,
             two_sided,
+            cone: None,
         })
+    }
+
+    /// The same triangle limited to a cone of emission.
+    pub fn with_cone(mut self, cone: Cone) -> TriangleLight {
+        self.cone = Some(cone);
+        self
     }
 
     /// Radiance leaving the triangle towards direction `w` (unit, pointing
     /// away from the triangle).
     #[inline]
     pub fn emitted(&self, w: Vec3) -> Vec3 {
-        if self.two_sided || self.n.dot(w) > 0.0 {
+        let side = self.two_sided || self.n.dot(w) > 0.0;
+        let window = self.cone.is_none_or(|c| c.contains(w));
+        if side && window {
             self.radiance
         } else {
             Vec3::ZERO
@@ -91,9 +131,13 @@ impl TriangleLight {
         (x - p).length_squared() / (cos_light * self.area)
     }
 
-    /// Emitted power `π·A·L` (luminance), doubled when two-sided.
+    /// Emitted power `π·A·L` (luminance), doubled when two-sided; within a
+    /// cone of half-angle `a` around the normal, `π·A·L·sin²a`.
     pub fn power(&self) -> f32 {
         let sides = if self.two_sided { 2.0 } else { 1.0 };
-        std::f32::consts::PI * self.area * luminance(self.radiance) * sides
+        let window = self
+            .cone
+            .map_or(1.0, |c| (1.0 - c.cos_a * c.cos_a).max(0.0));
+        std::f32::consts::PI * self.area * luminance(self.radiance) * sides * window
     }
 }

@@ -35,6 +35,16 @@ struct SceneFile {
     shapes: Vec<ShapeSection>,
     #[serde(default)]
     lights: Vec<LightSection>,
+    #[serde(default)]
+    pls: Vec<PlsSection>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PlsSection {
+    file: PathBuf,
+    nf: Option<u32>,
+    transform: Option<TransformSection>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -346,6 +356,10 @@ impl Builder<'_> {
             }
         }
 
+        for (i, section) in f.pls.iter().enumerate() {
+            self.pls(i, section, &mut materials, &mut meshes)?;
+        }
+
         Ok(SceneDescription {
             meshes,
             materials,
@@ -434,6 +448,61 @@ impl Builder<'_> {
             };
             self.err(field, e.to_string())
         })
+    }
+
+    /// Adds the lights of a PLS file as cone-limited emissive meshes.
+    fn pls(
+        &self,
+        index: usize,
+        s: &PlsSection,
+        materials: &mut Vec<Material>,
+        meshes: &mut Vec<Mesh>,
+    ) -> Result<()> {
+        let field = format!("pls[{index}]");
+        let path = self.base.join(&s.file);
+        if !path.is_file() {
+            return Err(self.err(
+                format!("{field}.file"),
+                format!(
+                    "{}: PLS file not found (paths are relative to the scene file)",
+                    path.display()
+                ),
+            ));
+        }
+        let mut lighting = crate::pls::file::load(&path)?;
+        if let Some(t) = &s.transform {
+            let m = self.transform(&format!("{field}.transform"), t)?;
+            lighting = lighting.transform(&m);
+            lighting.validate().map_err(|e| {
+                self.err(
+                    format!("{field}.transform"),
+                    format!("makes {} invalid: {}", e.light, e.message),
+                )
+            })?;
+        }
+        let nf = s.nf.unwrap_or(crate::pls::DEFAULT_NF);
+        if nf == 0 || nf > 4096 {
+            return Err(self.err(
+                format!("{field}.nf"),
+                format!("must be between 1 and 4096, got {nf}"),
+            ));
+        }
+        // PLS emitters do not reflect: a black material.
+        let black = match materials.iter().position(|m| m.name == "(pls)") {
+            Some(i) => i as u32,
+            None => {
+                materials.push(Material {
+                    name: "(pls)".into(),
+                    bsdf: Bsdf::diffuse(Vec3::ZERO),
+                });
+                (materials.len() - 1) as u32
+            }
+        };
+        for (k, light) in lighting.lights.iter().enumerate() {
+            let name = format!("{field}/{}", light.label(k));
+            meshes.push(super::pls_mesh(light, lighting.mode, nf, black, name));
+        }
+        Ok(())
     }
 
     fn transform(&self, field: &str, t: &TransformSection) -> Result<Mat4> {
@@ -537,6 +606,7 @@ impl Builder<'_> {
             Some(e) => Some(Emission {
                 radiance: self.colour(&format!("{field}.emission"), e, None)?,
                 two_sided: s.two_sided.unwrap_or(false),
+                cone: None,
             }),
             None => {
                 // On OBJ shapes, two_sided also applies to MTL `Ke` emission.
@@ -617,6 +687,7 @@ impl Builder<'_> {
                         .map(|radiance| Emission {
                             radiance,
                             two_sided: s.two_sided.unwrap_or(false),
+                            cone: None,
                         });
                     meshes.push(Mesh {
                         name: format!("{shape_name}/{}", o.name),

@@ -13,7 +13,7 @@ use crate::accel::{Accel, Device, SceneOptions};
 use crate::bsdf::Bsdf;
 use crate::camera::PinholeCamera;
 use crate::error::{Error, Result};
-use crate::light::{Light, LightSet, PointLight, TriangleLight};
+use crate::light::{Cone, Light, LightSet, PointLight, Reach, TriangleLight};
 use glam::Vec3;
 use std::path::Path;
 
@@ -37,6 +37,9 @@ pub struct Emission {
     pub radiance: Vec3,
     /// Whether both sides emit (default: the geometric normal's side only).
     pub two_sided: bool,
+    /// For a parametric light source: the cone it emits into (its window
+    /// function); `None` emits into the whole hemisphere.
+    pub cone: Option<Cone>,
 }
 
 /// A triangle mesh in world space.
@@ -55,6 +58,33 @@ pub struct Mesh {
     /// Object identity written to the film's object AOV (the scene-file shape
     /// index), so that later compositing can cut objects out.
     pub object_id: u32,
+}
+
+/// The emitter of a parametric light source as a mesh: its outline
+/// tessellated into `nf` quads, emitting `light.radiance(mode, area)` into its
+/// cone, with material `material` (normally black: fixtures do not reflect).
+/// Light fixtures are not objects: their `object_id` is `u32::MAX`.
+pub fn pls_mesh(
+    light: &crate::pls::Pls,
+    mode: crate::pls::BrightnessMode,
+    nf: u32,
+    material: u32,
+    name: String,
+) -> Mesh {
+    let mesh = light.tessellate(nf);
+    let radiance = light.radiance(mode, mesh.area());
+    Mesh {
+        name,
+        positions: mesh.positions,
+        triangles: mesh.triangles,
+        material,
+        emission: Some(Emission {
+            radiance,
+            two_sided: false,
+            cone: Some(Cone::new(light.normal(), light.a_deg)),
+        }),
+        object_id: u32::MAX,
+    }
 }
 
 /// Settings of a render.
@@ -147,12 +177,17 @@ impl Scene {
                 )));
             }
         }
+        let mut groups = Vec::new();
         let mut lights: Vec<Light> = point_lights.into_iter().map(Light::Point).collect();
+        for i in 0..lights.len() as u32 {
+            groups.push((i..i + 1, None));
+        }
         let mut first_light = Vec::with_capacity(meshes.len());
         for m in &meshes {
             match m.emission {
                 Some(e) if e.radiance.max_element() > 0.0 => {
-                    first_light.push(Some(lights.len() as u32));
+                    let first = lights.len() as u32;
+                    first_light.push(Some(first));
                     for t in &m.triangles {
                         let p = t.map(|i| m.positions[i as usize]);
                         // Zero-area triangles keep their slot (with zero power,
@@ -164,10 +199,23 @@ impl Scene {
                                 area: 0.0,
                                 radiance: Vec3::ZERO,
                                 two_sided: false,
+                                cone: None,
                             },
                         );
+                        let light = match e.cone {
+                            Some(c) => light.with_cone(c),
+                            None => light,
+                        };
                         lights.push(Light::Triangle(light));
                     }
+                    let reach = e.cone.map(|c| {
+                        let tris = m
+                            .triangles
+                            .iter()
+                            .map(|t| t.map(|i| m.positions[i as usize]));
+                        Reach::new(c, tris.collect())
+                    });
+                    groups.push((first..lights.len() as u32, reach));
                 }
                 _ => first_light.push(None),
             }
@@ -192,7 +240,7 @@ impl Scene {
             meshes,
             first_light,
             materials,
-            lights: LightSet::new(lights),
+            lights: LightSet::with_groups(lights, groups),
             camera,
             settings,
             accel,

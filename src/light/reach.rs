@@ -1,0 +1,243 @@
+//! Where a parametric light source can send light.
+//!
+//! A PLS emits only inside its cone (window function `W`, paper eq. 12): a
+//! shading point `p` receives light from the emitter only if some point `x` on
+//! it sees `p` within angle `a` of the axis `n`, i.e. `(p − x)·n ≥ cos a·|p − x|`.
+//! [`Reach::can_reach`] decides that exactly: a bounding-sphere test settles
+//! most points at once; for the rest, the concave function
+//! `g(x) = (p − x)·n − cos a·|p − x|` is maximised over the emitter in closed
+//! form: its maximum over a region is on the region's boundary unless the
+//! region contains the set `g ≥ 0` entirely, and that set always contains the
+//! point where the ray from `p` along `−n` meets the emitter.
+
+use super::triangle::Cone;
+use glam::Vec3;
+
+/// The emitter's triangles and cone, with a bounding sphere for quick answers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Reach {
+    cone: Cone,
+    sin_a: f32,
+    centre: Vec3,
+    radius: f32,
+    triangles: Vec<[Vec3; 3]>,
+    /// Edges used by exactly one triangle: the outline.
+    boundary: Vec<(Vec3, Vec3)>,
+}
+
+impl Reach {
+    /// The reach of an emitter made of `triangles` emitting into `cone`.
+    pub fn new(cone: Cone, triangles: Vec<[Vec3; 3]>) -> Reach {
+        let (lo, hi) = triangles.iter().flatten().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), v| (lo.min(*v), hi.max(*v)),
+        );
+        let centre = 0.5 * (lo + hi);
+        let radius = triangles
+            .iter()
+            .flatten()
+            .map(|v| (*v - centre).length())
+            .fold(0.0f32, f32::max);
+        // Boundary edges: those not shared with another triangle. Positions
+        // are compared bit for bit: shared vertices of a tessellation are the
+        // same floats.
+        let key = |v: Vec3| v.to_array().map(f32::to_bits);
+        let edge = |a: Vec3, b: Vec3| {
+            let (a, b) = (key(a), key(b));
+            if a < b {
+                (a, b)
+            } else {
+                (b, a)
+            }
+        };
+        let mut count = std::collections::HashMap::new();
+        for t in &triangles {
+            for k in 0..3 {
+                *count.entry(edge(t[k], t[(k + 1) % 3])).or_insert(0u32) += 1;
+            }
+        }
+        let boundary = triangles
+            .iter()
+            .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
+            .filter(|&(a, b)| count[&edge(a, b)] == 1)
+            .collect();
+        Reach {
+            sin_a: (1.0 - cone.cos_a * cone.cos_a).max(0.0).sqrt(),
+            cone,
+            centre,
+            radius,
+            triangles,
+            boundary,
+        }
+    }
+
+    /// Whether the point `x` of the emitter sends light towards `p` (the
+    /// brute-force reference of the tests).
+    #[cfg(test)]
+    fn sees(&self, x: Vec3, p: Vec3) -> bool {
+        let d = p - x;
+        d.dot(self.cone.axis) >= self.cone.cos_a * d.length()
+    }
+
+    /// Whether any point of the emitter sends light towards `p`.
+    pub fn can_reach(&self, p: Vec3) -> bool {
+        let q = p - self.centre;
+        let dist = q.length();
+        if dist > self.radius * 1.001 {
+            // Every emitter point lies within `radius` of the centre, so the
+            // directions from it to p deviate from q by at most δ = asin(r/d).
+            let cos_theta = q.dot(self.cone.axis) / dist;
+            let sin_delta = self.radius / dist;
+            let cos_delta = (1.0 - sin_delta * sin_delta).max(0.0).sqrt();
+            // θ − δ > a ⇔ cos(θ − δ) < cos a (angles in [0, π]).
+            let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+            let cos_theta_minus_delta = if cos_theta >= cos_delta {
+                1.0 // θ ≤ δ
+            } else {
+                cos_theta * cos_delta + sin_theta * sin_delta
+            };
+            if cos_theta_minus_delta < self.cone.cos_a - 1e-6 {
+                return false;
+            }
+            // θ + δ ≤ a: every point of the sphere sees p.
+            let cos_theta_plus_delta = cos_theta * cos_delta - sin_theta * sin_delta;
+            if cos_theta_plus_delta >= self.cone.cos_a + 1e-6 && cos_theta > 0.0 {
+                return true;
+            }
+        }
+        // The set g ≥ 0 contains the point where the ray from p along −n
+        // meets the emitter's plane; if that point is on the emitter, p is lit.
+        if self
+            .triangles
+            .iter()
+            .any(|t| axis_pierces(p, -self.cone.axis, t))
+        {
+            return true;
+        }
+        // Otherwise the set, if it meets the emitter, crosses its outline.
+        self.boundary
+            .iter()
+            .any(|&(a, b)| self.edge_max(a, b, p) >= 0.0)
+    }
+
+    /// `max g(x)` over the segment `x = a + s·(b − a)`, `s ∈ [0, 1]`, in
+    /// closed form. With `q = p − a`, `D = b − a`, `k = D·n`, `c = cos a`,
+    /// `α = |D|²`, `β = q·D` and `h²` the squared distance from p to the
+    /// line, the stationary point satisfies `f = β − s·α = k·h / √(c² − k²/α)`
+    /// (no stationary point when `c² ≤ k²/α`: g is monotone). g is concave,
+    /// so its maximum is at the clamped stationary point or an end.
+    fn edge_max(&self, a: Vec3, b: Vec3, p: Vec3) -> f32 {
+        let n = self.cone.axis;
+        let c = self.cone.cos_a;
+        let g = |x: Vec3| {
+            let d = p - x;
+            d.dot(n) - c * d.length()
+        };
+        let mut best = g(a).max(g(b));
+        let d = b - a;
+        let q = p - a;
+        let alpha = d.length_squared();
+        if alpha > 0.0 {
+            let k = d.dot(n);
+            let beta = q.dot(d);
+            let h2 = (q.length_squared() - beta * beta / alpha).max(0.0);
+            let denom = c * c - k * k / alpha;
+            if denom > 0.0 {
+                let f = k * h2.sqrt() / denom.sqrt();
+                let s = ((beta - f) / alpha).clamp(0.0, 1.0);
+                best = best.max(g(a + s * d));
+            }
+        }
+        best
+    }
+
+    /// The sine of the cone's half-angle.
+    pub fn sin_a(&self) -> f32 {
+        self.sin_a
+    }
+}
+
+/// Whether the ray `o + s·d`, `s ≥ 0`, passes through the triangle.
+fn axis_pierces(o: Vec3, d: Vec3, t: &[Vec3; 3]) -> bool {
+    let e1 = t[1] - t[0];
+    let e2 = t[2] - t[0];
+    let h = d.cross(e2);
+    let det = e1.dot(h);
+    if det.abs() < 1e-20 {
+        return false;
+    }
+    let s = o - t[0];
+    let u = s.dot(h) / det;
+    let q = s.cross(e1);
+    let v = d.dot(q) / det;
+    let dist = e2.dot(q) / det;
+    u >= 0.0 && v >= 0.0 && u + v <= 1.0 && dist >= 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit square at z = 0 emitting down (−z) into a 30° cone.
+    fn square_down() -> Reach {
+        let a = Vec3::new(-0.5, -0.5, 0.0);
+        let b = Vec3::new(0.5, -0.5, 0.0);
+        let c = Vec3::new(0.5, 0.5, 0.0);
+        let d = Vec3::new(-0.5, 0.5, 0.0);
+        Reach::new(Cone::new(-Vec3::Z, 30.0), vec![[a, c, b], [a, d, c]])
+    }
+
+    #[test]
+    fn reach_matches_brute_force() {
+        let r = square_down();
+        let mut rng = crate::sampler::Rng::new(3, 4);
+        let mut disagreements = 0;
+        let (mut reached, mut total) = (0, 0);
+        for _ in 0..3000 {
+            let p = Vec3::new(
+                6.0 * rng.next_f32() - 3.0,
+                6.0 * rng.next_f32() - 3.0,
+                -4.0 * rng.next_f32() + 0.5,
+            );
+            // Brute force over a fine grid of emitter points.
+            let mut brute = false;
+            'grid: for i in 0..=60 {
+                for j in 0..=60 {
+                    let x = Vec3::new(i as f32 / 60.0 - 0.5, j as f32 / 60.0 - 0.5, 0.0);
+                    if r.sees(x, p) {
+                        brute = true;
+                        break 'grid;
+                    }
+                }
+            }
+            let exact = r.can_reach(p);
+            // The grid can miss a sliver the exact test finds, never the reverse.
+            if brute && !exact {
+                disagreements += 100;
+            }
+            if exact && !brute {
+                disagreements += 1;
+            }
+            reached += exact as u32;
+            total += 1;
+        }
+        assert!(
+            reached > 300 && reached < total - 300,
+            "{reached} of {total}"
+        );
+        assert!(disagreements < 30, "{disagreements}");
+    }
+
+    #[test]
+    fn just_inside_and_just_outside_the_cone() {
+        let r = square_down();
+        // Directly below the edge x = 0.5 at depth h, the cone reaches out to
+        // x = 0.5 + h·tan 30°.
+        let h = 2.0;
+        let edge = 0.5 + h * 30f32.to_radians().tan();
+        assert!(r.can_reach(Vec3::new(edge - 1e-3, 0.0, -h)));
+        assert!(!r.can_reach(Vec3::new(edge + 1e-3, 0.0, -h)));
+        // Behind the emitter: never.
+        assert!(!r.can_reach(Vec3::new(0.0, 0.0, 1.0)));
+    }
+}

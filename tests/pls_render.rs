@@ -1,0 +1,124 @@
+//! Parametric light sources in the renderer: inverse-square law, the closed
+//! form in radiance mode, and the hard edge of the cone.
+
+use glam::{Mat4, Vec3};
+use plsr::bsdf::Bsdf;
+use plsr::camera::PinholeCamera;
+use plsr::pls::{BrightnessMode, Pls};
+use plsr::render::{render, RenderOptions};
+use plsr::scene::shapes::{rectangle, transform_mesh};
+use plsr::scene::{pls_mesh, Material, Mesh, RenderSettings, Scene, SceneDescription};
+
+const ALBEDO: f32 = 0.6;
+
+/// Radiance of the floor point `target` (z = 0) lit only by `light`,
+/// direct lighting only, seen by a narrow camera.
+fn floor_radiance(light: &Pls, mode: BrightnessMode, target: Vec3, spp: u32) -> (f64, f64) {
+    let (mut p, mut t) = rectangle();
+    transform_mesh(&Mat4::from_scale(Vec3::splat(20.0)), &mut p, &mut t);
+    let floor = Mesh {
+        name: "floor".into(),
+        positions: p,
+        triangles: t,
+        material: 0,
+        emission: None,
+        object_id: 0,
+    };
+    let materials = vec![
+        Material {
+            name: "floor".into(),
+            bsdf: Bsdf::diffuse(Vec3::splat(ALBEDO)),
+        },
+        Material {
+            name: "black".into(),
+            bsdf: Bsdf::diffuse(Vec3::ZERO),
+        },
+    ];
+    let eye = target + Vec3::new(0.0, -0.3, 0.3);
+    let scene = Scene::build(SceneDescription {
+        meshes: vec![floor, pls_mesh(light, mode, 32, 1, "light".into())],
+        materials,
+        point_lights: vec![],
+        camera: PinholeCamera::look_at(eye, target, Vec3::Z, 0.2, 3, 3).unwrap(),
+        settings: RenderSettings {
+            spp,
+            max_depth: 1,
+            seed: 5,
+            robust: false,
+        },
+    })
+    .unwrap();
+    let film = render(&scene, &RenderOptions::default(), &|_, _| true)
+        .unwrap()
+        .0;
+    let n = film.color.len() as f64;
+    let mean = film.color.iter().map(|c| c.x as f64).sum::<f64>() / n;
+    let var = film.variance.iter().map(|v| v.x as f64).sum::<f64>() / (n * n);
+    (mean, var.sqrt())
+}
+
+/// A small disk light of radius 5 mm at height `h`, facing down.
+fn small_light(h: f32, a_deg: f32, b: f32) -> Pls {
+    Pls::circle(
+        Vec3::new(0.0, 0.0, h),
+        0.005,
+        -Vec3::Z,
+        Vec3::X,
+        a_deg,
+        Vec3::ONE,
+        b,
+    )
+    .unwrap()
+}
+
+#[test]
+fn intensity_mode_obeys_the_inverse_square_law() {
+    let b = 3.0;
+    for h in [0.5f32, 1.0] {
+        let (got, se) = floor_radiance(
+            &small_light(h, 60.0, b),
+            BrightnessMode::Intensity,
+            Vec3::ZERO,
+            256,
+        );
+        let want = (ALBEDO / std::f32::consts::PI * b / (h * h)) as f64;
+        eprintln!("h = {h}: rendered {got:.5} ± {se:.5}, b/r² gives {want:.5}");
+        assert!((got - want).abs() < 0.02 * want, "h = {h}: {got} vs {want}");
+    }
+}
+
+#[test]
+fn radiance_mode_matches_the_closed_form_for_its_area() {
+    let (b, h) = (40.0f32, 0.4f32);
+    let light = small_light(h, 60.0, b);
+    let area = light.tessellate(32).area();
+    let (got, _) = floor_radiance(&light, BrightnessMode::Radiance, Vec3::ZERO, 256);
+    // A small Lambertian patch of radiance L and area A, on axis at
+    // distance h: E = L·A/h² (to O(R²/h²) = 1e-4).
+    let want = (ALBEDO / std::f32::consts::PI * b * area / (h * h)) as f64;
+    assert!((got - want).abs() < 0.02 * want, "{got} vs {want}");
+}
+
+#[test]
+fn the_cone_has_a_hard_edge() {
+    let (h, a) = (1.0f32, 20.0f32);
+    let light = small_light(h, a, 2.0);
+    let edge = h * a.to_radians().tan();
+    // The light is 5 mm in radius: its penumbra is that wide. Step 3 cm in
+    // and out of the geometric edge.
+    let (inside, _) = floor_radiance(
+        &light,
+        BrightnessMode::Intensity,
+        Vec3::new(edge - 0.03, 0.0, 0.0),
+        64,
+    );
+    let (outside, _) = floor_radiance(
+        &light,
+        BrightnessMode::Intensity,
+        Vec3::new(edge + 0.03, 0.0, 0.0),
+        64,
+    );
+    let on_axis = ALBEDO / std::f32::consts::PI * 2.0 / (h * h);
+    assert!(inside > 0.5 * on_axis as f64, "inside the cone: {inside}");
+    assert_eq!(outside, 0.0, "outside the cone no direct light arrives");
+}
