@@ -122,3 +122,100 @@ fn the_cone_has_a_hard_edge() {
     assert!(inside > 0.5 * on_axis as f64, "inside the cone: {inside}");
     assert_eq!(outside, 0.0, "outside the cone no direct light arrives");
 }
+
+/// The paper's flashlight on the floor: the lit patch in a top-down render is
+/// where the cone (apex at the light's centre, axis n, half-angle a) meets
+/// the plane, checked by its centroid, its extent and pixel agreement.
+#[test]
+fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
+    let lighting = plsr::pls::file::load(std::path::Path::new("assets/lights/paper.toml")).unwrap();
+    let flashlight = lighting.lights[0].clone();
+    let (mut p, mut t) = rectangle();
+    transform_mesh(&Mat4::from_scale(Vec3::splat(10.0)), &mut p, &mut t);
+    let floor = Mesh {
+        name: "floor".into(),
+        positions: p,
+        triangles: t,
+        material: 0,
+        emission: None,
+        object_id: 0,
+    };
+    let look = Vec3::new(0.95, 1.85, 0.0);
+    let (res, fov) = (128, 6.0f32);
+    let camera = PinholeCamera::look_at(look + Vec3::new(0.0, 0.0, 20.0), look, Vec3::Y, fov, res, res).unwrap();
+    let scene = Scene::build(SceneDescription {
+        meshes: vec![floor, pls_mesh(&flashlight, lighting.mode, 32, 1, "flashlight".into())],
+        materials: vec![
+            Material {
+                name: "floor".into(),
+                bsdf: Bsdf::diffuse(Vec3::splat(0.5)),
+            },
+            Material {
+                name: "black".into(),
+                bsdf: Bsdf::diffuse(Vec3::ZERO),
+            },
+        ],
+        point_lights: vec![],
+        camera: camera.clone(),
+        settings: RenderSettings {
+            spp: 16,
+            max_depth: 1,
+            seed: 2,
+            robust: false,
+        },
+    })
+    .unwrap();
+    let film = render(&scene, &RenderOptions::default(), &|_, _| true).unwrap().0;
+    let peak = film.color.iter().map(|c| c.x).fold(0.0, f32::max);
+    assert!(peak > 0.0);
+    let apex = flashlight.centre();
+    let n = flashlight.normal();
+    let cos_a = flashlight.a_deg.to_radians().cos();
+    let (mut agree, mut lit) = (0u32, 0u32);
+    let (mut centroid_img, mut centroid_geo) = (Vec3::ZERO, Vec3::ZERO);
+    let mut n_geo = 0u32;
+    let (mut min_img, mut max_img, mut min_geo, mut max_geo) = (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
+    // The ellipse's major axis is the floor projection of n.
+    let major = Vec3::new(n.x, n.y, 0.0).normalize();
+    for y in 0..res {
+        for x in 0..res {
+            let ray = camera.generate_ray(glam::Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+            let s = -ray.org.z / ray.dir.z;
+            let q = ray.org + s * ray.dir;
+            let d = (q - apex).normalize();
+            let geo = d.dot(n) >= cos_a;
+            // Compare with the unwindowed point-source radiance at q, so the
+            // fall-off across the long oblique ellipse does not matter.
+            let r2 = (q - apex).length_squared();
+            let cos_floor = (apex - q).normalize().z;
+            let unwindowed = 0.5 / std::f32::consts::PI * flashlight.b * flashlight.c.x * cos_floor / r2;
+            let img = film.color[film.index(x, y)].x > 0.5 * unwindowed;
+            agree += (geo == img) as u32;
+            if img {
+                lit += 1;
+                centroid_img += q;
+                min_img = min_img.min(q.dot(major));
+                max_img = max_img.max(q.dot(major));
+            }
+            if geo {
+                assert!(x > 0 && y > 0 && x + 1 < res && y + 1 < res, "the whole ellipse is in view");
+                n_geo += 1;
+                centroid_geo += q;
+                min_geo = min_geo.min(q.dot(major));
+                max_geo = max_geo.max(q.dot(major));
+            }
+        }
+    }
+    let (centroid_img, centroid_geo) = (centroid_img / lit as f32, centroid_geo / n_geo as f32);
+    let pixel = 2.0 * 20.0 * (fov / 2.0).to_radians().tan() / res as f32;
+    eprintln!(
+        "lit pixels {lit} (geometry {n_geo}), agreement {:.1} %, centroid offset {:.1} mm, major extent [{min_img:.3}, {max_img:.3}] vs [{min_geo:.3}, {max_geo:.3}] m, pixel {pixel:.4} m",
+        100.0 * agree as f32 / (res * res) as f32,
+        1000.0 * (centroid_img - centroid_geo).length()
+    );
+    assert!(n_geo > 500 && lit > 500, "the ellipse covers a good part of the image");
+    assert!(agree as f32 >= 0.97 * (res * res) as f32);
+    assert!((centroid_img - centroid_geo).length() < 2.0 * pixel);
+    // The light is 3 cm across: its penumbra blurs the edge by about that.
+    assert!((min_img - min_geo).abs() < 0.03 + pixel && (max_img - max_geo).abs() < 0.03 + pixel);
+}

@@ -73,6 +73,12 @@ fn lambertian_bsdf_sampling_matches_its_pdf() {
 
 /// Ray–triangle intersection (Möller–Trumbore) for the test's pdf lookups.
 fn hit_triangle(o: Vec3, d: Vec3, p: &[Vec3; 3]) -> Option<Vec3> {
+    hit_triangle_tolerant(o, d, p, 0.0)
+}
+
+/// As `hit_triangle`, accepting points up to `tol` (barycentric) outside, so
+/// that a direction through a shared edge finds a triangle despite rounding.
+fn hit_triangle_tolerant(o: Vec3, d: Vec3, p: &[Vec3; 3], tol: f32) -> Option<Vec3> {
     let e1 = p[1] - p[0];
     let e2 = p[2] - p[0];
     let h = d.cross(e2);
@@ -85,7 +91,7 @@ fn hit_triangle(o: Vec3, d: Vec3, p: &[Vec3; 3]) -> Option<Vec3> {
     let q = s.cross(e1);
     let v = d.dot(q) / a;
     let t = e2.dot(q) / a;
-    (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0).then(|| o + t * d)
+    (u >= -tol && v >= -tol && u + v <= 1.0 + tol && t > 0.0).then(|| o + t * d)
 }
 
 #[test]
@@ -164,4 +170,57 @@ fn light_selection_is_proportional_to_power() {
     let (chi2, dof) = chi2_from_counts(&observed, &expected, 5.0);
     let p = 1.0 - regularized_gamma_p(dof as f64 / 2.0, chi2 / 2.0);
     assert!(p >= SIGNIFICANCE, "chi2 = {chi2}, dof = {dof}, p = {p}");
+}
+
+/// Next-event estimation on a parametric light (the paper's lamp): picking a
+/// triangle by area and a point on it, seen from a point close by, draws
+/// directions distributed as `pick_pmf × pdf_li` of the triangle they hit,
+/// restricted to the light's cone.
+#[test]
+fn pls_light_sampling_matches_its_pdf() {
+    use plsr::light::{Cone, Reach};
+    let lighting = plsr::pls::file::load(std::path::Path::new("assets/lights/paper.toml")).unwrap();
+    let lamp = &lighting.lights[1];
+    let mesh = lamp.tessellate(8);
+    let cone = Cone::new(lamp.normal(), lamp.a_deg);
+    let tris: Vec<[Vec3; 3]> = mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|i| mesh.positions[i as usize]))
+        .collect();
+    let lights: Vec<Light> = tris
+        .iter()
+        .map(|&t| Light::Triangle(TriangleLight::new(t, Vec3::ONE, false).unwrap().with_cone(cone)))
+        .collect();
+    let set = LightSet::with_groups(lights, vec![(0..tris.len() as u32, Some(Reach::new(cone, tris.clone())))]);
+    // A point 15 cm in front of the lamp, off to the side so that part of
+    // the lamp is seen outside its 85° cone.
+    let p = lamp.centre() + 0.15 * lamp.normal() + 0.2 * (lamp.g.e2 - lamp.g.e1).normalize();
+    let mut rng = Rng::new(17, 1);
+    let r = chi2_test(
+        SphereBinning {
+            subdivisions: 48,
+            ..Default::default()
+        },
+        DRAWS,
+        |_| {
+            let (i, _) = set.pick(p, rng.next_2d())?;
+            set.lights[i].sample_li(p, rng.next_2d()).map(|s| s.wi)
+        },
+        &|w| {
+            tris.iter()
+                .enumerate()
+                .find_map(|(i, t)| {
+                    let x = hit_triangle_tolerant(p, w, t, 1e-5)?;
+                    let Light::Triangle(tl) = &set.lights[i] else { unreachable!() };
+                    // The window, with the same rounding slack.
+                    let inside = -w.dot(tl.cone.unwrap().axis) >= tl.cone.unwrap().cos_a - 1e-6;
+                    inside
+                        .then(|| (set.pick_pmf(i, p) * tl.pdf_li(p, x, w)) as f64)
+                })
+                .unwrap_or(0.0)
+        },
+        SIGNIFICANCE,
+    );
+    assert!(r.passed, "{}", r.summary);
 }
