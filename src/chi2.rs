@@ -97,7 +97,9 @@ pub fn chi2_test(
     let mut stray = 0usize;
     for i in 0..n {
         if let Some(w) = sample(i) {
-            if !w.is_finite() || (w.length() - 1.0).abs() > 1e-3 || !(pdf(w) > 0.0) {
+            let density = pdf(w);
+            let zero_pdf = density.is_nan() || density <= 0.0;
+            if !w.is_finite() || (w.length() - 1.0).abs() > 1e-3 || zero_pdf {
                 stray += 1;
                 continue;
             }

@@ -27,8 +27,11 @@ pub enum Command {
     /// (colour plus variance, alpha, object id, depth, normal and albedo
     /// layers) and optionally to a tone-mapped PNG.
     Render(RenderArgs),
-    /// Measure throughput: raw Embree rays, path tracing, and Embree's own
-    /// `pathtracer` (Debian's embree-tools) on the same Cornell box.
+    /// Measure throughput. `plsr bench` (suite `core`): raw Embree rays, path
+    /// tracing, and Embree's own `pathtracer` (Debian's embree-tools) on the
+    /// same Cornell box. `plsr bench pls`: transforming 10,000 PLS lights
+    /// through their parameters versus their vertices, and the cost of the
+    /// window function in a render.
     Bench(BenchArgs),
     /// Parametric light sources: check, tessellate and transform PLS files
     /// (see docs/pls-format.md).
@@ -127,6 +130,9 @@ pub struct RenderArgs {
 /// Arguments of `plsr bench`.
 #[derive(Debug, clap::Args)]
 pub struct BenchArgs {
+    /// Which benchmark: `core` or `pls`.
+    #[arg(default_value = "core", value_parser = ["core", "pls"])]
+    pub suite: String,
     /// The plsr scene reproducing Embree's demo configuration.
     #[arg(long, default_value = "assets/scenes/cornell/embree-demo.toml")]
     pub scene: PathBuf,
@@ -172,6 +178,7 @@ where
     };
     match cli.command {
         Command::Render(a) => render_command(&a),
+        Command::Bench(a) if a.suite == "pls" => crate::pls::bench::run(a.threads),
         Command::Bench(a) => bench::run(&BenchOptions {
             scene: a.scene,
             pathtracer: (!a.no_peer).then_some(a.pathtracer),

@@ -142,9 +142,20 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
     };
     let look = Vec3::new(0.95, 1.85, 0.0);
     let (res, fov) = (128, 6.0f32);
-    let camera = PinholeCamera::look_at(look + Vec3::new(0.0, 0.0, 20.0), look, Vec3::Y, fov, res, res).unwrap();
+    let camera = PinholeCamera::look_at(
+        look + Vec3::new(0.0, 0.0, 20.0),
+        look,
+        Vec3::Y,
+        fov,
+        res,
+        res,
+    )
+    .unwrap();
     let scene = Scene::build(SceneDescription {
-        meshes: vec![floor, pls_mesh(&flashlight, lighting.mode, 32, 1, "flashlight".into())],
+        meshes: vec![
+            floor,
+            pls_mesh(&flashlight, lighting.mode, 32, 1, "flashlight".into()),
+        ],
         materials: vec![
             Material {
                 name: "floor".into(),
@@ -165,7 +176,9 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
         },
     })
     .unwrap();
-    let film = render(&scene, &RenderOptions::default(), &|_, _| true).unwrap().0;
+    let film = render(&scene, &RenderOptions::default(), &|_, _| true)
+        .unwrap()
+        .0;
     let peak = film.color.iter().map(|c| c.x).fold(0.0, f32::max);
     assert!(peak > 0.0);
     let apex = flashlight.centre();
@@ -174,7 +187,8 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
     let (mut agree, mut lit) = (0u32, 0u32);
     let (mut centroid_img, mut centroid_geo) = (Vec3::ZERO, Vec3::ZERO);
     let mut n_geo = 0u32;
-    let (mut min_img, mut max_img, mut min_geo, mut max_geo) = (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
+    let (mut min_img, mut max_img, mut min_geo, mut max_geo) =
+        (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
     // The ellipse's major axis is the floor projection of n.
     let major = Vec3::new(n.x, n.y, 0.0).normalize();
     for y in 0..res {
@@ -188,7 +202,8 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
             // fall-off across the long oblique ellipse does not matter.
             let r2 = (q - apex).length_squared();
             let cos_floor = (apex - q).normalize().z;
-            let unwindowed = 0.5 / std::f32::consts::PI * flashlight.b * flashlight.c.x * cos_floor / r2;
+            let unwindowed =
+                0.5 / std::f32::consts::PI * flashlight.b * flashlight.c.x * cos_floor / r2;
             let img = film.color[film.index(x, y)].x > 0.5 * unwindowed;
             agree += (geo == img) as u32;
             if img {
@@ -198,7 +213,10 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
                 max_img = max_img.max(q.dot(major));
             }
             if geo {
-                assert!(x > 0 && y > 0 && x + 1 < res && y + 1 < res, "the whole ellipse is in view");
+                assert!(
+                    x > 0 && y > 0 && x + 1 < res && y + 1 < res,
+                    "the whole ellipse is in view"
+                );
                 n_geo += 1;
                 centroid_geo += q;
                 min_geo = min_geo.min(q.dot(major));
@@ -213,7 +231,10 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
         100.0 * agree as f32 / (res * res) as f32,
         1000.0 * (centroid_img - centroid_geo).length()
     );
-    assert!(n_geo > 500 && lit > 500, "the ellipse covers a good part of the image");
+    assert!(
+        n_geo > 500 && lit > 500,
+        "the ellipse covers a good part of the image"
+    );
     assert!(agree as f32 >= 0.97 * (res * res) as f32);
     assert!((centroid_img - centroid_geo).length() < 2.0 * pixel);
     // The light is 3 cm across: its penumbra blurs the edge by about that.

@@ -190,9 +190,18 @@ fn pls_light_sampling_matches_its_pdf() {
         .collect();
     let lights: Vec<Light> = tris
         .iter()
-        .map(|&t| Light::Triangle(TriangleLight::new(t, Vec3::ONE, false).unwrap().with_cone(cone)))
+        .map(|&t| {
+            Light::Triangle(
+                TriangleLight::new(t, Vec3::ONE, false)
+                    .unwrap()
+                    .with_cone(cone),
+            )
+        })
         .collect();
-    let set = LightSet::with_groups(lights, vec![(0..tris.len() as u32, Some(Reach::new(cone, tris.clone())))]);
+    let set = LightSet::with_groups(
+        lights,
+        vec![(0..tris.len() as u32, Some(Reach::new(cone, tris.clone())))],
+    );
     // A point 15 cm in front of the lamp, off to the side so that part of
     // the lamp is seen outside its 85° cone.
     let p = lamp.centre() + 0.15 * lamp.normal() + 0.2 * (lamp.g.e2 - lamp.g.e1).normalize();
@@ -212,11 +221,12 @@ fn pls_light_sampling_matches_its_pdf() {
                 .enumerate()
                 .find_map(|(i, t)| {
                     let x = hit_triangle_tolerant(p, w, t, 1e-5)?;
-                    let Light::Triangle(tl) = &set.lights[i] else { unreachable!() };
+                    let Light::Triangle(tl) = &set.lights[i] else {
+                        unreachable!()
+                    };
                     // The window, with the same rounding slack.
                     let inside = -w.dot(tl.cone.unwrap().axis) >= tl.cone.unwrap().cos_a - 1e-6;
-                    inside
-                        .then(|| (set.pick_pmf(i, p) * tl.pdf_li(p, x, w)) as f64)
+                    inside.then(|| (set.pick_pmf(i, p) * tl.pdf_li(p, x, w)) as f64)
                 })
                 .unwrap_or(0.0)
         },

@@ -207,14 +207,28 @@ impl LightSet {
         }
     }
 
+    /// Selection weights at `p` of the first 64 cone-limited groups (the
+    /// rest are recomputed when needed) and the total weight.
+    #[inline]
+    fn weights_at(&self, p: Vec3) -> ([f32; 64], f32) {
+        let mut w = [0.0f32; 64];
+        let mut total = self.everywhere_power;
+        for (k, &g) in self.limited_groups.iter().enumerate() {
+            let x = self.limited_power(g, p);
+            if k < 64 {
+                w[k] = x;
+            }
+            total += x;
+        }
+        (w, total)
+    }
+
     #[inline]
     fn total_power(&self, p: Vec3) -> f32 {
-        self.everywhere_power
-            + self
-                .limited_groups
-                .iter()
-                .map(|&g| self.limited_power(g, p))
-                .sum::<f32>()
+        if self.limited_groups.is_empty() {
+            return self.everywhere_power;
+        }
+        self.weights_at(p).1
     }
 
     /// Picks a light for shading point `p`: `u.x` picks the group, `u.y` the
@@ -222,7 +236,11 @@ impl LightSet {
     /// cannot reach `p` are never picked.
     #[inline]
     pub fn pick(&self, p: Vec3, u: Vec2) -> Option<(usize, f32)> {
-        let total = self.total_power(p);
+        let (weights, total) = if self.limited_groups.is_empty() {
+            ([0.0; 64], self.everywhere_power)
+        } else {
+            self.weights_at(p)
+        };
         if total <= 0.0 {
             return None;
         }
@@ -233,8 +251,12 @@ impl LightSet {
         } else {
             target -= self.everywhere_power;
             let mut chosen = None;
-            for &g in &self.limited_groups {
-                let w = self.limited_power(g, p);
+            for (k, &g) in self.limited_groups.iter().enumerate() {
+                let w = if k < 64 {
+                    weights[k]
+                } else {
+                    self.limited_power(g, p)
+                };
                 if w > 0.0 {
                     chosen = Some(g);
                     if target < w {

@@ -81,36 +81,33 @@ impl Reach {
 
     /// Whether any point of the emitter sends light towards `p`.
     pub fn can_reach(&self, p: Vec3) -> bool {
-        let q = p - self.centre;
-        let dist = q.length();
-        if dist > self.radius * 1.001 {
-            // Every emitter point lies within `radius` of the centre, so the
-            // directions from it to p deviate from q by at most δ = asin(r/d).
-            let cos_theta = q.dot(self.cone.axis) / dist;
-            let sin_delta = self.radius / dist;
-            let cos_delta = (1.0 - sin_delta * sin_delta).max(0.0).sqrt();
-            // θ − δ > a ⇔ cos(θ − δ) < cos a (angles in [0, π]).
-            let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-            let cos_theta_minus_delta = if cos_theta >= cos_delta {
-                1.0 // θ ≤ δ
-            } else {
-                cos_theta * cos_delta + sin_theta * sin_delta
-            };
-            if cos_theta_minus_delta < self.cone.cos_a - 1e-6 {
-                return false;
-            }
-            // θ + δ ≤ a: every point of the sphere sees p.
-            let cos_theta_plus_delta = cos_theta * cos_delta - sin_theta * sin_delta;
-            if cos_theta_plus_delta >= self.cone.cos_a + 1e-6 && cos_theta > 0.0 {
-                return true;
-            }
+        // The cones of all points within `radius` of the centre lie inside
+        // the cone whose apex is moved back by r / sin a along the axis, and
+        // all contain the one moved forward by as much.
+        let n = self.cone.axis;
+        let shift = self.radius / self.sin_a.max(1e-6);
+        let inside = |apex: Vec3, slack: f32| {
+            let d = p - apex;
+            d.dot(n) >= (self.cone.cos_a + slack) * d.length()
+        };
+        if !inside(self.centre - shift * n, -1e-6) {
+            return false;
+        }
+        if inside(self.centre + shift * n, 1e-6) {
+            return true;
         }
         // The set g ≥ 0 contains the point where the ray from p along −n
         // meets the emitter's plane; if that point is on the emitter, p is lit.
-        if self
-            .triangles
-            .iter()
-            .any(|t| axis_pierces(p, -self.cone.axis, t))
+        // (Only if that ray passes within the bounding sphere at all.)
+        let to_centre = self.centre - p;
+        let along = to_centre.dot(-self.cone.axis);
+        let miss2 = to_centre.length_squared() - along * along;
+        if along >= -self.radius
+            && miss2 <= self.radius * self.radius
+            && self
+                .triangles
+                .iter()
+                .any(|t| axis_pierces(p, -self.cone.axis, t))
         {
             return true;
         }

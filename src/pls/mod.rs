@@ -23,6 +23,7 @@
 //! Transforms act on the parameters (eq. 15–21), not on the tessellated
 //! vertices: see [`Pls::transform`].
 
+pub mod bench;
 pub mod cli;
 pub mod file;
 
