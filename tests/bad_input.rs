@@ -133,6 +133,30 @@ fn missing_mtl_library() {
 }
 
 #[test]
+fn missing_pls_file() {
+    let e = expect_error(
+        &format!("{CAMERA}\n[[pls]]\nfile = \"lights/none.toml\"\n"),
+        &[],
+    );
+    assert!(e.contains("pls[0].file") && e.contains("none.toml"), "{e}");
+}
+
+#[test]
+fn invalid_light_in_a_pls_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let lights = dir.path().join("lights.toml");
+    let text = std::fs::read_to_string("assets/lights/paper.toml")
+        .unwrap()
+        .replace("b = 7.011", "b = -7.011");
+    std::fs::write(&lights, text).unwrap();
+    let e = expect_error(
+        &format!("{CAMERA}\n[[pls]]\nfile = \"{}\"\n", lights.display()),
+        &[],
+    );
+    assert!(e.contains("lights.toml: lights[0] (flashlight).b"), "{e}");
+}
+
+#[test]
 fn unknown_material_reference() {
     let e = expect_error(
         &format!("{CAMERA}\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"gold\"\n"),

@@ -469,7 +469,10 @@ impl Builder<'_> {
                 ),
             ));
         }
-        let mut lighting = crate::pls::file::load(&path)?;
+        // Errors inside the PLS file keep its name, light and parameter,
+        // behind the scene field that referred to it.
+        let mut lighting = crate::pls::file::load(&path)
+            .map_err(|e| self.err(format!("{field}.file"), e.to_string()))?;
         if let Some(t) = &s.transform {
             let m = self.transform(&format!("{field}.transform"), t)?;
             lighting = lighting.transform(&m);
