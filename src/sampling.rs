@@ -104,6 +104,56 @@ pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
     Vec2::new(b1, 1.0 - b0 - b1)
 }
 
+/// Solid angle (sr) subtended at the origin by the triangle with unit
+/// vertex directions `a`, `b`, `c` (Van Oosterom and Strackee 1983).
+#[inline]
+pub fn spherical_triangle_area(a: Vec3, b: Vec3, c: Vec3) -> f32 {
+    let num = a.dot(b.cross(c)).abs();
+    let den = 1.0 + a.dot(b) + b.dot(c) + c.dot(a);
+    2.0 * num.atan2(den)
+}
+
+/// A direction uniformly distributed over the solid angle of the triangle
+/// `v` seen from `p` (Arvo 1995, in the form of pbrt-v4's
+/// `SampleSphericalTriangle`), and its density `1 / solid angle`. `None` for
+/// a degenerate or vanishing triangle.
+pub fn sample_spherical_triangle(v: &[Vec3; 3], p: Vec3, u: Vec2) -> Option<(Vec3, f32)> {
+    let a = (v[0] - p).try_normalize()?;
+    let b = (v[1] - p).try_normalize()?;
+    let c = (v[2] - p).try_normalize()?;
+    let n_ab = a.cross(b).try_normalize()?;
+    let n_bc = b.cross(c).try_normalize()?;
+    let n_ca = c.cross(a).try_normalize()?;
+    let angle = |x: Vec3, y: Vec3| x.dot(y).clamp(-1.0, 1.0).acos();
+    let alpha = angle(n_ab, -n_ca);
+    let beta = angle(n_bc, -n_ab);
+    let gamma = angle(n_ca, -n_bc);
+    let area = alpha + beta + gamma - PI;
+    if !(area > 0.0) {
+        return None;
+    }
+    // Sample the sub-triangle area A' uniformly in [0, A].
+    let ap_pi = PI + u.x * area;
+    let (sin_alpha, cos_alpha) = alpha.sin_cos();
+    let (sin_ap, cos_ap) = ap_pi.sin_cos();
+    let sin_phi = sin_ap * cos_alpha - cos_ap * sin_alpha;
+    let cos_phi = cos_ap * cos_alpha + sin_ap * sin_alpha;
+    let k1 = cos_phi + cos_alpha;
+    let k2 = sin_phi - sin_alpha * a.dot(b);
+    let cos_bp = ((k2 + (k2 * cos_phi - k1 * sin_phi) * cos_alpha)
+        / ((k2 * sin_phi + k1 * cos_phi) * sin_alpha))
+        .clamp(-1.0, 1.0);
+    let sin_bp = (1.0 - cos_bp * cos_bp).max(0.0).sqrt();
+    let c_perp = (c - c.dot(a) * a).try_normalize()?;
+    let cp = cos_bp * a + sin_bp * c_perp;
+    // Sample the arc between b and c'.
+    let cos_theta = 1.0 - u.y * (1.0 - cp.dot(b));
+    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    let cp_perp = (cp - cp.dot(b) * b).try_normalize()?;
+    let w = cos_theta * b + sin_theta * cp_perp;
+    Some((w.normalize(), 1.0 / area))
+}
+
 /// The power heuristic with β = 2 (Veach 1997) for two strategies with
 /// `n = 1` sample each: the MIS weight of the strategy with density `pdf_a`.
 #[inline]

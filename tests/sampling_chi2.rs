@@ -234,3 +234,42 @@ fn pls_light_sampling_matches_its_pdf() {
     );
     assert!(r.passed, "{}", r.summary);
 }
+
+/// Arvo's spherical-triangle sampling: uniform over the solid angle.
+#[test]
+fn spherical_triangle_sampling() {
+    use plsr::sampling::{sample_spherical_triangle, spherical_triangle_area};
+    let tri = [
+        Vec3::new(-1.0, -0.5, 0.4),
+        Vec3::new(1.5, -0.2, 0.9),
+        Vec3::new(-0.3, 1.2, 0.3),
+    ];
+    let p = Vec3::new(0.1, 0.05, 0.0);
+    let omega = spherical_triangle_area(
+        (tri[0] - p).normalize(),
+        (tri[1] - p).normalize(),
+        (tri[2] - p).normalize(),
+    );
+    let mut rng = Rng::new(18, 1);
+    let r = chi2_test(
+        SphereBinning {
+            subdivisions: 16,
+            ..Default::default()
+        },
+        DRAWS,
+        |_| {
+            let (w, pdf) = sample_spherical_triangle(&tri, p, rng.next_2d())?;
+            assert!((pdf - 1.0 / omega).abs() < 1e-3 * pdf);
+            Some(w)
+        },
+        &|w| {
+            if hit_triangle_tolerant(p, w, &tri, 1e-6).is_some() {
+                1.0 / omega as f64
+            } else {
+                0.0
+            }
+        },
+        SIGNIFICANCE,
+    );
+    assert!(r.passed, "{}", r.summary);
+}
