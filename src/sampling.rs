@@ -129,7 +129,7 @@ pub fn sample_spherical_triangle(v: &[Vec3; 3], p: Vec3, u: Vec2) -> Option<(Vec
     let beta = angle(n_bc, -n_ab);
     let gamma = angle(n_ca, -n_bc);
     let area = alpha + beta + gamma - PI;
-    if !(area > 0.0) {
+    if area.is_nan() || area <= 0.0 {
         return None;
     }
     // Sample the sub-triangle area A' uniformly in [0, A].
