@@ -236,11 +236,14 @@ impl LightSet {
     /// cannot reach `p` are never picked.
     #[inline]
     pub fn pick(&self, p: Vec3, u: Vec2) -> Option<(usize, f32)> {
-        let (weights, total) = if self.limited_groups.is_empty() {
-            ([0.0; 64], self.everywhere_power)
-        } else {
-            self.weights_at(p)
-        };
+        if self.limited_groups.is_empty() {
+            // No spatially varying group: a fixed distribution.
+            let (k, pg) = self.everywhere.sample(u.x)?;
+            let g = &self.groups[self.everywhere_groups[k] as usize];
+            let (i, pi) = g.within.sample(u.y)?;
+            return Some((g.range.start as usize + i, pg * pi));
+        }
+        let (weights, total) = self.weights_at(p);
         if total <= 0.0 {
             return None;
         }
