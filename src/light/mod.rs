@@ -238,10 +238,14 @@ impl LightSet {
     pub fn pick(&self, p: Vec3, u: Vec2) -> Option<(usize, f32)> {
         if self.limited_groups.is_empty() {
             // No spatially varying group: a fixed distribution.
-            let (k, pg) = self.everywhere.sample(u.x)?;
+            let (k, _) = self.everywhere.sample(u.x)?;
             let g = &self.groups[self.everywhere_groups[k] as usize];
             let (i, pi) = g.within.sample(u.y)?;
-            return Some((g.range.start as usize + i, pg * pi));
+            // Computed as pick_pmf computes it, so MIS sees the same value.
+            return Some((
+                g.range.start as usize + i,
+                g.power / self.everywhere_power * pi,
+            ));
         }
         let (weights, total) = self.weights_at(p);
         if total <= 0.0 {
