@@ -86,9 +86,12 @@ impl Reach {
         // all contain the one moved forward by as much.
         let n = self.cone.axis;
         let shift = self.radius / self.sin_a.max(1e-6);
+        // d·n ≥ c·|d| without a square root (c = cos a ≥ 0 for a ≤ 90°).
         let inside = |apex: Vec3, slack: f32| {
             let d = p - apex;
-            d.dot(n) >= (self.cone.cos_a + slack) * d.length()
+            let dn = d.dot(n);
+            let c = (self.cone.cos_a + slack).max(0.0);
+            dn >= 0.0 && dn * dn >= c * c * d.length_squared()
         };
         if !inside(self.centre - shift * n, -1e-6) {
             return false;
@@ -111,26 +114,29 @@ impl Reach {
         {
             return true;
         }
-        // Otherwise the set, if it meets the emitter, crosses its outline.
+        // Otherwise the set, if it meets the emitter, crosses its outline:
+        // first its corners, then the stationary points of its edges.
+        if self.boundary.iter().any(|&(a, _)| self.g(a, p) >= 0.0) {
+            return true;
+        }
         self.boundary
             .iter()
-            .any(|&(a, b)| self.edge_max(a, b, p) >= 0.0)
+            .any(|&(a, b)| self.edge_interior_max(a, b, p) >= 0.0)
     }
 
-    /// `max g(x)` over the segment `x = a + s·(b − a)`, `s ∈ [0, 1]`, in
+    /// `max g(x)` over the open segment `x = a + s·(b − a)`, `s ∈ (0, 1)`, in
     /// closed form. With `q = p − a`, `D = b − a`, `k = D·n`, `c = cos a`,
     /// `α = |D|²`, `β = q·D` and `h²` the squared distance from p to the
     /// line, the stationary point satisfies `f = β − s·α = k·h / √(c² − k²/α)`
     /// (no stationary point when `c² ≤ k²/α`: g is monotone). g is concave,
     /// so its maximum is at the clamped stationary point or an end.
-    fn edge_max(&self, a: Vec3, b: Vec3, p: Vec3) -> f32 {
+    /// The edges' ends are tested separately (every boundary vertex starts
+    /// one boundary edge), so this returns the value at the stationary point,
+    /// or −∞ when there is none inside the edge.
+    fn edge_interior_max(&self, a: Vec3, b: Vec3, p: Vec3) -> f32 {
         let n = self.cone.axis;
         let c = self.cone.cos_a;
-        let g = |x: Vec3| {
-            let d = p - x;
-            d.dot(n) - c * d.length()
-        };
-        let mut best = g(a).max(g(b));
+        let mut best = f32::NEG_INFINITY;
         let d = b - a;
         let q = p - a;
         let alpha = d.length_squared();
@@ -141,11 +147,20 @@ impl Reach {
             let denom = c * c - k * k / alpha;
             if denom > 0.0 {
                 let f = k * h2.sqrt() / denom.sqrt();
-                let s = ((beta - f) / alpha).clamp(0.0, 1.0);
-                best = best.max(g(a + s * d));
+                let s = (beta - f) / alpha;
+                if s > 0.0 && s < 1.0 {
+                    best = self.g(a + s * d, p);
+                }
             }
         }
         best
+    }
+
+    /// `g(x) = (p − x)·n − cos a·|p − x|`: non-negative iff `x` sends light to `p`.
+    #[inline]
+    fn g(&self, x: Vec3, p: Vec3) -> f32 {
+        let d = p - x;
+        d.dot(self.cone.axis) - self.cone.cos_a * d.length()
     }
 
     /// The sine of the cone's half-angle.
