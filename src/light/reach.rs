@@ -23,6 +23,12 @@ pub struct Reach {
     triangles: Vec<[Vec3; 3]>,
     /// Edges used by exactly one triangle: the outline.
     boundary: Vec<(Vec3, Vec3)>,
+    /// For a planar emitter, its bounding rectangle in its plane (two
+    /// triangles and four edges): a cheap exact test of a superset, run
+    /// before the test of the outline itself.
+    rectangle: Option<([[Vec3; 3]; 2], [(Vec3, Vec3); 4])>,
+    /// Distance from `centre` to the rectangle's farthest corner.
+    rectangle_radius: f32,
 }
 
 impl Reach {
@@ -61,13 +67,22 @@ impl Reach {
             .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
             .filter(|&(a, b)| count[&edge(a, b)] == 1)
             .collect();
+        let rectangle = bounding_rectangle(&triangles, cone.axis);
+        let rectangle_radius = rectangle.as_ref().map_or(radius, |(_, edges)| {
+            edges
+                .iter()
+                .map(|(a, _)| (*a - centre).length())
+                .fold(radius, f32::max)
+        });
         Reach {
+            rectangle_radius,
             sin_a: (1.0 - cone.cos_a * cone.cos_a).max(0.0).sqrt(),
             cone,
             centre,
             radius,
             triangles,
             boundary,
+            rectangle,
         }
     }
 
@@ -99,16 +114,32 @@ impl Reach {
         if inside(self.centre + shift * n, 1e-6) {
             return true;
         }
+        if let Some((tris, edges)) = &self.rectangle {
+            if !self.polygon_reaches(tris, edges, self.rectangle_radius, p) {
+                return false;
+            }
+        }
+        self.polygon_reaches(&self.triangles, &self.boundary, self.radius, p)
+    }
+
+    /// Exact test for a polygon given as triangles and its boundary edges,
+    /// all within `radius` of `self.centre`.
+    fn polygon_reaches(
+        &self,
+        triangles: &[[Vec3; 3]],
+        boundary: &[(Vec3, Vec3)],
+        radius: f32,
+        p: Vec3,
+    ) -> bool {
         // The set g ≥ 0 contains the point where the ray from p along −n
         // meets the emitter's plane; if that point is on the emitter, p is lit.
         // (Only if that ray passes within the bounding sphere at all.)
         let to_centre = self.centre - p;
         let along = to_centre.dot(-self.cone.axis);
         let miss2 = to_centre.length_squared() - along * along;
-        if along >= -self.radius
-            && miss2 <= self.radius * self.radius
-            && self
-                .triangles
+        if along >= -radius
+            && miss2 <= radius * radius
+            && triangles
                 .iter()
                 .any(|t| axis_pierces(p, -self.cone.axis, t))
         {
@@ -116,10 +147,10 @@ impl Reach {
         }
         // Otherwise the set, if it meets the emitter, crosses its outline:
         // first its corners, then the stationary points of its edges.
-        if self.boundary.iter().any(|&(a, _)| self.g(a, p) >= 0.0) {
+        if boundary.iter().any(|&(a, _)| self.g(a, p) >= 0.0) {
             return true;
         }
-        self.boundary
+        boundary
             .iter()
             .any(|&(a, b)| self.edge_interior_max(a, b, p) >= 0.0)
     }
@@ -169,6 +200,52 @@ impl Reach {
     }
 }
 
+/// The bounding rectangle of planar triangles in their common plane, or
+/// `None` if they are not planar. Corners are counter-clockwise around the plane normal.
+fn bounding_rectangle(
+    triangles: &[[Vec3; 3]],
+    axis: Vec3,
+) -> Option<([[Vec3; 3]; 2], [(Vec3, Vec3); 4])> {
+    let normal: Vec3 = triangles
+        .iter()
+        .map(|t| (t[1] - t[0]).cross(t[2] - t[0]))
+        .sum();
+    let m = normal.try_normalize()?;
+    let m = if m.dot(axis) < 0.0 { -m } else { m };
+    let frame = crate::sampling::Frame::from_normal(m);
+    let origin = triangles.first()?[0];
+    let (mut lo, mut hi) = (
+        glam::Vec2::splat(f32::INFINITY),
+        glam::Vec2::splat(f32::NEG_INFINITY),
+    );
+    let mut extent = 0.0f32;
+    let mut off_plane = 0.0f32;
+    for v in triangles.iter().flatten() {
+        let d = *v - origin;
+        let q = glam::Vec2::new(d.dot(frame.s), d.dot(frame.t));
+        lo = lo.min(q);
+        hi = hi.max(q);
+        extent = extent.max(d.length());
+        off_plane = off_plane.max(d.dot(m).abs());
+    }
+    if off_plane > 1e-5 * extent.max(f32::MIN_POSITIVE) {
+        return None;
+    }
+    // Grow by a hair so rounding never makes the superset smaller.
+    let pad = 1e-5 * extent;
+    let corner = |x: f32, y: f32| origin + frame.s * x + frame.t * y;
+    let c = [
+        corner(lo.x - pad, lo.y - pad),
+        corner(hi.x + pad, lo.y - pad),
+        corner(hi.x + pad, hi.y + pad),
+        corner(lo.x - pad, hi.y + pad),
+    ];
+    Some((
+        [[c[0], c[1], c[2]], [c[0], c[2], c[3]]],
+        [(c[0], c[1]), (c[1], c[2]), (c[2], c[3]), (c[3], c[0])],
+    ))
+}
+
 /// Whether the ray `o + s·d`, `s ≥ 0`, passes through the triangle.
 fn axis_pierces(o: Vec3, d: Vec3, t: &[Vec3; 3]) -> bool {
     let e1 = t[1] - t[0];
@@ -197,6 +274,54 @@ mod tests {
         let c = Vec3::new(0.5, 0.5, 0.0);
         let d = Vec3::new(-0.5, 0.5, 0.0);
         Reach::new(Cone::new(-Vec3::Z, 30.0), vec![[a, c, b], [a, d, c]])
+    }
+
+    /// A disk-like PLS outline (the paper's circle) of radius 0.5 at z = 0,
+    /// emitting down into a 30° cone: its bounding rectangle is a strict
+    /// superset, so the rectangle pre-test and the outline test both matter.
+    fn disk_down() -> (Reach, Vec<[Vec3; 3]>) {
+        let l = crate::pls::Pls::circle(Vec3::ZERO, 0.5, -Vec3::Z, Vec3::X, 30.0, Vec3::ONE, 1.0)
+            .unwrap();
+        let m = l.tessellate(16);
+        let tris: Vec<[Vec3; 3]> = m
+            .triangles
+            .iter()
+            .map(|t| t.map(|i| m.positions[i as usize]))
+            .collect();
+        (Reach::new(Cone::new(-Vec3::Z, 30.0), tris.clone()), tris)
+    }
+
+    #[test]
+    fn reach_of_a_disk_matches_brute_force() {
+        let (r, tris) = disk_down();
+        let mut rng = crate::sampler::Rng::new(5, 6);
+        let (mut wrong, mut reached) = (0, 0);
+        for _ in 0..2000 {
+            let p = Vec3::new(
+                4.0 * rng.next_f32() - 2.0,
+                4.0 * rng.next_f32() - 2.0,
+                -3.0 * rng.next_f32(),
+            );
+            // Brute force: dense barycentric samples of every triangle.
+            let brute = tris.iter().any(|t| {
+                (0..=12).any(|i| {
+                    (0..=12 - i).any(|j| {
+                        let (u, v) = (i as f32 / 12.0, j as f32 / 12.0);
+                        r.sees(t[0] + u * (t[1] - t[0]) + v * (t[2] - t[0]), p)
+                    })
+                })
+            });
+            let exact = r.can_reach(p);
+            if brute && !exact {
+                wrong += 1;
+            }
+            reached += exact as u32;
+        }
+        assert_eq!(
+            wrong, 0,
+            "a point some emitter point lights was declared unreachable"
+        );
+        assert!(reached > 200 && reached < 1800, "{reached}");
     }
 
     #[test]
