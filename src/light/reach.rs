@@ -13,6 +13,9 @@
 use super::triangle::Cone;
 use glam::Vec3;
 
+/// A planar rectangle as two triangles and its four edges.
+type Rectangle = ([[Vec3; 3]; 2], [(Vec3, Vec3); 4]);
+
 /// The emitter's triangles and cone, with a bounding sphere for quick answers.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Reach {
@@ -26,7 +29,7 @@ pub struct Reach {
     /// For a planar emitter, its bounding rectangle in its plane (two
     /// triangles and four edges): a cheap exact test of a superset, run
     /// before the test of the outline itself.
-    rectangle: Option<([[Vec3; 3]; 2], [(Vec3, Vec3); 4])>,
+    rectangle: Option<Rectangle>,
     /// Distance from `centre` to the rectangle's farthest corner.
     rectangle_radius: f32,
 }
