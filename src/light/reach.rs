@@ -205,10 +205,7 @@ impl Reach {
 
 /// The bounding rectangle of planar triangles in their common plane, or
 /// `None` if they are not planar. Corners are counter-clockwise around the plane normal.
-fn bounding_rectangle(
-    triangles: &[[Vec3; 3]],
-    axis: Vec3,
-) -> Option<([[Vec3; 3]; 2], [(Vec3, Vec3); 4])> {
+fn bounding_rectangle(triangles: &[[Vec3; 3]], axis: Vec3) -> Option<Rectangle> {
     let normal: Vec3 = triangles
         .iter()
         .map(|t| (t[1] - t[0]).cross(t[2] - t[0]))
