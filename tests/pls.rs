@@ -219,17 +219,6 @@ fn max_vertex_distance(a: &plsr::pls::PlsMesh, b: &plsr::pls::PlsMesh) -> f32 {
         .fold(0.0, f32::max)
 }
 
-fn transform_mesh(m: &Mat4, mesh: &plsr::pls::PlsMesh) -> plsr::pls::PlsMesh {
-    plsr::pls::PlsMesh {
-        positions: mesh
-            .positions
-            .iter()
-            .map(|p| m.transform_point3(*p))
-            .collect(),
-        triangles: mesh.triangles.clone(),
-    }
-}
-
 #[test]
 fn transforming_parameters_equals_transforming_the_mesh_for_similarities() {
     let similarities = [
@@ -249,8 +238,7 @@ fn transforming_parameters_equals_transforming_the_mesh_for_similarities() {
         for m in &similarities {
             let t = l.transform(m);
             for nf in [4, 16] {
-                let d =
-                    max_vertex_distance(&t.tessellate(nf), &transform_mesh(m, &l.tessellate(nf)));
+                let d = max_vertex_distance(&t.tessellate(nf), &l.tessellate(nf).transformed(m));
                 assert!(d < 1e-5, "{:?}: {d} m", l.name);
             }
             // a, c and b are unchanged; n stays unit.
@@ -273,7 +261,7 @@ fn shear_and_non_uniform_scale_are_approximations_whose_error_is_measured() {
     for (name, m) in [("shear", shear), ("non-uniform scale", stretch)] {
         for l in [flashlight(), lamp()] {
             let a = l.transform(&m).tessellate(16);
-            let b = transform_mesh(&m, &l.tessellate(16));
+            let b = l.tessellate(16).transformed(&m);
             let d = max_vertex_distance(&a, &b);
             let size = (l.g.e2 - l.g.e1)
                 .length()

@@ -61,14 +61,7 @@ pub fn run(threads: Option<usize>) -> Result<()> {
             black_box(
                 meshes
                     .iter()
-                    .map(|mesh| PlsMesh {
-                        positions: mesh
-                            .positions
-                            .iter()
-                            .map(|p| m.transform_point3(*p))
-                            .collect(),
-                        triangles: mesh.triangles.clone(),
-                    })
+                    .map(|mesh| mesh.transformed(&m))
                     .collect::<Vec<_>>(),
             )
         });

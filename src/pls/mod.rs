@@ -131,6 +131,19 @@ pub struct PlsMesh {
 }
 
 impl PlsMesh {
+    /// The mesh with every vertex transformed by the affine `m` (what
+    /// transforming a light through its vertices means).
+    pub fn transformed(&self, m: &Mat4) -> PlsMesh {
+        PlsMesh {
+            positions: self
+                .positions
+                .iter()
+                .map(|p| m.transform_point3(*p))
+                .collect(),
+            triangles: self.triangles.clone(),
+        }
+    }
+
     /// Total area (m²).
     pub fn area(&self) -> f32 {
         self.triangles
