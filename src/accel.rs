@@ -582,16 +582,6 @@ impl Accel {
         }
     }
 
-    /// Occlusion queries for a batch of incoherent rays, one `rtcOccluded1`
-    /// call per ray.
-    pub fn occluded_each(&self, rays: &mut [ShadowRay]) {
-        let mut ctx = context(false);
-        for r in rays {
-            // SAFETY: as in `occluded`; `r.0` is an aligned RTCRay.
-            unsafe { sys::rtcOccluded1(self.scene.0, &mut ctx, &mut r.0) };
-        }
-    }
-
     /// Occlusion queries for a batch (Embree's stream API, `rtcOccluded1M`).
     pub fn occluded_stream(&self, rays: &mut [ShadowRay], coherent: bool) {
         if rays.is_empty() {
@@ -609,11 +599,4 @@ impl Accel {
             )
         };
     }
-}
-
-/// Version of the Embree library linked at run time, e.g. `"3.13.5"`.
-pub fn embree_version(device: &Device) -> String {
-    // SAFETY: `device.raw` is live; the property query has no side effects.
-    let v = unsafe { sys::rtcGetDeviceProperty(device.raw, sys::RTC_DEVICE_PROPERTY_VERSION) };
-    format!("{}.{}.{}", v / 10000, (v / 100) % 100, v % 100)
 }

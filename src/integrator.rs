@@ -280,14 +280,15 @@ fn shade(
     // Emission found by the camera ray or by BSDF sampling, MIS-weighted
     // against next-event estimation (which could have found it too).
     if let Some(li) = scene.light_index(hit.geom_id, hit.prim_id) {
-        if let Light::Triangle(tl) = &scene.lights.lights[li] {
+        let light = &scene.lights.lights[li];
+        if let Light::Triangle(tl) = light {
             let le = tl.emitted(wo);
             if le != Vec3::ZERO {
                 let weight = if path.depth == 0 {
                     1.0
                 } else {
                     let light_pdf = scene.lights.pick_pmf(li, path.prev_point)
-                        * tl.pdf_li(path.prev_point, p, ray.dir);
+                        * light.pdf_li(path.prev_point, p, ray.dir);
                     power_heuristic(path.prev_pdf, light_pdf)
                 };
                 path.radiance += path.beta * le * weight;

@@ -2,7 +2,7 @@
 
 use crate::error::{Error, Result};
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 /// The temporary name `path` is written under before being renamed into place.
@@ -38,12 +38,4 @@ pub fn write_atomically(
         let _ = std::fs::remove_file(&tmp);
     }
     result
-}
-
-/// Ensures a writer is flushed; a helper for `write_atomically` closures.
-pub fn flush(w: &mut impl Write, path: &Path) -> Result<()> {
-    w.flush().map_err(|source| Error::Io {
-        file: path.to_path_buf(),
-        source,
-    })
 }

@@ -2,7 +2,7 @@
 //! transforms through parameters, and the PLS file format.
 
 use glam::{Mat3, Mat4, Quat, Vec3};
-use plsr::pls::{file, BrightnessMode, Pls, PlsGeometry, PlsLighting};
+use plsr::pls::{file, BrightnessMode, Pls, PlsLighting};
 use std::path::Path;
 
 fn paper() -> PlsLighting {
@@ -286,11 +286,4 @@ fn brightness_modes() {
     // Intensity mode: L·A = b·c along n.
     assert!((li * area - l.c * l.b).abs().max_element() < 1e-5);
     assert_eq!(l.radiance(BrightnessMode::Radiance, area), l.c * l.b);
-    let _ = PlsGeometry {
-        e1: Vec3::ZERO,
-        e2: Vec3::X,
-        alpha1: 0.0,
-        alpha2: 1.0,
-        d: [0.0; 4],
-    };
 }

@@ -11,19 +11,24 @@ use plsr::scene::{pls_mesh, Material, Mesh, RenderSettings, Scene, SceneDescript
 
 const ALBEDO: f32 = 0.6;
 
-/// Radiance of the floor point `target` (z = 0) lit only by `light`,
-/// direct lighting only, seen by a narrow camera.
-fn floor_radiance(light: &Pls, mode: BrightnessMode, target: Vec3, spp: u32) -> (f64, f64) {
+/// The square `[-half, half]²` at z = 0 facing up, with material 0.
+fn floor(half: f32) -> Mesh {
     let (mut p, mut t) = rectangle();
-    transform_mesh(&Mat4::from_scale(Vec3::splat(20.0)), &mut p, &mut t);
-    let floor = Mesh {
+    transform_mesh(&Mat4::from_scale(Vec3::splat(half)), &mut p, &mut t);
+    Mesh {
         name: "floor".into(),
         positions: p,
         triangles: t,
         material: 0,
         emission: None,
         object_id: 0,
-    };
+    }
+}
+
+/// Radiance of the floor point `target` (z = 0) lit only by `light`,
+/// direct lighting only, seen by a narrow camera.
+fn floor_radiance(light: &Pls, mode: BrightnessMode, target: Vec3, spp: u32) -> (f64, f64) {
+    let floor = floor(20.0);
     let materials = vec![
         Material {
             name: "floor".into(),
@@ -130,16 +135,7 @@ fn the_cone_has_a_hard_edge() {
 fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
     let lighting = plsr::pls::file::load(std::path::Path::new("assets/lights/paper.toml")).unwrap();
     let flashlight = lighting.lights[0].clone();
-    let (mut p, mut t) = rectangle();
-    transform_mesh(&Mat4::from_scale(Vec3::splat(10.0)), &mut p, &mut t);
-    let floor = Mesh {
-        name: "floor".into(),
-        positions: p,
-        triangles: t,
-        material: 0,
-        emission: None,
-        object_id: 0,
-    };
+    let floor = floor(10.0);
     let look = Vec3::new(0.95, 1.85, 0.0);
     let (res, fov) = (128, 6.0f32);
     let camera = PinholeCamera::look_at(

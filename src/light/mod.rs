@@ -193,11 +193,6 @@ impl LightSet {
         self.groups.iter().all(|g| g.power <= 0.0)
     }
 
-    /// The groups.
-    pub fn groups(&self) -> &[LightGroup] {
-        &self.groups
-    }
-
     #[inline]
     fn limited_power(&self, g: u32, p: Vec3) -> f32 {
         let group = &self.groups[g as usize];

@@ -205,10 +205,9 @@ fn sampling_comparison(lights: &[Pls], mode: BrightnessMode) {
         for dist in [0.02f32, 0.1, 0.5, 2.0] {
             let p = l.centre() + dist * l.normal();
             let normal = -l.normal();
-            let (ma, sa, ta) = irradiance_estimate(l, mode, p, normal, 200_000, false);
-            let (ms, ss, ts) = irradiance_estimate(l, mode, p, normal, 200_000, true);
+            let (_, sa, ta) = irradiance_estimate(l, mode, p, normal, 200_000, false);
+            let (_, ss, ts) = irradiance_estimate(l, mode, p, normal, 200_000, true);
             let eff = (sa * sa * ta) / (ss * ss * ts).max(1e-300);
-            let _ = (ma, ms);
             println!(
                 "| {} | {dist} m | {sa:.4} | {ss:.4} | {ta:.1} | {ts:.1} | {eff:.2}× |",
                 l.name.as_deref().unwrap_or("-")
