@@ -175,16 +175,10 @@ pub fn clamped_mean(film: &Film) -> Vec3 {
 pub fn run(o: &BenchOptions) -> Result<()> {
     let mut scene = Scene::load(&o.scene)?;
     scene.settings.spp = o.spp;
-    let cam = scene.camera.clone();
-    scene.camera = crate::camera::PinholeCamera::look_at(
-        cam.position,
-        cam.position + cam.forward,
-        cam.up,
-        cam.vfov_deg(),
-        o.size,
-        o.size,
-    )
-    .map_err(|e| Error::InvalidArgument(e.to_string()))?;
+    scene.camera = scene
+        .camera
+        .with_resolution(o.size, o.size)
+        .map_err(|e| Error::InvalidArgument(e.to_string()))?;
     let threads = thread_pool(o.threads)?.current_num_threads();
     println!(
         "plsr bench: {} ({} triangles), {}×{} at {} spp, max depth {}, {} threads",

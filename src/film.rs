@@ -15,15 +15,117 @@
 //!
 //! EXR channel names: `R G B A`, `variance.R/G/B`, `albedo.R/G/B`,
 //! `normal.X/Y/Z`, `Z` (depth) and `object_id`.
+//!
+//! **Film settings** ([`FilmSettings`], the scene file's `[film]` table):
+//! the pixel reconstruction filter ([`crate::filter`]), exposure and white
+//! balance. Exposure and white balance model the camera's sensor response:
+//! they are applied to every camera sample's radiance before it is
+//! accumulated, so they reach the EXR's colour layer (and, consistently, its
+//! variance layer) and hence the PNG, as a photo's settings reach both its raw
+//! and its JPEG. The response is `L' = s · W · L`:
+//!
+//! - `W`: the white balance matrix of [`crate::color::white_balance_matrix`]
+//!   (identity when no white balance is set);
+//! - `s = 2^exposure_ev · (t · S / (100 · N²))`, with the bracket only when a
+//!   shutter time `t` (seconds), ISO `S` and f-number `N` are given. It is
+//!   `2^−EV100` with the standard exposure value at ISO 100,
+//!   `EV100 = log2(100 · N² / (t · S))`, and calibration constant `k = 1`:
+//!   1 s at f/1 and ISO 100 leaves radiance unchanged, each stop halves or
+//!   doubles it. (A photometric camera model would add `k = 1/1.2`, the
+//!   ISO 12232 saturation constant; fold it into `exposure_ev` if wanted.)
+//!
+//! The settings are stored in the EXR header: `plsrFilter` (text),
+//! `plsrFilterSigma`, `plsrFilterRadius` (pixels), `plsrExposureEv`,
+//! `plsrExposureScale` (`s`), `plsrWhiteBalance` (kelvin, when set), and
+//! OpenEXR's standard `expTime` (s), `aperture` (f-number) and `isoSpeed`
+//! when a shutter time is given.
 
+use crate::color::white_balance_matrix;
 use crate::error::{Error, Result};
+use crate::filter::{GaussianFilter, PixelFilter};
 use crate::output::write_atomically;
 use exr::prelude::{self as exrp, AnyChannel, AnyChannels, FlatSamples, WritableImage};
-use glam::Vec3;
+use glam::{Mat3, Vec3};
 use std::path::Path;
 
 /// Name of the EXR layer attribute holding the samples per pixel.
 pub const SPP_ATTRIBUTE: &str = "plsrSpp";
+
+/// Photographic exposure settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraExposure {
+    /// Exposure time, seconds.
+    pub shutter_s: f32,
+    /// ISO sensitivity (100 = base).
+    pub iso: f32,
+    /// Aperture f-number `N` (focal length / aperture diameter).
+    pub f_number: f32,
+}
+
+impl CameraExposure {
+    /// `EV100 = log2(100 · N² / (t · S))`.
+    pub fn ev100(&self) -> f64 {
+        (100.0 * (self.f_number as f64).powi(2) / (self.shutter_s as f64 * self.iso as f64)).log2()
+    }
+}
+
+/// How the film records light: reconstruction filter, exposure and white
+/// balance (see the module docs for the formula).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct FilmSettings {
+    /// Pixel reconstruction filter.
+    pub filter: PixelFilter,
+    /// Exposure compensation in stops: radiance is multiplied by `2^exposure_ev`.
+    pub exposure_ev: f32,
+    /// Shutter, ISO and f-number, multiplying radiance by `t·S/(100·N²)`.
+    pub camera_exposure: Option<CameraExposure>,
+    /// White balance, kelvin (the colour temperature made neutral).
+    pub white_balance_k: Option<f32>,
+}
+
+impl FilmSettings {
+    /// The linear exposure scale `s` (see the module docs).
+    pub fn exposure_scale(&self) -> f32 {
+        let mut s = (self.exposure_ev as f64).exp2();
+        if let Some(c) = &self.camera_exposure {
+            s *= c.shutter_s as f64 * c.iso as f64 / (100.0 * (c.f_number as f64).powi(2));
+        }
+        s as f32
+    }
+
+    /// The sensor response these settings describe.
+    pub fn response(&self) -> SensorResponse {
+        SensorResponse {
+            white_balance: self.white_balance_k.map(white_balance_matrix),
+            scale: self.exposure_scale(),
+        }
+    }
+}
+
+/// The per-sample map from radiance to recorded value, `L' = s · W · L`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SensorResponse {
+    /// White balance matrix `W` on linear Rec.709 (`None`: identity).
+    pub white_balance: Option<Mat3>,
+    /// Exposure scale `s`.
+    pub scale: f32,
+}
+
+impl SensorResponse {
+    /// Applies the response to one sample's radiance.
+    #[inline]
+    pub fn apply(&self, l: Vec3) -> Vec3 {
+        let l = match &self.white_balance {
+            Some(m) => *m * l,
+            None => l,
+        };
+        if self.scale == 1.0 {
+            l
+        } else {
+            l * self.scale
+        }
+    }
+}
 
 /// A rendered image with its auxiliary layers.
 #[derive(Debug, Clone, PartialEq)]
@@ -48,6 +150,8 @@ pub struct Film {
     pub normal: Vec<Vec3>,
     /// Mean albedo at first hits.
     pub albedo: Vec<Vec3>,
+    /// The filter, exposure and white balance it was recorded with.
+    pub settings: FilmSettings,
 }
 
 /// How radiance becomes display values in [`Film::write_png`].
@@ -100,6 +204,7 @@ impl Film {
             depth: vec![0.0; n],
             normal: vec![Vec3::ZERO; n],
             albedo: vec![Vec3::ZERO; n],
+            settings: FilmSettings::default(),
         }
     }
 
@@ -149,12 +254,10 @@ impl Film {
             software_name: Some(exrp::Text::from(
                 format!("plsr {} ({} spp)", env!("CARGO_PKG_VERSION"), self.spp).as_str(),
             )),
-            other: [(
-                exrp::Text::from(SPP_ATTRIBUTE),
-                exrp::AttributeValue::I32(self.spp.min(i32::MAX as u32) as i32),
-            )]
-            .into_iter()
-            .collect(),
+            other: self.header_attributes().into_iter().collect(),
+            exposure: self.settings.camera_exposure.map(|c| c.shutter_s),
+            aperture: self.settings.camera_exposure.map(|c| c.f_number),
+            iso_speed: self.settings.camera_exposure.map(|c| c.iso),
             ..Default::default()
         };
         let layer = exrp::Layer::new(
@@ -183,11 +286,11 @@ impl Film {
         let layer = image.layer_data;
         let (w, h) = (layer.size.0 as u32, layer.size.1 as u32);
         let mut film = Film::new(w, h);
-        if let Some(exrp::AttributeValue::I32(spp)) =
-            layer.attributes.other.get(&exrp::Text::from(SPP_ATTRIBUTE))
-        {
+        let attrs = &layer.attributes.other;
+        if let Some(exrp::AttributeValue::I32(spp)) = attrs.get(&exrp::Text::from(SPP_ATTRIBUTE)) {
             film.spp = (*spp).max(0) as u32;
         }
+        film.settings = settings_from_header(&layer.attributes);
         let channel = |name: &str| -> Option<Vec<f32>> {
             layer
                 .channel_data
@@ -240,6 +343,27 @@ impl Film {
         Ok(film)
     }
 
+    /// The EXR header attributes of the samples per pixel and the settings.
+    fn header_attributes(&self) -> Vec<(exrp::Text, exrp::AttributeValue)> {
+        use exrp::AttributeValue::{Text as T, F32, I32};
+        let t = |s: &str| exrp::Text::from(s);
+        let s = &self.settings;
+        let mut out = vec![
+            (t(SPP_ATTRIBUTE), I32(self.spp.min(i32::MAX as u32) as i32)),
+            (t("plsrFilter"), T(t(s.filter.name()))),
+            (t("plsrExposureEv"), F32(s.exposure_ev)),
+            (t("plsrExposureScale"), F32(s.exposure_scale())),
+        ];
+        if let PixelFilter::Gaussian(g) = &s.filter {
+            out.push((t("plsrFilterSigma"), F32(g.sigma)));
+            out.push((t("plsrFilterRadius"), F32(g.radius)));
+        }
+        if let Some(k) = s.white_balance_k {
+            out.push((t("plsrWhiteBalance"), F32(k)));
+        }
+        out
+    }
+
     /// 8-bit sRGB pixels after exposure and tone mapping, row-major RGB.
     pub fn to_srgb8(&self, tone: ToneMap) -> Vec<u8> {
         let scale = tone.exposure.exp2();
@@ -279,6 +403,40 @@ impl Film {
     }
 }
 
+/// Film settings from EXR header attributes written by [`Film::write_exr`]
+/// (defaults for whatever is missing).
+fn settings_from_header(layer: &exrp::LayerAttributes) -> FilmSettings {
+    let attrs = &layer.other;
+    let f32_of = |name: &str| match attrs.get(&exrp::Text::from(name)) {
+        Some(exrp::AttributeValue::F32(v)) => Some(*v),
+        _ => None,
+    };
+    let mut s = FilmSettings::default();
+    if let Some(exrp::AttributeValue::Text(name)) = attrs.get(&exrp::Text::from("plsrFilter")) {
+        if name == "gaussian" {
+            if let (Some(sigma), Some(radius)) =
+                (f32_of("plsrFilterSigma"), f32_of("plsrFilterRadius"))
+            {
+                if let Ok(g) = GaussianFilter::new(sigma, radius) {
+                    s.filter = PixelFilter::Gaussian(g);
+                }
+            }
+        }
+    }
+    s.exposure_ev = f32_of("plsrExposureEv").unwrap_or(0.0);
+    s.white_balance_k = f32_of("plsrWhiteBalance");
+    if let (Some(shutter_s), Some(f_number), Some(iso)) =
+        (layer.exposure, layer.aperture, layer.iso_speed)
+    {
+        s.camera_exposure = Some(CameraExposure {
+            shutter_s,
+            iso,
+            f_number,
+        });
+    }
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -294,6 +452,16 @@ mod tests {
     fn exr_round_trip_keeps_every_layer() {
         let mut film = Film::new(5, 3);
         film.spp = 7;
+        film.settings = FilmSettings {
+            filter: PixelFilter::Gaussian(GaussianFilter::new(0.4, 1.2).unwrap()),
+            exposure_ev: -1.5,
+            camera_exposure: Some(CameraExposure {
+                shutter_s: 0.25,
+                iso: 400.0,
+                f_number: 4.0,
+            }),
+            white_balance_k: Some(4400.0),
+        };
         for i in 0..15 {
             let f = i as f32;
             film.color[i] = Vec3::new(f, f * 0.5, 1e-3 * f);
@@ -316,8 +484,37 @@ mod tests {
         assert_eq!(back.depth, film.depth);
         assert_eq!(back.normal, film.normal);
         assert_eq!(back.albedo, film.albedo);
+        assert_eq!(back.settings, film.settings);
         // Nothing but the output is left in the folder.
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn exposure_scale_follows_ev100() {
+        let mut s = FilmSettings {
+            exposure_ev: 1.0,
+            ..Default::default()
+        };
+        assert_eq!(s.exposure_scale(), 2.0);
+        assert_eq!(
+            s.response().apply(Vec3::new(0.3, 0.1, 7.0)),
+            Vec3::new(0.6, 0.2, 14.0)
+        );
+        s.exposure_ev = 0.0;
+        let c = CameraExposure {
+            shutter_s: 0.25,
+            iso: 400.0,
+            f_number: 1.0,
+        };
+        assert_eq!(c.ev100(), 0.0);
+        s.camera_exposure = Some(c);
+        assert_eq!(s.exposure_scale(), 1.0);
+        s.camera_exposure = Some(CameraExposure { f_number: 2.0, ..c });
+        assert_eq!(s.exposure_scale(), 0.25);
+        assert_eq!(
+            FilmSettings::default().response().apply(Vec3::ONE),
+            Vec3::ONE
+        );
     }
 
     #[test]

@@ -100,7 +100,8 @@ struct PathState {
     rng: Rng,
     beta: Vec3,
     radiance: Vec3,
-    /// Solid-angle pdf of the BSDF sample that produced the current ray.
+    /// Solid-angle pdf of the BSDF sample that produced the current ray;
+    /// 0 after a delta lobe (which light sampling could not have found).
     prev_pdf: f32,
     prev_point: Vec3,
     /// Scattering events so far.
@@ -128,6 +129,18 @@ struct Wavefront {
 #[inline]
 fn ray_epsilon(p: Vec3) -> f32 {
     1e-4 * (1.0 + p.abs().max_element())
+}
+
+/// Origin of a ray leaving surface point `p` along `dir`: offset by `eps`
+/// along the normal `n`, to the side `dir` leaves on (refracted rays leave
+/// on the far side).
+#[inline]
+fn spawn_origin(p: Vec3, n: Vec3, eps: f32, dir: Vec3) -> Vec3 {
+    if n.dot(dir) >= 0.0 {
+        p + n * eps
+    } else {
+        p - n * eps
+    }
 }
 
 /// Renders samples `samples` of every pixel of `tile`.
@@ -168,21 +181,37 @@ fn trace_pass(
 ) {
     let settings = &scene.settings;
     let camera = &scene.camera;
+    let filter = &scene.film.filter;
+    // Exposure and white balance, applied to each sample (cheap next to a pass).
+    let response = scene.film.response();
+    let lens_sample = camera.needs_lens_sample();
     wf.paths.clear();
     wf.rays.clear();
     for py in 0..tile.height {
         for px in 0..tile.width {
             let (x, y) = (tile.x0 + px, tile.y0 + py);
             let mut rng = Rng::for_sample(settings.seed, x, y, sample);
-            let film = Vec2::new(x as f32, y as f32) + rng.next_2d();
-            wf.rays.push(RayHit::new(camera.generate_ray(film)));
+            // Filter importance sampling: the filter places the sample, which
+            // keeps weight 1 (see `crate::filter`).
+            let film = Vec2::new(x as f32, y as f32) + filter.sample(rng.next_2d());
+            let lens = if lens_sample {
+                rng.next_2d()
+            } else {
+                Vec2::ZERO
+            };
+            // No ray (outside a fisheye's circles): a black sample that hit
+            // nothing; it still counts towards spp.
+            let Some(ray) = camera.generate_ray(film, lens) else {
+                continue;
+            };
+            wf.rays.push(RayHit::new(ray));
             wf.paths.push(PathState {
                 pixel: py * tile.width + px,
                 rng,
                 beta: Vec3::ONE,
                 radiance: Vec3::ZERO,
                 prev_pdf: 0.0,
-                prev_point: camera.position,
+                prev_point: ray.org,
                 depth: 0,
                 alive: true,
             });
@@ -224,7 +253,7 @@ fn trace_pass(
                 live += 1;
             } else {
                 let path = &wf.paths[i];
-                let l = path.radiance.as_dvec3();
+                let l = response.apply(path.radiance).as_dvec3();
                 let px = &mut pixels[path.pixel as usize];
                 px.sum += l;
                 px.sum_sq += l * l;
@@ -259,13 +288,16 @@ fn shade(
     let p = ray.org + hit.t * ray.dir;
     let wo = -ray.dir;
     let ng = hit.ng.normalize_or_zero();
-    let n = if ng.dot(wo) >= 0.0 { ng } else { -ng };
+    let facing = if ng.dot(wo) >= 0.0 { ng } else { -ng };
     let bsdf = &scene.materials[mesh.material as usize].bsdf;
+    // Opaque surfaces are two-sided: shade in the frame facing the viewer.
+    // Transmissive ones keep the geometric normal as their outside.
+    let n = if bsdf.transmits() { ng } else { facing };
 
     if path.depth == 0 {
         pixel.hits += 1;
-        pixel.depth += (hit.t * ray.dir.dot(scene.camera.forward)) as f64;
-        pixel.normal += n;
+        pixel.depth += scene.camera.depth(ray.dir, hit.t) as f64;
+        pixel.normal += facing;
         pixel.albedo += bsdf.albedo();
         if record_aovs_first {
             // Light fixtures (u32::MAX) are not objects.
@@ -284,7 +316,7 @@ fn shade(
         if let Light::Triangle(tl) = light {
             let le = tl.emitted(wo);
             if le != Vec3::ZERO {
-                let weight = if path.depth == 0 {
+                let weight = if path.depth == 0 || path.prev_pdf == 0.0 {
                     1.0
                 } else {
                     let light_pdf = scene.lights.pick_pmf(li, path.prev_point)
@@ -305,10 +337,14 @@ fn shade(
     let frame = Frame::from_normal(n);
     let wo_local = frame.to_local(wo);
     let eps = ray_epsilon(p);
-    let origin = p + n * eps;
 
-    // Next-event estimation.
-    if let Some((li, pick_pmf)) = scene.lights.pick(p, path.rng.next_2d()) {
+    // Next-event estimation (pointless when every lobe is a delta).
+    let light_pick = if bsdf.is_delta() {
+        None
+    } else {
+        scene.lights.pick(p, path.rng.next_2d())
+    };
+    if let Some((li, pick_pmf)) = light_pick {
         let u = path.rng.next_2d();
         if let Some(ls) = scene.lights.lights[li].sample_li(p, u) {
             let wi_local = frame.to_local(ls.wi);
@@ -323,6 +359,7 @@ fn shade(
                 // The shadow ray runs from the offset origin to just short
                 // of the light point: t ∈ [0, tfar] along d = target − origin.
                 let target = p + ls.wi * ls.dist;
+                let origin = spawn_origin(p, n, eps, ls.wi);
                 let d = target - origin;
                 let tfar = 1.0 - ray_epsilon(target) / ls.dist;
                 if tfar > 0.0 {
@@ -348,12 +385,13 @@ fn shade(
     }
 
     // BSDF sampling for the next ray.
-    let Some(bs) = bsdf.sample(wo_local, path.rng.next_2d()) else {
+    let uc = path.rng.next_f32();
+    let Some(bs) = bsdf.sample(wo_local, uc, path.rng.next_2d()) else {
         path.alive = false;
         return;
     };
     path.beta *= bs.weight;
-    path.prev_pdf = bs.pdf;
+    path.prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
     path.prev_point = p;
     path.depth += 1;
     if path.depth >= RUSSIAN_ROULETTE_DEPTH {
@@ -371,5 +409,5 @@ fn shade(
         return;
     }
     let wi = frame.to_world(bs.wi);
-    *rh = RayHit::new(Ray::new(origin, wi));
+    *rh = RayHit::new(Ray::new(spawn_origin(p, n, eps, wi), wi));
 }

@@ -5,6 +5,8 @@
 //! - [`sys`] (the `plsr-embree-sys` crate): raw Embree 3 bindings;
 //! - [`accel`]: the safe Embree layer (device, scene, ray queries);
 //! - [`sampler`], [`sampling`]: random streams, warps, discrete distributions;
+//! - [`equirect`], [`color`], [`filter`]: the panorama convention, colour
+//!   (white balance) and pixel filters;
 //! - [`camera`], [`bsdf`], [`light`]: the models, each behind one interface;
 //! - [`scene`]: scene files and the built scene;
 //! - [`integrator`], [`render`]: the path tracer and the tile scheduler;
@@ -19,8 +21,11 @@ pub mod bsdf;
 pub mod camera;
 pub mod chi2;
 pub mod cli;
+pub mod color;
+pub mod equirect;
 pub mod error;
 pub mod film;
+pub mod filter;
 pub mod integrator;
 pub mod light;
 pub mod output;

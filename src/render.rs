@@ -108,7 +108,8 @@ pub fn render(
             .sample_start
             .checked_add(spp)
             .ok_or_else(|| Error::InvalidArgument("sample range overflows".into()))?;
-    let tiles = tiles(cam.width, cam.height, options.tile_size);
+    let (width, height) = (cam.width(), cam.height());
+    let tiles = tiles(width, height, options.tile_size);
     let pool = thread_pool(options.threads)?;
     let done = AtomicUsize::new(0);
     let cancelled = AtomicBool::new(false);
@@ -134,8 +135,9 @@ pub fn render(
     }
     let seconds = start.elapsed().as_secs_f64();
 
-    let mut film = Film::new(cam.width, cam.height);
+    let mut film = Film::new(width, height);
     film.spp = spp;
+    film.settings = scene.film;
     let mut rays = RayStats::default();
     let n = spp as f64;
     for r in results.into_iter().flatten() {
@@ -167,7 +169,7 @@ pub fn render(
     }
     let stats = RenderStats {
         seconds,
-        samples: cam.width as u64 * cam.height as u64 * spp as u64,
+        samples: width as u64 * height as u64 * spp as u64,
         rays,
         threads: pool.current_num_threads(),
     };

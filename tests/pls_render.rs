@@ -44,7 +44,10 @@ fn floor_radiance(light: &Pls, mode: BrightnessMode, target: Vec3, spp: u32) -> 
         meshes: vec![floor, pls_mesh(light, mode, 32, 1, "light".into())],
         materials,
         point_lights: vec![],
-        camera: PinholeCamera::look_at(eye, target, Vec3::Z, 0.2, 3, 3).unwrap(),
+        camera: PinholeCamera::look_at(eye, target, Vec3::Z, 0.2, 3, 3)
+            .unwrap()
+            .into(),
+        film: Default::default(),
         settings: RenderSettings {
             spp,
             max_depth: 1,
@@ -163,7 +166,8 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
             },
         ],
         point_lights: vec![],
-        camera: camera.clone(),
+        camera: camera.clone().into(),
+        film: Default::default(),
         settings: RenderSettings {
             spp: 16,
             max_depth: 1,

@@ -69,7 +69,9 @@ fn white_furnace() {
             24,
             24,
         )
-        .unwrap(),
+        .unwrap()
+        .into(),
+        film: Default::default(),
         settings: RenderSettings {
             spp: 64,
             max_depth: 16,
@@ -157,7 +159,8 @@ fn closed_form_irradiance_under_a_rectangular_emitter() {
             ],
             materials: vec![material("black", 0.0), material("floor", albedo)],
             point_lights: vec![],
-            camera,
+            camera: camera.into(),
+            film: Default::default(),
             settings: RenderSettings {
                 spp: 2048,
                 max_depth: 1,
@@ -221,7 +224,8 @@ fn point_light_inverse_square_law() {
                 position: Vec3::new(0.0, 0.0, height),
                 intensity: Vec3::splat(5.0),
             }],
-            camera,
+            camera: camera.into(),
+            film: Default::default(),
             settings: RenderSettings {
                 spp: 4,
                 max_depth: 1,

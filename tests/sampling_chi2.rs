@@ -54,13 +54,13 @@ fn lambertian_bsdf_sampling_matches_its_pdf() {
         let r = chi2_test(
             SphereBinning::default(),
             DRAWS,
-            |_| bsdf.sample(wo, rng.next_2d()).map(|s| s.wi),
+            |_| bsdf.sample(wo, rng.next_f32(), rng.next_2d()).map(|s| s.wi),
             &|wi| bsdf.pdf(wo, wi) as f64,
             SIGNIFICANCE,
         );
         assert!(r.passed, "wo = {wo}: {}", r.summary);
         // eval and sample agree on the value.
-        let s = bsdf.sample(wo, Vec2::new(0.3, 0.7)).unwrap();
+        let s = bsdf.sample(wo, 0.5, Vec2::new(0.3, 0.7)).unwrap();
         assert_eq!(s.f, bsdf.eval(wo, s.wi));
         let w = s.f * s.wi.z.abs() / s.pdf;
         assert!(

@@ -86,15 +86,10 @@ pub fn run(threads: Option<usize>) -> Result<()> {
     let scene_path = Path::new("assets/scenes/pls-room/pls-room.toml");
     let mut desc = scene_file::load(scene_path)?;
     desc.settings.spp = 16;
-    desc.camera = crate::camera::PinholeCamera::look_at(
-        desc.camera.position,
-        desc.camera.position + desc.camera.forward,
-        desc.camera.up,
-        desc.camera.vfov_deg(),
-        320,
-        240,
-    )
-    .expect("the scene's camera is valid");
+    desc.camera = desc
+        .camera
+        .with_resolution(320, 240)
+        .expect("the scene's camera is valid");
     let mut plain = desc.clone();
     for mesh in &mut plain.meshes {
         if let Some(e) = &mut mesh.emission {

@@ -8,9 +8,18 @@
 
 use super::shapes::{self, flip_winding, transform_mesh};
 use super::{Emission, Material, Mesh, RenderSettings, SceneDescription};
-use crate::bsdf::Bsdf;
-use crate::camera::{CameraError, PinholeCamera};
+use crate::bsdf::{
+    BlinnPhongParams, Bsdf, CookTorranceParams, DielectricParams, Distribution, Fresnel,
+    Microfacet, PrincipledParams,
+};
+use crate::camera::{
+    fov_from_focal_length, preset as camera_preset, Camera, CameraError, CameraPreset,
+    DualFisheyeCamera, EquirectCamera, Fov, PinholeCamera, Pose, ThinLensCamera, PRESETS,
+};
+use crate::color::{MAX_TEMPERATURE_K, MIN_TEMPERATURE_K};
 use crate::error::{Error, Result};
+use crate::film::{CameraExposure, FilmSettings};
+use crate::filter::{GaussianFilter, PixelFilter, DEFAULT_GAUSSIAN_RADIUS, DEFAULT_GAUSSIAN_SIGMA};
 use crate::light::PointLight;
 use glam::{Mat4, Quat, Vec3};
 use serde::Deserialize;
@@ -19,6 +28,9 @@ use std::path::{Path, PathBuf};
 
 /// Default sensor height (mm) when a camera gives `focal_length` alone: 35 mm film.
 pub const DEFAULT_SENSOR_HEIGHT_MM: f32 = 24.0;
+
+/// Default field of view of each lens of a dual-fisheye camera, degrees.
+pub const DEFAULT_FISHEYE_FOV_DEG: f32 = 190.0;
 
 /// Default albedo of OBJ objects whose MTL material has no `Kd`.
 pub const DEFAULT_REFLECTANCE: f32 = 0.8;
@@ -29,6 +41,8 @@ struct SceneFile {
     #[serde(default)]
     render: RenderSection,
     camera: CameraSection,
+    #[serde(default)]
+    film: FilmSection,
     #[serde(default)]
     materials: Vec<MaterialSection>,
     #[serde(default)]
@@ -61,13 +75,34 @@ struct RenderSection {
 struct CameraSection {
     #[serde(rename = "type", default = "pinhole")]
     kind: String,
-    position: [f32; 3],
-    look_at: [f32; 3],
-    up: [f32; 3],
+    preset: Option<String>,
+    position: Option<[f32; 3]>,
+    look_at: Option<[f32; 3]>,
+    up: Option<[f32; 3]>,
+    to_world: Option<[[f32; 4]; 4]>,
     vfov: Option<f32>,
+    hfov: Option<f32>,
     focal_length: Option<f32>,
     sensor_height: Option<f32>,
-    resolution: [i64; 2],
+    sensor_width: Option<f32>,
+    zoom: Option<f32>,
+    aperture_radius: Option<f32>,
+    focus_distance: Option<f32>,
+    fov: Option<f32>,
+    resolution: Option<[i64; 2]>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FilmSection {
+    filter: Option<String>,
+    filter_sigma: Option<f32>,
+    filter_radius: Option<f32>,
+    exposure_ev: Option<f32>,
+    shutter: Option<f32>,
+    iso: Option<f32>,
+    f_number: Option<f32>,
+    white_balance: Option<f32>,
 }
 
 fn pinhole() -> String {
@@ -81,7 +116,62 @@ struct MaterialSection {
     #[serde(rename = "type")]
     kind: String,
     reflectance: Option<[f32; 3]>,
+    diffuse: Option<[f32; 3]>,
+    specular: Option<toml::Value>,
+    exponent: Option<f32>,
+    distribution: Option<String>,
+    roughness: Option<f32>,
+    alpha: Option<f32>,
+    alpha_u: Option<f32>,
+    alpha_v: Option<f32>,
+    fresnel: Option<String>,
+    f0: Option<[f32; 3]>,
+    ior: Option<f32>,
+    metal: Option<String>,
+    eta: Option<[f32; 3]>,
+    k: Option<[f32; 3]>,
+    base_color: Option<[f32; 3]>,
+    metallic: Option<f32>,
+    anisotropic: Option<f32>,
+    spec_tint: Option<f32>,
 }
+
+impl MaterialSection {
+    /// The keys given, besides `name` and `type`.
+    fn given(&self) -> Vec<&'static str> {
+        let keys: [(&'static str, bool); 19] = [
+            ("reflectance", self.reflectance.is_some()),
+            ("diffuse", self.diffuse.is_some()),
+            ("specular", self.specular.is_some()),
+            ("exponent", self.exponent.is_some()),
+            ("distribution", self.distribution.is_some()),
+            ("roughness", self.roughness.is_some()),
+            ("alpha", self.alpha.is_some()),
+            ("alpha_u", self.alpha_u.is_some()),
+            ("alpha_v", self.alpha_v.is_some()),
+            ("fresnel", self.fresnel.is_some()),
+            ("f0", self.f0.is_some()),
+            ("ior", self.ior.is_some()),
+            ("metal", self.metal.is_some()),
+            ("eta", self.eta.is_some()),
+            ("k", self.k.is_some()),
+            ("base_color", self.base_color.is_some()),
+            ("metallic", self.metallic.is_some()),
+            ("anisotropic", self.anisotropic.is_some()),
+            ("spec_tint", self.spec_tint.is_some()),
+        ];
+        keys.iter().filter(|(_, g)| *g).map(|(k, _)| *k).collect()
+    }
+}
+
+/// Complex indices of refraction `(eta, k)` of common metals at the red,
+/// green and blue primaries (about 650, 550 and 450 nm).
+pub const METALS: [(&str, [f32; 3], [f32; 3]); 4] = [
+    ("Au", [0.143, 0.374, 1.442], [3.983, 2.385, 1.603]),
+    ("Ag", [0.155, 0.117, 0.138], [4.828, 3.122, 2.147]),
+    ("Cu", [0.200, 0.924, 1.102], [3.912, 2.452, 2.142]),
+    ("Al", [1.657, 0.880, 0.521], [9.224, 6.270, 4.837]),
+];
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -277,6 +367,272 @@ impl Builder<'_> {
         Ok(c)
     }
 
+    /// A unit-interval parameter (default `default` when absent).
+    fn unit(&self, field: &str, v: Option<f32>, default: f32) -> Result<f32> {
+        let v = self.finite(field, v.unwrap_or(default))?;
+        if !(0.0..=1.0).contains(&v) {
+            return Err(self.err(field, format!("must be in [0, 1], got {v}")));
+        }
+        Ok(v)
+    }
+
+    /// The microfacet distribution of a material: `distribution` (`ggx` or
+    /// `beckmann`) and `roughness` (α = roughness²), `alpha`, or
+    /// `alpha_u`/`alpha_v` (anisotropic).
+    fn microfacet(
+        &self,
+        field: &str,
+        m: &MaterialSection,
+        default_roughness: Option<f32>,
+    ) -> Result<Option<Microfacet>> {
+        let kind = match m.distribution.as_deref().unwrap_or("ggx") {
+            "ggx" => Distribution::Ggx,
+            "beckmann" => Distribution::Beckmann,
+            other => {
+                return Err(self.err(
+                    format!("{field}.distribution"),
+                    format!("unknown distribution `{other}` (known: ggx, beckmann)"),
+                ))
+            }
+        };
+        let given = [
+            m.roughness.is_some(),
+            m.alpha.is_some(),
+            m.alpha_u.is_some() || m.alpha_v.is_some(),
+        ];
+        if given.iter().filter(|&&g| g).count() > 1 {
+            return Err(self.err(
+                format!("{field}.roughness"),
+                "give one of roughness, alpha, or alpha_u with alpha_v",
+            ));
+        }
+        let alpha = |name: &str, v: f32| -> Result<f32> {
+            let v = self.finite(&format!("{field}.{name}"), v)?;
+            if !(0.0..=4.0).contains(&v) {
+                return Err(self.err(
+                    format!("{field}.{name}"),
+                    format!("must be in [0, 4], got {v}"),
+                ));
+            }
+            Ok(v)
+        };
+        let (ax, ay) = if let Some(r) = m.roughness {
+            let r = self.unit(&format!("{field}.roughness"), Some(r), 0.0)?;
+            (r * r, r * r)
+        } else if let Some(a) = m.alpha {
+            let a = alpha("alpha", a)?;
+            (a, a)
+        } else if m.alpha_u.is_some() || m.alpha_v.is_some() {
+            let (Some(u), Some(v)) = (m.alpha_u, m.alpha_v) else {
+                return Err(self.err(
+                    format!("{field}.alpha_u"),
+                    "alpha_u and alpha_v go together",
+                ));
+            };
+            (alpha("alpha_u", u)?, alpha("alpha_v", v)?)
+        } else if let Some(r) = default_roughness {
+            (r * r, r * r)
+        } else {
+            if m.distribution.is_some() {
+                return Err(self.err(
+                    format!("{field}.distribution"),
+                    "only used with a roughness",
+                ));
+            }
+            return Ok(None);
+        };
+        Ok(Some(Microfacet::new(kind, ax, ay)))
+    }
+
+    /// Builds the BSDF of `materials[i]`; rejects keys the type does not use.
+    fn material(&self, field: &str, m: &MaterialSection) -> Result<Bsdf> {
+        let allowed: &[&str] = match m.kind.as_str() {
+            "diffuse" => &["reflectance"],
+            "blinn_phong" => &["diffuse", "specular", "exponent"],
+            "cook_torrance" => &[
+                "distribution",
+                "roughness",
+                "alpha",
+                "alpha_u",
+                "alpha_v",
+                "fresnel",
+                "f0",
+                "ior",
+                "metal",
+                "eta",
+                "k",
+            ],
+            "dielectric" => &[
+                "ior",
+                "distribution",
+                "roughness",
+                "alpha",
+                "alpha_u",
+                "alpha_v",
+            ],
+            "principled" => &[
+                "base_color",
+                "roughness",
+                "metallic",
+                "anisotropic",
+                "specular",
+                "spec_tint",
+            ],
+            other => {
+                return Err(self.err(
+                    format!("{field}.type"),
+                    format!(
+                        "unknown material type `{other}` (known: diffuse, blinn_phong, \
+                         cook_torrance, dielectric, principled)"
+                    ),
+                ))
+            }
+        };
+        if let Some(k) = m.given().into_iter().find(|k| !allowed.contains(k)) {
+            return Err(self.err(
+                format!("{field}.{k}"),
+                format!(
+                    "not a parameter of a `{}` material (its keys: {})",
+                    m.kind,
+                    allowed.join(", ")
+                ),
+            ));
+        }
+        let specular_number = |default: f32| -> Result<f32> {
+            match &m.specular {
+                None => Ok(default),
+                Some(v) => match v.as_float().or_else(|| v.as_integer().map(|i| i as f64)) {
+                    Some(x) => self.unit(&format!("{field}.specular"), Some(x as f32), default),
+                    None => {
+                        Err(self.err(format!("{field}.specular"), "must be a number in [0, 1]"))
+                    }
+                },
+            }
+        };
+        let colour = |name: &str, v: Option<[f32; 3]>, default: f32| {
+            self.colour(
+                &format!("{field}.{name}"),
+                v.unwrap_or([default; 3]),
+                Some(1.0),
+            )
+        };
+        let ior = |default: f32| -> Result<f32> {
+            let v = self.finite(&format!("{field}.ior"), m.ior.unwrap_or(default))?;
+            if v <= 0.0 || v == 1.0 {
+                return Err(self.err(
+                    format!("{field}.ior"),
+                    format!("must be positive and not 1, got {v}"),
+                ));
+            }
+            Ok(v)
+        };
+        Ok(match m.kind.as_str() {
+            "diffuse" => Bsdf::diffuse(colour("reflectance", m.reflectance, DEFAULT_REFLECTANCE)?),
+            "blinn_phong" => {
+                let diffuse = colour("diffuse", m.diffuse, 0.5)?;
+                let specular = match &m.specular {
+                    None => Vec3::splat(0.2),
+                    Some(v) => {
+                        let arr: [f32; 3] = v.clone().try_into().map_err(|_| {
+                            self.err(
+                                format!("{field}.specular"),
+                                "must be an RGB triple [r, g, b]",
+                            )
+                        })?;
+                        colour("specular", Some(arr), 0.0)?
+                    }
+                };
+                if (diffuse + specular).max_element() > 1.0 {
+                    return Err(self.err(
+                        format!("{field}.specular"),
+                        "diffuse + specular must not exceed 1 in any channel (energy)",
+                    ));
+                }
+                let exponent =
+                    self.finite(&format!("{field}.exponent"), m.exponent.unwrap_or(30.0))?;
+                if !(0.0..=1e5).contains(&exponent) {
+                    return Err(self.err(
+                        format!("{field}.exponent"),
+                        format!("must be in [0, 100000], got {exponent}"),
+                    ));
+                }
+                Bsdf::BlinnPhong(BlinnPhongParams {
+                    diffuse,
+                    specular,
+                    exponent,
+                })
+            }
+            "cook_torrance" => {
+                let microfacet = self
+                    .microfacet(field, m, Some(0.3))?
+                    .expect("a default roughness");
+                let fresnel = match m.fresnel.as_deref().unwrap_or("conductor") {
+                    "schlick" => Fresnel::Schlick { f0: colour("f0", m.f0, 0.04)? },
+                    "dielectric" => Fresnel::Dielectric { eta: ior(1.5)? },
+                    "conductor" => {
+                        let (eta, k) = match (&m.metal, m.eta, m.k) {
+                            (Some(name), None, None) => {
+                                let Some((_, e, k)) = METALS.iter().find(|(n, _, _)| n == name) else {
+                                    return Err(self.err(
+                                        format!("{field}.metal"),
+                                        format!("unknown metal `{name}` (known: Au, Ag, Cu, Al)"),
+                                    ));
+                                };
+                                (Vec3::from(*e), Vec3::from(*k))
+                            }
+                            (None, Some(e), Some(k)) => (
+                                self.colour(&format!("{field}.eta"), e, None)?,
+                                self.colour(&format!("{field}.k"), k, None)?,
+                            ),
+                            (None, None, None) => (Vec3::from(METALS[3].1), Vec3::from(METALS[3].2)),
+                            _ => {
+                                return Err(self.err(
+                                    format!("{field}.metal"),
+                                    "give either metal, or eta together with k",
+                                ))
+                            }
+                        };
+                        Fresnel::Conductor { eta, k }
+                    }
+                    other => {
+                        return Err(self.err(
+                            format!("{field}.fresnel"),
+                            format!("unknown Fresnel term `{other}` (known: schlick, dielectric, conductor)"),
+                        ))
+                    }
+                };
+                let used = match fresnel {
+                    Fresnel::Schlick { .. } => &["f0"][..],
+                    Fresnel::Dielectric { .. } => &["ior"][..],
+                    Fresnel::Conductor { .. } => &["metal", "eta", "k"][..],
+                };
+                if let Some(k) = ["f0", "ior", "metal", "eta", "k"]
+                    .into_iter()
+                    .find(|k| !used.contains(k) && m.given().contains(k))
+                {
+                    return Err(self.err(format!("{field}.{k}"), "not used by this Fresnel term"));
+                }
+                Bsdf::CookTorrance(CookTorranceParams {
+                    microfacet,
+                    fresnel,
+                })
+            }
+            "dielectric" => Bsdf::Dielectric(DielectricParams {
+                eta: ior(1.5)?,
+                microfacet: self.microfacet(field, m, None)?,
+            }),
+            "principled" => Bsdf::Principled(PrincipledParams {
+                base_color: colour("base_color", m.base_color, 0.5)?,
+                roughness: self.unit(&format!("{field}.roughness"), m.roughness, 0.5)?,
+                metallic: self.unit(&format!("{field}.metallic"), m.metallic, 0.0)?,
+                anisotropic: self.unit(&format!("{field}.anisotropic"), m.anisotropic, 0.0)?,
+                specular: specular_number(0.5)?,
+                spec_tint: self.unit(&format!("{field}.spec_tint"), m.spec_tint, 0.0)?,
+            }),
+            _ => unreachable!("checked above"),
+        })
+    }
+
     fn positive_count(&self, field: &str, v: i64, max: i64) -> Result<u32> {
         if v < 1 || v > max {
             return Err(self.err(field, format!("must be between 1 and {max}, got {v}")));
@@ -286,7 +642,8 @@ impl Builder<'_> {
 
     fn build(&self, f: SceneFile) -> Result<SceneDescription> {
         let settings = self.settings(&f.render)?;
-        let camera = self.camera(&f.camera)?;
+        let (camera, preset) = self.camera(&f.camera)?;
+        let film = self.film(&f.film, preset)?;
 
         let mut materials = Vec::new();
         let mut by_name = HashMap::new();
@@ -307,18 +664,7 @@ impl Builder<'_> {
                     format!("duplicate material name `{}`", m.name),
                 ));
             }
-            let bsdf = match m.kind.as_str() {
-                "diffuse" => {
-                    let r = m.reflectance.unwrap_or([DEFAULT_REFLECTANCE; 3]);
-                    Bsdf::diffuse(self.colour(&format!("{field}.reflectance"), r, Some(1.0))?)
-                }
-                other => {
-                    return Err(self.err(
-                        format!("{field}.type"),
-                        format!("unknown material type `{other}` (known: diffuse)"),
-                    ))
-                }
-            };
+            let bsdf = self.material(&field, m)?;
             by_name.insert(m.name.clone(), materials.len() as u32);
             materials.push(Material {
                 name: m.name.clone(),
@@ -365,6 +711,7 @@ impl Builder<'_> {
             materials,
             point_lights,
             camera,
+            film,
             settings,
         })
     }
@@ -385,68 +732,374 @@ impl Builder<'_> {
         })
     }
 
-    fn camera(&self, c: &CameraSection) -> Result<PinholeCamera> {
-        if c.kind != "pinhole" {
+    fn positive(&self, field: &str, v: f32) -> Result<f32> {
+        let v = self.finite(field, v)?;
+        if v <= 0.0 {
+            return Err(self.err(field, format!("must be positive, got {v}")));
+        }
+        Ok(v)
+    }
+
+    fn fov_degrees(&self, field: &str, v: f32) -> Result<f32> {
+        let v = self.finite(field, v)?;
+        if !(v > 0.0 && v < 180.0) {
+            return Err(self.err(field, format!("must be in (0, 180) degrees, got {v}")));
+        }
+        Ok(v)
+    }
+
+    /// The camera, and the preset it names (whose photographic settings are
+    /// the `[film]` defaults).
+    fn camera(&self, c: &CameraSection) -> Result<(Camera, Option<&'static CameraPreset>)> {
+        const TYPES: &str = "pinhole, thin_lens, equirectangular, dual_fisheye";
+        let kind = c.kind.as_str();
+        if !matches!(
+            kind,
+            "pinhole" | "thin_lens" | "equirectangular" | "dual_fisheye"
+        ) {
             return Err(self.err(
                 "camera.type",
-                format!("unknown camera type `{}` (known: pinhole)", c.kind),
+                format!("unknown camera type `{kind}` (known: {TYPES})"),
             ));
         }
-        let position = self.vec3("camera.position", c.position)?;
-        let look_at = self.vec3("camera.look_at", c.look_at)?;
-        let up = self.vec3("camera.up", c.up)?;
-        let vfov = match (c.vfov, c.focal_length) {
-            (Some(v), None) => {
-                if c.sensor_height.is_some() {
-                    return Err(self.err("camera.sensor_height", "only used with focal_length"));
-                }
-                let v = self.finite("camera.vfov", v)?;
-                if !(v > 0.0 && v < 180.0) {
-                    return Err(self.err(
-                        "camera.vfov",
-                        format!("must be in (0, 180) degrees, got {v}"),
-                    ));
-                }
-                v
-            }
-            (None, Some(f)) => {
-                let f = self.finite("camera.focal_length", f)?;
-                let h = self.finite(
-                    "camera.sensor_height",
-                    c.sensor_height.unwrap_or(DEFAULT_SENSOR_HEIGHT_MM),
-                )?;
-                if f <= 0.0 {
-                    return Err(
-                        self.err("camera.focal_length", format!("must be positive, got {f}"))
-                    );
-                }
-                if h <= 0.0 {
-                    return Err(
-                        self.err("camera.sensor_height", format!("must be positive, got {h}"))
-                    );
-                }
-                PinholeCamera::vfov_from_focal_length(f, h)
-            }
-            (Some(_), Some(_)) => {
-                return Err(self.err(
-                    "camera.focal_length",
-                    "give either vfov or focal_length, not both",
+        let perspective = matches!(kind, "pinhole" | "thin_lens");
+        let unused = |name: &str, present: bool| -> Result<()> {
+            if present {
+                Err(self.err(
+                    format!("camera.{name}"),
+                    format!("not used by cameras of type `{kind}`"),
                 ))
-            }
-            (None, None) => {
-                return Err(self.err("camera.vfov", "give vfov (degrees) or focal_length (mm)"))
+            } else {
+                Ok(())
             }
         };
-        let w = self.positive_count("camera.resolution[0]", c.resolution[0], 1 << 16)?;
-        let h = self.positive_count("camera.resolution[1]", c.resolution[1], 1 << 16)?;
-        PinholeCamera::look_at(position, look_at, up, vfov, w, h).map_err(|e| {
-            let field = match e {
-                CameraError::NoViewDirection => "camera.look_at",
-                CameraError::UpParallelToView => "camera.up",
-                CameraError::BadFov(_) => "camera.vfov",
-                CameraError::EmptyImage => "camera.resolution",
+        if !perspective {
+            for (name, present) in [
+                ("preset", c.preset.is_some()),
+                ("vfov", c.vfov.is_some()),
+                ("hfov", c.hfov.is_some()),
+                ("focal_length", c.focal_length.is_some()),
+                ("sensor_height", c.sensor_height.is_some()),
+                ("sensor_width", c.sensor_width.is_some()),
+                ("zoom", c.zoom.is_some()),
+            ] {
+                unused(name, present)?;
+            }
+        }
+        if kind != "thin_lens" {
+            unused("aperture_radius", c.aperture_radius.is_some())?;
+            unused("focus_distance", c.focus_distance.is_some())?;
+        }
+        if kind != "dual_fisheye" {
+            unused("fov", c.fov.is_some())?;
+        }
+        let preset = match &c.preset {
+            Some(name) => Some(camera_preset(name).ok_or_else(|| {
+                let known: Vec<_> = PRESETS.iter().map(|p| p.name).collect();
+                self.err(
+                    "camera.preset",
+                    format!("unknown preset `{name}` (known: {})", known.join(", ")),
+                )
+            })?),
+            None => None,
+        };
+
+        // Pose: look-at or a camera-to-world matrix.
+        let pose = match &c.to_world {
+            Some(m) => {
+                for (name, present) in [
+                    ("position", c.position.is_some()),
+                    ("look_at", c.look_at.is_some()),
+                    ("up", c.up.is_some()),
+                ] {
+                    if present {
+                        return Err(self.err(
+                            format!("camera.{name}"),
+                            "give either to_world or position/look_at/up, not both",
+                        ));
+                    }
+                }
+                for (r, row) in m.iter().enumerate() {
+                    for (k, x) in row.iter().enumerate() {
+                        self.finite(&format!("camera.to_world[{r}][{k}]"), *x)?;
+                    }
+                }
+                Pose::from_matrix(*m).map_err(|e| self.err("camera.to_world", e.to_string()))?
+            }
+            None => {
+                let get = |name: &str, v: Option<[f32; 3]>| -> Result<Vec3> {
+                    let v = v.ok_or_else(|| {
+                        self.err(
+                            format!("camera.{name}"),
+                            "required (give position, look_at and up, or to_world)",
+                        )
+                    })?;
+                    self.vec3(&format!("camera.{name}"), v)
+                };
+                let position = get("position", c.position)?;
+                let look_at = get("look_at", c.look_at)?;
+                let up = get("up", c.up)?;
+                Pose::look_at(position, look_at, up).map_err(|e| {
+                    let field = match e {
+                        CameraError::NoViewDirection => "camera.look_at",
+                        _ => "camera.up",
+                    };
+                    self.err(field, e.to_string())
+                })?
+            }
+        };
+
+        let (w, h) = match (c.resolution, preset) {
+            (Some(r), _) => (
+                self.positive_count("camera.resolution[0]", r[0], 1 << 16)?,
+                self.positive_count("camera.resolution[1]", r[1], 1 << 16)?,
+            ),
+            (None, Some(p)) => (p.width, p.height),
+            (None, None) => {
+                return Err(self.err(
+                    "camera.resolution",
+                    "required: [width, height] in pixels (or a preset)",
+                ))
+            }
+        };
+        let field_of = |e: &CameraError, default: &'static str| match e {
+            CameraError::BadFov(_) => "camera.vfov",
+            CameraError::BadZoom(_) => "camera.zoom",
+            CameraError::EmptyImage => "camera.resolution",
+            CameraError::BadAperture(_) => "camera.aperture_radius",
+            CameraError::BadFocusDistance(_) => "camera.focus_distance",
+            CameraError::BadFisheyeFov(_) => "camera.fov",
+            _ => default,
+        };
+
+        let camera = match kind {
+            "equirectangular" => Camera::Equirect(
+                EquirectCamera::new(pose, w, h)
+                    .map_err(|e| self.err(field_of(&e, "camera"), e.to_string()))?,
+            ),
+            "dual_fisheye" => {
+                let fov = self.finite("camera.fov", c.fov.unwrap_or(DEFAULT_FISHEYE_FOV_DEG))?;
+                Camera::DualFisheye(
+                    DualFisheyeCamera::new(pose, fov, w, h)
+                        .map_err(|e| self.err(field_of(&e, "camera"), e.to_string()))?,
+                )
+            }
+            _ => {
+                let fov = self.perspective_fov(c, preset)?;
+                let zoom = match c.zoom {
+                    Some(z) => self.finite("camera.zoom", z)?,
+                    None => preset.map_or(1.0, |p| p.zoom),
+                };
+                let pinhole = PinholeCamera::new(pose, fov, zoom, w, h)
+                    .map_err(|e| self.err(field_of(&e, "camera"), e.to_string()))?;
+                if kind == "pinhole" {
+                    Camera::Pinhole(pinhole)
+                } else {
+                    let radius = c.aperture_radius.ok_or_else(|| {
+                        self.err(
+                            "camera.aperture_radius",
+                            "required for a thin_lens camera (scene units)",
+                        )
+                    })?;
+                    let radius = self.finite("camera.aperture_radius", radius)?;
+                    let focus = match (c.focus_distance, c.look_at) {
+                        (Some(d), _) => self.finite("camera.focus_distance", d)?,
+                        (None, Some(l)) => (Vec3::from_array(l) - pose.position).length(),
+                        (None, None) => {
+                            return Err(self.err(
+                                "camera.focus_distance",
+                                "required with to_world (with look_at it defaults to the distance to look_at)",
+                            ))
+                        }
+                    };
+                    Camera::ThinLens(
+                        ThinLensCamera::new(pinhole, radius, focus)
+                            .map_err(|e| self.err(field_of(&e, "camera"), e.to_string()))?,
+                    )
+                }
+            }
+        };
+        Ok((camera, preset))
+    }
+
+    /// The field of view of a perspective camera: from the preset, or from
+    /// exactly one of vfov, hfov and focal_length.
+    fn perspective_fov(&self, c: &CameraSection, preset: Option<&CameraPreset>) -> Result<Fov> {
+        let given: Vec<&str> = [
+            ("vfov", c.vfov.is_some()),
+            ("hfov", c.hfov.is_some()),
+            ("focal_length", c.focal_length.is_some()),
+        ]
+        .iter()
+        .filter(|(_, p)| *p)
+        .map(|(n, _)| *n)
+        .collect();
+        if let Some(p) = preset {
+            let sensor = [
+                ("sensor_height", c.sensor_height.is_some()),
+                ("sensor_width", c.sensor_width.is_some()),
+            ];
+            if let Some(name) = given
+                .first()
+                .copied()
+                .or_else(|| sensor.iter().find(|(_, b)| *b).map(|(n, _)| *n))
+            {
+                return Err(self.err(
+                    format!("camera.{name}"),
+                    format!(
+                        "the preset `{}` fixes the field of view (use zoom to change it)",
+                        p.name
+                    ),
+                ));
+            }
+            return Ok(Fov::Vertical(p.vfov_deg));
+        }
+        if given.len() > 1 {
+            let msg = if given == ["vfov", "focal_length"] {
+                "give either vfov or focal_length, not both".to_string()
+            } else {
+                format!(
+                    "give only one of vfov, hfov and focal_length, not {}",
+                    given.join(" and ")
+                )
             };
-            self.err(field, e.to_string())
+            return Err(self.err(format!("camera.{}", given[1]), msg));
+        }
+        if c.focal_length.is_none() {
+            for (name, present) in [
+                ("sensor_height", c.sensor_height.is_some()),
+                ("sensor_width", c.sensor_width.is_some()),
+            ] {
+                if present {
+                    return Err(self.err(format!("camera.{name}"), "only used with focal_length"));
+                }
+            }
+        }
+        if let Some(v) = c.vfov {
+            return Ok(Fov::Vertical(self.fov_degrees("camera.vfov", v)?));
+        }
+        if let Some(v) = c.hfov {
+            return Ok(Fov::Horizontal(self.fov_degrees("camera.hfov", v)?));
+        }
+        let Some(f) = c.focal_length else {
+            return Err(self.err(
+                "camera.vfov",
+                "give vfov or hfov (degrees) or focal_length (mm)",
+            ));
+        };
+        let f = self.positive("camera.focal_length", f)?;
+        match (c.sensor_height, c.sensor_width) {
+            (Some(_), Some(_)) => Err(self.err(
+                "camera.sensor_width",
+                "give either sensor_height or sensor_width, not both",
+            )),
+            (None, Some(sw)) => {
+                let sw = self.positive("camera.sensor_width", sw)?;
+                Ok(Fov::Horizontal(fov_from_focal_length(f, sw)))
+            }
+            (sh, None) => {
+                let sh = self.positive(
+                    "camera.sensor_height",
+                    sh.unwrap_or(DEFAULT_SENSOR_HEIGHT_MM),
+                )?;
+                Ok(Fov::Vertical(fov_from_focal_length(f, sh)))
+            }
+        }
+    }
+
+    /// Pixel filter, exposure and white balance; a camera preset supplies
+    /// the defaults of `shutter`, `iso` and `white_balance`.
+    fn film(&self, f: &FilmSection, preset: Option<&CameraPreset>) -> Result<FilmSettings> {
+        let filter = match f.filter.as_deref().unwrap_or("box") {
+            "box" => {
+                for (name, present) in [
+                    ("filter_sigma", f.filter_sigma.is_some()),
+                    ("filter_radius", f.filter_radius.is_some()),
+                ] {
+                    if present {
+                        return Err(self.err(
+                            format!("film.{name}"),
+                            "only used with filter = \"gaussian\"",
+                        ));
+                    }
+                }
+                PixelFilter::Box
+            }
+            "gaussian" => {
+                let sigma = self.positive(
+                    "film.filter_sigma",
+                    f.filter_sigma.unwrap_or(DEFAULT_GAUSSIAN_SIGMA),
+                )?;
+                let radius = self.positive(
+                    "film.filter_radius",
+                    f.filter_radius.unwrap_or(DEFAULT_GAUSSIAN_RADIUS),
+                )?;
+                let g = GaussianFilter::new(sigma, radius)
+                    .map_err(|e| self.err("film.filter_radius", e))?;
+                PixelFilter::Gaussian(g)
+            }
+            other => {
+                return Err(self.err(
+                    "film.filter",
+                    format!("unknown filter `{other}` (known: box, gaussian)"),
+                ))
+            }
+        };
+        let exposure_ev = self.finite("film.exposure_ev", f.exposure_ev.unwrap_or(0.0))?;
+        if exposure_ev.abs() > 64.0 {
+            return Err(self.err(
+                "film.exposure_ev",
+                format!("must be between -64 and 64 stops, got {exposure_ev}"),
+            ));
+        }
+        let camera_exposure = match f.f_number {
+            Some(n) => {
+                let n = self.positive("film.f_number", n)?;
+                let from_preset = |name: &str, v: Option<f32>, p: Option<f32>| -> Result<f32> {
+                    let v = v.or(p).ok_or_else(|| {
+                        self.err(
+                            format!("film.{name}"),
+                            "required with f_number (shutter in seconds, iso)",
+                        )
+                    })?;
+                    self.positive(&format!("film.{name}"), v)
+                };
+                Some(CameraExposure {
+                    shutter_s: from_preset("shutter", f.shutter, preset.map(|p| p.shutter_s))?,
+                    iso: from_preset("iso", f.iso, preset.map(|p| p.iso))?,
+                    f_number: n,
+                })
+            }
+            None => {
+                if f.shutter.is_some() || f.iso.is_some() {
+                    return Err(self.err(
+                        "film.f_number",
+                        "required with shutter and iso (the exposure is t·S/(100·N²))",
+                    ));
+                }
+                None
+            }
+        };
+        let white_balance_k = match f.white_balance.or(preset.map(|p| p.white_balance_k)) {
+            Some(k) => {
+                let k = self.finite("film.white_balance", k)?;
+                if !(MIN_TEMPERATURE_K..=MAX_TEMPERATURE_K).contains(&k) {
+                    return Err(self.err(
+                        "film.white_balance",
+                        format!(
+                            "must be between {MIN_TEMPERATURE_K} and {MAX_TEMPERATURE_K} K, got {k}"
+                        ),
+                    ));
+                }
+                Some(k)
+            }
+            None => None,
+        };
+        Ok(FilmSettings {
+            filter,
+            exposure_ev,
+            camera_exposure,
+            white_balance_k,
         })
     }
 

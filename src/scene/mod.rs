@@ -11,8 +11,9 @@ pub mod shapes;
 
 use crate::accel::{Accel, Device, SceneOptions};
 use crate::bsdf::Bsdf;
-use crate::camera::PinholeCamera;
+use crate::camera::Camera;
 use crate::error::{Error, Result};
+use crate::film::FilmSettings;
 use crate::light::{Cone, Light, LightSet, PointLight, Reach, TriangleLight};
 use glam::Vec3;
 use std::path::Path;
@@ -121,7 +122,9 @@ pub struct SceneDescription {
     /// Point lights.
     pub point_lights: Vec<PointLight>,
     /// The camera.
-    pub camera: PinholeCamera,
+    pub camera: Camera,
+    /// Pixel filter, exposure and white balance.
+    pub film: FilmSettings,
     /// Render settings.
     pub settings: RenderSettings,
 }
@@ -138,7 +141,9 @@ pub struct Scene {
     /// All lights.
     pub lights: LightSet,
     /// The camera.
-    pub camera: PinholeCamera,
+    pub camera: Camera,
+    /// Pixel filter, exposure and white balance.
+    pub film: FilmSettings,
     /// Render settings.
     pub settings: RenderSettings,
     /// Embree's acceleration structure over `meshes`.
@@ -162,6 +167,7 @@ impl Scene {
             materials,
             point_lights,
             camera,
+            film,
             settings,
         } = desc;
         if meshes.len() >= u32::MAX as usize {
@@ -242,6 +248,7 @@ impl Scene {
             materials,
             lights: LightSet::with_groups(lights, groups),
             camera,
+            film,
             settings,
             accel,
             has_hittable_lights,

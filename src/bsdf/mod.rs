@@ -1,0 +1,164 @@
+//! Surface scattering models (BSDFs).
+//!
+//! # The BSDF interface
+//!
+//! All directions are unit vectors in the local shading frame (normal = +z,
+//! first tangent = +x, the direction anisotropic roughness refers to), both
+//! pointing *away* from the surface: `wo` towards the viewer, `wi` towards the
+//! light. For opaque models the integrator flips the frame so that
+//! `wo.z > 0` (surfaces are two-sided); for transmissive models
+//! ([`Bsdf::transmits`]) it keeps the geometric normal's side as the
+//! *outside*, and `wo.z < 0` means the path is inside.
+//!
+//! - [`Bsdf::eval`] returns the BSDF value `f(wo, wi)` (1/sr), *without* the
+//!   cosine factor; 0 for delta lobes.
+//! - [`Bsdf::sample`] draws `wi` from a uniform number `uc` (which picks a
+//!   lobe) and a uniform pair `u`, and returns the BSDF value and the density
+//!   **separately** (a [`BsdfSample`]); the density is in solid angle measure.
+//!   It also returns their ratio `weight = f·|cos θi| / pdf`, which is what
+//!   the path throughput is multiplied by. A sample from a delta lobe (a
+//!   smooth mirror or refraction) has `delta = true`; its `pdf` is then the
+//!   discrete probability of the lobe and only `weight` is meaningful.
+//!   A sample that fails (absorbed, below the horizon) is `None`, never a
+//!   zero pdf.
+//! - [`Bsdf::pdf`] is the density `sample` would have produced for `wi`, used
+//!   as the MIS counterpart when a light sample is weighted (0 for delta
+//!   lobes).
+//!
+//! Parameters are plain structs (in [`models`]) so that a later
+//! material-fitting stage can read and write them.
+//!
+//! The models (each documented in [`models`], scene-file keys in
+//! `docs/scene-format.md`):
+//!
+//! | type | model |
+//! | --- | --- |
+//! | `diffuse` | Lambert |
+//! | `blinn_phong` | normalised Blinn–Phong |
+//! | `cook_torrance` | microfacet reflection, GGX or Beckmann, Smith G, Schlick / dielectric / conductor Fresnel |
+//! | `dielectric` | smooth or rough (Walter et al. 2007) glass-like interface |
+//! | `principled` | Burley's principled BSDF with Mitsuba 3's parameters |
+//!
+//! ```toml
+//! [[materials]]
+//! name = "white"
+//! type = "diffuse"
+//! reflectance = [0.73, 0.73, 0.73]   # linear RGB albedo in [0, 1]
+//! ```
+
+pub mod fresnel;
+pub mod microfacet;
+pub mod models;
+
+pub use microfacet::{Distribution, Microfacet};
+pub use models::{
+    BlinnPhongParams, CookTorranceParams, DielectricParams, DiffuseParams, Fresnel,
+    PrincipledParams,
+};
+
+use glam::{Vec2, Vec3};
+
+/// A BSDF; a closed set of models, dispatched by `match`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Bsdf {
+    /// Lambertian reflection.
+    Diffuse(DiffuseParams),
+    /// Normalised Blinn–Phong.
+    BlinnPhong(BlinnPhongParams),
+    /// Cook–Torrance microfacet reflection.
+    CookTorrance(CookTorranceParams),
+    /// Smooth or rough dielectric interface (reflection and transmission).
+    Dielectric(DielectricParams),
+    /// Burley's principled BSDF (Mitsuba 3's parameters).
+    Principled(PrincipledParams),
+}
+
+/// A direction drawn by [`Bsdf::sample`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BsdfSample {
+    /// Sampled direction, local frame, unit length.
+    pub wi: Vec3,
+    /// BSDF value `f(wo, wi)` (1/sr), without the cosine.
+    pub f: Vec3,
+    /// Solid-angle density of `wi` (for a delta lobe: its probability).
+    pub pdf: f32,
+    /// `f · |cos θi| / pdf`, the factor the path throughput is multiplied by.
+    pub weight: Vec3,
+    /// Whether `wi` came from a delta lobe (mirror or smooth refraction).
+    pub delta: bool,
+}
+
+impl Bsdf {
+    /// A Lambertian BSDF with albedo `reflectance`.
+    pub fn diffuse(reflectance: Vec3) -> Bsdf {
+        Bsdf::Diffuse(DiffuseParams { reflectance })
+    }
+
+    /// `f(wo, wi)` in 1/sr, without the cosine.
+    #[inline]
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        match self {
+            Bsdf::Diffuse(p) => p.eval(wo, wi),
+            Bsdf::BlinnPhong(p) => p.eval(wo, wi),
+            Bsdf::CookTorrance(p) => p.eval(wo, wi),
+            Bsdf::Dielectric(p) => p.eval(wo, wi),
+            Bsdf::Principled(p) => p.eval(wo, wi),
+        }
+    }
+
+    /// Draws `wi` for the outgoing direction `wo`: `uc` picks a lobe, `u`
+    /// the direction within it (all uniform in `[0, 1)`).
+    #[inline]
+    pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        match self {
+            Bsdf::Diffuse(p) => p.sample(wo, u),
+            Bsdf::BlinnPhong(p) => p.sample(wo, uc, u),
+            Bsdf::CookTorrance(p) => p.sample(wo, u),
+            Bsdf::Dielectric(p) => p.sample(wo, uc, u),
+            Bsdf::Principled(p) => p.sample(wo, uc, u),
+        }
+    }
+
+    /// Solid-angle density with which [`Bsdf::sample`] picks `wi`.
+    #[inline]
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            Bsdf::Diffuse(p) => p.pdf(wo, wi),
+            Bsdf::BlinnPhong(p) => p.pdf(wo, wi),
+            Bsdf::CookTorrance(p) => p.pdf(wo, wi),
+            Bsdf::Dielectric(p) => p.pdf(wo, wi),
+            Bsdf::Principled(p) => p.pdf(wo, wi),
+        }
+    }
+
+    /// Whether light passes through the surface: the integrator then keeps
+    /// the geometric normal as the outside instead of facing it to the viewer.
+    #[inline]
+    pub fn transmits(&self) -> bool {
+        matches!(self, Bsdf::Dielectric(_))
+    }
+
+    /// Whether every lobe is a delta distribution, so that light sampling
+    /// cannot contribute and is skipped.
+    #[inline]
+    pub fn is_delta(&self) -> bool {
+        matches!(
+            self,
+            Bsdf::Dielectric(DielectricParams {
+                microfacet: None,
+                ..
+            })
+        )
+    }
+
+    /// Directional albedo proxy for the albedo AOV (linear RGB).
+    pub fn albedo(&self) -> Vec3 {
+        match self {
+            Bsdf::Diffuse(p) => p.reflectance,
+            Bsdf::BlinnPhong(p) => p.diffuse + p.specular,
+            Bsdf::CookTorrance(p) => p.fresnel.eval(1.0),
+            Bsdf::Dielectric(_) => Vec3::ONE,
+            Bsdf::Principled(p) => p.base_color,
+        }
+    }
+}
