@@ -130,8 +130,9 @@ pub struct RenderArgs {
 /// Arguments of `plsr bench`.
 #[derive(Debug, clap::Args)]
 pub struct BenchArgs {
-    /// Which benchmark: `core` or `pls`.
-    #[arg(default_value = "core", value_parser = ["core", "pls"])]
+    /// Which benchmark: `core`, `pls` or `materials` (all-diffuse versus
+    /// all-principled Cornell box).
+    #[arg(default_value = "core", value_parser = ["core", "pls", "materials"])]
     pub suite: String,
     /// The plsr scene reproducing Embree's demo configuration.
     #[arg(long, default_value = "assets/scenes/cornell/embree-demo.toml")]
@@ -179,6 +180,7 @@ where
     match cli.command {
         Command::Render(a) => render_command(&a),
         Command::Bench(a) if a.suite == "pls" => crate::pls::bench::run(a.threads),
+        Command::Bench(a) if a.suite == "materials" => bench::materials(a.threads).map(|_| ()),
         Command::Bench(a) => bench::run(&BenchOptions {
             scene: a.scene,
             pathtracer: (!a.no_peer).then_some(a.pathtracer),
