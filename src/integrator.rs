@@ -131,6 +131,88 @@ fn ray_epsilon(p: Vec3) -> f32 {
     1e-4 * (1.0 + p.abs().max_element())
 }
 
+/// The light-leak guard of shading normals: a direction pair must be a
+/// reflection (or a transmission) both for the geometric normal `ng` and in
+/// the shading frame (`*_local`), or it is discarded; otherwise a bent
+/// shading normal would let light through opaque surfaces.
+#[inline]
+fn sides_agree(wo: Vec3, wi: Vec3, ng: Vec3, wo_local: Vec3, wi_local: Vec3) -> bool {
+    (wo.dot(ng) * wi.dot(ng) > 0.0) == (wo_local.z * wi_local.z > 0.0)
+}
+
+/// What a hit knows of its surface beyond the geometric normal: texture
+/// coordinates and the interpolated shading normal.
+struct SurfacePoint {
+    /// Texture coordinates (zero where the mesh has none or none are needed).
+    uv: Vec2,
+    /// Interpolated unit shading normal, if the mesh has vertex normals.
+    normal: Option<Vec3>,
+}
+
+impl SurfacePoint {
+    /// Interpolates the mesh's vertex attributes at the hit (Embree's
+    /// barycentrics: `p = (1 − u − v)·p0 + u·p1 + v·p2`); `uv` only when
+    /// `need_uv`.
+    #[inline]
+    fn new(mesh: &crate::scene::Mesh, hit: &crate::accel::Hit, need_uv: bool) -> SurfacePoint {
+        let has_uv = need_uv && !mesh.uvs.is_empty();
+        if !has_uv && mesh.normals.is_empty() {
+            return SurfacePoint {
+                uv: Vec2::ZERO,
+                normal: None,
+            };
+        }
+        let [i0, i1, i2] = mesh.triangles[hit.prim_id as usize].map(|i| i as usize);
+        let (b1, b2) = (hit.u, hit.v);
+        let b0 = 1.0 - b1 - b2;
+        let uv = if has_uv {
+            mesh.uvs[i0] * b0 + mesh.uvs[i1] * b1 + mesh.uvs[i2] * b2
+        } else {
+            Vec2::ZERO
+        };
+        let normal = if mesh.normals.is_empty() {
+            None
+        } else {
+            (mesh.normals[i0] * b0 + mesh.normals[i1] * b1 + mesh.normals[i2] * b2).try_normalize()
+        };
+        SurfacePoint { uv, normal }
+    }
+
+    /// The normal of the shading frame: the interpolated normal turned to the
+    /// side of `n` (the geometric normal as the BSDF sees it), or `n` itself
+    /// where there is none or where `wo` lies on different sides of the two.
+    #[inline]
+    fn shading_normal(&self, n: Vec3, wo: Vec3) -> Vec3 {
+        match self.normal {
+            Some(ns) => {
+                let ns = if ns.dot(n) < 0.0 { -ns } else { ns };
+                if ns.dot(wo) * n.dot(wo) > 0.0 {
+                    ns
+                } else {
+                    n
+                }
+            }
+            None => n,
+        }
+    }
+
+    /// The first tangent for anisotropic BSDFs: ∂p/∂u where the mesh has
+    /// texture coordinates, else the triangle's first edge.
+    fn tangent(&self, mesh: &crate::scene::Mesh, hit: &crate::accel::Hit) -> Vec3 {
+        let [i0, i1, i2] = mesh.triangles[hit.prim_id as usize].map(|i| i as usize);
+        let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
+        let (dp1, dp2) = (p1 - p0, p2 - p0);
+        if !mesh.uvs.is_empty() {
+            let (d1, d2) = (mesh.uvs[i1] - mesh.uvs[i0], mesh.uvs[i2] - mesh.uvs[i0]);
+            let det = d1.x * d2.y - d1.y * d2.x;
+            if det.abs() > 1e-12 {
+                return (dp1 * d2.y - dp2 * d1.y) / det;
+            }
+        }
+        dp1
+    }
+}
+
 /// Origin of a ray leaving surface point `p` along `dir`: offset by `eps`
 /// along the normal `n`, to the side `dir` leaves on (refracted rays leave
 /// on the far side).
@@ -289,15 +371,18 @@ fn shade(
     let wo = -ray.dir;
     let ng = hit.ng.normalize_or_zero();
     let facing = if ng.dot(wo) >= 0.0 { ng } else { -ng };
-    let bsdf = &scene.materials[mesh.material as usize].bsdf;
+    let material = &scene.materials[mesh.material as usize];
+    let surface = SurfacePoint::new(mesh, &hit, !material.textures.is_empty());
+    let bsdf = &material.bsdf_at(surface.uv);
     // Opaque surfaces are two-sided: shade in the frame facing the viewer.
     // Transmissive ones keep the geometric normal as their outside.
     let n = if bsdf.transmits() { ng } else { facing };
+    let shading_n = surface.shading_normal(n, wo);
 
     if path.depth == 0 {
         pixel.hits += 1;
         pixel.depth += scene.camera.depth(ray.dir, hit.t) as f64;
-        pixel.normal += facing;
+        pixel.normal += if bsdf.transmits() { facing } else { shading_n };
         pixel.albedo += bsdf.albedo();
         if record_aovs_first {
             // Light fixtures (u32::MAX) are not objects.
@@ -334,7 +419,11 @@ fn shade(
         return;
     }
 
-    let frame = Frame::from_normal(n);
+    let frame = if bsdf.is_anisotropic() {
+        Frame::from_normal_tangent(shading_n, surface.tangent(mesh, &hit))
+    } else {
+        Frame::from_normal(shading_n)
+    };
     let wo_local = frame.to_local(wo);
     let eps = ray_epsilon(p);
 
@@ -348,7 +437,11 @@ fn shade(
         let u = path.rng.next_2d();
         if let Some(ls) = scene.lights.lights[li].sample_li(p, u) {
             let wi_local = frame.to_local(ls.wi);
-            let f = bsdf.eval(wo_local, wi_local) * wi_local.z.abs();
+            let f = if sides_agree(wo, ls.wi, ng, wo_local, wi_local) {
+                bsdf.eval(wo_local, wi_local) * wi_local.z.abs()
+            } else {
+                Vec3::ZERO
+            };
             if f != Vec3::ZERO {
                 let light_pdf = pick_pmf * ls.pdf;
                 let weight = if ls.delta {
@@ -390,6 +483,11 @@ fn shade(
         path.alive = false;
         return;
     };
+    let wi = frame.to_world(bs.wi);
+    if !sides_agree(wo, wi, ng, wo_local, bs.wi) {
+        path.alive = false;
+        return;
+    }
     path.beta *= bs.weight;
     path.prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
     path.prev_point = p;
@@ -408,6 +506,5 @@ fn shade(
         path.alive = false;
         return;
     }
-    let wi = frame.to_world(bs.wi);
     *rh = RayHit::new(Ray::new(spawn_origin(p, n, eps, wi), wi));
 }

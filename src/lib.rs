@@ -8,6 +8,7 @@
 //! - [`equirect`], [`color`], [`filter`]: the panorama convention, colour
 //!   (white balance) and pixel filters;
 //! - [`camera`], [`bsdf`], [`light`]: the models, each behind one interface;
+//! - [`texture`], [`material`]: image textures and the materials they vary;
 //! - [`scene`]: scene files and the built scene;
 //! - [`integrator`], [`render`]: the path tracer and the tile scheduler;
 //! - [`film`], [`output`]: the image with its AOVs, EXR and PNG output;
@@ -28,11 +29,13 @@ pub mod film;
 pub mod filter;
 pub mod integrator;
 pub mod light;
+pub mod material;
 pub mod output;
 pub mod pls;
 pub mod render;
 pub mod sampler;
 pub mod sampling;
 pub mod scene;
+pub mod texture;
 
 pub use error::{Error, Result};

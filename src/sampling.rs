@@ -30,6 +30,21 @@ impl Frame {
         Frame { s, t, n }
     }
 
+    /// A frame with normal `n` (unit) and first tangent along the part of
+    /// `tangent` perpendicular to `n` (Gram–Schmidt); an arbitrary tangent
+    /// where that part vanishes.
+    #[inline]
+    pub fn from_normal_tangent(n: Vec3, tangent: Vec3) -> Frame {
+        match (tangent - n * n.dot(tangent)).try_normalize() {
+            Some(s) => Frame {
+                s,
+                t: n.cross(s),
+                n,
+            },
+            None => Frame::from_normal(n),
+        }
+    }
+
     /// World to local coordinates.
     #[inline]
     pub fn to_local(&self, v: Vec3) -> Vec3 {

@@ -268,6 +268,17 @@ fn white_furnace_energy_is_at_most_one() {
             }),
         ),
     ];
+    for r in [0.2, 0.5, 1.0] {
+        white.push((format!("principled metallic r={r}"), {
+            let Bsdf::Principled(p) = principled(r, 1.0, 0.0) else {
+                unreachable!()
+            };
+            Bsdf::Principled(PrincipledParams {
+                base_color: Vec3::ONE,
+                ..p
+            })
+        }));
+    }
     for kind in [Distribution::Ggx, Distribution::Beckmann] {
         for alpha in [0.1, 0.5, 1.0] {
             white.push((
@@ -438,4 +449,30 @@ fn principled_metal_and_dielectric_limits() {
     };
     let a = albedo(&Bsdf::Principled(plastic), Vec3::Z);
     assert!(a > 0.8 && a < 1.0, "{a}");
+}
+
+/// The principled BSDF follows Mitsuba 3's (Burley 2012) exactly, and that
+/// model is not energy-conserving where it is a dielectric: the diffuse lobe
+/// is not reduced by the specular one, and its retro-reflection term grows
+/// at grazing angles. With a white base colour it reflects more than it
+/// receives. Pinned here so that a change of model is deliberate.
+#[test]
+fn principled_dielectric_exceeds_one_like_its_reference_model() {
+    let white = |roughness: f32| {
+        Bsdf::Principled(PrincipledParams {
+            base_color: Vec3::ONE,
+            roughness,
+            metallic: 0.0,
+            anisotropic: 0.0,
+            specular: 0.5,
+            spec_tint: 0.0,
+        })
+    };
+    let grazing = incident_directions()[3];
+    // Normal incidence: diffuse (1 − F_i/2)(1 − F_o/2) plus 4 % specular.
+    let a = albedo(&white(0.5), Vec3::Z);
+    assert!((1.0..1.1).contains(&a), "{a}");
+    // Rough and grazing: the retro-reflection term dominates.
+    let a = albedo(&white(1.0), grazing);
+    assert!((1.4..1.7).contains(&a), "{a}");
 }

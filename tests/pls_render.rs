@@ -19,6 +19,8 @@ fn floor(half: f32) -> Mesh {
         name: "floor".into(),
         positions: p,
         triangles: t,
+        normals: Vec::new(),
+        uvs: Vec::new(),
         material: 0,
         emission: None,
         object_id: 0,
@@ -33,10 +35,12 @@ fn floor_radiance(light: &Pls, mode: BrightnessMode, target: Vec3, spp: u32) -> 
         Material {
             name: "floor".into(),
             bsdf: Bsdf::diffuse(Vec3::splat(ALBEDO)),
+            textures: Default::default(),
         },
         Material {
             name: "black".into(),
             bsdf: Bsdf::diffuse(Vec3::ZERO),
+            textures: Default::default(),
         },
     ];
     let eye = target + Vec3::new(0.0, -0.3, 0.3);
@@ -159,10 +163,12 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
             Material {
                 name: "floor".into(),
                 bsdf: Bsdf::diffuse(Vec3::splat(0.5)),
+                textures: Default::default(),
             },
             Material {
                 name: "black".into(),
                 bsdf: Bsdf::diffuse(Vec3::ZERO),
+                textures: Default::default(),
             },
         ],
         point_lights: vec![],

@@ -13,6 +13,7 @@ fn material(name: &str, albedo: f32) -> Material {
     Material {
         name: name.into(),
         bsdf: Bsdf::diffuse(Vec3::splat(albedo)),
+        textures: Default::default(),
     }
 }
 
@@ -26,6 +27,8 @@ fn mesh(
         name: name.into(),
         positions,
         triangles,
+        normals: Vec::new(),
+        uvs: Vec::new(),
         material,
         emission,
         object_id: 0,

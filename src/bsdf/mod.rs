@@ -151,6 +151,19 @@ impl Bsdf {
         )
     }
 
+    /// Whether the model depends on the tangent direction (anisotropic
+    /// roughness), so that the integrator must build a tangent frame.
+    #[inline]
+    pub fn is_anisotropic(&self) -> bool {
+        let aniso = |m: &Microfacet| m.alpha_x != m.alpha_y;
+        match self {
+            Bsdf::CookTorrance(p) => aniso(&p.microfacet),
+            Bsdf::Dielectric(p) => p.microfacet.as_ref().is_some_and(aniso),
+            Bsdf::Principled(p) => p.anisotropic > 0.0,
+            Bsdf::Diffuse(_) | Bsdf::BlinnPhong(_) => false,
+        }
+    }
+
     /// Directional albedo proxy for the albedo AOV (linear RGB).
     pub fn albedo(&self) -> Vec3 {
         match self {

@@ -7,7 +7,7 @@
 //! the file's directory.
 
 use super::shapes::{self, flip_winding, transform_mesh};
-use super::{Emission, Material, Mesh, RenderSettings, SceneDescription};
+use super::{Emission, Material, MaterialTextures, Mesh, RenderSettings, SceneDescription};
 use crate::bsdf::{
     BlinnPhongParams, Bsdf, CookTorranceParams, DielectricParams, Distribution, Fresnel,
     Microfacet, PrincipledParams,
@@ -21,10 +21,12 @@ use crate::error::{Error, Result};
 use crate::film::{CameraExposure, FilmSettings};
 use crate::filter::{GaussianFilter, PixelFilter, DEFAULT_GAUSSIAN_RADIUS, DEFAULT_GAUSSIAN_SIGMA};
 use crate::light::PointLight;
-use glam::{Mat4, Quat, Vec3};
+use crate::texture::{self, Encoding, ImageTexture};
+use glam::{Mat4, Quat, Vec2, Vec3};
 use serde::Deserialize;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Default sensor height (mm) when a camera gives `focal_length` alone: 35 mm film.
 pub const DEFAULT_SENSOR_HEIGHT_MM: f32 = 24.0;
@@ -134,12 +136,18 @@ struct MaterialSection {
     metallic: Option<f32>,
     anisotropic: Option<f32>,
     spec_tint: Option<f32>,
+    base_color_map: Option<PathBuf>,
+    roughness_map: Option<PathBuf>,
+    metallic_map: Option<PathBuf>,
 }
 
 impl MaterialSection {
     /// The keys given, besides `name` and `type`.
     fn given(&self) -> Vec<&'static str> {
-        let keys: [(&'static str, bool); 19] = [
+        let keys: [(&'static str, bool); 22] = [
+            ("base_color_map", self.base_color_map.is_some()),
+            ("roughness_map", self.roughness_map.is_some()),
+            ("metallic_map", self.metallic_map.is_some()),
             ("reflectance", self.reflectance.is_some()),
             ("diffuse", self.diffuse.is_some()),
             ("specular", self.specular.is_some()),
@@ -447,8 +455,8 @@ impl Builder<'_> {
     /// Builds the BSDF of `materials[i]`; rejects keys the type does not use.
     fn material(&self, field: &str, m: &MaterialSection) -> Result<Bsdf> {
         let allowed: &[&str] = match m.kind.as_str() {
-            "diffuse" => &["reflectance"],
-            "blinn_phong" => &["diffuse", "specular", "exponent"],
+            "diffuse" => &["reflectance", "base_color_map"],
+            "blinn_phong" => &["diffuse", "specular", "exponent", "base_color_map"],
             "cook_torrance" => &[
                 "distribution",
                 "roughness",
@@ -461,6 +469,7 @@ impl Builder<'_> {
                 "metal",
                 "eta",
                 "k",
+                "roughness_map",
             ],
             "dielectric" => &[
                 "ior",
@@ -477,6 +486,9 @@ impl Builder<'_> {
                 "anisotropic",
                 "specular",
                 "spec_tint",
+                "base_color_map",
+                "roughness_map",
+                "metallic_map",
             ],
             other => {
                 return Err(self.err(
@@ -633,6 +645,99 @@ impl Builder<'_> {
         })
     }
 
+    /// Loads the textures a material names (`*_map`, relative to the scene
+    /// file); data maps must hold values in `[0, 1]`.
+    fn material_textures(&self, field: &str, m: &MaterialSection) -> Result<MaterialTextures> {
+        self.textures(
+            field,
+            m.base_color_map.as_ref().map(|p| self.base.join(p)),
+            m.roughness_map.as_ref().map(|p| self.base.join(p)),
+            m.metallic_map.as_ref().map(|p| self.base.join(p)),
+            ["base_color_map", "roughness_map", "metallic_map"],
+        )
+    }
+
+    /// Loads base colour (sRGB), roughness and metallic (linear) textures;
+    /// `keys` name them in errors, under `field`.
+    fn textures(
+        &self,
+        field: &str,
+        base_color: Option<PathBuf>,
+        roughness: Option<PathBuf>,
+        metallic: Option<PathBuf>,
+        keys: [&str; 3],
+    ) -> Result<MaterialTextures> {
+        let load = |path: Option<PathBuf>,
+                    key: &str,
+                    encoding: Encoding|
+         -> Result<Option<Arc<ImageTexture>>> {
+            let Some(path) = path else {
+                return Ok(None);
+            };
+            let f = format!("{field}.{key}");
+            let t = texture::load_for(self.file, &f, &path, encoding)?;
+            if encoding == Encoding::Linear && t.max_value() > 1.0 {
+                return Err(self.err(f, format!("{}: values must be in [0, 1]", path.display())));
+            }
+            Ok(Some(Arc::new(t)))
+        };
+        Ok(MaterialTextures {
+            base_color: load(base_color, keys[0], Encoding::Srgb)?,
+            roughness: load(roughness, keys[1], Encoding::Linear)?,
+            metallic: load(metallic, keys[2], Encoding::Linear)?,
+        })
+    }
+
+    /// The material of an MTL entry: `principled` when it has PBR keys
+    /// (`Pr`, `Pm`, `map_Pr`, `map_Pm`), `blinn_phong` when it has a
+    /// non-zero `Ks` (scaled down where `Kd + Ks` exceeds 1, to conserve
+    /// energy), `diffuse` otherwise; `map_Kd` textures the base colour.
+    fn mtl_material(
+        &self,
+        field: &str,
+        name: String,
+        mtl: &shapes::ObjMaterial,
+    ) -> Result<Material> {
+        let kd = mtl.diffuse.unwrap_or(Vec3::splat(DEFAULT_REFLECTANCE));
+        let pbr = mtl.roughness.is_some()
+            || mtl.metallic.is_some()
+            || mtl.roughness_map.is_some()
+            || mtl.metallic_map.is_some();
+        let ks = mtl.specular.filter(|ks| ks.max_element() > 0.0);
+        let bsdf = if pbr {
+            Bsdf::Principled(PrincipledParams {
+                base_color: kd,
+                roughness: mtl.roughness.unwrap_or(0.5),
+                metallic: mtl.metallic.unwrap_or(0.0),
+                anisotropic: 0.0,
+                specular: 0.5,
+                spec_tint: 0.0,
+            })
+        } else if let Some(ks) = ks {
+            let total = (kd + ks).max_element();
+            let scale = if total > 1.0 { 1.0 / total } else { 1.0 };
+            Bsdf::BlinnPhong(BlinnPhongParams {
+                diffuse: kd * scale,
+                specular: ks * scale,
+                exponent: mtl.shininess.unwrap_or(30.0).min(1e5),
+            })
+        } else {
+            Bsdf::diffuse(kd)
+        };
+        let textures = self.textures(
+            &format!("{field} (MTL `{}`)", mtl.name),
+            mtl.diffuse_map.clone(),
+            if pbr { mtl.roughness_map.clone() } else { None },
+            if pbr { mtl.metallic_map.clone() } else { None },
+            ["map_Kd", "map_Pr", "map_Pm"],
+        )?;
+        Ok(Material {
+            name,
+            bsdf,
+            textures,
+        })
+    }
+
     fn positive_count(&self, field: &str, v: i64, max: i64) -> Result<u32> {
         if v < 1 || v > max {
             return Err(self.err(field, format!("must be between 1 and {max}, got {v}")));
@@ -666,9 +771,11 @@ impl Builder<'_> {
             }
             let bsdf = self.material(&field, m)?;
             by_name.insert(m.name.clone(), materials.len() as u32);
+            let textures = self.material_textures(&field, m)?;
             materials.push(Material {
                 name: m.name.clone(),
                 bsdf,
+                textures,
             });
         }
 
@@ -1147,10 +1254,7 @@ impl Builder<'_> {
         let black = match materials.iter().position(|m| m.name == "(pls)") {
             Some(i) => i as u32,
             None => {
-                materials.push(Material {
-                    name: "(pls)".into(),
-                    bsdf: Bsdf::diffuse(Vec3::ZERO),
-                });
+                materials.push(Material::new("(pls)", Bsdf::diffuse(Vec3::ZERO)));
                 (materials.len() - 1) as u32
             }
         };
@@ -1280,10 +1384,10 @@ impl Builder<'_> {
             if let Some(i) = materials.iter().position(|m| m.name == name) {
                 return i as u32;
             }
-            materials.push(Material {
-                name: name.into(),
-                bsdf: Bsdf::diffuse(Vec3::splat(DEFAULT_REFLECTANCE)),
-            });
+            materials.push(Material::new(
+                name,
+                Bsdf::diffuse(Vec3::splat(DEFAULT_REFLECTANCE)),
+            ));
             (materials.len() - 1) as u32
         };
         let shape_name = s
@@ -1292,7 +1396,7 @@ impl Builder<'_> {
             .unwrap_or_else(|| format!("{field} ({})", s.kind));
         let object_id = index as u32;
 
-        let (mut positions, mut triangles) = match s.kind.as_str() {
+        let (mut positions, mut triangles, normals, uvs) = match s.kind.as_str() {
             "obj" => {
                 for (name, present) in [
                     ("center", s.center.is_some()),
@@ -1318,18 +1422,19 @@ impl Builder<'_> {
                 for o in obj.objects {
                     let (mut p, mut t) = (o.positions, o.triangles);
                     transform_mesh(&matrix, &mut p, &mut t);
+                    let normals = transform_normals(&matrix, o.normals);
                     let mtl = o.material.and_then(|m| obj.materials.get(m));
                     let mat = match (material, o.material, mtl) {
                         (Some(m), _, _) => m,
                         (None, Some(mi), Some(mtl)) => match mtl_index.get(&mi) {
                             Some(&m) => m,
                             None => {
-                                // load_obj checked Kd ∈ [0, 1].
-                                let kd = mtl.diffuse.unwrap_or(Vec3::splat(DEFAULT_REFLECTANCE));
-                                materials.push(Material {
-                                    name: format!("{}:{}", rel.display(), mtl.name),
-                                    bsdf: Bsdf::diffuse(kd),
-                                });
+                                // load_obj checked the MTL values' ranges.
+                                materials.push(self.mtl_material(
+                                    &format!("{field}.file"),
+                                    format!("{}:{}", rel.display(), mtl.name),
+                                    mtl,
+                                )?);
                                 let m = (materials.len() - 1) as u32;
                                 mtl_index.insert(mi, m);
                                 m
@@ -1349,6 +1454,8 @@ impl Builder<'_> {
                         name: format!("{shape_name}/{}", o.name),
                         positions: p,
                         triangles: t,
+                        normals,
+                        uvs: o.uvs,
                         material: mat,
                         emission: emission.or(mtl_emission),
                         object_id,
@@ -1365,7 +1472,13 @@ impl Builder<'_> {
                 ] {
                     unused(name, present)?;
                 }
-                shapes::rectangle()
+                let (p, t) = shapes::rectangle();
+                // u along +x, v along +y, (0, 0) at the (−1, −1) corner.
+                let uvs = p
+                    .iter()
+                    .map(|q| Vec2::new(0.5 * (q.x + 1.0), 0.5 * (q.y + 1.0)))
+                    .collect();
+                (p, t, Vec::new(), uvs)
             }
             "sphere" => {
                 unused("file", s.file.is_some())?;
@@ -1384,7 +1497,10 @@ impl Builder<'_> {
                         format!("must be at most 8 (20·4^8 triangles), got {subdivisions}"),
                     ));
                 }
-                shapes::icosphere(center, radius, subdivisions)
+                let (p, t) = shapes::icosphere(center, radius, subdivisions);
+                // The smooth sphere's normals shade the facets.
+                let normals = p.iter().map(|q| (*q - center) / radius).collect();
+                (p, t, normals, Vec::new())
             }
             other => {
                 return Err(self.err(
@@ -1393,10 +1509,15 @@ impl Builder<'_> {
                 ))
             }
         };
-        if s.flip_normals.unwrap_or(false) {
+        let flip = s.flip_normals.unwrap_or(false);
+        if flip {
             flip_winding(&mut triangles);
         }
         transform_mesh(&matrix, &mut positions, &mut triangles);
+        let mut normals = transform_normals(&matrix, normals);
+        if flip {
+            normals.iter_mut().for_each(|n| *n = -*n);
+        }
         let material = match material {
             Some(m) => m,
             None => default_material(materials),
@@ -1405,12 +1526,27 @@ impl Builder<'_> {
             name: shape_name,
             positions,
             triangles,
+            normals,
+            uvs,
             material,
             emission,
             object_id,
         });
         Ok(())
     }
+}
+
+/// Normals under the transform `m`: by the inverse transpose of its linear
+/// part, renormalised.
+fn transform_normals(m: &Mat4, normals: Vec<Vec3>) -> Vec<Vec3> {
+    if normals.is_empty() {
+        return normals;
+    }
+    let n = glam::Mat3::from_mat4(*m).inverse().transpose();
+    normals
+        .into_iter()
+        .map(|v| (n * v).normalize_or_zero())
+        .collect()
 }
 
 #[cfg(test)]

@@ -10,26 +10,18 @@ pub mod file;
 pub mod shapes;
 
 use crate::accel::{Accel, Device, SceneOptions};
-use crate::bsdf::Bsdf;
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::film::FilmSettings;
 use crate::light::{Cone, Light, LightSet, PointLight, Reach, TriangleLight};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::path::Path;
 
 /// Environment variable holding extra Embree device configuration (e.g.
 /// `verbose=1`), passed to `rtcNewDevice`.
 pub const EMBREE_CONFIG_VAR: &str = "PLSR_EMBREE_CONFIG";
 
-/// A named material.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Material {
-    /// Name used by shapes to refer to it.
-    pub name: String,
-    /// Its scattering model.
-    pub bsdf: Bsdf,
-}
+pub use crate::material::{Material, MaterialTextures};
 
 /// Emission of an area light: constant radiance over a mesh.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,6 +44,11 @@ pub struct Mesh {
     pub positions: Vec<Vec3>,
     /// Counter-clockwise triangles (seen from the geometric normal's side).
     pub triangles: Vec<[u32; 3]>,
+    /// Per-vertex unit shading normals (world space), or empty: shade with
+    /// the geometric normal.
+    pub normals: Vec<Vec3>,
+    /// Per-vertex texture coordinates, or empty.
+    pub uvs: Vec<Vec2>,
     /// Index into the scene's materials.
     pub material: u32,
     /// Emission, when the mesh is an area light.
@@ -78,6 +75,8 @@ pub fn pls_mesh(
         name,
         positions: mesh.positions,
         triangles: mesh.triangles,
+        normals: Vec::new(),
+        uvs: Vec::new(),
         material,
         emission: Some(Emission {
             radiance,

@@ -6,9 +6,10 @@
 //!   (`flip_normals = true` turns them inwards, e.g. for an enclosure).
 
 use crate::error::{Error, Result};
+use glam::Vec2;
 use glam::{Mat4, Vec3};
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Vertex positions and counter-clockwise triangles.
 pub type TriangleSoup = (Vec<Vec3>, Vec<[u32; 3]>);
@@ -117,6 +118,10 @@ pub struct ObjObject {
     pub positions: Vec<Vec3>,
     /// Triangles (polygons are fan-triangulated by tobj).
     pub triangles: Vec<[u32; 3]>,
+    /// Per-vertex unit normals (`vn`), or empty when the file has none.
+    pub normals: Vec<Vec3>,
+    /// Per-vertex texture coordinates (`vt`), or empty.
+    pub uvs: Vec<Vec2>,
     /// Index into [`ObjFile::materials`].
     pub material: Option<usize>,
 }
@@ -130,6 +135,20 @@ pub struct ObjMaterial {
     pub diffuse: Option<Vec3>,
     /// `Ke`, emitted radiance.
     pub emission: Option<Vec3>,
+    /// `Ks`, specular albedo (Blinn–Phong).
+    pub specular: Option<Vec3>,
+    /// `Ns`, Phong exponent.
+    pub shininess: Option<f32>,
+    /// `Pr`, roughness (PBR extension).
+    pub roughness: Option<f32>,
+    /// `Pm`, metallic (PBR extension).
+    pub metallic: Option<f32>,
+    /// `map_Kd`, base colour texture, resolved against the OBJ's folder.
+    pub diffuse_map: Option<PathBuf>,
+    /// `map_Pr`, roughness texture.
+    pub roughness_map: Option<PathBuf>,
+    /// `map_Pm`, metallic texture.
+    pub metallic_map: Option<PathBuf>,
 }
 
 /// The contents of an OBJ file and its MTL library.
@@ -203,6 +222,30 @@ pub fn load_obj(path: &Path, scene_file: &Path, field: &str) -> Result<ObjFile> 
                 m.name
             )));
         }
+        let normals: Vec<Vec3> = mesh
+            .normals
+            .chunks_exact(3)
+            .map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero())
+            .collect();
+        let uvs: Vec<Vec2> = mesh
+            .texcoords
+            .chunks_exact(2)
+            .map(|c| Vec2::new(c[0], c[1]))
+            .collect();
+        // With single_index, attributes are per vertex; a file that gives
+        // them for some faces only is read without them.
+        let normals = if normals.len() == positions.len()
+            && normals.iter().all(|n| n.is_finite() && *n != Vec3::ZERO)
+        {
+            normals
+        } else {
+            Vec::new()
+        };
+        let uvs = if uvs.len() == positions.len() && uvs.iter().all(|t| t.is_finite()) {
+            uvs
+        } else {
+            Vec::new()
+        };
         let triangles: Vec<[u32; 3]> = mesh
             .indices
             .chunks_exact(3)
@@ -225,6 +268,8 @@ pub fn load_obj(path: &Path, scene_file: &Path, field: &str) -> Result<ObjFile> 
             name: m.name,
             positions,
             triangles,
+            normals,
+            uvs,
             material: mesh.material_id,
         });
     }
@@ -249,10 +294,50 @@ pub fn load_obj(path: &Path, scene_file: &Path, field: &str) -> Result<ObjFile> 
                 m.name
             )));
         }
+        let bad = |key: &str, what: String| {
+            fail(format!(
+                "{}: MTL material `{}`: {key} {what}",
+                path.display(),
+                m.name
+            ))
+        };
+        let specular = m.specular.map(Vec3::from_array);
+        if let Some(ks) = specular
+            .filter(|ks| !ks.is_finite() || ks.min_element() < 0.0 || ks.max_element() > 1.0)
+        {
+            return Err(bad("Ks", format!("must be in [0, 1], got {ks}")));
+        }
+        if let Some(ns) = m.shininess.filter(|ns| !ns.is_finite() || *ns < 0.0) {
+            return Err(bad(
+                "Ns",
+                format!("must be finite and not negative, got {ns}"),
+            ));
+        }
+        let unit = |key: &str| -> Result<Option<f32>> {
+            match m.unknown_param.get(key) {
+                None => Ok(None),
+                Some(v) => match v.trim().parse::<f32>() {
+                    Ok(x) if (0.0..=1.0).contains(&x) => Ok(Some(x)),
+                    _ => Err(bad(key, format!("must be a number in [0, 1], got `{v}`"))),
+                },
+            }
+        };
+        let roughness = unit("Pr")?;
+        let metallic = unit("Pm")?;
+        let map = |name: Option<&String>| {
+            name.map(|n| base.join(n.split_whitespace().last().unwrap_or(n)))
+        };
         checked.push(ObjMaterial {
-            name: m.name,
+            name: m.name.clone(),
             diffuse,
             emission,
+            specular,
+            shininess: m.shininess,
+            roughness,
+            metallic,
+            diffuse_map: map(m.diffuse_texture.as_ref()),
+            roughness_map: map(m.unknown_param.get("map_Pr")),
+            metallic_map: map(m.unknown_param.get("map_Pm")),
         });
     }
     let materials = checked;

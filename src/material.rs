@@ -1,0 +1,93 @@
+//! Materials: a BSDF whose parameters may vary over the surface through
+//! image textures looked up by UV ([`crate::texture`]).
+//!
+//! A material's BSDF holds its constant parameters; a texture, where given,
+//! replaces one of them at each shading point:
+//!
+//! | texture | replaces | models |
+//! | --- | --- | --- |
+//! | `base_color` (sRGB) | the albedo / base colour | `diffuse` (reflectance), `blinn_phong` (diffuse), `principled` (base_color) |
+//! | `roughness` (linear, red channel) | roughness (α = r²) | `principled`, `cook_torrance` |
+//! | `metallic` (linear, red channel) | metallic | `principled` |
+
+use crate::bsdf::{microfacet::alpha_from_roughness, Bsdf, Microfacet};
+use crate::texture::ImageTexture;
+use glam::Vec2;
+use std::sync::Arc;
+
+/// Textures that replace BSDF parameters over a surface.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MaterialTextures {
+    /// Base colour (linear RGB after sRGB decoding).
+    pub base_color: Option<Arc<ImageTexture>>,
+    /// Roughness in `[0, 1]` (red channel).
+    pub roughness: Option<Arc<ImageTexture>>,
+    /// Metallic in `[0, 1]` (red channel).
+    pub metallic: Option<Arc<ImageTexture>>,
+}
+
+impl MaterialTextures {
+    /// Whether no parameter is textured.
+    pub fn is_empty(&self) -> bool {
+        self.base_color.is_none() && self.roughness.is_none() && self.metallic.is_none()
+    }
+}
+
+/// A named material.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    /// Name used by shapes to refer to it.
+    pub name: String,
+    /// Its scattering model, with the constant parameters.
+    pub bsdf: Bsdf,
+    /// Textured parameters, if any.
+    pub textures: MaterialTextures,
+}
+
+impl Material {
+    /// An untextured material.
+    pub fn new(name: impl Into<String>, bsdf: Bsdf) -> Material {
+        Material {
+            name: name.into(),
+            bsdf,
+            textures: MaterialTextures::default(),
+        }
+    }
+
+    /// The BSDF at surface coordinates `uv`: the constant BSDF with its
+    /// textured parameters looked up.
+    #[inline]
+    pub fn bsdf_at(&self, uv: Vec2) -> Bsdf {
+        let mut bsdf = self.bsdf;
+        if self.textures.is_empty() {
+            return bsdf;
+        }
+        let t = &self.textures;
+        if let Some(tex) = &t.base_color {
+            let c = tex.eval(uv).clamp(glam::Vec3::ZERO, glam::Vec3::ONE);
+            match &mut bsdf {
+                Bsdf::Diffuse(p) => p.reflectance = c,
+                Bsdf::BlinnPhong(p) => p.diffuse = c.min(glam::Vec3::ONE - p.specular),
+                Bsdf::Principled(p) => p.base_color = c,
+                _ => {}
+            }
+        }
+        if let Some(tex) = &t.roughness {
+            let r = tex.eval(uv).x.clamp(0.0, 1.0);
+            match &mut bsdf {
+                Bsdf::Principled(p) => p.roughness = r,
+                Bsdf::CookTorrance(p) => {
+                    let a = alpha_from_roughness(r);
+                    p.microfacet = Microfacet::new(p.microfacet.kind, a, a);
+                }
+                _ => {}
+            }
+        }
+        if let Some(tex) = &t.metallic {
+            if let Bsdf::Principled(p) = &mut bsdf {
+                p.metallic = tex.eval(uv).x.clamp(0.0, 1.0);
+            }
+        }
+        bsdf
+    }
+}

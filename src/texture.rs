@@ -1,0 +1,179 @@
+//! Image textures: a material parameter that varies over a surface by its
+//! UV coordinates.
+//!
+//! Conventions (those of OBJ and OpenGL): `u` runs left to right across the
+//! image and `v` from the *bottom* row (`v = 0`) to the top row (`v = 1`);
+//! coordinates outside `[0, 1)` repeat. Lookups are bilinear between texel
+//! centres. Colour textures (base colour) are decoded from sRGB to linear
+//! RGB on load; data textures (roughness, metallic) are read as stored
+//! (8-bit values map to `[0, 1]`), and a scalar parameter reads the red
+//! channel.
+//!
+//! ```toml
+//! [[materials]]
+//! name = "painted"
+//! type = "principled"
+//! base_color_map = "textures/paint.png"    # sRGB
+//! roughness_map = "textures/rough.png"     # linear, red channel
+//! ```
+
+use crate::error::{Error, Result};
+use glam::{Vec2, Vec3};
+use std::path::Path;
+
+/// How a texture's stored values map to linear values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Encoding {
+    /// sRGB-encoded colour (8-bit photos, paintings): decoded to linear.
+    Srgb,
+    /// Data stored linearly (roughness, metallic maps).
+    Linear,
+}
+
+/// An RGB image sampled by UV, linear values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImageTexture {
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// Linear texels, row-major from the top row.
+    texels: Vec<Vec3>,
+}
+
+/// sRGB transfer function, decoded: encoded value in `[0, 1]` to linear.
+#[inline]
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+impl ImageTexture {
+    /// A texture from linear texels, row-major from the top row.
+    pub fn from_texels(width: u32, height: u32, texels: Vec<Vec3>) -> ImageTexture {
+        assert_eq!(texels.len(), (width * height) as usize, "texel count");
+        assert!(width > 0 && height > 0, "empty texture");
+        ImageTexture {
+            width,
+            height,
+            texels,
+        }
+    }
+
+    /// Loads a PNG or JPEG file. The error message names the file and the
+    /// decoder's complaint; callers add the scene field.
+    pub fn load(path: &Path, encoding: Encoding) -> std::result::Result<ImageTexture, String> {
+        if !path.is_file() {
+            return Err(format!("{}: texture file not found", path.display()));
+        }
+        let image = image::open(path)
+            .map_err(|e| format!("{}: cannot read texture: {e}", path.display()))?;
+        let rgb = image.to_rgb32f();
+        let (width, height) = rgb.dimensions();
+        if width == 0 || height == 0 {
+            return Err(format!("{}: the texture is empty", path.display()));
+        }
+        let decode = |c: f32| match encoding {
+            Encoding::Srgb => srgb_to_linear(c.clamp(0.0, 1.0)),
+            Encoding::Linear => c,
+        };
+        let texels = rgb
+            .pixels()
+            .map(|p| Vec3::new(decode(p[0]), decode(p[1]), decode(p[2])))
+            .collect::<Vec<_>>();
+        if texels.iter().any(|t| !t.is_finite()) {
+            return Err(format!(
+                "{}: the texture has non-finite values",
+                path.display()
+            ));
+        }
+        Ok(ImageTexture {
+            width,
+            height,
+            texels,
+        })
+    }
+
+    /// The largest value of any channel (for range checks of parameters).
+    pub fn max_value(&self) -> f32 {
+        self.texels
+            .iter()
+            .fold(f32::NEG_INFINITY, |m, t| m.max(t.max_element()))
+    }
+
+    fn texel(&self, x: i64, y: i64) -> Vec3 {
+        let x = x.rem_euclid(self.width as i64) as usize;
+        let y = y.rem_euclid(self.height as i64) as usize;
+        self.texels[y * self.width as usize + x]
+    }
+
+    /// The bilinearly filtered value at `uv` (repeating outside `[0, 1)`).
+    #[inline]
+    pub fn eval(&self, uv: Vec2) -> Vec3 {
+        // Continuous texel coordinates; texel (i, j) has its centre at
+        // (i + ½, j + ½), and row 0 is the top (v = 1).
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = (1.0 - uv.y) * self.height as f32 - 0.5;
+        if !(x.is_finite() && y.is_finite()) {
+            return self.texels[0];
+        }
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let top = self.texel(x0, y0) * (1.0 - fx) + self.texel(x0 + 1, y0) * fx;
+        let bottom = self.texel(x0, y0 + 1) * (1.0 - fx) + self.texel(x0 + 1, y0 + 1) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+}
+
+/// Loads a texture for a scene field, turning failures into input errors.
+pub fn load_for(
+    scene_file: &Path,
+    field: &str,
+    path: &Path,
+    encoding: Encoding,
+) -> Result<ImageTexture> {
+    ImageTexture::load(path, encoding).map_err(|m| Error::input(scene_file, field, m))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn checker() -> ImageTexture {
+        // Top row red, green; bottom row blue, white.
+        ImageTexture::from_texels(2, 2, vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE])
+    }
+
+    #[test]
+    fn texel_centres_return_their_texel_and_v_runs_upwards() {
+        let t = checker();
+        assert_eq!(t.eval(Vec2::new(0.25, 0.75)), Vec3::X); // top left
+        assert_eq!(t.eval(Vec2::new(0.75, 0.75)), Vec3::Y); // top right
+        assert_eq!(t.eval(Vec2::new(0.25, 0.25)), Vec3::Z); // bottom left
+        assert_eq!(t.eval(Vec2::new(0.75, 0.25)), Vec3::ONE); // bottom right
+    }
+
+    #[test]
+    fn lookups_are_bilinear_and_repeat() {
+        let t = checker();
+        let mid = t.eval(Vec2::new(0.5, 0.75));
+        assert!((mid - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-6, "{mid}");
+        assert_eq!(
+            t.eval(Vec2::new(1.25, -0.25)),
+            t.eval(Vec2::new(0.25, 0.75))
+        );
+    }
+
+    #[test]
+    fn srgb_decoding_matches_the_standard() {
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert!((srgb_to_linear(1.0) - 1.0).abs() < 1e-6);
+        // 8-bit 188 is about linear 0.5.
+        assert!((srgb_to_linear(188.0 / 255.0) - 0.5029).abs() < 1e-3);
+        assert!((srgb_to_linear(0.04) - 0.04 / 12.92).abs() < 1e-9);
+    }
+}
