@@ -373,7 +373,16 @@ fn shade(
     let facing = if ng.dot(wo) >= 0.0 { ng } else { -ng };
     let material = &scene.materials[mesh.material as usize];
     let surface = SurfacePoint::new(mesh, &hit, !material.textures.is_empty());
-    let bsdf = &material.bsdf_at(surface.uv);
+    let textured;
+    let bsdf = if material.textures.is_empty() {
+        &material.bsdf
+    } else {
+        textured = material.bsdf_at(surface.uv);
+        &textured
+    };
+    // Without shading normals the frame's normal is ±ng and the light-leak
+    // guard cannot fail.
+    let guard = surface.normal.is_some();
     // Opaque surfaces are two-sided: shade in the frame facing the viewer.
     // Transmissive ones keep the geometric normal as their outside.
     let n = if bsdf.transmits() { ng } else { facing };
@@ -426,6 +435,16 @@ fn shade(
     };
     let wo_local = frame.to_local(wo);
     let eps = ray_epsilon(p);
+    // Reflected rays leave on the side of `n`; only a transmissive BSDF can
+    // send a ray out on the other side.
+    let transmits = bsdf.transmits();
+    let origin_for = |dir: Vec3| {
+        if transmits {
+            spawn_origin(p, n, eps, dir)
+        } else {
+            p + n * eps
+        }
+    };
 
     // Next-event estimation (pointless when every lobe is a delta).
     let light_pick = if bsdf.is_delta() {
@@ -437,7 +456,7 @@ fn shade(
         let u = path.rng.next_2d();
         if let Some(ls) = scene.lights.lights[li].sample_li(p, u) {
             let wi_local = frame.to_local(ls.wi);
-            let f = if sides_agree(wo, ls.wi, ng, wo_local, wi_local) {
+            let f = if !guard || sides_agree(wo, ls.wi, ng, wo_local, wi_local) {
                 bsdf.eval(wo_local, wi_local) * wi_local.z.abs()
             } else {
                 Vec3::ZERO
@@ -452,7 +471,7 @@ fn shade(
                 // The shadow ray runs from the offset origin to just short
                 // of the light point: t ∈ [0, tfar] along d = target − origin.
                 let target = p + ls.wi * ls.dist;
-                let origin = spawn_origin(p, n, eps, ls.wi);
+                let origin = origin_for(ls.wi);
                 let d = target - origin;
                 let tfar = 1.0 - ray_epsilon(target) / ls.dist;
                 if tfar > 0.0 {
@@ -484,7 +503,7 @@ fn shade(
         return;
     };
     let wi = frame.to_world(bs.wi);
-    if !sides_agree(wo, wi, ng, wo_local, bs.wi) {
+    if guard && !sides_agree(wo, wi, ng, wo_local, bs.wi) {
         path.alive = false;
         return;
     }
@@ -506,5 +525,5 @@ fn shade(
         path.alive = false;
         return;
     }
-    *rh = RayHit::new(Ray::new(spawn_origin(p, n, eps, wi), wi));
+    *rh = RayHit::new(Ray::new(origin_for(wi), wi));
 }

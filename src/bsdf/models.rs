@@ -27,6 +27,7 @@ pub struct DiffuseParams {
 }
 
 impl DiffuseParams {
+    #[inline]
     pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if both_above(wo, wi) {
             self.reflectance * FRAC_1_PI
@@ -35,6 +36,7 @@ impl DiffuseParams {
         }
     }
 
+    #[inline]
     pub(super) fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
@@ -51,6 +53,7 @@ impl DiffuseParams {
         })
     }
 
+    #[inline]
     pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z > 0.0 {
             cosine_hemisphere_pdf(wi.z)
@@ -94,6 +97,7 @@ pub fn blinn_phong_normalization(n: f32) -> f32 {
 }
 
 impl BlinnPhongParams {
+    #[inline]
     fn specular_probability(&self) -> f32 {
         let (d, s) = (luminance(self.diffuse), luminance(self.specular));
         if d + s > 0.0 {
@@ -103,15 +107,18 @@ impl BlinnPhongParams {
         }
     }
 
+    #[inline]
     fn lobe(&self, h_z: f32) -> f32 {
         blinn_phong_normalization(self.exponent) * h_z.max(0.0).powf(self.exponent)
     }
 
     /// Density of half vectors ∝ cos^n θh, over solid angle.
+    #[inline]
     fn half_pdf(&self, h_z: f32) -> f32 {
         (self.exponent + 1.0) / (2.0 * PI) * h_z.max(0.0).powf(self.exponent)
     }
 
+    #[inline]
     pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if !both_above(wo, wi) {
             return Vec3::ZERO;
@@ -120,6 +127,7 @@ impl BlinnPhongParams {
         self.diffuse * FRAC_1_PI + self.specular * self.lobe(h.z)
     }
 
+    #[inline]
     pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if !both_above(wo, wi) {
             return 0.0;
@@ -130,6 +138,7 @@ impl BlinnPhongParams {
         ps * spec + (1.0 - ps) * cosine_hemisphere_pdf(wi.z)
     }
 
+    #[inline]
     pub(super) fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
@@ -208,6 +217,7 @@ pub struct CookTorranceParams {
 }
 
 impl CookTorranceParams {
+    #[inline]
     pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if !both_above(wo, wi) {
             return Vec3::ZERO;
@@ -217,6 +227,7 @@ impl CookTorranceParams {
         self.fresnel.eval(wo.dot(h)) * (m.d(h) * m.g(wo, wi, h) / (4.0 * wo.z * wi.z))
     }
 
+    #[inline]
     pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if !both_above(wo, wi) {
             return 0.0;
@@ -225,6 +236,7 @@ impl CookTorranceParams {
         self.microfacet.pdf_h(wo, h) / (4.0 * wo.dot(h))
     }
 
+    #[inline]
     pub(super) fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
@@ -257,6 +269,7 @@ pub struct DielectricParams {
 impl DielectricParams {
     /// `(half vector facing +z, relative index η' across, reflection?)` for a
     /// pair of directions, or `None` for a degenerate configuration.
+    #[inline]
     fn half_vector(&self, wo: Vec3, wi: Vec3) -> Option<(Vec3, f32, bool)> {
         let (cos_o, cos_i) = (wo.z, wi.z);
         if cos_o == 0.0 || cos_i == 0.0 {
@@ -283,6 +296,7 @@ impl DielectricParams {
         Some((h, etap, reflect))
     }
 
+    #[inline]
     pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         let Some(m) = &self.microfacet else {
             return Vec3::ZERO;
@@ -301,6 +315,7 @@ impl DielectricParams {
         Vec3::splat(v)
     }
 
+    #[inline]
     pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let Some(m) = &self.microfacet else {
             return 0.0;
@@ -317,6 +332,7 @@ impl DielectricParams {
         }
     }
 
+    #[inline]
     pub(super) fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z == 0.0 {
             return None;
@@ -402,10 +418,12 @@ impl PrincipledParams {
         Microfacet::new(Distribution::Ggx, r2 / aspect, r2 * aspect)
     }
 
+    #[inline]
     fn diffuse_probability(&self) -> f32 {
         0.5 * (1.0 - self.metallic)
     }
 
+    #[inline]
     fn fresnel(&self, cos_theta: f32, eta: f32) -> Vec3 {
         let lum = luminance(self.base_color);
         let tint = if lum > 0.0 {
@@ -421,6 +439,7 @@ impl PrincipledParams {
         Vec3::splat(dielectric) + metal + tinted
     }
 
+    #[inline]
     pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if !both_above(wo, wi) {
             return Vec3::ZERO;
@@ -439,6 +458,7 @@ impl PrincipledParams {
         diffuse + specular
     }
 
+    #[inline]
     pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if !both_above(wo, wi) {
             return 0.0;
@@ -449,6 +469,7 @@ impl PrincipledParams {
         pd * cosine_hemisphere_pdf(wi.z) + (1.0 - pd) * spec
     }
 
+    #[inline]
     pub(super) fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
