@@ -363,6 +363,24 @@ fn shade(
 ) {
     let ray = rh.ray();
     let Some(hit) = rh.hit() else {
+        // The ray leaves the scene: it sees the environment, MIS-weighted
+        // against light sampling (which could have picked that direction).
+        if let Some(env) = scene.environment {
+            let Light::Environment { light, .. } = &scene.lights.lights[env] else {
+                unreachable!("Scene::environment indexes an environment light")
+            };
+            let le = light.radiance(ray.dir);
+            if le != Vec3::ZERO {
+                let weight = if path.depth == 0 || path.prev_pdf == 0.0 {
+                    1.0
+                } else {
+                    let light_pdf =
+                        scene.lights.pick_pmf(env, path.prev_point) * light.pdf(ray.dir);
+                    power_heuristic(path.prev_pdf, light_pdf)
+                };
+                path.radiance += path.beta * le * weight;
+            }
+        }
         path.alive = false;
         return;
     };
@@ -469,18 +487,22 @@ fn shade(
                     power_heuristic(light_pdf, bsdf.pdf(wo_local, wi_local))
                 };
                 // The shadow ray runs from the offset origin to just short
-                // of the light point: t ∈ [0, tfar] along d = target − origin.
-                let target = p + ls.wi * ls.dist;
+                // of the light point: t ∈ [0, tfar] along d = target − origin;
+                // towards the environment (at infinity), unbounded.
                 let origin = origin_for(ls.wi);
-                let d = target - origin;
-                let tfar = 1.0 - ray_epsilon(target) / ls.dist;
-                if tfar > 0.0 {
-                    shadow_rays.push(ShadowRay::new(Ray {
+                let shadow = if ls.dist.is_finite() {
+                    let target = p + ls.wi * ls.dist;
+                    Ray {
                         org: origin,
-                        dir: d,
+                        dir: target - origin,
                         tnear: 0.0,
-                        tfar,
-                    }));
+                        tfar: 1.0 - ray_epsilon(target) / ls.dist,
+                    }
+                } else {
+                    Ray::new(origin, ls.wi)
+                };
+                if shadow.tfar > 0.0 {
+                    shadow_rays.push(ShadowRay::new(shadow));
                     pending.push(PendingLight {
                         path: index,
                         radiance: path.beta * f * ls.radiance * (weight / light_pdf),

@@ -52,6 +52,7 @@ fn floor_radiance(light: &Pls, mode: BrightnessMode, target: Vec3, spp: u32) -> 
             .unwrap()
             .into(),
         film: Default::default(),
+        environment: None,
         settings: RenderSettings {
             spp,
             max_depth: 1,
@@ -174,6 +175,7 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
         point_lights: vec![],
         camera: camera.clone().into(),
         film: Default::default(),
+        environment: None,
         settings: RenderSettings {
             spp: 16,
             max_depth: 1,

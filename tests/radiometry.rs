@@ -75,6 +75,7 @@ fn white_furnace() {
         .unwrap()
         .into(),
         film: Default::default(),
+        environment: None,
         settings: RenderSettings {
             spp: 64,
             max_depth: 16,
@@ -164,6 +165,7 @@ fn closed_form_irradiance_under_a_rectangular_emitter() {
             point_lights: vec![],
             camera: camera.into(),
             film: Default::default(),
+            environment: None,
             settings: RenderSettings {
                 spp: 2048,
                 max_depth: 1,
@@ -229,6 +231,7 @@ fn point_light_inverse_square_law() {
             }],
             camera: camera.into(),
             film: Default::default(),
+            environment: None,
             settings: RenderSettings {
                 spp: 4,
                 max_depth: 1,

@@ -6,7 +6,8 @@
 //!   point `p` and returns a [`LightSample`]: the incident radiance `radiance`
 //!   arriving at `p` along `wi` (for a delta light, the irradiance-producing
 //!   quantity `I / r²`), the unit direction `wi` *from `p` towards the light*,
-//!   the distance to the sampled point, and the density `pdf` **separately**,
+//!   the distance to the sampled point (`∞` for the environment), and the
+//!   density `pdf` **separately**,
 //!   in solid angle measure at `p` (for a delta light, `pdf = 1` and
 //!   `delta = true`). A sample that cannot contribute (back side of a one-sided
 //!   emitter, zero area) is `None`, never a zero pdf.
@@ -26,10 +27,12 @@
 //! probability returned with the pick ([`LightSet::pick`]) and uses
 //! [`LightSet::pick_pmf`] for MIS.
 
+mod envmap;
 mod point;
 mod reach;
 mod triangle;
 
+pub use envmap::EnvironmentLight;
 pub use point::PointLight;
 pub use reach::Reach;
 pub use triangle::{Cone, TriangleLight};
@@ -45,6 +48,15 @@ pub enum Light {
     Point(PointLight),
     /// One triangle of an emissive mesh (an area light).
     Triangle(TriangleLight),
+    /// An environment at infinity (HDR panorama or constant sky); its
+    /// selection power uses `scene_radius`, the radius of the scene's
+    /// bounding sphere.
+    Environment {
+        /// The emitter.
+        light: Box<EnvironmentLight>,
+        /// Radius of the scene's bounding sphere (scene units).
+        scene_radius: f32,
+    },
 }
 
 /// A point on a light sampled from a shading point.
@@ -76,6 +88,7 @@ impl Light {
         match self {
             Light::Point(l) => l.sample_li(p),
             Light::Triangle(l) => l.sample_li(p, u),
+            Light::Environment { light, .. } => light.sample_li(u),
         }
     }
 
@@ -86,6 +99,7 @@ impl Light {
         match self {
             Light::Point(_) => 0.0,
             Light::Triangle(l) => l.pdf_li(p, x, wi),
+            Light::Environment { light, .. } => light.pdf(wi),
         }
     }
 
@@ -94,6 +108,10 @@ impl Light {
         match self {
             Light::Point(l) => l.power(),
             Light::Triangle(l) => l.power(),
+            Light::Environment {
+                light,
+                scene_radius,
+            } => light.power(*scene_radius),
         }
     }
 }

@@ -20,7 +20,7 @@ use crate::color::{MAX_TEMPERATURE_K, MIN_TEMPERATURE_K};
 use crate::error::{Error, Result};
 use crate::film::{CameraExposure, FilmSettings};
 use crate::filter::{GaussianFilter, PixelFilter, DEFAULT_GAUSSIAN_RADIUS, DEFAULT_GAUSSIAN_SIGMA};
-use crate::light::PointLight;
+use crate::light::{EnvironmentLight, PointLight};
 use crate::texture::{self, Encoding, ImageTexture};
 use glam::{Mat4, Quat, Vec2, Vec3};
 use serde::Deserialize;
@@ -45,6 +45,7 @@ struct SceneFile {
     camera: CameraSection,
     #[serde(default)]
     film: FilmSection,
+    environment: Option<EnvironmentSection>,
     #[serde(default)]
     materials: Vec<MaterialSection>,
     #[serde(default)]
@@ -109,6 +110,16 @@ struct FilmSection {
 
 fn pinhole() -> String {
     "pinhole".into()
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct EnvironmentSection {
+    file: Option<PathBuf>,
+    radiance: Option<[f32; 3]>,
+    up: Option<[f32; 3]>,
+    forward: Option<[f32; 3]>,
+    scale: Option<f32>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -813,14 +824,93 @@ impl Builder<'_> {
             self.pls(i, section, &mut materials, &mut meshes)?;
         }
 
+        let environment = match &f.environment {
+            Some(e) => Some(self.environment(e)?),
+            None => None,
+        };
+
         Ok(SceneDescription {
             meshes,
             materials,
             point_lights,
+            environment,
             camera,
             film,
             settings,
         })
+    }
+
+    /// The `[environment]`: an equirectangular image (`file`, EXR or
+    /// Radiance HDR) oriented by `up` and `forward`, or a constant
+    /// `radiance`; times `scale`.
+    fn environment(&self, e: &EnvironmentSection) -> Result<EnvironmentLight> {
+        let scale = self.finite("environment.scale", e.scale.unwrap_or(1.0))?;
+        if scale < 0.0 {
+            return Err(self.err(
+                "environment.scale",
+                format!("must not be negative, got {scale}"),
+            ));
+        }
+        match (&e.file, e.radiance) {
+            (Some(_), Some(_)) => Err(self.err(
+                "environment.radiance",
+                "give either file or radiance, not both",
+            )),
+            (None, None) => Err(self.err(
+                "environment.file",
+                "give an image file or a constant radiance",
+            )),
+            (None, Some(r)) => {
+                for (k, present) in [("up", e.up.is_some()), ("forward", e.forward.is_some())] {
+                    if present {
+                        return Err(
+                            self.err(format!("environment.{k}"), "only used with an image file")
+                        );
+                    }
+                }
+                Ok(EnvironmentLight::constant(
+                    self.colour("environment.radiance", r, None)? * scale,
+                ))
+            }
+            (Some(rel), None) => {
+                let up = e.up.ok_or_else(|| {
+                    self.err(
+                        "environment.up",
+                        "required with an image file: the world direction of its top row",
+                    )
+                })?;
+                let forward = e.forward.ok_or_else(|| {
+                    self.err(
+                        "environment.forward",
+                        "required with an image file: the world direction of its centre column",
+                    )
+                })?;
+                let up = self.vec3("environment.up", up)?;
+                let forward = self.vec3("environment.forward", forward)?;
+                let frame = crate::equirect::SphereFrame::new(up, forward).ok_or_else(|| {
+                    self.err("environment.forward", "must not be zero or parallel to up")
+                })?;
+                let path = self.base.join(rel);
+                let (w, h, texels) =
+                    load_environment_image(&path).map_err(|m| self.err("environment.file", m))?;
+                if let Some(i) = texels
+                    .iter()
+                    .position(|t| !t.is_finite() || t.min_element() < 0.0)
+                {
+                    return Err(self.err(
+                        "environment.file",
+                        format!(
+                            "{}: texel ({}, {}) is {}: radiance must be finite and not negative",
+                            path.display(),
+                            i % w as usize,
+                            i / w as usize,
+                            texels[i]
+                        ),
+                    ));
+                }
+                Ok(EnvironmentLight::from_image(w, h, texels, scale, frame))
+            }
+        }
     }
 
     fn settings(&self, r: &RenderSection) -> Result<RenderSettings> {
@@ -1533,6 +1623,44 @@ impl Builder<'_> {
             object_id,
         });
         Ok(())
+    }
+}
+
+/// Reads an equirectangular image of linear radiance: OpenEXR (`.exr`, its
+/// R, G, B channels) or Radiance HDR (`.hdr`). Returns width, height and
+/// texels row-major from the top row.
+fn load_environment_image(path: &Path) -> std::result::Result<(u32, u32, Vec<Vec3>), String> {
+    if !path.is_file() {
+        return Err(format!(
+            "{}: environment image not found (paths are relative to the scene file)",
+            path.display()
+        ));
+    }
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("exr") => {
+            let film = crate::film::Film::read_exr(path)
+                .map_err(|e| format!("{}: {e}", path.display()))?;
+            Ok((film.width, film.height, film.color))
+        }
+        Some("hdr") => {
+            let img = image::open(path)
+                .map_err(|e| format!("{}: cannot read Radiance HDR: {e}", path.display()))?;
+            let rgb = img.to_rgb32f();
+            let (w, h) = rgb.dimensions();
+            Ok((
+                w,
+                h,
+                rgb.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect(),
+            ))
+        }
+        _ => Err(format!(
+            "{}: unsupported environment image (use .exr or .hdr)",
+            path.display()
+        )),
     }
 }
 

@@ -13,7 +13,7 @@ use crate::accel::{Accel, Device, SceneOptions};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::film::FilmSettings;
-use crate::light::{Cone, Light, LightSet, PointLight, Reach, TriangleLight};
+use crate::light::{Cone, EnvironmentLight, Light, LightSet, PointLight, Reach, TriangleLight};
 use glam::{Vec2, Vec3};
 use std::path::Path;
 
@@ -120,6 +120,8 @@ pub struct SceneDescription {
     pub materials: Vec<Material>,
     /// Point lights.
     pub point_lights: Vec<PointLight>,
+    /// The environment at infinity, if any (HDR panorama or constant sky).
+    pub environment: Option<EnvironmentLight>,
     /// The camera.
     pub camera: Camera,
     /// Pixel filter, exposure and white balance.
@@ -139,6 +141,9 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// All lights.
     pub lights: LightSet,
+    /// Index in `lights.lights` of the environment, if any: rays that leave
+    /// the scene see it.
+    pub environment: Option<usize>,
     /// The camera.
     pub camera: Camera,
     /// Pixel filter, exposure and white balance.
@@ -165,6 +170,7 @@ impl Scene {
             meshes,
             materials,
             point_lights,
+            environment,
             camera,
             film,
             settings,
@@ -225,7 +231,27 @@ impl Scene {
                 _ => first_light.push(None),
             }
         }
-        let has_hittable_lights = first_light.iter().any(Option::is_some);
+        let environment = environment.map(|env| {
+            // The bounding sphere of the geometry sets the environment's
+            // selection power against the scene's other lights.
+            let (lo, hi) = meshes.iter().flat_map(|m| &m.positions).fold(
+                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+            );
+            let scene_radius = if lo.x <= hi.x {
+                0.5 * (hi - lo).length()
+            } else {
+                1.0
+            };
+            let index = lights.len();
+            lights.push(Light::Environment {
+                light: Box::new(env),
+                scene_radius: scene_radius.max(1e-3),
+            });
+            groups.push((index as u32..index as u32 + 1, None));
+            index
+        });
+        let has_hittable_lights = first_light.iter().any(Option::is_some) || environment.is_some();
 
         let config = std::env::var(EMBREE_CONFIG_VAR).unwrap_or_default();
         let device = Device::with_config(&config)?;
@@ -250,6 +276,7 @@ impl Scene {
             film,
             settings,
             accel,
+            environment,
             has_hittable_lights,
         })
     }
