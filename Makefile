@@ -11,7 +11,7 @@ DEB_BENCH_PACKAGES := embree-tools
 DEMO_SCENE := assets/scenes/pls-room/pls-room.toml
 OUT := out
 
-.PHONY: demo test deps bench-deps bench build fmt clippy install-deps-if-missing
+.PHONY: demo test deps bench-deps bench build fmt clippy install-deps-if-missing header install
 
 demo: deps
 	$(CARGO) build --release
@@ -42,3 +42,22 @@ fmt:
 
 clippy:
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
+
+# Regenerates the C header include/plsr.h from src/capi/ (pinned cbindgen).
+header:
+	PLSR_WRITE_HEADER=1 $(CARGO) test --test capi_header
+
+# Installs the C ABI: libplsr.so, libplsr.a, plsr.h, plsr.hpp, plsr.pc and a
+# CMake package file under PREFIX (default /usr/local).
+PREFIX ?= /usr/local
+CARGO_TARGET_DIR ?= target
+VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' Cargo.toml | head -1)
+install: deps
+	CARGO_TARGET_DIR=$(CARGO_TARGET_DIR) $(CARGO) build --release --lib
+	install -d $(DESTDIR)$(PREFIX)/lib/pkgconfig $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/lib/cmake/plsr
+	install -m 755 $(CARGO_TARGET_DIR)/release/libplsr.so $(DESTDIR)$(PREFIX)/lib/
+	install -m 644 $(CARGO_TARGET_DIR)/release/libplsr.a $(DESTDIR)$(PREFIX)/lib/
+	install -m 644 include/plsr.h include/plsr.hpp $(DESTDIR)$(PREFIX)/include/
+	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(VERSION)|' plsr.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/plsr.pc
+	sed -e 's|@VERSION@|$(VERSION)|' plsrConfig.cmake.in > $(DESTDIR)$(PREFIX)/lib/cmake/plsr/plsrConfig.cmake
+	@echo "installed plsr $(VERSION) under $(DESTDIR)$(PREFIX)"

@@ -353,8 +353,12 @@ impl SceneBuilder<'_> {
         let mut bounds = sys::RTCBounds::default();
         // SAFETY: the scene is committed; `bounds` is a valid, aligned RTCBounds.
         unsafe { sys::rtcGetSceneBounds(self.scene.0, &mut bounds) };
+        // SAFETY: the device is live (borrowed by the builder); the retained
+        // reference is released by `DeviceRef::drop`.
+        unsafe { sys::rtcRetainDevice(self.device.raw) };
         Ok(Accel {
             scene: self.scene,
+            _device: DeviceRef(self.device.raw),
             lower: Vec3::new(bounds.lower_x, bounds.lower_y, bounds.lower_z),
             upper: Vec3::new(bounds.upper_x, bounds.upper_y, bounds.upper_z),
         })
@@ -498,14 +502,31 @@ impl ShadowRay {
 
 /// A committed, immutable Embree scene answering ray queries.
 pub struct Accel {
+    // Field order is drop order: the scene is released before the device
+    // reference it was built on.
     scene: SceneHandle,
+    _device: DeviceRef,
     lower: Vec3,
     upper: Vec3,
 }
 
+/// One counted reference to an Embree device, kept by each [`Accel`] so that
+/// its device outlives it: Embree frees a device whose last reference goes
+/// inside `rtcReleaseScene` while the scene is still being torn down (an
+/// invalid read that valgrind reports), so the scene is released first.
+struct DeviceRef(sys::RTCDevice);
+
+impl Drop for DeviceRef {
+    fn drop(&mut self) {
+        // SAFETY: we own one reference, taken with rtcRetainDevice.
+        unsafe { sys::rtcReleaseDevice(self.0) };
+    }
+}
+
 // SAFETY: a committed Embree scene is immutable and Embree documents its
-// rtcIntersect*/rtcOccluded* calls as thread-safe on it; the handle is only
-// released on drop, which needs exclusive ownership.
+// rtcIntersect*/rtcOccluded* calls as thread-safe on it; the scene and device
+// handles are only released on drop, which needs exclusive ownership, and
+// Embree's reference counts are thread-safe.
 unsafe impl Send for Accel {}
 // SAFETY: as above: `&Accel` only permits queries, which are thread-safe.
 unsafe impl Sync for Accel {}

@@ -20,6 +20,7 @@ pub mod accel;
 pub mod bench;
 pub mod bsdf;
 pub mod camera;
+pub mod capi;
 pub mod chi2;
 pub mod cli;
 pub mod color;

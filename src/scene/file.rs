@@ -891,24 +891,8 @@ impl Builder<'_> {
                     self.err("environment.forward", "must not be zero or parallel to up")
                 })?;
                 let path = self.base.join(rel);
-                let (w, h, texels) =
-                    load_environment_image(&path).map_err(|m| self.err("environment.file", m))?;
-                if let Some(i) = texels
-                    .iter()
-                    .position(|t| !t.is_finite() || t.min_element() < 0.0)
-                {
-                    return Err(self.err(
-                        "environment.file",
-                        format!(
-                            "{}: texel ({}, {}) is {}: radiance must be finite and not negative",
-                            path.display(),
-                            i % w as usize,
-                            i / w as usize,
-                            texels[i]
-                        ),
-                    ));
-                }
-                Ok(EnvironmentLight::from_image(w, h, texels, scale, frame))
+                checked_environment(&path, frame, scale)
+                    .map_err(|m| self.err("environment.file", m))
             }
         }
     }
@@ -1624,6 +1608,38 @@ impl Builder<'_> {
         });
         Ok(())
     }
+}
+
+/// Loads an equirectangular environment image (`.exr` or `.hdr`, linear
+/// radiance, finite and ≥ 0) oriented by `frame`, times `scale`; errors name
+/// the file.
+pub fn load_environment(
+    path: &Path,
+    frame: crate::equirect::SphereFrame,
+    scale: f32,
+) -> Result<EnvironmentLight> {
+    checked_environment(path, frame, scale).map_err(|m| Error::input(path, "", m))
+}
+
+fn checked_environment(
+    path: &Path,
+    frame: crate::equirect::SphereFrame,
+    scale: f32,
+) -> std::result::Result<EnvironmentLight, String> {
+    let (w, h, texels) = load_environment_image(path)?;
+    if let Some(i) = texels
+        .iter()
+        .position(|t| !t.is_finite() || t.min_element() < 0.0)
+    {
+        return Err(format!(
+            "{}: texel ({}, {}) is {}: radiance must be finite and not negative",
+            path.display(),
+            i % w as usize,
+            i / w as usize,
+            texels[i]
+        ));
+    }
+    Ok(EnvironmentLight::from_image(w, h, texels, scale, frame))
 }
 
 /// Reads an equirectangular image of linear radiance: OpenEXR (`.exr`, its

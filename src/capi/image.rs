@@ -1,0 +1,152 @@
+//! Rendering through the C ABI, and the rendered image.
+
+use super::{
+    boundary, free_handle, handle_ref, new_handle, path_arg, plsr_result, plsr_scene, write_out,
+    FfiError,
+};
+use crate::film::{Film, ToneMap};
+use crate::render::{render, RenderOptions};
+use std::ffi::c_void;
+use std::sync::Mutex;
+
+/// A rendered image (opaque): RGBA floats plus the film's layers.
+#[allow(non_camel_case_types)]
+pub struct plsr_image {
+    film: Film,
+    rgba: Vec<f32>,
+}
+
+/// Progress callback: `done` of `total` tiles are finished. Return `true` to
+/// go on, `false` to cancel the render (it then fails with
+/// `PLSR_ERR_CANCELLED`). Called from the rendering threads, never two
+/// calls at a time.
+#[allow(non_camel_case_types)]
+pub type plsr_progress_fn =
+    Option<extern "C" fn(user_data: *mut c_void, done: u32, total: u32) -> bool>;
+
+/// The host's user data, handed back to its callback.
+struct UserData(*mut c_void);
+// SAFETY: the pointer is only passed back to the host's callback, whose calls
+// are serialised by a mutex; the host documents what it points to as usable
+// from the rendering threads (the API's contract).
+unsafe impl Send for UserData {}
+// SAFETY: as above.
+unsafe impl Sync for UserData {}
+
+/// Renders `scene` with `threads` worker threads (0: all cores) into
+/// `*out`. `progress` may be `NULL`. The same scene, seed and spp give the
+/// same image whatever the thread count.
+#[no_mangle]
+pub extern "C" fn plsr_render(
+    scene: *const plsr_scene,
+    threads: u32,
+    progress: plsr_progress_fn,
+    user_data: *mut c_void,
+    out: *mut *mut plsr_image,
+) -> plsr_result {
+    boundary(|| {
+        let s = handle_ref(scene, "scene")?;
+        if out.is_null() {
+            return Err(FfiError::null("out"));
+        }
+        let options = RenderOptions {
+            threads: (threads > 0).then_some(threads as usize),
+            ..Default::default()
+        };
+        let user = Mutex::new(UserData(user_data));
+        let callback = |done: usize, total: usize| -> bool {
+            match progress {
+                None => true,
+                Some(f) => {
+                    let guard = user.lock().unwrap_or_else(|p| p.into_inner());
+                    f(guard.0, done as u32, total as u32)
+                }
+            }
+        };
+        let (film, _) = render(&s.scene, &options, &callback)?;
+        let rgba = film
+            .color
+            .iter()
+            .zip(&film.alpha)
+            .flat_map(|(c, a)| [c.x, c.y, c.z, *a])
+            .collect();
+        write_out(out, new_handle(plsr_image { film, rgba }), "out")
+    })
+}
+
+/// Width and height of an image, pixels.
+#[no_mangle]
+pub extern "C" fn plsr_image_size(
+    image: *const plsr_image,
+    width: *mut u32,
+    height: *mut u32,
+) -> plsr_result {
+    boundary(|| {
+        let img = handle_ref(image, "image")?;
+        if width.is_null() || height.is_null() {
+            return Err(FfiError::null(if width.is_null() {
+                "width"
+            } else {
+                "height"
+            }));
+        }
+        write_out(width, img.film.width, "width")?;
+        write_out(height, img.film.height, "height")
+    })
+}
+
+/// The image's pixels: `width·height·4` floats, linear RGB radiance and
+/// coverage alpha, row-major from the top row. Owned by the image, valid
+/// until `plsr_image_free`; `NULL` if `image` is not a live image.
+#[no_mangle]
+pub extern "C" fn plsr_image_rgba(image: *const plsr_image) -> *const f32 {
+    let mut ptr = std::ptr::null();
+    let _ = boundary(|| {
+        ptr = handle_ref(image, "image")?.rgba.as_ptr();
+        Ok(())
+    });
+    ptr
+}
+
+/// Writes the image as OpenEXR (RGBA plus the layers: variance, albedo,
+/// normal, depth, object id), through a temporary file then a rename.
+#[no_mangle]
+pub extern "C" fn plsr_image_save_exr(
+    image: *const plsr_image,
+    path: *const std::ffi::c_char,
+) -> plsr_result {
+    boundary(|| {
+        let img = handle_ref(image, "image")?;
+        let path = path_arg(path, "path")?;
+        Ok(img.film.write_exr(&path)?)
+    })
+}
+
+/// Writes the image as an 8-bit sRGB PNG after an exposure of `exposure_ev`
+/// stops (0: none), clamped; `filmic` non-zero uses the filmic curve.
+#[no_mangle]
+pub extern "C" fn plsr_image_save_png(
+    image: *const plsr_image,
+    path: *const std::ffi::c_char,
+    exposure_ev: f32,
+    filmic: u32,
+) -> plsr_result {
+    boundary(|| {
+        let img = handle_ref(image, "image")?;
+        let path = path_arg(path, "path")?;
+        if !exposure_ev.is_finite() {
+            return Err(FfiError::invalid("`exposure_ev` is not finite"));
+        }
+        let tone = ToneMap {
+            exposure: exposure_ev,
+            filmic: filmic != 0,
+        };
+        Ok(img.film.write_png(&path, tone)?)
+    })
+}
+
+/// Releases an image; `NULL` is a no-op.
+#[no_mangle]
+pub extern "C" fn plsr_image_free(image: *mut plsr_image) -> plsr_result {
+    boundary(|| free_handle(image, "image"))
+}

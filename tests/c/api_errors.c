@@ -1,0 +1,171 @@
+/* Calls every function of the C API with NULL and invalid arguments and
+ * checks the result codes and messages. Exit status 0 on success; on
+ * failure prints what went wrong. Built and run by tests/capi.rs. */
+#include "plsr.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int failures = 0;
+
+/* Whether `message` contains `fragment` (NULL: anything goes). */
+static int mentions(const char *message, const char *fragment) {
+    return fragment == NULL || strstr(message, fragment) != NULL;
+}
+
+#define EXPECT(call, code, fragment)                                              \
+    do {                                                                          \
+        plsr_result r_ = (call);                                                  \
+        const char *m_ = plsr_last_error();                                       \
+        if (r_ != (code) || !mentions(m_, fragment)) {                            \
+            fprintf(stderr, "%s:%d: %s -> %u (want %u), message \"%s\" (want \"%s\")\n", \
+                    __FILE__, __LINE__, #call, (unsigned)r_, (unsigned)(code), m_, \
+                    fragment ? fragment : "");                                    \
+            failures++;                                                           \
+        }                                                                         \
+    } while (0)
+
+static plsr_pls_params good_light(void) {
+    plsr_pls_params l;
+    memset(&l, 0, sizeof l);
+    l.n[2] = -1.0f;
+    l.e1[0] = -0.01f; l.e1[2] = 1.0f;
+    l.e2[0] = 0.01f;  l.e2[2] = 1.0f;
+    l.alpha1 = 0.0f; l.alpha2 = 1.0f;
+    l.d[1] = 0.01f; l.d[2] = 0.01f;
+    l.a_deg = 20.0f;
+    l.c[0] = l.c[1] = l.c[2] = 1.0f;
+    l.b = 1.0f;
+    return l;
+}
+
+int main(int argc, char **argv) {
+    const char *tmp = argc > 1 ? argv[1] : "/tmp";
+    char path[4096];
+
+    if (strlen(plsr_version()) == 0) { fprintf(stderr, "empty version\n"); failures++; }
+
+    /* NULL everywhere a pointer is required. */
+    EXPECT(plsr_scene_load(NULL, NULL), PLSR_ERR_NULL_ARGUMENT, "NULL");
+    plsr_scene *scene = NULL;
+    EXPECT(plsr_scene_load(NULL, &scene), PLSR_ERR_NULL_ARGUMENT, "path");
+    EXPECT(plsr_scene_builder_new(NULL), PLSR_ERR_NULL_ARGUMENT, "out");
+    EXPECT(plsr_render(NULL, 0, NULL, NULL, NULL), PLSR_ERR_NULL_ARGUMENT, "scene");
+    EXPECT(plsr_image_size(NULL, NULL, NULL), PLSR_ERR_NULL_ARGUMENT, "image");
+    EXPECT(plsr_image_save_exr(NULL, "x.exr"), PLSR_ERR_NULL_ARGUMENT, "image");
+    EXPECT(plsr_image_save_png(NULL, "x.png", 0.0f, 0), PLSR_ERR_NULL_ARGUMENT, "image");
+    if (plsr_image_rgba(NULL) != NULL) { fprintf(stderr, "rgba(NULL) not NULL\n"); failures++; }
+    EXPECT(plsr_pls_validate(NULL), PLSR_ERR_NULL_ARGUMENT, "params");
+    EXPECT(plsr_pls_transform(NULL, NULL, NULL), PLSR_ERR_NULL_ARGUMENT, "params");
+    EXPECT(plsr_pls_tessellate(NULL, 8, NULL, 0, NULL, 0, NULL, NULL), PLSR_ERR_NULL_ARGUMENT, "params");
+    EXPECT(plsr_scene_resolution(NULL, NULL, NULL), PLSR_ERR_NULL_ARGUMENT, "scene");
+    EXPECT(plsr_scene_builder_build(NULL, NULL), PLSR_ERR_NULL_ARGUMENT, "builder");
+    /* Freeing NULL is a no-op. */
+    EXPECT(plsr_scene_free(NULL), PLSR_OK, NULL);
+    EXPECT(plsr_scene_builder_free(NULL), PLSR_OK, NULL);
+    EXPECT(plsr_image_free(NULL), PLSR_OK, NULL);
+
+    /* Bad files: missing, not UTF-8, malformed. */
+    snprintf(path, sizeof path, "%s/missing.toml", tmp);
+    EXPECT(plsr_scene_load(path, &scene), PLSR_ERR_IO, "missing.toml");
+    const char bad_utf8[] = {'/', 't', (char)0xff, 'x', 0};
+    EXPECT(plsr_scene_load(bad_utf8, &scene), PLSR_ERR_INVALID_ARGUMENT, "UTF-8");
+    snprintf(path, sizeof path, "%s/bad.toml", tmp);
+    FILE *f = fopen(path, "w");
+    fputs("[render]\nspp = -1\n[camera]\nposition = [0, -3, 0]\nlook_at = [0, 0, 0]\n"
+          "up = [0, 0, 1]\nvfov = 40\nresolution = [4, 4]\n", f);
+    fclose(f);
+    EXPECT(plsr_scene_load(path, &scene), PLSR_ERR_INPUT, "render.spp");
+    if (scene != NULL) { fprintf(stderr, "out written on failure\n"); failures++; }
+
+    /* Builder: invalid arguments. */
+    plsr_scene_builder *b = NULL;
+    EXPECT(plsr_scene_builder_new(&b), PLSR_OK, NULL);
+    const float red[3] = {0.8f, 0.1f, 0.1f}, too_bright[3] = {1.5f, 0.0f, 0.0f};
+    uint32_t m = 99;
+    EXPECT(plsr_scene_builder_add_diffuse(b, NULL, red, &m), PLSR_ERR_NULL_ARGUMENT, "name");
+    EXPECT(plsr_scene_builder_add_diffuse(b, "red", NULL, &m), PLSR_ERR_NULL_ARGUMENT, "reflectance");
+    EXPECT(plsr_scene_builder_add_diffuse(b, "red", too_bright, &m), PLSR_ERR_INVALID_ARGUMENT, "reflectance");
+    EXPECT(plsr_scene_builder_add_diffuse(b, "red", red, &m), PLSR_OK, NULL);
+    if (m != 0) { fprintf(stderr, "material index %u\n", m); failures++; }
+    EXPECT(plsr_scene_builder_add_diffuse(b, "red", red, &m), PLSR_ERR_INVALID_ARGUMENT, "duplicate");
+    plsr_principled pr = {{0.5f, 0.5f, 0.5f}, 2.0f, 0.0f, 0.0f, 0.5f, 0.0f};
+    EXPECT(plsr_scene_builder_add_principled(b, "p", &pr, NULL), PLSR_ERR_INVALID_ARGUMENT, "roughness");
+    const float tri[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    const uint32_t idx[3] = {0, 1, 2}, bad_idx[3] = {0, 1, 7};
+    EXPECT(plsr_scene_builder_add_mesh(b, NULL, 3, idx, 1, 0, NULL, NULL), PLSR_ERR_NULL_ARGUMENT, "positions");
+    EXPECT(plsr_scene_builder_add_mesh(b, tri, 3, bad_idx, 1, 0, NULL, NULL), PLSR_ERR_INVALID_ARGUMENT, "triangle 0");
+    EXPECT(plsr_scene_builder_add_mesh(b, tri, 3, idx, 1, 5, NULL, NULL), PLSR_ERR_INVALID_ARGUMENT, "material 5");
+    EXPECT(plsr_scene_builder_add_mesh(b, tri, 0, idx, 0, 0, NULL, NULL), PLSR_ERR_INVALID_ARGUMENT, "at least");
+    EXPECT(plsr_scene_builder_add_mesh(b, tri, 3, idx, 1, 0, NULL, NULL), PLSR_OK, NULL);
+    const float nan3[3] = {0.0f / 0.0f, 0, 0}, one3[3] = {1, 1, 1};
+    EXPECT(plsr_scene_builder_add_point_light(b, nan3, one3), PLSR_ERR_INVALID_ARGUMENT, "position");
+    plsr_pls_params l = good_light();
+    l.a_deg = 120.0f;
+    EXPECT(plsr_scene_builder_add_pls(b, &l, 8), PLSR_ERR_INVALID_ARGUMENT, "a");
+    const float up[3] = {0, 0, 1}, at[3] = {0, 0, 0}, eye[3] = {0, -3, 1};
+    EXPECT(plsr_scene_builder_set_environment(b, "/nonexistent/sky.exr", up, up, 1.0f), PLSR_ERR_INVALID_ARGUMENT, "parallel");
+    const float fwd[3] = {0, 1, 0};
+    EXPECT(plsr_scene_builder_set_environment(b, "/nonexistent/sky.exr", up, fwd, 1.0f), PLSR_ERR_INPUT, "not found");
+    plsr_scene *s2 = NULL;
+    EXPECT(plsr_scene_builder_build(b, &s2), PLSR_ERR_INVALID_ARGUMENT, "no camera");
+    EXPECT(plsr_scene_builder_set_camera(b, eye, eye, up, 40.0f, 8, 8), PLSR_ERR_INVALID_ARGUMENT, "camera");
+    EXPECT(plsr_scene_builder_set_camera(b, eye, at, up, 200.0f, 8, 8), PLSR_ERR_INVALID_ARGUMENT, "field of view");
+    EXPECT(plsr_scene_builder_set_camera(b, eye, at, up, 40.0f, 0, 8), PLSR_ERR_INVALID_ARGUMENT, "resolution");
+    EXPECT(plsr_scene_builder_set_render(b, 0, 4, 1), PLSR_ERR_INVALID_ARGUMENT, "spp");
+    EXPECT(plsr_scene_builder_set_camera(b, eye, at, up, 40.0f, 8, 8), PLSR_OK, NULL);
+    EXPECT(plsr_scene_builder_set_render(b, 2, 4, 1), PLSR_OK, NULL);
+    EXPECT(plsr_scene_builder_build(b, &s2), PLSR_OK, NULL);
+
+    /* Wrong handle types and freed handles. */
+    EXPECT(plsr_render((const plsr_scene *)b, 1, NULL, NULL, NULL), PLSR_ERR_INVALID_HANDLE, "another type");
+    plsr_image *img = NULL;
+    EXPECT(plsr_render(s2, 1, NULL, NULL, &img), PLSR_OK, NULL);
+    uint32_t w = 0, h = 0;
+    EXPECT(plsr_image_size(img, &w, &h), PLSR_OK, NULL);
+    if (w != 8 || h != 8 || plsr_image_rgba(img) == NULL) { fprintf(stderr, "image %ux%u\n", w, h); failures++; }
+    EXPECT(plsr_image_save_exr(img, "/nonexistent-dir/x.exr"), PLSR_ERR_IO, "nonexistent-dir");
+    EXPECT(plsr_image_save_png(img, "/nonexistent-dir/x.png", 0.0f / 0.0f, 0), PLSR_ERR_INVALID_ARGUMENT, "exposure");
+    EXPECT(plsr_image_free(img), PLSR_OK, NULL);
+    EXPECT(plsr_image_free(img), PLSR_ERR_INVALID_HANDLE, "not a live handle");
+    EXPECT(plsr_image_size(img, &w, &h), PLSR_ERR_INVALID_HANDLE, "not a live handle");
+    EXPECT(plsr_scene_free(s2), PLSR_OK, NULL);
+    EXPECT(plsr_render(s2, 1, NULL, NULL, &img), PLSR_ERR_INVALID_HANDLE, "not a live handle");
+    EXPECT(plsr_scene_builder_free(b), PLSR_OK, NULL);
+    int on_stack = 0;
+    EXPECT(plsr_scene_free((plsr_scene *)&on_stack), PLSR_ERR_INVALID_HANDLE, "not a live handle");
+
+    /* PLS on its own. */
+    l = good_light();
+    EXPECT(plsr_pls_validate(&l), PLSR_OK, NULL);
+    l.alpha1 = 0.8f; l.alpha2 = 0.2f;
+    EXPECT(plsr_pls_validate(&l), PLSR_ERR_INVALID_ARGUMENT, "alpha");
+    l = good_light();
+    const float shear[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 1, 1};
+    plsr_pls_params out;
+    EXPECT(plsr_pls_transform(&l, shear, &out), PLSR_ERR_INVALID_ARGUMENT, "affine");
+    const float move[16] = {1, 0, 0, 2, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    EXPECT(plsr_pls_transform(&l, move, &out), PLSR_OK, NULL);
+    if (out.e1[0] != l.e1[0] + 2.0f) { fprintf(stderr, "transform e1 %f\n", out.e1[0]); failures++; }
+    size_t nv = 0, nt = 0;
+    EXPECT(plsr_pls_tessellate(&l, 0, NULL, 0, NULL, 0, &nv, &nt), PLSR_ERR_INVALID_ARGUMENT, "nf");
+    EXPECT(plsr_pls_tessellate(&l, 8, NULL, 0, NULL, 0, &nv, &nt), PLSR_OK, NULL);
+    float small[3];
+    uint32_t small_i[3];
+    EXPECT(plsr_pls_tessellate(&l, 8, small, 3, small_i, 3, &nv, &nt), PLSR_ERR_INVALID_ARGUMENT, "too small");
+    float *pos = malloc(sizeof(float) * 3 * nv);
+    uint32_t *ind = malloc(sizeof(uint32_t) * 3 * nt);
+    EXPECT(plsr_pls_tessellate(&l, 8, pos, 3 * nv, ind, 3 * nt, &nv, &nt), PLSR_OK, NULL);
+    for (size_t i = 0; i < 3 * nt; ++i)
+        if (ind[i] >= nv) { fprintf(stderr, "index out of range\n"); failures++; break; }
+    free(pos);
+    free(ind);
+
+    if (failures) {
+        fprintf(stderr, "%d failure(s)\n", failures);
+        return 1;
+    }
+    printf("all C API error checks passed\n");
+    return 0;
+}
