@@ -12,6 +12,7 @@
 //! - [`scene`]: scene files and the built scene;
 //! - [`integrator`], [`render`]: the path tracer and the tile scheduler;
 //! - [`film`], [`output`]: the image with its AOVs, EXR and PNG output;
+//! - [`capi`]: the C ABI for C and C++ hosts (`include/plsr.h`);
 //! - [`bench`], [`cli`]: the `plsr` program.
 
 pub use plsr_embree_sys as sys;

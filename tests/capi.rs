@@ -320,4 +320,83 @@ fn make_install_serves_pkg_config_and_cmake_hosts() {
     run(Command::new(build.path().join("host"))
         .arg(build.path().join("out"))
         .arg("1"));
+    // And a CMake host, through the installed package file.
+    if Command::new("cmake").arg("--version").output().is_err() {
+        eprintln!("cmake is not installed: CMake host skipped (apt-get install cmake)");
+        return;
+    }
+    let cmake_build = build.path().join("cmake");
+    run(Command::new("cmake")
+        .arg("-S")
+        .arg(root().join("examples/cpp"))
+        .arg("-B")
+        .arg(&cmake_build)
+        .arg(format!("-DCMAKE_PREFIX_PATH={}", p.display())));
+    run(Command::new("cmake").arg("--build").arg(&cmake_build));
+    run(Command::new(cmake_build.join("host"))
+        .arg(build.path().join("out-cmake"))
+        .arg("1"));
+}
+
+extern "C" fn count_progress(user: *mut std::ffi::c_void, done: u32, total: u32) -> bool {
+    // SAFETY: `user` is the `Vec<(u32, u32)>` the test passes, used by one
+    // call at a time (the API serialises progress calls).
+    let seen = unsafe { &mut *(user as *mut Vec<(u32, u32)>) };
+    seen.push((done, total));
+    true
+}
+
+extern "C" fn cancel_at_once(_: *mut std::ffi::c_void, _: u32, _: u32) -> bool {
+    false
+}
+
+#[test]
+fn progress_callback_reports_every_tile_and_can_cancel() {
+    let path = CString::new(
+        root()
+            .join("assets/scenes/cornell/cornell.toml")
+            .to_str()
+            .unwrap(),
+    )
+    .unwrap();
+    let mut scene = std::ptr::null_mut();
+    assert_eq!(plsr_scene_load(path.as_ptr(), &mut scene), PLSR_OK);
+    let mut seen: Vec<(u32, u32)> = Vec::new();
+    let mut img = std::ptr::null_mut();
+    let user = &mut seen as *mut Vec<(u32, u32)> as *mut std::ffi::c_void;
+    assert_eq!(
+        plsr_render(scene, 2, Some(count_progress), user, &mut img),
+        PLSR_OK
+    );
+    let total = seen[0].1;
+    assert!(total > 1);
+    let mut done: Vec<u32> = seen
+        .iter()
+        .map(|&(d, t)| {
+            assert_eq!(t, total);
+            d
+        })
+        .collect();
+    done.sort_unstable();
+    assert_eq!(done, (1..=total).collect::<Vec<_>>());
+    assert_eq!(plsr_image_free(img), PLSR_OK);
+
+    let mut img = std::ptr::null_mut();
+    assert_eq!(
+        plsr_render(
+            scene,
+            2,
+            Some(cancel_at_once),
+            std::ptr::null_mut(),
+            &mut img
+        ),
+        PLSR_ERR_CANCELLED
+    );
+    assert!(img.is_null(), "no image on cancel");
+    // SAFETY: plsr_last_error returns a NUL-terminated string owned by the library.
+    let msg = unsafe { std::ffi::CStr::from_ptr(plsr_last_error()) }
+        .to_string_lossy()
+        .into_owned();
+    assert!(msg.contains("cancelled"), "{msg}");
+    assert_eq!(plsr_scene_free(scene), PLSR_OK);
 }
