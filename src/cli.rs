@@ -37,6 +37,65 @@ pub enum Command {
     /// (see docs/pls-format.md).
     #[command(subcommand)]
     Pls(PlsCommand),
+    /// HDR panoramas: merge bracketed exposures into one HDR image (see
+    /// docs/hdr.md).
+    #[command(subcommand)]
+    Hdr(HdrCommand),
+}
+
+/// `plsr hdr …` subcommands.
+#[derive(Debug, Subcommand)]
+pub enum HdrCommand {
+    /// Merge bracketed exposures (any order, any format OpenImageIO reads:
+    /// JPEG, PNG, TIFF 8/16-bit, EXR, HDR, camera raw) into one float or half
+    /// OpenEXR (or Radiance .hdr), recovering the camera response. Exposure
+    /// times come from EXIF (ExposureTime, with FNumber and ISO when they
+    /// differ) or from --exposures.
+    Merge(HdrMergeArgs),
+}
+
+/// Arguments of `plsr hdr merge`.
+#[derive(Debug, clap::Args)]
+pub struct HdrMergeArgs {
+    /// The bracketed images (at least two, same size).
+    #[arg(required = true, value_name = "IMG")]
+    pub images: Vec<PathBuf>,
+    /// Output: OpenEXR (.exr) or Radiance HDR (.hdr).
+    #[arg(short, long, value_name = "PANO.exr")]
+    pub output: PathBuf,
+    /// Exposure times in seconds, one per image in the order given
+    /// ("1/30,1/15,0.5,2"); default: from each image's EXIF.
+    #[arg(long, value_name = "T1,T2,…")]
+    pub exposures: Option<String>,
+    /// Camera response: recovered (debevec, robertson) or a preset (linear
+    /// for raw/linear data, srgb).
+    #[arg(long, default_value = "debevec", value_parser = ["debevec", "robertson", "linear", "srgb"])]
+    pub response: String,
+    /// Align the brackets first (translation, median threshold bitmaps).
+    #[arg(long)]
+    pub align: bool,
+    /// Write the response curve as CSV here, and its plot as PNG next to it.
+    #[arg(long, value_name = "CURVE.csv")]
+    pub curve: Option<PathBuf>,
+    /// Store half floats instead of 32-bit floats (EXR only).
+    #[arg(long)]
+    pub half: bool,
+    /// Debevec smoothness weight λ.
+    #[arg(long, default_value_t = crate::hdr::response::DEFAULT_LAMBDA)]
+    pub lambda: f64,
+    /// Debevec sample pixels (default: ≥ 100, from bit depth and bracket count).
+    #[arg(long)]
+    pub samples: Option<usize>,
+    /// OpenEXR compression (zip, piz, zips, rle, dwaa, none, …); default:
+    /// zip for --half, none for float (noisy float data barely compresses).
+    #[arg(long)]
+    pub compression: Option<String>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// No progress bar.
+    #[arg(short, long)]
+    pub quiet: bool,
 }
 
 /// `plsr pls …` subcommands.
@@ -130,10 +189,21 @@ pub struct RenderArgs {
 /// Arguments of `plsr bench`.
 #[derive(Debug, clap::Args)]
 pub struct BenchArgs {
-    /// Which benchmark: `core`, `pls` or `materials` (all-diffuse versus
-    /// all-principled Cornell box).
-    #[arg(default_value = "core", value_parser = ["core", "pls", "materials"])]
+    /// Which benchmark: `core`, `pls`, `materials` (all-diffuse versus
+    /// all-principled Cornell box) or `hdr` (merging 10 brackets at
+    /// 6720×3360, plsr against OpenCV's MergeDebevec).
+    #[arg(default_value = "core", value_parser = ["core", "pls", "materials", "hdr"])]
     pub suite: String,
+    /// Image size for `plsr bench hdr`, WIDTHxHEIGHT.
+    #[arg(long, default_value = "6720x3360")]
+    pub hdr_size: String,
+    /// Folder for the brackets of `plsr bench hdr` (kept afterwards; reused
+    /// if it already holds them). Default: a temporary folder, removed.
+    #[arg(long)]
+    pub hdr_dir: Option<PathBuf>,
+    /// Python interpreter with OpenCV for `plsr bench hdr`.
+    #[arg(long, default_value = "python3")]
+    pub python: PathBuf,
     /// The plsr scene reproducing Embree's demo configuration.
     #[arg(long, default_value = "assets/scenes/cornell/embree-demo.toml")]
     pub scene: PathBuf,
@@ -155,7 +225,7 @@ pub struct BenchArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Skip Embree's pathtracer.
+    /// Skip the peer (Embree's pathtracer; OpenCV for `hdr`).
     #[arg(long)]
     pub no_peer: bool,
 }
@@ -181,6 +251,16 @@ where
         Command::Render(a) => render_command(&a),
         Command::Bench(a) if a.suite == "pls" => crate::pls::bench::run(a.threads),
         Command::Bench(a) if a.suite == "materials" => bench::materials(a.threads).map(|_| ()),
+        Command::Bench(a) if a.suite == "hdr" => {
+            let (width, height) = parse_size(&a.hdr_size)?;
+            crate::hdr::bench::run(&crate::hdr::bench::HdrBenchOptions {
+                width,
+                height,
+                python: (!a.no_peer).then_some(a.python),
+                threads: a.threads,
+                dir: a.hdr_dir,
+            })
+        }
         Command::Bench(a) => bench::run(&BenchOptions {
             scene: a.scene,
             pathtracer: (!a.no_peer).then_some(a.pathtracer),
@@ -191,7 +271,24 @@ where
             threads: a.threads,
         }),
         Command::Pls(c) => crate::pls::cli::run(c),
+        Command::Hdr(c) => crate::hdr::cli::run(c),
     }
+}
+
+/// Parses `WIDTHxHEIGHT` (both at least 16).
+fn parse_size(s: &str) -> Result<(usize, usize)> {
+    let bad = || {
+        Error::InvalidArgument(format!(
+            "--hdr-size {s:?}: expected WIDTHxHEIGHT, e.g. 6720x3360"
+        ))
+    };
+    let (w, h) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
+    let w: usize = w.trim().parse().map_err(|_| bad())?;
+    let h: usize = h.trim().parse().map_err(|_| bad())?;
+    if w < 16 || h < 16 {
+        return Err(bad());
+    }
+    Ok((w, h))
 }
 
 fn check_output_dir(path: &Path) -> Result<()> {

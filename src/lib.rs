@@ -12,6 +12,8 @@
 //! - [`scene`]: scene files and the built scene;
 //! - [`integrator`], [`render`]: the path tracer and the tile scheduler;
 //! - [`film`], [`output`]: the image with its AOVs, EXR and PNG output;
+//! - [`hdr`]: HDR panoramas from bracketed photos (OpenImageIO shim,
+//!   response recovery, streaming merge);
 //! - [`capi`]: the C ABI for C and C++ hosts (`include/plsr.h`);
 //! - [`bench`], [`cli`]: the `plsr` program.
 
@@ -29,6 +31,7 @@ pub mod equirect;
 pub mod error;
 pub mod film;
 pub mod filter;
+pub mod hdr;
 pub mod integrator;
 pub mod light;
 pub mod material;

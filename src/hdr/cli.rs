@@ -1,0 +1,113 @@
+//! `plsr hdr merge`.
+
+use super::merge::{merge, parse_exposures, MergeOptions};
+use super::response::ResponseMethod;
+use crate::cli::{HdrCommand, HdrMergeArgs};
+use crate::error::{Error, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::cell::RefCell;
+
+/// Runs one `plsr hdr` subcommand.
+pub fn run(command: HdrCommand) -> Result<()> {
+    match command {
+        HdrCommand::Merge(a) => merge_command(&a),
+    }
+}
+
+fn merge_command(a: &HdrMergeArgs) -> Result<()> {
+    let exposures = match &a.exposures {
+        Some(s) => Some(
+            parse_exposures(s).map_err(|m| Error::InvalidArgument(format!("--exposures: {m}")))?,
+        ),
+        None => None,
+    };
+    let response: ResponseMethod = a.response.parse().map_err(Error::InvalidArgument)?;
+    if !(a.lambda.is_finite() && a.lambda >= 0.0) {
+        return Err(Error::InvalidArgument(
+            "--lambda must be a finite number ≥ 0".into(),
+        ));
+    }
+    if a.samples == Some(0) {
+        return Err(Error::InvalidArgument(
+            "--samples must be at least 1".into(),
+        ));
+    }
+    let options = MergeOptions {
+        response,
+        exposures,
+        align: a.align,
+        half: a.half,
+        lambda: a.lambda,
+        samples: a.samples,
+        curve_csv: a.curve.clone(),
+        threads: a.threads,
+        compression: a.compression.clone(),
+    };
+    let bar = if a.quiet {
+        ProgressBar::hidden()
+    } else {
+        let b = ProgressBar::new(0);
+        b.set_style(
+            ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {msg:>9} {wide_bar} {pos}/{len} (eta {eta})",
+            )
+            .expect("valid template"),
+        );
+        b
+    };
+    let phase = RefCell::new(String::new());
+    let progress = |p: &str, done: u64, total: u64| {
+        if *phase.borrow() != p {
+            *phase.borrow_mut() = p.to_string();
+            bar.set_message(p.to_string());
+            bar.reset();
+        }
+        bar.set_length(total);
+        bar.set_position(done);
+    };
+    let summary = merge(&a.images, &a.output, &options, &progress);
+    bar.finish_and_clear();
+    let s = summary?;
+    let peak = super::peak_memory_bytes()
+        .map(|b| format!("; peak memory {:.1} MiB", b as f64 / (1u64 << 20) as f64))
+        .unwrap_or_default();
+    let depth = match s.format {
+        super::oiio::PixelType::U8 => "8-bit".to_string(),
+        super::oiio::PixelType::U16 => format!("16-bit ({} significant)", s.bits),
+        _ => "float".to_string(),
+    };
+    eprintln!(
+        "merged {} brackets ({}×{}, {depth}, {}) in {:.2} s{peak} → {}",
+        s.brackets.len(),
+        s.width,
+        s.height,
+        s.curve.method,
+        s.seconds,
+        a.output.display()
+    );
+    if s.saturated_values > 0 || s.dark_values > 0 {
+        eprintln!(
+            "  {} channel value(s) clipped in every bracket (took the shortest exposure's estimate), {} dark in every bracket (took the longest's)",
+            s.saturated_values, s.dark_values
+        );
+    }
+    if a.align {
+        let shifts: Vec<String> = s
+            .brackets
+            .iter()
+            .map(|b| format!("{},{}", b.shift.0, b.shift.1))
+            .collect();
+        eprintln!(
+            "  alignment shifts (dx,dy, shortest exposure first): {}",
+            shifts.join(" ")
+        );
+    }
+    if let Some(c) = &a.curve {
+        eprintln!(
+            "  response curve → {}, {}",
+            c.display(),
+            c.with_extension("png").display()
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,36 @@
+//! HDR panoramas from bracketed exposures.
+//!
+//! - [`oiio`]: reading and writing images through OpenImageIO (C++ shim);
+//! - [`response`]: camera response curves (Debevec–Malik, Robertson, linear,
+//!   sRGB), saved as CSV and plotted as PNG;
+//! - [`merge`]: the streaming merge of brackets into one float/half EXR, with
+//!   optional median-threshold-bitmap alignment ([`align`]);
+//! - [`synth`]: synthetic HDR scenes and simulated brackets for tests and the
+//!   benchmark;
+//! - [`bench`]: `plsr bench hdr`, plsr against OpenCV's `MergeDebevec`;
+//! - [`cli`]: `plsr hdr merge`.
+//!
+//! See docs/hdr.md.
+
+pub mod align;
+pub mod bench;
+pub mod cli;
+pub mod merge;
+pub mod oiio;
+pub mod response;
+pub mod synth;
+
+/// Peak resident memory of this process so far (`VmHWM` in
+/// `/proc/self/status`), in bytes; `None` where not available (non-Linux).
+pub fn peak_memory_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line
+        .trim_start_matches("VmHWM:")
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse()
+        .ok()?;
+    Some(kib * 1024)
+}

@@ -1,0 +1,557 @@
+//! HDR merge (issue 5, items 1–4): round trips through simulated brackets,
+//! response recovery, EXIF, clipped pixels, bad input through the CLI, and
+//! OpenImageIO errors.
+
+use plsr::hdr::merge::{merge, MergeOptions, MergeSummary};
+use plsr::hdr::oiio::{self, AttrValue, ImageReader, PixelType};
+use plsr::hdr::response::ResponseMethod;
+use plsr::hdr::synth::{
+    self, BracketOptions, CameraModel, PixelKind, SyntheticScene, PAPER_EXPOSURES,
+};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const W: usize = 64;
+const H: usize = 32;
+
+fn scene() -> SyntheticScene {
+    SyntheticScene::new(W, H)
+}
+
+fn brackets(dir: &Path, camera: &CameraModel, options: &BracketOptions) -> Vec<PathBuf> {
+    synth::write_brackets(&scene(), camera, &PAPER_EXPOSURES, dir, options).unwrap()
+}
+
+fn run_merge(files: &[PathBuf], out: &Path, options: &MergeOptions) -> MergeSummary {
+    merge(files, out, options, &|_, _, _| {}).unwrap()
+}
+
+fn with(method: ResponseMethod) -> MergeOptions {
+    MergeOptions {
+        response: method,
+        ..Default::default()
+    }
+}
+
+/// Log-space RMSE bounds after the best global scale, over the pixels some
+/// bracket exposes well (8-bit brackets with noise, 10 exposures 1/30–15 s).
+const BOUND_DEBEVEC: f64 = 0.05;
+const BOUND_ROBERTSON: f64 = 0.05;
+const BOUND_LINEAR: f64 = 0.05;
+
+#[test]
+fn round_trip_debevec() {
+    let dir = tempfile::tempdir().unwrap();
+    let camera = CameraModel::default();
+    let files = brackets(dir.path(), &camera, &BracketOptions::default());
+    let out = dir.path().join("pano.exr");
+    run_merge(&files, &out, &with(ResponseMethod::Debevec));
+    let a = synth::accuracy(&out, &scene(), &camera, &PAPER_EXPOSURES).unwrap();
+    eprintln!("debevec: {a:?}");
+    assert_eq!(a.bad_values, 0);
+    assert!(a.log_rmse < BOUND_DEBEVEC, "{a:?}");
+}
+
+#[test]
+fn round_trip_robertson() {
+    let dir = tempfile::tempdir().unwrap();
+    let camera = CameraModel::default();
+    let files = brackets(dir.path(), &camera, &BracketOptions::default());
+    let out = dir.path().join("pano.exr");
+    run_merge(&files, &out, &with(ResponseMethod::Robertson));
+    let a = synth::accuracy(&out, &scene(), &camera, &PAPER_EXPOSURES).unwrap();
+    eprintln!("robertson: {a:?}");
+    assert_eq!(a.bad_values, 0);
+    assert!(a.log_rmse < BOUND_ROBERTSON, "{a:?}");
+}
+
+#[test]
+fn round_trip_linear_camera() {
+    let dir = tempfile::tempdir().unwrap();
+    let camera = CameraModel::linear();
+    let files = brackets(dir.path(), &camera, &BracketOptions::default());
+    let out = dir.path().join("pano.exr");
+    run_merge(&files, &out, &with(ResponseMethod::Linear));
+    let a = synth::accuracy(&out, &scene(), &camera, &PAPER_EXPOSURES).unwrap();
+    eprintln!("linear: {a:?}");
+    assert_eq!(a.bad_values, 0);
+    assert!(a.log_rmse < BOUND_LINEAR, "{a:?}");
+    // The linear preset on a linear camera also gets the absolute scale.
+    assert!((a.scale - 1.0).abs() < 0.05, "{a:?}");
+}
+
+#[test]
+fn round_trip_16_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let camera = CameraModel {
+        bits: 16,
+        ..CameraModel::default()
+    };
+    let files = brackets(dir.path(), &camera, &BracketOptions::default());
+    assert_eq!(
+        ImageReader::open(&files[0]).unwrap().info().format,
+        PixelType::U16
+    );
+    let out = dir.path().join("pano.exr");
+    let s = run_merge(&files, &out, &with(ResponseMethod::Debevec));
+    assert_eq!(s.curve.levels(), plsr::hdr::response::BINNED_LEVELS);
+    let a = synth::accuracy(&out, &scene(), &camera, &PAPER_EXPOSURES).unwrap();
+    eprintln!("16-bit debevec: {a:?}");
+    assert!(a.log_rmse < BOUND_DEBEVEC, "{a:?}");
+}
+
+#[test]
+fn float_brackets_merge_with_the_linear_preset() {
+    // Float (EXR) brackets of a linear camera, normalised so 1.0 clips.
+    let dir = tempfile::tempdir().unwrap();
+    let camera = CameraModel {
+        bits: 16,
+        ..CameraModel::linear()
+    };
+    let files16 = brackets(dir.path(), &camera, &BracketOptions::default());
+    let mut files = Vec::new();
+    for (i, f) in files16.iter().enumerate() {
+        let (info, data) = oiio::read_image_f32(f).unwrap();
+        let p = dir.path().join(format!("float_{i}.exr"));
+        let attrs = vec![(
+            "ExposureTime".to_string(),
+            AttrValue::Float(PAPER_EXPOSURES[i] as f32),
+        )];
+        oiio::write_image(
+            &p,
+            info.width,
+            info.height,
+            3,
+            PixelType::Half,
+            &attrs,
+            &data,
+        )
+        .unwrap();
+        files.push(p);
+    }
+    let out = dir.path().join("pano.exr");
+    run_merge(&files, &out, &with(ResponseMethod::Linear));
+    let a = synth::accuracy(&out, &scene(), &camera, &PAPER_EXPOSURES).unwrap();
+    eprintln!("float linear: {a:?}");
+    assert_eq!(a.bad_values, 0);
+    assert!(a.log_rmse < BOUND_LINEAR, "{a:?}");
+}
+
+#[test]
+fn recovered_debevec_curve_matches_the_true_curve() {
+    let dir = tempfile::tempdir().unwrap();
+    let camera = CameraModel::default();
+    let files = brackets(dir.path(), &camera, &BracketOptions::default());
+    let out = dir.path().join("pano.exr");
+    let s = run_merge(&files, &out, &with(ResponseMethod::Debevec));
+    // ln I(z) − ln f⁻¹(z) should be constant over the well-exposed range.
+    let tolerance = 0.05;
+    for c in 0..3 {
+        let d: Vec<f64> = (13..=242)
+            .map(|z| {
+                let v = z as f32 / 255.0;
+                (s.curve.inverse[c][z] as f64).ln() - (camera.inverse_response(v) as f64).ln()
+            })
+            .collect();
+        let mean = d.iter().sum::<f64>() / d.len() as f64;
+        let rms = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / d.len() as f64).sqrt();
+        let max = d.iter().map(|x| (x - mean).abs()).fold(0.0, f64::max);
+        eprintln!("channel {c}: log RMS {rms:.4}, max {max:.4}");
+        assert!(rms < tolerance, "channel {c}: log-RMS {rms}");
+    }
+}
+
+#[test]
+fn exif_exposures_give_the_same_result_as_explicit_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let camera = CameraModel::default();
+    let mut files = brackets(dir.path(), &camera, &BracketOptions::default());
+    let a = dir.path().join("exif.exr");
+    let b = dir.path().join("explicit.exr");
+    run_merge(&files, &a, &with(ResponseMethod::Debevec));
+    // Explicit times, and the brackets in another order.
+    files.reverse();
+    let mut times = PAPER_EXPOSURES.to_vec();
+    times.reverse();
+    run_merge(
+        &files,
+        &b,
+        &MergeOptions {
+            exposures: Some(times),
+            ..with(ResponseMethod::Debevec)
+        },
+    );
+    let (_, da) = oiio::read_image_f32(&a).unwrap();
+    let (_, db) = oiio::read_image_f32(&b).unwrap();
+    let worst = da
+        .iter()
+        .zip(&db)
+        .map(|(x, y)| ((x - y) / x.abs().max(1e-12)).abs())
+        .fold(0f32, f32::max);
+    assert!(worst < 1e-5, "relative difference {worst}");
+    // The header records the exposure times and the curve.
+    let r = ImageReader::open(&a).unwrap();
+    let times = r.string_attribute("plsr:exposure_times").unwrap();
+    assert_eq!(times.split(' ').count(), 10);
+    assert!(times.starts_with("0.0333"), "{times}");
+    assert_eq!(
+        r.string_attribute("plsr:response").as_deref(),
+        Some("debevec")
+    );
+    let curve = r.string_attribute("plsr:response_curve").unwrap();
+    assert_eq!(curve.lines().count(), 3);
+    assert_eq!(curve.lines().next().unwrap().split(' ').count(), 256);
+}
+
+#[test]
+fn f_number_and_iso_enter_the_relative_exposure() {
+    // Same exposure time everywhere; brightness varies by aperture and ISO.
+    // JPEG, because OpenImageIO 2.4 writes no ISO into TIFF's EXIF (and
+    // 0.3 s, because it writes 0.25 s into JPEG's EXIF as infinity).
+    let dir = tempfile::tempdir().unwrap();
+    let camera = CameraModel::default();
+    let times = [0.3; 5];
+    let f_numbers = vec![8.0, 4.0, 4.0, 2.0, 2.0];
+    let isos = vec![100.0, 100.0, 400.0, 400.0, 1600.0];
+    let files = synth::write_brackets(
+        &scene(),
+        &camera,
+        &times,
+        dir.path(),
+        &BracketOptions {
+            extension: "jpg".into(),
+            f_numbers,
+            isos,
+            attributes: vec![("CompressionQuality".into(), AttrValue::Int(100))],
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let r = ImageReader::open(&files[2]).unwrap();
+    assert_eq!(r.exif().iso, Some(400.0), "{:?}", r.exif());
+    assert_eq!(r.exif().f_number, Some(4.0), "{:?}", r.exif());
+    let out = dir.path().join("pano.exr");
+    // Any order.
+    let shuffled = vec![
+        files[3].clone(),
+        files[0].clone(),
+        files[4].clone(),
+        files[2].clone(),
+        files[1].clone(),
+    ];
+    let s = run_merge(&shuffled, &out, &with(ResponseMethod::Debevec));
+    // Relative to the first image given (f/2, ISO 400): 0.3 s × (2/N)² × ISO/400.
+    let k: Vec<f64> = s.brackets.iter().map(|b| b.relative_exposure).collect();
+    let want = [0.3, 1.2, 4.8, 19.2, 76.8];
+    for (a, b) in k.iter().zip(want) {
+        assert!((a / (b / 64.0) - 1.0).abs() < 1e-3, "{k:?}");
+    }
+    let a = synth::accuracy(&out, &scene(), &camera, &want).unwrap();
+    eprintln!("f-number/ISO (JPEG): {a:?}");
+    assert!(a.log_rmse < 2.0 * BOUND_DEBEVEC, "{a:?}");
+}
+
+#[test]
+fn saturated_and_dark_pixels_are_finite_and_ordered() {
+    let dir = tempfile::tempdir().unwrap();
+    for (method, camera) in [
+        (ResponseMethod::Debevec, CameraModel::default()),
+        (ResponseMethod::Robertson, CameraModel::default()),
+        (ResponseMethod::Srgb, CameraModel::default()),
+        (ResponseMethod::Linear, CameraModel::linear()),
+    ] {
+        let sub = dir.path().join(method.to_string());
+        std::fs::create_dir_all(&sub).unwrap();
+        let files = brackets(&sub, &camera, &BracketOptions::default());
+        let out = sub.join("pano.exr");
+        let s = run_merge(&files, &out, &with(method));
+        assert!(s.saturated_values > 0 && s.dark_values > 0, "{method}");
+        let (_, data) = oiio::read_image_f32(&out).unwrap();
+        assert!(data.iter().all(|v| v.is_finite() && *v > 0.0), "{method}");
+        let sc = scene();
+        // Per channel: suns are at least as bright as anything else (pixels
+        // of the gradient clipped everywhere share their value), dark spots
+        // at most as bright as anything else.
+        for c in 0..3 {
+            let (mut sun_min, mut dark_max) = (f32::INFINITY, 0f32);
+            let (mut grad_min, mut grad_max) = (f32::INFINITY, 0f32);
+            for y in 0..H {
+                for x in 0..W {
+                    let v = data[(y * W + x) * 3 + c];
+                    match sc.kind(x, y) {
+                        PixelKind::Sun => sun_min = sun_min.min(v),
+                        PixelKind::Dark => dark_max = dark_max.max(v),
+                        PixelKind::Gradient => {
+                            grad_min = grad_min.min(v);
+                            grad_max = grad_max.max(v);
+                        }
+                    }
+                }
+            }
+            eprintln!(
+                "{method} channel {c}: dark ≤ {dark_max}, gradient {grad_min}…{grad_max}, sun ≥ {sun_min}"
+            );
+            assert!(sun_min.is_finite(), "{method}: no sun pixels?");
+            assert!(
+                sun_min >= grad_max,
+                "{method}: dark sun: {sun_min} < {grad_max}"
+            );
+            assert!(
+                dark_max <= grad_min,
+                "{method}: bright hole: {dark_max} > {grad_min}"
+            );
+            assert!(dark_max > 0.0);
+        }
+    }
+}
+
+#[test]
+fn alignment_recovers_camera_shake() {
+    let dir = tempfile::tempdir().unwrap();
+    let camera = CameraModel::default();
+    let sc = SyntheticScene::textured(256, 128);
+    let shake = vec![
+        (2, -1),
+        (0, 0),
+        (1, 1),
+        (-2, 0),
+        (0, 2),
+        (0, 0),
+        (3, -2),
+        (-1, -1),
+        (0, 1),
+        (2, 2),
+    ];
+    let files = synth::write_brackets(
+        &sc,
+        &camera,
+        &PAPER_EXPOSURES,
+        dir.path(),
+        &BracketOptions {
+            shifts: shake.clone(),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let aligned = dir.path().join("aligned.exr");
+    let s = run_merge(
+        &files,
+        &aligned,
+        &MergeOptions {
+            align: true,
+            ..with(ResponseMethod::Debevec)
+        },
+    );
+    let found: Vec<(i32, i32)> = s.brackets.iter().map(|b| b.shift).collect();
+    eprintln!("shake {shake:?}\nfound {found:?}");
+    // The reference is the middle bracket (no shake); the others are undone.
+    for (i, (f, t)) in found.iter().zip(&shake).enumerate() {
+        assert_eq!(*f, (-t.0, -t.1), "bracket {i}: {found:?}");
+    }
+    let plain = dir.path().join("plain.exr");
+    run_merge(&files, &plain, &with(ResponseMethod::Debevec));
+    let a = synth::accuracy(&aligned, &sc, &camera, &PAPER_EXPOSURES).unwrap();
+    let b = synth::accuracy(&plain, &sc, &camera, &PAPER_EXPOSURES).unwrap();
+    eprintln!("aligned {a:?}\nunaligned {b:?}");
+    assert!(
+        a.log_rmse < 0.5 * b.log_rmse,
+        "aligned {a:?}, unaligned {b:?}"
+    );
+}
+
+// ---- The command-line program -------------------------------------------
+
+fn plsr(args: &[&std::ffi::OsStr]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// Runs `plsr hdr merge ARGS -o dir/out.exr` and checks: exit status 1, no
+/// panic, no output or partial file left; returns stderr.
+fn expect_merge_error(dir: &Path, files: &[PathBuf], extra: &[&str]) -> String {
+    let out = dir.join("out.exr");
+    let mut args: Vec<&std::ffi::OsStr> = vec!["hdr".as_ref(), "merge".as_ref()];
+    args.extend(files.iter().map(|f| f.as_os_str()));
+    args.extend(["-o".as_ref(), out.as_os_str(), "--quiet".as_ref()]);
+    args.extend(extra.iter().map(std::ffi::OsStr::new));
+    let output = plsr(&args);
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert_eq!(output.status.code(), Some(1), "stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!out.exists(), "an output was written");
+    let leftovers: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("partial") || n.starts_with("out"))
+        .collect();
+    assert!(leftovers.is_empty(), "left behind: {leftovers:?}");
+    stderr
+}
+
+fn small_brackets(dir: &Path, n: usize, exif: bool) -> Vec<PathBuf> {
+    synth::write_brackets(
+        &SyntheticScene::new(16, 8),
+        &CameraModel::default(),
+        &PAPER_EXPOSURES[..n],
+        dir,
+        &BracketOptions {
+            exif,
+            ..Default::default()
+        },
+    )
+    .unwrap()
+}
+
+#[test]
+fn cli_merges_and_writes_the_curve() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = small_brackets(dir.path(), 4, true);
+    let out = dir.path().join("pano.exr");
+    let curve = dir.path().join("curve.csv");
+    let mut args: Vec<&std::ffi::OsStr> = vec!["hdr".as_ref(), "merge".as_ref()];
+    args.extend(files.iter().map(|f| f.as_os_str()));
+    args.extend([
+        "-o".as_ref(),
+        out.as_os_str(),
+        "--curve".as_ref(),
+        curve.as_os_str(),
+        "--half".as_ref(),
+        "--quiet".as_ref(),
+    ]);
+    let output = plsr(&args);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(stderr.contains("merged 4 brackets"), "{stderr}");
+    let r = ImageReader::open(&out).unwrap();
+    assert_eq!(r.info().format, PixelType::Half);
+    assert!(curve.exists() && dir.path().join("curve.png").exists());
+}
+
+#[test]
+fn cli_rejects_a_single_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = small_brackets(dir.path(), 1, true);
+    let e = expect_merge_error(dir.path(), &files, &[]);
+    assert!(
+        e.contains("bracket_00.tif") && e.contains("only one image"),
+        "{e}"
+    );
+}
+
+#[test]
+fn cli_rejects_mismatched_sizes() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut files = small_brackets(dir.path(), 2, true);
+    let big = dir.path().join("big");
+    std::fs::create_dir_all(&big).unwrap();
+    files.extend(
+        synth::write_brackets(
+            &SyntheticScene::new(20, 8),
+            &CameraModel::default(),
+            &[1.0],
+            &big,
+            &BracketOptions::default(),
+        )
+        .unwrap(),
+    );
+    let e = expect_merge_error(dir.path(), &files, &[]);
+    assert!(
+        e.contains("big/bracket_00.tif") && e.contains("20×8") && e.contains("16×8"),
+        "{e}"
+    );
+}
+
+#[test]
+fn cli_rejects_unreadable_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut files = small_brackets(dir.path(), 2, true);
+    files.push(dir.path().join("missing.jpg"));
+    let e = expect_merge_error(dir.path(), &files, &[]);
+    assert!(e.contains("missing.jpg"), "{e}");
+    // A text file posing as a PNG.
+    let fake = dir.path().join("fake.png");
+    std::fs::write(&fake, "this is not an image\n").unwrap();
+    files.pop();
+    files.push(fake);
+    let e = expect_merge_error(dir.path(), &files, &[]);
+    assert!(e.contains("fake.png"), "{e}");
+}
+
+#[test]
+fn cli_rejects_missing_exposure_times() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = small_brackets(dir.path(), 3, false);
+    let e = expect_merge_error(dir.path(), &files, &[]);
+    assert!(
+        e.contains("bracket_00.tif") && e.contains("no exposure time") && e.contains("--exposures"),
+        "{e}"
+    );
+    // With --exposures they merge.
+    let out = dir.path().join("ok.exr");
+    let mut args: Vec<&std::ffi::OsStr> = vec!["hdr".as_ref(), "merge".as_ref()];
+    args.extend(files.iter().map(|f| f.as_os_str()));
+    args.extend([
+        "-o".as_ref(),
+        out.as_os_str(),
+        "--exposures".as_ref(),
+        "1/30,1/15,1/8".as_ref(),
+        "--quiet".as_ref(),
+    ]);
+    let output = plsr(&args);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(out.exists());
+}
+
+#[test]
+fn cli_rejects_a_wrong_count_of_exposures() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = small_brackets(dir.path(), 3, true);
+    let e = expect_merge_error(dir.path(), &files, &["--exposures", "1/30,1/15"]);
+    assert!(e.contains("--exposures has 2 value(s) but 3 images"), "{e}");
+    let e = expect_merge_error(dir.path(), &files, &["--exposures", "1/30,abc,1"]);
+    assert!(e.contains("--exposures") && e.contains("abc"), "{e}");
+}
+
+#[test]
+fn oiio_errors_are_errors_with_its_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let fake = dir.path().join("fake.png");
+    std::fs::write(&fake, "this is not an image\n").unwrap();
+    let e = ImageReader::open(&fake).unwrap_err().to_string();
+    eprintln!("{e}");
+    assert!(e.contains("fake.png"), "{e}");
+    // OpenImageIO's own words follow the file name.
+    let message = e.split_once("fake.png: ").map(|x| x.1).unwrap_or("");
+    assert!(message.len() > 5, "{e}");
+    // Writing to a folder that does not exist, or an unknown format, fails
+    // with an error too.
+    let e = oiio::write_image(
+        &dir.path().join("no/such/dir/x.exr"),
+        2,
+        2,
+        3,
+        PixelType::F32,
+        &[],
+        &[0f32; 12],
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("x.exr"), "{e}");
+    let e = oiio::write_image(
+        &dir.path().join("x.unknownformat"),
+        2,
+        2,
+        3,
+        PixelType::F32,
+        &[],
+        &[0f32; 12],
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("x.unknownformat"), "{e}");
+}
