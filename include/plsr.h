@@ -26,6 +26,25 @@
 #include <stddef.h>
 #include <stdint.h>
 
+// How the camera response of a merge is obtained.
+enum plsr_response
+#ifdef __cplusplus
+  : uint32_t
+#endif // __cplusplus
+ {
+  // Recovered by Debevec & Malik 1997 (8-bit inputs).
+  PLSR_RESPONSE_DEBEVEC = 0,
+  // Recovered by Robertson et al. 2003.
+  PLSR_RESPONSE_ROBERTSON = 1,
+  // Linear data (camera raw, or already linear files).
+  PLSR_RESPONSE_LINEAR = 2,
+  // The sRGB transfer function.
+  PLSR_RESPONSE_SRGB = 3,
+};
+#ifndef __cplusplus
+typedef uint32_t plsr_response;
+#endif // __cplusplus
+
 // Result codes of the C API.
 enum plsr_result
 #ifdef __cplusplus
@@ -127,6 +146,19 @@ const char *plsr_last_error(void);
 
 // The library's version, e.g. `"0.1.0"`: a static string, never freed.
 const char *plsr_version(void);
+
+// Merges `count` bracketed photos (paths, any order, any format
+// OpenImageIO reads) into the HDR image `output` (`.exr` or `.hdr`).
+//
+// `exposures` is `NULL` to read exposure times from the files' EXIF, or
+// `count` exposure times in seconds, in the order of `inputs`. `response`
+// is a `plsr_response` value. On failure no output file is left behind.
+// May be called from several threads at once (on different outputs).
+plsr_result plsr_hdr_merge(const char *const *inputs,
+                           size_t count,
+                           const double *exposures,
+                           uint32_t response,
+                           const char *output);
 
 // Renders `scene` with `threads` worker threads (0: all cores) into
 // `*out`. `progress` may be `NULL`. The same scene, seed and spp give the

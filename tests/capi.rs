@@ -400,3 +400,66 @@ fn progress_callback_reports_every_tile_and_can_cancel() {
     assert!(msg.contains("cancelled"), "{msg}");
     assert_eq!(plsr_scene_free(scene), PLSR_OK);
 }
+
+#[test]
+fn hdr_merge_through_the_api() {
+    use plsr::hdr::synth::{write_brackets, BracketOptions, CameraModel, SyntheticScene};
+    let dir = tempfile::tempdir().unwrap();
+    let scene = SyntheticScene::new(48, 24);
+    let times = [1.0 / 30.0, 1.0 / 8.0, 0.5, 2.0, 8.0];
+    let paths = write_brackets(
+        &scene,
+        &CameraModel::default(),
+        &times,
+        dir.path(),
+        &BracketOptions::default(),
+    )
+    .unwrap();
+    let c: Vec<CString> = paths
+        .iter()
+        .map(|p| CString::new(p.to_str().unwrap()).unwrap())
+        .collect();
+    let ptrs: Vec<*const std::ffi::c_char> = c.iter().map(|s| s.as_ptr()).collect();
+    let out = dir.path().join("pano.exr");
+    let out_c = CString::new(out.to_str().unwrap()).unwrap();
+    // Exposures from EXIF (NULL), Debevec.
+    assert_eq!(
+        plsr_hdr_merge(
+            ptrs.as_ptr(),
+            ptrs.len(),
+            std::ptr::null(),
+            0,
+            out_c.as_ptr()
+        ),
+        PLSR_OK
+    );
+    let merged = plsr::film::Film::read_exr(&out).unwrap();
+    assert_eq!((merged.width, merged.height), (48, 24));
+    assert!(merged.color.iter().all(|c| c.is_finite()) && merged.mean_color().x > 0.0);
+    // Errors: one bracket, bad response, wrong exposures, NULL.
+    std::fs::remove_file(&out).unwrap();
+    assert_eq!(
+        plsr_hdr_merge(ptrs.as_ptr(), 1, std::ptr::null(), 0, out_c.as_ptr()),
+        PLSR_ERR_INVALID_ARGUMENT
+    );
+    assert_eq!(
+        plsr_hdr_merge(
+            ptrs.as_ptr(),
+            ptrs.len(),
+            std::ptr::null(),
+            9,
+            out_c.as_ptr()
+        ),
+        PLSR_ERR_INVALID_ARGUMENT
+    );
+    let bad = [1.0f64, -1.0, 1.0, 1.0, 1.0];
+    assert_eq!(
+        plsr_hdr_merge(ptrs.as_ptr(), ptrs.len(), bad.as_ptr(), 0, out_c.as_ptr()),
+        PLSR_ERR_INVALID_ARGUMENT
+    );
+    assert_eq!(
+        plsr_hdr_merge(std::ptr::null(), 5, std::ptr::null(), 0, out_c.as_ptr()),
+        PLSR_ERR_NULL_ARGUMENT
+    );
+    assert!(!out.exists(), "no output on failure");
+}

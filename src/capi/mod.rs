@@ -26,10 +26,12 @@
 //! Units follow the scene-file format: metres (or any consistent unit),
 //! degrees for angles, linear RGB, row-major 4×4 matrices.
 
+mod hdr;
 mod image;
 mod pls;
 mod scene;
 
+pub use hdr::*;
 pub use image::*;
 pub use pls::*;
 pub use scene::*;
