@@ -52,6 +52,53 @@ pub enum HdrCommand {
     /// times come from EXIF (ExposureTime, with FNumber and ISO when they
     /// differ) or from --exposures.
     Merge(HdrMergeArgs),
+    /// Simulate a 360° camera's bracket capture: render the scene's
+    /// equirectangular panorama at a position and write bracketed 8-bit
+    /// photos through a camera response, with noise, clipping and EXIF
+    /// exposure data (and the rendered truth as truth.exr), ready for
+    /// `plsr hdr merge`.
+    Capture(HdrCaptureArgs),
+}
+
+/// Arguments of `plsr hdr capture`.
+#[derive(Debug, clap::Args)]
+pub struct HdrCaptureArgs {
+    /// The scene file.
+    pub scene: PathBuf,
+    /// Camera position `X,Y,Z` (scene units).
+    #[arg(long, value_name = "X,Y,Z")]
+    pub at: String,
+    /// Output folder (created; must not exist or be empty).
+    #[arg(short, long, value_name = "DIR")]
+    pub output: PathBuf,
+    /// Zenith of the panorama `X,Y,Z` (default: the scene camera's up).
+    #[arg(long, value_name = "X,Y,Z")]
+    pub up: Option<String>,
+    /// Centre column direction `X,Y,Z` (default: the scene camera's view).
+    #[arg(long, value_name = "X,Y,Z")]
+    pub forward: Option<String>,
+    /// Panorama size `WxH` (the Theta Z1 records 6720x3360).
+    #[arg(long, default_value = "512x256")]
+    pub size: String,
+    /// Samples per pixel (default: the scene's).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Exposure times, seconds (default: the paper's 1/30 … 15 s).
+    #[arg(long, value_name = "1/30,1/15,…")]
+    pub exposures: Option<String>,
+    /// Camera response: `filmic` (an 8-bit camera's curve) or `linear` (raw).
+    #[arg(long, default_value = "filmic")]
+    pub response: String,
+    /// Turn off shot and read noise.
+    #[arg(long)]
+    pub no_noise: bool,
+    /// Photo format: tif, png or jpg. (OpenImageIO 2.4's JPEG writer
+    /// garbles some EXIF exposure times, e.g. 1/8 s; TIFF keeps them.)
+    #[arg(long, default_value = "tif")]
+    pub format: String,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
 }
 
 /// Arguments of `plsr hdr merge`.

@@ -2,7 +2,7 @@
 
 use super::merge::{merge, parse_exposures, MergeOptions};
 use super::response::ResponseMethod;
-use crate::cli::{HdrCommand, HdrMergeArgs};
+use crate::cli::{HdrCaptureArgs, HdrCommand, HdrMergeArgs};
 use crate::error::{Error, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::cell::RefCell;
@@ -11,7 +11,79 @@ use std::cell::RefCell;
 pub fn run(command: HdrCommand) -> Result<()> {
     match command {
         HdrCommand::Merge(a) => merge_command(&a),
+        HdrCommand::Capture(a) => capture_command(&a),
     }
+}
+
+fn triple(flag: &str, s: &str) -> Result<glam::Vec3> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f32>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| Error::InvalidArgument(format!("{flag}: expected X,Y,Z, got `{s}`")))?;
+    match v[..] {
+        [x, y, z] if x.is_finite() && y.is_finite() && z.is_finite() => {
+            Ok(glam::Vec3::new(x, y, z))
+        }
+        _ => Err(Error::InvalidArgument(format!(
+            "{flag}: expected three finite numbers X,Y,Z, got `{s}`"
+        ))),
+    }
+}
+
+fn capture_command(a: &HdrCaptureArgs) -> Result<()> {
+    use super::capture::{capture, CaptureOptions, PAPER_EXPOSURES};
+    use super::synth::CameraModel;
+    let size = a
+        .size
+        .split_once(['x', 'X'])
+        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+        .filter(|&(w, h)| w > 0 && h > 0 && w <= 1 << 15 && h <= 1 << 15)
+        .ok_or_else(|| Error::InvalidArgument(format!("--size: expected WxH, got `{}`", a.size)))?;
+    let exposures = match &a.exposures {
+        Some(s) => {
+            parse_exposures(s).map_err(|m| Error::InvalidArgument(format!("--exposures: {m}")))?
+        }
+        None => PAPER_EXPOSURES.to_vec(),
+    };
+    let mut camera = match a.response.as_str() {
+        "filmic" => CameraModel::default(),
+        "linear" => CameraModel::linear(),
+        other => {
+            return Err(Error::InvalidArgument(format!(
+                "--response: unknown camera response `{other}` (filmic, linear)"
+            )))
+        }
+    };
+    if a.no_noise {
+        camera.read_noise = 0.0;
+        camera.shot_noise = 0.0;
+    }
+    let options = CaptureOptions {
+        at: triple("--at", &a.at)?,
+        up: a.up.as_deref().map(|s| triple("--up", s)).transpose()?,
+        forward: a
+            .forward
+            .as_deref()
+            .map(|s| triple("--forward", s))
+            .transpose()?,
+        size,
+        spp: a.spp,
+        exposures,
+        camera,
+        format: a.format.to_ascii_lowercase(),
+        threads: a.threads,
+    };
+    let paths = capture(&a.scene, &a.output, &options)?;
+    println!(
+        "plsr hdr capture: {} brackets of a {}×{} panorama at {} in {} (truth.exr beside them)",
+        paths.len(),
+        size.0,
+        size.1,
+        a.at,
+        a.output.display()
+    );
+    Ok(())
 }
 
 fn merge_command(a: &HdrMergeArgs) -> Result<()> {

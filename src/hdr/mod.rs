@@ -8,12 +8,15 @@
 //! - [`synth`]: synthetic HDR scenes and simulated brackets for tests and the
 //!   benchmark;
 //! - [`bench`]: `plsr bench hdr`, plsr against OpenCV's `MergeDebevec`;
-//! - [`cli`]: `plsr hdr merge`.
+//! - [`capture`]: `plsr hdr capture`, a simulated 360° bracket capture of a
+//!   scene;
+//! - [`cli`]: `plsr hdr merge` and `plsr hdr capture`.
 //!
 //! See docs/hdr.md.
 
 pub mod align;
 pub mod bench;
+pub mod capture;
 pub mod cli;
 pub mod merge;
 pub mod oiio;

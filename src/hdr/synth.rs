@@ -229,6 +229,33 @@ fn gaussian_pair(rng: &mut Rng) -> (f32, f32) {
     (r * (2.0 * PI * u2).cos(), r * (2.0 * PI * u2).sin())
 }
 
+/// A linear radiance image the simulated camera photographs.
+pub trait RadianceImage: Sync {
+    /// Width and height in pixels.
+    fn size(&self) -> (usize, usize);
+    /// Linear RGB radiance of pixel `(x, y)` (row 0 at the top).
+    fn radiance(&self, x: usize, y: usize) -> [f32; 3];
+}
+
+impl RadianceImage for SyntheticScene {
+    fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+    fn radiance(&self, x: usize, y: usize) -> [f32; 3] {
+        SyntheticScene::radiance(self, x, y)
+    }
+}
+
+/// A rendered image (its colour), e.g. a 360° panorama of a scene.
+impl RadianceImage for crate::film::Film {
+    fn size(&self) -> (usize, usize) {
+        (self.width as usize, self.height as usize)
+    }
+    fn radiance(&self, x: usize, y: usize) -> [f32; 3] {
+        self.color[y * self.width as usize + x].to_array()
+    }
+}
+
 /// Options for [`write_brackets`].
 #[derive(Debug, Clone)]
 pub struct BracketOptions {
@@ -270,15 +297,15 @@ const BAND: usize = 64;
 /// through `camera` and writes them as `dir/bracket_NN.<ext>` (8- or 16-bit
 /// by `camera.bits`), streaming rows, in parallel over rows. Returns the
 /// paths in the order of `times`.
-pub fn write_brackets(
-    scene: &SyntheticScene,
+pub fn write_brackets<S: RadianceImage + ?Sized>(
+    scene: &S,
     camera: &CameraModel,
     times: &[f64],
     dir: &Path,
     options: &BracketOptions,
 ) -> Result<Vec<PathBuf>> {
     let mut paths = Vec::new();
-    let w = scene.width;
+    let (w, height) = scene.size();
     for (i, &t) in times.iter().enumerate() {
         let path = dir.join(format!("bracket_{i:02}.{}", options.extension));
         let n = options.f_numbers.get(i).copied();
@@ -304,19 +331,19 @@ pub fn write_brackets(
         } else {
             PixelType::U8
         };
-        let mut writer = ImageWriter::create(&path, w, scene.height, 3, stored, &attrs)?;
+        let mut writer = ImageWriter::create(&path, w, height, 3, stored, &attrs)?;
         let te = (t * factor) as f32;
         let seed = mix64(camera.seed ^ mix64(i as u64 + 1));
         let (dx, dy) = options.shifts.get(i).copied().unwrap_or((0, 0));
-        let (wi, hi) = (w as i64, scene.height as i64);
+        let (wi, hi) = (w as i64, height as i64);
         let at = |x: usize, y: usize| {
             let sx = (x as i64 - dx as i64).clamp(0, wi - 1) as usize;
             let sy = (y as i64 - dy as i64).clamp(0, hi - 1) as usize;
             scene.radiance(sx, sy)
         };
         let mut y0 = 0;
-        while y0 < scene.height {
-            let y1 = (y0 + BAND).min(scene.height);
+        while y0 < height {
+            let y1 = (y0 + BAND).min(height);
             let mut levels = vec![0u32; (y1 - y0) * w * 3];
             levels
                 .par_chunks_mut(w * 3)

@@ -1,0 +1,161 @@
+//! `plsr hdr capture`: a simulated 360° bracket capture, to close the loop
+//! of the HDR pipeline.
+//!
+//! The scene is rendered by an equirectangular camera at a position (the
+//! panorama a 360° camera there would record, in the convention of
+//! [`crate::equirect`]), then photographed at each exposure time through a
+//! simulated camera ([`CameraModel`]: response curve, shot and read noise,
+//! clipping, 8-bit quantisation) and written as bracketed photos with their
+//! EXIF exposure time, f-number and ISO, ready for `plsr hdr merge`. The
+//! rendered panorama itself is written as `truth.exr` next to them.
+
+use super::synth::{write_brackets, BracketOptions, CameraModel};
+use crate::camera::{Camera, EquirectCamera, Pose};
+use crate::error::{Error, Result};
+use crate::render::{render, RenderOptions};
+use crate::scene::{file, Scene};
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+
+/// The paper's bracket times (s): 1/30 s to 15 s, about one stop apart.
+pub const PAPER_EXPOSURES: [f64; 10] = [
+    1.0 / 30.0,
+    1.0 / 15.0,
+    1.0 / 8.0,
+    1.0 / 4.0,
+    1.0 / 2.0,
+    1.0,
+    2.0,
+    4.0,
+    8.0,
+    15.0,
+];
+
+/// What [`capture`] does.
+#[derive(Debug, Clone)]
+pub struct CaptureOptions {
+    /// Position of the 360° camera (scene units).
+    pub at: Vec3,
+    /// Zenith of the panorama; `None`: the scene camera's up.
+    pub up: Option<Vec3>,
+    /// Direction of the panorama's centre column; `None`: the scene
+    /// camera's viewing direction.
+    pub forward: Option<Vec3>,
+    /// Panorama size in pixels (2:1).
+    pub size: (u32, u32),
+    /// Samples per pixel (`None`: the scene's).
+    pub spp: Option<u32>,
+    /// Exposure times in seconds.
+    pub exposures: Vec<f64>,
+    /// The simulated camera.
+    pub camera: CameraModel,
+    /// Photo format by extension: `jpg`, `png` or `tif`.
+    pub format: String,
+    /// Worker threads (`None`: all cores).
+    pub threads: Option<usize>,
+}
+
+/// Renders the panorama at `options.at` and writes the brackets and
+/// `truth.exr` into the new folder `out` (which must not exist, or be
+/// empty). Everything is written to a temporary sibling folder first and
+/// renamed at the end, so a failure leaves nothing behind. Returns the
+/// bracket paths.
+pub fn capture(scene_path: &Path, out: &Path, options: &CaptureOptions) -> Result<Vec<PathBuf>> {
+    let invalid = |m: String| Error::InvalidArgument(m);
+    if !options.at.is_finite() {
+        return Err(invalid("--at must be three finite numbers".into()));
+    }
+    if options.exposures.len() < 2
+        || options
+            .exposures
+            .iter()
+            .any(|t| !(t.is_finite() && *t > 0.0))
+    {
+        return Err(invalid(
+            "at least two positive exposure times are needed".into(),
+        ));
+    }
+    if !["jpg", "jpeg", "png", "tif", "tiff"].contains(&options.format.as_str()) {
+        return Err(invalid(format!(
+            "unknown photo format `{}` (jpg, png, tif)",
+            options.format
+        )));
+    }
+    if out.exists()
+        && std::fs::read_dir(out)
+            .map(|mut d| d.next().is_some())
+            .unwrap_or(true)
+    {
+        return Err(Error::Output {
+            file: out.to_path_buf(),
+            message: "the output folder exists and is not empty".into(),
+        });
+    }
+    let mut desc = file::load(scene_path)?;
+    let pose = *desc.camera.pose();
+    let up = options.up.unwrap_or(pose.up);
+    let forward = options.forward.unwrap_or(pose.forward);
+    let panorama_pose = Pose::look_at(options.at, options.at + forward, up)
+        .map_err(|e| invalid(format!("--up/--forward: {e}")))?;
+    let (w, h) = options.size;
+    desc.camera = Camera::Equirect(
+        EquirectCamera::new(panorama_pose, w, h).map_err(|e| invalid(format!("--size: {e}")))?,
+    );
+    if let Some(spp) = options.spp {
+        desc.settings.spp = spp.max(1);
+    }
+    let scene = Scene::build(desc)?;
+    let (film, _) = render(
+        &scene,
+        &RenderOptions {
+            threads: options.threads,
+            ..Default::default()
+        },
+        &|_, _| true,
+    )?;
+
+    let parent = out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let staging = parent.join(format!(".{name}.partial-{}", std::process::id()));
+    let io = |e: std::io::Error, f: &Path| Error::Io {
+        file: f.to_path_buf(),
+        source: e,
+    };
+    std::fs::create_dir_all(&staging).map_err(|e| io(e, &staging))?;
+    let result = (|| -> Result<Vec<PathBuf>> {
+        film.write_exr(&staging.join("truth.exr"))?;
+        let bracket_options = BracketOptions {
+            extension: options.format.clone(),
+            exif: true,
+            ..Default::default()
+        };
+        write_brackets(
+            &film,
+            &options.camera,
+            &options.exposures,
+            &staging,
+            &bracket_options,
+        )
+    })();
+    let staged = match result {
+        Ok(paths) => paths,
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&staging);
+            return Err(e);
+        }
+    };
+    if out.exists() {
+        std::fs::remove_dir(out).map_err(|e| io(e, out))?;
+    }
+    std::fs::rename(&staging, out).map_err(|e| io(e, out))?;
+    Ok(staged
+        .iter()
+        .map(|p| out.join(p.file_name().expect("bracket files have names")))
+        .collect())
+}
