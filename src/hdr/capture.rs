@@ -9,6 +9,7 @@
 //! EXIF exposure time, f-number and ISO, ready for `plsr hdr merge`. The
 //! rendered panorama itself is written as `truth.exr` next to them.
 
+pub use super::synth::PAPER_EXPOSURES;
 use super::synth::{write_brackets, BracketOptions, CameraModel};
 use crate::camera::{Camera, EquirectCamera, Pose};
 use crate::error::{Error, Result};
@@ -16,20 +17,6 @@ use crate::render::{render, RenderOptions};
 use crate::scene::{file, Scene};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
-
-/// The paper's bracket times (s): 1/30 s to 15 s, about one stop apart.
-pub const PAPER_EXPOSURES: [f64; 10] = [
-    1.0 / 30.0,
-    1.0 / 15.0,
-    1.0 / 8.0,
-    1.0 / 4.0,
-    1.0 / 2.0,
-    1.0,
-    2.0,
-    4.0,
-    8.0,
-    15.0,
-];
 
 /// What [`capture`] does.
 #[derive(Debug, Clone)]
