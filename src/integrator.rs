@@ -474,17 +474,21 @@ fn shade(
         let u = path.rng.next_2d();
         if let Some(ls) = scene.lights.lights[li].sample_li(p, u) {
             let wi_local = frame.to_local(ls.wi);
-            let f = if !guard || sides_agree(wo, ls.wi, ng, wo_local, wi_local) {
-                bsdf.eval(wo_local, wi_local) * wi_local.z.abs()
+            // A delta light needs no MIS weight, so no BSDF density.
+            let (f, bsdf_pdf) = if guard && !sides_agree(wo, ls.wi, ng, wo_local, wi_local) {
+                (Vec3::ZERO, 0.0)
+            } else if ls.delta {
+                (bsdf.eval(wo_local, wi_local), 0.0)
             } else {
-                Vec3::ZERO
+                bsdf.eval_pdf(wo_local, wi_local)
             };
+            let f = f * wi_local.z.abs();
             if f != Vec3::ZERO {
                 let light_pdf = pick_pmf * ls.pdf;
                 let weight = if ls.delta {
                     1.0
                 } else {
-                    power_heuristic(light_pdf, bsdf.pdf(wo_local, wi_local))
+                    power_heuristic(light_pdf, bsdf_pdf)
                 };
                 // The shadow ray runs from the offset origin to just short
                 // of the light point: t ∈ [0, tfar] along d = target − origin;

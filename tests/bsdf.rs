@@ -476,3 +476,21 @@ fn principled_dielectric_exceeds_one_like_its_reference_model() {
     let a = albedo(&white(1.0), grazing);
     assert!((1.4..1.7).contains(&a), "{a}");
 }
+
+#[test]
+fn eval_pdf_equals_eval_and_pdf() {
+    let mut rng = Rng::new(21, 2);
+    for (name, bsdf) in cases() {
+        for _ in 0..2000 {
+            let a = plsr::sampling::square_to_uniform_sphere(rng.next_2d());
+            let b = plsr::sampling::square_to_uniform_sphere(rng.next_2d());
+            let (f, p) = bsdf.eval_pdf(a, b);
+            let (f2, p2) = (bsdf.eval(a, b), bsdf.pdf(a, b));
+            let close = |x: f32, y: f32| (x - y).abs() <= 1e-4 * x.abs().max(y.abs()) + 1e-7;
+            assert!(close(p, p2), "{name}: pdf {p} vs {p2}");
+            for c in 0..3 {
+                assert!(close(f[c], f2[c]), "{name}: f {f} vs {f2}");
+            }
+        }
+    }
+}

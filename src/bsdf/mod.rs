@@ -131,6 +131,16 @@ impl Bsdf {
         }
     }
 
+    /// `(eval, pdf)` for the same pair of directions, computed together
+    /// where the model shares work between them.
+    #[inline]
+    pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        match self {
+            Bsdf::Principled(p) => p.eval_pdf(wo, wi),
+            _ => (self.eval(wo, wi), self.pdf(wo, wi)),
+        }
+    }
+
     /// Whether light passes through the surface: the integrator then keeps
     /// the geometric normal as the outside instead of facing it to the viewer.
     #[inline]

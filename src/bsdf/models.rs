@@ -483,6 +483,40 @@ impl PrincipledParams {
         if wi.z <= 0.0 {
             return None;
         }
-        finish_sample(wi, self.eval(wo, wi), self.pdf(wo, wi))
+        let (f, pdf) = self.eval_pdf(wo, wi);
+        finish_sample(wi, f, pdf)
+    }
+
+    /// `eval` and `pdf` together, sharing the half vector, the
+    /// distribution, `D(h)` and the masking terms (what a light sample and
+    /// a BSDF sample both need).
+    #[inline]
+    pub(super) fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        if !both_above(wo, wi) {
+            return (Vec3::ZERO, 0.0);
+        }
+        let h = (wo + wi).normalize();
+        let m = self.microfacet();
+        let (d, g1o, g1i) = (m.d(h), m.g1(wo, h), m.g1(wi, h));
+        let cos_d = wi.dot(h);
+        let specular = self.fresnel(cos_d, self.eta()) * (d * g1o * g1i / (4.0 * wo.z * wi.z));
+        let (fo, fi) = (fresnel::schlick_weight(wo.z), fresnel::schlick_weight(wi.z));
+        let rr = 2.0 * self.roughness * cos_d * cos_d;
+        let retro = rr * (fo + fi + fo * fi * (rr - 1.0));
+        let diffuse = self.base_color
+            * (FRAC_1_PI * (1.0 - self.metallic) * ((1.0 - 0.5 * fo) * (1.0 - 0.5 * fi) + retro));
+        // The visible-normal density over h, pdf_h = G1(wo)·max(0, wo·h)·D/cos θo,
+        // turned into a density over wi by 1/(4 wo·h).
+        let wo_h = wo.dot(h);
+        let spec_pdf = if wo_h > 0.0 {
+            g1o * d / (4.0 * wo.z)
+        } else {
+            0.0
+        };
+        let pd = self.diffuse_probability();
+        (
+            diffuse + specular,
+            pd * cosine_hemisphere_pdf(wi.z) + (1.0 - pd) * spec_pdf,
+        )
     }
 }
