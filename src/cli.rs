@@ -380,18 +380,10 @@ fn render_command(a: &RenderArgs) -> Result<()> {
         tile_size: a.tile_size,
         ..Default::default()
     };
-    let bar = if a.quiet {
-        ProgressBar::hidden()
-    } else {
-        let b = ProgressBar::new(0);
-        b.set_style(
-            ProgressStyle::with_template(
-                "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} tiles (eta {eta})",
-            )
-            .expect("valid template"),
-        );
-        b
-    };
+    let bar = progress_bar(
+        a.quiet,
+        "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} tiles (eta {eta})",
+    );
     let progress = |done: usize, total: usize| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
@@ -425,4 +417,15 @@ fn render_command(a: &RenderArgs) -> Result<()> {
             .unwrap_or_default()
     );
     Ok(())
+}
+
+/// A progress bar drawn with the indicatif `template` on stderr, or a hidden
+/// one when `quiet`.
+pub(crate) fn progress_bar(quiet: bool, template: &str) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(0);
+    bar.set_style(ProgressStyle::with_template(template).expect("valid template"));
+    bar
 }

@@ -113,18 +113,12 @@ fn textured_obj_shows_its_texture_the_right_way_round() {
     );
 }
 
-fn mtl_material(mtl: &str, extra_files: &[(&str, &[u8])]) -> plsr::Result<Bsdf> {
-    let dir = tempfile::tempdir().unwrap();
-    for (name, bytes) in extra_files {
-        std::fs::write(dir.path().join(name), bytes).unwrap();
-    }
-    std::fs::write(
-        dir.path().join("quad.obj"),
-        quad_obj(Some("quad.mtl"), None),
-    )
-    .unwrap();
-    std::fs::write(dir.path().join("quad.mtl"), mtl).unwrap();
-    let path = dir.path().join("scene.toml");
+/// Loads the quad OBJ with MTL text `mtl` from `dir` (which holds any
+/// textures it names) and returns its material `m`.
+fn mtl_quad_material(dir: &Path, mtl: &str) -> plsr::Result<plsr::scene::Material> {
+    std::fs::write(dir.join("quad.obj"), quad_obj(Some("quad.mtl"), None)).unwrap();
+    std::fs::write(dir.join("quad.mtl"), mtl).unwrap();
+    let path = dir.join("scene.toml");
     std::fs::write(
         &path,
         format!(
@@ -138,18 +132,24 @@ fn mtl_material(mtl: &str, extra_files: &[(&str, &[u8])]) -> plsr::Result<Bsdf> 
         .iter()
         .find(|m| m.name.ends_with(":m"))
         .unwrap()
-        .bsdf)
+        .clone())
+}
+
+/// The BSDF of MTL text `mtl`, in a fresh folder.
+fn mtl_material(mtl: &str) -> plsr::Result<Bsdf> {
+    let dir = tempfile::tempdir().unwrap();
+    Ok(mtl_quad_material(dir.path(), mtl)?.bsdf)
 }
 
 #[test]
 fn mtl_keys_map_to_the_documented_models() {
-    let Bsdf::Diffuse(d) = mtl_material("newmtl m\nKd 0.2 0.3 0.4\n", &[]).unwrap() else {
+    let Bsdf::Diffuse(d) = mtl_material("newmtl m\nKd 0.2 0.3 0.4\n").unwrap() else {
         panic!("Kd alone is diffuse")
     };
     assert_eq!(d.reflectance, Vec3::new(0.2, 0.3, 0.4));
 
     let Bsdf::BlinnPhong(b) =
-        mtl_material("newmtl m\nKd 0.8 0.8 0.8\nKs 0.5 0.5 0.5\nNs 100\n", &[]).unwrap()
+        mtl_material("newmtl m\nKd 0.8 0.8 0.8\nKs 0.5 0.5 0.5\nNs 100\n").unwrap()
     else {
         panic!("Ks makes Blinn-Phong")
     };
@@ -157,8 +157,7 @@ fn mtl_keys_map_to_the_documented_models() {
     assert!((b.diffuse.x - 0.8 / 1.3).abs() < 1e-6 && (b.specular.x - 0.5 / 1.3).abs() < 1e-6);
     assert_eq!(b.exponent, 100.0);
 
-    let Bsdf::Principled(p) =
-        mtl_material("newmtl m\nKd 0.9 0.5 0.1\nPr 0.25\nPm 1\n", &[]).unwrap()
+    let Bsdf::Principled(p) = mtl_material("newmtl m\nKd 0.9 0.5 0.1\nPr 0.25\nPm 1\n").unwrap()
     else {
         panic!("Pr/Pm make principled")
     };
@@ -167,14 +166,12 @@ fn mtl_keys_map_to_the_documented_models() {
         (Vec3::new(0.9, 0.5, 0.1), 0.25, 1.0)
     );
 
-    let e = mtl_material("newmtl m\nPr 1.5\n", &[])
-        .unwrap_err()
-        .to_string();
+    let e = mtl_material("newmtl m\nPr 1.5\n").unwrap_err().to_string();
     assert!(
         e.contains("Pr") && e.contains("[0, 1]") && e.contains("quad.obj"),
         "{e}"
     );
-    let e = mtl_material("newmtl m\nmap_Kd missing.png\n", &[])
+    let e = mtl_material("newmtl m\nmap_Kd missing.png\n")
         .unwrap_err()
         .to_string();
     assert!(
@@ -190,30 +187,11 @@ fn mtl_roughness_map_varies_the_material() {
     let mut img = image::GrayImage::new(2, 1);
     img.put_pixel(1, 0, image::Luma([255]));
     img.save(dir.path().join("rough.png")).unwrap();
-    std::fs::write(
-        dir.path().join("quad.obj"),
-        quad_obj(Some("quad.mtl"), None),
-    )
-    .unwrap();
-    std::fs::write(
-        dir.path().join("quad.mtl"),
+    let m = mtl_quad_material(
+        dir.path(),
         "newmtl m\nKd 0.5 0.5 0.5\nPm 1\nmap_Pr rough.png\n",
     )
     .unwrap();
-    let path = dir.path().join("scene.toml");
-    std::fs::write(
-        &path,
-        format!(
-            "[render]\nspp = 1\n{TOP_CAMERA}\n[[shapes]]\ntype = \"obj\"\nfile = \"quad.obj\"\n"
-        ),
-    )
-    .unwrap();
-    let scene = Scene::load(&path).unwrap();
-    let m = scene
-        .materials
-        .iter()
-        .find(|m| m.name.ends_with(":m"))
-        .unwrap();
     let r = |u: f32| match m.bsdf_at(glam::Vec2::new(u, 0.5)) {
         Bsdf::Principled(p) => p.roughness,
         other => panic!("{other:?}"),

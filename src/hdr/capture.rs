@@ -45,9 +45,15 @@ pub struct CaptureOptions {
 /// Renders the panorama at `options.at` and writes the brackets and
 /// `truth.exr` into the new folder `out` (which must not exist, or be
 /// empty). Everything is written to a temporary sibling folder first and
-/// renamed at the end, so a failure leaves nothing behind. Returns the
-/// bracket paths.
-pub fn capture(scene_path: &Path, out: &Path, options: &CaptureOptions) -> Result<Vec<PathBuf>> {
+/// renamed at the end, so a failure leaves nothing behind. `progress`
+/// receives the render's `(tiles done, tiles)`; returning `false` cancels.
+/// Returns the bracket paths.
+pub fn capture(
+    scene_path: &Path,
+    out: &Path,
+    options: &CaptureOptions,
+    progress: &(dyn Fn(usize, usize) -> bool + Sync),
+) -> Result<Vec<PathBuf>> {
     let invalid = |m: String| Error::InvalidArgument(m);
     if !options.at.is_finite() {
         return Err(invalid("--at must be three finite numbers".into()));
@@ -98,7 +104,7 @@ pub fn capture(scene_path: &Path, out: &Path, options: &CaptureOptions) -> Resul
             threads: options.threads,
             ..Default::default()
         },
-        &|_, _| true,
+        progress,
     )?;
 
     let parent = out

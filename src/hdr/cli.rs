@@ -4,7 +4,6 @@ use super::merge::{merge, parse_exposures, MergeOptions};
 use super::response::ResponseMethod;
 use crate::cli::{HdrCaptureArgs, HdrCommand, HdrMergeArgs};
 use crate::error::{Error, Result};
-use indicatif::{ProgressBar, ProgressStyle};
 use std::cell::RefCell;
 
 /// Runs one `plsr hdr` subcommand.
@@ -74,7 +73,17 @@ fn capture_command(a: &HdrCaptureArgs) -> Result<()> {
         format: a.format.to_ascii_lowercase(),
         threads: a.threads,
     };
-    let paths = capture(&a.scene, &a.output, &options)?;
+    let bar = crate::cli::progress_bar(
+        false,
+        "{spinner} [{elapsed_precise}] rendering {wide_bar} {pos}/{len} tiles (eta {eta})",
+    );
+    let progress = |done: usize, total: usize| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+        true
+    };
+    let paths = capture(&a.scene, &a.output, &options, &progress)?;
+    bar.finish_and_clear();
     println!(
         "plsr hdr capture: {} brackets of a {}×{} panorama at {} in {} (truth.exr beside them)",
         paths.len(),
@@ -115,18 +124,10 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
         threads: a.threads,
         compression: a.compression.clone(),
     };
-    let bar = if a.quiet {
-        ProgressBar::hidden()
-    } else {
-        let b = ProgressBar::new(0);
-        b.set_style(
-            ProgressStyle::with_template(
-                "{spinner} [{elapsed_precise}] {msg:>9} {wide_bar} {pos}/{len} (eta {eta})",
-            )
-            .expect("valid template"),
-        );
-        b
-    };
+    let bar = crate::cli::progress_bar(
+        a.quiet,
+        "{spinner} [{elapsed_precise}] {msg:>9} {wide_bar} {pos}/{len} (eta {eta})",
+    );
     let phase = RefCell::new(String::new());
     let progress = |p: &str, done: u64, total: u64| {
         if *phase.borrow() != p {
