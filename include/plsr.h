@@ -132,6 +132,10 @@ typedef struct {
   float specular;
   // How much the dielectric specular takes the base colour's hue.
   float spec_tint;
+  // `false` (0 in an aggregate initialiser that leaves it out): Mitsuba
+  // 3's diffuse lobe, which may reflect more than it receives; `true`:
+  // the energy-conserving diffuse lobe coupled to the specular one.
+  bool energy_conserving;
 } plsr_principled;
 
 #ifdef __cplusplus

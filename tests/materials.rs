@@ -232,6 +232,27 @@ fn glass_spheres_vanish_in_a_white_furnace() {
     );
 }
 
+/// A white principled sphere: with `energy_conserving` it vanishes in the
+/// furnace (its diffuse lobe takes exactly what the specular lobe leaves);
+/// in Mitsuba's mode it glows brighter than its surroundings.
+#[test]
+fn energy_conserving_principled_sphere_vanishes_in_a_white_furnace() {
+    let white = "type = \"principled\"\nbase_color = [1, 1, 1]\nroughness = 0.6";
+    assert_furnace(
+        &furnace(&format!("{white}\nenergy_conserving = true")),
+        "energy-conserving principled",
+    );
+    // The centre pixels see the sphere head-on, where Mitsuba's model
+    // reflects about 1.05.
+    let film = furnace(white);
+    let centre = [(11, 11), (11, 12), (12, 11), (12, 12)]
+        .map(|(x, y)| film.color[film.index(x, y)].x)
+        .iter()
+        .sum::<f32>()
+        / 4.0;
+    assert!(centre > 1.03, "Mitsuba-mode principled: {centre}");
+}
+
 #[test]
 fn rough_white_metal_in_a_white_furnace_shows_its_albedo() {
     // The centre pixels see the sphere head-on, so their radiance is the

@@ -37,7 +37,7 @@
 //! | `blinn_phong` | normalised Blinn–Phong |
 //! | `cook_torrance` | microfacet reflection, GGX or Beckmann, Smith G, Schlick / dielectric / conductor Fresnel |
 //! | `dielectric` | smooth or rough (Walter et al. 2007) glass-like interface |
-//! | `principled` | Burley's principled BSDF with Mitsuba 3's parameters |
+//! | `principled` | Burley's principled BSDF with Mitsuba 3's parameters; optionally energy-conserving |
 //!
 //! ```toml
 //! [[materials]]
@@ -46,6 +46,7 @@
 //! reflectance = [0.73, 0.73, 0.73]   # linear RGB albedo in [0, 1]
 //! ```
 
+pub mod albedo;
 pub mod fresnel;
 pub mod microfacet;
 pub mod models;

@@ -5,6 +5,7 @@
 //! draws from exactly the density `pdf` reports (verified by the chi-square
 //! tests in `tests/bsdf.rs`) and returns `eval`'s value with it.
 
+use super::albedo;
 use super::fresnel::{self, reflect, refract};
 use super::microfacet::{Distribution, Microfacet};
 use super::BsdfSample;
@@ -389,6 +390,14 @@ impl DielectricParams {
 /// whose Fresnel term blends the dielectric (`specular`, `spec_tint`) and the
 /// metallic (`base_color`) response. Sheen, clearcoat and specular
 /// transmission are not modelled.
+///
+/// Like Mitsuba's, the model is not energy-conserving as a dielectric (a
+/// white base colour reflects up to 1.5× at grazing incidence). With
+/// `energy_conserving` the diffuse lobe is replaced by one coupled to the
+/// specular lobe, `ρ(1 − E(wo))(1 − E(wi)) / (π(1 − Ē))` with `E` the
+/// specular lobe's directional albedo ([`super::albedo`]): it receives exactly
+/// the energy the specular lobe leaves, so the BSDF reflects at most 1 and
+/// exactly 1 with a white dielectric base (Kelemen and Szirmay-Kalos 2001).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PrincipledParams {
     /// Base colour (linear RGB): the diffuse albedo, or the metal's tint.
@@ -403,12 +412,16 @@ pub struct PrincipledParams {
     pub specular: f32,
     /// How much the dielectric specular takes the base colour's hue, `[0, 1]`.
     pub spec_tint: f32,
+    /// `false`: Burley's diffuse lobe, as Mitsuba 3 (not energy-conserving);
+    /// `true`: the diffuse lobe coupled to the specular one, so that the
+    /// BSDF conserves energy.
+    pub energy_conserving: bool,
 }
 
 impl PrincipledParams {
     /// Index of refraction implied by `specular` (Mitsuba's mapping).
     pub fn eta(&self) -> f32 {
-        2.0 / (1.0 - (0.08 * self.specular).sqrt()) - 1.0
+        albedo::eta_from_specular(self.specular)
     }
 
     /// The specular lobe's GGX distribution (Mitsuba's anisotropy mapping).
@@ -423,14 +436,20 @@ impl PrincipledParams {
         0.5 * (1.0 - self.metallic)
     }
 
+    /// The base colour's hue at unit luminance (what `spec_tint` blends in).
     #[inline]
-    fn fresnel(&self, cos_theta: f32, eta: f32) -> Vec3 {
+    fn tint(&self) -> Vec3 {
         let lum = luminance(self.base_color);
-        let tint = if lum > 0.0 {
+        if lum > 0.0 {
             self.base_color / lum
         } else {
             Vec3::ONE
-        };
+        }
+    }
+
+    #[inline]
+    fn fresnel(&self, cos_theta: f32, eta: f32) -> Vec3 {
+        let tint = self.tint();
         let metal = fresnel::schlick(self.base_color, cos_theta) * self.metallic;
         let tinted = fresnel::schlick(tint * fresnel::dielectric_f0(eta), cos_theta)
             * ((1.0 - self.metallic) * self.spec_tint);
@@ -449,13 +468,77 @@ impl PrincipledParams {
         let cos_d = wi.dot(h);
         let specular =
             self.fresnel(cos_d, self.eta()) * (m.d(h) * m.g(wo, wi, h) / (4.0 * wo.z * wi.z));
+        self.diffuse(wo, wi, cos_d, &m) + specular
+    }
+
+    /// The diffuse lobe: Burley's, or the energy-conserving coupled one.
+    #[inline]
+    fn diffuse(&self, wo: Vec3, wi: Vec3, cos_d: f32, m: &Microfacet) -> Vec3 {
+        let weight = FRAC_1_PI * (1.0 - self.metallic);
+        if self.energy_conserving {
+            // Kelemen and Szirmay-Kalos: ρ(1 − E(wo))(1 − E(wi)) / (π(1 − Ē)),
+            // which integrates against cos θi to ρ(1 − E(wo)).
+            let tables = albedo::SpecularAlbedo::get();
+            let albedo = |e: [f32; 3]| self.dielectric_albedo(e);
+            let eo = albedo(tables.directional(
+                wo.z,
+                alpha_towards(m, wo),
+                self.specular,
+                self.spec_tint > 0.0,
+            ));
+            let ei = albedo(tables.directional(
+                wi.z,
+                alpha_towards(m, wi),
+                self.specular,
+                self.spec_tint > 0.0,
+            ));
+            let avg = albedo(self.average_albedo(tables, m));
+            return self.base_color * weight * (Vec3::ONE - eo) * (Vec3::ONE - ei)
+                / (Vec3::ONE - avg);
+        }
         // Burley's diffuse with retro-reflection.
         let (fo, fi) = (fresnel::schlick_weight(wo.z), fresnel::schlick_weight(wi.z));
         let rr = 2.0 * self.roughness * cos_d * cos_d;
         let retro = rr * (fo + fi + fo * fi * (rr - 1.0));
-        let diffuse = self.base_color
-            * (FRAC_1_PI * (1.0 - self.metallic) * ((1.0 - 0.5 * fo) * (1.0 - 0.5 * fi) + retro));
-        diffuse + specular
+        self.base_color * (weight * ((1.0 - 0.5 * fo) * (1.0 - 0.5 * fi) + retro))
+    }
+
+    /// Albedo of the specular lobe's dielectric (non-metal) part per unit
+    /// `1 − metallic`, from the tabulated `[E(1), E(Schlick weight),
+    /// E(dielectric)]`: `(1 − t)·E_d + t·(f₀(E₁ − E_w) + E_w)` with
+    /// `f₀ = tint·f0(η)`, as in [`PrincipledParams::fresnel`]. Kept below 1
+    /// so that the coupled diffuse term stays finite.
+    #[inline]
+    fn dielectric_albedo(&self, [e1, ew, ed]: [f32; 3]) -> Vec3 {
+        let t = self.spec_tint;
+        let e = if t > 0.0 {
+            let f0 = self.tint() * fresnel::dielectric_f0(self.eta());
+            Vec3::splat(ed * (1.0 - t)) + (f0 * (e1 - ew) + Vec3::splat(ew)) * t
+        } else {
+            Vec3::splat(ed)
+        };
+        e.min(Vec3::splat(0.999))
+    }
+
+    /// Hemispherical averages of the tabulated albedos; for an anisotropic
+    /// lobe the mean over azimuth of the isotropic averages at each
+    /// azimuth's roughness (the same approximation as [`alpha_towards`]).
+    #[inline]
+    fn average_albedo(&self, tables: &albedo::SpecularAlbedo, m: &Microfacet) -> [f32; 3] {
+        if m.alpha_x == m.alpha_y {
+            return tables.average(m.alpha_x, self.specular);
+        }
+        const AZIMUTHS: usize = 8;
+        let mut sum = [0.0f32; 3];
+        for k in 0..AZIMUTHS {
+            let phi = std::f32::consts::FRAC_PI_2 * (k as f32 + 0.5) / AZIMUTHS as f32;
+            let w = Vec3::new(phi.cos(), phi.sin(), 0.0);
+            let a = tables.average(alpha_towards(m, w), self.specular);
+            for c in 0..3 {
+                sum[c] += a[c] / AZIMUTHS as f32;
+            }
+        }
+        sum
     }
 
     #[inline]
@@ -500,11 +583,7 @@ impl PrincipledParams {
         let (d, g1o, g1i) = (m.d(h), m.g1(wo, h), m.g1(wi, h));
         let cos_d = wi.dot(h);
         let specular = self.fresnel(cos_d, self.eta()) * (d * g1o * g1i / (4.0 * wo.z * wi.z));
-        let (fo, fi) = (fresnel::schlick_weight(wo.z), fresnel::schlick_weight(wi.z));
-        let rr = 2.0 * self.roughness * cos_d * cos_d;
-        let retro = rr * (fo + fi + fo * fi * (rr - 1.0));
-        let diffuse = self.base_color
-            * (FRAC_1_PI * (1.0 - self.metallic) * ((1.0 - 0.5 * fo) * (1.0 - 0.5 * fi) + retro));
+        let diffuse = self.diffuse(wo, wi, cos_d, &m);
         // The visible-normal density over h, pdf_h = G1(wo)·max(0, wo·h)·D/cos θo,
         // turned into a density over wi by 1/(4 wo·h).
         let wo_h = wo.dot(h);
@@ -519,4 +598,19 @@ impl PrincipledParams {
             pd * cosine_hemisphere_pdf(wi.z) + (1.0 - pd) * spec_pdf,
         )
     }
+}
+
+/// The roughness of `m` along the azimuth of `w`, `√(cos²φ αx² + sin²φ αy²)`:
+/// the isotropic roughness whose masking of `w` equals `m`'s, with which the
+/// tabulated (isotropic) albedo approximates an anisotropic lobe's.
+#[inline]
+fn alpha_towards(m: &Microfacet, w: Vec3) -> f32 {
+    if m.alpha_x == m.alpha_y {
+        return m.alpha_x;
+    }
+    let s2 = w.x * w.x + w.y * w.y;
+    if s2 < 1e-12 {
+        return (m.alpha_x * m.alpha_y).sqrt();
+    }
+    ((w.x * w.x * m.alpha_x * m.alpha_x + w.y * w.y * m.alpha_y * m.alpha_y) / s2).sqrt()
 }

@@ -48,6 +48,10 @@ pub struct plsr_principled {
     pub specular: f32,
     /// How much the dielectric specular takes the base colour's hue.
     pub spec_tint: f32,
+    /// `false` (0 in an aggregate initialiser that leaves it out): Mitsuba
+    /// 3's diffuse lobe, which may reflect more than it receives; `true`:
+    /// the energy-conserving diffuse lobe coupled to the specular one.
+    pub energy_conserving: bool,
 }
 
 /// Loads a scene file (TOML, or JSON by extension) into `*out`.
@@ -198,6 +202,7 @@ pub extern "C" fn plsr_scene_builder_add_principled(
             anisotropic: p.anisotropic,
             specular: p.specular,
             spec_tint: p.spec_tint,
+            energy_conserving: p.energy_conserving,
         });
         push_material(b, name, bsdf, out_index)
     })

@@ -147,6 +147,7 @@ struct MaterialSection {
     metallic: Option<f32>,
     anisotropic: Option<f32>,
     spec_tint: Option<f32>,
+    energy_conserving: Option<bool>,
     base_color_map: Option<PathBuf>,
     roughness_map: Option<PathBuf>,
     metallic_map: Option<PathBuf>,
@@ -155,7 +156,7 @@ struct MaterialSection {
 impl MaterialSection {
     /// The keys given, besides `name` and `type`.
     fn given(&self) -> Vec<&'static str> {
-        let keys: [(&'static str, bool); 22] = [
+        let keys: [(&'static str, bool); 23] = [
             ("base_color_map", self.base_color_map.is_some()),
             ("roughness_map", self.roughness_map.is_some()),
             ("metallic_map", self.metallic_map.is_some()),
@@ -178,6 +179,7 @@ impl MaterialSection {
             ("metallic", self.metallic.is_some()),
             ("anisotropic", self.anisotropic.is_some()),
             ("spec_tint", self.spec_tint.is_some()),
+            ("energy_conserving", self.energy_conserving.is_some()),
         ];
         keys.iter().filter(|(_, g)| *g).map(|(k, _)| *k).collect()
     }
@@ -497,6 +499,7 @@ impl Builder<'_> {
                 "anisotropic",
                 "specular",
                 "spec_tint",
+                "energy_conserving",
                 "base_color_map",
                 "roughness_map",
                 "metallic_map",
@@ -651,6 +654,7 @@ impl Builder<'_> {
                 anisotropic: self.unit(&format!("{field}.anisotropic"), m.anisotropic, 0.0)?,
                 specular: specular_number(0.5)?,
                 spec_tint: self.unit(&format!("{field}.spec_tint"), m.spec_tint, 0.0)?,
+                energy_conserving: m.energy_conserving.unwrap_or(false),
             }),
             _ => unreachable!("checked above"),
         })
@@ -723,6 +727,7 @@ impl Builder<'_> {
                 anisotropic: 0.0,
                 specular: 0.5,
                 spec_tint: 0.0,
+                energy_conserving: false,
             })
         } else if let Some(ks) = ks {
             let total = (kd + ks).max_element();
