@@ -449,13 +449,22 @@ impl PrincipledParams {
 
     #[inline]
     fn fresnel(&self, cos_theta: f32, eta: f32) -> Vec3 {
-        let tint = self.tint();
-        let metal = fresnel::schlick(self.base_color, cos_theta) * self.metallic;
-        let tinted = fresnel::schlick(tint * fresnel::dielectric_f0(eta), cos_theta)
-            * ((1.0 - self.metallic) * self.spec_tint);
-        let dielectric =
-            fresnel::dielectric(cos_theta, eta) * (1.0 - self.metallic) * (1.0 - self.spec_tint);
-        Vec3::splat(dielectric) + metal + tinted
+        // metallic·Schlick(base) + (1 − metallic)·[(1 − t)·F_dielectric(η)
+        // + t·Schlick(tint·f0(η))]; the terms with zero weight are skipped
+        // (most materials are pure dielectrics or pure metals, untinted).
+        let (m, t) = (self.metallic, self.spec_tint);
+        let mut f = Vec3::ZERO;
+        if m < 1.0 && t < 1.0 {
+            f += Vec3::splat(fresnel::dielectric(cos_theta, eta) * ((1.0 - m) * (1.0 - t)));
+        }
+        if m > 0.0 {
+            f += fresnel::schlick(self.base_color, cos_theta) * m;
+        }
+        if m < 1.0 && t > 0.0 {
+            f += fresnel::schlick(self.tint() * fresnel::dielectric_f0(eta), cos_theta)
+                * ((1.0 - m) * t);
+        }
+        f
     }
 
     #[inline]
