@@ -90,7 +90,7 @@ int main(int argc, char **argv) {
     EXPECT(plsr_scene_builder_add_diffuse(b, "red", red, &m), PLSR_OK, NULL);
     if (m != 0) { fprintf(stderr, "material index %u\n", m); failures++; }
     EXPECT(plsr_scene_builder_add_diffuse(b, "red", red, &m), PLSR_ERR_INVALID_ARGUMENT, "duplicate");
-    plsr_principled pr = {{0.5f, 0.5f, 0.5f}, 2.0f, 0.0f, 0.0f, 0.5f, 0.0f};
+    plsr_principled pr = {{0.5f, 0.5f, 0.5f}, 2.0f, 0.0f, 0.0f, 0.5f, 0.0f, false};
     EXPECT(plsr_scene_builder_add_principled(b, "p", &pr, NULL), PLSR_ERR_INVALID_ARGUMENT, "roughness");
     const float tri[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
     const uint32_t idx[3] = {0, 1, 2}, bad_idx[3] = {0, 1, 7};
