@@ -5,7 +5,9 @@
 //!    scene's bounds, directions uniform on the sphere, `rtcIntersect1`), the
 //!    ceiling of any path tracer over Embree on this scene;
 //! 2. plsr's path tracer (Msamples/s, Mrays/s) and its efficiency, the ratio
-//!    of its ray rate to that ceiling;
+//!    of its ray rate to that ceiling; the share of its time spent inside
+//!    Embree's queries, and the samples/s it would reach if shading took no
+//!    time (the bound of any integrator tracing the same rays);
 //! 3. where Debian's `embree-tools` is installed, Embree's own `pathtracer` on
 //!    the same configuration (`--benchmark 1 3 --legacy`, its render-only
 //!    timing), plsr's samples/s against it, and the mean of both images.
@@ -227,6 +229,14 @@ pub fn run(o: &BenchOptions) -> Result<()> {
         stats.rays.total() as f64 / stats.samples as f64
     );
     println!("| efficiency (path-tracing / best raw rays) | {eff:8.3}     |");
+    println!(
+        "| share of plsr's time inside Embree        | {:8.1} %   |",
+        100.0 * stats.trace_share()
+    );
+    println!(
+        "| plsr if shading took no time (bound)      | {:8.3} Msamples/s |",
+        stats.trace_bound_msamples_per_s()
+    );
     let ours = clamped_mean(&film);
 
     match &o.pathtracer {
@@ -241,6 +251,10 @@ pub fn run(o: &BenchOptions) -> Result<()> {
                 println!(
                     "| plsr / Embree pathtracer, samples/s       | {:8.2}×    |",
                     stats.msamples_per_s() / peer_sps
+                );
+                println!(
+                    "| bound / Embree pathtracer, samples/s      | {:8.2}×    |",
+                    stats.trace_bound_msamples_per_s() / peer_sps
                 );
                 if let Some(m) = peer.image_mean {
                     println!(

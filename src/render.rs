@@ -59,6 +59,20 @@ impl RenderStats {
     pub fn mrays_per_s(&self) -> f64 {
         self.rays.total() as f64 / self.seconds / 1e6
     }
+
+    /// Fraction of the workers' time (wall time × threads) spent inside
+    /// Embree's queries; the rest is shading, bookkeeping and idling.
+    pub fn trace_share(&self) -> f64 {
+        self.rays.trace_nanos as f64 * 1e-9 / (self.seconds * self.threads as f64)
+    }
+
+    /// Millions of camera samples per second the same rays would allow if
+    /// everything but Embree's queries took no time: the ceiling of any
+    /// integrator that traces these rays.
+    pub fn trace_bound_msamples_per_s(&self) -> f64 {
+        let trace_wall = self.rays.trace_nanos as f64 * 1e-9 / self.threads as f64;
+        self.samples as f64 / trace_wall / 1e6
+    }
 }
 
 /// A rayon pool whose workers run with flush-to-zero and denormals-are-zero,
