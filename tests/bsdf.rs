@@ -547,7 +547,7 @@ fn energy_conserving_principled_reflects_at_most_one() {
             // interpolation (measured ±0.3 %). An anisotropic lobe's albedo
             // is approximated by the isotropic one at the roughness along
             // each direction's azimuth: within 0.5 % up to 75°, 1.8 % over
-            // at 88°. The albedo is estimated by importance sampling, which
+            // at 88° for this lobe (up to 2.5 % with anisotropic = 1). The albedo is estimated by importance sampling, which
             // resolves the sharpest lobes a fixed grid misses.
             let (e, se) = sampled_albedo(&make(Vec3::ONE, r, 0.0, a, t), wo)[0];
             let tolerance = if a > 0.0 && wo.z < 0.1 { 0.025 } else { 6e-3 };
