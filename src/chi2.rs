@@ -62,19 +62,28 @@ impl SphereBinning {
     }
 
     /// Expected probability of every cell: the pdf (solid angle) integrated
-    /// over it.
+    /// over it, by the midpoint rule on a `subdivisions`² sub-grid that is
+    /// uniform in `θ` (not in `cos θ`) within each cell, so that lobes
+    /// sharply peaked at the poles, where `cos θ` changes slowest, are
+    /// resolved as finely as anywhere else.
     pub fn integrate(&self, pdf: &dyn Fn(Vec3) -> f64) -> Vec<f64> {
         let (nt, np, k) = (self.theta_bins, self.phi_bins, self.subdivisions);
-        let dz = 2.0 / (nt * k) as f64;
         let dphi = 2.0 * PI / (np * k) as f64;
         let mut out = vec![0.0; nt * np];
-        for ti in 0..nt * k {
-            let z = -1.0 + (ti as f64 + 0.5) * dz;
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            for pi in 0..np * k {
-                let phi = (pi as f64 + 0.5) * dphi;
-                let w = Vec3::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32);
-                out[(ti / k) * np + pi / k] += pdf(w) * dz * dphi;
+        for t in 0..nt {
+            // The cell's z range, and the θ range it spans.
+            let z_lo = -1.0 + 2.0 * t as f64 / nt as f64;
+            let z_hi = -1.0 + 2.0 * (t + 1) as f64 / nt as f64;
+            let (theta_lo, theta_hi) = (z_hi.clamp(-1.0, 1.0).acos(), z_lo.clamp(-1.0, 1.0).acos());
+            let dtheta = (theta_hi - theta_lo) / k as f64;
+            for si in 0..k {
+                let theta = theta_lo + (si as f64 + 0.5) * dtheta;
+                let (r, z) = theta.sin_cos();
+                for pi in 0..np * k {
+                    let phi = (pi as f64 + 0.5) * dphi;
+                    let w = Vec3::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32);
+                    out[t * np + pi / k] += pdf(w) * r * dtheta * dphi;
+                }
             }
         }
         out

@@ -16,6 +16,7 @@
 //!   samples `D(h) cos θh` (Walter et al. 2007), `pdf(h) = D(h) cos θh`.
 //!   [`Microfacet::pdf_h`] returns whichever density `sample_h` draws from.
 
+use crate::sampling::square_to_disk_concentric;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -181,13 +182,13 @@ impl Microfacet {
             Vec3::X
         };
         let t2 = vh.cross(t1);
-        // A uniform point on the disk, warped onto the visible half.
-        let r = u.x.sqrt();
-        let phi = 2.0 * PI * u.y;
-        let (sin_phi, cos_phi) = phi.sin_cos();
-        let p1 = r * cos_phi;
+        // A uniform point on the disk (the concentric map: uniform like
+        // Heitz's polar map, without a sine and cosine), warped onto the
+        // visible half.
+        let d = square_to_disk_concentric(u);
+        let p1 = d.x;
         let s = 0.5 * (1.0 + vh.z);
-        let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * r * sin_phi;
+        let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * d.y;
         let nh = p1 * t1 + p2 * t2 + (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt() * vh;
         // Unstretch.
         Vec3::new(ax * nh.x, ay * nh.y, nh.z.max(1e-6)).normalize()

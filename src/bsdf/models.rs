@@ -426,8 +426,11 @@ impl PrincipledParams {
 
     /// The specular lobe's GGX distribution (Mitsuba's anisotropy mapping).
     pub fn microfacet(&self) -> Microfacet {
-        let aspect = (1.0 - 0.9 * self.anisotropic).sqrt();
         let r2 = self.roughness * self.roughness;
+        if self.anisotropic == 0.0 {
+            return Microfacet::new(Distribution::Ggx, r2, r2);
+        }
+        let aspect = (1.0 - 0.9 * self.anisotropic).sqrt();
         Microfacet::new(Distribution::Ggx, r2 / aspect, r2 * aspect)
     }
 
@@ -566,16 +569,16 @@ impl PrincipledParams {
         if wo.z <= 0.0 {
             return None;
         }
+        let m = self.microfacet();
         let wi = if uc < self.diffuse_probability() {
             square_to_cosine_hemisphere(u)
         } else {
-            let h = self.microfacet().sample_h(wo, u);
-            reflect(wo, h)
+            reflect(wo, m.sample_h(wo, u))
         };
         if wi.z <= 0.0 {
             return None;
         }
-        let (f, pdf) = self.eval_pdf(wo, wi);
+        let (f, pdf) = self.eval_pdf_with(&m, wo, wi);
         finish_sample(wi, f, pdf)
     }
 
@@ -584,15 +587,21 @@ impl PrincipledParams {
     /// a BSDF sample both need).
     #[inline]
     pub(super) fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        self.eval_pdf_with(&self.microfacet(), wo, wi)
+    }
+
+    /// [`PrincipledParams::eval_pdf`] with the distribution `m` (=
+    /// `self.microfacet()`) already built.
+    #[inline]
+    fn eval_pdf_with(&self, m: &Microfacet, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         if !both_above(wo, wi) {
             return (Vec3::ZERO, 0.0);
         }
         let h = (wo + wi).normalize();
-        let m = self.microfacet();
         let (d, g1o, g1i) = (m.d(h), m.g1(wo, h), m.g1(wi, h));
         let cos_d = wi.dot(h);
         let specular = self.fresnel(cos_d, self.eta()) * (d * g1o * g1i / (4.0 * wo.z * wi.z));
-        let diffuse = self.diffuse(wo, wi, cos_d, &m);
+        let diffuse = self.diffuse(wo, wi, cos_d, m);
         // The visible-normal density over h, pdf_h = G1(wo)·max(0, wo·h)·D/cos θo,
         // turned into a density over wi by 1/(4 wo·h).
         let wo_h = wo.dot(h);
