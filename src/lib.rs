@@ -15,7 +15,7 @@
 //! - [`hdr`]: HDR panoramas from bracketed photos (OpenImageIO shim,
 //!   response recovery, streaming merge);
 //! - [`capi`]: the C ABI for C and C++ hosts (`include/plsr.h`);
-//! - [`bench`], [`cli`]: the `plsr` program.
+//! - [`bench`](mod@bench), [`cli`]: the `plsr` program.
 
 pub use plsr_embree_sys as sys;
 

@@ -7,7 +7,7 @@
 //!   optional median-threshold-bitmap alignment ([`align`]);
 //! - [`synth`]: synthetic HDR scenes and simulated brackets for tests and the
 //!   benchmark;
-//! - [`bench`]: `plsr bench hdr`, plsr against OpenCV's `MergeDebevec`;
+//! - [`bench`](mod@bench): `plsr bench hdr`, plsr against OpenCV's `MergeDebevec`;
 //! - [`capture`]: `plsr hdr capture`, a simulated 360° bracket capture of a
 //!   scene;
 //! - [`cli`]: `plsr hdr merge` and `plsr hdr capture`.

@@ -2,7 +2,7 @@
 //! Embree acceleration structure built over them.
 //!
 //! A scene is described either by a file ([`Scene::load`], see
-//! `docs/scene-format.md` and [`file`]) or in code ([`SceneDescription`]), and
+//! `docs/scene-format.md` and [`file`](mod@file)) or in code ([`SceneDescription`]), and
 //! turned by [`Scene::build`] into a [`Scene`] ready to render. Geometry id
 //! `i` in Embree is `meshes[i]`, so a hit names its mesh directly.
 
