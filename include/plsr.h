@@ -134,7 +134,9 @@ typedef struct {
   float spec_tint;
   // `false` (0 in an aggregate initialiser that leaves it out): Mitsuba
   // 3's diffuse lobe, which may reflect more than it receives; `true`:
-  // the energy-conserving diffuse lobe coupled to the specular one.
+  // the diffuse lobe coupled to the specular one, which reflects at most
+  // what it receives (anisotropic lobes up to 2.5 % more near grazing
+  // incidence). Added in 0.2.0.
   bool energy_conserving;
 } plsr_principled;
 

@@ -40,8 +40,9 @@ pub struct Tile {
     pub height: u32,
 }
 
-/// Counts of rays traced, for throughput reports.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+/// Counts of rays traced and the time spent tracing them, for throughput
+/// reports (not comparable between runs: it holds a timing).
+#[derive(Debug, Clone, Copy, Default)]
 pub struct RayStats {
     /// Camera rays (closest hit).
     pub camera: u64,

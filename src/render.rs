@@ -37,7 +37,7 @@ impl Default for RenderOptions {
 }
 
 /// What a render did and how fast.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default)]
 pub struct RenderStats {
     /// Wall-clock seconds.
     pub seconds: f64,
@@ -69,7 +69,11 @@ impl RenderStats {
     /// Millions of camera samples per second the same rays would allow if
     /// everything but Embree's queries took no time: the ceiling of any
     /// integrator that traces these rays.
+    /// NaN when nothing was traced.
     pub fn trace_bound_msamples_per_s(&self) -> f64 {
+        if self.rays.trace_nanos == 0 {
+            return f64::NAN;
+        }
         let trace_wall = self.rays.trace_nanos as f64 * 1e-9 / self.threads as f64;
         self.samples as f64 / trace_wall / 1e6
     }

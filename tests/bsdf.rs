@@ -524,18 +524,39 @@ fn sampled_albedo(bsdf: &Bsdf, wo: Vec3) -> [(f64, f64); 3] {
 /// base colour or metallic mix reflects more than 1 in any channel.
 #[test]
 fn energy_conserving_principled_reflects_at_most_one() {
-    let make = |base: Vec3, roughness: f32, metallic: f32, anisotropic: f32, spec_tint: f32| {
+    let with_specular = |base: Vec3, roughness: f32, specular: f32, spec_tint: f32| {
         Bsdf::Principled(PrincipledParams {
             base_color: base,
             roughness,
-            metallic,
-            anisotropic,
-            specular: 0.5,
+            metallic: 0.0,
+            anisotropic: 0.0,
+            specular,
             spec_tint,
             energy_conserving: true,
         })
     };
+    let make = |base: Vec3, roughness: f32, metallic: f32, anisotropic: f32, spec_tint: f32| {
+        let Bsdf::Principled(p) = with_specular(base, roughness, 0.5, spec_tint) else {
+            unreachable!()
+        };
+        Bsdf::Principled(PrincipledParams {
+            metallic,
+            anisotropic,
+            ..p
+        })
+    };
     for wo in incident_directions() {
+        // Any `specular`, including small ones, where the dielectric albedo
+        // jumps from 0 to nearly 1 at grazing angles as η leaves 1.
+        for specular in [0.0, 0.01, 0.03, 0.1, 0.3, 1.0] {
+            for (r, t) in [(0.05, 0.0), (0.3, 0.5), (0.8, 0.0)] {
+                let (e, se) = sampled_albedo(&with_specular(Vec3::ONE, r, specular, t), wo)[0];
+                assert!(
+                    (e - 1.0).abs() < 4.0 * se + 6e-3,
+                    "white r={r} specular={specular} tint={t}, wo = {wo}: albedo {e} ± {se}"
+                );
+            }
+        }
         for (r, a, t) in [
             (0.05, 0.0, 0.0),
             (0.3, 0.0, 0.0),
@@ -592,12 +613,13 @@ fn energy_conserving_principled_reflects_at_most_one() {
 /// specular lobe between grid points.
 #[test]
 fn specular_albedo_table_matches_integration() {
-    let tables = plsr::bsdf::albedo::SpecularAlbedo::get();
     for (mu, roughness, specular) in [
         (0.37f32, 0.23f32, 0.3f32),
         (0.9, 0.61, 0.5),
         (0.12, 0.9, 0.85),
+        (0.21, 0.4, 0.03),
     ] {
+        let tables = plsr::bsdf::albedo::DielectricAlbedo::for_specular(specular);
         let black = Bsdf::Principled(PrincipledParams {
             base_color: Vec3::ZERO,
             roughness,
@@ -609,7 +631,7 @@ fn specular_albedo_table_matches_integration() {
         });
         let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
         let want = albedo(&black, wo);
-        let got = tables.directional(mu, roughness * roughness, specular, false)[2];
+        let got = tables.directional(mu, roughness * roughness);
         assert!(
             (got - want).abs() < 3e-3,
             "μ={mu} r={roughness} specular={specular}: table {got}, integral {want}"

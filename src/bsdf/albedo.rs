@@ -1,5 +1,5 @@
-//! Directional albedo of the principled BSDF's specular lobe, tabulated
-//! once, for its energy-conserving mode (`energy_conserving = true`).
+//! Directional albedo of the principled BSDF's specular lobe, tabulated for
+//! its energy-conserving mode (`energy_conserving = true`).
 //!
 //! The directional albedo of a GGX reflection lobe with Fresnel term `F` is
 //!
@@ -11,48 +11,36 @@
 //! with `μ = cos θ`. It is tabulated over `μo` and `√α` for three Fresnel
 //! terms, from which every Fresnel term the principled lobe uses follows
 //! linearly:
-//! - `F = 1` ([`SpecularAlbedo::directional`]`[0]`);
-//! - Schlick's weight `F = (1 − wo·h)⁵` (`[1]`), so that Schlick with any
-//!   `f0` is `f0·(E₀ − E₁) + E₁`;
-//! - the exact dielectric Fresnel term with `η` from `specular` (`[2]`,
-//!   also tabulated over `specular`).
+//! - `F = 1` and Schlick's weight `F = (1 − wo·h)⁵` ([`SpecularAlbedo`],
+//!   once per process), so that Schlick with any `f0` is
+//!   `f0·(E₁ − E_w) + E_w`;
+//! - the exact dielectric Fresnel term with `η` from `specular`
+//!   ([`DielectricAlbedo`], once per distinct `specular`: `E` jumps from 0 to
+//!   nearly 1 at grazing angles as `η` leaves 1, so no interpolation over
+//!   `specular` is accurate near 0).
 //!
-//! Alongside each, the hemispherical average `Ē = 2 ∫₀¹ E(μ) μ dμ`
-//! ([`SpecularAlbedo::average`]), integrated exactly over the same
-//! piecewise-linear interpolant, so that the coupled diffuse term of
-//! [`PrincipledParams`](super::PrincipledParams) integrates to exactly what
-//! the specular lobe leaves (Kelemen and Szirmay-Kalos 2001).
+//! Alongside each, the hemispherical average `Ē = 2 ∫₀¹ E(μ) μ dμ`,
+//! integrated exactly over the same piecewise-linear interpolant, so that
+//! the coupled diffuse term of [`PrincipledParams`](super::PrincipledParams)
+//! integrates to exactly what the specular lobe leaves (Kelemen and
+//! Szirmay-Kalos 2001).
 
 use super::fresnel;
 use super::microfacet::{Distribution, Microfacet};
 use glam::{Vec2, Vec3};
-use std::sync::OnceLock;
+use std::cell::RefCell;
+use std::sync::{Mutex, OnceLock};
 
-/// Grid points over `μ = cos θ` in `[0, 1]`.
+/// Grid points over `μ = cos θ`, at `μ = (i/(n − 1))²`: denser at grazing
+/// angles, where the Fresnel terms change fastest.
 const MU_POINTS: usize = 32;
 /// Grid points over `√α` in `[0, SQRT_ALPHA_MAX]`.
 const SQRT_ALPHA_POINTS: usize = 32;
 /// Largest tabulated `√α`: principled's anisotropy stretches `α = r²` up to
 /// `1/√0.1 ≈ 3.16`, i.e. `√α ≈ 1.78`.
 const SQRT_ALPHA_MAX: f32 = 1.8;
-/// Grid points over `specular` in `[0, 1]`.
-const SPECULAR_POINTS: usize = 9;
-/// Stratified visible-normal samples per table entry (a square number).
+/// Stratified visible-normal samples per table entry, per side.
 const SAMPLES_PER_SIDE: usize = 24;
-
-/// The tabulated albedos; see the module documentation.
-pub struct SpecularAlbedo {
-    /// `E` with `F = 1`, `[alpha][mu]`.
-    white: Vec<f32>,
-    /// `E` with Schlick's weight as `F`, `[alpha][mu]`.
-    schlick: Vec<f32>,
-    /// `E` with the dielectric Fresnel term, `[specular][alpha][mu]`.
-    dielectric: Vec<f32>,
-    /// Hemispherical averages of the three, `[alpha]` and `[specular][alpha]`.
-    white_avg: Vec<f32>,
-    schlick_avg: Vec<f32>,
-    dielectric_avg: Vec<f32>,
-}
 
 /// `η` from principled's `specular` (Mitsuba's mapping).
 pub fn eta_from_specular(specular: f32) -> f32 {
@@ -60,18 +48,16 @@ pub fn eta_from_specular(specular: f32) -> f32 {
 }
 
 fn mu_at(i: usize) -> f32 {
-    i as f32 / (MU_POINTS - 1) as f32
+    let t = i as f32 / (MU_POINTS - 1) as f32;
+    t * t
 }
 
 fn sqrt_alpha_at(j: usize) -> f32 {
     SQRT_ALPHA_MAX * j as f32 / (SQRT_ALPHA_POINTS - 1) as f32
 }
 
-fn specular_at(k: usize) -> f32 {
-    k as f32 / (SPECULAR_POINTS - 1) as f32
-}
-
-/// A grid coordinate: the lower index and the weight of the upper one.
+/// A grid coordinate for `x ∈ [0, 1]` on `points` even steps: the lower
+/// index and the weight of the upper one.
 #[inline]
 fn cell(x: f32, points: usize) -> (usize, f32) {
     let t = x.clamp(0.0, 1.0) * (points - 1) as f32;
@@ -79,8 +65,8 @@ fn cell(x: f32, points: usize) -> (usize, f32) {
     (i, t - i as f32)
 }
 
-/// Exact `∫₀¹ e(μ) μ dμ · 2` of the piecewise-linear interpolant of `e`
-/// over the `μ` grid.
+/// Exact `2 ∫₀¹ e(μ) μ dμ` of the piecewise-linear interpolant of `e` over
+/// the `μ` grid.
 fn hemispherical_average(e: &[f32]) -> f32 {
     let mut sum = 0.0;
     for i in 0..MU_POINTS - 1 {
@@ -90,124 +76,188 @@ fn hemispherical_average(e: &[f32]) -> f32 {
     2.0 * sum
 }
 
-impl SpecularAlbedo {
-    /// The tables, computed on first use (about 0.1 s).
-    pub fn get() -> &'static SpecularAlbedo {
-        static TABLES: OnceLock<SpecularAlbedo> = OnceLock::new();
-        TABLES.get_or_init(SpecularAlbedo::compute)
-    }
-
-    fn compute() -> SpecularAlbedo {
-        let etas: Vec<f32> = (0..SPECULAR_POINTS)
-            .map(|k| eta_from_specular(specular_at(k)))
-            .collect();
-        // One row per α: [white; schlick; dielectric per specular] over μ.
-        // Serial on purpose: the tables may first be needed inside a
-        // render's rayon worker, where a nested parallel loop could steal a
-        // job that waits on this very initialisation.
-        let rows: Vec<Vec<f32>> = (0..SQRT_ALPHA_POINTS)
-            .map(|j| {
-                let a = sqrt_alpha_at(j);
-                let m = Microfacet::isotropic(Distribution::Ggx, a * a);
-                let mut row = vec![0.0f32; (2 + SPECULAR_POINTS) * MU_POINTS];
-                for i in 0..MU_POINTS {
-                    // μ = 0 itself has no visible microfacets: use a nearly
-                    // grazing direction instead.
-                    let mu = mu_at(i).max(2e-3);
-                    let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
-                    let mut sums = [0.0f64; 2 + SPECULAR_POINTS];
-                    let n = SAMPLES_PER_SIDE;
-                    for s in 0..n * n {
-                        let u = Vec2::new(
-                            ((s % n) as f32 + 0.5) / n as f32,
-                            ((s / n) as f32 + 0.5) / n as f32,
-                        );
-                        let h = m.sample_h(wo, u);
-                        let wi = fresnel::reflect(wo, h);
-                        if wi.z <= 0.0 {
-                            continue;
-                        }
-                        let g1 = m.g1(wi, h) as f64;
-                        let cos_d = wo.dot(h);
-                        sums[0] += g1;
-                        sums[1] += g1 * fresnel::schlick_weight(cos_d) as f64;
-                        for (k, &eta) in etas.iter().enumerate() {
-                            sums[2 + k] += g1 * fresnel::dielectric(cos_d, eta) as f64;
-                        }
-                    }
-                    for (t, s) in sums.iter().enumerate() {
-                        row[t * MU_POINTS + i] = (s / (n * n) as f64) as f32;
-                    }
+/// Tabulates `E` for each Fresnel term of `fresnels` (functions of
+/// `cos θd = wo·h`): one `[α][μ]` table each, with its `[α]` averages.
+///
+/// Serial on purpose: the tables may first be needed inside a render's
+/// rayon worker, where a nested parallel loop could steal a job that waits
+/// on this very initialisation.
+fn tabulate<const N: usize>(fresnels: [&dyn Fn(f32) -> f32; N]) -> [(Vec<f32>, Vec<f32>); N] {
+    let mut out: [(Vec<f32>, Vec<f32>); N] = std::array::from_fn(|_| {
+        (
+            Vec::with_capacity(SQRT_ALPHA_POINTS * MU_POINTS),
+            Vec::with_capacity(SQRT_ALPHA_POINTS),
+        )
+    });
+    let n = SAMPLES_PER_SIDE;
+    for j in 0..SQRT_ALPHA_POINTS {
+        let a = sqrt_alpha_at(j);
+        let m = Microfacet::isotropic(Distribution::Ggx, a * a);
+        let mut rows = [[0.0f32; MU_POINTS]; N];
+        for i in 0..MU_POINTS {
+            // μ = 0 itself has no visible microfacets: use a nearly grazing
+            // direction instead.
+            let mu = mu_at(i).max(2e-4);
+            let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+            let mut sums = [0.0f64; N];
+            for s in 0..n * n {
+                let u = Vec2::new(
+                    ((s % n) as f32 + 0.5) / n as f32,
+                    ((s / n) as f32 + 0.5) / n as f32,
+                );
+                let h = m.sample_h(wo, u);
+                let wi = fresnel::reflect(wo, h);
+                if wi.z <= 0.0 {
+                    continue;
                 }
-                row
-            })
-            .collect();
-        let per_alpha = SQRT_ALPHA_POINTS * MU_POINTS;
-        let mut t = SpecularAlbedo {
-            white: Vec::with_capacity(per_alpha),
-            schlick: Vec::with_capacity(per_alpha),
-            dielectric: vec![0.0; SPECULAR_POINTS * per_alpha],
-            white_avg: Vec::new(),
-            schlick_avg: Vec::new(),
-            dielectric_avg: vec![0.0; SPECULAR_POINTS * SQRT_ALPHA_POINTS],
-        };
-        for (j, row) in rows.iter().enumerate() {
-            let part = |t: usize| &row[t * MU_POINTS..(t + 1) * MU_POINTS];
-            t.white.extend_from_slice(part(0));
-            t.schlick.extend_from_slice(part(1));
-            t.white_avg.push(hemispherical_average(part(0)));
-            t.schlick_avg.push(hemispherical_average(part(1)));
-            for k in 0..SPECULAR_POINTS {
-                let at = k * per_alpha + j * MU_POINTS;
-                t.dielectric[at..at + MU_POINTS].copy_from_slice(part(2 + k));
-                t.dielectric_avg[k * SQRT_ALPHA_POINTS + j] = hemispherical_average(part(2 + k));
+                let g1 = m.g1(wi, h) as f64;
+                let cos_d = wo.dot(h);
+                for (sum, f) in sums.iter_mut().zip(&fresnels) {
+                    *sum += g1 * f(cos_d) as f64;
+                }
+            }
+            for (row, sum) in rows.iter_mut().zip(sums) {
+                row[i] = (sum / (n * n) as f64) as f32;
             }
         }
-        t
-    }
-
-    /// `[E(F = 1), E(F = Schlick weight), E(F = dielectric(η(specular)))]`
-    /// for `μo = cos θo` and roughness `alpha` (bilinear in `μ`, `√α`;
-    /// linear in `specular`). Without `schlick_too` only the last is looked
-    /// up and the first two are 0.
-    #[inline]
-    pub fn directional(&self, mu: f32, alpha: f32, specular: f32, schlick_too: bool) -> [f32; 3] {
-        let (i, fi) = cell(mu, MU_POINTS);
-        let (j, fj) = cell(alpha.sqrt() / SQRT_ALPHA_MAX, SQRT_ALPHA_POINTS);
-        let (k, fk) = cell(specular, SPECULAR_POINTS);
-        let bilinear = |table: &[f32]| {
-            let at = |j: usize, i: usize| table[j * MU_POINTS + i];
-            let lo = at(j, i) + fi * (at(j, i + 1) - at(j, i));
-            let hi = at(j + 1, i) + fi * (at(j + 1, i + 1) - at(j + 1, i));
-            lo + fj * (hi - lo)
-        };
-        let per_alpha = SQRT_ALPHA_POINTS * MU_POINTS;
-        let d0 = bilinear(&self.dielectric[k * per_alpha..(k + 1) * per_alpha]);
-        let d1 = bilinear(&self.dielectric[(k + 1) * per_alpha..(k + 2) * per_alpha]);
-        if !schlick_too {
-            return [0.0, 0.0, d0 + fk * (d1 - d0)];
+        for (table, row) in out.iter_mut().zip(&rows) {
+            table.0.extend_from_slice(row);
+            table.1.push(hemispherical_average(row));
         }
+    }
+    out
+}
+
+/// Bilinear lookup in a `[α][μ]` table: linear in `μ` between its grid
+/// points (the interpolant [`hemispherical_average`] integrates), linear in
+/// `√α`.
+#[inline]
+fn lookup(table: &[f32], mu: f32, alpha: f32) -> f32 {
+    let mu = mu.clamp(0.0, 1.0);
+    let (i, _) = cell(mu.sqrt(), MU_POINTS);
+    let fi = ((mu - mu_at(i)) / (mu_at(i + 1) - mu_at(i))).clamp(0.0, 1.0);
+    let (j, fj) = cell(alpha.sqrt() / SQRT_ALPHA_MAX, SQRT_ALPHA_POINTS);
+    let at = |j: usize, i: usize| table[j * MU_POINTS + i];
+    let lo = at(j, i) + fi * (at(j, i + 1) - at(j, i));
+    let hi = at(j + 1, i) + fi * (at(j + 1, i + 1) - at(j + 1, i));
+    lo + fj * (hi - lo)
+}
+
+/// Linear lookup in an `[α]` table of averages.
+#[inline]
+fn lookup_average(table: &[f32], alpha: f32) -> f32 {
+    let (j, fj) = cell(alpha.sqrt() / SQRT_ALPHA_MAX, SQRT_ALPHA_POINTS);
+    table[j] + fj * (table[j + 1] - table[j])
+}
+
+/// Albedos of the lobe with `F = 1` and with Schlick's weight as `F`.
+pub struct SpecularAlbedo {
+    white: Vec<f32>,
+    schlick: Vec<f32>,
+    white_avg: Vec<f32>,
+    schlick_avg: Vec<f32>,
+}
+
+impl SpecularAlbedo {
+    /// The tables, computed on first use (a few tens of milliseconds).
+    pub fn get() -> &'static SpecularAlbedo {
+        static TABLES: OnceLock<SpecularAlbedo> = OnceLock::new();
+        TABLES.get_or_init(|| {
+            let [(white, white_avg), (schlick, schlick_avg)] =
+                tabulate([&|_| 1.0, &fresnel::schlick_weight]);
+            SpecularAlbedo {
+                white,
+                schlick,
+                white_avg,
+                schlick_avg,
+            }
+        })
+    }
+
+    /// `[E(F = 1), E(F = Schlick weight)]` for `μo = cos θo` and roughness
+    /// `alpha`.
+    #[inline]
+    pub fn directional(&self, mu: f32, alpha: f32) -> [f32; 2] {
         [
-            bilinear(&self.white),
-            bilinear(&self.schlick),
-            d0 + fk * (d1 - d0),
+            lookup(&self.white, mu, alpha),
+            lookup(&self.schlick, mu, alpha),
         ]
     }
 
-    /// The hemispherical averages `Ē = 2∫E(μ)μ dμ` of the three albedos of
-    /// [`SpecularAlbedo::directional`], for roughness `alpha`.
+    /// The hemispherical averages `Ē = 2∫E(μ)μ dμ` of the two.
     #[inline]
-    pub fn average(&self, alpha: f32, specular: f32) -> [f32; 3] {
-        let (j, fj) = cell(alpha.sqrt() / SQRT_ALPHA_MAX, SQRT_ALPHA_POINTS);
-        let (k, fk) = cell(specular, SPECULAR_POINTS);
-        let lerp = |t: &[f32], j: usize| t[j] + fj * (t[j + 1] - t[j]);
-        let d = &self.dielectric_avg;
-        let d0 = lerp(&d[k * SQRT_ALPHA_POINTS..], j);
-        let d1 = lerp(&d[(k + 1) * SQRT_ALPHA_POINTS..], j);
+    pub fn average(&self, alpha: f32) -> [f32; 2] {
         [
-            lerp(&self.white_avg, j),
-            lerp(&self.schlick_avg, j),
-            d0 + fk * (d1 - d0),
+            lookup_average(&self.white_avg, alpha),
+            lookup_average(&self.schlick_avg, alpha),
         ]
+    }
+}
+
+/// Albedo of the lobe with the exact dielectric Fresnel term of one
+/// `specular` value.
+pub struct DielectricAlbedo {
+    specular: f32,
+    e: Vec<f32>,
+    avg: Vec<f32>,
+}
+
+impl DielectricAlbedo {
+    /// The table of `specular` (in `[0, 1]`), computed on first use for
+    /// each distinct value (a few tens of milliseconds) and kept for the
+    /// life of the process; later calls are a lookup in a per-thread list.
+    pub fn for_specular(specular: f32) -> &'static DielectricAlbedo {
+        /// Tables computed so far, shared by all threads.
+        static ALL: Mutex<Vec<&'static DielectricAlbedo>> = Mutex::new(Vec::new());
+        /// The last few tables this thread used.
+        const RECENT_LEN: usize = 16;
+        thread_local! {
+            static RECENT: RefCell<Vec<&'static DielectricAlbedo>> = const { RefCell::new(Vec::new()) };
+        }
+        let bits = specular.to_bits();
+        let same = |t: &&&'static DielectricAlbedo| t.specular.to_bits() == bits;
+        if let Some(t) = RECENT.with(|r| r.borrow().iter().find(same).copied()) {
+            return t;
+        }
+        let table = {
+            // A panic while computing leaves nothing half-inserted, so a
+            // poisoned list is still consistent.
+            let mut all = ALL.lock().unwrap_or_else(|e| e.into_inner());
+            match all.iter().find(same) {
+                Some(t) => t,
+                None => {
+                    let t: &'static DielectricAlbedo =
+                        Box::leak(Box::new(DielectricAlbedo::compute(specular)));
+                    all.push(t);
+                    t
+                }
+            }
+        };
+        RECENT.with(|r| {
+            let mut r = r.borrow_mut();
+            if r.len() == RECENT_LEN {
+                r.remove(0);
+            }
+            r.push(table);
+        });
+        table
+    }
+
+    fn compute(specular: f32) -> DielectricAlbedo {
+        let eta = eta_from_specular(specular);
+        let [(e, avg)] = tabulate([&|c| fresnel::dielectric(c, eta)]);
+        DielectricAlbedo { specular, e, avg }
+    }
+
+    /// `E(μo)` for roughness `alpha`.
+    #[inline]
+    pub fn directional(&self, mu: f32, alpha: f32) -> f32 {
+        lookup(&self.e, mu, alpha)
+    }
+
+    /// The hemispherical average `Ē = 2∫E(μ)μ dμ` for roughness `alpha`.
+    #[inline]
+    pub fn average(&self, alpha: f32) -> f32 {
+        lookup_average(&self.avg, alpha)
     }
 }

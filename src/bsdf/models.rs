@@ -397,7 +397,9 @@ impl DielectricParams {
 /// specular lobe, `ρ(1 − E(wo))(1 − E(wi)) / (π(1 − Ē))` with `E` the
 /// specular lobe's directional albedo ([`super::albedo`]): it receives exactly
 /// the energy the specular lobe leaves, so the BSDF reflects at most 1 and
-/// exactly 1 with a white dielectric base (Kelemen and Szirmay-Kalos 2001).
+/// exactly 1 with a white dielectric base (Kelemen and Szirmay-Kalos 2001);
+/// an anisotropic lobe's albedo is approximated (up to 2.5 % over near
+/// grazing incidence, see `docs/scene-format.md`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PrincipledParams {
     /// Base colour (linear RGB): the diffuse albedo, or the metal's tint.
@@ -414,7 +416,7 @@ pub struct PrincipledParams {
     pub spec_tint: f32,
     /// `false`: Burley's diffuse lobe, as Mitsuba 3 (not energy-conserving);
     /// `true`: the diffuse lobe coupled to the specular one, so that the
-    /// BSDF conserves energy.
+    /// BSDF conserves energy (anisotropic lobes approximately).
     pub energy_conserving: bool,
 }
 
@@ -432,6 +434,18 @@ impl PrincipledParams {
         }
         let aspect = (1.0 - 0.9 * self.anisotropic).sqrt();
         Microfacet::new(Distribution::Ggx, r2 / aspect, r2 * aspect)
+    }
+
+    /// Computes now the albedo tables the energy-conserving mode looks up
+    /// (otherwise computed at first use, tens of milliseconds each); does
+    /// nothing in Mitsuba's mode.
+    pub fn prepare(&self) {
+        if self.energy_conserving {
+            albedo::DielectricAlbedo::for_specular(self.specular);
+            if self.spec_tint > 0.0 {
+                albedo::SpecularAlbedo::get();
+            }
+        }
     }
 
     #[inline]
@@ -490,21 +504,9 @@ impl PrincipledParams {
         if self.energy_conserving {
             // Kelemen and Szirmay-Kalos: ρ(1 − E(wo))(1 − E(wi)) / (π(1 − Ē)),
             // which integrates against cos θi to ρ(1 − E(wo)).
-            let tables = albedo::SpecularAlbedo::get();
-            let albedo = |e: [f32; 3]| self.dielectric_albedo(e);
-            let eo = albedo(tables.directional(
-                wo.z,
-                alpha_towards(m, wo),
-                self.specular,
-                self.spec_tint > 0.0,
-            ));
-            let ei = albedo(tables.directional(
-                wi.z,
-                alpha_towards(m, wi),
-                self.specular,
-                self.spec_tint > 0.0,
-            ));
-            let avg = albedo(self.average_albedo(tables, m));
+            let eo = self.dielectric_albedo(wo.z, alpha_towards(m, wo));
+            let ei = self.dielectric_albedo(wi.z, alpha_towards(m, wi));
+            let avg = self.average_dielectric_albedo(m);
             return self.base_color * weight * (Vec3::ONE - eo) * (Vec3::ONE - ei)
                 / (Vec3::ONE - avg);
         }
@@ -516,41 +518,52 @@ impl PrincipledParams {
     }
 
     /// Albedo of the specular lobe's dielectric (non-metal) part per unit
-    /// `1 − metallic`, from the tabulated `[E(1), E(Schlick weight),
-    /// E(dielectric)]`: `(1 − t)·E_d + t·(f₀(E₁ − E_w) + E_w)` with
-    /// `f₀ = tint·f0(η)`, as in [`PrincipledParams::fresnel`]. Kept below 1
-    /// so that the coupled diffuse term stays finite.
+    /// `1 − metallic`, for `μ = cos θ` and roughness `alpha`, from the
+    /// tabulated albedos ([`albedo`]): `(1 − t)·E_d + t·(f₀(E₁ − E_w) + E_w)`
+    /// with `f₀ = tint·f0(η)`, as in [`PrincipledParams::fresnel`].
     #[inline]
-    fn dielectric_albedo(&self, [e1, ew, ed]: [f32; 3]) -> Vec3 {
+    fn dielectric_albedo(&self, mu: f32, alpha: f32) -> Vec3 {
+        let ed = albedo::DielectricAlbedo::for_specular(self.specular).directional(mu, alpha);
+        self.blend_albedo(ed, || albedo::SpecularAlbedo::get().directional(mu, alpha))
+    }
+
+    /// The hemispherical average of [`PrincipledParams::dielectric_albedo`];
+    /// for an anisotropic lobe the mean over azimuth of the isotropic
+    /// averages at each azimuth's roughness (the same approximation as
+    /// [`alpha_towards`]).
+    #[inline]
+    fn average_dielectric_albedo(&self, m: &Microfacet) -> Vec3 {
+        let average = |alpha: f32| {
+            let ed = albedo::DielectricAlbedo::for_specular(self.specular).average(alpha);
+            self.blend_albedo(ed, || albedo::SpecularAlbedo::get().average(alpha))
+        };
+        if m.alpha_x == m.alpha_y {
+            return average(m.alpha_x);
+        }
+        const AZIMUTHS: usize = 8;
+        let mut sum = Vec3::ZERO;
+        for k in 0..AZIMUTHS {
+            let phi = std::f32::consts::FRAC_PI_2 * (k as f32 + 0.5) / AZIMUTHS as f32;
+            let w = Vec3::new(phi.cos(), phi.sin(), 0.0);
+            sum += average(alpha_towards(m, w));
+        }
+        sum / AZIMUTHS as f32
+    }
+
+    /// `(1 − t)·E_d + t·(f₀(E₁ − E_w) + E_w)` from the dielectric albedo
+    /// `ed` and, only when `spec_tint > 0`, `[E₁, E_w]`; kept below 1 so that
+    /// the coupled diffuse term stays finite.
+    #[inline]
+    fn blend_albedo(&self, ed: f32, schlick: impl FnOnce() -> [f32; 2]) -> Vec3 {
         let t = self.spec_tint;
         let e = if t > 0.0 {
+            let [e1, ew] = schlick();
             let f0 = self.tint() * fresnel::dielectric_f0(self.eta());
             Vec3::splat(ed * (1.0 - t)) + (f0 * (e1 - ew) + Vec3::splat(ew)) * t
         } else {
             Vec3::splat(ed)
         };
         e.min(Vec3::splat(0.999))
-    }
-
-    /// Hemispherical averages of the tabulated albedos; for an anisotropic
-    /// lobe the mean over azimuth of the isotropic averages at each
-    /// azimuth's roughness (the same approximation as [`alpha_towards`]).
-    #[inline]
-    fn average_albedo(&self, tables: &albedo::SpecularAlbedo, m: &Microfacet) -> [f32; 3] {
-        if m.alpha_x == m.alpha_y {
-            return tables.average(m.alpha_x, self.specular);
-        }
-        const AZIMUTHS: usize = 8;
-        let mut sum = [0.0f32; 3];
-        for k in 0..AZIMUTHS {
-            let phi = std::f32::consts::FRAC_PI_2 * (k as f32 + 0.5) / AZIMUTHS as f32;
-            let w = Vec3::new(phi.cos(), phi.sin(), 0.0);
-            let a = tables.average(alpha_towards(m, w), self.specular);
-            for c in 0..3 {
-                sum[c] += a[c] / AZIMUTHS as f32;
-            }
-        }
-        sum
     }
 
     #[inline]

@@ -178,6 +178,13 @@ impl Scene {
         if meshes.len() >= u32::MAX as usize {
             return Err(Error::InvalidArgument("too many meshes".into()));
         }
+        // Tabulate the albedos energy-conserving materials need now rather
+        // than in the middle of the render.
+        for m in &materials {
+            if let crate::bsdf::Bsdf::Principled(p) = &m.bsdf {
+                p.prepare();
+            }
+        }
         for (i, m) in meshes.iter().enumerate() {
             if m.material as usize >= materials.len() {
                 return Err(Error::InvalidArgument(format!(
