@@ -504,9 +504,11 @@ impl PrincipledParams {
         if self.energy_conserving {
             // Kelemen and Szirmay-Kalos: ρ(1 − E(wo))(1 − E(wi)) / (π(1 − Ē)),
             // which integrates against cos θi to ρ(1 − E(wo)).
-            let eo = self.dielectric_albedo(wo.z, alpha_towards(m, wo));
-            let ei = self.dielectric_albedo(wi.z, alpha_towards(m, wi));
-            let avg = self.average_dielectric_albedo(m);
+            // One table lookup per evaluation, shared by the three uses.
+            let table = albedo::DielectricAlbedo::for_specular(self.specular);
+            let eo = self.dielectric_albedo(table, wo.z, alpha_towards(m, wo));
+            let ei = self.dielectric_albedo(table, wi.z, alpha_towards(m, wi));
+            let avg = self.average_dielectric_albedo(table, m);
             return self.base_color * weight * (Vec3::ONE - eo) * (Vec3::ONE - ei)
                 / (Vec3::ONE - avg);
         }
@@ -520,10 +522,11 @@ impl PrincipledParams {
     /// Albedo of the specular lobe's dielectric (non-metal) part per unit
     /// `1 − metallic`, for `μ = cos θ` and roughness `alpha`, from the
     /// tabulated albedos ([`albedo`]): `(1 − t)·E_d + t·(f₀(E₁ − E_w) + E_w)`
-    /// with `f₀ = tint·f0(η)`, as in [`PrincipledParams::fresnel`].
+    /// with `f₀ = tint·f0(η)`, as in [`PrincipledParams::fresnel`]; `table`
+    /// is the dielectric table of `self.specular`.
     #[inline]
-    fn dielectric_albedo(&self, mu: f32, alpha: f32) -> Vec3 {
-        let ed = albedo::DielectricAlbedo::for_specular(self.specular).directional(mu, alpha);
+    fn dielectric_albedo(&self, table: &albedo::DielectricAlbedo, mu: f32, alpha: f32) -> Vec3 {
+        let ed = table.directional(mu, alpha);
         self.blend_albedo(ed, || albedo::SpecularAlbedo::get().directional(mu, alpha))
     }
 
@@ -532,9 +535,9 @@ impl PrincipledParams {
     /// averages at each azimuth's roughness (the same approximation as
     /// [`alpha_towards`]).
     #[inline]
-    fn average_dielectric_albedo(&self, m: &Microfacet) -> Vec3 {
+    fn average_dielectric_albedo(&self, table: &albedo::DielectricAlbedo, m: &Microfacet) -> Vec3 {
         let average = |alpha: f32| {
-            let ed = albedo::DielectricAlbedo::for_specular(self.specular).average(alpha);
+            let ed = table.average(alpha);
             self.blend_albedo(ed, || albedo::SpecularAlbedo::get().average(alpha))
         };
         if m.alpha_x == m.alpha_y {
