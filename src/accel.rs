@@ -621,3 +621,307 @@ impl Accel {
         };
     }
 }
+
+/// A block of 16 lanes, 64-byte aligned (Embree's SoA streams need 16).
+#[derive(Clone, Copy, Default)]
+#[repr(C, align(64))]
+struct LaneBlock<T: Copy + Default>([T; 16]);
+
+/// One component of a structure-of-arrays ray batch: a growable array whose
+/// storage is 64-byte aligned. Its length is set by the owning [`RayBatch`]
+/// only, so every component of a batch always has the batch's length.
+#[derive(Clone, Default)]
+pub struct LaneArray<T: Copy + Default> {
+    blocks: Vec<LaneBlock<T>>,
+    len: usize,
+}
+
+impl<T: Copy + Default> LaneArray<T> {
+    fn resize(&mut self, len: usize, fill: T) {
+        let blocks = len.div_ceil(16);
+        if blocks > self.blocks.len() {
+            self.blocks.resize(blocks, LaneBlock::default());
+        }
+        let old = self.len;
+        self.len = len;
+        if len > old {
+            self.as_mut_slice()[old..].fill(fill);
+        }
+    }
+
+    /// The lanes.
+    #[inline]
+    pub fn as_slice(&self) -> &[T] {
+        // SAFETY: `LaneBlock` is `repr(C)` over `[T; 16]`, so the blocks are
+        // `16 · blocks.len()` contiguous, initialised `T`s, and `resize` keeps
+        // `len` within them.
+        unsafe { std::slice::from_raw_parts(self.blocks.as_ptr().cast::<T>(), self.len) }
+    }
+
+    /// The lanes, mutable.
+    #[inline]
+    pub fn as_mut_slice(&mut self) -> &mut [T] {
+        // SAFETY: as in `as_slice`; `&mut self` makes the borrow exclusive.
+        unsafe { std::slice::from_raw_parts_mut(self.blocks.as_mut_ptr().cast::<T>(), self.len) }
+    }
+
+    fn as_mut_ptr(&mut self) -> *mut T {
+        self.blocks.as_mut_ptr().cast::<T>()
+    }
+}
+
+/// Rays and hit records in Embree's structure-of-arrays layout
+/// (`RTCRayHitNp`): lane `i` of every component is ray `i`. This is the
+/// layout of the vectorised kernels, which read and write whole components.
+///
+/// A lane whose `tnear > tfar` is inactive: queries skip it (see
+/// [`RayBatch::deactivate`]). After [`Accel::intersect_batch`], a lane with
+/// `geom_id == INVALID_ID` hit nothing, and `tfar` of a hit lane is the hit
+/// distance; after [`Accel::occluded_batch`], `tfar == −∞` marks an occluded
+/// lane.
+#[derive(Clone, Default)]
+pub struct RayBatch {
+    len: usize,
+    /// Origin, x (scene units).
+    pub org_x: LaneArray<f32>,
+    /// Origin, y.
+    pub org_y: LaneArray<f32>,
+    /// Origin, z.
+    pub org_z: LaneArray<f32>,
+    /// Direction, x (need not be unit length).
+    pub dir_x: LaneArray<f32>,
+    /// Direction, y.
+    pub dir_y: LaneArray<f32>,
+    /// Direction, z.
+    pub dir_z: LaneArray<f32>,
+    /// Start of the segment.
+    pub tnear: LaneArray<f32>,
+    /// End of the segment; the hit distance after a closest-hit query.
+    pub tfar: LaneArray<f32>,
+    time: LaneArray<f32>,
+    mask: LaneArray<u32>,
+    id: LaneArray<u32>,
+    flags: LaneArray<u32>,
+    /// Unnormalised geometric normal of the hit, x.
+    pub ng_x: LaneArray<f32>,
+    /// Geometric normal, y.
+    pub ng_y: LaneArray<f32>,
+    /// Geometric normal, z.
+    pub ng_z: LaneArray<f32>,
+    /// Barycentric coordinate of vertex 1.
+    pub u: LaneArray<f32>,
+    /// Barycentric coordinate of vertex 2.
+    pub v: LaneArray<f32>,
+    /// Triangle index of the hit.
+    pub prim_id: LaneArray<u32>,
+    /// Geometry id of the hit; [`INVALID_ID`] where nothing was hit.
+    pub geom_id: LaneArray<u32>,
+    inst_id: LaneArray<u32>,
+}
+
+impl RayBatch {
+    /// Number of lanes.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether the batch has no lanes.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Sets the number of lanes; new lanes are inactive rays with no hit.
+    pub fn resize(&mut self, len: usize) {
+        self.len = len;
+        for c in [
+            &mut self.org_x,
+            &mut self.org_y,
+            &mut self.org_z,
+            &mut self.dir_x,
+            &mut self.dir_y,
+            &mut self.dir_z,
+            &mut self.tnear,
+            &mut self.time,
+            &mut self.ng_x,
+            &mut self.ng_y,
+            &mut self.ng_z,
+            &mut self.u,
+            &mut self.v,
+        ] {
+            c.resize(len, 0.0);
+        }
+        self.tfar.resize(len, f32::NEG_INFINITY);
+        // `mask`, `id`, `flags` and `time` are never written after this
+        // fill, so they hold Embree's defaults in every lane.
+        self.mask.resize(len, u32::MAX);
+        self.id.resize(len, 0);
+        self.flags.resize(len, 0);
+        for c in [&mut self.prim_id, &mut self.geom_id, &mut self.inst_id] {
+            c.resize(len, INVALID_ID);
+        }
+    }
+
+    /// Appends a ray with no hit yet.
+    pub fn push(&mut self, ray: Ray) {
+        let i = self.len;
+        self.resize(i + 1);
+        self.set(i, ray);
+    }
+
+    /// Replaces lane `i` by `ray`, with no hit yet.
+    #[inline]
+    pub fn set(&mut self, i: usize, ray: Ray) {
+        self.org_x.as_mut_slice()[i] = ray.org.x;
+        self.org_y.as_mut_slice()[i] = ray.org.y;
+        self.org_z.as_mut_slice()[i] = ray.org.z;
+        self.dir_x.as_mut_slice()[i] = ray.dir.x;
+        self.dir_y.as_mut_slice()[i] = ray.dir.y;
+        self.dir_z.as_mut_slice()[i] = ray.dir.z;
+        self.tnear.as_mut_slice()[i] = ray.tnear;
+        self.tfar.as_mut_slice()[i] = ray.tfar;
+        self.geom_id.as_mut_slice()[i] = INVALID_ID;
+        self.prim_id.as_mut_slice()[i] = INVALID_ID;
+    }
+
+    /// Makes lane `i` inactive (skipped by queries, no hit).
+    #[inline]
+    pub fn deactivate(&mut self, i: usize) {
+        self.tnear.as_mut_slice()[i] = 0.0;
+        self.tfar.as_mut_slice()[i] = f32::NEG_INFINITY;
+        self.geom_id.as_mut_slice()[i] = INVALID_ID;
+    }
+
+    /// The ray of lane `i` (`tfar` is the hit distance after a query).
+    pub fn ray(&self, i: usize) -> Ray {
+        Ray {
+            org: Vec3::new(
+                self.org_x.as_slice()[i],
+                self.org_y.as_slice()[i],
+                self.org_z.as_slice()[i],
+            ),
+            dir: Vec3::new(
+                self.dir_x.as_slice()[i],
+                self.dir_y.as_slice()[i],
+                self.dir_z.as_slice()[i],
+            ),
+            tnear: self.tnear.as_slice()[i],
+            tfar: self.tfar.as_slice()[i],
+        }
+    }
+
+    /// The hit of lane `i` after a closest-hit query, if any.
+    pub fn hit(&self, i: usize) -> Option<Hit> {
+        let geom_id = self.geom_id.as_slice()[i];
+        (geom_id != INVALID_ID).then(|| Hit {
+            t: self.tfar.as_slice()[i],
+            geom_id,
+            prim_id: self.prim_id.as_slice()[i],
+            u: self.u.as_slice()[i],
+            v: self.v.as_slice()[i],
+            ng: Vec3::new(
+                self.ng_x.as_slice()[i],
+                self.ng_y.as_slice()[i],
+                self.ng_z.as_slice()[i],
+            ),
+        })
+    }
+
+    /// Keeps the rays of the lanes `i` with `keep[i]`, in order, and drops
+    /// the others. The hit records are not kept: every kept lane has no hit
+    /// (as after [`RayBatch::set`]), ready for the next query.
+    pub fn retain(&mut self, keep: &[bool]) {
+        assert_eq!(keep.len(), self.len, "one flag per lane");
+        let mut live = 0;
+        for c in [
+            &mut self.org_x,
+            &mut self.org_y,
+            &mut self.org_z,
+            &mut self.dir_x,
+            &mut self.dir_y,
+            &mut self.dir_z,
+            &mut self.tnear,
+            &mut self.tfar,
+        ] {
+            live = retain_lanes(c.as_mut_slice(), keep);
+        }
+        self.resize(live);
+        self.geom_id.as_mut_slice().fill(INVALID_ID);
+        self.prim_id.as_mut_slice().fill(INVALID_ID);
+    }
+
+    fn rtc_rays(&mut self) -> sys::RTCRayNp {
+        sys::RTCRayNp {
+            org_x: self.org_x.as_mut_ptr(),
+            org_y: self.org_y.as_mut_ptr(),
+            org_z: self.org_z.as_mut_ptr(),
+            tnear: self.tnear.as_mut_ptr(),
+            dir_x: self.dir_x.as_mut_ptr(),
+            dir_y: self.dir_y.as_mut_ptr(),
+            dir_z: self.dir_z.as_mut_ptr(),
+            time: self.time.as_mut_ptr(),
+            tfar: self.tfar.as_mut_ptr(),
+            mask: self.mask.as_mut_ptr(),
+            id: self.id.as_mut_ptr(),
+            flags: self.flags.as_mut_ptr(),
+        }
+    }
+
+    fn rtc_hits(&mut self) -> sys::RTCHitNp {
+        sys::RTCHitNp {
+            Ng_x: self.ng_x.as_mut_ptr(),
+            Ng_y: self.ng_y.as_mut_ptr(),
+            Ng_z: self.ng_z.as_mut_ptr(),
+            u: self.u.as_mut_ptr(),
+            v: self.v.as_mut_ptr(),
+            primID: self.prim_id.as_mut_ptr(),
+            geomID: self.geom_id.as_mut_ptr(),
+            instID: [self.inst_id.as_mut_ptr()],
+        }
+    }
+}
+
+/// Moves the lanes with `keep[i]` to the front, in order; returns their count.
+pub fn retain_lanes<T: Copy>(lanes: &mut [T], keep: &[bool]) -> usize {
+    let mut live = 0;
+    for (i, &k) in keep.iter().enumerate() {
+        // Without a branch on `k`, which is unpredictable: a dropped lane is
+        // written and then overwritten by the next kept one.
+        lanes[live] = lanes[i];
+        live += k as usize;
+    }
+    live
+}
+
+impl Accel {
+    /// Closest-hit queries for a structure-of-arrays batch (Embree's
+    /// `rtcIntersectNp`); inactive lanes are skipped.
+    pub fn intersect_batch(&self, batch: &mut RayBatch, coherent: bool) {
+        if batch.is_empty() {
+            return;
+        }
+        let mut ctx = context(coherent);
+        let rayhit = sys::RTCRayHitNp {
+            ray: batch.rtc_rays(),
+            hit: batch.rtc_hits(),
+        };
+        // SAFETY: every component of `batch` has `batch.len()` initialised
+        // lanes in 64-byte-aligned storage (Embree needs 16), all exclusively
+        // borrowed for the call; the scene is committed.
+        unsafe { sys::rtcIntersectNp(self.scene.0, &mut ctx, &rayhit, batch.len() as u32) };
+    }
+
+    /// Occlusion queries for a structure-of-arrays batch (Embree's
+    /// `rtcOccludedNp`): an occluded lane gets `tfar = −∞`; inactive lanes
+    /// are skipped. The hit components are left alone.
+    pub fn occluded_batch(&self, batch: &mut RayBatch, coherent: bool) {
+        if batch.is_empty() {
+            return;
+        }
+        let mut ctx = context(coherent);
+        let rays = batch.rtc_rays();
+        // SAFETY: as in `intersect_batch`.
+        unsafe { sys::rtcOccludedNp(self.scene.0, &mut ctx, &rays, batch.len() as u32) };
+    }
+}

@@ -228,6 +228,11 @@ pub struct RenderArgs {
     /// PNG tone mapping: a filmic curve (ACES fit) instead of a plain clamp.
     #[arg(long)]
     pub filmic: bool,
+    /// Render with the general integrator even where the vectorised kernel
+    /// applies (plain Lambert materials lit by point lights). The image is
+    /// the same, bit for bit; this is for checking and timing.
+    #[arg(long)]
+    pub scalar: bool,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
@@ -378,6 +383,7 @@ fn render_command(a: &RenderArgs) -> Result<()> {
     let options = RenderOptions {
         threads: a.threads,
         tile_size: a.tile_size,
+        vectorised: !a.scalar,
         ..Default::default()
     };
     let bar = progress_bar(
@@ -402,7 +408,7 @@ fn render_command(a: &RenderArgs) -> Result<()> {
         )?;
     }
     eprintln!(
-        "rendered {}×{} at {} spp in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s on {} threads → {}{}",
+        "rendered {}×{} at {} spp in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s on {} threads{} → {}{}",
         film.width,
         film.height,
         film.spp,
@@ -410,6 +416,7 @@ fn render_command(a: &RenderArgs) -> Result<()> {
         stats.msamples_per_s(),
         stats.mrays_per_s(),
         stats.threads,
+        if stats.vectorised { ", vectorised" } else { "" },
         a.output.display(),
         a.png
             .as_ref()

@@ -4,7 +4,7 @@
 use crate::accel::enable_flush_to_zero;
 use crate::error::{Error, Result};
 use crate::film::Film;
-use crate::integrator::{render_tile, RayStats, Tile, TileResult};
+use crate::integrator::{render_tile, DiffuseScene, RayStats, Tile, TileResult};
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -24,6 +24,10 @@ pub struct RenderOptions {
     /// First sample index: a render of samples `[start, start + spp)`; pieces
     /// with disjoint ranges merge exactly (see `Film::merge` in later work).
     pub sample_start: u32,
+    /// Use the vectorised kernel where the scene qualifies (see
+    /// [`DiffuseScene`]); it gives the same image as the general integrator,
+    /// faster. `false` forces the general integrator.
+    pub vectorised: bool,
 }
 
 impl Default for RenderOptions {
@@ -32,6 +36,7 @@ impl Default for RenderOptions {
             threads: None,
             tile_size: DEFAULT_TILE_SIZE,
             sample_start: 0,
+            vectorised: true,
         }
     }
 }
@@ -47,6 +52,8 @@ pub struct RenderStats {
     pub rays: RayStats,
     /// Worker threads used.
     pub threads: usize,
+    /// Whether the vectorised kernel rendered the image.
+    pub vectorised: bool,
 }
 
 impl RenderStats {
@@ -128,6 +135,11 @@ pub fn render(
             .ok_or_else(|| Error::InvalidArgument("sample range overflows".into()))?;
     let (width, height) = (cam.width(), cam.height());
     let tiles = tiles(width, height, options.tile_size);
+    let kernel = if options.vectorised {
+        DiffuseScene::new(scene)
+    } else {
+        None
+    };
     let pool = thread_pool(options.threads)?;
     let done = AtomicUsize::new(0);
     let cancelled = AtomicBool::new(false);
@@ -139,7 +151,7 @@ pub fn render(
                 if cancelled.load(Ordering::Relaxed) {
                     return None;
                 }
-                let r = render_tile(scene, tile, samples.clone());
+                let r = render_tile(scene, kernel.as_ref(), tile, samples.clone());
                 let n = done.fetch_add(1, Ordering::Relaxed) + 1;
                 if !progress(n, tiles.len()) {
                     cancelled.store(true, Ordering::Relaxed);
@@ -190,6 +202,7 @@ pub fn render(
         samples: width as u64 * height as u64 * spp as u64,
         rays,
         threads: pool.current_num_threads(),
+        vectorised: kernel.is_some(),
     };
     Ok((film, stats))
 }

@@ -43,14 +43,40 @@ impl Rng {
         Rng::new(b, a)
     }
 
-    /// A uniform 32-bit integer.
+    /// The generator's raw state `(state, increment)`, for kernels that keep
+    /// many generators in structure-of-arrays form.
     #[inline]
-    pub fn next_u32(&mut self) -> u32 {
-        let old = self.state;
-        self.state = old.wrapping_mul(PCG_MULT).wrapping_add(self.inc);
+    pub fn to_parts(&self) -> (u64, u64) {
+        (self.state, self.inc)
+    }
+
+    /// The generator with raw state `(state, increment)` (see [`Rng::to_parts`]).
+    #[inline]
+    pub fn from_parts(state: u64, inc: u64) -> Rng {
+        Rng { state, inc }
+    }
+
+    /// Advances a raw state by one step; returns the same number as
+    /// [`Rng::next_u32`] would. The building block of vectorised kernels.
+    #[inline(always)]
+    pub fn step(state: &mut u64, inc: u64) -> u32 {
+        let old = *state;
+        *state = old.wrapping_mul(PCG_MULT).wrapping_add(inc);
         let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
         let rot = (old >> 59) as u32;
         xorshifted.rotate_right(rot)
+    }
+
+    /// A uniform float in `[0, 1)` from a raw state, as [`Rng::next_f32`].
+    #[inline(always)]
+    pub fn step_f32(state: &mut u64, inc: u64) -> f32 {
+        (Rng::step(state, inc) >> 8) as f32 * (1.0 / 16_777_216.0)
+    }
+
+    /// A uniform 32-bit integer.
+    #[inline]
+    pub fn next_u32(&mut self) -> u32 {
+        Rng::step(&mut self.state, self.inc)
     }
 
     /// A uniform float in `[0, 1)` (24 random bits, never 1.0).

@@ -79,8 +79,8 @@ pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
 /// `(sin φ, cos φ)` for `φ ∈ [−π/4, π/4]` by Taylor polynomials (absolute
 /// error below 4e-7, about the spacing of `f32` near 1), several times
 /// cheaper than the library's `sin_cos`, which reduces arbitrary arguments.
-#[inline]
-fn sin_cos_quarter(phi: f32) -> (f32, f32) {
+#[inline(always)]
+pub(crate) fn sin_cos_quarter(phi: f32) -> (f32, f32) {
     let x2 = phi * phi;
     let sin = phi * (1.0 + x2 * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0))));
     let cos = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40320.0))));

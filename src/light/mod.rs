@@ -292,6 +292,12 @@ impl LightSet {
         Some((g.range.start as usize + k, g.power / total * pk))
     }
 
+    /// Whether the light-picking distribution is the same at every point
+    /// (no group has a reach limit).
+    pub fn is_spatially_uniform(&self) -> bool {
+        self.limited_groups.is_empty()
+    }
+
     /// Probability that [`LightSet::pick`] returns light `index` at `p`.
     #[inline]
     pub fn pick_pmf(&self, index: usize, p: Vec3) -> f32 {

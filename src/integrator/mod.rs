@@ -14,6 +14,10 @@
 //! stream ([`Rng::for_sample`]) and every pixel adds its samples in sample
 //! order, so an image is bit-identical whatever the number of threads.
 
+mod diffuse;
+
+pub use diffuse::DiffuseScene;
+
 use crate::accel::{Ray, RayHit, ShadowRay};
 use crate::light::Light;
 use crate::sampler::Rng;
@@ -232,8 +236,15 @@ fn spawn_origin(p: Vec3, n: Vec3, eps: f32, dir: Vec3) -> Vec3 {
     }
 }
 
-/// Renders samples `samples` of every pixel of `tile`.
-pub fn render_tile(scene: &Scene, tile: Tile, samples: std::ops::Range<u32>) -> TileResult {
+/// Renders samples `samples` of every pixel of `tile`; with `kernel` (the
+/// scene's [`DiffuseScene`]), by the vectorised kernel, which gives the same
+/// image.
+pub fn render_tile(
+    scene: &Scene,
+    kernel: Option<&DiffuseScene>,
+    tile: Tile,
+    samples: std::ops::Range<u32>,
+) -> TileResult {
     let n = (tile.width * tile.height) as usize;
     let mut pixels = vec![
         PixelSums {
@@ -243,8 +254,22 @@ pub fn render_tile(scene: &Scene, tile: Tile, samples: std::ops::Range<u32>) -> 
         n
     ];
     let mut rays = RayStats::default();
-    let mut wf = Wavefront::default();
     let first_sample = samples.start;
+    if let Some(kernel) = kernel {
+        let mut lanes = diffuse::DiffuseLanes::default();
+        for s in samples {
+            let pass = diffuse::Pass {
+                kernel,
+                scene,
+                tile,
+                sample: s,
+                first: s == first_sample,
+            };
+            diffuse::trace_pass(&pass, &mut lanes, &mut pixels, &mut rays);
+        }
+        return TileResult { tile, pixels, rays };
+    }
+    let mut wf = Wavefront::default();
     for s in samples {
         trace_pass(
             scene,

@@ -1,0 +1,741 @@
+//! A vectorised wavefront for the commonest kind of scene: every material
+//! plain Lambert (no textures), meshes without vertex normals, lit by point
+//! lights only (no area lights, no environment, no reach limits).
+//!
+//! It computes what the general integrator ([`super::render_tile`])
+//! computes, in the same floating-point operations in the same order, with
+//! the same random numbers; Rust never contracts `a·b + c` into a fused
+//! multiply-add, so every lane rounds exactly as the scalar code does and
+//! the images are bit-identical (tested in `tests/integrator.rs`). What
+//! differs is the layout: the paths of a tile live in structure-of-arrays
+//! lanes ([`RayBatch`] and the arrays of [`DiffuseLanes`]), and one bounce of
+//! all of them is a single loop without branches ([`shade_lane`] per lane),
+//! which the compiler turns into AVX-512 or AVX2 code, picked at run time.
+//! Rays go to Embree as SoA streams (`rtcIntersectNp`, `rtcOccludedNp`).
+//!
+//! [`DiffuseScene::new`] decides whether a scene qualifies; a scene that
+//! does not is rendered by the general integrator.
+
+// Lane loops index a dozen arrays by lane; iterator chains would hide that.
+#![allow(clippy::needless_range_loop)]
+
+use super::{PixelSums, RayStats, Tile, RUSSIAN_ROULETTE_DEPTH};
+use crate::accel::{retain_lanes, RayBatch, INVALID_ID};
+use crate::bsdf::Bsdf;
+use crate::light::Light;
+use crate::sampler::Rng;
+use crate::sampling::{sin_cos_quarter, Frame};
+use crate::scene::Scene;
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, PI};
+use std::time::Instant;
+
+/// What the vectorised kernel needs of a scene it can render.
+#[derive(Debug, Clone)]
+pub struct DiffuseScene {
+    /// Lambert albedo per Embree geometry id (linear RGB, one array per
+    /// channel), with one extra zero entry that lanes without a hit read.
+    albedo: [Vec<f32>; 3],
+    /// The one light, when there is exactly one: position, intensity and
+    /// the probability of picking it.
+    single_light: Option<(Vec3, Vec3, f32)>,
+}
+
+impl DiffuseScene {
+    /// The kernel's view of `scene`, or `None` when the scene needs the
+    /// general integrator: a material that is not untextured Lambert, vertex
+    /// normals, an emissive mesh, an environment, a light that is not a point
+    /// light, reach-limited light groups, or no light that can be picked.
+    pub fn new(scene: &Scene) -> Option<DiffuseScene> {
+        if scene.environment.is_some()
+            || scene.has_hittable_lights
+            || scene.first_light.iter().any(Option::is_some)
+            || !scene.lights.is_spatially_uniform()
+            || scene
+                .lights
+                .lights
+                .iter()
+                .any(|l| !matches!(l, Light::Point(_)))
+        {
+            return None;
+        }
+        // Light picking must always succeed, as the scalar path assumes when
+        // it draws the light sample's numbers.
+        let (first, pmf) = scene.lights.pick(Vec3::ZERO, Vec2::splat(0.5))?;
+        let mut albedo = [Vec::new(), Vec::new(), Vec::new()];
+        for mesh in &scene.meshes {
+            if !mesh.normals.is_empty() || mesh.emission.is_some() {
+                return None;
+            }
+            let material = scene.materials.get(mesh.material as usize)?;
+            let Bsdf::Diffuse(d) = material.bsdf else {
+                return None;
+            };
+            if !material.textures.is_empty() {
+                return None;
+            }
+            for (c, a) in albedo.iter_mut().enumerate() {
+                a.push(d.reflectance[c]);
+            }
+        }
+        for a in &mut albedo {
+            a.push(0.0);
+        }
+        let single_light = match scene.lights.lights.as_slice() {
+            [Light::Point(l)] if first == 0 => Some((l.position, l.intensity, pmf)),
+            _ => None,
+        };
+        Some(DiffuseScene {
+            albedo,
+            single_light,
+        })
+    }
+}
+
+/// The paths of one tile pass in structure-of-arrays form, reused from pass
+/// to pass (allocation-free after the first).
+#[derive(Default)]
+pub struct DiffuseLanes {
+    rays: RayBatch,
+    shadow: RayBatch,
+    pixel: Vec<u32>,
+    rng_state: Vec<u64>,
+    rng_inc: Vec<u64>,
+    beta: [Vec<f32>; 3],
+    radiance: [Vec<f32>; 3],
+    pending: [Vec<f32>; 3],
+    light_pos: [Vec<f32>; 3],
+    light_intensity: [Vec<f32>; 3],
+    light_pmf: Vec<f32>,
+    keep: Vec<bool>,
+}
+
+impl DiffuseLanes {
+    #[inline(always)]
+    fn resize(&mut self, n: usize) {
+        self.rays.resize(n);
+        self.shadow.resize(n);
+        self.pixel.resize(n, 0);
+        self.rng_state.resize(n, 0);
+        self.rng_inc.resize(n, 0);
+        for c in 0..3 {
+            self.beta[c].resize(n, 0.0);
+            self.radiance[c].resize(n, 0.0);
+            self.pending[c].resize(n, 0.0);
+            self.light_pos[c].resize(n, 0.0);
+            self.light_intensity[c].resize(n, 0.0);
+        }
+        self.light_pmf.resize(n, 0.0);
+        self.keep.resize(n, false);
+    }
+
+    /// Keeps the lanes marked in `self.keep`, in order.
+    #[inline(always)]
+    fn retain(&mut self) {
+        let keep = &self.keep;
+        self.rays.retain(keep);
+        retain_lanes(&mut self.pixel, keep);
+        retain_lanes(&mut self.rng_state, keep);
+        retain_lanes(&mut self.rng_inc, keep);
+        for c in 0..3 {
+            retain_lanes(&mut self.beta[c], keep);
+            retain_lanes(&mut self.radiance[c], keep);
+        }
+        let live = self.rays.len();
+        self.resize(live);
+    }
+}
+
+/// Adds the radiance of the lanes with `keep[i] == false` (all lanes when
+/// `all`) to their pixels, as the general integrator retires a path.
+#[inline(always)]
+fn retire(lanes: &DiffuseLanes, scene: &Scene, pixels: &mut [PixelSums], all: bool, keep: &[bool]) {
+    let response = scene.film.response();
+    for i in 0..lanes.pixel.len() {
+        if all || !keep[i] {
+            let radiance = Vec3::new(
+                lanes.radiance[0][i],
+                lanes.radiance[1][i],
+                lanes.radiance[2][i],
+            );
+            let l = response.apply(radiance).as_dvec3();
+            let px = &mut pixels[lanes.pixel[i] as usize];
+            px.sum += l;
+            px.sum_sq += l * l;
+        }
+    }
+}
+
+/// The arguments of one tile pass.
+pub struct Pass<'a> {
+    /// The kernel's view of the scene.
+    pub kernel: &'a DiffuseScene,
+    /// The scene.
+    pub scene: &'a Scene,
+    /// The tile.
+    pub tile: Tile,
+    /// The sample index of this pass.
+    pub sample: u32,
+    /// Whether this is the first pass of the render over this tile (it
+    /// records the object id).
+    pub first: bool,
+}
+
+/// Renders sample `pass.sample` of every pixel of `pass.tile`, as
+/// [`super::trace_pass`] does for general scenes. The whole pass is compiled
+/// for AVX-512, for AVX2 and for the baseline instruction set; the best the
+/// CPU has runs (the results are the same: no instruction set changes how
+/// an operation rounds, and none is fused).
+pub fn trace_pass(
+    pass: &Pass,
+    lanes: &mut DiffuseLanes,
+    pixels: &mut [PixelSums],
+    stats: &mut RayStats,
+) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if is_x86_feature_detected!("avx512f")
+            && is_x86_feature_detected!("avx512dq")
+            && is_x86_feature_detected!("avx512vl")
+            && is_x86_feature_detected!("avx512bw")
+        {
+            // SAFETY: the CPU has the features `trace_pass_avx512` is
+            // compiled for.
+            return unsafe { trace_pass_avx512(pass, lanes, pixels, stats) };
+        }
+        if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU has the features `trace_pass_avx2` is compiled for.
+            return unsafe { trace_pass_avx2(pass, lanes, pixels, stats) };
+        }
+    }
+    trace_pass_body(pass, lanes, pixels, stats)
+}
+
+/// [`trace_pass_body`] compiled for AVX-512 (16 lanes per instruction).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512dq,avx512vl,avx512bw,avx2,fma")]
+unsafe fn trace_pass_avx512(
+    pass: &Pass,
+    lanes: &mut DiffuseLanes,
+    pixels: &mut [PixelSums],
+    stats: &mut RayStats,
+) {
+    trace_pass_body(pass, lanes, pixels, stats)
+}
+
+/// [`trace_pass_body`] compiled for AVX2 (8 lanes per instruction). `fma`
+/// only makes the instructions available: Rust never fuses `a·b + c` itself.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn trace_pass_avx2(
+    pass: &Pass,
+    lanes: &mut DiffuseLanes,
+    pixels: &mut [PixelSums],
+    stats: &mut RayStats,
+) {
+    trace_pass_body(pass, lanes, pixels, stats)
+}
+
+/// One tile pass; inlined into each instruction-set variant of [`trace_pass`].
+#[inline(always)]
+fn trace_pass_body(
+    pass: &Pass,
+    lanes: &mut DiffuseLanes,
+    pixels: &mut [PixelSums],
+    stats: &mut RayStats,
+) {
+    let Pass {
+        kernel,
+        scene,
+        tile,
+        sample,
+        first,
+    } = *pass;
+    let settings = &scene.settings;
+    let camera = &scene.camera;
+    let filter = &scene.film.filter;
+    let lens_sample = camera.needs_lens_sample();
+
+    // Camera rays (scalar: cameras and filters are the general code's).
+    lanes.resize((tile.width * tile.height) as usize);
+    let mut n = 0;
+    for py in 0..tile.height {
+        for px in 0..tile.width {
+            let (x, y) = (tile.x0 + px, tile.y0 + py);
+            let mut rng = Rng::for_sample(settings.seed, x, y, sample);
+            let film = Vec2::new(x as f32, y as f32) + filter.sample(rng.next_2d());
+            let lens = if lens_sample {
+                rng.next_2d()
+            } else {
+                Vec2::ZERO
+            };
+            let Some(ray) = camera.generate_ray(film, lens) else {
+                continue;
+            };
+            lanes.rays.set(n, ray);
+            lanes.pixel[n] = py * tile.width + px;
+            (lanes.rng_state[n], lanes.rng_inc[n]) = rng.to_parts();
+            for c in 0..3 {
+                lanes.beta[c][n] = 1.0;
+                lanes.radiance[c][n] = 0.0;
+            }
+            n += 1;
+        }
+    }
+    lanes.resize(n);
+    stats.camera += n as u64;
+    let clock = Instant::now();
+    scene.accel.intersect_batch(&mut lanes.rays, true);
+    stats.trace_nanos += clock.elapsed().as_nanos() as u64;
+
+    // The camera vertex's auxiliary layers.
+    for i in 0..n {
+        let Some(hit) = lanes.rays.hit(i) else {
+            continue;
+        };
+        let dir = lanes.rays.ray(i).dir;
+        let ng = hit.ng.normalize_or_zero();
+        let facing = if ng.dot(-dir) >= 0.0 { ng } else { -ng };
+        let g = hit.geom_id as usize;
+        let pixel = &mut pixels[lanes.pixel[i] as usize];
+        pixel.hits += 1;
+        pixel.depth += camera.depth(dir, hit.t) as f64;
+        pixel.normal += facing;
+        pixel.albedo += Vec3::new(
+            kernel.albedo[0][g],
+            kernel.albedo[1][g],
+            kernel.albedo[2][g],
+        );
+        if first {
+            let mesh = &scene.meshes[g];
+            pixel.object_id = if mesh.object_id == u32::MAX {
+                -1.0
+            } else {
+                mesh.object_id as f32
+            };
+        }
+    }
+
+    let max_depth = settings.max_depth;
+    let mut depth = 0;
+    while depth < max_depth && !lanes.rays.is_empty() {
+        let n = lanes.rays.len();
+        let uniform = Uniform {
+            // The ray after the last light sample could only find a light,
+            // and these scenes have none to find.
+            continue_paths: depth + 1 < max_depth,
+            roulette: depth + 1 >= RUSSIAN_ROULETTE_DEPTH,
+        };
+        pick_lights(kernel, scene, lanes);
+        shade_lanes(kernel, lanes, uniform);
+
+        let shadow_tfar = lanes.shadow.tfar.as_slice();
+        stats.shadow += shadow_tfar.iter().filter(|&&t| t > 0.0).count() as u64;
+        let clock = Instant::now();
+        scene.accel.occluded_batch(&mut lanes.shadow, false);
+        stats.trace_nanos += clock.elapsed().as_nanos() as u64;
+        add_unoccluded(lanes);
+
+        // Retire finished paths; compact once enough lanes are idle.
+        let tfar = lanes.rays.tfar.as_slice();
+        for (k, &t) in lanes.keep.iter_mut().zip(tfar) {
+            *k = t > 0.0;
+        }
+        let live = lanes.keep.iter().filter(|&&k| k).count();
+        stats.bounce += live as u64;
+        if live == 0 {
+            break;
+        }
+        if live * 4 <= n * 3 {
+            retire(lanes, scene, pixels, false, &lanes.keep);
+            lanes.retain();
+        }
+        let clock = Instant::now();
+        scene.accel.intersect_batch(&mut lanes.rays, false);
+        stats.trace_nanos += clock.elapsed().as_nanos() as u64;
+        depth += 1;
+    }
+    retire(lanes, scene, pixels, true, &[]);
+}
+
+/// Fills each lane's light (position, intensity, pick probability) for the
+/// next light sample. With several lights the pick draws the lane's next
+/// two random numbers, as the general integrator does; the draw itself
+/// (advancing the state) happens in [`shade_lane`].
+#[inline(always)]
+fn pick_lights(kernel: &DiffuseScene, scene: &Scene, lanes: &mut DiffuseLanes) {
+    let n = lanes.rays.len();
+    if let Some((pos, intensity, pmf)) = kernel.single_light {
+        for c in 0..3 {
+            lanes.light_pos[c][..n].fill(pos[c]);
+            lanes.light_intensity[c][..n].fill(intensity[c]);
+        }
+        lanes.light_pmf[..n].fill(pmf);
+        return;
+    }
+    let geom = lanes.rays.geom_id.as_slice();
+    for i in 0..n {
+        if geom[i] == INVALID_ID {
+            continue;
+        }
+        let mut rng = Rng::from_parts(lanes.rng_state[i], lanes.rng_inc[i]);
+        let (li, pmf) = scene
+            .lights
+            .pick(Vec3::ZERO, rng.next_2d())
+            .expect("DiffuseScene::new checked that picking succeeds");
+        let Light::Point(l) = &scene.lights.lights[li] else {
+            unreachable!("DiffuseScene::new checked that all lights are point lights")
+        };
+        for c in 0..3 {
+            lanes.light_pos[c][i] = l.position[c];
+            lanes.light_intensity[c][i] = l.intensity[c];
+        }
+        lanes.light_pmf[i] = pmf;
+    }
+}
+
+/// Adds each unoccluded shadow ray's pending radiance to its path.
+#[inline(always)]
+fn add_unoccluded(lanes: &mut DiffuseLanes) {
+    let tfar = lanes.shadow.tfar.as_slice();
+    let n = tfar.len();
+    for c in 0..3 {
+        let radiance = &mut lanes.radiance[c][..n];
+        let pending = &lanes.pending[c][..n];
+        for i in 0..n {
+            // Inactive lanes have tfar = −∞, as occluded ones. A select, not
+            // a branch: occlusion is unpredictable.
+            radiance[i] = if tfar[i] > 0.0 {
+                radiance[i] + pending[i]
+            } else {
+                radiance[i]
+            };
+        }
+    }
+}
+
+/// What is the same for every lane of one bounce.
+#[derive(Clone, Copy)]
+struct Uniform {
+    /// Whether paths go on after the light sample (BSDF sampling).
+    continue_paths: bool,
+    /// Whether Russian roulette applies after this bounce.
+    roulette: bool,
+}
+
+/// One lane's inputs to a bounce.
+#[derive(Clone, Copy)]
+struct LaneIn {
+    org: Vec3,
+    dir: Vec3,
+    /// Hit distance.
+    t: f32,
+    /// Unnormalised geometric normal.
+    ng: Vec3,
+    hit: bool,
+    albedo: Vec3,
+    beta: Vec3,
+    rng: u64,
+    inc: u64,
+    light_pos: Vec3,
+    light_intensity: Vec3,
+    light_pmf: f32,
+}
+
+/// One lane's results of a bounce.
+#[derive(Clone, Copy)]
+struct LaneOut {
+    /// Whether the path goes on (then `next_org`, `next_dir` hold its ray).
+    alive: bool,
+    next_org: Vec3,
+    next_dir: Vec3,
+    /// Whether a shadow ray is to be traced (`shadow_*` hold it).
+    shadow: bool,
+    shadow_org: Vec3,
+    shadow_dir: Vec3,
+    shadow_tfar: f32,
+    /// Radiance the shadow ray adds if unoccluded.
+    pending: Vec3,
+    beta: Vec3,
+    rng: u64,
+}
+
+/// Offset along the normal that keeps spawned rays off their surface
+/// (the general integrator's `ray_epsilon`).
+#[inline(always)]
+fn ray_epsilon(p: Vec3) -> f32 {
+    1e-4 * (1.0 + p.abs().max_element())
+}
+
+/// One bounce of one path: the general integrator's `shade` for a Lambert
+/// surface and a point light, written without branches (every `if` is a
+/// select) so that a loop over lanes vectorises. Same operations, same
+/// order, same random numbers.
+#[inline(always)]
+fn shade_lane(l: LaneIn, u: Uniform) -> LaneOut {
+    let mut rng = l.rng;
+    let p = l.org + l.t * l.dir;
+    let wo = -l.dir;
+    let ng = l.ng.normalize_or_zero();
+    let n = if ng.dot(wo) >= 0.0 { ng } else { -ng };
+    let frame = Frame::from_normal(n);
+    let wo_local = frame.to_local(wo);
+    let eps = ray_epsilon(p);
+    let origin = p + n * eps;
+
+    // Next-event estimation: two numbers pick the light (see `pick_lights`),
+    // two more are the light sample's (unused by a point light).
+    for _ in 0..4 {
+        Rng::step(&mut rng, l.inc);
+    }
+    // PointLight::sample_li.
+    let d = l.light_pos - p;
+    let dist2 = d.length_squared();
+    let inv_dist = dist2.sqrt().recip();
+    let radiance = l.light_intensity * (inv_dist * inv_dist);
+    let wi = d * inv_dist;
+    let dist = dist2 * inv_dist;
+    let wi_local = frame.to_local(wi);
+    // Lambert::eval times |cos θi|.
+    let above = wo_local.z > 0.0 && wi_local.z > 0.0;
+    let f = if above {
+        l.albedo * FRAC_1_PI
+    } else {
+        Vec3::ZERO
+    };
+    let f = f * wi_local.z.abs();
+    let light_pdf = l.light_pmf * 1.0;
+    let weight = 1.0f32;
+    // From the offset origin to just short of the light; unbounded where
+    // the distance overflows (as the general integrator does).
+    let target = p + wi * dist;
+    let (shadow_dir, shadow_tfar) = if dist.is_finite() {
+        (target - origin, 1.0 - ray_epsilon(target) / dist)
+    } else {
+        (wi, f32::INFINITY)
+    };
+    let shadow = l.hit && dist2 != 0.0 && f != Vec3::ZERO && shadow_tfar > 0.0;
+    let pending = l.beta * f * radiance * (weight / light_pdf);
+
+    // Lambert::sample: one number picks the lobe (unused), two the direction.
+    Rng::step(&mut rng, l.inc);
+    let u1 = Rng::step_f32(&mut rng, l.inc);
+    let u2 = Rng::step_f32(&mut rng, l.inc);
+    let local = cosine_hemisphere(Vec2::new(u1, u2));
+    let pdf = if local.z > 0.0 {
+        local.z * FRAC_1_PI
+    } else {
+        0.0
+    };
+    let sampled = wo_local.z > 0.0 && pdf > 0.0;
+    let next_dir = frame.to_world(local);
+    let mut beta = l.beta * l.albedo;
+
+    // Russian roulette: a number is drawn only where q < 1.
+    let q = beta.max_element();
+    let mut rng_rr = rng;
+    let r = Rng::step_f32(&mut rng_rr, l.inc);
+    let spin = u.roulette && q < 1.0;
+    if spin {
+        rng = rng_rr;
+    }
+    let survived = !spin || r < q;
+    if spin {
+        beta /= q;
+    }
+    let alive = l.hit && u.continue_paths && sampled && survived && beta != Vec3::ZERO;
+    LaneOut {
+        alive,
+        next_org: origin,
+        next_dir,
+        shadow,
+        shadow_org: origin,
+        shadow_dir,
+        shadow_tfar,
+        pending,
+        beta,
+        rng,
+    }
+}
+
+/// `square_to_cosine_hemisphere` (concentric map, Taylor sine and cosine)
+/// with its branches as selects; bit-identical to it.
+#[inline(always)]
+fn cosine_hemisphere(u: Vec2) -> Vec3 {
+    let o = 2.0 * u - Vec2::ONE;
+    let wide = o.x.abs() > o.y.abs();
+    let (major, minor) = if wide { (o.x, o.y) } else { (o.y, o.x) };
+    let (sin, cos) = sin_cos_quarter((PI / 4.0) * (minor / major));
+    let d = if wide {
+        major * Vec2::new(cos, sin)
+    } else {
+        major * Vec2::new(sin, cos)
+    };
+    let d = if o.x == 0.0 && o.y == 0.0 {
+        Vec2::ZERO
+    } else {
+        d
+    };
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+/// Lanes per chunk of [`shade_lanes`]: one AVX-512 register of `f32`.
+const W: usize = 16;
+
+/// A component of [`W`] lanes, copied out of a lane array (zero past its end).
+#[inline(always)]
+fn load<T: Copy + Default>(src: &[T], start: usize) -> [T; W] {
+    let mut out = [T::default(); W];
+    let m = (src.len() - start).min(W);
+    out[..m].copy_from_slice(&src[start..start + m]);
+    out
+}
+
+/// Copies a component of [`W`] lanes back (as far as the lane array goes).
+#[inline(always)]
+fn store<T: Copy>(dst: &mut [T], start: usize, src: &[T; W]) {
+    let m = (dst.len() - start).min(W);
+    dst[start..start + m].copy_from_slice(&src[..m]);
+}
+
+/// One bounce of every lane: reads the hits in `lanes.rays`, writes the
+/// shadow rays to `lanes.shadow` and the next rays back to `lanes.rays`. Lanes
+/// go through [`shade_lane`] in chunks of [`W`] copied into local arrays:
+/// locals cannot alias each other, so the compiler vectorises the chunk's
+/// loop without run-time overlap checks, which it could not generate for
+/// some thirty lane arrays and a table lookup.
+#[inline(always)]
+fn shade_lanes(kernel: &DiffuseScene, lanes: &mut DiffuseLanes, u: Uniform) {
+    let n = lanes.rays.len();
+    let last = kernel.albedo[0].len() - 1;
+    let rays = &mut lanes.rays;
+    let shadow = &mut lanes.shadow;
+    for start in (0..n).step_by(W) {
+        let (ox, oy, oz) = (
+            load(rays.org_x.as_slice(), start),
+            load(rays.org_y.as_slice(), start),
+            load(rays.org_z.as_slice(), start),
+        );
+        let (dx, dy, dz) = (
+            load(rays.dir_x.as_slice(), start),
+            load(rays.dir_y.as_slice(), start),
+            load(rays.dir_z.as_slice(), start),
+        );
+        let t = load(rays.tfar.as_slice(), start);
+        let (nx, ny, nz) = (
+            load(rays.ng_x.as_slice(), start),
+            load(rays.ng_y.as_slice(), start),
+            load(rays.ng_z.as_slice(), start),
+        );
+        let mut geom = [INVALID_ID; W];
+        let m = (n - start).min(W);
+        geom[..m].copy_from_slice(&rays.geom_id.as_slice()[start..start + m]);
+        let (mut ar, mut ag, mut ab) = ([0.0f32; W], [0.0f32; W], [0.0f32; W]);
+        for k in 0..W {
+            let g = (geom[k] as usize).min(last);
+            (ar[k], ag[k], ab[k]) = (
+                kernel.albedo[0][g],
+                kernel.albedo[1][g],
+                kernel.albedo[2][g],
+            );
+        }
+        let (br, bg, bb) = (
+            load(&lanes.beta[0], start),
+            load(&lanes.beta[1], start),
+            load(&lanes.beta[2], start),
+        );
+        let (lx, ly, lz) = (
+            load(&lanes.light_pos[0], start),
+            load(&lanes.light_pos[1], start),
+            load(&lanes.light_pos[2], start),
+        );
+        let (ir, ig, ib) = (
+            load(&lanes.light_intensity[0], start),
+            load(&lanes.light_intensity[1], start),
+            load(&lanes.light_intensity[2], start),
+        );
+        let lpmf = load(&lanes.light_pmf, start);
+        let mut rng = load(&lanes.rng_state, start);
+        let inc = load(&lanes.rng_inc, start);
+
+        let mut next = [[0.0f32; W]; 6];
+        let mut next_tfar = [0.0f32; W];
+        let mut shadow_ray = [[0.0f32; W]; 6];
+        let mut shadow_tfar = [0.0f32; W];
+        let mut pending = [[0.0f32; W]; 3];
+        let mut beta = [br, bg, bb];
+        for k in 0..W {
+            let hit = geom[k] != INVALID_ID;
+            let out = shade_lane(
+                LaneIn {
+                    org: Vec3::new(ox[k], oy[k], oz[k]),
+                    dir: Vec3::new(dx[k], dy[k], dz[k]),
+                    t: t[k],
+                    ng: Vec3::new(nx[k], ny[k], nz[k]),
+                    hit,
+                    albedo: Vec3::new(ar[k], ag[k], ab[k]),
+                    beta: Vec3::new(br[k], bg[k], bb[k]),
+                    rng: rng[k],
+                    inc: inc[k],
+                    light_pos: Vec3::new(lx[k], ly[k], lz[k]),
+                    light_intensity: Vec3::new(ir[k], ig[k], ib[k]),
+                    light_pmf: lpmf[k],
+                },
+                u,
+            );
+            // A lane without a hit keeps its state: its path has ended.
+            if hit {
+                rng[k] = out.rng;
+                for c in 0..3 {
+                    beta[c][k] = out.beta[c];
+                }
+            }
+            for c in 0..3 {
+                pending[c][k] = out.pending[c];
+                shadow_ray[c][k] = out.shadow_org[c];
+                shadow_ray[3 + c][k] = out.shadow_dir[c];
+                next[c][k] = out.next_org[c];
+                next[3 + c][k] = out.next_dir[c];
+            }
+            shadow_tfar[k] = if out.shadow {
+                out.shadow_tfar
+            } else {
+                f32::NEG_INFINITY
+            };
+            next_tfar[k] = if out.alive {
+                f32::INFINITY
+            } else {
+                f32::NEG_INFINITY
+            };
+        }
+
+        store(&mut lanes.rng_state, start, &rng);
+        for c in 0..3 {
+            store(&mut lanes.beta[c], start, &beta[c]);
+            store(&mut lanes.pending[c], start, &pending[c]);
+        }
+        for (dst, src) in [
+            (&mut rays.org_x, &next[0]),
+            (&mut rays.org_y, &next[1]),
+            (&mut rays.org_z, &next[2]),
+            (&mut rays.dir_x, &next[3]),
+            (&mut rays.dir_y, &next[4]),
+            (&mut rays.dir_z, &next[5]),
+            (&mut rays.tfar, &next_tfar),
+            (&mut shadow.org_x, &shadow_ray[0]),
+            (&mut shadow.org_y, &shadow_ray[1]),
+            (&mut shadow.org_z, &shadow_ray[2]),
+            (&mut shadow.dir_x, &shadow_ray[3]),
+            (&mut shadow.dir_y, &shadow_ray[4]),
+            (&mut shadow.dir_z, &shadow_ray[5]),
+            (&mut shadow.tfar, &shadow_tfar),
+        ] {
+            store(dst.as_mut_slice(), start, src);
+        }
+    }
+    // Every ray starts at its origin and has no hit yet.
+    rays.tnear.as_mut_slice().fill(0.0);
+    rays.geom_id.as_mut_slice().fill(INVALID_ID);
+    shadow.tnear.as_mut_slice().fill(0.0);
+}
