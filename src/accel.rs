@@ -828,12 +828,10 @@ impl RayBatch {
         })
     }
 
-    /// Keeps the rays of the lanes `i` with `keep[i]`, in order, and drops
-    /// the others. The hit records are not kept: every kept lane has no hit
-    /// (as after [`RayBatch::set`]), ready for the next query.
-    pub fn retain(&mut self, keep: &[bool]) {
-        assert_eq!(keep.len(), self.len, "one flag per lane");
-        let mut live = 0;
+    /// Keeps the rays of the lanes listed in `kept` (ascending), in that
+    /// order, and drops the others. The hit records are not kept: every kept
+    /// lane has no hit (as after [`RayBatch::set`]), ready for the next query.
+    pub fn retain(&mut self, kept: &[u32]) {
         for c in [
             &mut self.org_x,
             &mut self.org_y,
@@ -844,9 +842,9 @@ impl RayBatch {
             &mut self.tnear,
             &mut self.tfar,
         ] {
-            live = retain_lanes(c.as_mut_slice(), keep);
+            gather_lanes(c.as_mut_slice(), kept);
         }
-        self.resize(live);
+        self.resize(kept.len());
         self.geom_id.as_mut_slice().fill(INVALID_ID);
         self.prim_id.as_mut_slice().fill(INVALID_ID);
     }
@@ -882,16 +880,19 @@ impl RayBatch {
     }
 }
 
-/// Moves the lanes with `keep[i]` to the front, in order; returns their count.
-pub fn retain_lanes<T: Copy>(lanes: &mut [T], keep: &[bool]) -> usize {
-    let mut live = 0;
-    for (i, &k) in keep.iter().enumerate() {
-        // Without a branch on `k`, which is unpredictable: a dropped lane is
-        // written and then overwritten by the next kept one.
-        lanes[live] = lanes[i];
-        live += k as usize;
+/// Moves the lanes listed in `kept` (ascending lane indices) to the front,
+/// in order: lane `j` becomes old lane `kept[j]`. Each lane moves
+/// independently of the others (no running count), which keeps the loop
+/// fast when the kept lanes are scattered unpredictably.
+///
+/// # Panics
+/// If an index is out of range or the list is not ascending.
+#[inline]
+pub fn gather_lanes<T: Copy>(lanes: &mut [T], kept: &[u32]) {
+    for (j, &i) in kept.iter().enumerate() {
+        assert!(i as usize >= j, "kept lanes must be ascending");
+        lanes[j] = lanes[i as usize];
     }
-    live
 }
 
 impl Accel {

@@ -24,6 +24,7 @@ pub fn mix64(mut z: u64) -> u64 {
 
 impl Rng {
     /// A generator with the given state seed and stream selector.
+    #[inline]
     pub fn new(seed: u64, stream: u64) -> Rng {
         let mut rng = Rng {
             state: 0,
@@ -36,6 +37,7 @@ impl Rng {
     }
 
     /// The stream of camera sample `sample` of pixel `(x, y)` under scene seed `seed`.
+    #[inline]
     pub fn for_sample(seed: u64, x: u32, y: u32, sample: u32) -> Rng {
         let pixel = ((y as u64) << 32) | x as u64;
         let a = mix64(seed ^ mix64(pixel));

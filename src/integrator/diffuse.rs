@@ -20,8 +20,10 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::{PixelSums, RayStats, Tile, RUSSIAN_ROULETTE_DEPTH};
-use crate::accel::{retain_lanes, RayBatch, INVALID_ID};
+use crate::accel::{gather_lanes, RayBatch, INVALID_ID};
 use crate::bsdf::Bsdf;
+use crate::camera::{Camera, PinholeCamera};
+use crate::filter::PixelFilter;
 use crate::light::Light;
 use crate::sampler::Rng;
 use crate::sampling::{sin_cos_quarter, Frame};
@@ -107,7 +109,8 @@ pub struct DiffuseLanes {
     light_pos: [Vec<f32>; 3],
     light_intensity: [Vec<f32>; 3],
     light_pmf: Vec<f32>,
-    keep: Vec<bool>,
+    /// Lanes whose paths go on, ascending (rebuilt every bounce).
+    kept: Vec<u32>,
 }
 
 impl DiffuseLanes {
@@ -126,33 +129,34 @@ impl DiffuseLanes {
             self.light_intensity[c].resize(n, 0.0);
         }
         self.light_pmf.resize(n, 0.0);
-        self.keep.resize(n, false);
     }
 
-    /// Keeps the lanes marked in `self.keep`, in order.
+    /// Keeps the lanes listed in `self.kept`, in order.
     #[inline(always)]
     fn retain(&mut self) {
-        let keep = &self.keep;
-        self.rays.retain(keep);
-        retain_lanes(&mut self.pixel, keep);
-        retain_lanes(&mut self.rng_state, keep);
-        retain_lanes(&mut self.rng_inc, keep);
+        let kept = &self.kept;
+        self.rays.retain(kept);
+        gather_lanes(&mut self.pixel, kept);
+        gather_lanes(&mut self.rng_state, kept);
+        gather_lanes(&mut self.rng_inc, kept);
         for c in 0..3 {
-            retain_lanes(&mut self.beta[c], keep);
-            retain_lanes(&mut self.radiance[c], keep);
+            gather_lanes(&mut self.beta[c], kept);
+            gather_lanes(&mut self.radiance[c], kept);
         }
         let live = self.rays.len();
         self.resize(live);
     }
 }
 
-/// Adds the radiance of the lanes with `keep[i] == false` (all lanes when
-/// `all`) to their pixels, as the general integrator retires a path.
+/// Adds the radiance of finished paths (lanes whose next ray is inactive;
+/// every lane when `all`) to their pixels, as the general integrator
+/// retires a path.
 #[inline(always)]
-fn retire(lanes: &DiffuseLanes, scene: &Scene, pixels: &mut [PixelSums], all: bool, keep: &[bool]) {
+fn retire(lanes: &DiffuseLanes, scene: &Scene, pixels: &mut [PixelSums], all: bool) {
     let response = scene.film.response();
+    let tfar = lanes.rays.tfar.as_slice();
     for i in 0..lanes.pixel.len() {
-        if all || !keep[i] {
+        if all || tfar[i] < 0.0 {
             let radiance = Vec3::new(
                 lanes.radiance[0][i],
                 lanes.radiance[1][i],
@@ -244,44 +248,18 @@ fn trace_pass_body(
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
 ) {
-    let Pass {
-        kernel,
-        scene,
-        tile,
-        sample,
-        first,
-    } = *pass;
-    let settings = &scene.settings;
-    let camera = &scene.camera;
-    let filter = &scene.film.filter;
-    let lens_sample = camera.needs_lens_sample();
+    let (kernel, scene) = (pass.kernel, pass.scene);
 
-    // Camera rays (scalar: cameras and filters are the general code's).
-    lanes.resize((tile.width * tile.height) as usize);
-    let mut n = 0;
-    for py in 0..tile.height {
-        for px in 0..tile.width {
-            let (x, y) = (tile.x0 + px, tile.y0 + py);
-            let mut rng = Rng::for_sample(settings.seed, x, y, sample);
-            let film = Vec2::new(x as f32, y as f32) + filter.sample(rng.next_2d());
-            let lens = if lens_sample {
-                rng.next_2d()
-            } else {
-                Vec2::ZERO
-            };
-            let Some(ray) = camera.generate_ray(film, lens) else {
-                continue;
-            };
-            lanes.rays.set(n, ray);
-            lanes.pixel[n] = py * tile.width + px;
-            (lanes.rng_state[n], lanes.rng_inc[n]) = rng.to_parts();
-            for c in 0..3 {
-                lanes.beta[c][n] = 1.0;
-                lanes.radiance[c][n] = 0.0;
-            }
-            n += 1;
+    // Camera rays: vectorised for a pinhole camera with the box filter,
+    // otherwise one by one through the general code's camera and filter.
+    lanes.resize((pass.tile.width * pass.tile.height) as usize);
+    let n = match (&scene.camera, &scene.film.filter) {
+        (Camera::Pinhole(pinhole), PixelFilter::Box) => {
+            pinhole_camera_rays(pinhole, pass, lanes);
+            lanes.rays.len()
         }
-    }
+        _ => general_camera_rays(pass, lanes),
+    };
     lanes.resize(n);
     stats.camera += n as u64;
     let clock = Instant::now();
@@ -289,34 +267,9 @@ fn trace_pass_body(
     stats.trace_nanos += clock.elapsed().as_nanos() as u64;
 
     // The camera vertex's auxiliary layers.
-    for i in 0..n {
-        let Some(hit) = lanes.rays.hit(i) else {
-            continue;
-        };
-        let dir = lanes.rays.ray(i).dir;
-        let ng = hit.ng.normalize_or_zero();
-        let facing = if ng.dot(-dir) >= 0.0 { ng } else { -ng };
-        let g = hit.geom_id as usize;
-        let pixel = &mut pixels[lanes.pixel[i] as usize];
-        pixel.hits += 1;
-        pixel.depth += camera.depth(dir, hit.t) as f64;
-        pixel.normal += facing;
-        pixel.albedo += Vec3::new(
-            kernel.albedo[0][g],
-            kernel.albedo[1][g],
-            kernel.albedo[2][g],
-        );
-        if first {
-            let mesh = &scene.meshes[g];
-            pixel.object_id = if mesh.object_id == u32::MAX {
-                -1.0
-            } else {
-                mesh.object_id as f32
-            };
-        }
-    }
+    camera_vertex_layers(pass, lanes, pixels);
 
-    let max_depth = settings.max_depth;
+    let max_depth = scene.settings.max_depth;
     let mut depth = 0;
     while depth < max_depth && !lanes.rays.is_empty() {
         let n = lanes.rays.len();
@@ -338,16 +291,20 @@ fn trace_pass_body(
 
         // Retire finished paths; compact once enough lanes are idle.
         let tfar = lanes.rays.tfar.as_slice();
-        for (k, &t) in lanes.keep.iter_mut().zip(tfar) {
-            *k = t > 0.0;
+        lanes.kept.resize(n, 0);
+        let mut live = 0;
+        for (i, &t) in tfar.iter().enumerate() {
+            // Branch-free: whether a path goes on is unpredictable.
+            lanes.kept[live] = i as u32;
+            live += (t > 0.0) as usize;
         }
-        let live = lanes.keep.iter().filter(|&&k| k).count();
+        lanes.kept.truncate(live);
         stats.bounce += live as u64;
         if live == 0 {
             break;
         }
-        if live * 4 <= n * 3 {
-            retire(lanes, scene, pixels, false, &lanes.keep);
+        if live * 3 <= n * 2 {
+            retire(lanes, scene, pixels, false);
             lanes.retain();
         }
         let clock = Instant::now();
@@ -355,7 +312,156 @@ fn trace_pass_body(
         stats.trace_nanos += clock.elapsed().as_nanos() as u64;
         depth += 1;
     }
-    retire(lanes, scene, pixels, true, &[]);
+    retire(lanes, scene, pixels, true);
+}
+
+/// Adds the camera vertex's auxiliary layers (hit count, depth, normal,
+/// albedo, and on the first pass the object id) to the pixels, as the
+/// general integrator does at a path's first hit: per-lane values in
+/// vectorised chunks, then the sums lane by lane.
+#[inline(always)]
+fn camera_vertex_layers(pass: &Pass, lanes: &DiffuseLanes, pixels: &mut [PixelSums]) {
+    let rays = &lanes.rays;
+    let n = rays.len();
+    let last = pass.kernel.albedo[0].len() - 1;
+    for start in (0..n).step_by(W) {
+        let geom = load_or(rays.geom_id.as_slice(), start, INVALID_ID);
+        let t = load(rays.tfar.as_slice(), start);
+        let dir = [
+            load(rays.dir_x.as_slice(), start),
+            load(rays.dir_y.as_slice(), start),
+            load(rays.dir_z.as_slice(), start),
+        ];
+        let ng = [
+            load(rays.ng_x.as_slice(), start),
+            load(rays.ng_y.as_slice(), start),
+            load(rays.ng_z.as_slice(), start),
+        ];
+        let mut normal = [[0.0f32; W]; 3];
+        let mut depth = [0.0f32; W];
+        for k in 0..W {
+            let d = Vec3::new(dir[0][k], dir[1][k], dir[2][k]);
+            let n = Vec3::new(ng[0][k], ng[1][k], ng[2][k]).normalize_or_zero();
+            let facing = if n.dot(-d) >= 0.0 { n } else { -n };
+            for c in 0..3 {
+                normal[c][k] = facing[c];
+            }
+            depth[k] = pass.scene.camera.depth(d, t[k]);
+        }
+        for k in 0..(n - start).min(W) {
+            if geom[k] == INVALID_ID {
+                continue;
+            }
+            let g = (geom[k] as usize).min(last);
+            let pixel = &mut pixels[lanes.pixel[start + k] as usize];
+            pixel.hits += 1;
+            pixel.depth += depth[k] as f64;
+            pixel.normal += Vec3::new(normal[0][k], normal[1][k], normal[2][k]);
+            pixel.albedo += Vec3::new(
+                pass.kernel.albedo[0][g],
+                pass.kernel.albedo[1][g],
+                pass.kernel.albedo[2][g],
+            );
+            if pass.first {
+                // Light fixtures (u32::MAX) are not objects.
+                let mesh = &pass.scene.meshes[g];
+                pixel.object_id = if mesh.object_id == u32::MAX {
+                    -1.0
+                } else {
+                    mesh.object_id as f32
+                };
+            }
+        }
+    }
+}
+
+/// The camera rays of a tile pass through the general code's camera and
+/// filter, lane by lane; a pixel the camera has no ray for (outside a
+/// fisheye's circles) gets no lane. Returns the number of lanes.
+#[inline(always)]
+fn general_camera_rays(pass: &Pass, lanes: &mut DiffuseLanes) -> usize {
+    let (scene, tile) = (pass.scene, pass.tile);
+    let camera = &scene.camera;
+    let lens_sample = camera.needs_lens_sample();
+    let mut n = 0;
+    for py in 0..tile.height {
+        for px in 0..tile.width {
+            let (x, y) = (tile.x0 + px, tile.y0 + py);
+            let mut rng = Rng::for_sample(scene.settings.seed, x, y, pass.sample);
+            let film = Vec2::new(x as f32, y as f32) + scene.film.filter.sample(rng.next_2d());
+            let lens = if lens_sample {
+                rng.next_2d()
+            } else {
+                Vec2::ZERO
+            };
+            let Some(ray) = camera.generate_ray(film, lens) else {
+                continue;
+            };
+            lanes.rays.set(n, ray);
+            lanes.pixel[n] = py * tile.width + px;
+            (lanes.rng_state[n], lanes.rng_inc[n]) = rng.to_parts();
+            for c in 0..3 {
+                lanes.beta[c][n] = 1.0;
+                lanes.radiance[c][n] = 0.0;
+            }
+            n += 1;
+        }
+    }
+    n
+}
+
+/// The camera rays of a tile pass for a pinhole camera and the box filter,
+/// one lane per pixel in row-major order, with each lane's random stream
+/// after the filter's two numbers: the general integrator's camera stage,
+/// vectorised.
+#[inline(always)]
+fn pinhole_camera_rays(camera: &PinholeCamera, pass: &Pass, lanes: &mut DiffuseLanes) {
+    let (tile, seed, sample) = (pass.tile, pass.scene.settings.seed, pass.sample);
+    let n = lanes.rays.len();
+    for start in (0..n).step_by(W) {
+        let mut dir = [[0.0f32; W]; 3];
+        let mut state = [0u64; W];
+        let mut inc = [0u64; W];
+        for k in 0..W {
+            let i = (start + k) as u32;
+            let (px, py) = (i % tile.width, i / tile.width);
+            let mut rng = Rng::for_sample(seed, tile.x0 + px, tile.y0 + py, sample);
+            let u = rng.next_2d();
+            let film = Vec2::new((tile.x0 + px) as f32, (tile.y0 + py) as f32) + u;
+            let ray = camera.generate_ray(film);
+            for c in 0..3 {
+                dir[c][k] = ray.dir[c];
+            }
+            (state[k], inc[k]) = rng.to_parts();
+        }
+        store(lanes.rays.dir_x.as_mut_slice(), start, &dir[0]);
+        store(lanes.rays.dir_y.as_mut_slice(), start, &dir[1]);
+        store(lanes.rays.dir_z.as_mut_slice(), start, &dir[2]);
+        store(&mut lanes.rng_state, start, &state);
+        store(&mut lanes.rng_inc, start, &inc);
+    }
+    let origin = camera.pose.position;
+    for (c, org) in [
+        &mut lanes.rays.org_x,
+        &mut lanes.rays.org_y,
+        &mut lanes.rays.org_z,
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        org.as_mut_slice().fill(origin[c]);
+    }
+    lanes.rays.tnear.as_mut_slice().fill(0.0);
+    lanes.rays.tfar.as_mut_slice().fill(f32::INFINITY);
+    lanes.rays.geom_id.as_mut_slice().fill(INVALID_ID);
+    lanes.rays.prim_id.as_mut_slice().fill(INVALID_ID);
+    for (i, p) in lanes.pixel.iter_mut().enumerate() {
+        *p = i as u32;
+    }
+    for c in 0..3 {
+        lanes.beta[c].fill(1.0);
+        lanes.radiance[c].fill(0.0);
+    }
 }
 
 /// Fills each lane's light (position, intensity, pick probability) for the
@@ -586,15 +692,33 @@ const W: usize = 16;
 /// A component of [`W`] lanes, copied out of a lane array (zero past its end).
 #[inline(always)]
 fn load<T: Copy + Default>(src: &[T], start: usize) -> [T; W] {
+    // A whole chunk is a fixed-size copy (register moves); only the last,
+    // partial one needs a variable-length copy.
+    if let Some(Ok(chunk)) = src.get(start..start + W).map(<[T; W]>::try_from) {
+        return chunk;
+    }
     let mut out = [T::default(); W];
     let m = (src.len() - start).min(W);
     out[..m].copy_from_slice(&src[start..start + m]);
     out
 }
 
+/// [`load`] with `fill` past the end of the lane array.
+#[inline(always)]
+fn load_or<T: Copy + Default>(src: &[T], start: usize, fill: T) -> [T; W] {
+    let mut out = load(src, start);
+    let m = (src.len() - start).min(W);
+    out[m..].fill(fill);
+    out
+}
+
 /// Copies a component of [`W`] lanes back (as far as the lane array goes).
 #[inline(always)]
 fn store<T: Copy>(dst: &mut [T], start: usize, src: &[T; W]) {
+    if let Some(chunk) = dst.get_mut(start..start + W) {
+        chunk.copy_from_slice(src);
+        return;
+    }
     let m = (dst.len() - start).min(W);
     dst[start..start + m].copy_from_slice(&src[..m]);
 }
@@ -628,9 +752,7 @@ fn shade_lanes(kernel: &DiffuseScene, lanes: &mut DiffuseLanes, u: Uniform) {
             load(rays.ng_y.as_slice(), start),
             load(rays.ng_z.as_slice(), start),
         );
-        let mut geom = [INVALID_ID; W];
-        let m = (n - start).min(W);
-        geom[..m].copy_from_slice(&rays.geom_id.as_slice()[start..start + m]);
+        let geom = load_or(rays.geom_id.as_slice(), start, INVALID_ID);
         let (mut ar, mut ag, mut ab) = ([0.0f32; W], [0.0f32; W], [0.0f32; W]);
         for k in 0..W {
             let g = (geom[k] as usize).min(last);
