@@ -416,7 +416,10 @@ fn render_command(a: &RenderArgs) -> Result<()> {
         stats.msamples_per_s(),
         stats.mrays_per_s(),
         stats.threads,
-        if stats.vectorised { ", vectorised" } else { "" },
+        stats
+            .vectorised
+            .map(|isa| format!(", vectorised ({})", isa.name()))
+            .unwrap_or_default(),
         a.output.display(),
         a.png
             .as_ref()

@@ -4,7 +4,7 @@
 use crate::accel::enable_flush_to_zero;
 use crate::error::{Error, Result};
 use crate::film::Film;
-use crate::integrator::{render_tile, DiffuseScene, RayStats, Tile, TileResult};
+use crate::integrator::{render_tile, DiffuseScene, Isa, RayStats, Tile, TileResult};
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -28,6 +28,9 @@ pub struct RenderOptions {
     /// [`DiffuseScene`]); it gives the same image as the general integrator,
     /// faster. `false` forces the general integrator.
     pub vectorised: bool,
+    /// Instruction set of the vectorised kernel; `None` picks the best the
+    /// CPU has. Every choice gives the same image (for tests and timing).
+    pub isa: Option<Isa>,
 }
 
 impl Default for RenderOptions {
@@ -37,6 +40,7 @@ impl Default for RenderOptions {
             tile_size: DEFAULT_TILE_SIZE,
             sample_start: 0,
             vectorised: true,
+            isa: None,
         }
     }
 }
@@ -52,8 +56,9 @@ pub struct RenderStats {
     pub rays: RayStats,
     /// Worker threads used.
     pub threads: usize,
-    /// Whether the vectorised kernel rendered the image.
-    pub vectorised: bool,
+    /// The instruction set of the vectorised kernel, if it rendered the
+    /// image (`None`: the general integrator did).
+    pub vectorised: Option<Isa>,
 }
 
 impl RenderStats {
@@ -135,6 +140,16 @@ pub fn render(
             .ok_or_else(|| Error::InvalidArgument("sample range overflows".into()))?;
     let (width, height) = (cam.width(), cam.height());
     let tiles = tiles(width, height, options.tile_size);
+    let isa = match options.isa {
+        Some(isa) if !isa.is_available() => {
+            return Err(Error::InvalidArgument(format!(
+                "this CPU cannot run the {} kernel",
+                isa.name()
+            )))
+        }
+        Some(isa) => isa,
+        None => Isa::best(),
+    };
     let kernel = if options.vectorised {
         DiffuseScene::new(scene)
     } else {
@@ -151,7 +166,12 @@ pub fn render(
                 if cancelled.load(Ordering::Relaxed) {
                     return None;
                 }
-                let r = render_tile(scene, kernel.as_ref(), tile, samples.clone());
+                let r = render_tile(
+                    scene,
+                    kernel.as_ref().map(|k| (k, isa)),
+                    tile,
+                    samples.clone(),
+                );
                 let n = done.fetch_add(1, Ordering::Relaxed) + 1;
                 if !progress(n, tiles.len()) {
                     cancelled.store(true, Ordering::Relaxed);
@@ -202,7 +222,7 @@ pub fn render(
         samples: width as u64 * height as u64 * spp as u64,
         rays,
         threads: pool.current_num_threads(),
-        vectorised: kernel.is_some(),
+        vectorised: kernel.is_some().then_some(isa),
     };
     Ok((film, stats))
 }

@@ -1,11 +1,13 @@
 //! The vectorised kernel (plain Lambert scenes lit by point lights) renders
-//! exactly the image of the general integrator: every layer, bit for bit.
+//! exactly the image of the general integrator: every layer, bit for bit,
+//! for every instruction set this CPU has, and it takes only the scenes it
+//! can render.
 
 use plsr::film::Film;
-use plsr::integrator::DiffuseScene;
+use plsr::integrator::{DiffuseScene, Isa};
 use plsr::render::{render, RenderOptions};
 use plsr::scene::Scene;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 fn embree_demo(size: u32, spp: u32) -> Scene {
     let mut s = Scene::load(Path::new("assets/scenes/cornell/embree-demo.toml")).unwrap();
@@ -14,14 +16,124 @@ fn embree_demo(size: u32, spp: u32) -> Scene {
     s
 }
 
-fn render_with(scene: &Scene, vectorised: bool, threads: usize) -> Film {
+/// Loads a scene written to a temporary file; `OBJ` in `text` stands for
+/// the absolute path of Embree's Cornell box.
+fn scene_from(name: &str, text: &str) -> Scene {
+    let obj =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/cornell/embree_cornell_box.obj");
+    let dir: PathBuf = std::env::temp_dir().join(format!("plsr-vectorised-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(
+        &path,
+        text.replace("OBJ", &obj.display().to_string().replace('\\', "/")),
+    )
+    .unwrap();
+    Scene::load(&path).unwrap()
+}
+
+/// A box of coloured Lambert walls and a floating panel, lit by three point
+/// lights of different colours, seen through a thin lens with the Gaussian
+/// filter at an odd resolution (partial tiles and partial SIMD chunks).
+fn three_lights() -> Scene {
+    scene_from(
+        "three-lights",
+        r#"
+[render]
+spp = 3
+max_depth = 6
+seed = 11
+
+[camera]
+type = "thin_lens"
+position = [278, 273, -800]
+look_at = [278, 273, 0]
+up = [0, 1, 0]
+vfov = 37
+aperture_radius = 8
+resolution = [37, 29]
+
+[film]
+filter = "gaussian"
+exposure_ev = 1
+
+[[materials]]
+name = "teal"
+type = "diffuse"
+reflectance = [0.1, 0.6, 0.5]
+
+[[materials]]
+name = "white"
+type = "diffuse"
+reflectance = [0.9, 0.9, 0.9]
+
+[[shapes]]
+type = "obj"
+file = "OBJ"
+material = "teal"
+
+[[shapes]]
+type = "rectangle"
+material = "white"
+transform = { scale = 60, translate = [278, 200, 200] }
+
+[[lights]]
+type = "point"
+position = [213, 300, 227]
+intensity = [100000, 50000, 20000]
+
+[[lights]]
+type = "point"
+position = [400, 100, 100]
+intensity = [5000, 20000, 40000]
+
+[[lights]]
+type = "point"
+position = [100, 500, 300]
+intensity = [30000, 30000, 30000]
+"#,
+    )
+}
+
+/// A dual-fisheye camera inside the box: the corners of the image have no
+/// rays, so lanes and pixels no longer correspond one to one.
+fn fisheye() -> Scene {
+    scene_from(
+        "fisheye",
+        r#"
+[render]
+spp = 2
+max_depth = 8
+
+[camera]
+type = "dual_fisheye"
+position = [278, 273, 250]
+look_at = [278, 273, 500]
+up = [0, 1, 0]
+resolution = [40, 20]
+
+[[shapes]]
+type = "obj"
+file = "OBJ"
+
+[[lights]]
+type = "point"
+position = [213, 300, 227]
+intensity = [100000, 100000, 100000]
+"#,
+    )
+}
+
+fn render_with(scene: &Scene, kernel: Option<Isa>, threads: usize, tile_size: u32) -> Film {
     let o = RenderOptions {
         threads: Some(threads),
-        vectorised,
+        tile_size,
+        vectorised: kernel.is_some(),
+        isa: kernel,
         ..Default::default()
     };
     let (film, stats) = render(scene, &o, &|_, _| true).unwrap();
-    assert_eq!(stats.vectorised, vectorised, "kernel choice");
+    assert_eq!(stats.vectorised, kernel, "kernel choice");
     film
 }
 
@@ -45,14 +157,12 @@ fn layers(f: &Film) -> Vec<(&'static str, Vec<u32>)> {
     ]
 }
 
-fn assert_identical(scene: &Scene) {
-    assert!(DiffuseScene::new(scene).is_some(), "scene qualifies");
-    let general = render_with(scene, false, 1);
-    let fast = render_with(scene, true, 2);
-    for ((name, a), (_, b)) in layers(&general).into_iter().zip(layers(&fast)) {
+fn assert_same(what: &str, general: &Film, fast: &Film) {
+    for ((name, a), (_, b)) in layers(general).into_iter().zip(layers(fast)) {
         if let Some(i) = (0..a.len()).find(|&i| a[i] != b[i]) {
             panic!(
-                "layer {name} differs at element {i}: general {} vectorised {} ({} of {} elements differ)",
+                "{what}: layer {name} differs at element {i}: general {} vectorised {} \
+                 ({} of {} elements differ)",
                 f32::from_bits(a[i]),
                 f32::from_bits(b[i]),
                 (0..a.len()).filter(|&i| a[i] != b[i]).count(),
@@ -62,7 +172,127 @@ fn assert_identical(scene: &Scene) {
     }
 }
 
+/// The instruction sets this CPU can run.
+fn isas() -> Vec<Isa> {
+    [Isa::Baseline, Isa::Avx2, Isa::Avx512]
+        .into_iter()
+        .filter(|i| i.is_available())
+        .collect()
+}
+
+fn assert_identical(what: &str, scene: &Scene) {
+    assert!(DiffuseScene::new(scene).is_some(), "{what} qualifies");
+    let general = render_with(scene, None, 1, 16);
+    // The image must not be trivially black, or the comparison proves little.
+    assert!(
+        general.color.iter().any(|c| c.max_element() > 0.0),
+        "{what} is lit"
+    );
+    for isa in isas() {
+        let fast = render_with(scene, Some(isa), 2, 16);
+        assert_same(&format!("{what}, {}", isa.name()), &general, &fast);
+    }
+    let odd_tiles = render_with(scene, Some(Isa::best()), 2, 7);
+    assert_same(&format!("{what}, 7-pixel tiles"), &general, &odd_tiles);
+}
+
 #[test]
 fn embree_demo_is_bit_identical() {
-    assert_identical(&embree_demo(48, 4));
+    assert_identical("Embree's demo", &embree_demo(48, 4));
+}
+
+#[test]
+fn every_path_length_is_bit_identical() {
+    // 1: direct light only; 2–3: before Russian roulette starts; 4: after.
+    for max_depth in [1, 2, 3, 4] {
+        let mut scene = embree_demo(24, 2);
+        scene.settings.max_depth = max_depth;
+        assert_identical(&format!("max_depth {max_depth}"), &scene);
+    }
+}
+
+#[test]
+fn several_lights_thin_lens_and_gaussian_filter_are_bit_identical() {
+    assert_identical("three lights", &three_lights());
+}
+
+#[test]
+fn cameras_with_pixels_without_rays_are_bit_identical() {
+    let scene = fisheye();
+    let film = render_with(&scene, None, 1, 16);
+    assert!(film.alpha.contains(&0.0), "the corners have no rays");
+    assert_identical("dual fisheye", &scene);
+}
+
+#[test]
+fn vectorised_kernel_counts_the_same_rays() {
+    let scene = embree_demo(32, 2);
+    let run = |vectorised| {
+        let o = RenderOptions {
+            threads: Some(1),
+            vectorised,
+            ..Default::default()
+        };
+        render(&scene, &o, &|_, _| true).unwrap().1.rays
+    };
+    let (a, b) = (run(false), run(true));
+    assert_eq!(
+        (a.camera, a.bounce, a.shadow),
+        (b.camera, b.bounce, b.shadow)
+    );
+}
+
+#[test]
+fn scenes_the_kernel_cannot_render_go_to_the_general_integrator() {
+    // An area light (the Cornell box's emissive quad).
+    let cornell = Scene::load(Path::new("tests/data/cornell-64.toml")).unwrap();
+    assert!(DiffuseScene::new(&cornell).is_none(), "area light");
+    let o = RenderOptions {
+        threads: Some(1),
+        ..Default::default()
+    };
+    let mut small = cornell;
+    small.camera = small.camera.with_resolution(8, 8).unwrap();
+    small.settings.spp = 1;
+    assert_eq!(render(&small, &o, &|_, _| true).unwrap().1.vectorised, None);
+
+    for (what, extra) in [
+        (
+            "principled material",
+            "[[materials]]\nname = \"p\"\ntype = \"principled\"\n\n[[shapes]]\ntype = \"rectangle\"\nmaterial = \"p\"\n",
+        ),
+        (
+            "vertex normals",
+            "[[shapes]]\ntype = \"sphere\"\ncenter = [278, 100, 300]\nradius = 50\n",
+        ),
+        ("environment", "[environment]\nradiance = [1, 1, 1]\n"),
+        (
+            "emissive shape",
+            "[[shapes]]\ntype = \"rectangle\"\nemission = [1, 1, 1]\ntransform = { translate = [278, 500, 300] }\n",
+        ),
+    ] {
+        let text = format!(
+            "[camera]\nposition = [278, 273, -800]\nlook_at = [278, 273, 0]\nup = [0, 1, 0]\nvfov = 37\n\
+             resolution = [8, 8]\n\n[[shapes]]\ntype = \"obj\"\nfile = \"OBJ\"\n\n\
+             [[lights]]\ntype = \"point\"\nposition = [213, 300, 227]\nintensity = [1, 1, 1]\n\n{extra}"
+        );
+        let scene = scene_from(&what.replace(' ', "-"), &text);
+        assert!(DiffuseScene::new(&scene).is_none(), "{what}");
+    }
+}
+
+#[test]
+fn asking_for_an_instruction_set_the_cpu_lacks_is_an_error() {
+    let Some(missing) = [Isa::Avx2, Isa::Avx512]
+        .into_iter()
+        .find(|i| !i.is_available())
+    else {
+        return; // this CPU has them all: nothing to check here
+    };
+    let o = RenderOptions {
+        isa: Some(missing),
+        ..Default::default()
+    };
+    let err = render(&embree_demo(8, 1), &o, &|_, _| true).unwrap_err();
+    assert!(err.to_string().contains(missing.name()), "{err}");
 }

@@ -185,12 +185,62 @@ pub struct Pass<'a> {
     pub first: bool,
 }
 
+/// An instruction set the vectorised kernel is compiled for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Isa {
+    /// The target's baseline (SSE2 on x86-64): 4 lanes per instruction.
+    Baseline,
+    /// AVX2 (x86-64): 8 lanes per instruction.
+    Avx2,
+    /// AVX-512 F/DQ/VL/BW (x86-64): 16 lanes per instruction.
+    Avx512,
+}
+
+impl Isa {
+    /// Whether this CPU can run the kernel compiled for `self`.
+    pub fn is_available(self) -> bool {
+        match self {
+            Isa::Baseline => true,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"),
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => {
+                is_x86_feature_detected!("avx512f")
+                    && is_x86_feature_detected!("avx512dq")
+                    && is_x86_feature_detected!("avx512vl")
+                    && is_x86_feature_detected!("avx512bw")
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
+
+    /// The best instruction set this CPU has.
+    pub fn best() -> Isa {
+        [Isa::Avx512, Isa::Avx2]
+            .into_iter()
+            .find(|isa| isa.is_available())
+            .unwrap_or(Isa::Baseline)
+    }
+
+    /// Its name, as `plsr render` reports it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Isa::Baseline => "baseline",
+            Isa::Avx2 => "AVX2",
+            Isa::Avx512 => "AVX-512",
+        }
+    }
+}
+
 /// Renders sample `pass.sample` of every pixel of `pass.tile`, as
 /// [`super::trace_pass`] does for general scenes. The whole pass is compiled
-/// for AVX-512, for AVX2 and for the baseline instruction set; the best the
-/// CPU has runs (the results are the same: no instruction set changes how
-/// an operation rounds, and none is fused).
+/// for AVX-512, for AVX2 and for the baseline instruction set; `isa` picks
+/// one, or the baseline where the CPU lacks it. Every variant gives the same
+/// result: no instruction set changes how an operation rounds, and Rust
+/// fuses no multiply-add by itself.
 pub fn trace_pass(
+    isa: Isa,
     pass: &Pass,
     lanes: &mut DiffuseLanes,
     pixels: &mut [PixelSums],
@@ -198,20 +248,18 @@ pub fn trace_pass(
 ) {
     #[cfg(target_arch = "x86_64")]
     {
-        if is_x86_feature_detected!("avx512f")
-            && is_x86_feature_detected!("avx512dq")
-            && is_x86_feature_detected!("avx512vl")
-            && is_x86_feature_detected!("avx512bw")
-        {
+        if isa == Isa::Avx512 && isa.is_available() {
             // SAFETY: the CPU has the features `trace_pass_avx512` is
-            // compiled for.
+            // compiled for (checked just above).
             return unsafe { trace_pass_avx512(pass, lanes, pixels, stats) };
         }
-        if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
-            // SAFETY: the CPU has the features `trace_pass_avx2` is compiled for.
+        if isa == Isa::Avx2 && isa.is_available() {
+            // SAFETY: the CPU has the features `trace_pass_avx2` is compiled
+            // for (checked just above).
             return unsafe { trace_pass_avx2(pass, lanes, pixels, stats) };
         }
     }
+    let _ = isa;
     trace_pass_body(pass, lanes, pixels, stats)
 }
 

@@ -16,7 +16,7 @@
 
 mod diffuse;
 
-pub use diffuse::DiffuseScene;
+pub use diffuse::{DiffuseScene, Isa};
 
 use crate::accel::{Ray, RayHit, ShadowRay};
 use crate::light::Light;
@@ -237,11 +237,11 @@ fn spawn_origin(p: Vec3, n: Vec3, eps: f32, dir: Vec3) -> Vec3 {
 }
 
 /// Renders samples `samples` of every pixel of `tile`; with `kernel` (the
-/// scene's [`DiffuseScene`]), by the vectorised kernel, which gives the same
-/// image.
+/// scene's [`DiffuseScene`] and an instruction set), by the vectorised
+/// kernel, which gives the same image.
 pub fn render_tile(
     scene: &Scene,
-    kernel: Option<&DiffuseScene>,
+    kernel: Option<(&DiffuseScene, Isa)>,
     tile: Tile,
     samples: std::ops::Range<u32>,
 ) -> TileResult {
@@ -255,7 +255,7 @@ pub fn render_tile(
     ];
     let mut rays = RayStats::default();
     let first_sample = samples.start;
-    if let Some(kernel) = kernel {
+    if let Some((kernel, isa)) = kernel {
         let mut lanes = diffuse::DiffuseLanes::default();
         for s in samples {
             let pass = diffuse::Pass {
@@ -265,7 +265,7 @@ pub fn render_tile(
                 sample: s,
                 first: s == first_sample,
             };
-            diffuse::trace_pass(&pass, &mut lanes, &mut pixels, &mut rays);
+            diffuse::trace_pass(isa, &pass, &mut lanes, &mut pixels, &mut rays);
         }
         return TileResult { tile, pixels, rays };
     }
