@@ -111,6 +111,8 @@ pub struct DiffuseLanes {
     light_pmf: Vec<f32>,
     /// Lanes whose paths go on, ascending (rebuilt every bounce).
     kept: Vec<u32>,
+    /// Lanes whose paths have ended, ascending (rebuilt every bounce).
+    ended: Vec<u32>,
 }
 
 impl DiffuseLanes {
@@ -148,25 +150,22 @@ impl DiffuseLanes {
     }
 }
 
-/// Adds the radiance of finished paths (lanes whose next ray is inactive;
-/// every lane when `all`) to their pixels, as the general integrator
-/// retires a path.
+/// Adds the radiance of the paths of `ended` (lane indices) to their
+/// pixels, as the general integrator retires a path.
 #[inline(always)]
-fn retire(lanes: &DiffuseLanes, scene: &Scene, pixels: &mut [PixelSums], all: bool) {
+fn retire(lanes: &DiffuseLanes, ended: &[u32], scene: &Scene, pixels: &mut [PixelSums]) {
     let response = scene.film.response();
-    let tfar = lanes.rays.tfar.as_slice();
-    for i in 0..lanes.pixel.len() {
-        if all || tfar[i] < 0.0 {
-            let radiance = Vec3::new(
-                lanes.radiance[0][i],
-                lanes.radiance[1][i],
-                lanes.radiance[2][i],
-            );
-            let l = response.apply(radiance).as_dvec3();
-            let px = &mut pixels[lanes.pixel[i] as usize];
-            px.sum += l;
-            px.sum_sq += l * l;
-        }
+    for &i in ended {
+        let i = i as usize;
+        let radiance = Vec3::new(
+            lanes.radiance[0][i],
+            lanes.radiance[1][i],
+            lanes.radiance[2][i],
+        );
+        let l = response.apply(radiance).as_dvec3();
+        let px = &mut pixels[lanes.pixel[i] as usize];
+        px.sum += l;
+        px.sum_sq += l * l;
     }
 }
 
@@ -335,24 +334,15 @@ fn trace_pass_body(
         let clock = Instant::now();
         scene.accel.occluded_batch(&mut lanes.shadow, false);
         stats.trace_nanos += clock.elapsed().as_nanos() as u64;
-        add_unoccluded(lanes);
+        let live = add_unoccluded(lanes);
+        stats.bounce += live as u64;
 
         // Retire finished paths; compact once enough lanes are idle.
-        let tfar = lanes.rays.tfar.as_slice();
-        lanes.kept.resize(n, 0);
-        let mut live = 0;
-        for (i, &t) in tfar.iter().enumerate() {
-            // Branch-free: whether a path goes on is unpredictable.
-            lanes.kept[live] = i as u32;
-            live += (t > 0.0) as usize;
-        }
-        lanes.kept.truncate(live);
-        stats.bounce += live as u64;
         if live == 0 {
             break;
         }
         if live * 3 <= n * 2 {
-            retire(lanes, scene, pixels, false);
+            retire(lanes, &lanes.ended, scene, pixels);
             lanes.retain();
         }
         let clock = Instant::now();
@@ -360,7 +350,10 @@ fn trace_pass_body(
         stats.trace_nanos += clock.elapsed().as_nanos() as u64;
         depth += 1;
     }
-    retire(lanes, scene, pixels, true);
+    // Every path still in a lane has ended now.
+    lanes.ended.clear();
+    lanes.ended.extend(0..lanes.rays.len() as u32);
+    retire(lanes, &lanes.ended, scene, pixels);
 }
 
 /// Adds the camera vertex's auxiliary layers (hit count, depth, normal,
@@ -515,16 +508,13 @@ fn pinhole_camera_rays(camera: &PinholeCamera, pass: &Pass, lanes: &mut DiffuseL
 /// Fills each lane's light (position, intensity, pick probability) for the
 /// next light sample. With several lights the pick draws the lane's next
 /// two random numbers, as the general integrator does; the draw itself
-/// (advancing the state) happens in [`shade_lane`].
+/// (advancing the state) happens in [`shade_lane`]. With one light there is
+/// nothing to fill: [`shade_lanes`] uses it for every lane.
 #[inline(always)]
 fn pick_lights(kernel: &DiffuseScene, scene: &Scene, lanes: &mut DiffuseLanes) {
     let n = lanes.rays.len();
-    if let Some((pos, intensity, pmf)) = kernel.single_light {
-        for c in 0..3 {
-            lanes.light_pos[c][..n].fill(pos[c]);
-            lanes.light_intensity[c][..n].fill(intensity[c]);
-        }
-        lanes.light_pmf[..n].fill(pmf);
+    if kernel.single_light.is_some() {
+        // `shade_lanes` uses it directly.
         return;
     }
     let geom = lanes.rays.geom_id.as_slice();
@@ -548,24 +538,42 @@ fn pick_lights(kernel: &DiffuseScene, scene: &Scene, lanes: &mut DiffuseLanes) {
     }
 }
 
-/// Adds each unoccluded shadow ray's pending radiance to its path.
+/// Adds each unoccluded shadow ray's pending radiance to its path, and
+/// lists the lanes whose paths go on in `lanes.kept`; returns their number.
 #[inline(always)]
-fn add_unoccluded(lanes: &mut DiffuseLanes) {
-    let tfar = lanes.shadow.tfar.as_slice();
-    let n = tfar.len();
-    for c in 0..3 {
-        let radiance = &mut lanes.radiance[c][..n];
-        let pending = &lanes.pending[c][..n];
-        for i in 0..n {
-            // Inactive lanes have tfar = −∞, as occluded ones. A select, not
-            // a branch: occlusion is unpredictable.
-            radiance[i] = if tfar[i] > 0.0 {
-                radiance[i] + pending[i]
-            } else {
-                radiance[i]
-            };
+fn add_unoccluded(lanes: &mut DiffuseLanes) -> usize {
+    let n = lanes.rays.len();
+    lanes.kept.resize(n, 0);
+    lanes.ended.resize(n, 0);
+    let mut live = 0;
+    for start in (0..n).step_by(W) {
+        let shadow_tfar = load(lanes.shadow.tfar.as_slice(), start);
+        let tfar = load(lanes.rays.tfar.as_slice(), start);
+        for c in 0..3 {
+            let mut radiance = load(&lanes.radiance[c], start);
+            let pending = load(&lanes.pending[c], start);
+            for k in 0..W {
+                // Inactive lanes have tfar = −∞, as occluded ones. A select,
+                // not a branch: occlusion is unpredictable.
+                radiance[k] = if shadow_tfar[k] > 0.0 {
+                    radiance[k] + pending[k]
+                } else {
+                    radiance[k]
+                };
+            }
+            store(&mut lanes.radiance[c], start, &radiance);
+        }
+        for k in 0..(n - start).min(W) {
+            // Branch-free too: whether a path goes on is unpredictable.
+            let i = start + k;
+            lanes.kept[live] = i as u32;
+            lanes.ended[i - live] = i as u32;
+            live += (tfar[k] > 0.0) as usize;
         }
     }
+    lanes.kept.truncate(live);
+    lanes.ended.truncate(n - live);
+    live
 }
 
 /// What is the same for every lane of one bounce.
@@ -815,17 +823,27 @@ fn shade_lanes(kernel: &DiffuseScene, lanes: &mut DiffuseLanes, u: Uniform) {
             load(&lanes.beta[1], start),
             load(&lanes.beta[2], start),
         );
-        let (lx, ly, lz) = (
-            load(&lanes.light_pos[0], start),
-            load(&lanes.light_pos[1], start),
-            load(&lanes.light_pos[2], start),
-        );
-        let (ir, ig, ib) = (
-            load(&lanes.light_intensity[0], start),
-            load(&lanes.light_intensity[1], start),
-            load(&lanes.light_intensity[2], start),
-        );
-        let lpmf = load(&lanes.light_pmf, start);
+        // One light: the same for every lane, so no per-lane arrays.
+        let ([lx, ly, lz], [ir, ig, ib], lpmf) = match kernel.single_light {
+            Some((p, i, pmf)) => (
+                [[p.x; W], [p.y; W], [p.z; W]],
+                [[i.x; W], [i.y; W], [i.z; W]],
+                [pmf; W],
+            ),
+            None => (
+                [
+                    load(&lanes.light_pos[0], start),
+                    load(&lanes.light_pos[1], start),
+                    load(&lanes.light_pos[2], start),
+                ],
+                [
+                    load(&lanes.light_intensity[0], start),
+                    load(&lanes.light_intensity[1], start),
+                    load(&lanes.light_intensity[2], start),
+                ],
+                load(&lanes.light_pmf, start),
+            ),
+        };
         let mut rng = load(&lanes.rng_state, start);
         let inc = load(&lanes.rng_inc, start);
 
