@@ -646,10 +646,8 @@ fn shade_lane(l: LaneIn, u: Uniform) -> LaneOut {
     let origin = p + n * eps;
 
     // Next-event estimation: two numbers pick the light (see `pick_lights`),
-    // two more are the light sample's (unused by a point light).
-    for _ in 0..4 {
-        Rng::step(&mut rng, l.inc);
-    }
+    // two more are the light sample's (unused by a point light); they are
+    // skipped below, together with the BSDF's lobe number.
     // PointLight::sample_li.
     let d = l.light_pos - p;
     let dist2 = d.length_squared();
@@ -680,7 +678,8 @@ fn shade_lane(l: LaneIn, u: Uniform) -> LaneOut {
     let pending = l.beta * f * radiance * (weight / light_pdf);
 
     // Lambert::sample: one number picks the lobe (unused), two the direction.
-    Rng::step(&mut rng, l.inc);
+    // Skip the four numbers of the light sample and the lobe's at once.
+    Rng::skip::<5>(&mut rng, l.inc);
     let u1 = Rng::step_f32(&mut rng, l.inc);
     let u2 = Rng::step_f32(&mut rng, l.inc);
     let local = cosine_hemisphere(Vec2::new(u1, u2));
