@@ -11,7 +11,9 @@
 //! 3. [`Accel`] answers closest-hit ([`Accel::intersect`]) and any-hit
 //!    ([`Accel::occluded`]) queries for single rays, and for batches through
 //!    Embree's stream API ([`Accel::intersect_stream`], [`Accel::occluded_stream`]),
-//!    which the integrator uses for the coherent rays of a tile.
+//!    which the integrator uses for the coherent rays of a tile, and for
+//!    structure-of-arrays batches ([`RayBatch`], [`Accel::intersect_batch`],
+//!    [`Accel::occluded_batch`]), which the vectorised kernel uses.
 //!
 //! Threads: Embree's ray queries on a committed scene are thread-safe, and
 //! every worker that traces rays must run with flush-to-zero and

@@ -6,10 +6,10 @@
 //! computes, in the same floating-point operations in the same order, with
 //! the same random numbers; Rust never contracts `a·b + c` into a fused
 //! multiply-add, so every lane rounds exactly as the scalar code does and
-//! the images are bit-identical (tested in `tests/integrator.rs`). What
+//! the images are bit-identical (tested in `tests/vectorised.rs`). What
 //! differs is the layout: the paths of a tile live in structure-of-arrays
 //! lanes ([`RayBatch`] and the arrays of [`DiffuseLanes`]), and one bounce of
-//! all of them is a single loop without branches ([`shade_lane`] per lane),
+//! all of them is a single loop without branches (`shade_lane` per lane),
 //! which the compiler turns into AVX-512 or AVX2 code, picked at run time.
 //! Rays go to Embree as SoA streams (`rtcIntersectNp`, `rtcOccludedNp`).
 //!
@@ -233,7 +233,7 @@ impl Isa {
 }
 
 /// Renders sample `pass.sample` of every pixel of `pass.tile`, as
-/// [`super::trace_pass`] does for general scenes. The whole pass is compiled
+/// the general integrator does. The whole pass is compiled
 /// for AVX-512, for AVX2 and for the baseline instruction set; `isa` picks
 /// one, or the baseline where the CPU lacks it. Every variant gives the same
 /// result: no instruction set changes how an operation rounds, and Rust

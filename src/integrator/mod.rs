@@ -13,8 +13,16 @@
 //! rays and shadow rays as streams. Every path draws from its own random
 //! stream ([`Rng::for_sample`]) and every pixel adds its samples in sample
 //! order, so an image is bit-identical whatever the number of threads.
+//!
+//! Scenes of plain Lambert materials lit by point lights (see
+//! [`DiffuseScene::new`]) run on a vectorised version of the same wavefront
+//! ([`diffuse`]): structure-of-arrays lanes, compiled for AVX-512, AVX2 and
+//! the baseline and picked at run time ([`Isa`]). It performs the same
+//! floating-point operations in the same order with the same random numbers,
+//! so it renders the same image bit for bit; `RenderOptions::vectorised`
+//! (`plsr render --scalar`) turns it off.
 
-mod diffuse;
+pub mod diffuse;
 
 pub use diffuse::{DiffuseScene, Isa};
 
