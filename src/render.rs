@@ -11,8 +11,11 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Instant;
 
-/// Default tile edge in pixels: 16×16 = 256 paths per wavefront.
-pub const DEFAULT_TILE_SIZE: u32 = 16;
+/// Default tile edge in pixels: 32×32 = 1024 paths per wavefront, enough
+/// to amortise the vectorised kernel's per-pass costs (5 % faster than
+/// 16×16 on `plsr bench`; the general integrator does not mind), while a
+/// 512×512 image still has 256 tiles to spread over the threads.
+pub const DEFAULT_TILE_SIZE: u32 = 32;
 
 /// How to run a render (what to render is in the scene's settings).
 #[derive(Debug, Clone, Copy, PartialEq)]
