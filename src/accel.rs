@@ -631,7 +631,8 @@ struct LaneBlock<T: Copy + Default>([T; 16]);
 
 /// One component of a structure-of-arrays ray batch: a growable array whose
 /// storage is 64-byte aligned. Its length is set by the owning [`RayBatch`]
-/// only, so every component of a batch always has the batch's length.
+/// only; a component replaced by another of a different length makes the
+/// batch's queries panic.
 #[derive(Clone, Default)]
 pub struct LaneArray<T: Copy + Default> {
     blocks: Vec<LaneBlock<T>>,
@@ -651,18 +652,27 @@ impl<T: Copy + Default> LaneArray<T> {
         }
     }
 
+    /// A block must hold its 16 lanes without padding (true for the 4-byte
+    /// lane types used here), or the blocks would not be contiguous lanes.
+    const NO_PADDING: () = assert!(
+        std::mem::size_of::<LaneBlock<T>>() == 16 * std::mem::size_of::<T>(),
+        "lane type too small for a 64-byte block of 16"
+    );
+
     /// The lanes.
     #[inline]
     pub fn as_slice(&self) -> &[T] {
-        // SAFETY: `LaneBlock` is `repr(C)` over `[T; 16]`, so the blocks are
-        // `16 · blocks.len()` contiguous, initialised `T`s, and `resize` keeps
-        // `len` within them.
+        let () = Self::NO_PADDING;
+        // SAFETY: `LaneBlock` is `repr(C)` over `[T; 16]` without padding
+        // (`NO_PADDING`), so the blocks are `16 · blocks.len()` contiguous,
+        // initialised `T`s, and `resize` keeps `len` within them.
         unsafe { std::slice::from_raw_parts(self.blocks.as_ptr().cast::<T>(), self.len) }
     }
 
     /// The lanes, mutable.
     #[inline]
     pub fn as_mut_slice(&mut self) -> &mut [T] {
+        let () = Self::NO_PADDING;
         // SAFETY: as in `as_slice`; `&mut self` makes the borrow exclusive.
         unsafe { std::slice::from_raw_parts_mut(self.blocks.as_mut_ptr().cast::<T>(), self.len) }
     }
@@ -851,7 +861,42 @@ impl RayBatch {
         self.prim_id.as_mut_slice().fill(INVALID_ID);
     }
 
+    /// Panics unless every component has the batch's length: components
+    /// are public fields, so safe code could replace one (with a
+    /// `LaneArray::default()`, say) and Embree would then read past it.
+    fn check_lengths(&self) {
+        let f32s = [
+            &self.org_x,
+            &self.org_y,
+            &self.org_z,
+            &self.dir_x,
+            &self.dir_y,
+            &self.dir_z,
+            &self.tnear,
+            &self.tfar,
+            &self.time,
+            &self.ng_x,
+            &self.ng_y,
+            &self.ng_z,
+            &self.u,
+            &self.v,
+        ];
+        let u32s = [
+            &self.mask,
+            &self.id,
+            &self.flags,
+            &self.prim_id,
+            &self.geom_id,
+            &self.inst_id,
+        ];
+        assert!(
+            f32s.iter().all(|c| c.len == self.len) && u32s.iter().all(|c| c.len == self.len),
+            "a RayBatch component was replaced by one of another length"
+        );
+    }
+
     fn rtc_rays(&mut self) -> sys::RTCRayNp {
+        self.check_lengths();
         sys::RTCRayNp {
             org_x: self.org_x.as_mut_ptr(),
             org_y: self.org_y.as_mut_ptr(),
@@ -869,6 +914,7 @@ impl RayBatch {
     }
 
     fn rtc_hits(&mut self) -> sys::RTCHitNp {
+        self.check_lengths();
         sys::RTCHitNp {
             Ng_x: self.ng_x.as_mut_ptr(),
             Ng_y: self.ng_y.as_mut_ptr(),
@@ -910,8 +956,9 @@ impl Accel {
             hit: batch.rtc_hits(),
         };
         // SAFETY: every component of `batch` has `batch.len()` initialised
-        // lanes in 64-byte-aligned storage (Embree needs 16), all exclusively
-        // borrowed for the call; the scene is committed.
+        // lanes (`check_lengths`, called by `rtc_rays`/`rtc_hits`) in
+        // 64-byte-aligned storage (Embree needs 16), all exclusively borrowed
+        // for the call; the scene is committed.
         unsafe { sys::rtcIntersectNp(self.scene.0, &mut ctx, &rayhit, batch.len() as u32) };
     }
 

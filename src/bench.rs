@@ -243,9 +243,9 @@ pub fn run(o: &BenchOptions) -> Result<()> {
             "|   vectorised / general, samples/s         | {:8.2}×    |",
             stats.msamples_per_s() / general_stats.msamples_per_s()
         );
-        let same = film.color == general_film.color && film.variance == general_film.variance;
+        let same = film.bitwise_eq(general_film);
         println!(
-            "|   same image from both                    | {:>8}     |",
+            "|   same image, every layer, bit for bit    | {:>8}     |",
             if same { "yes" } else { "NO" }
         );
     }

@@ -190,6 +190,28 @@ pub fn aces_filmic(x: f32) -> f32 {
 }
 
 impl Film {
+    /// Whether `other` has the same size and every layer the same bit
+    /// patterns (unlike `==`, which takes −0 for +0 and no NaN for itself).
+    pub fn bitwise_eq(&self, other: &Film) -> bool {
+        let v3 = |a: &[Vec3], b: &[Vec3]| {
+            a.len() == b.len()
+                && a.iter()
+                    .zip(b)
+                    .all(|(x, y)| x.to_array().map(f32::to_bits) == y.to_array().map(f32::to_bits))
+        };
+        let v1 = |a: &[f32], b: &[f32]| {
+            a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+        };
+        (self.width, self.height, self.spp) == (other.width, other.height, other.spp)
+            && v3(&self.color, &other.color)
+            && v3(&self.variance, &other.variance)
+            && v3(&self.normal, &other.normal)
+            && v3(&self.albedo, &other.albedo)
+            && v1(&self.alpha, &other.alpha)
+            && v1(&self.depth, &other.depth)
+            && v1(&self.object_id, &other.object_id)
+    }
+
     /// An empty (black) film.
     pub fn new(width: u32, height: u32) -> Film {
         let n = (width as usize) * (height as usize);

@@ -32,7 +32,8 @@ pub struct RenderOptions {
     /// faster. `false` forces the general integrator.
     pub vectorised: bool,
     /// Instruction set of the vectorised kernel; `None` picks the best the
-    /// CPU has. Every choice gives the same image (for tests and timing).
+    /// CPU has. Every choice gives the same image (for tests and timing);
+    /// one the CPU lacks is an error, whether or not the kernel would run.
     pub isa: Option<Isa>,
 }
 

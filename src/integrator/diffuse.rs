@@ -1,12 +1,18 @@
 //! A vectorised wavefront for the commonest kind of scene: every material
 //! plain Lambert (no textures), meshes without vertex normals, lit by point
-//! lights only (no area lights, no environment, no reach limits).
+//! lights and emissive meshes (area lights) without emission cones; no
+//! environment, no reach-limited (PLS) light groups.
 //!
 //! It computes what the general integrator ([`super::render_tile`])
 //! computes, in the same floating-point operations in the same order, with
 //! the same random numbers; Rust never contracts `a·b + c` into a fused
 //! multiply-add, so every lane rounds exactly as the scalar code does and
-//! the images are bit-identical (tested in `tests/vectorised.rs`). What
+//! the images are bit-identical (tested in `tests/vectorised.rs`). One
+//! assumption lies outside plsr: that Embree returns the same hit for the
+//! same ray whether it traces it alone (the general integrator's
+//! `rtcIntersect1M`) or in a packet of a structure-of-arrays stream (the
+//! kernel's `rtcIntersectNp`); Embree does not promise it, and every test
+//! confirms it. What
 //! differs is the layout: the paths of a tile live in structure-of-arrays
 //! lanes ([`RayBatch`] and the arrays of [`DiffuseLanes`]), and one bounce of
 //! all of them is a single loop without branches (`shade_lane` per lane),
@@ -26,7 +32,7 @@ use crate::camera::{Camera, PinholeCamera};
 use crate::filter::PixelFilter;
 use crate::light::Light;
 use crate::sampler::Rng;
-use crate::sampling::{sin_cos_quarter, Frame};
+use crate::sampling::{power_heuristic, sin_cos_quarter, Frame};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -38,26 +44,30 @@ pub struct DiffuseScene {
     /// Lambert albedo per Embree geometry id (linear RGB, one array per
     /// channel), with one extra zero entry that lanes without a hit read.
     albedo: [Vec<f32>; 3],
-    /// The one light, when there is exactly one: position, intensity and
-    /// the probability of picking it.
-    single_light: Option<(Vec3, Vec3, f32)>,
+    /// Whether each geometry (by Embree id) emits, with one extra `false`.
+    emissive: Vec<bool>,
+    /// The one light, when there is exactly one, with the probability of
+    /// picking it: the same for every lane.
+    single_light: Option<LightIn>,
+    /// Whether any light is an emitting triangle.
+    triangle_lights: bool,
 }
 
 impl DiffuseScene {
     /// The kernel's view of `scene`, or `None` when the scene needs the
     /// general integrator: a material that is not untextured Lambert, vertex
-    /// normals, an emissive mesh, an environment, a light that is not a point
-    /// light, reach-limited light groups, or no light that can be picked.
+    /// normals, an environment, a light that is neither a point light nor an
+    /// emissive triangle without a cone, reach-limited light groups, or no
+    /// light that can be picked.
     pub fn new(scene: &Scene) -> Option<DiffuseScene> {
+        let supported = |l: &Light| match l {
+            Light::Point(_) => true,
+            Light::Triangle(t) => t.cone.is_none(),
+            Light::Environment { .. } => false,
+        };
         if scene.environment.is_some()
-            || scene.has_hittable_lights
-            || scene.first_light.iter().any(Option::is_some)
             || !scene.lights.is_spatially_uniform()
-            || scene
-                .lights
-                .lights
-                .iter()
-                .any(|l| !matches!(l, Light::Point(_)))
+            || !scene.lights.lights.iter().all(supported)
         {
             return None;
         }
@@ -65,8 +75,9 @@ impl DiffuseScene {
         // it draws the light sample's numbers.
         let (first, pmf) = scene.lights.pick(Vec3::ZERO, Vec2::splat(0.5))?;
         let mut albedo = [Vec::new(), Vec::new(), Vec::new()];
-        for mesh in &scene.meshes {
-            if !mesh.normals.is_empty() || mesh.emission.is_some() {
+        let mut emissive = Vec::new();
+        for (g, mesh) in scene.meshes.iter().enumerate() {
+            if !mesh.normals.is_empty() {
                 return None;
             }
             let material = scene.materials.get(mesh.material as usize)?;
@@ -79,18 +90,171 @@ impl DiffuseScene {
             for (c, a) in albedo.iter_mut().enumerate() {
                 a.push(d.reflectance[c]);
             }
+            emissive.push(scene.first_light.get(g).copied().flatten().is_some());
         }
         for a in &mut albedo {
             a.push(0.0);
         }
+        emissive.push(false);
         let single_light = match scene.lights.lights.as_slice() {
-            [Light::Point(l)] if first == 0 => Some((l.position, l.intensity, pmf)),
+            [l] if first == 0 => Some(LightIn::new(l, pmf)),
             _ => None,
         };
         Some(DiffuseScene {
             albedo,
+            emissive,
             single_light,
+            triangle_lights: scene
+                .lights
+                .lights
+                .iter()
+                .any(|l| matches!(l, Light::Triangle(_))),
         })
+    }
+}
+
+/// One lane's light for a light sample: a point light or an emitting
+/// triangle, and the probability it was picked with.
+#[derive(Debug, Clone, Copy, Default)]
+struct LightIn {
+    /// An emitting triangle (else a point light).
+    triangle: bool,
+    /// The triangle emits on both sides.
+    two_sided: bool,
+    /// The triangle's vertices; the point light's position is `p[0]`.
+    p: [Vec3; 3],
+    /// The triangle's unit normal.
+    n: Vec3,
+    /// The triangle's area.
+    area: f32,
+    /// The triangle's radiance or the point light's intensity.
+    emit: Vec3,
+    /// Probability of picking this light.
+    pmf: f32,
+}
+
+impl LightIn {
+    fn new(light: &Light, pmf: f32) -> LightIn {
+        match light {
+            Light::Point(l) => LightIn {
+                p: [l.position; 3],
+                emit: l.intensity,
+                pmf,
+                ..Default::default()
+            },
+            Light::Triangle(t) => LightIn {
+                triangle: true,
+                two_sided: t.two_sided,
+                p: t.p,
+                n: t.n,
+                area: t.area,
+                emit: t.radiance,
+                pmf,
+            },
+            Light::Environment { .. } => {
+                unreachable!("DiffuseScene::new refuses environment lights")
+            }
+        }
+    }
+}
+
+/// The lights of [`W`] lanes, one array per component.
+#[derive(Clone, Copy)]
+struct LightChunk {
+    triangle: [bool; W],
+    two_sided: [bool; W],
+    p: [[[f32; W]; 3]; 3],
+    n: [[f32; W]; 3],
+    area: [f32; W],
+    emit: [[f32; W]; 3],
+    pmf: [f32; W],
+}
+
+impl LightChunk {
+    #[inline(always)]
+    fn splat(l: LightIn) -> LightChunk {
+        let v = |v: Vec3| [[v.x; W], [v.y; W], [v.z; W]];
+        LightChunk {
+            triangle: [l.triangle; W],
+            two_sided: [l.two_sided; W],
+            p: [v(l.p[0]), v(l.p[1]), v(l.p[2])],
+            n: v(l.n),
+            area: [l.area; W],
+            emit: v(l.emit),
+            pmf: [l.pmf; W],
+        }
+    }
+
+    #[inline(always)]
+    fn load(lanes: &LightLanes, start: usize) -> LightChunk {
+        let v = |a: &[Vec<f32>; 3]| [load(&a[0], start), load(&a[1], start), load(&a[2], start)];
+        LightChunk {
+            triangle: load(&lanes.triangle, start),
+            two_sided: load(&lanes.two_sided, start),
+            p: [v(&lanes.p[0]), v(&lanes.p[1]), v(&lanes.p[2])],
+            n: v(&lanes.n),
+            area: load(&lanes.area, start),
+            emit: v(&lanes.emit),
+            pmf: load(&lanes.pmf, start),
+        }
+    }
+
+    #[inline(always)]
+    fn lane(&self, k: usize) -> LightIn {
+        let v = |a: &[[f32; W]; 3]| Vec3::new(a[0][k], a[1][k], a[2][k]);
+        LightIn {
+            triangle: self.triangle[k],
+            two_sided: self.two_sided[k],
+            p: [v(&self.p[0]), v(&self.p[1]), v(&self.p[2])],
+            n: v(&self.n),
+            area: self.area[k],
+            emit: v(&self.emit),
+            pmf: self.pmf[k],
+        }
+    }
+}
+
+/// Each lane's picked light, one array per component (see [`LightIn`]).
+#[derive(Default)]
+struct LightLanes {
+    triangle: Vec<bool>,
+    two_sided: Vec<bool>,
+    p: [[Vec<f32>; 3]; 3],
+    n: [Vec<f32>; 3],
+    area: Vec<f32>,
+    emit: [Vec<f32>; 3],
+    pmf: Vec<f32>,
+}
+
+impl LightLanes {
+    fn resize(&mut self, n: usize) {
+        self.triangle.resize(n, false);
+        self.two_sided.resize(n, false);
+        for a in self
+            .p
+            .iter_mut()
+            .flatten()
+            .chain(&mut self.n)
+            .chain(&mut self.emit)
+        {
+            a.resize(n, 0.0);
+        }
+        self.area.resize(n, 0.0);
+        self.pmf.resize(n, 0.0);
+    }
+
+    fn set(&mut self, i: usize, l: LightIn) {
+        self.triangle[i] = l.triangle;
+        self.two_sided[i] = l.two_sided;
+        for c in 0..3 {
+            for v in 0..3 {
+                self.p[v][c][i] = l.p[v][c];
+            }
+            self.n[c][i] = l.n[c];
+            self.emit[c][i] = l.emit[c];
+        }
+        self.area[i] = l.area;
+        self.pmf[i] = l.pmf;
     }
 }
 
@@ -106,9 +270,11 @@ pub struct DiffuseLanes {
     beta: [Vec<f32>; 3],
     radiance: [Vec<f32>; 3],
     pending: [Vec<f32>; 3],
-    light_pos: [Vec<f32>; 3],
-    light_intensity: [Vec<f32>; 3],
-    light_pmf: Vec<f32>,
+    /// Solid-angle density of the BSDF sample that led to the current hit.
+    prev_pdf: Vec<f32>,
+    /// The scattering point the current ray left from.
+    prev_point: [Vec<f32>; 3],
+    lights: LightLanes,
     /// Lanes whose paths go on, ascending (rebuilt every bounce).
     kept: Vec<u32>,
     /// Lanes whose paths have ended, ascending (rebuilt every bounce).
@@ -127,15 +293,16 @@ impl DiffuseLanes {
             self.beta[c].resize(n, 0.0);
             self.radiance[c].resize(n, 0.0);
             self.pending[c].resize(n, 0.0);
-            self.light_pos[c].resize(n, 0.0);
-            self.light_intensity[c].resize(n, 0.0);
+            self.prev_point[c].resize(n, 0.0);
         }
-        self.light_pmf.resize(n, 0.0);
+        self.prev_pdf.resize(n, 0.0);
+        self.lights.resize(n);
     }
 
-    /// Keeps the lanes listed in `self.kept`, in order.
+    /// Keeps the lanes listed in `self.kept`, in order; the previous
+    /// scattering points and densities only where `emitters` need them.
     #[inline(always)]
-    fn retain(&mut self) {
+    fn retain(&mut self, emitters: bool) {
         let kept = &self.kept;
         self.rays.retain(kept);
         gather_lanes(&mut self.pixel, kept);
@@ -144,6 +311,12 @@ impl DiffuseLanes {
         for c in 0..3 {
             gather_lanes(&mut self.beta[c], kept);
             gather_lanes(&mut self.radiance[c], kept);
+        }
+        if emitters {
+            gather_lanes(&mut self.prev_pdf, kept);
+            for c in 0..3 {
+                gather_lanes(&mut self.prev_point[c], kept);
+            }
         }
         let live = self.rays.len();
         self.resize(live);
@@ -204,7 +377,9 @@ impl Isa {
             Isa::Avx2 => is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"),
             #[cfg(target_arch = "x86_64")]
             Isa::Avx512 => {
-                is_x86_feature_detected!("avx512f")
+                is_x86_feature_detected!("avx2")
+                    && is_x86_feature_detected!("fma")
+                    && is_x86_feature_detected!("avx512f")
                     && is_x86_feature_detected!("avx512dq")
                     && is_x86_feature_detected!("avx512vl")
                     && is_x86_feature_detected!("avx512bw")
@@ -317,13 +492,19 @@ fn trace_pass_body(
     camera_vertex_layers(pass, lanes, pixels);
 
     let max_depth = scene.settings.max_depth;
+    let has_emitters = kernel.emissive.contains(&true);
     let mut depth = 0;
-    while depth < max_depth && !lanes.rays.is_empty() {
+    while !lanes.rays.is_empty() {
+        if has_emitters {
+            add_emission(kernel, scene, lanes, depth);
+        }
+        if depth >= max_depth {
+            break;
+        }
         let n = lanes.rays.len();
         let uniform = Uniform {
-            // The ray after the last light sample could only find a light,
-            // and these scenes have none to find.
-            continue_paths: depth + 1 < max_depth,
+            // The ray after the last light sample can only find a light.
+            continue_paths: depth + 1 < max_depth || scene.has_hittable_lights,
             roulette: depth + 1 >= RUSSIAN_ROULETTE_DEPTH,
         };
         pick_lights(kernel, scene, lanes);
@@ -343,7 +524,7 @@ fn trace_pass_body(
         }
         if live * 3 <= n * 2 {
             retire(lanes, &lanes.ended, scene, pixels);
-            lanes.retain();
+            lanes.retain(kernel.triangle_lights);
         }
         let clock = Instant::now();
         scene.accel.intersect_batch(&mut lanes.rays, false);
@@ -354,6 +535,52 @@ fn trace_pass_body(
     lanes.ended.clear();
     lanes.ended.extend(0..lanes.rays.len() as u32);
     retire(lanes, &lanes.ended, scene, pixels);
+}
+
+/// Adds the emission that the lanes' rays found on emitting triangles,
+/// MIS-weighted against the light sample that could have found it, as the
+/// general integrator does; lane by lane, as such hits are few.
+#[inline(always)]
+fn add_emission(kernel: &DiffuseScene, scene: &Scene, lanes: &mut DiffuseLanes, depth: u32) {
+    for i in 0..lanes.rays.len() {
+        let g = lanes.rays.geom_id.as_slice()[i];
+        if g == INVALID_ID || !kernel.emissive[g as usize] {
+            continue;
+        }
+        let (Some(hit), ray) = (lanes.rays.hit(i), lanes.rays.ray(i)) else {
+            continue;
+        };
+        let Some(li) = scene.light_index(hit.geom_id, hit.prim_id) else {
+            continue;
+        };
+        let light = &scene.lights.lights[li];
+        let Light::Triangle(tl) = light else {
+            continue;
+        };
+        let p = ray.org + hit.t * ray.dir;
+        let le = tl.emitted(-ray.dir);
+        if le == Vec3::ZERO {
+            continue;
+        }
+        let prev_pdf = lanes.prev_pdf[i];
+        let weight = if depth == 0 || prev_pdf == 0.0 {
+            1.0
+        } else {
+            let prev_point = Vec3::new(
+                lanes.prev_point[0][i],
+                lanes.prev_point[1][i],
+                lanes.prev_point[2][i],
+            );
+            let light_pdf =
+                scene.lights.pick_pmf(li, prev_point) * light.pdf_li(prev_point, p, ray.dir);
+            power_heuristic(prev_pdf, light_pdf)
+        };
+        let beta = Vec3::new(lanes.beta[0][i], lanes.beta[1][i], lanes.beta[2][i]);
+        let add = beta * le * weight;
+        for c in 0..3 {
+            lanes.radiance[c][i] += add[c];
+        }
+    }
 }
 
 /// Adds the camera vertex's auxiliary layers (hit count, depth, normal,
@@ -527,14 +754,9 @@ fn pick_lights(kernel: &DiffuseScene, scene: &Scene, lanes: &mut DiffuseLanes) {
             .lights
             .pick(Vec3::ZERO, rng.next_2d())
             .expect("DiffuseScene::new checked that picking succeeds");
-        let Light::Point(l) = &scene.lights.lights[li] else {
-            unreachable!("DiffuseScene::new checked that all lights are point lights")
-        };
-        for c in 0..3 {
-            lanes.light_pos[c][i] = l.position[c];
-            lanes.light_intensity[c][i] = l.intensity[c];
-        }
-        lanes.light_pmf[i] = pmf;
+        lanes
+            .lights
+            .set(i, LightIn::new(&scene.lights.lights[li], pmf));
     }
 }
 
@@ -599,9 +821,7 @@ struct LaneIn {
     beta: Vec3,
     rng: u64,
     inc: u64,
-    light_pos: Vec3,
-    light_intensity: Vec3,
-    light_pmf: f32,
+    light: LightIn,
 }
 
 /// One lane's results of a bounce.
@@ -619,6 +839,10 @@ struct LaneOut {
     /// Radiance the shadow ray adds if unoccluded.
     pending: Vec3,
     beta: Vec3,
+    /// Density of the BSDF sample (for the MIS weight of emission found by
+    /// the next ray) and the point it left from.
+    pdf: f32,
+    point: Vec3,
     rng: u64,
 }
 
@@ -634,7 +858,7 @@ fn ray_epsilon(p: Vec3) -> f32 {
 /// select) so that a loop over lanes vectorises. Same operations, same
 /// order, same random numbers.
 #[inline(always)]
-fn shade_lane(l: LaneIn, u: Uniform) -> LaneOut {
+fn shade_lane<const TRIANGLES: bool>(l: LaneIn, u: Uniform) -> LaneOut {
     let mut rng = l.rng;
     let p = l.org + l.t * l.dir;
     let wo = -l.dir;
@@ -646,26 +870,71 @@ fn shade_lane(l: LaneIn, u: Uniform) -> LaneOut {
     let origin = p + n * eps;
 
     // Next-event estimation: two numbers pick the light (see `pick_lights`),
-    // two more are the light sample's (unused by a point light); they are
-    // skipped below, together with the BSDF's lobe number.
-    // PointLight::sample_li.
-    let d = l.light_pos - p;
-    let dist2 = d.length_squared();
-    let inv_dist = dist2.sqrt().recip();
-    let radiance = l.light_intensity * (inv_dist * inv_dist);
-    let wi = d * inv_dist;
-    let dist = dist2 * inv_dist;
+    // two more place the sample on it (unused by a point light).
+    // Without emitting triangles, all five numbers before the direction's
+    // (these four and the BSDF's lobe number) are skipped at once.
+    let ul = if TRIANGLES {
+        Rng::skip::<2>(&mut rng, l.inc);
+        Vec2::new(
+            Rng::step_f32(&mut rng, l.inc),
+            Rng::step_f32(&mut rng, l.inc),
+        )
+    } else {
+        Vec2::ZERO
+    };
+    let light = l.light;
+    // Both lights' `sample_li`, computed for every lane and selected (the
+    // triangle's only where the scene has emitting triangles).
+    let point_sample = {
+        let d = light.p[0] - p;
+        let dist2 = d.length_squared();
+        let inv_dist = dist2.sqrt().recip();
+        let radiance = light.emit * (inv_dist * inv_dist);
+        (dist2 != 0.0, radiance, d * inv_dist, dist2 * inv_dist, 1.0)
+    };
+    let triangle_sample = {
+        let b = uniform_triangle(ul);
+        let x = light.p[0] * (1.0 - b.x - b.y) + light.p[1] * b.x + light.p[2] * b.y;
+        let d = x - p;
+        let dist2 = d.length_squared();
+        let dist = dist2.sqrt();
+        let wi = d / dist;
+        let cos_light = light.n.dot(-wi);
+        let radiance = if light.two_sided || light.n.dot(-wi) > 0.0 {
+            light.emit
+        } else {
+            Vec3::ZERO
+        };
+        let valid = dist2 != 0.0 && !(cos_light == 0.0 || radiance == Vec3::ZERO);
+        let pdf = dist2 / (cos_light.abs() * light.area);
+        (valid, radiance, wi, dist, pdf)
+    };
+    let (valid, radiance, wi, dist, ls_pdf) = if TRIANGLES && light.triangle {
+        triangle_sample
+    } else {
+        point_sample
+    };
     let wi_local = frame.to_local(wi);
-    // Lambert::eval times |cos θi|.
+    // Lambert::eval and ::pdf; the cosine.
     let above = wo_local.z > 0.0 && wi_local.z > 0.0;
     let f = if above {
         l.albedo * FRAC_1_PI
     } else {
         Vec3::ZERO
     };
+    let bsdf_pdf = if wo_local.z > 0.0 && wi_local.z > 0.0 {
+        wi_local.z * FRAC_1_PI
+    } else {
+        0.0
+    };
     let f = f * wi_local.z.abs();
-    let light_pdf = l.light_pmf * 1.0;
-    let weight = 1.0f32;
+    let light_pdf = light.pmf * ls_pdf;
+    // A point light is a delta light: no MIS.
+    let weight = if TRIANGLES && light.triangle {
+        power_heuristic(light_pdf, bsdf_pdf)
+    } else {
+        1.0
+    };
     // From the offset origin to just short of the light; unbounded where
     // the distance overflows (as the general integrator does).
     let target = p + wi * dist;
@@ -674,12 +943,15 @@ fn shade_lane(l: LaneIn, u: Uniform) -> LaneOut {
     } else {
         (wi, f32::INFINITY)
     };
-    let shadow = l.hit && dist2 != 0.0 && f != Vec3::ZERO && shadow_tfar > 0.0;
+    let shadow = l.hit && valid && f != Vec3::ZERO && shadow_tfar > 0.0;
     let pending = l.beta * f * radiance * (weight / light_pdf);
 
     // Lambert::sample: one number picks the lobe (unused), two the direction.
-    // Skip the four numbers of the light sample and the lobe's at once.
-    Rng::skip::<5>(&mut rng, l.inc);
+    if TRIANGLES {
+        Rng::skip::<1>(&mut rng, l.inc);
+    } else {
+        Rng::skip::<5>(&mut rng, l.inc);
+    }
     let u1 = Rng::step_f32(&mut rng, l.inc);
     let u2 = Rng::step_f32(&mut rng, l.inc);
     let local = cosine_hemisphere(Vec2::new(u1, u2));
@@ -715,8 +987,24 @@ fn shade_lane(l: LaneIn, u: Uniform) -> LaneOut {
         shadow_tfar,
         pending,
         beta,
+        pdf,
+        point: p,
         rng,
     }
+}
+
+/// `square_to_uniform_triangle` with its branch as a select; bit-identical
+/// to it.
+#[inline(always)]
+fn uniform_triangle(u: Vec2) -> Vec2 {
+    let upper = u.y > u.x;
+    let half = if upper { u.x } else { u.y } / 2.0;
+    let (b0, b1) = if upper {
+        (half, u.y - half)
+    } else {
+        (u.x - half, half)
+    };
+    Vec2::new(b1, 1.0 - b0 - b1)
 }
 
 /// `square_to_cosine_hemisphere` (concentric map, Taylor sine and cosine)
@@ -786,6 +1074,21 @@ fn store<T: Copy>(dst: &mut [T], start: usize, src: &[T; W]) {
 /// some thirty lane arrays and a table lookup.
 #[inline(always)]
 fn shade_lanes(kernel: &DiffuseScene, lanes: &mut DiffuseLanes, u: Uniform) {
+    if kernel.triangle_lights {
+        shade_chunks::<true>(kernel, lanes, u)
+    } else {
+        shade_chunks::<false>(kernel, lanes, u)
+    }
+}
+
+/// [`shade_lanes`] for scenes with (`TRIANGLES`) or without emitting
+/// triangles.
+#[inline(always)]
+fn shade_chunks<const TRIANGLES: bool>(
+    kernel: &DiffuseScene,
+    lanes: &mut DiffuseLanes,
+    u: Uniform,
+) {
     let n = lanes.rays.len();
     let last = kernel.albedo[0].len() - 1;
     let rays = &mut lanes.rays;
@@ -823,25 +1126,9 @@ fn shade_lanes(kernel: &DiffuseScene, lanes: &mut DiffuseLanes, u: Uniform) {
             load(&lanes.beta[2], start),
         );
         // One light: the same for every lane, so no per-lane arrays.
-        let ([lx, ly, lz], [ir, ig, ib], lpmf) = match kernel.single_light {
-            Some((p, i, pmf)) => (
-                [[p.x; W], [p.y; W], [p.z; W]],
-                [[i.x; W], [i.y; W], [i.z; W]],
-                [pmf; W],
-            ),
-            None => (
-                [
-                    load(&lanes.light_pos[0], start),
-                    load(&lanes.light_pos[1], start),
-                    load(&lanes.light_pos[2], start),
-                ],
-                [
-                    load(&lanes.light_intensity[0], start),
-                    load(&lanes.light_intensity[1], start),
-                    load(&lanes.light_intensity[2], start),
-                ],
-                load(&lanes.light_pmf, start),
-            ),
+        let lights = match kernel.single_light {
+            Some(l) => LightChunk::splat(l),
+            None => LightChunk::load(&lanes.lights, start),
         };
         let mut rng = load(&lanes.rng_state, start);
         let inc = load(&lanes.rng_inc, start);
@@ -852,9 +1139,16 @@ fn shade_lanes(kernel: &DiffuseScene, lanes: &mut DiffuseLanes, u: Uniform) {
         let mut shadow_tfar = [0.0f32; W];
         let mut pending = [[0.0f32; W]; 3];
         let mut beta = [br, bg, bb];
+        let (mut prev_pdf, mut prev_point) = ([0.0f32; W], [[0.0f32; W]; 3]);
+        if TRIANGLES {
+            prev_pdf = load(&lanes.prev_pdf, start);
+            for c in 0..3 {
+                prev_point[c] = load(&lanes.prev_point[c], start);
+            }
+        }
         for k in 0..W {
             let hit = geom[k] != INVALID_ID;
-            let out = shade_lane(
+            let out = shade_lane::<TRIANGLES>(
                 LaneIn {
                     org: Vec3::new(ox[k], oy[k], oz[k]),
                     dir: Vec3::new(dx[k], dy[k], dz[k]),
@@ -865,9 +1159,7 @@ fn shade_lanes(kernel: &DiffuseScene, lanes: &mut DiffuseLanes, u: Uniform) {
                     beta: Vec3::new(br[k], bg[k], bb[k]),
                     rng: rng[k],
                     inc: inc[k],
-                    light_pos: Vec3::new(lx[k], ly[k], lz[k]),
-                    light_intensity: Vec3::new(ir[k], ig[k], ib[k]),
-                    light_pmf: lpmf[k],
+                    light: lights.lane(k),
                 },
                 u,
             );
@@ -876,6 +1168,13 @@ fn shade_lanes(kernel: &DiffuseScene, lanes: &mut DiffuseLanes, u: Uniform) {
                 rng[k] = out.rng;
                 for c in 0..3 {
                     beta[c][k] = out.beta[c];
+                }
+            }
+            // Only emission found later needs them (for its MIS weight).
+            if TRIANGLES && hit {
+                prev_pdf[k] = out.pdf;
+                for c in 0..3 {
+                    prev_point[c][k] = out.point[c];
                 }
             }
             for c in 0..3 {
@@ -898,6 +1197,12 @@ fn shade_lanes(kernel: &DiffuseScene, lanes: &mut DiffuseLanes, u: Uniform) {
         }
 
         store(&mut lanes.rng_state, start, &rng);
+        if TRIANGLES {
+            store(&mut lanes.prev_pdf, start, &prev_pdf);
+            for c in 0..3 {
+                store(&mut lanes.prev_point[c], start, &prev_point[c]);
+            }
+        }
         for c in 0..3 {
             store(&mut lanes.beta[c], start, &beta[c]);
             store(&mut lanes.pending[c], start, &pending[c]);
@@ -925,4 +1230,45 @@ fn shade_lanes(kernel: &DiffuseScene, lanes: &mut DiffuseLanes, u: Uniform) {
     rays.tnear.as_mut_slice().fill(0.0);
     rays.geom_id.as_mut_slice().fill(INVALID_ID);
     shadow.tnear.as_mut_slice().fill(0.0);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::{square_to_cosine_hemisphere, square_to_uniform_triangle};
+
+    /// Points of the unit square, with the corners, the centre, the
+    /// diagonals and the axes through the centre, where the warps branch.
+    fn square_points() -> Vec<Vec2> {
+        let mut out = Vec::new();
+        let n = 97;
+        for i in 0..n {
+            for j in 0..n {
+                out.push(Vec2::new(
+                    i as f32 / (n - 1) as f32,
+                    j as f32 / (n - 1) as f32,
+                ));
+            }
+        }
+        out.extend([Vec2::splat(0.5), Vec2::new(0.5, 0.25), Vec2::new(0.25, 0.5)]);
+        out
+    }
+
+    #[test]
+    fn select_forms_of_the_warps_are_bit_identical() {
+        for u in square_points() {
+            let (a, b) = (cosine_hemisphere(u), square_to_cosine_hemisphere(u));
+            assert_eq!(
+                a.to_array().map(f32::to_bits),
+                b.to_array().map(f32::to_bits),
+                "{u}"
+            );
+            let (a, b) = (uniform_triangle(u), square_to_uniform_triangle(u));
+            assert_eq!(
+                a.to_array().map(f32::to_bits),
+                b.to_array().map(f32::to_bits),
+                "{u}"
+            );
+        }
+    }
 }

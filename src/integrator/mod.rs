@@ -14,7 +14,8 @@
 //! stream ([`Rng::for_sample`]) and every pixel adds its samples in sample
 //! order, so an image is bit-identical whatever the number of threads.
 //!
-//! Scenes of plain Lambert materials lit by point lights (see
+//! Scenes of plain Lambert materials lit by point lights and emissive
+//! meshes (see
 //! [`DiffuseScene::new`]) run on a vectorised version of the same wavefront
 //! ([`diffuse`]): structure-of-arrays lanes, compiled for AVX-512, AVX2 and
 //! the baseline and picked at run time ([`Isa`]). It performs the same
