@@ -38,7 +38,8 @@
 //! `plsrFilterSigma`, `plsrFilterRadius` (pixels), `plsrExposureEv`,
 //! `plsrExposureScale` (`s`), `plsrWhiteBalance` (kelvin, when set), and
 //! OpenEXR's standard `expTime` (s), `aperture` (f-number) and `isoSpeed`
-//! when a shutter time is given.
+//! when a shutter time is given. The header's attributes are written in name
+//! order, so the same film always gives the same file, byte for byte.
 
 use crate::color::white_balance_matrix;
 use crate::error::{Error, Result};
@@ -290,10 +291,17 @@ impl Film {
         );
         let image = exrp::Image::from_layer(layer);
         write_atomically(path, |w| {
-            image.write().to_buffered(w).map_err(|e| Error::Output {
+            let fail = |message: String| Error::Output {
                 file: path.to_path_buf(),
-                message: format!("cannot write EXR: {e}"),
-            })
+                message,
+            };
+            image
+                .write()
+                .to_buffered(&mut *w)
+                .map_err(|e| fail(format!("cannot write EXR: {e}")))?;
+            std::io::Write::flush(w)
+                .and_then(|()| sort_header_attributes(w.get_mut()))
+                .map_err(|e| fail(format!("cannot finish the EXR header: {e}")))
         })
     }
 
@@ -459,6 +467,70 @@ fn settings_from_header(layer: &exrp::LayerAttributes) -> FilmSettings {
     s
 }
 
+/// Puts the header attributes of the single-part EXR file `file` (just
+/// written) in name order, in place. The `exr` crate writes them in the
+/// order of a `HashMap`, which changes from run to run, so the same image
+/// would otherwise give different files. Reordering keeps the header's
+/// length, so the offset table after it stays valid. Multi-part files, and
+/// anything this does not recognise, are left as they are.
+fn sort_header_attributes(file: &mut std::fs::File) -> std::io::Result<()> {
+    use std::io::{Read, Seek, SeekFrom, Write};
+    const MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+    const MULTI_PART: u32 = 0x1000;
+    let mut head = Vec::new();
+    file.seek(SeekFrom::Start(0))?;
+    Read::by_ref(file).take(1 << 20).read_to_end(&mut head)?;
+    if head.len() < 8 || head[..4] != MAGIC {
+        return Ok(());
+    }
+    let version = u32::from_le_bytes([head[4], head[5], head[6], head[7]]);
+    if version & MULTI_PART != 0 {
+        return Ok(());
+    }
+    // Each attribute: name NUL, type NUL, size (i32, little-endian), value.
+    let mut attributes: Vec<(&[u8], &[u8])> = Vec::new();
+    let mut at = 8;
+    loop {
+        let Some(&first) = head.get(at) else {
+            return Ok(()); // no end of header within the first MiB
+        };
+        if first == 0 {
+            break;
+        }
+        let start = at;
+        let nul = |from: usize| head[from..].iter().position(|&b| b == 0).map(|i| from + i);
+        let Some(name_end) = nul(at) else {
+            return Ok(());
+        };
+        let Some(type_end) = nul(name_end + 1) else {
+            return Ok(());
+        };
+        let size_at = type_end + 1;
+        let Some(size) = head.get(size_at..size_at + 4) else {
+            return Ok(());
+        };
+        let size = i32::from_le_bytes([size[0], size[1], size[2], size[3]]);
+        let Ok(size) = usize::try_from(size) else {
+            return Ok(());
+        };
+        at = size_at + 4 + size;
+        if at > head.len() {
+            return Ok(());
+        }
+        attributes.push((&head[start..name_end], &head[start..at]));
+    }
+    attributes.sort_by(|a, b| a.0.cmp(b.0));
+    let sorted: Vec<u8> = attributes
+        .iter()
+        .flat_map(|a| a.1.iter().copied())
+        .collect();
+    debug_assert_eq!(sorted.len(), at - 8);
+    file.seek(SeekFrom::Start(8))?;
+    file.write_all(&sorted)?;
+    file.seek(SeekFrom::End(0))?;
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -509,6 +581,17 @@ mod tests {
         assert_eq!(back.settings, film.settings);
         // Nothing but the output is left in the folder.
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+
+        // The same film gives the same file, byte for byte: the header's
+        // attributes (seven of plsr's here) come out in name order, not in
+        // the order of the writer's hash map, which differs from map to map.
+        let first = std::fs::read(&path).unwrap();
+        for k in 0..6 {
+            let again = dir.path().join(format!("again{k}.exr"));
+            film.write_exr(&again).unwrap();
+            assert!(std::fs::read(&again).unwrap() == first, "write {k} differs");
+            assert!(Film::read_exr(&again).unwrap().bitwise_eq(&film));
+        }
     }
 
     #[test]

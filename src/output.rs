@@ -14,9 +14,10 @@ fn temporary_path(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.{}.partial", std::process::id()))
 }
 
-/// Writes `path` by calling `write` on a temporary file in the same folder and
-/// renaming it into place only when `write` succeeded; on failure the
-/// temporary file is removed and `path` is untouched.
+/// Writes `path` by calling `write` on a temporary file in the same folder
+/// (opened for reading and writing) and renaming it into place only when
+/// `write` succeeded; on failure the temporary file is removed and `path` is
+/// untouched.
 pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
@@ -27,7 +28,15 @@ pub fn write_atomically(
         source,
     };
     let result = (|| {
-        let mut w = BufWriter::new(File::create(&tmp).map_err(io_err)?);
+        // Readable too, so that a writer can fix up what it wrote.
+        let file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(&tmp)
+            .map_err(io_err)?;
+        let mut w = BufWriter::new(file);
         write(&mut w)?;
         let file = w.into_inner().map_err(|e| io_err(e.into_error()))?;
         file.sync_all().map_err(io_err)?;
