@@ -592,6 +592,16 @@ mod tests {
             assert!(std::fs::read(&again).unwrap() == first, "write {k} differs");
             assert!(Film::read_exr(&again).unwrap().bitwise_eq(&film));
         }
+        // OpenEXR's own library (through OpenImageIO) reads the reordered
+        // header too.
+        let oiio = crate::hdr::oiio::ImageReader::open(&path).unwrap();
+        assert_eq!((oiio.info().width, oiio.info().height), (5, 3));
+        assert_eq!(oiio.info().channels, 15);
+        assert_eq!(
+            oiio.string_attribute("plsrFilter").as_deref(),
+            Some("gaussian")
+        );
+        assert_eq!(oiio.float_attribute("plsrExposureEv"), Some(-1.5));
     }
 
     #[test]
