@@ -492,7 +492,9 @@ fn trace_pass_body(
     camera_vertex_layers(pass, lanes, pixels);
 
     let max_depth = scene.settings.max_depth;
-    let has_emitters = kernel.emissive.contains(&true);
+    // Emission is only found on emitting triangles (and only then are the
+    // previous points and densities its MIS weight needs kept).
+    let has_emitters = kernel.triangle_lights;
     let mut depth = 0;
     while !lanes.rays.is_empty() {
         if has_emitters {
