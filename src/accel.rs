@@ -686,8 +686,8 @@ impl<T: Copy + Default> LaneArray<T> {
 /// (`RTCRayHitNp`): lane `i` of every component is ray `i`. This is the
 /// layout of the vectorised kernels, which read and write whole components.
 ///
-/// A lane whose `tnear > tfar` is inactive: queries skip it (see
-/// [`RayBatch::deactivate`]). After [`Accel::intersect_batch`], a lane with
+/// A lane whose `tnear > tfar` is inactive: queries skip it (the kernels
+/// mark ended paths with `tfar = −∞`). After [`Accel::intersect_batch`], a lane with
 /// `geom_id == INVALID_ID` hit nothing, and `tfar` of a hit lane is the hit
 /// distance; after [`Accel::occluded_batch`], `tfar == −∞` marks an occluded
 /// lane.
@@ -775,13 +775,6 @@ impl RayBatch {
         }
     }
 
-    /// Appends a ray with no hit yet.
-    pub fn push(&mut self, ray: Ray) {
-        let i = self.len;
-        self.resize(i + 1);
-        self.set(i, ray);
-    }
-
     /// Replaces lane `i` by `ray`, with no hit yet.
     #[inline]
     pub fn set(&mut self, i: usize, ray: Ray) {
@@ -795,14 +788,6 @@ impl RayBatch {
         self.tfar.as_mut_slice()[i] = ray.tfar;
         self.geom_id.as_mut_slice()[i] = INVALID_ID;
         self.prim_id.as_mut_slice()[i] = INVALID_ID;
-    }
-
-    /// Makes lane `i` inactive (skipped by queries, no hit).
-    #[inline]
-    pub fn deactivate(&mut self, i: usize) {
-        self.tnear.as_mut_slice()[i] = 0.0;
-        self.tfar.as_mut_slice()[i] = f32::NEG_INFINITY;
-        self.geom_id.as_mut_slice()[i] = INVALID_ID;
     }
 
     /// The ray of lane `i` (`tfar` is the hit distance after a query).

@@ -25,7 +25,7 @@
 // Lane loops index a dozen arrays by lane; iterator chains would hide that.
 #![allow(clippy::needless_range_loop)]
 
-use super::{PixelSums, RayStats, Tile, RUSSIAN_ROULETTE_DEPTH};
+use super::{camera_sample, PixelSums, RayStats, Tile, RUSSIAN_ROULETTE_DEPTH};
 use crate::accel::{gather_lanes, RayBatch, INVALID_ID};
 use crate::bsdf::Bsdf;
 use crate::camera::{Camera, PinholeCamera};
@@ -651,20 +651,12 @@ fn camera_vertex_layers(pass: &Pass, lanes: &DiffuseLanes, pixels: &mut [PixelSu
 #[inline(always)]
 fn general_camera_rays(pass: &Pass, lanes: &mut DiffuseLanes) -> usize {
     let (scene, tile) = (pass.scene, pass.tile);
-    let camera = &scene.camera;
-    let lens_sample = camera.needs_lens_sample();
+    let lens_sample = scene.camera.needs_lens_sample();
     let mut n = 0;
     for py in 0..tile.height {
         for px in 0..tile.width {
             let (x, y) = (tile.x0 + px, tile.y0 + py);
-            let mut rng = Rng::for_sample(scene.settings.seed, x, y, pass.sample);
-            let film = Vec2::new(x as f32, y as f32) + scene.film.filter.sample(rng.next_2d());
-            let lens = if lens_sample {
-                rng.next_2d()
-            } else {
-                Vec2::ZERO
-            };
-            let Some(ray) = camera.generate_ray(film, lens) else {
+            let (rng, Some(ray)) = camera_sample(scene, lens_sample, x, y, pass.sample) else {
                 continue;
             };
             lanes.rays.set(n, ray);

@@ -245,6 +245,30 @@ fn spawn_origin(p: Vec3, n: Vec3, eps: f32, dir: Vec3) -> Vec3 {
     }
 }
 
+/// Camera sample `sample` of pixel `(x, y)`: its random stream, after the
+/// numbers the filter and (when `lens_sample`) the lens took, and the camera
+/// ray, if the camera has one there.
+#[inline]
+fn camera_sample(
+    scene: &Scene,
+    lens_sample: bool,
+    x: u32,
+    y: u32,
+    sample: u32,
+) -> (Rng, Option<Ray>) {
+    let mut rng = Rng::for_sample(scene.settings.seed, x, y, sample);
+    // Filter importance sampling: the filter places the sample, which keeps
+    // weight 1 (see `crate::filter`).
+    let film = Vec2::new(x as f32, y as f32) + scene.film.filter.sample(rng.next_2d());
+    let lens = if lens_sample {
+        rng.next_2d()
+    } else {
+        Vec2::ZERO
+    };
+    let ray = scene.camera.generate_ray(film, lens);
+    (rng, ray)
+}
+
 /// Renders samples `samples` of every pixel of `tile`; with `kernel` (the
 /// scene's [`DiffuseScene`] and an instruction set), by the vectorised
 /// kernel, which gives the same image.
@@ -302,29 +326,17 @@ fn trace_pass(
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
 ) {
-    let settings = &scene.settings;
-    let camera = &scene.camera;
-    let filter = &scene.film.filter;
     // Exposure and white balance, applied to each sample (cheap next to a pass).
     let response = scene.film.response();
-    let lens_sample = camera.needs_lens_sample();
+    let lens_sample = scene.camera.needs_lens_sample();
     wf.paths.clear();
     wf.rays.clear();
     for py in 0..tile.height {
         for px in 0..tile.width {
             let (x, y) = (tile.x0 + px, tile.y0 + py);
-            let mut rng = Rng::for_sample(settings.seed, x, y, sample);
-            // Filter importance sampling: the filter places the sample, which
-            // keeps weight 1 (see `crate::filter`).
-            let film = Vec2::new(x as f32, y as f32) + filter.sample(rng.next_2d());
-            let lens = if lens_sample {
-                rng.next_2d()
-            } else {
-                Vec2::ZERO
-            };
             // No ray (outside a fisheye's circles): a black sample that hit
             // nothing; it still counts towards spp.
-            let Some(ray) = camera.generate_ray(film, lens) else {
+            let (rng, Some(ray)) = camera_sample(scene, lens_sample, x, y, sample) else {
                 continue;
             };
             wf.rays.push(RayHit::new(ray));
