@@ -47,7 +47,7 @@ clippy:
 header:
 	PLSR_WRITE_HEADER=1 $(CARGO) test --test capi_header
 
-# Installs the C ABI: libplsr.so, libplsr.a, plsr.h, plsr.hpp, plsr.pc and a
+# Installs the C ABI: libplsr.so (without debug info), libplsr.a, plsr.h, plsr.hpp, plsr.pc and a
 # CMake package file under PREFIX (default /usr/local).
 PREFIX ?= /usr/local
 CARGO_TARGET_DIR ?= target
@@ -56,6 +56,7 @@ install: deps
 	CARGO_TARGET_DIR=$(CARGO_TARGET_DIR) $(CARGO) build --release --lib
 	install -d $(DESTDIR)$(PREFIX)/lib/pkgconfig $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/lib/cmake/plsr
 	install -m 755 $(CARGO_TARGET_DIR)/release/libplsr.so $(DESTDIR)$(PREFIX)/lib/
+	strip --strip-debug $(DESTDIR)$(PREFIX)/lib/libplsr.so
 	install -m 644 $(CARGO_TARGET_DIR)/release/libplsr.a $(DESTDIR)$(PREFIX)/lib/
 	install -m 644 include/plsr.h include/plsr.hpp $(DESTDIR)$(PREFIX)/include/
 	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(VERSION)|' plsr.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/plsr.pc

@@ -67,7 +67,7 @@
 
 use crate::accel::Ray;
 use crate::equirect::{equirect_direction, equirect_uv, SphereFrame};
-use crate::sampling::square_to_disk_concentric;
+use crate::warp::square_to_disk_concentric;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 
 /// Why a camera cannot be built.

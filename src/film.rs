@@ -41,10 +41,10 @@
 //! when a shutter time is given. The header's attributes are written in name
 //! order, so the same film always gives the same file, byte for byte.
 
+use crate::atomic_write::write_atomically;
 use crate::color::white_balance_matrix;
 use crate::error::{Error, Result};
 use crate::filter::{GaussianFilter, PixelFilter};
-use crate::output::write_atomically;
 use exr::prelude::{self as exrp, AnyChannel, AnyChannels, FlatSamples, WritableImage};
 use glam::{Mat3, Vec3};
 use std::path::Path;

@@ -1,31 +1,37 @@
 //! plsr: a physically based renderer for placing virtual objects into
 //! photographs, with parametric light sources (PLS) and HDR-panorama lighting.
 //!
-//! Module map, dependencies pointing downwards:
+//! This crate is the library only; the `plsr` program (subcommands,
+//! progress bars, benchmarks) is the binary in `src/bin/plsr/`, and
+//! `libplsr.so` is this library with its C ABI ([`capi`]).
+//!
+//! Module map, dependencies pointing downwards (see `docs/architecture.md`):
 //! - [`sys`] (the `plsr-embree-sys` crate): raw Embree 3 bindings;
+//! - [`error`], [`atomic_write`]: errors, and files replaced all at once;
 //! - [`accel`]: the safe Embree layer (device, scene, ray queries);
-//! - [`sampler`], [`sampling`]: random streams, warps, discrete distributions;
+//! - [`rng`], [`warp`]: random streams; warps, discrete distributions, MIS;
 //! - [`equirect`], [`color`], [`filter`]: the panorama convention, colour
 //!   (white balance) and pixel filters;
-//! - [`camera`], [`bsdf`], [`light`]: the models, each behind one interface;
-//! - [`texture`], [`material`]: image textures and the materials they vary;
-//! - [`scene`]: scene files and the built scene;
-//! - [`integrator`], [`render`]: the path tracer and the tile scheduler;
-//! - [`film`], [`output`]: the image with its AOVs, EXR and PNG output;
 //! - [`hdr`]: HDR panoramas from bracketed photos (OpenImageIO shim,
 //!   response recovery, streaming merge);
-//! - [`capi`]: the C ABI for C and C++ hosts (`include/plsr.h`);
-//! - [`bench`](mod@bench), [`cli`]: the `plsr` program.
+//! - [`camera`], [`bsdf`], [`light`], [`pls`]: the models, each behind one
+//!   interface;
+//! - [`texture`], [`material`]: image textures and the materials they vary;
+//! - [`scene`]: scene files and the built scene;
+//! - [`integrator`]: the path tracer and its vectorised kernel;
+//! - [`film`]: the image with its AOVs, EXR and PNG output;
+//! - [`render`]: the tile scheduler;
+//! - [`capture`]: a simulated 360° bracket capture of a rendered scene;
+//! - [`capi`]: the C ABI for C and C++ hosts (`include/plsr.h`).
 
 pub use plsr_embree_sys as sys;
 
 pub mod accel;
-pub mod bench;
+pub mod atomic_write;
 pub mod bsdf;
 pub mod camera;
 pub mod capi;
-pub mod chi2;
-pub mod cli;
+pub mod capture;
 pub mod color;
 pub mod equirect;
 pub mod error;
@@ -35,12 +41,11 @@ pub mod hdr;
 pub mod integrator;
 pub mod light;
 pub mod material;
-pub mod output;
 pub mod pls;
 pub mod render;
-pub mod sampler;
-pub mod sampling;
+pub mod rng;
 pub mod scene;
 pub mod texture;
+pub mod warp;
 
 pub use error::{Error, Result};

@@ -4,7 +4,7 @@
 use crate::accel::enable_flush_to_zero;
 use crate::error::{Error, Result};
 use crate::film::Film;
-use crate::integrator::{render_tile, DiffuseScene, Isa, RayStats, Tile, TileResult};
+use crate::integrator::{render_tile, Isa, RayStats, SoaScene, Tile, TileResult};
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -28,7 +28,7 @@ pub struct RenderOptions {
     /// with disjoint ranges merge exactly (see `Film::merge` in later work).
     pub sample_start: u32,
     /// Use the vectorised kernel where the scene qualifies (see
-    /// [`DiffuseScene`]); it gives the same image as the general integrator,
+    /// [`SoaScene`]); it gives the same image as the general integrator,
     /// faster. `false` forces the general integrator.
     pub vectorised: bool,
     /// Instruction set of the vectorised kernel; `None` picks the best the
@@ -155,7 +155,7 @@ pub fn render(
         None => Isa::best(),
     };
     let kernel = if options.vectorised {
-        DiffuseScene::new(scene)
+        SoaScene::new(scene)
     } else {
         None
     };

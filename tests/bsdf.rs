@@ -7,13 +7,15 @@
 //!   refracting interface);
 //! - the pdf integrates to the probability that sampling succeeds.
 
+mod common;
+
+use common::chi2::{chi2_test, SphereBinning};
 use glam::{Vec2, Vec3};
 use plsr::bsdf::{
     BlinnPhongParams, Bsdf, CookTorranceParams, DielectricParams, Distribution, Fresnel,
     Microfacet, PrincipledParams,
 };
-use plsr::chi2::{chi2_test, SphereBinning};
-use plsr::sampler::Rng;
+use plsr::rng::Rng;
 
 /// Significance of each chi-square test: 1 % overall, Bonferroni-corrected
 /// over the (BSDF, wo) pairs tested below (about 100).
@@ -414,7 +416,7 @@ fn smooth_dielectric_is_lossless_and_obeys_fresnel() {
 fn reciprocity() {
     let mut rng = Rng::new(5, 5);
     let random_dir = |rng: &mut Rng| {
-        plsr::sampling::square_to_uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()))
+        plsr::warp::square_to_uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()))
     };
     for (name, bsdf) in cases() {
         for _ in 0..500 {
@@ -644,8 +646,8 @@ fn eval_pdf_equals_eval_and_pdf() {
     let mut rng = Rng::new(21, 2);
     for (name, bsdf) in cases() {
         for _ in 0..2000 {
-            let a = plsr::sampling::square_to_uniform_sphere(rng.next_2d());
-            let b = plsr::sampling::square_to_uniform_sphere(rng.next_2d());
+            let a = plsr::warp::square_to_uniform_sphere(rng.next_2d());
+            let b = plsr::warp::square_to_uniform_sphere(rng.next_2d());
             let (f, p) = bsdf.eval_pdf(a, b);
             let (f2, p2) = (bsdf.eval(a, b), bsdf.pdf(a, b));
             let close = |x: f32, y: f32| (x - y).abs() <= 1e-4 * x.abs().max(y.abs()) + 1e-7;

@@ -5,15 +5,17 @@
 //! paper's Table 1 preset; scene-file errors; the Gaussian pixel filter's
 //! sampling (chi-square) and determinism; exposure and white balance.
 
+mod common;
+
+use common::chi2::{chi2_from_counts, regularized_gamma_p};
 use glam::{Vec2, Vec3};
 use plsr::camera::{Camera, Pose, PAPER_TABLE1};
-use plsr::chi2::{chi2_from_counts, regularized_gamma_p};
 use plsr::color::{planckian_xy, white_balance_matrix, xy_to_xyz, xyz_to_rec709};
 use plsr::equirect::{equirect_direction, equirect_uv, SphereFrame};
 use plsr::film::Film;
 use plsr::filter::{GaussianFilter, PixelFilter};
 use plsr::render::{render, RenderOptions};
-use plsr::sampler::Rng;
+use plsr::rng::Rng;
 use plsr::scene::file::load;
 use plsr::scene::{Scene, SceneDescription};
 use std::path::Path;
@@ -235,7 +237,7 @@ fn dual_fisheye_projects_known_points_and_round_trips() {
     };
     let mut rng = Rng::new(5, 5);
     for _ in 0..2000 {
-        let d = plsr::sampling::square_to_uniform_sphere(rng.next_2d());
+        let d = plsr::warp::square_to_uniform_sphere(rng.next_2d());
         let film = fe.project_direction(d).unwrap();
         let back = fe.film_direction(film).expect("inside a circle");
         assert!((back - d).length() < 1e-4, "{d} -> {film} -> {back}");

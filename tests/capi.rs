@@ -309,6 +309,23 @@ fn make_install_serves_pkg_config_and_cmake_hosts() {
     ] {
         assert!(p.join(f).is_file(), "{f} not installed");
     }
+    // The library is only the library: none of the program's crates (clap,
+    // indicatif) is linked into it, and the installed copy has no debug info.
+    let so = p.join("lib/libplsr.so");
+    let symbols = run(Command::new("nm").arg(&so)).stdout;
+    let symbols = String::from_utf8_lossy(&symbols);
+    assert!(symbols.contains("plsr_render"), "nm lists no plsr symbols");
+    for program_crate in ["clap", "indicatif"] {
+        assert!(
+            !symbols.contains(program_crate),
+            "libplsr.so carries {program_crate} symbols"
+        );
+    }
+    let sections = run(Command::new("readelf").arg("-S").arg(&so)).stdout;
+    assert!(
+        !String::from_utf8_lossy(&sections).contains(".debug_info"),
+        "the installed libplsr.so has debug info"
+    );
     // A pkg-config host builds and runs against the installed files.
     let build = tempfile::tempdir().unwrap();
     run(Command::new("make")

@@ -2,8 +2,8 @@
 
 use glam::Vec3;
 use plsr::accel::{flush_to_zero_enabled, Device, Ray, RayHit, SceneOptions, ShadowRay};
-use plsr::sampler::Rng;
-use plsr::sampling::square_to_uniform_sphere;
+use plsr::rng::Rng;
+use plsr::warp::square_to_uniform_sphere;
 
 /// Geometry 7: one triangle in the plane z = 1. Geometry 3: a square
 /// [-2, 2]² at z = 3 as two triangles.

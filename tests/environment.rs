@@ -3,12 +3,14 @@
 //! seam and at the poles, the white furnace under a constant sky, and a
 //! single bright texel lighting a plane as a directional light would.
 
+mod common;
+
+use common::chi2::{chi2_test, SphereBinning};
 use glam::{Vec2, Vec3};
-use plsr::chi2::{chi2_test, SphereBinning};
 use plsr::equirect::{equirect_direction, SphereFrame};
 use plsr::light::EnvironmentLight;
 use plsr::render::{render, RenderOptions};
-use plsr::sampler::Rng;
+use plsr::rng::Rng;
 use plsr::scene::Scene;
 
 const SIGNIFICANCE: f64 = 0.01 / 8.0;

@@ -261,7 +261,7 @@ fn rough_white_metal_in_a_white_furnace_shows_its_albedo() {
     let material =
         "type = \"cook_torrance\"\nroughness = 0.7\nfresnel = \"schlick\"\nf0 = [1, 1, 1]";
     let bsdf = bsdf_of(material);
-    let mut rng = plsr::sampler::Rng::new(9, 9);
+    let mut rng = plsr::rng::Rng::new(9, 9);
     let n = 400_000;
     let albedo = (0..n)
         .filter_map(|_| bsdf.sample(Vec3::Z, rng.next_f32(), rng.next_2d()))

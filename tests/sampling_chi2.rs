@@ -2,12 +2,14 @@
 //! cosine-weighted hemisphere, uniform sphere, the Lambertian BSDF, triangle
 //! area lights (solid-angle pdf), and light selection.
 
+mod common;
+
+use common::chi2::{chi2_from_counts, chi2_test, regularized_gamma_p, SphereBinning};
 use glam::{Vec2, Vec3};
 use plsr::bsdf::Bsdf;
-use plsr::chi2::{chi2_from_counts, chi2_test, regularized_gamma_p, SphereBinning};
 use plsr::light::{Light, LightSet, PointLight, TriangleLight};
-use plsr::sampler::Rng;
-use plsr::sampling::{
+use plsr::rng::Rng;
+use plsr::warp::{
     cosine_hemisphere_pdf, square_to_cosine_hemisphere, square_to_uniform_sphere,
     UNIFORM_SPHERE_PDF,
 };
@@ -238,7 +240,7 @@ fn pls_light_sampling_matches_its_pdf() {
 /// Arvo's spherical-triangle sampling: uniform over the solid angle.
 #[test]
 fn spherical_triangle_sampling() {
-    use plsr::sampling::{sample_spherical_triangle, spherical_triangle_area};
+    use plsr::warp::{sample_spherical_triangle, spherical_triangle_area};
     let tri = [
         Vec3::new(-1.0, -0.5, 0.4),
         Vec3::new(1.5, -0.2, 0.9),

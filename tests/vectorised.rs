@@ -4,7 +4,7 @@
 //! can render.
 
 use plsr::film::Film;
-use plsr::integrator::{DiffuseScene, Isa};
+use plsr::integrator::{Isa, SoaScene};
 use plsr::render::{render, RenderOptions};
 use plsr::scene::Scene;
 use std::path::{Path, PathBuf};
@@ -181,7 +181,7 @@ fn isas() -> Vec<Isa> {
 }
 
 fn assert_identical(what: &str, scene: &Scene) {
-    assert!(DiffuseScene::new(scene).is_some(), "{what} qualifies");
+    assert!(SoaScene::new(scene).is_some(), "{what} qualifies");
     let general = render_with(scene, None, 1, 16);
     // The image must not be trivially black, or the comparison proves little.
     assert!(
@@ -332,7 +332,7 @@ fn scenes_the_kernel_cannot_render_go_to_the_general_integrator() {
              [[lights]]\ntype = \"point\"\nposition = [213, 300, 227]\nintensity = [1, 1, 1]\n\n{extra}"
         )
     };
-    assert!(DiffuseScene::new(&scene_from("base", &base(""))).is_some());
+    assert!(SoaScene::new(&scene_from("base", &base(""))).is_some());
     let texture = std::env::temp_dir().join(format!("plsr-vectorised-{}.png", std::process::id()));
     image::RgbImage::from_pixel(2, 2, image::Rgb([200, 100, 50]))
         .save(&texture)
@@ -363,7 +363,7 @@ fn scenes_the_kernel_cannot_render_go_to_the_general_integrator() {
             .replace("PAPER", &paper.display().to_string().replace('\\', "/"));
         let name: String = what.chars().filter(|c| c.is_alphanumeric()).collect();
         let scene = scene_from(&name, &base(&extra));
-        assert!(DiffuseScene::new(&scene).is_none(), "{what}");
+        assert!(SoaScene::new(&scene).is_none(), "{what}");
         let stats = render(&scene, &o, &|_, _| true).unwrap().1;
         assert_eq!(stats.vectorised, None, "{what}");
     }

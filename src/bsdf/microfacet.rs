@@ -16,7 +16,7 @@
 //!   samples `D(h) cos θh` (Walter et al. 2007), `pdf(h) = D(h) cos θh`.
 //!   [`Microfacet::pdf_h`] returns whichever density `sample_h` draws from.
 
-use crate::sampling::square_to_disk_concentric;
+use crate::warp::square_to_disk_concentric;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 

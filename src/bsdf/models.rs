@@ -10,7 +10,7 @@ use super::fresnel::{self, reflect, refract};
 use super::microfacet::{Distribution, Microfacet};
 use super::BsdfSample;
 use crate::light::luminance;
-use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
+use crate::warp::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 

@@ -1055,7 +1055,7 @@ fn choose_samples(lattice: &Lattice, wanted: usize) -> SampleSet {
                 used[cell(a.0)]
                     .cmp(&used[cell(b.0)])
                     .then(a.1.total_cmp(&b.1))
-                    .then(crate::sampler::mix64(a.0 as u64).cmp(&crate::sampler::mix64(b.0 as u64)))
+                    .then(crate::rng::mix64(a.0 as u64).cmp(&crate::rng::mix64(b.0 as u64)))
             });
             if let Some(&(p, _)) = best {
                 taken[p] = true;

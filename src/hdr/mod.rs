@@ -7,17 +7,14 @@
 //!   optional median-threshold-bitmap alignment ([`align`]);
 //! - [`synth`]: synthetic HDR scenes and simulated brackets for tests and the
 //!   benchmark;
-//! - [`bench`](mod@bench): `plsr bench hdr`, plsr against OpenCV's `MergeDebevec`;
-//! - [`capture`]: `plsr hdr capture`, a simulated 360° bracket capture of a
-//!   scene;
-//! - [`cli`]: `plsr hdr merge` and `plsr hdr capture`.
+//!
+//! The simulated 360° capture of a rendered scene is [`crate::capture`]
+//! (it renders, so it sits above the renderer); the `plsr hdr` commands and
+//! `plsr bench hdr` are in the program.
 //!
 //! See docs/hdr.md.
 
 pub mod align;
-pub mod bench;
-pub mod capture;
-pub mod cli;
 pub mod merge;
 pub mod oiio;
 pub mod response;

@@ -193,7 +193,7 @@ impl ResponseCurve {
             1 => vec!["y".into()],
             n => (0..n).map(|c| format!("c{c}")).collect(),
         };
-        crate::output::write_atomically(path, |w| {
+        crate::atomic_write::write_atomically(path, |w| {
             let io = |source| Error::Io {
                 file: path.to_path_buf(),
                 source,
@@ -234,7 +234,7 @@ impl ResponseCurve {
             file: path.to_path_buf(),
             message: e.to_string(),
         })?;
-        crate::output::write_atomically(path, |w| {
+        crate::atomic_write::write_atomically(path, |w| {
             w.write_all(&bytes).map_err(|source| Error::Io {
                 file: path.to_path_buf(),
                 source,
@@ -669,7 +669,7 @@ mod tests {
     /// Samples of a known curve f(x) = x^(1/2.2) on 8 bits, noiseless.
     fn synthetic(levels: usize, n: usize, exposures: Vec<f64>) -> (SampleSet, Vec<f64>) {
         let mut values = Vec::new();
-        let mut rng = crate::sampler::Rng::new(3, 4);
+        let mut rng = crate::rng::Rng::new(3, 4);
         for _ in 0..n {
             // Log-uniform irradiances over four decades.
             let e = 10f64.powf(-2.0 + 4.0 * rng.next_f32() as f64);

@@ -11,7 +11,7 @@
 
 use super::oiio::{AttrValue, Attribute, ImageReader, ImageWriter, PixelType};
 use crate::error::{Error, Result};
-use crate::sampler::{mix64, Rng};
+use crate::rng::{mix64, Rng};
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::path::{Path, PathBuf};

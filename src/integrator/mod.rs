@@ -16,22 +16,22 @@
 //!
 //! Scenes of plain Lambert materials lit by point lights and emissive
 //! meshes (see
-//! [`DiffuseScene::new`]) run on a vectorised version of the same wavefront
+//! [`SoaScene::new`]) run on a vectorised version of the same wavefront
 //! ([`diffuse`]): structure-of-arrays lanes, compiled for AVX-512, AVX2 and
 //! the baseline and picked at run time ([`Isa`]). It performs the same
 //! floating-point operations in the same order with the same random numbers,
 //! so it renders the same image bit for bit; `RenderOptions::vectorised`
 //! (`plsr render --scalar`) turns it off.
 
-pub mod diffuse;
+pub mod soa;
 
-pub use diffuse::{DiffuseScene, Isa};
+pub use soa::{Isa, SoaScene};
 
 use crate::accel::{Ray, RayHit, ShadowRay};
 use crate::light::Light;
-use crate::sampler::Rng;
-use crate::sampling::{power_heuristic, Frame};
+use crate::rng::Rng;
 use crate::scene::Scene;
+use crate::warp::{power_heuristic, Frame};
 use glam::{DVec3, Vec2, Vec3};
 use std::time::Instant;
 
@@ -270,11 +270,11 @@ fn camera_sample(
 }
 
 /// Renders samples `samples` of every pixel of `tile`; with `kernel` (the
-/// scene's [`DiffuseScene`] and an instruction set), by the vectorised
+/// scene's [`SoaScene`] and an instruction set), by the vectorised
 /// kernel, which gives the same image.
 pub fn render_tile(
     scene: &Scene,
-    kernel: Option<(&DiffuseScene, Isa)>,
+    kernel: Option<(&SoaScene, Isa)>,
     tile: Tile,
     samples: std::ops::Range<u32>,
 ) -> TileResult {
@@ -289,16 +289,16 @@ pub fn render_tile(
     let mut rays = RayStats::default();
     let first_sample = samples.start;
     if let Some((kernel, isa)) = kernel {
-        let mut lanes = diffuse::DiffuseLanes::default();
+        let mut lanes = soa::SoaLanes::default();
         for s in samples {
-            let pass = diffuse::Pass {
+            let pass = soa::Pass {
                 kernel,
                 scene,
                 tile,
                 sample: s,
                 first: s == first_sample,
             };
-            diffuse::trace_pass(isa, &pass, &mut lanes, &mut pixels, &mut rays);
+            soa::trace_pass(isa, &pass, &mut lanes, &mut pixels, &mut rays);
         }
         return TileResult { tile, pixels, rays };
     }

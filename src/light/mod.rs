@@ -37,7 +37,7 @@ pub use point::PointLight;
 pub use reach::Reach;
 pub use triangle::{Cone, TriangleLight};
 
-use crate::sampling::Distribution1D;
+use crate::warp::Distribution1D;
 use glam::{Vec2, Vec3};
 use std::ops::Range;
 

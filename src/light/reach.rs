@@ -212,7 +212,7 @@ fn bounding_rectangle(triangles: &[[Vec3; 3]], axis: Vec3) -> Option<Rectangle> 
         .sum();
     let m = normal.try_normalize()?;
     let m = if m.dot(axis) < 0.0 { -m } else { m };
-    let frame = crate::sampling::Frame::from_normal(m);
+    let frame = crate::warp::Frame::from_normal(m);
     let origin = triangles.first()?[0];
     let (mut lo, mut hi) = (
         glam::Vec2::splat(f32::INFINITY),
@@ -294,7 +294,7 @@ mod tests {
     #[test]
     fn reach_of_a_disk_matches_brute_force() {
         let (r, tris) = disk_down();
-        let mut rng = crate::sampler::Rng::new(5, 6);
+        let mut rng = crate::rng::Rng::new(5, 6);
         let (mut wrong, mut reached) = (0, 0);
         for _ in 0..2000 {
             let p = Vec3::new(
@@ -327,7 +327,7 @@ mod tests {
     #[test]
     fn reach_matches_brute_force() {
         let r = square_down();
-        let mut rng = crate::sampler::Rng::new(3, 4);
+        let mut rng = crate::rng::Rng::new(3, 4);
         let mut disagreements = 0;
         let (mut reached, mut total) = (0, 0);
         for _ in 0..3000 {

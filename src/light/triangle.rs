@@ -12,7 +12,7 @@
 //! ```
 
 use super::{luminance, LightSample};
-use crate::sampling::square_to_uniform_triangle;
+use crate::warp::square_to_uniform_triangle;
 use glam::{Vec2, Vec3};
 
 /// A hard-edged cone of emission: light leaves only along directions `u`

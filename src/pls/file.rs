@@ -22,8 +22,8 @@
 //! paper's disk approximation, [`Pls::circle`]).
 
 use super::{BrightnessMode, Pls, PlsGeometry, PlsLighting};
+use crate::atomic_write::write_atomically;
 use crate::error::{Error, Result};
-use crate::output::write_atomically;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::io::Write;

@@ -23,8 +23,6 @@
 //! Transforms act on the parameters (eq. 15–21), not on the tessellated
 //! vertices: see [`Pls::transform`].
 
-pub mod bench;
-pub mod cli;
 pub mod file;
 
 use glam::{Mat3, Mat4, Vec3};

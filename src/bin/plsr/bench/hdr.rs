@@ -14,9 +14,9 @@
 //! Both outputs are compared with the truth (log-space RMSE after the best
 //! global scale, over the recoverable pixels) and a table is printed.
 
-use super::oiio::AttrValue;
-use super::synth::{self, BracketOptions, CameraModel, SyntheticScene, PAPER_EXPOSURES};
-use crate::error::{Error, Result};
+use plsr::error::{Error, Result};
+use plsr::hdr::oiio::AttrValue;
+use plsr::hdr::synth::{self, BracketOptions, CameraModel, SyntheticScene, PAPER_EXPOSURES};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
@@ -94,7 +94,7 @@ pub fn run(o: &HdrBenchOptions) -> Result<()> {
 /// Whether `files` exist with the expected size (brackets to reuse).
 fn reusable(files: &[PathBuf], width: usize, height: usize) -> bool {
     files.iter().all(|f| {
-        super::oiio::ImageReader::open(f)
+        plsr::hdr::oiio::ImageReader::open(f)
             .map(|r| r.info().width == width && r.info().height == height)
             .unwrap_or(false)
     })

@@ -1,13 +1,64 @@
 //! `plsr pls check | mesh | transform`.
 
-use super::{file, BrightnessMode, PlsLighting};
-use crate::cli::PlsCommand;
-use crate::error::{Error, Result};
-use crate::light::luminance;
-use crate::output::write_atomically;
+use clap::Subcommand;
 use glam::{Mat4, Quat, Vec3};
+use plsr::atomic_write::write_atomically;
+use plsr::error::{Error, Result};
+use plsr::light::luminance;
+use plsr::pls::{file, BrightnessMode, PlsLighting};
 use std::io::Write;
 use std::path::Path;
+use std::path::PathBuf;
+
+/// `plsr pls …` subcommands.
+#[derive(Debug, Subcommand)]
+pub enum PlsCommand {
+    /// Validate a PLS file and print a table of its lights: area, centre,
+    /// normal, cone angle and total emitted power.
+    Check {
+        /// The PLS file (TOML or JSON).
+        file: PathBuf,
+        /// Quads along each light's axis for the tessellated area.
+        #[arg(long, default_value_t = plsr::pls::DEFAULT_NF)]
+        nf: u32,
+    },
+    /// Export the tessellated emitters as a Wavefront OBJ (one object per light).
+    Mesh {
+        /// The PLS file.
+        file: PathBuf,
+        /// Output OBJ file.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Quads along each light's axis.
+        #[arg(long, default_value_t = plsr::pls::DEFAULT_NF)]
+        nf: u32,
+    },
+    /// Transform every light through its parameters (paper eq. 15–21) and
+    /// write a new PLS file. Give a matrix, or any of translate/rotate/scale
+    /// (applied scale, then rotate, then translate).
+    Transform {
+        /// The PLS file.
+        file: PathBuf,
+        /// Output PLS file (TOML, or JSON by extension).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// A 4×4 affine matrix, 16 numbers row by row ("m00 m01 … m33").
+        #[arg(long, allow_hyphen_values = true)]
+        matrix: Option<String>,
+        /// Translation "x,y,z" (metres).
+        #[arg(long, allow_hyphen_values = true)]
+        translate: Option<String>,
+        /// Rotation axis "x,y,z" (with --rotate-deg).
+        #[arg(long, allow_hyphen_values = true)]
+        rotate_axis: Option<String>,
+        /// Rotation angle in degrees (with --rotate-axis).
+        #[arg(long, allow_hyphen_values = true)]
+        rotate_deg: Option<f32>,
+        /// Uniform scale factor.
+        #[arg(long)]
+        scale: Option<f32>,
+    },
+}
 
 /// Runs one `plsr pls` subcommand.
 pub fn run(command: PlsCommand) -> Result<()> {

@@ -9,10 +9,10 @@
 //! EXIF exposure time, f-number and ISO, ready for `plsr hdr merge`. The
 //! rendered panorama itself is written as `truth.exr` next to them.
 
-pub use super::synth::PAPER_EXPOSURES;
-use super::synth::{write_brackets, BracketOptions, CameraModel};
 use crate::camera::{Camera, EquirectCamera, Pose};
 use crate::error::{Error, Result};
+pub use crate::hdr::synth::PAPER_EXPOSURES;
+use crate::hdr::synth::{write_brackets, BracketOptions, CameraModel};
 use crate::render::{render, RenderOptions};
 use crate::scene::{file, Scene};
 use glam::Vec3;

@@ -1,10 +1,114 @@
 //! `plsr hdr merge`.
 
-use super::merge::{merge, parse_exposures, MergeOptions};
-use super::response::ResponseMethod;
-use crate::cli::{HdrCaptureArgs, HdrCommand, HdrMergeArgs};
-use crate::error::{Error, Result};
+use crate::progress::progress_bar;
+use clap::Subcommand;
+use plsr::error::{Error, Result};
+use plsr::hdr::merge::{merge, parse_exposures, MergeOptions};
+use plsr::hdr::response::ResponseMethod;
 use std::cell::RefCell;
+use std::path::PathBuf;
+
+/// `plsr hdr …` subcommands.
+#[derive(Debug, Subcommand)]
+pub enum HdrCommand {
+    /// Merge bracketed exposures (any order, any format OpenImageIO reads:
+    /// JPEG, PNG, TIFF 8/16-bit, EXR, HDR, camera raw) into one float or half
+    /// OpenEXR (or Radiance .hdr), recovering the camera response. Exposure
+    /// times come from EXIF (ExposureTime, with FNumber and ISO when they
+    /// differ) or from --exposures.
+    Merge(HdrMergeArgs),
+    /// Simulate a 360° camera's bracket capture: render the scene's
+    /// equirectangular panorama at a position and write bracketed 8-bit
+    /// photos through a camera response, with noise, clipping and EXIF
+    /// exposure data (and the rendered truth as truth.exr), ready for
+    /// `plsr hdr merge`.
+    Capture(HdrCaptureArgs),
+}
+
+/// Arguments of `plsr hdr capture`.
+#[derive(Debug, clap::Args)]
+pub struct HdrCaptureArgs {
+    /// The scene file.
+    pub scene: PathBuf,
+    /// Camera position `X,Y,Z` (scene units).
+    #[arg(long, value_name = "X,Y,Z")]
+    pub at: String,
+    /// Output folder (created; must not exist or be empty).
+    #[arg(short, long, value_name = "DIR")]
+    pub output: PathBuf,
+    /// Zenith of the panorama `X,Y,Z` (default: the scene camera's up).
+    #[arg(long, value_name = "X,Y,Z")]
+    pub up: Option<String>,
+    /// Centre column direction `X,Y,Z` (default: the scene camera's view).
+    #[arg(long, value_name = "X,Y,Z")]
+    pub forward: Option<String>,
+    /// Panorama size `WxH` (the Theta Z1 records 6720x3360).
+    #[arg(long, default_value = "512x256")]
+    pub size: String,
+    /// Samples per pixel (default: the scene's).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Exposure times, seconds (default: the paper's 1/30 … 15 s).
+    #[arg(long, value_name = "1/30,1/15,…")]
+    pub exposures: Option<String>,
+    /// Camera response: `filmic` (an 8-bit camera's curve) or `linear` (raw).
+    #[arg(long, default_value = "filmic")]
+    pub response: String,
+    /// Turn off shot and read noise.
+    #[arg(long)]
+    pub no_noise: bool,
+    /// Photo format: tif, png or jpg. (OpenImageIO 2.4's JPEG writer
+    /// garbles some EXIF exposure times, e.g. 1/8 s; TIFF keeps them.)
+    #[arg(long, default_value = "tif")]
+    pub format: String,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// Arguments of `plsr hdr merge`.
+#[derive(Debug, clap::Args)]
+pub struct HdrMergeArgs {
+    /// The bracketed images (at least two, same size).
+    #[arg(required = true, value_name = "IMG")]
+    pub images: Vec<PathBuf>,
+    /// Output: OpenEXR (.exr) or Radiance HDR (.hdr).
+    #[arg(short, long, value_name = "PANO.exr")]
+    pub output: PathBuf,
+    /// Exposure times in seconds, one per image in the order given
+    /// ("1/30,1/15,0.5,2"); default: from each image's EXIF.
+    #[arg(long, value_name = "T1,T2,…")]
+    pub exposures: Option<String>,
+    /// Camera response: recovered (debevec, robertson) or a preset (linear
+    /// for raw/linear data, srgb).
+    #[arg(long, default_value = "debevec", value_parser = ["debevec", "robertson", "linear", "srgb"])]
+    pub response: String,
+    /// Align the brackets first (translation, median threshold bitmaps).
+    #[arg(long)]
+    pub align: bool,
+    /// Write the response curve as CSV here, and its plot as PNG next to it.
+    #[arg(long, value_name = "CURVE.csv")]
+    pub curve: Option<PathBuf>,
+    /// Store half floats instead of 32-bit floats (EXR only).
+    #[arg(long)]
+    pub half: bool,
+    /// Debevec smoothness weight λ.
+    #[arg(long, default_value_t = plsr::hdr::response::DEFAULT_LAMBDA)]
+    pub lambda: f64,
+    /// Debevec sample pixels (default: ≥ 100, from bit depth and bracket count).
+    #[arg(long)]
+    pub samples: Option<usize>,
+    /// OpenEXR compression (zip, piz, zips, rle, dwaa, none, …); default:
+    /// zip for --half, none for float (noisy float data barely compresses).
+    #[arg(long)]
+    pub compression: Option<String>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// No progress bar.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
 
 /// Runs one `plsr hdr` subcommand.
 pub fn run(command: HdrCommand) -> Result<()> {
@@ -31,8 +135,8 @@ fn triple(flag: &str, s: &str) -> Result<glam::Vec3> {
 }
 
 fn capture_command(a: &HdrCaptureArgs) -> Result<()> {
-    use super::capture::{capture, CaptureOptions, PAPER_EXPOSURES};
-    use super::synth::CameraModel;
+    use plsr::capture::{capture, CaptureOptions, PAPER_EXPOSURES};
+    use plsr::hdr::synth::CameraModel;
     let size = a
         .size
         .split_once(['x', 'X'])
@@ -73,7 +177,7 @@ fn capture_command(a: &HdrCaptureArgs) -> Result<()> {
         format: a.format.to_ascii_lowercase(),
         threads: a.threads,
     };
-    let bar = crate::cli::progress_bar(
+    let bar = progress_bar(
         false,
         "{spinner} [{elapsed_precise}] rendering {wide_bar} {pos}/{len} tiles (eta {eta})",
     );
@@ -124,7 +228,7 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
         threads: a.threads,
         compression: a.compression.clone(),
     };
-    let bar = crate::cli::progress_bar(
+    let bar = progress_bar(
         a.quiet,
         "{spinner} [{elapsed_precise}] {msg:>9} {wide_bar} {pos}/{len} (eta {eta})",
     );
@@ -141,12 +245,12 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
     let summary = merge(&a.images, &a.output, &options, &progress);
     bar.finish_and_clear();
     let s = summary?;
-    let peak = super::peak_memory_bytes()
+    let peak = plsr::hdr::peak_memory_bytes()
         .map(|b| format!("; peak memory {:.1} MiB", b as f64 / (1u64 << 20) as f64))
         .unwrap_or_default();
     let depth = match s.format {
-        super::oiio::PixelType::U8 => "8-bit".to_string(),
-        super::oiio::PixelType::U16 => format!("16-bit ({} significant)", s.bits),
+        plsr::hdr::oiio::PixelType::U8 => "8-bit".to_string(),
+        plsr::hdr::oiio::PixelType::U16 => format!("16-bit ({} significant)", s.bits),
         _ => "float".to_string(),
     };
     eprintln!(

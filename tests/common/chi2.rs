@@ -273,11 +273,11 @@ mod tests {
     #[test]
     fn detects_a_wrong_pdf() {
         // Uniform sphere sampling tested against the cosine pdf must fail.
-        let mut rng = crate::sampler::Rng::new(1, 2);
+        let mut rng = plsr::rng::Rng::new(1, 2);
         let r = chi2_test(
             SphereBinning::default(),
             200_000,
-            |_| Some(crate::sampling::square_to_uniform_sphere(rng.next_2d())),
+            |_| Some(plsr::warp::square_to_uniform_sphere(rng.next_2d())),
             &|w| (w.z.max(0.0) as f64) / PI,
             0.01,
         );

@@ -14,12 +14,12 @@
 //! kernel's `rtcIntersectNp`); Embree does not promise it, and every test
 //! confirms it. What
 //! differs is the layout: the paths of a tile live in structure-of-arrays
-//! lanes ([`RayBatch`] and the arrays of [`DiffuseLanes`]), and one bounce of
+//! lanes ([`RayBatch`] and the arrays of [`SoaLanes`]), and one bounce of
 //! all of them is a single loop without branches (`shade_lane` per lane),
 //! which the compiler turns into AVX-512 or AVX2 code, picked at run time.
 //! Rays go to Embree as SoA streams (`rtcIntersectNp`, `rtcOccludedNp`).
 //!
-//! [`DiffuseScene::new`] decides whether a scene qualifies; a scene that
+//! [`SoaScene::new`] decides whether a scene qualifies; a scene that
 //! does not is rendered by the general integrator.
 
 // Lane loops index a dozen arrays by lane; iterator chains would hide that.
@@ -31,16 +31,16 @@ use crate::bsdf::Bsdf;
 use crate::camera::{Camera, PinholeCamera};
 use crate::filter::PixelFilter;
 use crate::light::Light;
-use crate::sampler::Rng;
-use crate::sampling::{power_heuristic, sin_cos_quarter, Frame};
+use crate::rng::Rng;
 use crate::scene::Scene;
+use crate::warp::{power_heuristic, sin_cos_quarter, Frame};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::time::Instant;
 
 /// What the vectorised kernel needs of a scene it can render.
 #[derive(Debug, Clone)]
-pub struct DiffuseScene {
+pub struct SoaScene {
     /// Lambert albedo per Embree geometry id (linear RGB, one array per
     /// channel), with one extra zero entry that lanes without a hit read.
     albedo: [Vec<f32>; 3],
@@ -53,13 +53,13 @@ pub struct DiffuseScene {
     triangle_lights: bool,
 }
 
-impl DiffuseScene {
+impl SoaScene {
     /// The kernel's view of `scene`, or `None` when the scene needs the
     /// general integrator: a material that is not untextured Lambert, vertex
     /// normals, an environment, a light that is neither a point light nor an
     /// emissive triangle without a cone, reach-limited light groups, or no
     /// light that can be picked.
-    pub fn new(scene: &Scene) -> Option<DiffuseScene> {
+    pub fn new(scene: &Scene) -> Option<SoaScene> {
         let supported = |l: &Light| match l {
             Light::Point(_) => true,
             Light::Triangle(t) => t.cone.is_none(),
@@ -100,7 +100,7 @@ impl DiffuseScene {
             [l] if first == 0 => Some(LightIn::new(l, pmf)),
             _ => None,
         };
-        Some(DiffuseScene {
+        Some(SoaScene {
             albedo,
             emissive,
             single_light,
@@ -152,7 +152,7 @@ impl LightIn {
                 pmf,
             },
             Light::Environment { .. } => {
-                unreachable!("DiffuseScene::new refuses environment lights")
+                unreachable!("SoaScene::new refuses environment lights")
             }
         }
     }
@@ -261,7 +261,7 @@ impl LightLanes {
 /// The paths of one tile pass in structure-of-arrays form, reused from pass
 /// to pass (allocation-free after the first).
 #[derive(Default)]
-pub struct DiffuseLanes {
+pub struct SoaLanes {
     rays: RayBatch,
     shadow: RayBatch,
     pixel: Vec<u32>,
@@ -281,7 +281,7 @@ pub struct DiffuseLanes {
     ended: Vec<u32>,
 }
 
-impl DiffuseLanes {
+impl SoaLanes {
     #[inline(always)]
     fn resize(&mut self, n: usize) {
         self.rays.resize(n);
@@ -326,7 +326,7 @@ impl DiffuseLanes {
 /// Adds the radiance of the paths of `ended` (lane indices) to their
 /// pixels, as the general integrator retires a path.
 #[inline(always)]
-fn retire(lanes: &DiffuseLanes, ended: &[u32], scene: &Scene, pixels: &mut [PixelSums]) {
+fn retire(lanes: &SoaLanes, ended: &[u32], scene: &Scene, pixels: &mut [PixelSums]) {
     let response = scene.film.response();
     for &i in ended {
         let i = i as usize;
@@ -345,7 +345,7 @@ fn retire(lanes: &DiffuseLanes, ended: &[u32], scene: &Scene, pixels: &mut [Pixe
 /// The arguments of one tile pass.
 pub struct Pass<'a> {
     /// The kernel's view of the scene.
-    pub kernel: &'a DiffuseScene,
+    pub kernel: &'a SoaScene,
     /// The scene.
     pub scene: &'a Scene,
     /// The tile.
@@ -416,7 +416,7 @@ impl Isa {
 pub fn trace_pass(
     isa: Isa,
     pass: &Pass,
-    lanes: &mut DiffuseLanes,
+    lanes: &mut SoaLanes,
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
 ) {
@@ -442,7 +442,7 @@ pub fn trace_pass(
 #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx512bw,avx2,fma")]
 unsafe fn trace_pass_avx512(
     pass: &Pass,
-    lanes: &mut DiffuseLanes,
+    lanes: &mut SoaLanes,
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
 ) {
@@ -455,7 +455,7 @@ unsafe fn trace_pass_avx512(
 #[target_feature(enable = "avx2,fma")]
 unsafe fn trace_pass_avx2(
     pass: &Pass,
-    lanes: &mut DiffuseLanes,
+    lanes: &mut SoaLanes,
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
 ) {
@@ -466,7 +466,7 @@ unsafe fn trace_pass_avx2(
 #[inline(always)]
 fn trace_pass_body(
     pass: &Pass,
-    lanes: &mut DiffuseLanes,
+    lanes: &mut SoaLanes,
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
 ) {
@@ -543,7 +543,7 @@ fn trace_pass_body(
 /// MIS-weighted against the light sample that could have found it, as the
 /// general integrator does; lane by lane, as such hits are few.
 #[inline(always)]
-fn add_emission(kernel: &DiffuseScene, scene: &Scene, lanes: &mut DiffuseLanes, depth: u32) {
+fn add_emission(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes, depth: u32) {
     for i in 0..lanes.rays.len() {
         let g = lanes.rays.geom_id.as_slice()[i];
         if g == INVALID_ID || !kernel.emissive[g as usize] {
@@ -590,7 +590,7 @@ fn add_emission(kernel: &DiffuseScene, scene: &Scene, lanes: &mut DiffuseLanes, 
 /// general integrator does at a path's first hit: per-lane values in
 /// vectorised chunks, then the sums lane by lane.
 #[inline(always)]
-fn camera_vertex_layers(pass: &Pass, lanes: &DiffuseLanes, pixels: &mut [PixelSums]) {
+fn camera_vertex_layers(pass: &Pass, lanes: &SoaLanes, pixels: &mut [PixelSums]) {
     let rays = &lanes.rays;
     let n = rays.len();
     let last = pass.kernel.albedo[0].len() - 1;
@@ -649,7 +649,7 @@ fn camera_vertex_layers(pass: &Pass, lanes: &DiffuseLanes, pixels: &mut [PixelSu
 /// filter, lane by lane; a pixel the camera has no ray for (outside a
 /// fisheye's circles) gets no lane. Returns the number of lanes.
 #[inline(always)]
-fn general_camera_rays(pass: &Pass, lanes: &mut DiffuseLanes) -> usize {
+fn general_camera_rays(pass: &Pass, lanes: &mut SoaLanes) -> usize {
     let (scene, tile) = (pass.scene, pass.tile);
     let lens_sample = scene.camera.needs_lens_sample();
     let mut n = 0;
@@ -677,7 +677,7 @@ fn general_camera_rays(pass: &Pass, lanes: &mut DiffuseLanes) -> usize {
 /// after the filter's two numbers: the general integrator's camera stage,
 /// vectorised.
 #[inline(always)]
-fn pinhole_camera_rays(camera: &PinholeCamera, pass: &Pass, lanes: &mut DiffuseLanes) {
+fn pinhole_camera_rays(camera: &PinholeCamera, pass: &Pass, lanes: &mut SoaLanes) {
     let (tile, seed, sample) = (pass.tile, pass.scene.settings.seed, pass.sample);
     let n = lanes.rays.len();
     for start in (0..n).step_by(W) {
@@ -732,7 +732,7 @@ fn pinhole_camera_rays(camera: &PinholeCamera, pass: &Pass, lanes: &mut DiffuseL
 /// (advancing the state) happens in [`shade_lane`]. With one light there is
 /// nothing to fill: [`shade_lanes`] uses it for every lane.
 #[inline(always)]
-fn pick_lights(kernel: &DiffuseScene, scene: &Scene, lanes: &mut DiffuseLanes) {
+fn pick_lights(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
     let n = lanes.rays.len();
     if kernel.single_light.is_some() {
         // `shade_lanes` uses it directly.
@@ -747,7 +747,7 @@ fn pick_lights(kernel: &DiffuseScene, scene: &Scene, lanes: &mut DiffuseLanes) {
         let (li, pmf) = scene
             .lights
             .pick(Vec3::ZERO, rng.next_2d())
-            .expect("DiffuseScene::new checked that picking succeeds");
+            .expect("SoaScene::new checked that picking succeeds");
         lanes
             .lights
             .set(i, LightIn::new(&scene.lights.lights[li], pmf));
@@ -757,7 +757,7 @@ fn pick_lights(kernel: &DiffuseScene, scene: &Scene, lanes: &mut DiffuseLanes) {
 /// Adds each unoccluded shadow ray's pending radiance to its path, and
 /// lists the lanes whose paths go on in `lanes.kept`; returns their number.
 #[inline(always)]
-fn add_unoccluded(lanes: &mut DiffuseLanes) -> usize {
+fn add_unoccluded(lanes: &mut SoaLanes) -> usize {
     let n = lanes.rays.len();
     lanes.kept.resize(n, 0);
     lanes.ended.resize(n, 0);
@@ -1067,7 +1067,7 @@ fn store<T: Copy>(dst: &mut [T], start: usize, src: &[T; W]) {
 /// loop without run-time overlap checks, which it could not generate for
 /// some thirty lane arrays and a table lookup.
 #[inline(always)]
-fn shade_lanes(kernel: &DiffuseScene, lanes: &mut DiffuseLanes, u: Uniform) {
+fn shade_lanes(kernel: &SoaScene, lanes: &mut SoaLanes, u: Uniform) {
     if kernel.triangle_lights {
         shade_chunks::<true>(kernel, lanes, u)
     } else {
@@ -1078,11 +1078,7 @@ fn shade_lanes(kernel: &DiffuseScene, lanes: &mut DiffuseLanes, u: Uniform) {
 /// [`shade_lanes`] for scenes with (`TRIANGLES`) or without emitting
 /// triangles.
 #[inline(always)]
-fn shade_chunks<const TRIANGLES: bool>(
-    kernel: &DiffuseScene,
-    lanes: &mut DiffuseLanes,
-    u: Uniform,
-) {
+fn shade_chunks<const TRIANGLES: bool>(kernel: &SoaScene, lanes: &mut SoaLanes, u: Uniform) {
     let n = lanes.rays.len();
     let last = kernel.albedo[0].len() - 1;
     let rays = &mut lanes.rays;
@@ -1229,7 +1225,7 @@ fn shade_chunks<const TRIANGLES: bool>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sampling::{square_to_cosine_hemisphere, square_to_uniform_triangle};
+    use crate::warp::{square_to_cosine_hemisphere, square_to_uniform_triangle};
 
     /// Points of the unit square, with the corners, the centre, the
     /// diagonals and the axes through the centre, where the warps branch.

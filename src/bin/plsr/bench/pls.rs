@@ -6,12 +6,12 @@
 //! 2. Rendering the PLS room with its lights as PLS (window function and
 //!    reach test) versus the same outlines as plain emissive meshes.
 
-use super::{file, BrightnessMode, Pls, PlsMesh};
-use crate::error::Result;
-use crate::render::{render, RenderOptions};
-use crate::sampler::Rng;
-use crate::scene::{file as scene_file, Scene};
 use glam::{Mat4, Quat, Vec3};
+use plsr::error::Result;
+use plsr::pls::{file, BrightnessMode, Pls, PlsMesh};
+use plsr::render::{render, RenderOptions};
+use plsr::rng::Rng;
+use plsr::scene::{file as scene_file, Scene};
 use std::hint::black_box;
 use std::path::Path;
 use std::time::Instant;
@@ -138,9 +138,9 @@ fn irradiance_estimate(
     n: usize,
     solid_angle: bool,
 ) -> (f64, f64, f64) {
-    use crate::light::{Cone, TriangleLight};
-    use crate::sampling::{sample_spherical_triangle, Distribution1D};
-    let mesh = light.tessellate(super::DEFAULT_NF);
+    use plsr::light::{Cone, TriangleLight};
+    use plsr::warp::{sample_spherical_triangle, Distribution1D};
+    let mesh = light.tessellate(plsr::pls::DEFAULT_NF);
     let radiance = light.radiance(mode, mesh.area()).x;
     let cone = Cone::new(light.normal(), light.a_deg);
     let tris: Vec<TriangleLight> = mesh

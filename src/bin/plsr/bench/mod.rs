@@ -1,0 +1,100 @@
+//! `plsr bench`: throughput of plsr against a peer measured in the same run
+//! on the same work. One module per suite: `core` (Embree rays and path
+//! tracing against Embree's own `pathtracer`), `pls` (PLS transforms and the
+//! window's cost), `materials` (diffuse against principled) and `hdr`
+//! (bracket merging against OpenCV).
+
+mod core;
+mod hdr;
+mod materials;
+mod pls;
+
+use plsr::error::{Error, Result};
+use std::path::PathBuf;
+
+/// Arguments of `plsr bench`.
+#[derive(Debug, clap::Args)]
+pub struct BenchArgs {
+    /// Which benchmark: `core`, `pls`, `materials` (all-diffuse versus
+    /// all-principled Cornell box) or `hdr` (merging 10 brackets at
+    /// 6720×3360, plsr against OpenCV's MergeDebevec).
+    #[arg(default_value = "core", value_parser = ["core", "pls", "materials", "hdr"])]
+    pub suite: String,
+    /// Image size for `plsr bench hdr`, WIDTHxHEIGHT.
+    #[arg(long, default_value = "6720x3360")]
+    pub hdr_size: String,
+    /// Folder for the brackets of `plsr bench hdr` (kept afterwards; reused
+    /// if it already holds them). Default: a temporary folder, removed.
+    #[arg(long)]
+    pub hdr_dir: Option<PathBuf>,
+    /// Python interpreter with OpenCV for `plsr bench hdr`.
+    #[arg(long, default_value = "python3")]
+    pub python: PathBuf,
+    /// The plsr scene reproducing Embree's demo configuration.
+    #[arg(long, default_value = "assets/scenes/cornell/embree-demo.toml")]
+    pub scene: PathBuf,
+    /// Embree's `pathtracer` binary (skipped if it cannot be found).
+    #[arg(long, default_value = "pathtracer")]
+    pub pathtracer: PathBuf,
+    /// Embree's model configuration (.ecs) for its pathtracer.
+    #[arg(long, default_value = "/usr/share/doc/embree3/models/cornell_box.ecs")]
+    pub ecs: PathBuf,
+    /// Image size (square) for the path-tracing comparison.
+    #[arg(long, default_value_t = 512)]
+    pub size: u32,
+    /// Samples per pixel for the path-tracing comparison.
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
+    /// Random rays for the raw Embree measurement (millions).
+    #[arg(long, default_value_t = 4.0)]
+    pub mrays: f64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Skip the peer (Embree's pathtracer; OpenCV for `hdr`).
+    #[arg(long)]
+    pub no_peer: bool,
+}
+
+/// Runs one bench suite.
+pub fn run(a: BenchArgs) -> Result<()> {
+    match a.suite.as_str() {
+        "pls" => pls::run(a.threads),
+        "materials" => materials::run(a.threads).map(|_| ()),
+        "hdr" => {
+            let (width, height) = parse_size(&a.hdr_size)?;
+            hdr::run(&hdr::HdrBenchOptions {
+                width,
+                height,
+                python: (!a.no_peer).then_some(a.python),
+                threads: a.threads,
+                dir: a.hdr_dir,
+            })
+        }
+        _ => core::run(&core::BenchOptions {
+            scene: a.scene,
+            pathtracer: (!a.no_peer).then_some(a.pathtracer),
+            ecs: a.ecs,
+            size: a.size,
+            spp: a.spp,
+            random_rays: (a.mrays * 1e6) as usize,
+            threads: a.threads,
+        }),
+    }
+}
+
+/// Parses `WIDTHxHEIGHT` (both at least 16).
+fn parse_size(s: &str) -> Result<(usize, usize)> {
+    let bad = || {
+        Error::InvalidArgument(format!(
+            "--hdr-size {s:?}: expected WIDTHxHEIGHT, e.g. 6720x3360"
+        ))
+    };
+    let (w, h) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
+    let w: usize = w.trim().parse().map_err(|_| bad())?;
+    let h: usize = h.trim().parse().map_err(|_| bad())?;
+    if w < 16 || h < 16 {
+        return Err(bad());
+    }
+    Ok((w, h))
+}

@@ -1,0 +1,90 @@
+//! The `plsr` program: the command line over the plsr library. One module
+//! per subcommand; `bench/` holds the benchmark suites.
+
+mod bench;
+mod hdr;
+mod pls;
+mod progress;
+mod render;
+
+use clap::{Parser, Subcommand};
+use plsr::error::Result;
+use std::ffi::OsString;
+use std::process::ExitCode;
+
+/// plsr: a physically based renderer for placing virtual objects into
+/// photographs, lit by parametric light sources or HDR panoramas.
+#[derive(Debug, Parser)]
+#[command(name = "plsr", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Render a scene file (TOML or JSON; see docs/scene-format.md) to OpenEXR
+    /// (colour plus variance, alpha, object id, depth, normal and albedo
+    /// layers) and optionally to a tone-mapped PNG.
+    Render(render::RenderArgs),
+    /// Measure throughput. `plsr bench` (suite `core`): raw Embree rays, path
+    /// tracing, and Embree's own `pathtracer` (Debian's embree-tools) on the
+    /// same Cornell box. `plsr bench pls`: transforming 10,000 PLS lights
+    /// through their parameters versus their vertices, and the cost of the
+    /// window function in a render.
+    Bench(bench::BenchArgs),
+    /// Parametric light sources: check, tessellate and transform PLS files
+    /// (see docs/pls-format.md).
+    #[command(subcommand)]
+    Pls(pls::PlsCommand),
+    /// HDR panoramas: merge bracketed exposures into one HDR image (see
+    /// docs/hdr.md).
+    #[command(subcommand)]
+    Hdr(hdr::HdrCommand),
+}
+
+/// How the program ends: success, a failure (1) or a usage error (2).
+enum Outcome {
+    Done,
+    Usage,
+}
+
+/// Runs the program on the given arguments (including the program name).
+fn run<I, T>(args: I) -> Result<Outcome>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    let cli = match Cli::try_parse_from(args) {
+        Ok(c) => c,
+        Err(e) => {
+            // --help and --version print and succeed; usage errors print and fail.
+            let _ = e.print();
+            return Ok(if e.use_stderr() {
+                Outcome::Usage
+            } else {
+                Outcome::Done
+            });
+        }
+    };
+    match cli.command {
+        Command::Render(a) => render::run(&a),
+        Command::Bench(a) => bench::run(a),
+        Command::Pls(c) => pls::run(c),
+        Command::Hdr(c) => hdr::run(c),
+    }?;
+    Ok(Outcome::Done)
+}
+
+fn main() -> ExitCode {
+    match run(std::env::args_os()) {
+        Ok(Outcome::Done) => ExitCode::SUCCESS,
+        Ok(Outcome::Usage) => ExitCode::from(2),
+        Err(e) => {
+            eprintln!("plsr: error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
