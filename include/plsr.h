@@ -91,6 +91,19 @@ typedef struct plsr_scene_builder plsr_scene_builder;
 // calls at a time.
 typedef bool (*plsr_progress_fn)(void *user_data, uint32_t done, uint32_t total);
 
+// What to render of a scene, for [`plsr_render_with_settings`].
+typedef struct {
+  // Samples per pixel, 1 to 2^24.
+  uint32_t spp;
+  // Maximum number of scattering events, 1 to 1024.
+  uint32_t max_depth;
+  // Seed of the random numbers.
+  uint64_t seed;
+  // Index of the first sample: the render takes samples
+  // `[sample_start, sample_start + spp)` of every pixel.
+  uint32_t sample_start;
+} plsr_render_settings;
+
 // One parametric light source `l = (n, g, a, c, b)` (paper section 3;
 // units of the PLS file format: metres, degrees, linear RGB).
 typedef struct {
@@ -166,14 +179,25 @@ plsr_result plsr_hdr_merge(const char *const *inputs,
                            uint32_t response,
                            const char *output);
 
-// Renders `scene` with `threads` worker threads (0: all cores) into
-// `*out`. `progress` may be `NULL`. The same scene, seed and spp give the
-// same image whatever the thread count.
+// Renders `scene` with the render settings it was loaded or built with,
+// with `threads` worker threads (0: all cores), into `*out`. `progress`
+// may be `NULL`. The same scene, seed and spp give the same image whatever
+// the thread count.
 plsr_result plsr_render(const plsr_scene *scene,
                         uint32_t threads,
                         plsr_progress_fn progress,
                         void *user_data,
                         plsr_image **out);
+
+// Renders `scene` with other render settings than it was built with
+// (spp, depth, seed, first sample), without rebuilding it; otherwise as
+// [`plsr_render`]. Added in 0.3.0.
+plsr_result plsr_render_with_settings(const plsr_scene *scene,
+                                      const plsr_render_settings *settings,
+                                      uint32_t threads,
+                                      plsr_progress_fn progress,
+                                      void *user_data,
+                                      plsr_image **out);
 
 // Width and height of an image, pixels.
 plsr_result plsr_image_size(const plsr_image *image, uint32_t *width, uint32_t *height);

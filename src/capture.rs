@@ -94,12 +94,14 @@ pub fn capture(
     desc.camera = Camera::Equirect(
         EquirectCamera::new(panorama_pose, w, h).map_err(|e| invalid(format!("--size: {e}")))?,
     );
+    let mut job = desc.job;
     if let Some(spp) = options.spp {
-        desc.settings.spp = spp.max(1);
+        job.spp = spp.max(1);
     }
     let scene = Scene::build(desc)?;
     let (film, _) = render(
         &scene,
+        &job,
         &RenderOptions {
             threads: options.threads,
             ..Default::default()

@@ -39,6 +39,7 @@ pub mod film;
 pub mod filter;
 pub mod hdr;
 pub mod integrator;
+pub mod job;
 pub mod light;
 pub mod material;
 pub mod pls;

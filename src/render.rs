@@ -1,14 +1,15 @@
 //! Rendering a whole image: tiles spread over a rayon pool, progress and
-//! cancellation, and assembly of the film.
+//! cancellation, each tile folded into the film's sums as it finishes.
 
 use crate::accel::enable_flush_to_zero;
 use crate::error::{Error, Result};
-use crate::film::Film;
-use crate::integrator::{render_tile, Isa, RayStats, SoaScene, Tile, TileResult};
+use crate::film::{Film, FilmSums};
+use crate::integrator::{render_tile, Isa, RayStats, SoaScene, Tile};
+pub use crate::job::RenderJob;
 use crate::scene::Scene;
-use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Mutex;
 use std::time::Instant;
 
 /// Default tile edge in pixels: 32×32 = 1024 paths per wavefront, enough
@@ -17,16 +18,14 @@ use std::time::Instant;
 /// 512×512 image still has 256 tiles to spread over the threads.
 pub const DEFAULT_TILE_SIZE: u32 = 32;
 
-/// How to run a render (what to render is in the scene's settings).
+/// How to run a render (what to render is the [`RenderJob`]); no option
+/// changes the image.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RenderOptions {
     /// Worker threads; `None` uses every core.
     pub threads: Option<usize>,
     /// Tile edge in pixels.
     pub tile_size: u32,
-    /// First sample index: a render of samples `[start, start + spp)`; pieces
-    /// with disjoint ranges merge exactly (see `Film::merge` in later work).
-    pub sample_start: u32,
     /// Use the vectorised kernel where the scene qualifies (see
     /// [`SoaScene`]); it gives the same image as the general integrator,
     /// faster. `false` forces the general integrator.
@@ -42,7 +41,6 @@ impl Default for RenderOptions {
         RenderOptions {
             threads: None,
             tile_size: DEFAULT_TILE_SIZE,
-            sample_start: 0,
             vectorised: true,
             isa: None,
         }
@@ -128,20 +126,31 @@ pub fn tiles(width: u32, height: u32, size: u32) -> Vec<Tile> {
     out
 }
 
-/// Renders the scene. `progress(done_tiles, total_tiles)` is called from worker
-/// threads after each tile; returning `false` cancels the render.
+/// Renders `job` of the scene into a developed film (means, variances and
+/// AOVs). `progress(done_tiles, total_tiles)` is called from worker threads
+/// after each tile; returning `false` cancels the render.
 pub fn render(
     scene: &Scene,
+    job: &RenderJob,
     options: &RenderOptions,
     progress: &(dyn Fn(usize, usize) -> bool + Sync),
 ) -> Result<(Film, RenderStats)> {
-    let cam = &scene.camera;
-    let spp = scene.settings.spp;
-    let samples = options.sample_start
-        ..options
-            .sample_start
-            .checked_add(spp)
-            .ok_or_else(|| Error::InvalidArgument("sample range overflows".into()))?;
+    let (sums, stats) = render_sums(scene, job, options, progress)?;
+    Ok((sums.develop(job.spp), stats))
+}
+
+/// Renders `job` of the scene into per-pixel sums and counts, which merge
+/// with other pieces of the same image ([`FilmSums::merge`]); see
+/// [`render`].
+pub fn render_sums(
+    scene: &Scene,
+    job: &RenderJob,
+    options: &RenderOptions,
+    progress: &(dyn Fn(usize, usize) -> bool + Sync),
+) -> Result<(FilmSums, RenderStats)> {
+    job.validate()
+        .map_err(|e| Error::InvalidArgument(format!("render: {e}")))?;
+    let cam = scene.camera();
     let (width, height) = (cam.width(), cam.height());
     let tiles = tiles(width, height, options.tile_size);
     let isa = match options.isa {
@@ -162,71 +171,42 @@ pub fn render(
     let pool = thread_pool(options.threads)?;
     let done = AtomicUsize::new(0);
     let cancelled = AtomicBool::new(false);
+    let film = Mutex::new(FilmSums::new(
+        width,
+        height,
+        job.sample_start,
+        *scene.film(),
+    ));
+    let rays = Mutex::new(RayStats::default());
     let start = Instant::now();
-    let results: Vec<Option<TileResult>> = pool.install(|| {
-        tiles
-            .par_iter()
-            .map(|&tile| {
-                if cancelled.load(Ordering::Relaxed) {
-                    return None;
-                }
-                let r = render_tile(
-                    scene,
-                    kernel.as_ref().map(|k| (k, isa)),
-                    tile,
-                    samples.clone(),
-                );
-                let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-                if !progress(n, tiles.len()) {
-                    cancelled.store(true, Ordering::Relaxed);
-                }
-                Some(r)
-            })
-            .collect()
+    pool.install(|| {
+        tiles.par_iter().for_each(|&tile| {
+            if cancelled.load(Ordering::Relaxed) {
+                return;
+            }
+            let r = render_tile(scene, job, kernel.as_ref().map(|k| (k, isa)), tile);
+            // Each tile covers its own pixels, so the order in which tiles
+            // are folded in does not change the sums.
+            film.lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .add_tile(r.tile, &r.pixels);
+            rays.lock().unwrap_or_else(|e| e.into_inner()).add(&r.rays);
+            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if !progress(n, tiles.len()) {
+                cancelled.store(true, Ordering::Relaxed);
+            }
+        })
     });
     if cancelled.load(Ordering::Relaxed) {
         return Err(Error::Cancelled);
     }
     let seconds = start.elapsed().as_secs_f64();
-
-    let mut film = Film::new(width, height);
-    film.spp = spp;
-    film.settings = scene.film;
-    let mut rays = RayStats::default();
-    let n = spp as f64;
-    for r in results.into_iter().flatten() {
-        rays.add(&r.rays);
-        let t = r.tile;
-        for py in 0..t.height {
-            for px in 0..t.width {
-                let s = &r.pixels[(py * t.width + px) as usize];
-                let i = film.index(t.x0 + px, t.y0 + py);
-                let mean = s.sum / n;
-                film.color[i] = mean.as_vec3();
-                film.variance[i] = if spp > 1 {
-                    ((s.sum_sq - s.sum * mean) / (n * (n - 1.0)))
-                        .max(glam::DVec3::ZERO)
-                        .as_vec3()
-                } else {
-                    Vec3::ZERO
-                };
-                film.alpha[i] = s.hits as f32 / spp as f32;
-                film.object_id[i] = s.object_id;
-                if s.hits > 0 {
-                    let h = s.hits as f32;
-                    film.depth[i] = (s.depth / s.hits as f64) as f32;
-                    film.normal[i] = s.normal / h;
-                    film.albedo[i] = s.albedo / h;
-                }
-            }
-        }
-    }
     let stats = RenderStats {
         seconds,
-        samples: width as u64 * height as u64 * spp as u64,
-        rays,
+        samples: width as u64 * height as u64 * job.spp as u64,
+        rays: rays.into_inner().unwrap_or_else(|e| e.into_inner()),
         threads: pool.current_num_threads(),
         vectorised: kernel.is_some().then_some(isa),
     };
-    Ok((film, stats))
+    Ok((film.into_inner().unwrap_or_else(|e| e.into_inner()), stats))
 }

@@ -502,7 +502,7 @@ fn gaussian_filter_sampling_matches_its_density() {
 
 fn cornell(spp: u32) -> Scene {
     let mut desc = load(Path::new("tests/data/cornell-64.toml")).unwrap();
-    desc.settings.spp = spp;
+    desc.job.spp = spp;
     desc.camera = desc.camera.with_resolution(24, 24).unwrap();
     Scene::build(desc).unwrap()
 }
@@ -513,7 +513,9 @@ fn render_with(scene: &Scene, threads: usize) -> Film {
         tile_size: 8,
         ..Default::default()
     };
-    render(scene, &o, &|_, _| true).unwrap().0
+    render(scene, &scene.default_job(), &o, &|_, _| true)
+        .unwrap()
+        .0
 }
 
 fn bits(f: &Film) -> Vec<u32> {
@@ -532,18 +534,18 @@ fn bits(f: &Film) -> Vec<u32> {
 fn gaussian_filter_and_thin_lens_renders_are_identical_for_one_and_two_threads() {
     let mut scene = cornell(4);
     let box_image = render_with(&scene, 2);
-    scene.film.filter = PixelFilter::Gaussian(GaussianFilter::new(0.5, 1.5).unwrap());
+    scene.film_mut().filter = PixelFilter::Gaussian(GaussianFilter::new(0.5, 1.5).unwrap());
     let a = render_with(&scene, 1);
     let b = render_with(&scene, 2);
     assert_eq!(bits(&a), bits(&b), "Gaussian filter: 1 vs 2 threads");
     assert_ne!(a.color, box_image.color, "the filter changes the image");
     assert!(a.mean_color().x > 0.01);
     // A thin lens draws lens samples from the same per-sample streams.
-    let Camera::Pinhole(p) = &scene.camera else {
+    let Camera::Pinhole(p) = scene.camera() else {
         panic!()
     };
-    scene.camera =
-        Camera::ThinLens(plsr::camera::ThinLensCamera::new(p.clone(), 20.0, 800.0).unwrap());
+    let lens = plsr::camera::ThinLensCamera::new(p.clone(), 20.0, 800.0).unwrap();
+    scene.set_camera(Camera::ThinLens(lens));
     let c = render_with(&scene, 1);
     let d = render_with(&scene, 2);
     assert_eq!(bits(&c), bits(&d), "thin lens: 1 vs 2 threads");
@@ -561,7 +563,7 @@ fn one_more_stop_doubles_the_written_values_exactly() {
         Film::read_exr(&path).unwrap()
     };
     let a = write(&scene, "a.exr");
-    scene.film.exposure_ev = 1.0;
+    scene.film_mut().exposure_ev = 1.0;
     let b = write(&scene, "b.exr");
     assert_eq!(
         b.settings.exposure_ev, 1.0,
@@ -600,7 +602,7 @@ fn white_balance_is_identity_at_d65_and_neutralises_its_temperature() {
 fn white_balance_reaches_the_rendered_image_and_its_header() {
     let mut scene = cornell(2);
     let plain = render_with(&scene, 2);
-    scene.film.white_balance_k = Some(4400.0);
+    scene.film_mut().white_balance_k = Some(4400.0);
     let balanced = render_with(&scene, 2);
     assert_eq!(balanced.settings.white_balance_k, Some(4400.0));
     let m = white_balance_matrix(4400.0);
@@ -681,7 +683,7 @@ fn scene_format_camera_and_film_examples_load() {
                 let path = dir.path().join(name);
                 std::fs::write(&path, &body).unwrap();
                 let mut desc = load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
-                desc.settings.spp = 1;
+                desc.job.spp = 1;
                 desc.camera = desc.camera.with_resolution(8, 6).unwrap();
                 let scene = Scene::build(desc).unwrap();
                 let film = render_with(&scene, 1);

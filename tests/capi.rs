@@ -93,8 +93,9 @@ fn build_host(dir: &Path) -> PathBuf {
 fn host_scene_in_rust() -> plsr::scene::Scene {
     use plsr::bsdf::Bsdf;
     use plsr::camera::PinholeCamera;
+    use plsr::job::RenderJob;
     use plsr::pls::{BrightnessMode, Pls, PlsGeometry};
-    use plsr::scene::{pls_mesh, Material, Mesh, RenderSettings, Scene, SceneDescription};
+    use plsr::scene::{pls_mesh, Material, Mesh, Scene, SceneDescription};
     let mesh = |id: u32, positions: Vec<Vec3>, triangles: Vec<[u32; 3]>, material| Mesh {
         name: format!("mesh {id}"),
         positions,
@@ -173,12 +174,13 @@ fn host_scene_in_rust() -> plsr::scene::Scene {
         .unwrap()
         .into(),
         film: Default::default(),
-        settings: RenderSettings {
+        job: RenderJob {
             spp: 8,
             max_depth: 6,
             seed: 42,
-            robust: false,
+            sample_start: 0,
         },
+        robust: false,
     })
     .unwrap()
 }
@@ -200,7 +202,13 @@ fn cpp_host_image_equals_the_rust_render_bit_for_bit() {
     assert!(prefix.with_extension("exr").is_file() && prefix.with_extension("png").is_file());
     let from_host = read_rgba(&prefix.with_extension("rgba"));
     let scene = host_scene_in_rust();
-    let (film, _) = plsr::render::render(&scene, &Default::default(), &|_, _| true).unwrap();
+    let (film, _) = plsr::render::render(
+        &scene,
+        &scene.default_job(),
+        &Default::default(),
+        &|_, _| true,
+    )
+    .unwrap();
     let from_rust: Vec<u32> = film
         .color
         .iter()
@@ -479,4 +487,88 @@ fn hdr_merge_through_the_api() {
         PLSR_ERR_NULL_ARGUMENT
     );
     assert!(!out.exists(), "no output on failure");
+}
+
+#[test]
+fn render_settings_change_without_rebuilding_the_scene() {
+    use plsr::render::{render, RenderJob, RenderOptions};
+    use plsr::scene::Scene;
+    let file = root().join("tests/data/cornell-64.toml");
+    let path = CString::new(file.to_str().unwrap()).unwrap();
+    let mut scene = std::ptr::null_mut();
+    assert_eq!(plsr_scene_load(path.as_ptr(), &mut scene), PLSR_OK);
+    let settings = plsr_render_settings {
+        spp: 2,
+        max_depth: 3,
+        seed: 7,
+        sample_start: 4,
+    };
+    let mut img = std::ptr::null_mut();
+    assert_eq!(
+        plsr_render_with_settings(scene, &settings, 0, None, std::ptr::null_mut(), &mut img),
+        PLSR_OK
+    );
+    let (mut w, mut h) = (0, 0);
+    assert_eq!(plsr_image_size(img, &mut w, &mut h), PLSR_OK);
+    // SAFETY: the image holds w·h·4 floats until it is freed below.
+    let rgba =
+        unsafe { std::slice::from_raw_parts(plsr_image_rgba(img), (w * h * 4) as usize) }.to_vec();
+    assert_eq!(plsr_image_free(img), PLSR_OK);
+    // The same job through the Rust API gives the same image.
+    let rust_scene = Scene::load(&file).unwrap();
+    let job = RenderJob {
+        spp: 2,
+        max_depth: 3,
+        seed: 7,
+        sample_start: 4,
+    };
+    let (film, _) = render(&rust_scene, &job, &RenderOptions::default(), &|_, _| true).unwrap();
+    let want: Vec<f32> = film
+        .color
+        .iter()
+        .zip(&film.alpha)
+        .flat_map(|(c, a)| [c.x, c.y, c.z, *a])
+        .collect();
+    assert_eq!(rgba, want);
+    // Bad settings are refused with the field's name; NULL settings too.
+    for (bad, field) in [
+        (plsr_render_settings { spp: 0, ..settings }, "spp"),
+        (
+            plsr_render_settings {
+                max_depth: 0,
+                ..settings
+            },
+            "max_depth",
+        ),
+        (
+            plsr_render_settings {
+                sample_start: u32::MAX,
+                ..settings
+            },
+            "sample_start",
+        ),
+    ] {
+        let mut img = std::ptr::null_mut();
+        assert_eq!(
+            plsr_render_with_settings(scene, &bad, 0, None, std::ptr::null_mut(), &mut img),
+            PLSR_ERR_INVALID_ARGUMENT
+        );
+        assert!(img.is_null());
+        // SAFETY: plsr_last_error returns a NUL-terminated string owned by the library.
+        let msg = unsafe { std::ffi::CStr::from_ptr(plsr_last_error()) }.to_string_lossy();
+        assert!(msg.contains(field), "{msg}");
+    }
+    let mut img = std::ptr::null_mut();
+    assert_eq!(
+        plsr_render_with_settings(
+            scene,
+            std::ptr::null(),
+            0,
+            None,
+            std::ptr::null_mut(),
+            &mut img
+        ),
+        PLSR_ERR_NULL_ARGUMENT
+    );
+    assert_eq!(plsr_scene_free(scene), PLSR_OK);
 }

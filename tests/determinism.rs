@@ -1,14 +1,20 @@
 //! Renders are reproducible: the same scene, seed and spp give a bit-identical
 //! image whatever the number of threads or the tile size.
 
-use plsr::render::{render, RenderOptions};
+use plsr::render::{render, RenderJob, RenderOptions};
 use plsr::scene::Scene;
 use std::path::Path;
 
 fn cornell() -> Scene {
-    let mut s = Scene::load(Path::new("tests/data/cornell-64.toml")).unwrap();
-    s.settings.spp = 8;
-    s
+    Scene::load(Path::new("tests/data/cornell-64.toml")).unwrap()
+}
+
+/// The scene file's job at 8 spp.
+fn job(scene: &Scene) -> RenderJob {
+    RenderJob {
+        spp: 8,
+        ..scene.default_job()
+    }
 }
 
 #[test]
@@ -20,7 +26,7 @@ fn one_and_two_threads_give_identical_images() {
             tile_size,
             ..Default::default()
         };
-        render(&scene, &o, &|_, _| true).unwrap().0
+        render(&scene, &job(&scene), &o, &|_, _| true).unwrap().0
     };
     let a = run(1, 16);
     let b = run(2, 16);
@@ -46,12 +52,17 @@ fn one_and_two_threads_give_identical_images() {
 
 #[test]
 fn a_different_seed_gives_a_different_image() {
-    let mut scene = cornell();
-    let a = render(&scene, &RenderOptions::default(), &|_, _| true)
-        .unwrap()
-        .0;
-    scene.settings.seed = 1;
-    let b = render(&scene, &RenderOptions::default(), &|_, _| true)
+    let scene = cornell();
+    let a = render(&scene, &job(&scene), &RenderOptions::default(), &|_, _| {
+        true
+    })
+    .unwrap()
+    .0;
+    let seed_1 = RenderJob {
+        seed: 1,
+        ..job(&scene)
+    };
+    let b = render(&scene, &seed_1, &RenderOptions::default(), &|_, _| true)
         .unwrap()
         .0;
     assert_ne!(a.color, b.color);
@@ -60,6 +71,43 @@ fn a_different_seed_gives_a_different_image() {
 #[test]
 fn cancelling_stops_the_render() {
     let scene = cornell();
-    let r = render(&scene, &RenderOptions::default(), &|done, _| done < 2);
+    let r = render(
+        &scene,
+        &job(&scene),
+        &RenderOptions::default(),
+        &|done, _| done < 2,
+    );
     assert!(matches!(r, Err(plsr::Error::Cancelled)));
+}
+
+#[test]
+fn pieces_of_a_sample_range_merge_into_the_whole() {
+    use plsr::render::render_sums;
+    let scene = cornell();
+    let whole = job(&scene);
+    let piece = |start, spp| RenderJob {
+        sample_start: start,
+        spp,
+        ..whole
+    };
+    let o = RenderOptions::default();
+    let (a, _) = render(&scene, &whole, &o, &|_, _| true).unwrap();
+    let (mut late, _) = render_sums(&scene, &piece(3, 5), &o, &|_, _| true).unwrap();
+    let (early, _) = render_sums(&scene, &piece(0, 3), &o, &|_, _| true).unwrap();
+    late.merge(&early).unwrap();
+    let b = late.develop(whole.spp);
+    // Sums add in another order than one render's, so means agree to
+    // rounding; counts (coverage) and the first sample's object exactly.
+    for (x, y) in a.color.iter().zip(&b.color) {
+        assert!(
+            (*x - *y).abs().max_element() <= 1e-5 * (1.0 + x.max_element()),
+            "{x} {y}"
+        );
+    }
+    assert_eq!(a.alpha, b.alpha);
+    assert_eq!(a.object_id, b.object_id);
+    assert!(a.mean_color().x > 0.01);
+    // A piece alone is not the whole.
+    let (c, _) = render(&scene, &piece(0, 3), &o, &|_, _| true).unwrap();
+    assert_ne!(a.color, c.color);
 }

@@ -198,9 +198,14 @@ radius = 1
 material = "white"
 "#,
     );
-    let film = render(&scene, &RenderOptions::default(), &|_, _| true)
-        .unwrap()
-        .0;
+    let film = render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap()
+    .0;
     let mean = film.mean_color();
     assert!((mean.x - 1.0).abs() < 0.01, "furnace mean {mean}");
     for (i, (c, v)) in film.color.iter().zip(&film.variance).enumerate() {
@@ -255,9 +260,14 @@ material = "floor"
 transform = { scale = 50 }
 "#,
     );
-    let out = render(&scene, &RenderOptions::default(), &|_, _| true)
-        .unwrap()
-        .0;
+    let out = render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap()
+    .0;
     // Irradiance from the texel: ∫ L cos θz dω over its patch of the sphere,
     // with elevation e: cos θz = sin e, dω = cos e de dφ.
     let (e0, e1) = (
@@ -369,9 +379,14 @@ up = [0, 0, 1]
 forward = [0, 1, 0]
 "#,
     );
-    let out = render(&scene, &RenderOptions::default(), &|_, _| true)
-        .unwrap()
-        .0;
+    let out = render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap()
+    .0;
     for (i, (got, want)) in out.color.iter().zip(&sky.color).enumerate() {
         assert!(
             (*got - *want).abs().max_element() < 1e-5,

@@ -33,7 +33,12 @@ fn material_scene(material: &str) -> String {
 
 fn bsdf_of(material: &str) -> Bsdf {
     let scene = load(&material_scene(material)).unwrap_or_else(|e| panic!("{e}"));
-    scene.materials.iter().find(|m| m.name == "m").unwrap().bsdf
+    scene
+        .materials()
+        .iter()
+        .find(|m| m.name == "m")
+        .unwrap()
+        .bsdf
 }
 
 fn error_of(material: &str) -> String {
@@ -198,9 +203,14 @@ fn furnace(material: &str) -> plsr::film::Film {
          [[shapes]]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\nsubdivisions = 4\nmaterial = \"m\"\n"
     );
     let scene = load(&text).unwrap_or_else(|e| panic!("{e}"));
-    render(&scene, &RenderOptions::default(), &|_, _| true)
-        .unwrap()
-        .0
+    render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap()
+    .0
 }
 
 fn assert_furnace(film: &plsr::film::Film, what: &str) {
@@ -296,9 +306,14 @@ fn documented_material_example_loads_and_renders() {
     let open = block.find("```toml\n").unwrap() + "```toml\n".len();
     let close = block[open..].find("```").unwrap();
     let scene = load(&block[open..open + close]).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(scene.materials.len(), 6, "six named, no default needed");
-    let film = render(&scene, &RenderOptions::default(), &|_, _| true)
-        .unwrap()
-        .0;
+    assert_eq!(scene.materials().len(), 6, "six named, no default needed");
+    let film = render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap()
+    .0;
     assert!(film.mean_color().x > 0.0 && film.mean_color().is_finite());
 }

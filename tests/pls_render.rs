@@ -4,10 +4,11 @@
 use glam::{Mat4, Vec3};
 use plsr::bsdf::Bsdf;
 use plsr::camera::PinholeCamera;
+use plsr::job::RenderJob;
 use plsr::pls::{BrightnessMode, Pls};
 use plsr::render::{render, RenderOptions};
 use plsr::scene::shapes::{rectangle, transform_mesh};
-use plsr::scene::{pls_mesh, Material, Mesh, RenderSettings, Scene, SceneDescription};
+use plsr::scene::{pls_mesh, Material, Mesh, Scene, SceneDescription};
 
 const ALBEDO: f32 = 0.6;
 
@@ -53,17 +54,23 @@ fn floor_radiance(light: &Pls, mode: BrightnessMode, target: Vec3, spp: u32) -> 
             .into(),
         film: Default::default(),
         environment: None,
-        settings: RenderSettings {
+        job: RenderJob {
             spp,
             max_depth: 1,
             seed: 5,
-            robust: false,
+            sample_start: 0,
         },
+        robust: false,
     })
     .unwrap();
-    let film = render(&scene, &RenderOptions::default(), &|_, _| true)
-        .unwrap()
-        .0;
+    let film = render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap()
+    .0;
     let n = film.color.len() as f64;
     let mean = film.color.iter().map(|c| c.x as f64).sum::<f64>() / n;
     let var = film.variance.iter().map(|v| v.x as f64).sum::<f64>() / (n * n);
@@ -176,17 +183,23 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
         camera: camera.clone().into(),
         film: Default::default(),
         environment: None,
-        settings: RenderSettings {
+        job: RenderJob {
             spp: 16,
             max_depth: 1,
             seed: 2,
-            robust: false,
+            sample_start: 0,
         },
+        robust: false,
     })
     .unwrap();
-    let film = render(&scene, &RenderOptions::default(), &|_, _| true)
-        .unwrap()
-        .0;
+    let film = render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap()
+    .0;
     let peak = film.color.iter().map(|c| c.x).fold(0.0, f32::max);
     assert!(peak > 0.0);
     let apex = flashlight.centre();

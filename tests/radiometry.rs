@@ -5,9 +5,10 @@ use glam::{Mat4, Vec3};
 use plsr::bsdf::Bsdf;
 use plsr::camera::PinholeCamera;
 use plsr::film::Film;
+use plsr::job::RenderJob;
 use plsr::render::{render, RenderOptions};
 use plsr::scene::shapes::{flip_winding, icosphere, rectangle, transform_mesh};
-use plsr::scene::{Emission, Material, Mesh, RenderSettings, Scene, SceneDescription};
+use plsr::scene::{Emission, Material, Mesh, Scene, SceneDescription};
 
 fn material(name: &str, albedo: f32) -> Material {
     Material {
@@ -37,9 +38,14 @@ fn mesh(
 
 fn render_scene(desc: SceneDescription) -> Film {
     let scene = Scene::build(desc).unwrap();
-    render(&scene, &RenderOptions::default(), &|_, _| true)
-        .unwrap()
-        .0
+    render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap()
+    .0
 }
 
 /// A diffuse sphere of albedo 1 inside an enclosure of uniform radiance 1
@@ -76,12 +82,13 @@ fn white_furnace() {
         .into(),
         film: Default::default(),
         environment: None,
-        settings: RenderSettings {
+        job: RenderJob {
             spp: 64,
             max_depth: 16,
             seed: 3,
-            robust: false,
+            sample_start: 0,
         },
+        robust: false,
     });
     // The sphere fills the middle of the image.
     let centre = film.index(12, 12);
@@ -166,12 +173,13 @@ fn closed_form_irradiance_under_a_rectangular_emitter() {
             camera: camera.into(),
             film: Default::default(),
             environment: None,
-            settings: RenderSettings {
+            job: RenderJob {
                 spp: 2048,
                 max_depth: 1,
                 seed: 9,
-                robust: false,
+                sample_start: 0,
             },
+            robust: false,
         });
         let (mean, var) = film
             .color
@@ -232,12 +240,13 @@ fn point_light_inverse_square_law() {
             camera: camera.into(),
             film: Default::default(),
             environment: None,
-            settings: RenderSettings {
+            job: RenderJob {
                 spp: 4,
                 max_depth: 1,
                 seed: 0,
-                robust: false,
+                sample_start: 0,
             },
+            robust: false,
         });
         let r2 = height * height + px * px;
         let cos = height / r2.sqrt();

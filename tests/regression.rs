@@ -54,7 +54,13 @@ fn block_z_scores(test: &Film, reference: &Film) -> Vec<f64> {
 fn cornell_box_matches_its_reference() {
     let scene = Scene::load(Path::new("tests/data/cornell-64.toml")).unwrap();
     let reference = Film::read_exr(Path::new("tests/data/cornell-64-ref.exr")).unwrap();
-    let (film, _) = render(&scene, &RenderOptions::default(), &|_, _| true).unwrap();
+    let (film, _) = render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap();
     let z = block_z_scores(&film, &reference);
     let worst = z.iter().map(|v| v.abs()).fold(0.0, f64::max);
     eprintln!("worst block |z| against the reference: {worst:.2}");

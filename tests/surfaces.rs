@@ -59,9 +59,14 @@ fn render_in(dir: &Path, scene: &str) -> Film {
     let path = dir.join("scene.toml");
     std::fs::write(&path, scene).unwrap();
     let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
-    render(&scene, &RenderOptions::default(), &|_, _| true)
-        .unwrap()
-        .0
+    render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap()
+    .0
 }
 
 fn assert_quadrants(film: &Film, what: &str) {
@@ -128,7 +133,7 @@ fn mtl_quad_material(dir: &Path, mtl: &str) -> plsr::Result<plsr::scene::Materia
     .unwrap();
     let scene = Scene::load(&path)?;
     Ok(scene
-        .materials
+        .materials()
         .iter()
         .find(|m| m.name.ends_with(":m"))
         .unwrap()

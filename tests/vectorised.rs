@@ -5,20 +5,33 @@
 
 use plsr::film::Film;
 use plsr::integrator::{Isa, SoaScene};
-use plsr::render::{render, RenderOptions};
-use plsr::scene::Scene;
+use plsr::render::{render, RenderJob, RenderOptions};
+use plsr::scene::{file::load, Scene};
 use std::path::{Path, PathBuf};
 
-fn embree_demo(size: u32, spp: u32) -> Scene {
-    let mut s = Scene::load(Path::new("assets/scenes/cornell/embree-demo.toml")).unwrap();
-    s.camera = s.camera.with_resolution(size, size).unwrap();
-    s.settings.spp = spp;
-    s
+/// A scene and what to render of it.
+struct Case {
+    scene: Scene,
+    job: RenderJob,
+}
+
+impl Case {
+    fn new(scene: Scene) -> Case {
+        let job = scene.default_job();
+        Case { scene, job }
+    }
+}
+
+fn embree_demo(size: u32, spp: u32) -> Case {
+    let mut desc = load(Path::new("assets/scenes/cornell/embree-demo.toml")).unwrap();
+    desc.camera = desc.camera.with_resolution(size, size).unwrap();
+    desc.job.spp = spp;
+    Case::new(Scene::build(desc).unwrap())
 }
 
 /// Loads a scene written to a temporary file; `OBJ` in `text` stands for
 /// the absolute path of Embree's Cornell box.
-fn scene_from(name: &str, text: &str) -> Scene {
+fn scene_from(name: &str, text: &str) -> Case {
     let obj =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/cornell/embree_cornell_box.obj");
     let dir: PathBuf = std::env::temp_dir().join(format!("plsr-vectorised-{}", std::process::id()));
@@ -29,13 +42,13 @@ fn scene_from(name: &str, text: &str) -> Scene {
         text.replace("OBJ", &obj.display().to_string().replace('\\', "/")),
     )
     .unwrap();
-    Scene::load(&path).unwrap()
+    Case::new(Scene::load(&path).unwrap())
 }
 
 /// A box of coloured Lambert walls and a floating panel, lit by three point
 /// lights of different colours, seen through a thin lens with the Gaussian
 /// filter at an odd resolution (partial tiles and partial SIMD chunks).
-fn three_lights() -> Scene {
+fn three_lights() -> Case {
     scene_from(
         "three-lights",
         r#"
@@ -97,7 +110,7 @@ intensity = [30000, 30000, 30000]
 
 /// A dual-fisheye camera inside the box: the corners of the image have no
 /// rays, so lanes and pixels no longer correspond one to one.
-fn fisheye() -> Scene {
+fn fisheye() -> Case {
     scene_from(
         "fisheye",
         r#"
@@ -124,15 +137,14 @@ intensity = [100000, 100000, 100000]
     )
 }
 
-fn render_with(scene: &Scene, kernel: Option<Isa>, threads: usize, tile_size: u32) -> Film {
+fn render_with(case: &Case, kernel: Option<Isa>, threads: usize, tile_size: u32) -> Film {
     let o = RenderOptions {
         threads: Some(threads),
         tile_size,
         vectorised: kernel.is_some(),
         isa: kernel,
-        ..Default::default()
     };
-    let (film, stats) = render(scene, &o, &|_, _| true).unwrap();
+    let (film, stats) = render(&case.scene, &case.job, &o, &|_, _| true).unwrap();
     assert_eq!(stats.vectorised, kernel, "kernel choice");
     film
 }
@@ -180,8 +192,8 @@ fn isas() -> Vec<Isa> {
         .collect()
 }
 
-fn assert_identical(what: &str, scene: &Scene) {
-    assert!(SoaScene::new(scene).is_some(), "{what} qualifies");
+fn assert_identical(what: &str, scene: &Case) {
+    assert!(SoaScene::new(&scene.scene).is_some(), "{what} qualifies");
     let general = render_with(scene, None, 1, 16);
     // The image must not be trivially black, or the comparison proves little.
     assert!(
@@ -206,7 +218,7 @@ fn every_path_length_is_bit_identical() {
     // 1: direct light only; 2–3: before Russian roulette starts; 4: after.
     for max_depth in [1, 2, 3, 4] {
         let mut scene = embree_demo(24, 2);
-        scene.settings.max_depth = max_depth;
+        scene.job.max_depth = max_depth;
         assert_identical(&format!("max_depth {max_depth}"), &scene);
     }
 }
@@ -228,14 +240,17 @@ fn cameras_with_pixels_without_rays_are_bit_identical() {
 fn sample_ranges_are_bit_identical() {
     // A render of samples [5, 8) (as a piece of a split render).
     let scene = embree_demo(24, 3);
+    let job = RenderJob {
+        sample_start: 5,
+        ..scene.job
+    };
     let run = |vectorised| {
         let o = RenderOptions {
             threads: Some(2),
             vectorised,
-            sample_start: 5,
             ..Default::default()
         };
-        render(&scene, &o, &|_, _| true).unwrap().0
+        render(&scene.scene, &job, &o, &|_, _| true).unwrap().0
     };
     let (general, fast) = (run(false), run(true));
     assert_same("samples 5..8", &general, &fast);
@@ -251,7 +266,10 @@ fn vectorised_kernel_counts_the_same_rays() {
             vectorised,
             ..Default::default()
         };
-        render(&scene, &o, &|_, _| true).unwrap().1.rays
+        render(&scene.scene, &scene.job, &o, &|_, _| true)
+            .unwrap()
+            .1
+            .rays
     };
     let (a, b) = (run(false), run(true));
     assert_eq!(
@@ -265,13 +283,14 @@ fn area_lights_are_bit_identical() {
     // The Cornell box lit by its emissive quad: emission found by BSDF
     // sampling, MIS against light sampling, the ray after the last light
     // sample.
-    let mut cornell = Scene::load(Path::new("tests/data/cornell-64.toml")).unwrap();
-    cornell.camera = cornell.camera.with_resolution(40, 40).unwrap();
-    cornell.settings.spp = 3;
+    let mut desc = load(Path::new("tests/data/cornell-64.toml")).unwrap();
+    desc.camera = desc.camera.with_resolution(40, 40).unwrap();
+    desc.job.spp = 3;
+    let mut cornell = Case::new(Scene::build(desc).unwrap());
     assert_identical("Cornell box", &cornell);
     for max_depth in [0, 1, 2, 4] {
-        cornell.settings.max_depth = max_depth;
-        cornell.settings.spp = 1;
+        cornell.job.max_depth = max_depth;
+        cornell.job.spp = 1;
         assert_identical(&format!("Cornell box, max_depth {max_depth}"), &cornell);
     }
 }
@@ -332,7 +351,7 @@ fn scenes_the_kernel_cannot_render_go_to_the_general_integrator() {
              [[lights]]\ntype = \"point\"\nposition = [213, 300, 227]\nintensity = [1, 1, 1]\n\n{extra}"
         )
     };
-    assert!(SoaScene::new(&scene_from("base", &base(""))).is_some());
+    assert!(SoaScene::new(&scene_from("base", &base("")).scene).is_some());
     let texture = std::env::temp_dir().join(format!("plsr-vectorised-{}.png", std::process::id()));
     image::RgbImage::from_pixel(2, 2, image::Rgb([200, 100, 50]))
         .save(&texture)
@@ -363,8 +382,8 @@ fn scenes_the_kernel_cannot_render_go_to_the_general_integrator() {
             .replace("PAPER", &paper.display().to_string().replace('\\', "/"));
         let name: String = what.chars().filter(|c| c.is_alphanumeric()).collect();
         let scene = scene_from(&name, &base(&extra));
-        assert!(SoaScene::new(&scene).is_none(), "{what}");
-        let stats = render(&scene, &o, &|_, _| true).unwrap().1;
+        assert!(SoaScene::new(&scene.scene).is_none(), "{what}");
+        let stats = render(&scene.scene, &scene.job, &o, &|_, _| true).unwrap().1;
         assert_eq!(stats.vectorised, None, "{what}");
     }
 }
@@ -381,6 +400,7 @@ fn asking_for_an_instruction_set_the_cpu_lacks_is_an_error() {
         isa: Some(missing),
         ..Default::default()
     };
-    let err = render(&embree_demo(8, 1), &o, &|_, _| true).unwrap_err();
+    let demo = embree_demo(8, 1);
+    let err = render(&demo.scene, &demo.job, &o, &|_, _| true).unwrap_err();
     assert!(err.to_string().contains(missing.name()), "{err}");
 }

@@ -1,10 +1,12 @@
 //! Rendering through the C ABI, and the rendered image.
 
 use super::{
-    boundary, free_handle, handle_ref, new_handle, path_arg, plsr_result, plsr_scene, write_out,
+    boundary, free_handle, handle_ref, new_handle, path_arg, plsr_result, plsr_scene, slice_arg,
+    write_out,
     FfiError,
 };
 use crate::film::{Film, ToneMap};
+use crate::job::{JobError, RenderJob};
 use crate::render::{render, RenderOptions};
 use std::ffi::c_void;
 use std::sync::Mutex;
@@ -33,9 +35,57 @@ unsafe impl Send for UserData {}
 // SAFETY: as above.
 unsafe impl Sync for UserData {}
 
-/// Renders `scene` with `threads` worker threads (0: all cores) into
-/// `*out`. `progress` may be `NULL`. The same scene, seed and spp give the
-/// same image whatever the thread count.
+/// What to render of a scene, for [`plsr_render_with_settings`].
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+#[allow(non_camel_case_types)]
+pub struct plsr_render_settings {
+    /// Samples per pixel, 1 to 2^24.
+    pub spp: u32,
+    /// Maximum number of scattering events, 1 to 1024.
+    pub max_depth: u32,
+    /// Seed of the random numbers.
+    pub seed: u64,
+    /// Index of the first sample: the render takes samples
+    /// `[sample_start, sample_start + spp)` of every pixel.
+    pub sample_start: u32,
+}
+
+/// A checked [`RenderJob`] from the C ABI's numbers; errors name the field.
+pub(crate) fn job_arg(
+    spp: u32,
+    max_depth: u32,
+    seed: u64,
+    sample_start: u32,
+) -> Result<RenderJob, FfiError> {
+    // The C ABI, like scene files, asks for at least one scattering event.
+    if max_depth == 0 {
+        return Err(FfiError::invalid(format!(
+            "`max_depth` = {max_depth} must be in [1, 1024]"
+        )));
+    }
+    let job = RenderJob {
+        spp,
+        sample_start,
+        max_depth,
+        seed,
+    };
+    job.validate().map_err(|e| {
+        FfiError::invalid(match e {
+            JobError::Spp(_) => format!("`spp` = {spp} must be in [1, 2^24]"),
+            JobError::MaxDepth(_) => format!("`max_depth` = {max_depth} must be in [1, 1024]"),
+            JobError::SampleRangeOverflows => {
+                format!("`sample_start` + `spp` = {sample_start} + {spp} overflows 32 bits")
+            }
+        })
+    })?;
+    Ok(job)
+}
+
+/// Renders `scene` with the render settings it was loaded or built with,
+/// with `threads` worker threads (0: all cores), into `*out`. `progress`
+/// may be `NULL`. The same scene, seed and spp give the same image whatever
+/// the thread count.
 #[no_mangle]
 pub extern "C" fn plsr_render(
     scene: *const plsr_scene,
@@ -46,32 +96,65 @@ pub extern "C" fn plsr_render(
 ) -> plsr_result {
     boundary(|| {
         let s = handle_ref(scene, "scene")?;
-        if out.is_null() {
-            return Err(FfiError::null("out"));
-        }
-        let options = RenderOptions {
-            threads: (threads > 0).then_some(threads as usize),
-            ..Default::default()
-        };
-        let user = Mutex::new(UserData(user_data));
-        let callback = |done: usize, total: usize| -> bool {
-            match progress {
-                None => true,
-                Some(f) => {
-                    let guard = user.lock().unwrap_or_else(|p| p.into_inner());
-                    f(guard.0, done as u32, total as u32)
-                }
-            }
-        };
-        let (film, _) = render(&s.scene, &options, &callback)?;
-        let rgba = film
-            .color
-            .iter()
-            .zip(&film.alpha)
-            .flat_map(|(c, a)| [c.x, c.y, c.z, *a])
-            .collect();
-        write_out(out, new_handle(plsr_image { film, rgba }), "out")
+        let job = s.scene.default_job();
+        render_into(s, &job, threads, progress, user_data, out)
     })
+}
+
+/// Renders `scene` with other render settings than it was built with
+/// (spp, depth, seed, first sample), without rebuilding it; otherwise as
+/// [`plsr_render`]. Added in 0.3.0.
+#[no_mangle]
+pub extern "C" fn plsr_render_with_settings(
+    scene: *const plsr_scene,
+    settings: *const plsr_render_settings,
+    threads: u32,
+    progress: plsr_progress_fn,
+    user_data: *mut c_void,
+    out: *mut *mut plsr_image,
+) -> plsr_result {
+    boundary(|| {
+        let s = handle_ref(scene, "scene")?;
+        let r = slice_arg(settings, 1, "settings")?[0];
+        let job = job_arg(r.spp, r.max_depth, r.seed, r.sample_start)?;
+        render_into(s, &job, threads, progress, user_data, out)
+    })
+}
+
+/// The body of the render entry points.
+fn render_into(
+    s: &plsr_scene,
+    job: &RenderJob,
+    threads: u32,
+    progress: plsr_progress_fn,
+    user_data: *mut c_void,
+    out: *mut *mut plsr_image,
+) -> Result<(), FfiError> {
+    if out.is_null() {
+        return Err(FfiError::null("out"));
+    }
+    let options = RenderOptions {
+        threads: (threads > 0).then_some(threads as usize),
+        ..Default::default()
+    };
+    let user = Mutex::new(UserData(user_data));
+    let callback = |done: usize, total: usize| -> bool {
+        match progress {
+            None => true,
+            Some(f) => {
+                let guard = user.lock().unwrap_or_else(|p| p.into_inner());
+                f(guard.0, done as u32, total as u32)
+            }
+        }
+    };
+    let (film, _) = render(&s.scene, job, &options, &callback)?;
+    let rgba = film
+        .color
+        .iter()
+        .zip(&film.alpha)
+        .flat_map(|(c, a)| [c.x, c.y, c.z, *a])
+        .collect();
+    write_out(out, new_handle(plsr_image { film, rgba }), "out")
 }
 
 /// Width and height of an image, pixels.

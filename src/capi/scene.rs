@@ -6,9 +6,10 @@ use super::{
 };
 use crate::bsdf::{Bsdf, PrincipledParams};
 use crate::camera::PinholeCamera;
+use crate::job::RenderJob;
 use crate::light::{EnvironmentLight, PointLight};
 use crate::material::Material;
-use crate::scene::{Emission, Mesh, RenderSettings, Scene, SceneDescription};
+use crate::scene::{Emission, Mesh, Scene, SceneDescription};
 use glam::Vec3;
 use std::ffi::c_char;
 
@@ -27,7 +28,7 @@ pub struct plsr_scene_builder {
     point_lights: Vec<PointLight>,
     environment: Option<EnvironmentLight>,
     camera: Option<crate::camera::Camera>,
-    settings: RenderSettings,
+    job: RenderJob,
 }
 
 /// Parameters of a principled material (Mitsuba 3's names; all in [0, 1]
@@ -95,8 +96,8 @@ pub extern "C" fn plsr_scene_resolution(
                 "height"
             }));
         }
-        write_out(width, s.scene.camera.width(), "width")?;
-        write_out(height, s.scene.camera.height(), "height")
+        write_out(width, s.scene.camera().width(), "width")?;
+        write_out(height, s.scene.camera().height(), "height")
     })
 }
 
@@ -111,7 +112,7 @@ pub extern "C" fn plsr_scene_builder_new(out: *mut *mut plsr_scene_builder) -> p
             point_lights: Vec::new(),
             environment: None,
             camera: None,
-            settings: RenderSettings::default(),
+            job: RenderJob::default(),
         };
         write_out(out, new_handle(b), "out")
     })
@@ -416,19 +417,7 @@ pub extern "C" fn plsr_scene_builder_set_render(
 ) -> plsr_result {
     boundary(|| {
         let b = handle_mut(builder, "builder")?;
-        if spp == 0 || spp > 1 << 24 {
-            return Err(FfiError::invalid(format!(
-                "`spp` = {spp} must be in [1, 2^24]"
-            )));
-        }
-        if max_depth == 0 || max_depth > 1024 {
-            return Err(FfiError::invalid(format!(
-                "`max_depth` = {max_depth} must be in [1, 1024]"
-            )));
-        }
-        b.settings.spp = spp;
-        b.settings.max_depth = max_depth;
-        b.settings.seed = seed;
+        b.job = super::image::job_arg(spp, max_depth, seed, 0)?;
         Ok(())
     })
 }
@@ -455,7 +444,8 @@ pub extern "C" fn plsr_scene_builder_build(
             environment: b.environment.clone(),
             camera,
             film: Default::default(),
-            settings: b.settings,
+            job: b.job,
+            robust: false,
         })?;
         write_out(out, new_handle(plsr_scene { scene }), "out")
     })

@@ -28,30 +28,19 @@ pub mod soa;
 pub use soa::{Isa, SoaScene};
 
 use crate::accel::{Ray, RayHit, ShadowRay};
+pub use crate::film::{PixelSums, Tile};
+use crate::job::RenderJob;
 use crate::light::Light;
 use crate::rng::Rng;
 use crate::scene::Scene;
 use crate::warp::{power_heuristic, Frame};
-use glam::{DVec3, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 use std::time::Instant;
 
 /// Number of scattering events after which Russian roulette may end a path.
 pub const RUSSIAN_ROULETTE_DEPTH: u32 = 3;
 
 const COHERENT_CAMERA: bool = true;
-
-/// A rectangle of pixels `[x0, x0+width) × [y0, y0+height)`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Tile {
-    /// Left column.
-    pub x0: u32,
-    /// Top row.
-    pub y0: u32,
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-}
 
 /// Counts of rays traced and the time spent tracing them, for throughput
 /// reports (not comparable between runs: it holds a timing).
@@ -82,25 +71,6 @@ impl RayStats {
         self.shadow += o.shadow;
         self.trace_nanos += o.trace_nanos;
     }
-}
-
-/// What one pixel accumulated over its samples.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct PixelSums {
-    /// Sum of sample radiance.
-    pub sum: DVec3,
-    /// Sum of squared sample radiance.
-    pub sum_sq: DVec3,
-    /// Camera samples that hit geometry.
-    pub hits: u32,
-    /// Sum of camera-space depths of hits.
-    pub depth: f64,
-    /// Sum of first-hit normals.
-    pub normal: Vec3,
-    /// Sum of first-hit albedos.
-    pub albedo: Vec3,
-    /// Object id of the first sample's hit (−1: none).
-    pub object_id: f32,
 }
 
 /// The result of rendering one tile.
@@ -251,37 +221,39 @@ fn spawn_origin(p: Vec3, n: Vec3, eps: f32, dir: Vec3) -> Vec3 {
 #[inline]
 fn camera_sample(
     scene: &Scene,
+    seed: u64,
     lens_sample: bool,
     x: u32,
     y: u32,
     sample: u32,
 ) -> (Rng, Option<Ray>) {
-    let mut rng = Rng::for_sample(scene.settings.seed, x, y, sample);
+    let mut rng = Rng::for_sample(seed, x, y, sample);
     // Filter importance sampling: the filter places the sample, which keeps
     // weight 1 (see `crate::filter`).
-    let film = Vec2::new(x as f32, y as f32) + scene.film.filter.sample(rng.next_2d());
+    let film = Vec2::new(x as f32, y as f32) + scene.film().filter.sample(rng.next_2d());
     let lens = if lens_sample {
         rng.next_2d()
     } else {
         Vec2::ZERO
     };
-    let ray = scene.camera.generate_ray(film, lens);
+    let ray = scene.camera().generate_ray(film, lens);
     (rng, ray)
 }
 
-/// Renders samples `samples` of every pixel of `tile`; with `kernel` (the
+/// Renders the job's samples of every pixel of `tile`; with `kernel` (the
 /// scene's [`SoaScene`] and an instruction set), by the vectorised
 /// kernel, which gives the same image.
 pub fn render_tile(
     scene: &Scene,
+    job: &RenderJob,
     kernel: Option<(&SoaScene, Isa)>,
     tile: Tile,
-    samples: std::ops::Range<u32>,
 ) -> TileResult {
+    let samples = job.samples();
     let n = (tile.width * tile.height) as usize;
     let mut pixels = vec![
         PixelSums {
-            object_id: -1.0,
+            samples: job.spp,
             ..Default::default()
         };
         n
@@ -294,6 +266,7 @@ pub fn render_tile(
             let pass = soa::Pass {
                 kernel,
                 scene,
+                job,
                 tile,
                 sample: s,
                 first: s == first_sample,
@@ -304,31 +277,46 @@ pub fn render_tile(
     }
     let mut wf = Wavefront::default();
     for s in samples {
-        trace_pass(
+        let pass = Pass {
             scene,
+            job,
             tile,
-            s,
-            s == first_sample,
-            &mut wf,
-            &mut pixels,
-            &mut rays,
-        );
+            sample: s,
+            first: s == first_sample,
+        };
+        trace_pass(&pass, &mut wf, &mut pixels, &mut rays);
     }
     TileResult { tile, pixels, rays }
 }
 
-fn trace_pass(
-    scene: &Scene,
+/// One sample pass of the general integrator over a tile.
+struct Pass<'a> {
+    scene: &'a Scene,
+    job: &'a RenderJob,
     tile: Tile,
+    /// The sample index of this pass.
     sample: u32,
+    /// Whether this is the render's first pass over the tile (it records
+    /// the object id).
     first: bool,
+}
+
+fn trace_pass(
+    pass: &Pass,
     wf: &mut Wavefront,
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
 ) {
+    let &Pass {
+        scene,
+        job,
+        tile,
+        sample,
+        first,
+    } = pass;
     // Exposure and white balance, applied to each sample (cheap next to a pass).
-    let response = scene.film.response();
-    let lens_sample = scene.camera.needs_lens_sample();
+    let response = scene.film().response();
+    let lens_sample = scene.camera().needs_lens_sample();
     wf.paths.clear();
     wf.rays.clear();
     for py in 0..tile.height {
@@ -336,7 +324,7 @@ fn trace_pass(
             let (x, y) = (tile.x0 + px, tile.y0 + py);
             // No ray (outside a fisheye's circles): a black sample that hit
             // nothing; it still counts towards spp.
-            let (rng, Some(ray)) = camera_sample(scene, lens_sample, x, y, sample) else {
+            let (rng, Some(ray)) = camera_sample(scene, job.seed, lens_sample, x, y, sample) else {
                 continue;
             };
             wf.rays.push(RayHit::new(ray));
@@ -354,7 +342,9 @@ fn trace_pass(
     }
     stats.camera += wf.rays.len() as u64;
     let clock = Instant::now();
-    scene.accel.intersect_stream(&mut wf.rays, COHERENT_CAMERA);
+    scene
+        .accel()
+        .intersect_stream(&mut wf.rays, COHERENT_CAMERA);
     stats.trace_nanos += clock.elapsed().as_nanos() as u64;
 
     let mut camera_vertex = true;
@@ -365,7 +355,7 @@ fn trace_pass(
             let pixel = &mut pixels[path.pixel as usize];
             let queue = (&mut wf.shadow_rays, &mut wf.pending);
             shade(
-                scene,
+                pass,
                 path,
                 rh,
                 i as u32,
@@ -376,7 +366,7 @@ fn trace_pass(
         }
         stats.shadow += wf.shadow_rays.len() as u64;
         let clock = Instant::now();
-        scene.accel.occluded_stream(&mut wf.shadow_rays, false);
+        scene.accel().occluded_stream(&mut wf.shadow_rays, false);
         stats.trace_nanos += clock.elapsed().as_nanos() as u64;
         for (ray, p) in wf.shadow_rays.iter().zip(&wf.pending) {
             if !ray.occluded() {
@@ -402,7 +392,7 @@ fn trace_pass(
         wf.rays.truncate(live);
         stats.bounce += live as u64;
         let clock = Instant::now();
-        scene.accel.intersect_stream(&mut wf.rays, false);
+        scene.accel().intersect_stream(&mut wf.rays, false);
         stats.trace_nanos += clock.elapsed().as_nanos() as u64;
         camera_vertex = false;
     }
@@ -412,7 +402,7 @@ fn trace_pass(
 /// next ray (written back into `rh`), or ends the path.
 #[inline]
 fn shade(
-    scene: &Scene,
+    pass: &Pass,
     path: &mut PathState,
     rh: &mut RayHit,
     index: u32,
@@ -420,12 +410,13 @@ fn shade(
     pixel: &mut PixelSums,
     (shadow_rays, pending): (&mut Vec<ShadowRay>, &mut Vec<PendingLight>),
 ) {
+    let (scene, max_depth) = (pass.scene, pass.job.max_depth);
     let ray = rh.ray();
     let Some(hit) = rh.hit() else {
         // The ray leaves the scene: it sees the environment, MIS-weighted
         // against light sampling (which could have picked that direction).
-        if let Some(env) = scene.environment {
-            let Light::Environment { light, .. } = &scene.lights.lights[env] else {
+        if let Some(env) = scene.environment_index() {
+            let Light::Environment { light, .. } = &scene.lights().lights[env] else {
                 unreachable!("Scene::environment indexes an environment light")
             };
             let le = light.radiance(ray.dir);
@@ -434,7 +425,7 @@ fn shade(
                     1.0
                 } else {
                     let light_pdf =
-                        scene.lights.pick_pmf(env, path.prev_point) * light.pdf(ray.dir);
+                        scene.lights().pick_pmf(env, path.prev_point) * light.pdf(ray.dir);
                     power_heuristic(path.prev_pdf, light_pdf)
                 };
                 path.radiance += path.beta * le * weight;
@@ -443,12 +434,12 @@ fn shade(
         path.alive = false;
         return;
     };
-    let mesh = &scene.meshes[hit.geom_id as usize];
+    let mesh = &scene.meshes()[hit.geom_id as usize];
     let p = ray.org + hit.t * ray.dir;
     let wo = -ray.dir;
     let ng = hit.ng.normalize_or_zero();
     let facing = if ng.dot(wo) >= 0.0 { ng } else { -ng };
-    let material = &scene.materials[mesh.material as usize];
+    let material = &scene.materials()[mesh.material as usize];
     let surface = SurfacePoint::new(mesh, &hit, !material.textures.is_empty());
     let textured;
     let bsdf = if material.textures.is_empty() {
@@ -467,7 +458,7 @@ fn shade(
 
     if path.depth == 0 {
         pixel.hits += 1;
-        pixel.depth += scene.camera.depth(ray.dir, hit.t) as f64;
+        pixel.depth += scene.camera().depth(ray.dir, hit.t) as f64;
         pixel.normal += if bsdf.transmits() { facing } else { shading_n };
         pixel.albedo += bsdf.albedo();
         if record_aovs_first {
@@ -483,14 +474,14 @@ fn shade(
     // Emission found by the camera ray or by BSDF sampling, MIS-weighted
     // against next-event estimation (which could have found it too).
     if let Some(li) = scene.light_index(hit.geom_id, hit.prim_id) {
-        let light = &scene.lights.lights[li];
+        let light = &scene.lights().lights[li];
         if let Light::Triangle(tl) = light {
             let le = tl.emitted(wo);
             if le != Vec3::ZERO {
                 let weight = if path.depth == 0 || path.prev_pdf == 0.0 {
                     1.0
                 } else {
-                    let light_pdf = scene.lights.pick_pmf(li, path.prev_point)
+                    let light_pdf = scene.lights().pick_pmf(li, path.prev_point)
                         * light.pdf_li(path.prev_point, p, ray.dir);
                     power_heuristic(path.prev_pdf, light_pdf)
                 };
@@ -499,7 +490,6 @@ fn shade(
         }
     }
 
-    let max_depth = scene.settings.max_depth;
     if path.depth >= max_depth {
         path.alive = false;
         return;
@@ -527,11 +517,11 @@ fn shade(
     let light_pick = if bsdf.is_delta() {
         None
     } else {
-        scene.lights.pick(p, path.rng.next_2d())
+        scene.lights().pick(p, path.rng.next_2d())
     };
     if let Some((li, pick_pmf)) = light_pick {
         let u = path.rng.next_2d();
-        if let Some(ls) = scene.lights.lights[li].sample_li(p, u) {
+        if let Some(ls) = scene.lights().lights[li].sample_li(p, u) {
             let wi_local = frame.to_local(ls.wi);
             // A delta light needs no MIS weight, so no BSDF density.
             let (f, bsdf_pdf) = if guard && !sides_agree(wo, ls.wi, ng, wo_local, wi_local) {
@@ -576,7 +566,7 @@ fn shade(
     }
 
     // The ray after the last light sample only matters if it can hit a light.
-    if path.depth + 1 == max_depth && !scene.has_hittable_lights {
+    if path.depth + 1 == max_depth && !scene.has_hittable_lights() {
         path.alive = false;
         return;
     }

@@ -30,6 +30,7 @@ use crate::accel::{gather_lanes, RayBatch, INVALID_ID};
 use crate::bsdf::Bsdf;
 use crate::camera::{Camera, PinholeCamera};
 use crate::filter::PixelFilter;
+use crate::job::RenderJob;
 use crate::light::Light;
 use crate::rng::Rng;
 use crate::scene::Scene;
@@ -65,22 +66,22 @@ impl SoaScene {
             Light::Triangle(t) => t.cone.is_none(),
             Light::Environment { .. } => false,
         };
-        if scene.environment.is_some()
-            || !scene.lights.is_spatially_uniform()
-            || !scene.lights.lights.iter().all(supported)
+        if scene.environment_index().is_some()
+            || !scene.lights().is_spatially_uniform()
+            || !scene.lights().lights.iter().all(supported)
         {
             return None;
         }
         // Light picking must always succeed, as the scalar path assumes when
         // it draws the light sample's numbers.
-        let (first, pmf) = scene.lights.pick(Vec3::ZERO, Vec2::splat(0.5))?;
+        let (first, pmf) = scene.lights().pick(Vec3::ZERO, Vec2::splat(0.5))?;
         let mut albedo = [Vec::new(), Vec::new(), Vec::new()];
         let mut emissive = Vec::new();
-        for (g, mesh) in scene.meshes.iter().enumerate() {
+        for (g, mesh) in scene.meshes().iter().enumerate() {
             if !mesh.normals.is_empty() {
                 return None;
             }
-            let material = scene.materials.get(mesh.material as usize)?;
+            let material = scene.materials().get(mesh.material as usize)?;
             let Bsdf::Diffuse(d) = material.bsdf else {
                 return None;
             };
@@ -90,13 +91,13 @@ impl SoaScene {
             for (c, a) in albedo.iter_mut().enumerate() {
                 a.push(d.reflectance[c]);
             }
-            emissive.push(scene.first_light.get(g).copied().flatten().is_some());
+            emissive.push(scene.light_index(g as u32, 0).is_some());
         }
         for a in &mut albedo {
             a.push(0.0);
         }
         emissive.push(false);
-        let single_light = match scene.lights.lights.as_slice() {
+        let single_light = match scene.lights().lights.as_slice() {
             [l] if first == 0 => Some(LightIn::new(l, pmf)),
             _ => None,
         };
@@ -105,7 +106,7 @@ impl SoaScene {
             emissive,
             single_light,
             triangle_lights: scene
-                .lights
+                .lights()
                 .lights
                 .iter()
                 .any(|l| matches!(l, Light::Triangle(_))),
@@ -327,7 +328,7 @@ impl SoaLanes {
 /// pixels, as the general integrator retires a path.
 #[inline(always)]
 fn retire(lanes: &SoaLanes, ended: &[u32], scene: &Scene, pixels: &mut [PixelSums]) {
-    let response = scene.film.response();
+    let response = scene.film().response();
     for &i in ended {
         let i = i as usize;
         let radiance = Vec3::new(
@@ -348,6 +349,8 @@ pub struct Pass<'a> {
     pub kernel: &'a SoaScene,
     /// The scene.
     pub scene: &'a Scene,
+    /// Seed and depth of the render.
+    pub job: &'a RenderJob,
     /// The tile.
     pub tile: Tile,
     /// The sample index of this pass.
@@ -475,7 +478,7 @@ fn trace_pass_body(
     // Camera rays: vectorised for a pinhole camera with the box filter,
     // otherwise one by one through the general code's camera and filter.
     lanes.resize((pass.tile.width * pass.tile.height) as usize);
-    let n = match (&scene.camera, &scene.film.filter) {
+    let n = match (&scene.camera(), &scene.film().filter) {
         (Camera::Pinhole(pinhole), PixelFilter::Box) => {
             pinhole_camera_rays(pinhole, pass, lanes);
             lanes.rays.len()
@@ -485,13 +488,13 @@ fn trace_pass_body(
     lanes.resize(n);
     stats.camera += n as u64;
     let clock = Instant::now();
-    scene.accel.intersect_batch(&mut lanes.rays, true);
+    scene.accel().intersect_batch(&mut lanes.rays, true);
     stats.trace_nanos += clock.elapsed().as_nanos() as u64;
 
     // The camera vertex's auxiliary layers.
     camera_vertex_layers(pass, lanes, pixels);
 
-    let max_depth = scene.settings.max_depth;
+    let max_depth = pass.job.max_depth;
     // Emission is only found on emitting triangles (and only then are the
     // previous points and densities its MIS weight needs kept).
     let has_emitters = kernel.triangle_lights;
@@ -506,7 +509,7 @@ fn trace_pass_body(
         let n = lanes.rays.len();
         let uniform = Uniform {
             // The ray after the last light sample can only find a light.
-            continue_paths: depth + 1 < max_depth || scene.has_hittable_lights,
+            continue_paths: depth + 1 < max_depth || scene.has_hittable_lights(),
             roulette: depth + 1 >= RUSSIAN_ROULETTE_DEPTH,
         };
         pick_lights(kernel, scene, lanes);
@@ -515,7 +518,7 @@ fn trace_pass_body(
         let shadow_tfar = lanes.shadow.tfar.as_slice();
         stats.shadow += shadow_tfar.iter().filter(|&&t| t > 0.0).count() as u64;
         let clock = Instant::now();
-        scene.accel.occluded_batch(&mut lanes.shadow, false);
+        scene.accel().occluded_batch(&mut lanes.shadow, false);
         stats.trace_nanos += clock.elapsed().as_nanos() as u64;
         let live = add_unoccluded(lanes);
         stats.bounce += live as u64;
@@ -529,7 +532,7 @@ fn trace_pass_body(
             lanes.retain(kernel.triangle_lights);
         }
         let clock = Instant::now();
-        scene.accel.intersect_batch(&mut lanes.rays, false);
+        scene.accel().intersect_batch(&mut lanes.rays, false);
         stats.trace_nanos += clock.elapsed().as_nanos() as u64;
         depth += 1;
     }
@@ -555,7 +558,7 @@ fn add_emission(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes, depth: u
         let Some(li) = scene.light_index(hit.geom_id, hit.prim_id) else {
             continue;
         };
-        let light = &scene.lights.lights[li];
+        let light = &scene.lights().lights[li];
         let Light::Triangle(tl) = light else {
             continue;
         };
@@ -574,7 +577,7 @@ fn add_emission(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes, depth: u
                 lanes.prev_point[2][i],
             );
             let light_pdf =
-                scene.lights.pick_pmf(li, prev_point) * light.pdf_li(prev_point, p, ray.dir);
+                scene.lights().pick_pmf(li, prev_point) * light.pdf_li(prev_point, p, ray.dir);
             power_heuristic(prev_pdf, light_pdf)
         };
         let beta = Vec3::new(lanes.beta[0][i], lanes.beta[1][i], lanes.beta[2][i]);
@@ -616,7 +619,7 @@ fn camera_vertex_layers(pass: &Pass, lanes: &SoaLanes, pixels: &mut [PixelSums])
             for c in 0..3 {
                 normal[c][k] = facing[c];
             }
-            depth[k] = pass.scene.camera.depth(d, t[k]);
+            depth[k] = pass.scene.camera().depth(d, t[k]);
         }
         for k in 0..(n - start).min(W) {
             if geom[k] == INVALID_ID {
@@ -634,7 +637,7 @@ fn camera_vertex_layers(pass: &Pass, lanes: &SoaLanes, pixels: &mut [PixelSums])
             );
             if pass.first {
                 // Light fixtures (u32::MAX) are not objects.
-                let mesh = &pass.scene.meshes[g];
+                let mesh = &pass.scene.meshes()[g];
                 pixel.object_id = if mesh.object_id == u32::MAX {
                     -1.0
                 } else {
@@ -651,12 +654,14 @@ fn camera_vertex_layers(pass: &Pass, lanes: &SoaLanes, pixels: &mut [PixelSums])
 #[inline(always)]
 fn general_camera_rays(pass: &Pass, lanes: &mut SoaLanes) -> usize {
     let (scene, tile) = (pass.scene, pass.tile);
-    let lens_sample = scene.camera.needs_lens_sample();
+    let lens_sample = scene.camera().needs_lens_sample();
     let mut n = 0;
     for py in 0..tile.height {
         for px in 0..tile.width {
             let (x, y) = (tile.x0 + px, tile.y0 + py);
-            let (rng, Some(ray)) = camera_sample(scene, lens_sample, x, y, pass.sample) else {
+            let (rng, Some(ray)) =
+                camera_sample(scene, pass.job.seed, lens_sample, x, y, pass.sample)
+            else {
                 continue;
             };
             lanes.rays.set(n, ray);
@@ -678,7 +683,7 @@ fn general_camera_rays(pass: &Pass, lanes: &mut SoaLanes) -> usize {
 /// vectorised.
 #[inline(always)]
 fn pinhole_camera_rays(camera: &PinholeCamera, pass: &Pass, lanes: &mut SoaLanes) {
-    let (tile, seed, sample) = (pass.tile, pass.scene.settings.seed, pass.sample);
+    let (tile, seed, sample) = (pass.tile, pass.job.seed, pass.sample);
     let n = lanes.rays.len();
     for start in (0..n).step_by(W) {
         let mut dir = [[0.0f32; W]; 3];
@@ -745,12 +750,12 @@ fn pick_lights(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
         }
         let mut rng = Rng::from_parts(lanes.rng_state[i], lanes.rng_inc[i]);
         let (li, pmf) = scene
-            .lights
+            .lights()
             .pick(Vec3::ZERO, rng.next_2d())
             .expect("SoaScene::new checked that picking succeeds");
         lanes
             .lights
-            .set(i, LightIn::new(&scene.lights.lights[li], pmf));
+            .set(i, LightIn::new(&scene.lights().lights[li], pmf));
     }
 }
 

@@ -7,7 +7,7 @@
 //! the file's directory.
 
 use super::shapes::{self, flip_winding, transform_mesh};
-use super::{Emission, Material, MaterialTextures, Mesh, RenderSettings, SceneDescription};
+use super::{Emission, Material, MaterialTextures, Mesh, SceneDescription};
 use crate::bsdf::{
     BlinnPhongParams, Bsdf, CookTorranceParams, DielectricParams, Distribution, Fresnel,
     Microfacet, PrincipledParams,
@@ -20,6 +20,7 @@ use crate::color::{MAX_TEMPERATURE_K, MIN_TEMPERATURE_K};
 use crate::error::{Error, Result};
 use crate::film::{CameraExposure, FilmSettings};
 use crate::filter::{GaussianFilter, PixelFilter, DEFAULT_GAUSSIAN_RADIUS, DEFAULT_GAUSSIAN_SIGMA};
+use crate::job::RenderJob;
 use crate::light::{EnvironmentLight, PointLight};
 use crate::texture::{self, Encoding, ImageTexture};
 use glam::{Mat4, Quat, Vec2, Vec3};
@@ -762,7 +763,8 @@ impl Builder<'_> {
     }
 
     fn build(&self, f: SceneFile) -> Result<SceneDescription> {
-        let settings = self.settings(&f.render)?;
+        let job = self.job(&f.render)?;
+        let robust = f.render.robust.unwrap_or(false);
         let (camera, preset) = self.camera(&f.camera)?;
         let film = self.film(&f.film, preset)?;
 
@@ -841,7 +843,8 @@ impl Builder<'_> {
             environment,
             camera,
             film,
-            settings,
+            job,
+            robust,
         })
     }
 
@@ -902,9 +905,9 @@ impl Builder<'_> {
         }
     }
 
-    fn settings(&self, r: &RenderSection) -> Result<RenderSettings> {
-        let d = RenderSettings::default();
-        Ok(RenderSettings {
+    fn job(&self, r: &RenderSection) -> Result<RenderJob> {
+        let d = RenderJob::default();
+        Ok(RenderJob {
             spp: match r.spp {
                 Some(v) => self.positive_count("render.spp", v, 1 << 24)?,
                 None => d.spp,
@@ -914,7 +917,7 @@ impl Builder<'_> {
                 None => d.max_depth,
             },
             seed: r.seed.unwrap_or(d.seed),
-            robust: r.robust.unwrap_or(d.robust),
+            sample_start: 0,
         })
     }
 

@@ -1,4 +1,4 @@
-//! The scene: meshes, materials, lights, camera and render settings, plus the
+//! The scene: meshes, materials, lights and camera, plus the
 //! Embree acceleration structure built over them.
 //!
 //! A scene is described either by a file ([`Scene::load`], see
@@ -13,6 +13,7 @@ use crate::accel::{Accel, Device, SceneOptions};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::film::FilmSettings;
+use crate::job::RenderJob;
 use crate::light::{Cone, EnvironmentLight, Light, LightSet, PointLight, Reach, TriangleLight};
 use glam::{Vec2, Vec3};
 use std::path::Path;
@@ -87,30 +88,6 @@ pub fn pls_mesh(
     }
 }
 
-/// Settings of a render.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RenderSettings {
-    /// Samples per pixel.
-    pub spp: u32,
-    /// Maximum number of scattering events on a path.
-    pub max_depth: u32,
-    /// Seed of the random streams.
-    pub seed: u64,
-    /// Embree's robust intersection mode.
-    pub robust: bool,
-}
-
-impl Default for RenderSettings {
-    fn default() -> Self {
-        RenderSettings {
-            spp: 16,
-            max_depth: 8,
-            seed: 0,
-            robust: false,
-        }
-    }
-}
-
 /// Everything needed to build a scene, before Embree sees it.
 #[derive(Debug, Clone)]
 pub struct SceneDescription {
@@ -126,35 +103,38 @@ pub struct SceneDescription {
     pub camera: Camera,
     /// Pixel filter, exposure and white balance.
     pub film: FilmSettings,
-    /// Render settings.
-    pub settings: RenderSettings,
+    /// The render the scene file (or builder) asks for; [`Scene::default_job`]
+    /// keeps it, and any other job may render the built scene.
+    pub job: RenderJob,
+    /// Embree's robust intersection mode (watertight, a little slower).
+    pub robust: bool,
 }
 
-/// A scene ready to render.
+/// A scene ready to render: the meshes, materials, lights and camera, and
+/// Embree's acceleration structure over the meshes. What to render of it
+/// (spp, depth, seed) is a [`RenderJob`], given to each render.
 pub struct Scene {
     /// Meshes, indexed by Embree geometry id.
-    pub meshes: Vec<Mesh>,
+    meshes: Vec<Mesh>,
     /// For each mesh, the index in `lights.lights` of its first triangle's
     /// light (emissive meshes only).
-    pub first_light: Vec<Option<u32>>,
+    first_light: Vec<Option<u32>>,
     /// Materials.
-    pub materials: Vec<Material>,
+    materials: Vec<Material>,
     /// All lights.
-    pub lights: LightSet,
-    /// Index in `lights.lights` of the environment, if any: rays that leave
-    /// the scene see it.
-    pub environment: Option<usize>,
+    lights: LightSet,
+    /// Index in `lights.lights` of the environment, if any.
+    environment: Option<usize>,
     /// The camera.
-    pub camera: Camera,
+    camera: Camera,
     /// Pixel filter, exposure and white balance.
-    pub film: FilmSettings,
-    /// Render settings.
-    pub settings: RenderSettings,
+    film: FilmSettings,
+    /// The job the description asked for.
+    default_job: RenderJob,
     /// Embree's acceleration structure over `meshes`.
-    pub accel: Accel,
-    /// Whether any light can be hit by a ray (area lights): otherwise a path
-    /// need not trace the ray after its last light sample.
-    pub has_hittable_lights: bool,
+    accel: Accel,
+    /// Whether any light can be hit by a ray (area lights, environment).
+    has_hittable_lights: bool,
 }
 
 impl Scene {
@@ -173,8 +153,11 @@ impl Scene {
             environment,
             camera,
             film,
-            settings,
+            job,
+            robust,
         } = desc;
+        job.validate()
+            .map_err(|e| Error::InvalidArgument(format!("render: {e}")))?;
         if meshes.len() >= u32::MAX as usize {
             return Err(Error::InvalidArgument("too many meshes".into()));
         }
@@ -262,9 +245,7 @@ impl Scene {
 
         let config = std::env::var(EMBREE_CONFIG_VAR).unwrap_or_default();
         let device = Device::with_config(&config)?;
-        let mut builder = device.scene_builder(SceneOptions {
-            robust: settings.robust,
-        })?;
+        let mut builder = device.scene_builder(SceneOptions { robust })?;
         for (i, m) in meshes.iter().enumerate() {
             builder
                 .add_triangle_mesh(i as u32, &m.positions, &m.triangles)
@@ -281,11 +262,78 @@ impl Scene {
             lights: LightSet::with_groups(lights, groups),
             camera,
             film,
-            settings,
+            default_job: job,
             accel,
             environment,
             has_hittable_lights,
         })
+    }
+
+    /// The meshes, indexed by Embree geometry id.
+    #[inline]
+    pub fn meshes(&self) -> &[Mesh] {
+        &self.meshes
+    }
+
+    /// The materials, indexed by [`Mesh::material`].
+    #[inline]
+    pub fn materials(&self) -> &[Material] {
+        &self.materials
+    }
+
+    /// All lights, with the distribution that picks among them.
+    #[inline]
+    pub fn lights(&self) -> &LightSet {
+        &self.lights
+    }
+
+    /// Index in `lights().lights` of the environment, if any: rays that
+    /// leave the scene see it.
+    #[inline]
+    pub fn environment_index(&self) -> Option<usize> {
+        self.environment
+    }
+
+    /// The camera.
+    #[inline]
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
+    /// Replaces the camera (no rebuild: the geometry is unchanged).
+    pub fn set_camera(&mut self, camera: Camera) {
+        self.camera = camera;
+    }
+
+    /// The film's filter, exposure and white balance.
+    #[inline]
+    pub fn film(&self) -> &FilmSettings {
+        &self.film
+    }
+
+    /// The film's settings, to change between renders.
+    pub fn film_mut(&mut self) -> &mut FilmSettings {
+        &mut self.film
+    }
+
+    /// The job the scene file (or builder) asked for: `[render]`'s spp,
+    /// max_depth and seed.
+    #[inline]
+    pub fn default_job(&self) -> RenderJob {
+        self.default_job
+    }
+
+    /// Embree's acceleration structure over the meshes.
+    #[inline]
+    pub fn accel(&self) -> &Accel {
+        &self.accel
+    }
+
+    /// Whether any light can be hit by a ray (area lights, environment):
+    /// otherwise a path need not trace the ray after its last light sample.
+    #[inline]
+    pub fn has_hittable_lights(&self) -> bool {
+        self.has_hittable_lights
     }
 
     /// Index in `lights.lights` of the light of triangle `prim` of mesh `geom`.

@@ -3,6 +3,7 @@
 use crate::progress::progress_bar;
 use plsr::error::{Error, Result};
 use plsr::film::ToneMap;
+use plsr::job::{JobError, MAX_DEPTH, MAX_SPP};
 use plsr::render::{render, RenderOptions, DEFAULT_TILE_SIZE};
 use plsr::scene::Scene;
 use std::path::{Path, PathBuf};
@@ -70,12 +71,13 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     if let Some(p) = &a.png {
         check_output_dir(p)?;
     }
-    let mut scene = Scene::load(&a.scene)?;
+    let scene = Scene::load(&a.scene)?;
+    let mut job = scene.default_job();
     if let Some(spp) = a.spp {
         if spp == 0 {
             return Err(Error::InvalidArgument("--spp must be at least 1".into()));
         }
-        scene.settings.spp = spp;
+        job.spp = spp;
     }
     if let Some(d) = a.max_depth {
         if d == 0 {
@@ -83,11 +85,18 @@ pub fn run(a: &RenderArgs) -> Result<()> {
                 "--max-depth must be at least 1".into(),
             ));
         }
-        scene.settings.max_depth = d;
+        job.max_depth = d;
     }
     if let Some(s) = a.seed {
-        scene.settings.seed = s;
+        job.seed = s;
     }
+    job.validate().map_err(|e| {
+        Error::InvalidArgument(match e {
+            JobError::Spp(v) => format!("--spp {v}: at most {MAX_SPP}"),
+            JobError::MaxDepth(v) => format!("--max-depth {v}: at most {MAX_DEPTH}"),
+            other => other.to_string(),
+        })
+    })?;
     let options = RenderOptions {
         threads: a.threads,
         tile_size: a.tile_size,
@@ -103,7 +112,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         bar.set_position(done as u64);
         true
     };
-    let (film, stats) = render(&scene, &options, &progress)?;
+    let (film, stats) = render(&scene, &job, &options, &progress)?;
     bar.finish_and_clear();
     film.write_exr(&a.output)?;
     if let Some(p) = &a.png {

@@ -52,7 +52,7 @@ pub fn random_ray_throughput(
     count: usize,
     threads: Option<usize>,
 ) -> Result<(f64, f64)> {
-    let (lo, hi) = scene.accel.bounds();
+    let (lo, hi) = scene.accel().bounds();
     let extent = hi - lo;
     let mut rng = Rng::new(12345, 678);
     let mut rays: Vec<RayHit> = (0..count)
@@ -63,7 +63,7 @@ pub fn random_ray_throughput(
         .collect();
     let fresh = rays.clone();
     let pool = thread_pool(threads)?;
-    let accel = &scene.accel;
+    let accel = scene.accel();
     let mut time = |stream: bool| -> f64 {
         rays.copy_from_slice(&fresh);
         let start = Instant::now();
@@ -175,12 +175,14 @@ pub fn clamped_mean(film: &Film) -> Vec3 {
 
 /// Runs the benchmark and prints its table.
 pub fn run(o: &BenchOptions) -> Result<()> {
-    let mut scene = Scene::load(&o.scene)?;
-    scene.settings.spp = o.spp;
-    scene.camera = scene
+    let mut desc = plsr::scene::file::load(&o.scene)?;
+    let mut job = desc.job;
+    job.spp = o.spp;
+    desc.camera = desc
         .camera
         .with_resolution(o.size, o.size)
         .map_err(|e| Error::InvalidArgument(e.to_string()))?;
+    let scene = Scene::build(desc)?;
     let threads = thread_pool(o.threads)?.current_num_threads();
     println!(
         "plsr bench: {} ({} triangles), {}×{} at {} spp, max depth {}, {} threads",
@@ -189,7 +191,7 @@ pub fn run(o: &BenchOptions) -> Result<()> {
         o.size,
         o.size,
         o.spp,
-        scene.settings.max_depth,
+        job.max_depth,
         threads
     );
 
@@ -206,7 +208,7 @@ pub fn run(o: &BenchOptions) -> Result<()> {
         };
         let mut best: Option<(Film, RenderStats)> = None;
         for _ in 0..2 {
-            let r = render(&scene, &opts, &|_, _| true)?;
+            let r = render(&scene, &job, &opts, &|_, _| true)?;
             if best.as_ref().is_none_or(|b| r.1.seconds < b.1.seconds) {
                 best = Some(r);
             }

@@ -18,7 +18,8 @@ pub fn run(threads: Option<usize>) -> Result<(f64, f64, f64)> {
     use plsr::bsdf::{Bsdf, PrincipledParams};
     let path = Path::new("assets/scenes/cornell/cornell.toml");
     let mut diffuse = plsr::scene::file::load(path)?;
-    diffuse.settings.spp = 32;
+    diffuse.job.spp = 32;
+    let job = diffuse.job;
     diffuse.camera = diffuse
         .camera
         .with_resolution(256, 256)
@@ -59,10 +60,10 @@ pub fn run(threads: Option<usize>) -> Result<(f64, f64, f64)> {
     let mut best_vectorised = 0.0f64;
     for _ in 0..3 {
         for (k, scene) in scenes.iter().enumerate() {
-            let (_, stats): (Film, RenderStats) = render(scene, &opts, &|_, _| true)?;
+            let (_, stats): (Film, RenderStats) = render(scene, &job, &opts, &|_, _| true)?;
             best[k] = best[k].max(stats.msamples_per_s());
         }
-        let (_, stats) = render(&scenes[0], &vectorised_opts, &|_, _| true)?;
+        let (_, stats) = render(&scenes[0], &job, &vectorised_opts, &|_, _| true)?;
         best_vectorised = best_vectorised.max(stats.msamples_per_s());
     }
     println!(

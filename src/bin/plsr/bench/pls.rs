@@ -85,7 +85,8 @@ pub fn run(threads: Option<usize>) -> Result<()> {
     // 2. The window's cost in a render.
     let scene_path = Path::new("assets/scenes/pls-room/pls-room.toml");
     let mut desc = scene_file::load(scene_path)?;
-    desc.settings.spp = 16;
+    desc.job.spp = 16;
+    let job = desc.job;
     desc.camera = desc
         .camera
         .with_resolution(320, 240)
@@ -102,8 +103,8 @@ pub fn run(threads: Option<usize>) -> Result<()> {
     };
     let pls_scene = Scene::build(desc)?;
     let plain_scene = Scene::build(plain)?;
-    let (t_pls, _) = best_of(2, || render(&pls_scene, &opts, &|_, _| true));
-    let (t_plain, _) = best_of(2, || render(&plain_scene, &opts, &|_, _| true));
+    let (t_pls, _) = best_of(2, || render(&pls_scene, &job, &opts, &|_, _| true));
+    let (t_plain, _) = best_of(2, || render(&plain_scene, &job, &opts, &|_, _| true));
     println!();
     println!(
         "Rendering {} at 320×240, 16 spp (best of 2):",

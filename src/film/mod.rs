@@ -42,6 +42,10 @@
 //! order, so the same film always gives the same file, byte for byte.
 
 use crate::atomic_write::write_atomically;
+mod sums;
+
+pub use sums::{FilmSums, PixelSums, Tile};
+
 use crate::color::white_balance_matrix;
 use crate::error::{Error, Result};
 use crate::filter::{GaussianFilter, PixelFilter};

@@ -1,0 +1,131 @@
+//! What to render of a scene: which samples of every pixel, how deep the
+//! paths go and with which seed. Kept apart from the scene, so that one
+//! built scene (and its Embree acceleration structure) serves any number of
+//! renders with different settings.
+
+use std::fmt;
+use std::ops::Range;
+
+/// The most samples per pixel one render may take (2²⁴).
+pub const MAX_SPP: u32 = 1 << 24;
+/// The deepest path a render may trace, in scattering events.
+pub const MAX_DEPTH: u32 = 1024;
+
+/// Which samples of every pixel to render, how deep, with which seed.
+///
+/// The image is a function of the scene, the seed and the sample range
+/// only: never of the thread count or tile size.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RenderJob {
+    /// Samples per pixel, 1 to [`MAX_SPP`].
+    pub spp: u32,
+    /// Index of the first sample: the job renders samples
+    /// `[sample_start, sample_start + spp)` of every pixel, so pieces with
+    /// disjoint ranges add up to the image of their union.
+    pub sample_start: u32,
+    /// Maximum number of scattering events on a path, 0 to [`MAX_DEPTH`]
+    /// (1: direct lighting only; 0: only light seen directly by the camera).
+    pub max_depth: u32,
+    /// Seed of the random streams.
+    pub seed: u64,
+}
+
+impl Default for RenderJob {
+    /// 16 spp from sample 0, depth 8, seed 0.
+    fn default() -> Self {
+        RenderJob {
+            spp: 16,
+            sample_start: 0,
+            max_depth: 8,
+            seed: 0,
+        }
+    }
+}
+
+/// Why a [`RenderJob`] is invalid.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum JobError {
+    /// `spp` is 0 or above [`MAX_SPP`].
+    Spp(u32),
+    /// `max_depth` is above [`MAX_DEPTH`].
+    MaxDepth(u32),
+    /// `sample_start + spp` does not fit in 32 bits.
+    SampleRangeOverflows,
+}
+
+impl fmt::Display for JobError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            JobError::Spp(v) => write!(f, "spp = {v} must be in [1, {MAX_SPP}]"),
+            JobError::MaxDepth(v) => write!(f, "max_depth = {v} must be in [0, {MAX_DEPTH}]"),
+            JobError::SampleRangeOverflows => write!(f, "sample range overflows"),
+        }
+    }
+}
+
+impl std::error::Error for JobError {}
+
+impl RenderJob {
+    /// A job of `spp` samples from sample 0, checked.
+    pub fn new(spp: u32, max_depth: u32, seed: u64) -> Result<RenderJob, JobError> {
+        let job = RenderJob {
+            spp,
+            sample_start: 0,
+            max_depth,
+            seed,
+        };
+        job.validate()?;
+        Ok(job)
+    }
+
+    /// Checks the ranges of every field.
+    pub fn validate(&self) -> Result<(), JobError> {
+        if self.spp == 0 || self.spp > MAX_SPP {
+            return Err(JobError::Spp(self.spp));
+        }
+        if self.max_depth > MAX_DEPTH {
+            return Err(JobError::MaxDepth(self.max_depth));
+        }
+        self.sample_start
+            .checked_add(self.spp)
+            .ok_or(JobError::SampleRangeOverflows)?;
+        Ok(())
+    }
+
+    /// The sample indices rendered, `[sample_start, sample_start + spp)`
+    /// (saturating; [`RenderJob::validate`] rejects ranges that overflow).
+    pub fn samples(&self) -> Range<u32> {
+        self.sample_start..self.sample_start.saturating_add(self.spp)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges_are_checked() {
+        assert!(RenderJob::new(1, 1, 0).is_ok());
+        assert!(RenderJob::new(MAX_SPP, MAX_DEPTH, 0).is_ok());
+        assert_eq!(RenderJob::new(0, 8, 0), Err(JobError::Spp(0)));
+        assert_eq!(
+            RenderJob::new(MAX_SPP + 1, 8, 0),
+            Err(JobError::Spp(MAX_SPP + 1))
+        );
+        assert!(RenderJob::new(4, 0, 0).is_ok(), "emission only");
+        assert_eq!(
+            RenderJob::new(4, MAX_DEPTH + 1, 0),
+            Err(JobError::MaxDepth(MAX_DEPTH + 1))
+        );
+        let job = RenderJob {
+            sample_start: u32::MAX - 2,
+            ..RenderJob::new(4, 8, 0).unwrap()
+        };
+        assert_eq!(job.validate(), Err(JobError::SampleRangeOverflows));
+        let job = RenderJob {
+            sample_start: 10,
+            ..RenderJob::new(4, 8, 0).unwrap()
+        };
+        assert_eq!(job.samples(), 10..14);
+    }
+}
