@@ -117,6 +117,12 @@ pub fn white_balance_matrix(t: f32) -> Mat3 {
     (REC709_TO_XYZ.inverse() * adapt * REC709_TO_XYZ).as_mat3()
 }
 
+/// Luminance `Y` of a linear Rec.709 RGB colour (same units as the colour).
+#[inline]
+pub fn luminance(c: glam::Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

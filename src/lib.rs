@@ -14,7 +14,8 @@
 //!   (white balance) and pixel filters;
 //! - [`hdr`]: HDR panoramas from bracketed photos (OpenImageIO shim,
 //!   response recovery, streaming merge);
-//! - [`camera`], [`bsdf`], [`light`], [`pls`]: the models, each behind one
+//! - [`camera`], [`bsdf`], [`light`] (with the PLS model in [`light::pls`]): the
+//!   models, each behind one
 //!   interface;
 //! - [`texture`], [`material`]: image textures and the materials they vary;
 //! - [`scene`]: scene files and the built scene;
@@ -42,7 +43,6 @@ pub mod integrator;
 pub mod job;
 pub mod light;
 pub mod material;
-pub mod pls;
 pub mod render;
 pub mod rng;
 pub mod scene;

@@ -94,17 +94,10 @@ fn host_scene_in_rust() -> plsr::scene::Scene {
     use plsr::bsdf::Bsdf;
     use plsr::camera::PinholeCamera;
     use plsr::job::RenderJob;
-    use plsr::pls::{BrightnessMode, Pls, PlsGeometry};
+    use plsr::light::pls::{BrightnessMode, Pls, PlsGeometry};
     use plsr::scene::{pls_mesh, Material, Mesh, Scene, SceneDescription};
-    let mesh = |id: u32, positions: Vec<Vec3>, triangles: Vec<[u32; 3]>, material| Mesh {
-        name: format!("mesh {id}"),
-        positions,
-        triangles,
-        normals: vec![],
-        uvs: vec![],
-        material,
-        emission: None,
-        object_id: id,
+    let mesh = |id: u32, positions: Vec<Vec3>, triangles: Vec<[u32; 3]>, material| {
+        Mesh::new(format!("mesh {id}"), positions, triangles, material, id).unwrap()
     };
     let floor = mesh(
         0,

@@ -110,7 +110,7 @@ fn density_integrates_to_one_and_the_integral_is_right() {
             for i in 0..nu {
                 let d = equirect_direction(Vec2::new((i as f32 + 0.5) / nu as f32, v), &env.frame);
                 pdf_sum += env.pdf(d) as f64 * dw;
-                lum_sum += plsr::light::luminance(env.radiance(d)) as f64 * dw;
+                lum_sum += plsr::color::luminance(env.radiance(d)) as f64 * dw;
             }
         }
         assert!((pdf_sum - 1.0).abs() < 2e-3, "{name}: ∫pdf = {pdf_sum}");

@@ -2,7 +2,7 @@
 //! transforms through parameters, and the PLS file format.
 
 use glam::{Mat3, Mat4, Quat, Vec3};
-use plsr::pls::{file, BrightnessMode, Pls, PlsLighting};
+use plsr::light::pls::{file, BrightnessMode, Pls, PlsLighting};
 use std::path::Path;
 
 fn paper() -> PlsLighting {
@@ -166,7 +166,7 @@ fn tessellated_area_converges_to_the_outline_area() {
                 l.name
             );
             last = err;
-            if nf == plsr::pls::DEFAULT_NF {
+            if nf == plsr::light::pls::DEFAULT_NF {
                 assert!(err < 2e-3, "default Nf error {err} for {:?}", l.name);
             }
         }
@@ -210,7 +210,7 @@ fn circle_helper_reproduces_the_papers_flashlight() {
     );
 }
 
-fn max_vertex_distance(a: &plsr::pls::PlsMesh, b: &plsr::pls::PlsMesh) -> f32 {
+fn max_vertex_distance(a: &plsr::light::pls::PlsMesh, b: &plsr::light::pls::PlsMesh) -> f32 {
     assert_eq!(a.triangles, b.triangles);
     a.positions
         .iter()

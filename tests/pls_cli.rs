@@ -79,8 +79,8 @@ fn transform_moves_every_light_through_its_parameters() {
         "1,0,-0.5",
     ]);
     assert!(ok, "{err}");
-    let a = plsr::pls::file::load(Path::new("assets/lights/paper.toml")).unwrap();
-    let b = plsr::pls::file::load(&out).unwrap();
+    let a = plsr::light::pls::file::load(Path::new("assets/lights/paper.toml")).unwrap();
+    let b = plsr::light::pls::file::load(&out).unwrap();
     for (x, y) in a.lights.iter().zip(&b.lights) {
         assert!((y.g.e1 - x.g.e1 - glam::Vec3::new(1.0, 0.0, -0.5)).length() < 1e-6);
         assert_eq!((x.a_deg, x.c, x.b, x.g.d), (y.a_deg, y.c, y.b, y.g.d));
@@ -97,7 +97,7 @@ fn transform_moves_every_light_through_its_parameters() {
         "1 0 0 1  0 1 0 0  0 0 1 -0.5  0 0 0 1",
     ]);
     assert!(ok, "{err}");
-    assert_eq!(plsr::pls::file::load(&out2).unwrap(), b);
+    assert_eq!(plsr::light::pls::file::load(&out2).unwrap(), b);
     // A projective last row is refused and nothing is written.
     let out3 = dir.path().join("bad.toml");
     let (ok, _, err) = plsr(&[

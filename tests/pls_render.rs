@@ -5,7 +5,7 @@ use glam::{Mat4, Vec3};
 use plsr::bsdf::Bsdf;
 use plsr::camera::PinholeCamera;
 use plsr::job::RenderJob;
-use plsr::pls::{BrightnessMode, Pls};
+use plsr::light::pls::{BrightnessMode, Pls};
 use plsr::render::{render, RenderOptions};
 use plsr::scene::shapes::{rectangle, transform_mesh};
 use plsr::scene::{pls_mesh, Material, Mesh, Scene, SceneDescription};
@@ -16,16 +16,7 @@ const ALBEDO: f32 = 0.6;
 fn floor(half: f32) -> Mesh {
     let (mut p, mut t) = rectangle();
     transform_mesh(&Mat4::from_scale(Vec3::splat(half)), &mut p, &mut t);
-    Mesh {
-        name: "floor".into(),
-        positions: p,
-        triangles: t,
-        normals: Vec::new(),
-        uvs: Vec::new(),
-        material: 0,
-        emission: None,
-        object_id: 0,
-    }
+    Mesh::new("floor", p, t, 0, 0).unwrap()
 }
 
 /// Radiance of the floor point `target` (z = 0) lit only by `light`,
@@ -148,7 +139,8 @@ fn the_cone_has_a_hard_edge() {
 /// the plane, checked by its centroid, its extent and pixel agreement.
 #[test]
 fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
-    let lighting = plsr::pls::file::load(std::path::Path::new("assets/lights/paper.toml")).unwrap();
+    let lighting =
+        plsr::light::pls::file::load(std::path::Path::new("assets/lights/paper.toml")).unwrap();
     let flashlight = lighting.lights[0].clone();
     let floor = floor(10.0);
     let look = Vec3::new(0.95, 1.85, 0.0);
@@ -260,4 +252,107 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
     assert!((centroid_img - centroid_geo).length() < 2.0 * pixel);
     // The light is 3 cm across: its penumbra blurs the edge by about that.
     assert!((min_img - min_geo).abs() < 0.03 + pixel && (max_img - max_geo).abs() < 0.03 + pixel);
+}
+
+#[test]
+fn the_built_scene_keeps_its_pls_lights_with_their_parameters() {
+    use plsr::light::pls::{file, DEFAULT_NF};
+    let scene = Scene::load(std::path::Path::new("assets/scenes/pls-room/pls-room.toml")).unwrap();
+    let paper = file::load(std::path::Path::new("assets/lights/paper.toml")).unwrap();
+    let kept: Vec<_> = scene.pls_emitters().collect();
+    assert_eq!(kept.len(), paper.lights.len());
+    for ((geom, emitter), light) in kept.iter().zip(&paper.lights) {
+        assert_eq!(&emitter.light, light, "the file's parameters");
+        assert_eq!(emitter.mode, paper.mode);
+        assert_eq!(emitter.nf, DEFAULT_NF);
+        // The mesh Embree traces is the emitter's tessellation.
+        let mesh = &scene.meshes()[*geom as usize];
+        assert_eq!(mesh.positions, emitter.tessellate().positions);
+    }
+}
+
+#[test]
+fn meshes_and_materials_check_their_own_rules() {
+    use plsr::bsdf::{Bsdf, PrincipledParams};
+    use plsr::scene::MeshError;
+    let tri = vec![[0, 1, 2]];
+    let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+    assert!(Mesh::new("ok", p.clone(), tri.clone(), 0, 0).is_ok());
+    assert_eq!(
+        Mesh::new("empty", vec![], vec![], 0, 0).unwrap_err(),
+        MeshError::Empty
+    );
+    assert_eq!(
+        Mesh::new("index", p.clone(), vec![[0, 1, 3]], 0, 0).unwrap_err(),
+        MeshError::IndexOutOfRange {
+            triangle: 0,
+            vertices: 3
+        }
+    );
+    let mut nan = p.clone();
+    nan[1].y = f32::NAN;
+    assert_eq!(
+        Mesh::new("nan", nan, tri.clone(), 0, 0).unwrap_err(),
+        MeshError::NonFinitePosition(1)
+    );
+    // A mesh built in code with a bad attribute count is refused by the scene.
+    let mut mesh = Mesh::new("normals", p, tri, 0, 0).unwrap();
+    mesh.normals = vec![Vec3::Z];
+    let desc = |meshes, materials| SceneDescription {
+        meshes,
+        materials,
+        point_lights: vec![],
+        environment: None,
+        camera: PinholeCamera::look_at(Vec3::Z, Vec3::ZERO, Vec3::Y, 40.0, 4, 4)
+            .unwrap()
+            .into(),
+        film: Default::default(),
+        job: Default::default(),
+        robust: false,
+    };
+    let err = Scene::build(desc(
+        vec![mesh],
+        vec![Material::new("m", Bsdf::diffuse(Vec3::ONE))],
+    ))
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(err.contains("1 normals for 3 vertices"), "{err}");
+    // Principled parameters out of range: NaN and 1.5.
+    let good = PrincipledParams {
+        base_color: Vec3::splat(0.5),
+        roughness: 0.5,
+        metallic: 0.0,
+        anisotropic: 0.0,
+        specular: 0.5,
+        spec_tint: 0.0,
+        energy_conserving: false,
+    };
+    assert!(good.validate().is_ok());
+    let e = PrincipledParams {
+        roughness: f32::NAN,
+        ..good
+    }
+    .validate()
+    .unwrap_err();
+    assert_eq!(e.parameter, "roughness");
+    let bad = PrincipledParams {
+        metallic: 1.5,
+        ..good
+    };
+    let err = Scene::build(desc(
+        vec![Mesh::new(
+            "t",
+            vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            vec![[0, 1, 2]],
+            0,
+            0,
+        )
+        .unwrap()],
+        vec![Material::new("m", Bsdf::Principled(bad))],
+    ))
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(err.contains("metallic = 1.5 must be in [0, 1]"), "{err}");
 }

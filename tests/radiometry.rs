@@ -25,14 +25,8 @@ fn mesh(
     emission: Option<Emission>,
 ) -> Mesh {
     Mesh {
-        name: name.into(),
-        positions,
-        triangles,
-        normals: Vec::new(),
-        uvs: Vec::new(),
-        material,
         emission,
-        object_id: 0,
+        ..Mesh::new(name, positions, triangles, material, 0).unwrap()
     }
 }
 

@@ -181,7 +181,8 @@ fn light_selection_is_proportional_to_power() {
 #[test]
 fn pls_light_sampling_matches_its_pdf() {
     use plsr::light::{Cone, Reach};
-    let lighting = plsr::pls::file::load(std::path::Path::new("assets/lights/paper.toml")).unwrap();
+    let lighting =
+        plsr::light::pls::file::load(std::path::Path::new("assets/lights/paper.toml")).unwrap();
     let lamp = &lighting.lights[1];
     let mesh = lamp.tessellate(8);
     let cone = Cone::new(lamp.normal(), lamp.a_deg);

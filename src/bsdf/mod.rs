@@ -53,7 +53,7 @@ pub mod models;
 
 pub use microfacet::{Distribution, Microfacet};
 pub use models::{
-    BlinnPhongParams, CookTorranceParams, DielectricParams, DiffuseParams, Fresnel,
+    BlinnPhongParams, CookTorranceParams, DielectricParams, DiffuseParams, Fresnel, ParamError,
     PrincipledParams,
 };
 

@@ -9,7 +9,7 @@ use super::albedo;
 use super::fresnel::{self, reflect, refract};
 use super::microfacet::{Distribution, Microfacet};
 use super::BsdfSample;
-use crate::light::luminance;
+use crate::color::luminance;
 use crate::warp::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -420,7 +420,55 @@ pub struct PrincipledParams {
     pub energy_conserving: bool,
 }
 
+/// A material parameter outside its range.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamError {
+    /// The parameter's name (`roughness`, `base_color`, …).
+    pub parameter: &'static str,
+    /// The value given (for a colour, its offending channel).
+    pub value: f32,
+    /// The range it must lie in, as text (`[0, 1]`).
+    pub range: &'static str,
+}
+
+impl std::fmt::Display for ParamError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} = {} must be in {}",
+            self.parameter, self.value, self.range
+        )
+    }
+}
+
+impl std::error::Error for ParamError {}
+
 impl PrincipledParams {
+    /// Checks every parameter's range: `base_color` channels and the
+    /// scalars all in `[0, 1]` (NaN fails). Returns the parameters.
+    pub fn validate(self) -> Result<PrincipledParams, ParamError> {
+        let unit = |parameter, value: f32| {
+            if (0.0..=1.0).contains(&value) {
+                Ok(())
+            } else {
+                Err(ParamError {
+                    parameter,
+                    value,
+                    range: "[0, 1]",
+                })
+            }
+        };
+        for c in self.base_color.to_array() {
+            unit("base_color", c)?;
+        }
+        unit("roughness", self.roughness)?;
+        unit("metallic", self.metallic)?;
+        unit("anisotropic", self.anisotropic)?;
+        unit("specular", self.specular)?;
+        unit("spec_tint", self.spec_tint)?;
+        Ok(self)
+    }
+
     /// Index of refraction implied by `specular` (Mitsuba's mapping).
     pub fn eta(&self) -> f32 {
         albedo::eta_from_specular(self.specular)

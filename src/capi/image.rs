@@ -2,8 +2,7 @@
 
 use super::{
     boundary, free_handle, handle_ref, new_handle, path_arg, plsr_result, plsr_scene, slice_arg,
-    write_out,
-    FfiError,
+    write_out, FfiError,
 };
 use crate::film::{Film, ToneMap};
 use crate::job::{JobError, RenderJob};

@@ -2,7 +2,7 @@
 //! transform by a 4×4 matrix, tessellate.
 
 use super::{boundary, plsr_result, slice_arg, slice_mut_arg, write_out, FfiError};
-use crate::pls::{BrightnessMode, Pls, PlsGeometry};
+use crate::light::pls::{BrightnessMode, Pls, PlsGeometry};
 use glam::{Mat4, Vec3};
 
 /// One parametric light source `l = (n, g, a, c, b)` (paper section 3;

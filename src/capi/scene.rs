@@ -185,20 +185,7 @@ pub extern "C" fn plsr_scene_builder_add_principled(
         let name = str_arg(name, "name")?;
         let p = slice_arg(params, 1, "params")?[0];
         let base = colour_arg(p.base_color.as_ptr(), "params.base_color", Some(1.0))?;
-        for (n, v) in [
-            ("roughness", p.roughness),
-            ("metallic", p.metallic),
-            ("anisotropic", p.anisotropic),
-            ("specular", p.specular),
-            ("spec_tint", p.spec_tint),
-        ] {
-            if !(0.0..=1.0).contains(&v) {
-                return Err(FfiError::invalid(format!(
-                    "`params.{n}` = {v} must be in [0, 1]"
-                )));
-            }
-        }
-        let bsdf = Bsdf::Principled(PrincipledParams {
+        let params = PrincipledParams {
             base_color: base,
             roughness: p.roughness,
             metallic: p.metallic,
@@ -206,7 +193,15 @@ pub extern "C" fn plsr_scene_builder_add_principled(
             specular: p.specular,
             spec_tint: p.spec_tint,
             energy_conserving: p.energy_conserving,
-        });
+        }
+        .validate()
+        .map_err(|e| {
+            FfiError::invalid(format!(
+                "`params.{}` = {} must be in {}",
+                e.parameter, e.value, e.range
+            ))
+        })?;
+        let bsdf = Bsdf::Principled(params);
         push_material(b, name, bsdf, out_index)
     })
 }
@@ -238,11 +233,6 @@ pub extern "C" fn plsr_scene_builder_add_mesh(
             .ok_or_else(|| FfiError::invalid("triangle_count overflows"))?;
         let p = slice_arg(positions, floats, "positions")?;
         let t = slice_arg(indices, ints, "indices")?;
-        if vertex_count == 0 || triangle_count == 0 {
-            return Err(FfiError::invalid(
-                "a mesh needs at least one vertex and one triangle",
-            ));
-        }
         if material as usize >= b.materials.len() {
             return Err(FfiError::invalid(format!(
                 "material {material} does not exist ({} added)",
@@ -253,18 +243,10 @@ pub extern "C" fn plsr_scene_builder_add_mesh(
             .chunks_exact(3)
             .map(|c| Vec3::new(c[0], c[1], c[2]))
             .collect();
-        if let Some(i) = positions.iter().position(|v| !v.is_finite()) {
-            return Err(FfiError::invalid(format!("position {i} is not finite")));
-        }
         let triangles: Vec<[u32; 3]> = t.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-        if let Some(i) = triangles
-            .iter()
-            .position(|tri| tri.iter().any(|&k| k as usize >= vertex_count))
-        {
-            return Err(FfiError::invalid(format!(
-                "triangle {i} refers to a vertex past the {vertex_count} given"
-            )));
-        }
+        let id = b.meshes.len() as u32;
+        let mut mesh = Mesh::new(format!("mesh {id}"), positions, triangles, material, id)
+            .map_err(|e| FfiError::invalid(e.to_string()))?;
         let emission = if emission.is_null() {
             None
         } else {
@@ -274,20 +256,11 @@ pub extern "C" fn plsr_scene_builder_add_mesh(
                 cone: None,
             })
         };
-        let id = b.meshes.len() as u32;
+        mesh.emission = emission;
         if !out_object_id.is_null() {
             write_out(out_object_id, id, "out_object_id")?;
         }
-        b.meshes.push(Mesh {
-            name: format!("mesh {id}"),
-            positions,
-            triangles,
-            normals: Vec::new(),
-            uvs: Vec::new(),
-            material,
-            emission,
-            object_id: id,
-        });
+        b.meshes.push(mesh);
         Ok(())
     })
 }
@@ -334,9 +307,9 @@ pub extern "C" fn plsr_scene_builder_add_pls(
             }
         };
         let nf = if nf == 0 {
-            crate::pls::DEFAULT_NF
+            crate::light::pls::DEFAULT_NF
         } else {
-            nf.min(4096)
+            nf.min(crate::light::pls::MAX_NF)
         };
         let name = format!("pls {}", b.meshes.len());
         b.meshes

@@ -301,12 +301,7 @@ struct Pass<'a> {
     first: bool,
 }
 
-fn trace_pass(
-    pass: &Pass,
-    wf: &mut Wavefront,
-    pixels: &mut [PixelSums],
-    stats: &mut RayStats,
-) {
+fn trace_pass(pass: &Pass, wf: &mut Wavefront, pixels: &mut [PixelSums], stats: &mut RayStats) {
     let &Pass {
         scene,
         job,

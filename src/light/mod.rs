@@ -28,14 +28,16 @@
 //! [`LightSet::pick_pmf`] for MIS.
 
 mod envmap;
+pub mod pls;
 mod point;
-mod reach;
 mod triangle;
 
 pub use envmap::EnvironmentLight;
+pub use pls::{Cone, Reach};
 pub use point::PointLight;
-pub use reach::Reach;
-pub use triangle::{Cone, TriangleLight};
+pub use triangle::TriangleLight;
+
+use crate::color::luminance;
 
 use crate::warp::Distribution1D;
 use glam::{Vec2, Vec3};
@@ -73,12 +75,6 @@ pub struct LightSample {
     pub pdf: f32,
     /// Whether the light is a delta distribution (cannot be hit by BSDF rays).
     pub delta: bool,
-}
-
-/// Luminance of a linear Rec.709 RGB colour.
-#[inline]
-pub fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
 impl Light {

@@ -11,35 +11,11 @@
 //! two_sided = false        # default: emit on the geometric normal's side only
 //! ```
 
-use super::{luminance, LightSample};
+use super::pls::Cone;
+use super::LightSample;
+use crate::color::luminance;
 use crate::warp::square_to_uniform_triangle;
 use glam::{Vec2, Vec3};
-
-/// A hard-edged cone of emission: light leaves only along directions `u`
-/// with `acos(u·axis) ≤ a` (the PLS window function `W(u)`, eq. 12).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Cone {
-    /// Unit axis (the PLS normal `n`).
-    pub axis: Vec3,
-    /// `cos a`, with `a` the divergence half-angle.
-    pub cos_a: f32,
-}
-
-impl Cone {
-    /// A cone around `axis` (normalised here) of half-angle `a_deg` degrees.
-    pub fn new(axis: Vec3, a_deg: f32) -> Cone {
-        Cone {
-            axis: axis.normalize(),
-            cos_a: a_deg.to_radians().cos(),
-        }
-    }
-
-    /// `W(u)`: whether the unit direction `u` (leaving the light) is inside.
-    #[inline]
-    pub fn contains(&self, u: Vec3) -> bool {
-        u.dot(self.axis) >= self.cos_a
-    }
-}
 
 /// A triangle emitting constant radiance.
 #[derive(Debug, Clone, PartialEq)]

@@ -648,15 +648,28 @@ impl Builder<'_> {
                 eta: ior(1.5)?,
                 microfacet: self.microfacet(field, m, None)?,
             }),
-            "principled" => Bsdf::Principled(PrincipledParams {
-                base_color: colour("base_color", m.base_color, 0.5)?,
-                roughness: self.unit(&format!("{field}.roughness"), m.roughness, 0.5)?,
-                metallic: self.unit(&format!("{field}.metallic"), m.metallic, 0.0)?,
-                anisotropic: self.unit(&format!("{field}.anisotropic"), m.anisotropic, 0.0)?,
-                specular: specular_number(0.5)?,
-                spec_tint: self.unit(&format!("{field}.spec_tint"), m.spec_tint, 0.0)?,
-                energy_conserving: m.energy_conserving.unwrap_or(false),
-            }),
+            "principled" => {
+                // The parser checks that each value is a finite number; the
+                // ranges are the material's own rule.
+                let number = |name: &str, v: Option<f32>, default: f32| {
+                    self.finite(&format!("{field}.{name}"), v.unwrap_or(default))
+                };
+                let params = PrincipledParams {
+                    base_color: colour("base_color", m.base_color, 0.5)?,
+                    roughness: number("roughness", m.roughness, 0.5)?,
+                    metallic: number("metallic", m.metallic, 0.0)?,
+                    anisotropic: number("anisotropic", m.anisotropic, 0.0)?,
+                    specular: specular_number(0.5)?,
+                    spec_tint: number("spec_tint", m.spec_tint, 0.0)?,
+                    energy_conserving: m.energy_conserving.unwrap_or(false),
+                };
+                Bsdf::Principled(params.validate().map_err(|e| {
+                    self.err(
+                        format!("{field}.{}", e.parameter),
+                        format!("must be in {}, got {}", e.range, e.value),
+                    )
+                })?)
+            }
             _ => unreachable!("checked above"),
         })
     }
@@ -1313,7 +1326,7 @@ impl Builder<'_> {
         }
         // Errors inside the PLS file keep its name, light and parameter,
         // behind the scene field that referred to it.
-        let mut lighting = crate::pls::file::load(&path)
+        let mut lighting = crate::light::pls::file::load(&path)
             .map_err(|e| self.err(format!("{field}.file"), e.to_string()))?;
         if let Some(t) = &s.transform {
             let m = self.transform(&format!("{field}.transform"), t)?;
@@ -1325,11 +1338,14 @@ impl Builder<'_> {
                 )
             })?;
         }
-        let nf = s.nf.unwrap_or(crate::pls::DEFAULT_NF);
-        if nf == 0 || nf > 4096 {
+        let nf = s.nf.unwrap_or(crate::light::pls::DEFAULT_NF);
+        if nf == 0 || nf > crate::light::pls::MAX_NF {
             return Err(self.err(
                 format!("{field}.nf"),
-                format!("must be between 1 and 4096, got {nf}"),
+                format!(
+                    "must be between 1 and {}, got {nf}",
+                    crate::light::pls::MAX_NF
+                ),
             ));
         }
         // PLS emitters do not reflect: a black material.
@@ -1541,6 +1557,7 @@ impl Builder<'_> {
                         material: mat,
                         emission: emission.or(mtl_emission),
                         object_id,
+                        pls: None,
                     });
                 }
                 return Ok(());
@@ -1613,6 +1630,7 @@ impl Builder<'_> {
             material,
             emission,
             object_id,
+            pls: None,
         });
         Ok(())
     }

@@ -14,6 +14,7 @@ use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::film::FilmSettings;
 use crate::job::RenderJob;
+use crate::light::pls::{BrightnessMode, Pls, PlsEmitter};
 use crate::light::{Cone, EnvironmentLight, Light, LightSet, PointLight, Reach, TriangleLight};
 use glam::{Vec2, Vec3};
 use std::path::Path;
@@ -57,21 +58,138 @@ pub struct Mesh {
     /// Object identity written to the film's object AOV (the scene-file shape
     /// index), so that later compositing can cut objects out.
     pub object_id: u32,
+    /// For the emitter of a parametric light: the light it tessellates.
+    pub pls: Option<PlsEmitter>,
+}
+
+/// Why a mesh is invalid.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MeshError {
+    /// No vertices or no triangles.
+    Empty,
+    /// Vertex `i`'s position is not finite.
+    NonFinitePosition(usize),
+    /// Triangle `i` refers to a vertex past the last.
+    IndexOutOfRange {
+        /// The triangle.
+        triangle: usize,
+        /// How many vertices there are.
+        vertices: usize,
+    },
+    /// The normals or texture coordinates are neither empty nor one per vertex.
+    AttributeCount {
+        /// `"normals"` or `"uvs"`.
+        attribute: &'static str,
+        /// How many were given.
+        given: usize,
+        /// How many vertices there are.
+        vertices: usize,
+    },
+    /// More vertices than 32-bit indices can address.
+    TooManyVertices(usize),
+}
+
+impl std::fmt::Display for MeshError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MeshError::Empty => write!(f, "a mesh needs at least one vertex and one triangle"),
+            MeshError::NonFinitePosition(i) => write!(f, "position {i} is not finite"),
+            MeshError::IndexOutOfRange { triangle, vertices } => write!(
+                f,
+                "triangle {triangle} refers to a vertex past the {vertices} given"
+            ),
+            MeshError::AttributeCount {
+                attribute,
+                given,
+                vertices,
+            } => write!(
+                f,
+                "{given} {attribute} for {vertices} vertices (give one per vertex, or none)"
+            ),
+            MeshError::TooManyVertices(n) => write!(f, "{n} vertices: at most 2^32"),
+        }
+    }
+}
+
+impl std::error::Error for MeshError {}
+
+impl Mesh {
+    /// A checked mesh of `positions` and counter-clockwise `triangles`, with
+    /// material `material`, no normals, texture coordinates or emission,
+    /// and object id `object_id`.
+    pub fn new(
+        name: impl Into<String>,
+        positions: Vec<Vec3>,
+        triangles: Vec<[u32; 3]>,
+        material: u32,
+        object_id: u32,
+    ) -> std::result::Result<Mesh, MeshError> {
+        if positions.is_empty() || triangles.is_empty() {
+            return Err(MeshError::Empty);
+        }
+        let mesh = Mesh {
+            name: name.into(),
+            positions,
+            triangles,
+            normals: Vec::new(),
+            uvs: Vec::new(),
+            material,
+            emission: None,
+            object_id,
+            pls: None,
+        };
+        mesh.validate()?;
+        Ok(mesh)
+    }
+
+    /// Checks what Embree and the integrator rely on: finite positions,
+    /// indices in range, one normal and one texture coordinate per vertex
+    /// (or none). Empty meshes pass (scene files may hold them); only
+    /// [`Mesh::new`] refuses them.
+    pub fn validate(&self) -> std::result::Result<(), MeshError> {
+        let n = self.positions.len();
+        if n > u32::MAX as usize {
+            return Err(MeshError::TooManyVertices(n));
+        }
+        if let Some(i) = self.positions.iter().position(|v| !v.is_finite()) {
+            return Err(MeshError::NonFinitePosition(i));
+        }
+        if let Some(t) = self
+            .triangles
+            .iter()
+            .position(|tri| tri.iter().any(|&k| k as usize >= n))
+        {
+            return Err(MeshError::IndexOutOfRange {
+                triangle: t,
+                vertices: n,
+            });
+        }
+        for (attribute, given) in [("normals", self.normals.len()), ("uvs", self.uvs.len())] {
+            if given != 0 && given != n {
+                return Err(MeshError::AttributeCount {
+                    attribute,
+                    given,
+                    vertices: n,
+                });
+            }
+        }
+        Ok(())
+    }
 }
 
 /// The emitter of a parametric light source as a mesh: its outline
 /// tessellated into `nf` quads, emitting `light.radiance(mode, area)` into its
 /// cone, with material `material` (normally black: fixtures do not reflect).
-/// Light fixtures are not objects: their `object_id` is `u32::MAX`.
-pub fn pls_mesh(
-    light: &crate::pls::Pls,
-    mode: crate::pls::BrightnessMode,
-    nf: u32,
-    material: u32,
-    name: String,
-) -> Mesh {
-    let mesh = light.tessellate(nf);
-    let radiance = light.radiance(mode, mesh.area());
+/// Light fixtures are not objects: their `object_id` is `u32::MAX`. The mesh
+/// keeps the light's parameters ([`Mesh::pls`]).
+pub fn pls_mesh(light: &Pls, mode: BrightnessMode, nf: u32, material: u32, name: String) -> Mesh {
+    let emitter = PlsEmitter {
+        light: light.clone(),
+        mode,
+        nf,
+    };
+    let mesh = emitter.tessellate();
+    let radiance = emitter.radiance(mesh.area());
     Mesh {
         name,
         positions: mesh.positions,
@@ -82,9 +200,10 @@ pub fn pls_mesh(
         emission: Some(Emission {
             radiance,
             two_sided: false,
-            cone: Some(Cone::new(light.normal(), light.a_deg)),
+            cone: Some(emitter.cone()),
         }),
         object_id: u32::MAX,
+        pls: Some(emitter),
     }
 }
 
@@ -163,12 +282,17 @@ impl Scene {
         }
         // Tabulate the albedos energy-conserving materials need now rather
         // than in the middle of the render.
-        for m in &materials {
+        for (i, m) in materials.iter().enumerate() {
             if let crate::bsdf::Bsdf::Principled(p) = &m.bsdf {
+                p.validate().map_err(|e| {
+                    Error::InvalidArgument(format!("material {i} ({}): {e}", m.name))
+                })?;
                 p.prepare();
             }
         }
         for (i, m) in meshes.iter().enumerate() {
+            m.validate()
+                .map_err(|e| Error::InvalidArgument(format!("mesh {i} ({}): {e}", m.name)))?;
             if m.material as usize >= materials.len() {
                 return Err(Error::InvalidArgument(format!(
                     "mesh {i} ({}) uses material {} of {}",
@@ -334,6 +458,15 @@ impl Scene {
     #[inline]
     pub fn has_hittable_lights(&self) -> bool {
         self.has_hittable_lights
+    }
+
+    /// The parametric lights, each with the Embree geometry id of its
+    /// tessellated emitter.
+    pub fn pls_emitters(&self) -> impl Iterator<Item = (u32, &PlsEmitter)> {
+        self.meshes
+            .iter()
+            .enumerate()
+            .filter_map(|(i, m)| m.pls.as_ref().map(|e| (i as u32, e)))
     }
 
     /// Index in `lights.lights` of the light of triangle `prim` of mesh `geom`.

@@ -2,11 +2,9 @@
 
 use clap::Subcommand;
 use glam::{Mat4, Quat, Vec3};
-use plsr::atomic_write::write_atomically;
+use plsr::color::luminance;
 use plsr::error::{Error, Result};
-use plsr::light::luminance;
-use plsr::pls::{file, BrightnessMode, PlsLighting};
-use std::io::Write;
+use plsr::light::pls::{file, BrightnessMode};
 use std::path::Path;
 use std::path::PathBuf;
 
@@ -19,7 +17,7 @@ pub enum PlsCommand {
         /// The PLS file (TOML or JSON).
         file: PathBuf,
         /// Quads along each light's axis for the tessellated area.
-        #[arg(long, default_value_t = plsr::pls::DEFAULT_NF)]
+        #[arg(long, default_value_t = plsr::light::pls::DEFAULT_NF)]
         nf: u32,
     },
     /// Export the tessellated emitters as a Wavefront OBJ (one object per light).
@@ -30,7 +28,7 @@ pub enum PlsCommand {
         #[arg(short, long)]
         output: PathBuf,
         /// Quads along each light's axis.
-        #[arg(long, default_value_t = plsr::pls::DEFAULT_NF)]
+        #[arg(long, default_value_t = plsr::light::pls::DEFAULT_NF)]
         nf: u32,
     },
     /// Transform every light through its parameters (paper eq. 15–21) and
@@ -135,43 +133,12 @@ fn check(path: &Path, nf: u32) -> Result<()> {
     Ok(())
 }
 
-/// Writes the tessellated lights as an OBJ: one object per light, faces
-/// counter-clockwise seen from the emitting side.
-pub fn write_obj(lighting: &PlsLighting, nf: u32, path: &Path) -> Result<()> {
-    let io = |source| Error::Io {
-        file: path.to_path_buf(),
-        source,
-    };
-    write_atomically(path, |w| {
-        writeln!(
-            w,
-            "# plsr pls mesh: {} light(s), Nf = {nf}",
-            lighting.lights.len()
-        )
-        .map_err(io)?;
-        let mut base = 1u32;
-        for (i, l) in lighting.lights.iter().enumerate() {
-            let m = l.tessellate(nf);
-            let name = l.name.clone().unwrap_or_else(|| format!("light{i}"));
-            writeln!(w, "o {}", name.replace(char::is_whitespace, "_")).map_err(io)?;
-            for p in &m.positions {
-                writeln!(w, "v {} {} {}", p.x, p.y, p.z).map_err(io)?;
-            }
-            for t in &m.triangles {
-                writeln!(w, "f {} {} {}", t[0] + base, t[1] + base, t[2] + base).map_err(io)?;
-            }
-            base += m.positions.len() as u32;
-        }
-        Ok(())
-    })
-}
-
 fn mesh(path: &Path, output: &Path, nf: u32) -> Result<()> {
     if nf == 0 {
         return Err(Error::InvalidArgument("--nf must be at least 1".into()));
     }
     let lighting = file::load(path)?;
-    write_obj(&lighting, nf, output)?;
+    file::save_obj(&lighting, nf, output)?;
     eprintln!(
         "wrote {} light(s) at Nf = {nf} → {}",
         lighting.lights.len(),

@@ -8,7 +8,7 @@
 
 use glam::{Mat4, Quat, Vec3};
 use plsr::error::Result;
-use plsr::pls::{file, BrightnessMode, Pls, PlsMesh};
+use plsr::light::pls::{file, BrightnessMode, Pls, PlsMesh};
 use plsr::render::{render, RenderOptions};
 use plsr::rng::Rng;
 use plsr::scene::{file as scene_file, Scene};
@@ -141,7 +141,7 @@ fn irradiance_estimate(
 ) -> (f64, f64, f64) {
     use plsr::light::{Cone, TriangleLight};
     use plsr::warp::{sample_spherical_triangle, Distribution1D};
-    let mesh = light.tessellate(plsr::pls::DEFAULT_NF);
+    let mesh = light.tessellate(plsr::light::pls::DEFAULT_NF);
     let radiance = light.radiance(mode, mesh.area()).x;
     let cone = Cone::new(light.normal(), light.a_deg);
     let tris: Vec<TriangleLight> = mesh

@@ -10,7 +10,7 @@
 //! region contains the set `g ≥ 0` entirely, and that set always contains the
 //! point where the ray from `p` along `−n` meets the emitter.
 
-use super::triangle::Cone;
+use super::Cone;
 use glam::Vec3;
 
 /// A planar rectangle as two triangles and its four edges.
@@ -280,8 +280,16 @@ mod tests {
     /// emitting down into a 30° cone: its bounding rectangle is a strict
     /// superset, so the rectangle pre-test and the outline test both matter.
     fn disk_down() -> (Reach, Vec<[Vec3; 3]>) {
-        let l = crate::pls::Pls::circle(Vec3::ZERO, 0.5, -Vec3::Z, Vec3::X, 30.0, Vec3::ONE, 1.0)
-            .unwrap();
+        let l = crate::light::pls::Pls::circle(
+            Vec3::ZERO,
+            0.5,
+            -Vec3::Z,
+            Vec3::X,
+            30.0,
+            Vec3::ONE,
+            1.0,
+        )
+        .unwrap();
         let m = l.tessellate(16);
         let tris: Vec<[Vec3; 3]> = m
             .triangles

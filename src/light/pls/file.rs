@@ -244,3 +244,34 @@ pub fn save(lighting: &PlsLighting, path: &Path) -> Result<()> {
         })
     })
 }
+
+/// Writes the tessellated lights as an OBJ: one object per light, faces
+/// counter-clockwise seen from the emitting side.
+pub fn save_obj(lighting: &PlsLighting, nf: u32, path: &Path) -> Result<()> {
+    let io = |source| Error::Io {
+        file: path.to_path_buf(),
+        source,
+    };
+    write_atomically(path, |w| {
+        writeln!(
+            w,
+            "# plsr pls mesh: {} light(s), Nf = {nf}",
+            lighting.lights.len()
+        )
+        .map_err(io)?;
+        let mut base = 1u32;
+        for (i, l) in lighting.lights.iter().enumerate() {
+            let m = l.tessellate(nf);
+            let name = l.name.clone().unwrap_or_else(|| format!("light{i}"));
+            writeln!(w, "o {}", name.replace(char::is_whitespace, "_")).map_err(io)?;
+            for p in &m.positions {
+                writeln!(w, "v {} {} {}", p.x, p.y, p.z).map_err(io)?;
+            }
+            for t in &m.triangles {
+                writeln!(w, "f {} {} {}", t[0] + base, t[1] + base, t[2] + base).map_err(io)?;
+            }
+            base += m.positions.len() as u32;
+        }
+        Ok(())
+    })
+}

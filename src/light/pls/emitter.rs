@@ -1,0 +1,51 @@
+//! A parametric light as a scene holds it: its parameters, how its
+//! brightness reads, and how finely its outline is tessellated. The built
+//! scene keeps these beside the triangles Embree traces, so that later
+//! stages (transforms, re-tessellation, fitting) work on the parameters.
+
+use super::{BrightnessMode, Cone, Pls, PlsError, PlsMesh};
+use glam::Vec3;
+
+/// The most quads a light's outline may be tessellated into.
+pub const MAX_NF: u32 = 4096;
+
+/// One parametric light in a scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlsEmitter {
+    /// The light's parameters `(n, g, a, c, b)`.
+    pub light: Pls,
+    /// How `b` becomes radiance.
+    pub mode: BrightnessMode,
+    /// Quads along the axis of the tessellated outline, 1 to [`MAX_NF`].
+    pub nf: u32,
+}
+
+impl PlsEmitter {
+    /// A checked emitter: the light's parameters valid and `nf` in range.
+    pub fn new(light: Pls, mode: BrightnessMode, nf: u32) -> Result<PlsEmitter, PlsError> {
+        light.validate(0)?;
+        if nf == 0 || nf > MAX_NF {
+            return Err(PlsError {
+                light: light.label(0),
+                parameter: "nf".into(),
+                message: format!("must be between 1 and {MAX_NF}, got {nf}"),
+            });
+        }
+        Ok(PlsEmitter { light, mode, nf })
+    }
+
+    /// The outline tessellated into `nf` quads.
+    pub fn tessellate(&self) -> PlsMesh {
+        self.light.tessellate(self.nf)
+    }
+
+    /// The window: the cone the light emits into (paper eq. 12).
+    pub fn cone(&self) -> Cone {
+        Cone::new(self.light.normal(), self.light.a_deg)
+    }
+
+    /// Surface radiance of the tessellated emitter of area `area` (m²).
+    pub fn radiance(&self, area: f32) -> Vec3 {
+        self.light.radiance(self.mode, area)
+    }
+}
