@@ -154,3 +154,13 @@ pub fn capture(
         .map(|p| out.join(p.file_name().expect("bracket files have names")))
         .collect())
 }
+
+/// A rendered image (its colour), e.g. a 360° panorama of a scene.
+impl crate::hdr::synth::RadianceImage for crate::film::Film {
+    fn size(&self) -> (usize, usize) {
+        (self.width as usize, self.height as usize)
+    }
+    fn radiance(&self, x: usize, y: usize) -> [f32; 3] {
+        self.color[y * self.width as usize + x].to_array()
+    }
+}

@@ -5,25 +5,22 @@
 //! progress bars, benchmarks) is the binary in `src/bin/plsr/`, and
 //! `libplsr.so` is this library with its C ABI ([`capi`]).
 //!
-//! Module map, dependencies pointing downwards (see `docs/architecture.md`):
-//! - [`sys`] (the `plsr-embree-sys` crate): raw Embree 3 bindings;
-//! - [`error`], [`atomic_write`]: errors, and files replaced all at once;
-//! - [`accel`]: the safe Embree layer (device, scene, ray queries);
-//! - [`rng`], [`warp`]: random streams; warps, discrete distributions, MIS;
-//! - [`equirect`], [`color`], [`filter`]: the panorama convention, colour
-//!   (white balance) and pixel filters;
-//! - [`hdr`]: HDR panoramas from bracketed photos (OpenImageIO shim,
-//!   response recovery, streaming merge);
-//! - [`camera`], [`bsdf`], [`light`] (with the PLS model in [`light::pls`]): the
-//!   models, each behind one
-//!   interface;
-//! - [`texture`], [`material`]: image textures and the materials they vary;
-//! - [`scene`]: scene files and the built scene;
-//! - [`integrator`]: the path tracer and its vectorised kernel;
-//! - [`film`]: the image with its AOVs, EXR and PNG output;
-//! - [`render`]: the tile scheduler;
-//! - [`capture`]: a simulated 360° bracket capture of a rendered scene;
-//! - [`capi`]: the C ABI for C and C++ hosts (`include/plsr.h`).
+//! Module map, from the bottom layer up; each module uses only modules on
+//! its own layer or below (see `docs/architecture.md`):
+//! 0. [`error`], [`atomic_write`], [`rng`], [`warp`], [`color`], [`filter`],
+//!    [`job`]: errors, files replaced all at once, random streams, warps,
+//!    colour, pixel filters, and what to render ([`job::RenderJob`]);
+//! 1. [`accel`] (over [`sys`], the raw Embree 3 bindings), [`equirect`],
+//!    [`threads`]: Embree, the panorama convention, worker threads;
+//! 2. [`hdr`]: images through OpenImageIO, camera responses, bracket merging;
+//! 3. [`camera`], [`bsdf`], [`texture`], [`material`], [`light`] (with the
+//!    parametric light sources in [`light::pls`]): the models;
+//! 4. [`film`]: per-pixel sums, the developed image, EXR and PNG;
+//! 5. [`scene`]: the built scene and scene files;
+//! 6. [`integrator`]: the path tracer and its vectorised kernel;
+//! 7. [`render`]: a whole image on the thread pool;
+//! 8. [`capture`], [`capi`]: a simulated 360° bracket capture; the C ABI
+//!    for C and C++ hosts (`include/plsr.h`).
 
 pub use plsr_embree_sys as sys;
 
@@ -47,6 +44,7 @@ pub mod render;
 pub mod rng;
 pub mod scene;
 pub mod texture;
+pub mod threads;
 pub mod warp;
 
 pub use error::{Error, Result};

@@ -1,12 +1,12 @@
 //! Rendering a whole image: tiles spread over a rayon pool, progress and
 //! cancellation, each tile folded into the film's sums as it finishes.
 
-use crate::accel::enable_flush_to_zero;
 use crate::error::{Error, Result};
 use crate::film::{Film, FilmSums};
 use crate::integrator::{render_tile, Isa, RayStats, SoaScene, Tile};
 pub use crate::job::RenderJob;
 use crate::scene::Scene;
+pub use crate::threads::thread_pool;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -91,22 +91,6 @@ impl RenderStats {
         let trace_wall = self.rays.trace_nanos as f64 * 1e-9 / self.threads as f64;
         self.samples as f64 / trace_wall / 1e6
     }
-}
-
-/// A rayon pool whose workers run with flush-to-zero and denormals-are-zero,
-/// as Embree requires of every thread that traces rays.
-pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
-    let mut b = rayon::ThreadPoolBuilder::new().start_handler(|_| enable_flush_to_zero());
-    if let Some(n) = threads {
-        if n == 0 {
-            return Err(Error::InvalidArgument(
-                "thread count must be at least 1".into(),
-            ));
-        }
-        b = b.num_threads(n);
-    }
-    b.build()
-        .map_err(|e| Error::InvalidArgument(format!("cannot start worker threads: {e}")))
 }
 
 /// The tiles covering a `width × height` image, in scanline order.

@@ -642,7 +642,7 @@ pub fn merge(
     }
     let mut brackets = open_inputs(inputs, options)?;
     let info = brackets[0].reader.info().clone();
-    let pool = crate::render::thread_pool(options.threads)?;
+    let pool = crate::threads::thread_pool(options.threads)?;
     match info.format {
         PixelType::U8 => run::<u8>(&mut brackets, output, options, &pool, progress, start),
         PixelType::U16 => run::<u16>(&mut brackets, output, options, &pool, progress, start),

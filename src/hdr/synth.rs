@@ -246,16 +246,6 @@ impl RadianceImage for SyntheticScene {
     }
 }
 
-/// A rendered image (its colour), e.g. a 360° panorama of a scene.
-impl RadianceImage for crate::film::Film {
-    fn size(&self) -> (usize, usize) {
-        (self.width as usize, self.height as usize)
-    }
-    fn radiance(&self, x: usize, y: usize) -> [f32; 3] {
-        self.color[y * self.width as usize + x].to_array()
-    }
-}
-
 /// Options for [`write_brackets`].
 #[derive(Debug, Clone)]
 pub struct BracketOptions {

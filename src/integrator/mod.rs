@@ -17,7 +17,7 @@
 //! Scenes of plain Lambert materials lit by point lights and emissive
 //! meshes (see
 //! [`SoaScene::new`]) run on a vectorised version of the same wavefront
-//! ([`diffuse`]): structure-of-arrays lanes, compiled for AVX-512, AVX2 and
+//! ([`soa`]): structure-of-arrays lanes, compiled for AVX-512, AVX2 and
 //! the baseline and picked at run time ([`Isa`]). It performs the same
 //! floating-point operations in the same order with the same random numbers,
 //! so it renders the same image bit for bit; `RenderOptions::vectorised`
