@@ -70,6 +70,12 @@ use crate::equirect::{equirect_direction, equirect_uv, SphereFrame};
 use crate::warp::square_to_disk_concentric;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 
+/// Default sensor height (mm) when a camera gives `focal_length` alone: 35 mm film.
+pub const DEFAULT_SENSOR_HEIGHT_MM: f32 = 24.0;
+
+/// Default field of view of each lens of a dual-fisheye camera, degrees.
+pub const DEFAULT_FISHEYE_FOV_DEG: f32 = 190.0;
+
 /// Why a camera cannot be built.
 #[derive(Debug, Clone, PartialEq)]
 pub enum CameraError {

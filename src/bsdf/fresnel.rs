@@ -160,6 +160,15 @@ pub fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
     -wo + 2.0 * wo.dot(n) * n
 }
 
+/// Complex indices of refraction `(eta, k)` of common metals at the red,
+/// green and blue primaries (about 650, 550 and 450 nm).
+pub const METALS: [(&str, [f32; 3], [f32; 3]); 4] = [
+    ("Au", [0.143, 0.374, 1.442], [3.983, 2.385, 1.603]),
+    ("Ag", [0.155, 0.117, 0.138], [4.828, 3.122, 2.147]),
+    ("Cu", [0.200, 0.924, 1.102], [3.912, 2.452, 2.142]),
+    ("Al", [1.657, 0.880, 0.521], [9.224, 6.270, 4.837]),
+];
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -51,6 +51,7 @@ pub mod fresnel;
 pub mod microfacet;
 pub mod models;
 
+pub use fresnel::METALS;
 pub use microfacet::{Distribution, Microfacet};
 pub use models::{
     BlinnPhongParams, CookTorranceParams, DielectricParams, DiffuseParams, Fresnel, ParamError,

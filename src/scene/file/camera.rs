@@ -1,0 +1,313 @@
+//! `[camera]`: the camera's type, pose, field of view and resolution.
+
+use super::Builder;
+use crate::camera::{
+    fov_from_focal_length, preset as camera_preset, Camera, CameraError, CameraPreset,
+    DualFisheyeCamera, EquirectCamera, Fov, PinholeCamera, Pose, ThinLensCamera,
+    DEFAULT_FISHEYE_FOV_DEG, DEFAULT_SENSOR_HEIGHT_MM, PRESETS,
+};
+use crate::error::Result;
+use glam::Vec3;
+use serde::Deserialize;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct CameraSection {
+    #[serde(rename = "type", default = "pinhole")]
+    pub(super) kind: String,
+    pub(super) preset: Option<String>,
+    pub(super) position: Option<[f32; 3]>,
+    pub(super) look_at: Option<[f32; 3]>,
+    pub(super) up: Option<[f32; 3]>,
+    pub(super) to_world: Option<[[f32; 4]; 4]>,
+    pub(super) vfov: Option<f32>,
+    pub(super) hfov: Option<f32>,
+    pub(super) focal_length: Option<f32>,
+    pub(super) sensor_height: Option<f32>,
+    pub(super) sensor_width: Option<f32>,
+    pub(super) zoom: Option<f32>,
+    pub(super) aperture_radius: Option<f32>,
+    pub(super) focus_distance: Option<f32>,
+    pub(super) fov: Option<f32>,
+    pub(super) resolution: Option<[i64; 2]>,
+}
+
+fn pinhole() -> String {
+    "pinhole".into()
+}
+
+impl Builder<'_> {
+    pub(super) fn fov_degrees(&self, field: &str, v: f32) -> Result<f32> {
+        let v = self.finite(field, v)?;
+        if !(v > 0.0 && v < 180.0) {
+            return Err(self.err(field, format!("must be in (0, 180) degrees, got {v}")));
+        }
+        Ok(v)
+    }
+
+    /// The camera, and the preset it names (whose photographic settings are
+    /// the `[film]` defaults).
+    pub(super) fn camera(
+        &self,
+        c: &CameraSection,
+    ) -> Result<(Camera, Option<&'static CameraPreset>)> {
+        const TYPES: &str = "pinhole, thin_lens, equirectangular, dual_fisheye";
+        let kind = c.kind.as_str();
+        if !matches!(
+            kind,
+            "pinhole" | "thin_lens" | "equirectangular" | "dual_fisheye"
+        ) {
+            return Err(self.err(
+                "camera.type",
+                format!("unknown camera type `{kind}` (known: {TYPES})"),
+            ));
+        }
+        let perspective = matches!(kind, "pinhole" | "thin_lens");
+        let unused = |name: &str, present: bool| -> Result<()> {
+            if present {
+                Err(self.err(
+                    format!("camera.{name}"),
+                    format!("not used by cameras of type `{kind}`"),
+                ))
+            } else {
+                Ok(())
+            }
+        };
+        if !perspective {
+            for (name, present) in [
+                ("preset", c.preset.is_some()),
+                ("vfov", c.vfov.is_some()),
+                ("hfov", c.hfov.is_some()),
+                ("focal_length", c.focal_length.is_some()),
+                ("sensor_height", c.sensor_height.is_some()),
+                ("sensor_width", c.sensor_width.is_some()),
+                ("zoom", c.zoom.is_some()),
+            ] {
+                unused(name, present)?;
+            }
+        }
+        if kind != "thin_lens" {
+            unused("aperture_radius", c.aperture_radius.is_some())?;
+            unused("focus_distance", c.focus_distance.is_some())?;
+        }
+        if kind != "dual_fisheye" {
+            unused("fov", c.fov.is_some())?;
+        }
+        let preset = match &c.preset {
+            Some(name) => Some(camera_preset(name).ok_or_else(|| {
+                let known: Vec<_> = PRESETS.iter().map(|p| p.name).collect();
+                self.err(
+                    "camera.preset",
+                    format!("unknown preset `{name}` (known: {})", known.join(", ")),
+                )
+            })?),
+            None => None,
+        };
+
+        // Pose: look-at or a camera-to-world matrix.
+        let pose = match &c.to_world {
+            Some(m) => {
+                for (name, present) in [
+                    ("position", c.position.is_some()),
+                    ("look_at", c.look_at.is_some()),
+                    ("up", c.up.is_some()),
+                ] {
+                    if present {
+                        return Err(self.err(
+                            format!("camera.{name}"),
+                            "give either to_world or position/look_at/up, not both",
+                        ));
+                    }
+                }
+                for (r, row) in m.iter().enumerate() {
+                    for (k, x) in row.iter().enumerate() {
+                        self.finite(&format!("camera.to_world[{r}][{k}]"), *x)?;
+                    }
+                }
+                Pose::from_matrix(*m).map_err(|e| self.err("camera.to_world", e.to_string()))?
+            }
+            None => {
+                let get = |name: &str, v: Option<[f32; 3]>| -> Result<Vec3> {
+                    let v = v.ok_or_else(|| {
+                        self.err(
+                            format!("camera.{name}"),
+                            "required (give position, look_at and up, or to_world)",
+                        )
+                    })?;
+                    self.vec3(&format!("camera.{name}"), v)
+                };
+                let position = get("position", c.position)?;
+                let look_at = get("look_at", c.look_at)?;
+                let up = get("up", c.up)?;
+                Pose::look_at(position, look_at, up).map_err(|e| {
+                    let field = match e {
+                        CameraError::NoViewDirection => "camera.look_at",
+                        _ => "camera.up",
+                    };
+                    self.err(field, e.to_string())
+                })?
+            }
+        };
+
+        let (w, h) = match (c.resolution, preset) {
+            (Some(r), _) => (
+                self.positive_count("camera.resolution[0]", r[0], 1 << 16)?,
+                self.positive_count("camera.resolution[1]", r[1], 1 << 16)?,
+            ),
+            (None, Some(p)) => (p.width, p.height),
+            (None, None) => {
+                return Err(self.err(
+                    "camera.resolution",
+                    "required: [width, height] in pixels (or a preset)",
+                ))
+            }
+        };
+        let field_of = |e: &CameraError, default: &'static str| match e {
+            CameraError::BadFov(_) => "camera.vfov",
+            CameraError::BadZoom(_) => "camera.zoom",
+            CameraError::EmptyImage => "camera.resolution",
+            CameraError::BadAperture(_) => "camera.aperture_radius",
+            CameraError::BadFocusDistance(_) => "camera.focus_distance",
+            CameraError::BadFisheyeFov(_) => "camera.fov",
+            _ => default,
+        };
+
+        let camera = match kind {
+            "equirectangular" => Camera::Equirect(
+                EquirectCamera::new(pose, w, h)
+                    .map_err(|e| self.err(field_of(&e, "camera"), e.to_string()))?,
+            ),
+            "dual_fisheye" => {
+                let fov = self.finite("camera.fov", c.fov.unwrap_or(DEFAULT_FISHEYE_FOV_DEG))?;
+                Camera::DualFisheye(
+                    DualFisheyeCamera::new(pose, fov, w, h)
+                        .map_err(|e| self.err(field_of(&e, "camera"), e.to_string()))?,
+                )
+            }
+            _ => {
+                let fov = self.perspective_fov(c, preset)?;
+                let zoom = match c.zoom {
+                    Some(z) => self.finite("camera.zoom", z)?,
+                    None => preset.map_or(1.0, |p| p.zoom),
+                };
+                let pinhole = PinholeCamera::new(pose, fov, zoom, w, h)
+                    .map_err(|e| self.err(field_of(&e, "camera"), e.to_string()))?;
+                if kind == "pinhole" {
+                    Camera::Pinhole(pinhole)
+                } else {
+                    let radius = c.aperture_radius.ok_or_else(|| {
+                        self.err(
+                            "camera.aperture_radius",
+                            "required for a thin_lens camera (scene units)",
+                        )
+                    })?;
+                    let radius = self.finite("camera.aperture_radius", radius)?;
+                    let focus = match (c.focus_distance, c.look_at) {
+                        (Some(d), _) => self.finite("camera.focus_distance", d)?,
+                        (None, Some(l)) => (Vec3::from_array(l) - pose.position).length(),
+                        (None, None) => {
+                            return Err(self.err(
+                                "camera.focus_distance",
+                                "required with to_world (with look_at it defaults to the distance to look_at)",
+                            ))
+                        }
+                    };
+                    Camera::ThinLens(
+                        ThinLensCamera::new(pinhole, radius, focus)
+                            .map_err(|e| self.err(field_of(&e, "camera"), e.to_string()))?,
+                    )
+                }
+            }
+        };
+        Ok((camera, preset))
+    }
+
+    /// The field of view of a perspective camera: from the preset, or from
+    /// exactly one of vfov, hfov and focal_length.
+    pub(super) fn perspective_fov(
+        &self,
+        c: &CameraSection,
+        preset: Option<&CameraPreset>,
+    ) -> Result<Fov> {
+        let given: Vec<&str> = [
+            ("vfov", c.vfov.is_some()),
+            ("hfov", c.hfov.is_some()),
+            ("focal_length", c.focal_length.is_some()),
+        ]
+        .iter()
+        .filter(|(_, p)| *p)
+        .map(|(n, _)| *n)
+        .collect();
+        if let Some(p) = preset {
+            let sensor = [
+                ("sensor_height", c.sensor_height.is_some()),
+                ("sensor_width", c.sensor_width.is_some()),
+            ];
+            if let Some(name) = given
+                .first()
+                .copied()
+                .or_else(|| sensor.iter().find(|(_, b)| *b).map(|(n, _)| *n))
+            {
+                return Err(self.err(
+                    format!("camera.{name}"),
+                    format!(
+                        "the preset `{}` fixes the field of view (use zoom to change it)",
+                        p.name
+                    ),
+                ));
+            }
+            return Ok(Fov::Vertical(p.vfov_deg));
+        }
+        if given.len() > 1 {
+            let msg = if given == ["vfov", "focal_length"] {
+                "give either vfov or focal_length, not both".to_string()
+            } else {
+                format!(
+                    "give only one of vfov, hfov and focal_length, not {}",
+                    given.join(" and ")
+                )
+            };
+            return Err(self.err(format!("camera.{}", given[1]), msg));
+        }
+        if c.focal_length.is_none() {
+            for (name, present) in [
+                ("sensor_height", c.sensor_height.is_some()),
+                ("sensor_width", c.sensor_width.is_some()),
+            ] {
+                if present {
+                    return Err(self.err(format!("camera.{name}"), "only used with focal_length"));
+                }
+            }
+        }
+        if let Some(v) = c.vfov {
+            return Ok(Fov::Vertical(self.fov_degrees("camera.vfov", v)?));
+        }
+        if let Some(v) = c.hfov {
+            return Ok(Fov::Horizontal(self.fov_degrees("camera.hfov", v)?));
+        }
+        let Some(f) = c.focal_length else {
+            return Err(self.err(
+                "camera.vfov",
+                "give vfov or hfov (degrees) or focal_length (mm)",
+            ));
+        };
+        let f = self.positive("camera.focal_length", f)?;
+        match (c.sensor_height, c.sensor_width) {
+            (Some(_), Some(_)) => Err(self.err(
+                "camera.sensor_width",
+                "give either sensor_height or sensor_width, not both",
+            )),
+            (None, Some(sw)) => {
+                let sw = self.positive("camera.sensor_width", sw)?;
+                Ok(Fov::Horizontal(fov_from_focal_length(f, sw)))
+            }
+            (sh, None) => {
+                let sh = self.positive(
+                    "camera.sensor_height",
+                    sh.unwrap_or(DEFAULT_SENSOR_HEIGHT_MM),
+                )?;
+                Ok(Fov::Vertical(fov_from_focal_length(f, sh)))
+            }
+        }
+    }
+}

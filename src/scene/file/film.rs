@@ -1,0 +1,124 @@
+//! `[film]`: pixel filter, exposure and white balance.
+
+use super::Builder;
+use crate::camera::CameraPreset;
+use crate::color::{MAX_TEMPERATURE_K, MIN_TEMPERATURE_K};
+use crate::error::Result;
+use crate::film::{CameraExposure, FilmSettings};
+use crate::filter::{GaussianFilter, PixelFilter, DEFAULT_GAUSSIAN_RADIUS, DEFAULT_GAUSSIAN_SIGMA};
+use serde::Deserialize;
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct FilmSection {
+    pub(super) filter: Option<String>,
+    pub(super) filter_sigma: Option<f32>,
+    pub(super) filter_radius: Option<f32>,
+    pub(super) exposure_ev: Option<f32>,
+    pub(super) shutter: Option<f32>,
+    pub(super) iso: Option<f32>,
+    pub(super) f_number: Option<f32>,
+    pub(super) white_balance: Option<f32>,
+}
+
+impl Builder<'_> {
+    /// Pixel filter, exposure and white balance; a camera preset supplies
+    /// the defaults of `shutter`, `iso` and `white_balance`.
+    pub(super) fn film(
+        &self,
+        f: &FilmSection,
+        preset: Option<&CameraPreset>,
+    ) -> Result<FilmSettings> {
+        let filter = match f.filter.as_deref().unwrap_or("box") {
+            "box" => {
+                for (name, present) in [
+                    ("filter_sigma", f.filter_sigma.is_some()),
+                    ("filter_radius", f.filter_radius.is_some()),
+                ] {
+                    if present {
+                        return Err(self.err(
+                            format!("film.{name}"),
+                            "only used with filter = \"gaussian\"",
+                        ));
+                    }
+                }
+                PixelFilter::Box
+            }
+            "gaussian" => {
+                let sigma = self.positive(
+                    "film.filter_sigma",
+                    f.filter_sigma.unwrap_or(DEFAULT_GAUSSIAN_SIGMA),
+                )?;
+                let radius = self.positive(
+                    "film.filter_radius",
+                    f.filter_radius.unwrap_or(DEFAULT_GAUSSIAN_RADIUS),
+                )?;
+                let g = GaussianFilter::new(sigma, radius)
+                    .map_err(|e| self.err("film.filter_radius", e))?;
+                PixelFilter::Gaussian(g)
+            }
+            other => {
+                return Err(self.err(
+                    "film.filter",
+                    format!("unknown filter `{other}` (known: box, gaussian)"),
+                ))
+            }
+        };
+        let exposure_ev = self.finite("film.exposure_ev", f.exposure_ev.unwrap_or(0.0))?;
+        if exposure_ev.abs() > 64.0 {
+            return Err(self.err(
+                "film.exposure_ev",
+                format!("must be between -64 and 64 stops, got {exposure_ev}"),
+            ));
+        }
+        let camera_exposure = match f.f_number {
+            Some(n) => {
+                let n = self.positive("film.f_number", n)?;
+                let from_preset = |name: &str, v: Option<f32>, p: Option<f32>| -> Result<f32> {
+                    let v = v.or(p).ok_or_else(|| {
+                        self.err(
+                            format!("film.{name}"),
+                            "required with f_number (shutter in seconds, iso)",
+                        )
+                    })?;
+                    self.positive(&format!("film.{name}"), v)
+                };
+                Some(CameraExposure {
+                    shutter_s: from_preset("shutter", f.shutter, preset.map(|p| p.shutter_s))?,
+                    iso: from_preset("iso", f.iso, preset.map(|p| p.iso))?,
+                    f_number: n,
+                })
+            }
+            None => {
+                if f.shutter.is_some() || f.iso.is_some() {
+                    return Err(self.err(
+                        "film.f_number",
+                        "required with shutter and iso (the exposure is t·S/(100·N²))",
+                    ));
+                }
+                None
+            }
+        };
+        let white_balance_k = match f.white_balance.or(preset.map(|p| p.white_balance_k)) {
+            Some(k) => {
+                let k = self.finite("film.white_balance", k)?;
+                if !(MIN_TEMPERATURE_K..=MAX_TEMPERATURE_K).contains(&k) {
+                    return Err(self.err(
+                        "film.white_balance",
+                        format!(
+                            "must be between {MIN_TEMPERATURE_K} and {MAX_TEMPERATURE_K} K, got {k}"
+                        ),
+                    ));
+                }
+                Some(k)
+            }
+            None => None,
+        };
+        Ok(FilmSettings {
+            filter,
+            exposure_ev,
+            camera_exposure,
+            white_balance_k,
+        })
+    }
+}

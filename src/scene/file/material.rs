@@ -1,0 +1,596 @@
+//! `[[materials]]`: named BSDFs with their parameters and textures, and
+//! the materials of OBJ files' MTL libraries.
+
+use super::Builder;
+use crate::bsdf::METALS;
+use crate::bsdf::{
+    BlinnPhongParams, Bsdf, CookTorranceParams, DielectricParams, Distribution, Fresnel,
+    Microfacet, PrincipledParams,
+};
+use crate::error::Error;
+use crate::error::Result;
+use crate::scene::shapes::{self};
+use crate::scene::{Material, MaterialTextures};
+use crate::texture::{self, Encoding, ImageTexture};
+use glam::Vec3;
+use serde::Deserialize;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// Default albedo of OBJ objects whose MTL material has no `Kd`.
+pub const DEFAULT_REFLECTANCE: f32 = 0.8;
+
+/// `[[materials]]` as read: the name, the type, and the type's own keys,
+/// which [`MaterialKeys::parse`] checks against the type.
+#[derive(Debug, Deserialize)]
+pub(super) struct MaterialSection {
+    pub(super) name: String,
+    #[serde(rename = "type")]
+    pub(super) kind: String,
+    #[serde(flatten)]
+    pub(super) keys: toml::Table,
+}
+
+/// The keys of a `diffuse` material.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct DiffuseKeys {
+    reflectance: Option<[f32; 3]>,
+    base_color_map: Option<PathBuf>,
+}
+
+/// The keys of a `blinn_phong` material.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct BlinnPhongKeys {
+    diffuse: Option<[f32; 3]>,
+    specular: Option<[f32; 3]>,
+    exponent: Option<f32>,
+    base_color_map: Option<PathBuf>,
+}
+
+/// The keys of a `cook_torrance` material.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct CookTorranceKeys {
+    distribution: Option<String>,
+    roughness: Option<f32>,
+    alpha: Option<f32>,
+    alpha_u: Option<f32>,
+    alpha_v: Option<f32>,
+    fresnel: Option<String>,
+    f0: Option<[f32; 3]>,
+    ior: Option<f32>,
+    metal: Option<String>,
+    eta: Option<[f32; 3]>,
+    k: Option<[f32; 3]>,
+    roughness_map: Option<PathBuf>,
+}
+
+/// The keys of a `dielectric` material.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct DielectricKeys {
+    ior: Option<f32>,
+    distribution: Option<String>,
+    roughness: Option<f32>,
+    alpha: Option<f32>,
+    alpha_u: Option<f32>,
+    alpha_v: Option<f32>,
+}
+
+/// The keys of a `principled` material.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct PrincipledKeys {
+    base_color: Option<[f32; 3]>,
+    roughness: Option<f32>,
+    metallic: Option<f32>,
+    anisotropic: Option<f32>,
+    specular: Option<f32>,
+    spec_tint: Option<f32>,
+    energy_conserving: Option<bool>,
+    base_color_map: Option<PathBuf>,
+    roughness_map: Option<PathBuf>,
+    metallic_map: Option<PathBuf>,
+}
+
+/// A material's keys, by its type (the `type` key is the tag).
+#[derive(Debug)]
+pub(super) enum MaterialKeys {
+    Diffuse(DiffuseKeys),
+    BlinnPhong(BlinnPhongKeys),
+    CookTorrance(CookTorranceKeys),
+    Dielectric(DielectricKeys),
+    Principled(PrincipledKeys),
+}
+
+/// The material types, by their `type` names.
+const MATERIAL_TYPES: &str = "diffuse, blinn_phong, cook_torrance, dielectric, principled";
+
+/// The keys of a microfacet distribution, shared by several types.
+struct MicrofacetKeys<'a> {
+    distribution: &'a Option<String>,
+    roughness: Option<f32>,
+    alpha: Option<f32>,
+    alpha_u: Option<f32>,
+    alpha_v: Option<f32>,
+}
+
+/// The texture keys of a material.
+#[derive(Default)]
+struct TextureKeys<'a> {
+    base_color_map: Option<&'a PathBuf>,
+    roughness_map: Option<&'a PathBuf>,
+    metallic_map: Option<&'a PathBuf>,
+}
+
+impl MaterialKeys {
+    fn textures(&self) -> TextureKeys<'_> {
+        match self {
+            MaterialKeys::Diffuse(k) => TextureKeys {
+                base_color_map: k.base_color_map.as_ref(),
+                ..Default::default()
+            },
+            MaterialKeys::BlinnPhong(k) => TextureKeys {
+                base_color_map: k.base_color_map.as_ref(),
+                ..Default::default()
+            },
+            MaterialKeys::CookTorrance(k) => TextureKeys {
+                roughness_map: k.roughness_map.as_ref(),
+                ..Default::default()
+            },
+            MaterialKeys::Dielectric(_) => TextureKeys::default(),
+            MaterialKeys::Principled(k) => TextureKeys {
+                base_color_map: k.base_color_map.as_ref(),
+                roughness_map: k.roughness_map.as_ref(),
+                metallic_map: k.metallic_map.as_ref(),
+            },
+        }
+    }
+}
+
+/// Deserialises a material's keys into the struct of its type, with the
+/// failing key's name.
+fn typed_keys<T: serde::de::DeserializeOwned>(
+    keys: &toml::Table,
+) -> std::result::Result<T, (String, String)> {
+    serde_path_to_error::deserialize(toml::Value::Table(keys.clone())).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner().to_string();
+        (path, inner)
+    })
+}
+
+impl Builder<'_> {
+    /// The microfacet distribution of a material: `distribution` (`ggx` or
+    /// `beckmann`) and `roughness` (α = roughness²), `alpha`, or
+    /// `alpha_u`/`alpha_v` (anisotropic).
+    fn microfacet(
+        &self,
+        field: &str,
+        m: &MicrofacetKeys,
+        default_roughness: Option<f32>,
+    ) -> Result<Option<Microfacet>> {
+        let kind = match m.distribution.as_deref().unwrap_or("ggx") {
+            "ggx" => Distribution::Ggx,
+            "beckmann" => Distribution::Beckmann,
+            other => {
+                return Err(self.err(
+                    format!("{field}.distribution"),
+                    format!("unknown distribution `{other}` (known: ggx, beckmann)"),
+                ))
+            }
+        };
+        let given = [
+            m.roughness.is_some(),
+            m.alpha.is_some(),
+            m.alpha_u.is_some() || m.alpha_v.is_some(),
+        ];
+        if given.iter().filter(|&&g| g).count() > 1 {
+            return Err(self.err(
+                format!("{field}.roughness"),
+                "give one of roughness, alpha, or alpha_u with alpha_v",
+            ));
+        }
+        let alpha = |name: &str, v: f32| -> Result<f32> {
+            let v = self.finite(&format!("{field}.{name}"), v)?;
+            if !(0.0..=4.0).contains(&v) {
+                return Err(self.err(
+                    format!("{field}.{name}"),
+                    format!("must be in [0, 4], got {v}"),
+                ));
+            }
+            Ok(v)
+        };
+        let (ax, ay) = if let Some(r) = m.roughness {
+            let r = self.unit(&format!("{field}.roughness"), Some(r), 0.0)?;
+            (r * r, r * r)
+        } else if let Some(a) = m.alpha {
+            let a = alpha("alpha", a)?;
+            (a, a)
+        } else if m.alpha_u.is_some() || m.alpha_v.is_some() {
+            let (Some(u), Some(v)) = (m.alpha_u, m.alpha_v) else {
+                return Err(self.err(
+                    format!("{field}.alpha_u"),
+                    "alpha_u and alpha_v go together",
+                ));
+            };
+            (alpha("alpha_u", u)?, alpha("alpha_v", v)?)
+        } else if let Some(r) = default_roughness {
+            (r * r, r * r)
+        } else {
+            if m.distribution.is_some() {
+                return Err(self.err(
+                    format!("{field}.distribution"),
+                    "only used with a roughness",
+                ));
+            }
+            return Ok(None);
+        };
+        Ok(Some(Microfacet::new(kind, ax, ay)))
+    }
+
+    /// The keys of `materials[i]`, checked against its type: an unknown
+    /// type, a key the type does not have, or a value of the wrong kind is
+    /// an error naming the key.
+    pub(super) fn material_keys(&self, field: &str, m: &MaterialSection) -> Result<MaterialKeys> {
+        fn parse<T: serde::de::DeserializeOwned>(
+            b: &Builder<'_>,
+            field: &str,
+            kind: &str,
+            keys: &toml::Table,
+        ) -> Result<T> {
+            typed_keys::<T>(keys)
+                .map_err(|(path, message)| key_error::<T>(b, field, kind, &path, &message))
+        }
+        let (kind, keys) = (m.kind.as_str(), &m.keys);
+        Ok(match kind {
+            "diffuse" => MaterialKeys::Diffuse(parse(self, field, kind, keys)?),
+            "blinn_phong" => MaterialKeys::BlinnPhong(parse(self, field, kind, keys)?),
+            "cook_torrance" => MaterialKeys::CookTorrance(parse(self, field, kind, keys)?),
+            "dielectric" => MaterialKeys::Dielectric(parse(self, field, kind, keys)?),
+            "principled" => MaterialKeys::Principled(parse(self, field, kind, keys)?),
+            other => {
+                return Err(self.err(
+                    format!("{field}.type"),
+                    format!("unknown material type `{other}` (known: {MATERIAL_TYPES})"),
+                ))
+            }
+        })
+    }
+
+    /// Builds the BSDF of a material from its checked keys.
+    pub(super) fn material(&self, field: &str, keys: &MaterialKeys) -> Result<Bsdf> {
+        let colour = |name: &str, v: Option<[f32; 3]>, default: f32| {
+            self.colour(
+                &format!("{field}.{name}"),
+                v.unwrap_or([default; 3]),
+                Some(1.0),
+            )
+        };
+        let ior = |given: Option<f32>, default: f32| -> Result<f32> {
+            let v = self.finite(&format!("{field}.ior"), given.unwrap_or(default))?;
+            if v <= 0.0 || v == 1.0 {
+                return Err(self.err(
+                    format!("{field}.ior"),
+                    format!("must be positive and not 1, got {v}"),
+                ));
+            }
+            Ok(v)
+        };
+        Ok(match keys {
+            MaterialKeys::Diffuse(m) => {
+                Bsdf::diffuse(colour("reflectance", m.reflectance, DEFAULT_REFLECTANCE)?)
+            }
+            MaterialKeys::BlinnPhong(m) => {
+                let diffuse = colour("diffuse", m.diffuse, 0.5)?;
+                let specular = match m.specular {
+                    None => Vec3::splat(0.2),
+                    Some(arr) => colour("specular", Some(arr), 0.0)?,
+                };
+                if (diffuse + specular).max_element() > 1.0 {
+                    return Err(self.err(
+                        format!("{field}.specular"),
+                        "diffuse + specular must not exceed 1 in any channel (energy)",
+                    ));
+                }
+                let exponent =
+                    self.finite(&format!("{field}.exponent"), m.exponent.unwrap_or(30.0))?;
+                if !(0.0..=1e5).contains(&exponent) {
+                    return Err(self.err(
+                        format!("{field}.exponent"),
+                        format!("must be in [0, 100000], got {exponent}"),
+                    ));
+                }
+                Bsdf::BlinnPhong(BlinnPhongParams {
+                    diffuse,
+                    specular,
+                    exponent,
+                })
+            }
+            MaterialKeys::CookTorrance(m) => {
+                let ior = |default| ior(m.ior, default);
+                let facets = MicrofacetKeys {
+                    distribution: &m.distribution,
+                    roughness: m.roughness,
+                    alpha: m.alpha,
+                    alpha_u: m.alpha_u,
+                    alpha_v: m.alpha_v,
+                };
+                let microfacet = self
+                    .microfacet(field, &facets, Some(0.3))?
+                    .expect("a default roughness");
+                let fresnel = match m.fresnel.as_deref().unwrap_or("conductor") {
+                    "schlick" => Fresnel::Schlick { f0: colour("f0", m.f0, 0.04)? },
+                    "dielectric" => Fresnel::Dielectric { eta: ior(1.5)? },
+                    "conductor" => {
+                        let (eta, k) = match (&m.metal, m.eta, m.k) {
+                            (Some(name), None, None) => {
+                                let Some((_, e, k)) = METALS.iter().find(|(n, _, _)| n == name) else {
+                                    return Err(self.err(
+                                        format!("{field}.metal"),
+                                        format!("unknown metal `{name}` (known: Au, Ag, Cu, Al)"),
+                                    ));
+                                };
+                                (Vec3::from(*e), Vec3::from(*k))
+                            }
+                            (None, Some(e), Some(k)) => (
+                                self.colour(&format!("{field}.eta"), e, None)?,
+                                self.colour(&format!("{field}.k"), k, None)?,
+                            ),
+                            (None, None, None) => (Vec3::from(METALS[3].1), Vec3::from(METALS[3].2)),
+                            _ => {
+                                return Err(self.err(
+                                    format!("{field}.metal"),
+                                    "give either metal, or eta together with k",
+                                ))
+                            }
+                        };
+                        Fresnel::Conductor { eta, k }
+                    }
+                    other => {
+                        return Err(self.err(
+                            format!("{field}.fresnel"),
+                            format!("unknown Fresnel term `{other}` (known: schlick, dielectric, conductor)"),
+                        ))
+                    }
+                };
+                let used = match fresnel {
+                    Fresnel::Schlick { .. } => &["f0"][..],
+                    Fresnel::Dielectric { .. } => &["ior"][..],
+                    Fresnel::Conductor { .. } => &["metal", "eta", "k"][..],
+                };
+                let given = [
+                    ("f0", m.f0.is_some()),
+                    ("ior", m.ior.is_some()),
+                    ("metal", m.metal.is_some()),
+                    ("eta", m.eta.is_some()),
+                    ("k", m.k.is_some()),
+                ];
+                if let Some((k, _)) = given.iter().find(|(k, g)| *g && !used.contains(k)) {
+                    return Err(self.err(format!("{field}.{k}"), "not used by this Fresnel term"));
+                }
+                Bsdf::CookTorrance(CookTorranceParams {
+                    microfacet,
+                    fresnel,
+                })
+            }
+            MaterialKeys::Dielectric(m) => {
+                let facets = MicrofacetKeys {
+                    distribution: &m.distribution,
+                    roughness: m.roughness,
+                    alpha: m.alpha,
+                    alpha_u: m.alpha_u,
+                    alpha_v: m.alpha_v,
+                };
+                Bsdf::Dielectric(DielectricParams {
+                    eta: ior(m.ior, 1.5)?,
+                    microfacet: self.microfacet(field, &facets, None)?,
+                })
+            }
+            MaterialKeys::Principled(m) => {
+                // The parser checks that each value is a finite number; the
+                // ranges are the material's own rule.
+                let number = |name: &str, v: Option<f32>, default: f32| {
+                    self.finite(&format!("{field}.{name}"), v.unwrap_or(default))
+                };
+                let params = PrincipledParams {
+                    base_color: colour("base_color", m.base_color, 0.5)?,
+                    roughness: number("roughness", m.roughness, 0.5)?,
+                    metallic: number("metallic", m.metallic, 0.0)?,
+                    anisotropic: number("anisotropic", m.anisotropic, 0.0)?,
+                    specular: number("specular", m.specular, 0.5)?,
+                    spec_tint: number("spec_tint", m.spec_tint, 0.0)?,
+                    energy_conserving: m.energy_conserving.unwrap_or(false),
+                };
+                Bsdf::Principled(params.validate().map_err(|e| {
+                    self.err(
+                        format!("{field}.{}", e.parameter),
+                        format!("must be in {}, got {}", e.range, e.value),
+                    )
+                })?)
+            }
+        })
+    }
+
+    /// Loads the textures a material names (`*_map`, relative to the scene
+    /// file); data maps must hold values in `[0, 1]`.
+    pub(super) fn material_textures(
+        &self,
+        field: &str,
+        keys: &MaterialKeys,
+    ) -> Result<MaterialTextures> {
+        let m = keys.textures();
+        self.textures(
+            field,
+            m.base_color_map.map(|p| self.base.join(p)),
+            m.roughness_map.map(|p| self.base.join(p)),
+            m.metallic_map.map(|p| self.base.join(p)),
+            ["base_color_map", "roughness_map", "metallic_map"],
+        )
+    }
+
+    /// Loads base colour (sRGB), roughness and metallic (linear) textures;
+    /// `keys` name them in errors, under `field`.
+    pub(super) fn textures(
+        &self,
+        field: &str,
+        base_color: Option<PathBuf>,
+        roughness: Option<PathBuf>,
+        metallic: Option<PathBuf>,
+        keys: [&str; 3],
+    ) -> Result<MaterialTextures> {
+        let load = |path: Option<PathBuf>,
+                    key: &str,
+                    encoding: Encoding|
+         -> Result<Option<Arc<ImageTexture>>> {
+            let Some(path) = path else {
+                return Ok(None);
+            };
+            let f = format!("{field}.{key}");
+            let t = texture::load_for(self.file, &f, &path, encoding)?;
+            if encoding == Encoding::Linear && t.max_value() > 1.0 {
+                return Err(self.err(f, format!("{}: values must be in [0, 1]", path.display())));
+            }
+            Ok(Some(Arc::new(t)))
+        };
+        Ok(MaterialTextures {
+            base_color: load(base_color, keys[0], Encoding::Srgb)?,
+            roughness: load(roughness, keys[1], Encoding::Linear)?,
+            metallic: load(metallic, keys[2], Encoding::Linear)?,
+        })
+    }
+
+    /// The material of an MTL entry: `principled` when it has PBR keys
+    /// (`Pr`, `Pm`, `map_Pr`, `map_Pm`), `blinn_phong` when it has a
+    /// non-zero `Ks` (scaled down where `Kd + Ks` exceeds 1, to conserve
+    /// energy), `diffuse` otherwise; `map_Kd` textures the base colour.
+    pub(super) fn mtl_material(
+        &self,
+        field: &str,
+        name: String,
+        mtl: &shapes::ObjMaterial,
+    ) -> Result<Material> {
+        let kd = mtl.diffuse.unwrap_or(Vec3::splat(DEFAULT_REFLECTANCE));
+        let pbr = mtl.roughness.is_some()
+            || mtl.metallic.is_some()
+            || mtl.roughness_map.is_some()
+            || mtl.metallic_map.is_some();
+        let ks = mtl.specular.filter(|ks| ks.max_element() > 0.0);
+        let bsdf = if pbr {
+            Bsdf::Principled(PrincipledParams {
+                base_color: kd,
+                roughness: mtl.roughness.unwrap_or(0.5),
+                metallic: mtl.metallic.unwrap_or(0.0),
+                anisotropic: 0.0,
+                specular: 0.5,
+                spec_tint: 0.0,
+                energy_conserving: false,
+            })
+        } else if let Some(ks) = ks {
+            let total = (kd + ks).max_element();
+            let scale = if total > 1.0 { 1.0 / total } else { 1.0 };
+            Bsdf::BlinnPhong(BlinnPhongParams {
+                diffuse: kd * scale,
+                specular: ks * scale,
+                exponent: mtl.shininess.unwrap_or(30.0).min(1e5),
+            })
+        } else {
+            Bsdf::diffuse(kd)
+        };
+        let textures = self.textures(
+            &format!("{field} (MTL `{}`)", mtl.name),
+            mtl.diffuse_map.clone(),
+            if pbr { mtl.roughness_map.clone() } else { None },
+            if pbr { mtl.metallic_map.clone() } else { None },
+            ["map_Kd", "map_Pr", "map_Pm"],
+        )?;
+        Ok(Material {
+            name,
+            bsdf,
+            textures,
+        })
+    }
+}
+
+/// The keys of the struct `T` deserialises, as serde's derive lists them:
+/// the one statement of a type's keys also names them in errors.
+fn key_names<T: serde::de::DeserializeOwned>() -> &'static [&'static str] {
+    use serde::de::{Deserializer, Visitor};
+    /// A deserialiser that only records the fields a struct asks for.
+    struct Fields;
+    #[derive(Debug)]
+    struct Found(&'static [&'static str]);
+    impl std::fmt::Display for Found {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("fields")
+        }
+    }
+    impl std::error::Error for Found {}
+    impl serde::de::Error for Found {
+        fn custom<M: std::fmt::Display>(_: M) -> Self {
+            Found(&[])
+        }
+    }
+    impl<'de> Deserializer<'de> for Fields {
+        type Error = Found;
+        fn deserialize_any<V: Visitor<'de>>(self, _: V) -> std::result::Result<V::Value, Found> {
+            Err(Found(&[]))
+        }
+        fn deserialize_struct<V: Visitor<'de>>(
+            self,
+            _: &'static str,
+            fields: &'static [&'static str],
+            _: V,
+        ) -> std::result::Result<V::Value, Found> {
+            Err(Found(fields))
+        }
+        serde::forward_to_deserialize_any! {
+            bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string
+            bytes byte_buf option unit unit_struct newtype_struct seq tuple
+            tuple_struct map enum identifier ignored_any
+        }
+    }
+    match T::deserialize(Fields) {
+        Err(Found(fields)) => fields,
+        Ok(_) => &[],
+    }
+}
+
+/// The error of a material key that failed to deserialise, in the words of
+/// the scene format: a key the type does not have, or a value of the wrong
+/// kind.
+fn key_error<T: serde::de::DeserializeOwned>(
+    b: &Builder<'_>,
+    field: &str,
+    kind: &str,
+    path: &str,
+    message: &str,
+) -> Error {
+    // The first line is serde's message; toml adds the key's name below.
+    let message = message.lines().next().unwrap_or("");
+    if let Some(rest) = message.strip_prefix("unknown field `") {
+        let key = rest.split('`').next().unwrap_or("");
+        return b.err(
+            format!("{field}.{key}"),
+            format!(
+                "not a parameter of a `{kind}` material (its keys: {})",
+                key_names::<T>().join(", ")
+            ),
+        );
+    }
+    let what = if message.contains("expected an array of length 3") {
+        "must be an RGB triple [r, g, b]".to_string()
+    } else if message.contains("expected f32") {
+        "must be a number".to_string()
+    } else {
+        message.to_string()
+    };
+    let field = if path.is_empty() || path == "." {
+        field.to_string()
+    } else {
+        format!("{field}.{path}")
+    };
+    b.err(field, what)
+}

@@ -1,0 +1,243 @@
+//! Scene files: TOML (or JSON with the same schema), documented with an
+//! example of every item in `docs/scene-format.md`.
+//!
+//! Parsing is strict: unknown keys, wrong types, non-finite numbers and
+//! out-of-range values are errors that name the file and the field
+//! (`shapes[2].transform.scale`). Paths inside a scene file are relative to
+//! the file's directory.
+
+mod camera;
+mod environment;
+mod film;
+mod light;
+mod material;
+mod render;
+mod shape;
+mod toml_path;
+
+pub use crate::bsdf::METALS;
+pub use crate::camera::{DEFAULT_FISHEYE_FOV_DEG, DEFAULT_SENSOR_HEIGHT_MM};
+pub use environment::load_environment;
+pub use material::DEFAULT_REFLECTANCE;
+
+use camera::CameraSection;
+use environment::EnvironmentSection;
+use film::FilmSection;
+use light::{LightSection, PlsSection};
+use material::MaterialSection;
+use render::RenderSection;
+use shape::ShapeSection;
+use toml_path::field_at;
+
+use crate::error::{Error, Result};
+use crate::light::PointLight;
+use crate::scene::{Material, SceneDescription};
+use glam::Vec3;
+use serde::Deserialize;
+use std::collections::HashMap;
+use std::path::Path;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    #[serde(default)]
+    render: RenderSection,
+    camera: CameraSection,
+    #[serde(default)]
+    film: FilmSection,
+    environment: Option<EnvironmentSection>,
+    #[serde(default)]
+    materials: Vec<MaterialSection>,
+    #[serde(default)]
+    shapes: Vec<ShapeSection>,
+    #[serde(default)]
+    lights: Vec<LightSection>,
+    #[serde(default)]
+    pls: Vec<PlsSection>,
+}
+
+/// Reads and validates a scene file; TOML unless the extension is `.json`.
+pub fn load(path: &Path) -> Result<SceneDescription> {
+    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+        file: path.to_path_buf(),
+        source,
+    })?;
+    let is_json = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    let parsed: SceneFile = if is_json {
+        serde_json::from_str(&text).map_err(|e| Error::input(path, "", e.to_string()))?
+    } else {
+        toml::from_str(&text).map_err(|e| {
+            let (field, at) = e
+                .span()
+                .map(|s| {
+                    let line = text[..s.start].matches('\n').count() + 1;
+                    let col = s.start - text[..s.start].rfind('\n').map_or(0, |i| i + 1) + 1;
+                    (
+                        field_at(&text, s.start),
+                        format!("line {line}, column {col}: "),
+                    )
+                })
+                .unwrap_or_default();
+            Error::input(path, field, format!("{at}{}", e.message().trim_end()))
+        })?
+    };
+    let base = path.parent().unwrap_or(Path::new("."));
+    Builder { file: path, base }.build(parsed)
+}
+
+struct Builder<'a> {
+    file: &'a Path,
+    base: &'a Path,
+}
+
+impl Builder<'_> {
+    fn err(&self, field: impl Into<String>, message: impl Into<String>) -> Error {
+        Error::input(self.file, field, message)
+    }
+
+    fn finite(&self, field: &str, v: f32) -> Result<f32> {
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.err(field, format!("must be a finite number, got {v}")))
+        }
+    }
+
+    fn vec3(&self, field: &str, v: [f32; 3]) -> Result<Vec3> {
+        for (i, x) in v.iter().enumerate() {
+            if !x.is_finite() {
+                return Err(self.err(
+                    format!("{field}[{i}]"),
+                    format!("must be a finite number, got {x}"),
+                ));
+            }
+        }
+        Ok(Vec3::from_array(v))
+    }
+
+    fn colour(&self, field: &str, v: [f32; 3], max: Option<f32>) -> Result<Vec3> {
+        let c = self.vec3(field, v)?;
+        if c.min_element() < 0.0 {
+            return Err(self.err(field, format!("must not be negative, got {v:?}")));
+        }
+        if let Some(max) = max {
+            if c.max_element() > max {
+                return Err(self.err(field, format!("must be at most {max}, got {v:?}")));
+            }
+        }
+        Ok(c)
+    }
+
+    /// A unit-interval parameter (default `default` when absent).
+    fn unit(&self, field: &str, v: Option<f32>, default: f32) -> Result<f32> {
+        let v = self.finite(field, v.unwrap_or(default))?;
+        if !(0.0..=1.0).contains(&v) {
+            return Err(self.err(field, format!("must be in [0, 1], got {v}")));
+        }
+        Ok(v)
+    }
+
+    fn positive_count(&self, field: &str, v: i64, max: i64) -> Result<u32> {
+        if v < 1 || v > max {
+            return Err(self.err(field, format!("must be between 1 and {max}, got {v}")));
+        }
+        Ok(v as u32)
+    }
+
+    fn positive(&self, field: &str, v: f32) -> Result<f32> {
+        let v = self.finite(field, v)?;
+        if v <= 0.0 {
+            return Err(self.err(field, format!("must be positive, got {v}")));
+        }
+        Ok(v)
+    }
+
+    fn build(&self, f: SceneFile) -> Result<SceneDescription> {
+        let job = self.job(&f.render)?;
+        let robust = f.render.robust.unwrap_or(false);
+        let (camera, preset) = self.camera(&f.camera)?;
+        let film = self.film(&f.film, preset)?;
+
+        let mut materials = Vec::new();
+        let mut by_name = HashMap::new();
+        for (i, m) in f.materials.iter().enumerate() {
+            let field = format!("materials[{i}]");
+            if m.name.is_empty() || m.name.starts_with('(') {
+                return Err(self.err(
+                    format!("{field}.name"),
+                    format!(
+                        "`{}` is not a valid material name (empty, or reserved: starts with `(`)",
+                        m.name
+                    ),
+                ));
+            }
+            if by_name.contains_key(&m.name) {
+                return Err(self.err(
+                    format!("{field}.name"),
+                    format!("duplicate material name `{}`", m.name),
+                ));
+            }
+            let keys = self.material_keys(&field, m)?;
+            let bsdf = self.material(&field, &keys)?;
+            by_name.insert(m.name.clone(), materials.len() as u32);
+            let textures = self.material_textures(&field, &keys)?;
+            materials.push(Material {
+                name: m.name.clone(),
+                bsdf,
+                textures,
+            });
+        }
+
+        let mut meshes = Vec::new();
+        for (i, s) in f.shapes.iter().enumerate() {
+            self.shape(i, s, &by_name, &mut materials, &mut meshes)?;
+        }
+
+        let mut point_lights = Vec::new();
+        for (i, l) in f.lights.iter().enumerate() {
+            let field = format!("lights[{i}]");
+            match l.kind.as_str() {
+                "point" => {
+                    let position = l.position.ok_or_else(|| {
+                        self.err(format!("{field}.position"), "required for a point light")
+                    })?;
+                    let intensity = l.intensity.ok_or_else(|| {
+                        self.err(format!("{field}.intensity"), "required for a point light")
+                    })?;
+                    point_lights.push(PointLight {
+                        position: self.vec3(&format!("{field}.position"), position)?,
+                        intensity: self.colour(&format!("{field}.intensity"), intensity, None)?,
+                    });
+                }
+                other => {
+                    return Err(self.err(
+                        format!("{field}.type"),
+                        format!("unknown light type `{other}` (known: point)"),
+                    ))
+                }
+            }
+        }
+
+        for (i, section) in f.pls.iter().enumerate() {
+            self.pls(i, section, &mut materials, &mut meshes)?;
+        }
+
+        let environment = match &f.environment {
+            Some(e) => Some(self.environment(e)?),
+            None => None,
+        };
+
+        Ok(SceneDescription {
+            meshes,
+            materials,
+            point_lights,
+            environment,
+            camera,
+            film,
+            job,
+            robust,
+        })
+    }
+}

@@ -1,0 +1,34 @@
+//! `[render]`: the job the scene file asks for (spp, depth, seed) and
+//! Embree's robust mode.
+
+use super::Builder;
+use crate::error::Result;
+use crate::job::RenderJob;
+use serde::Deserialize;
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RenderSection {
+    pub(super) spp: Option<i64>,
+    pub(super) max_depth: Option<i64>,
+    pub(super) seed: Option<u64>,
+    pub(super) robust: Option<bool>,
+}
+
+impl Builder<'_> {
+    pub(super) fn job(&self, r: &RenderSection) -> Result<RenderJob> {
+        let d = RenderJob::default();
+        Ok(RenderJob {
+            spp: match r.spp {
+                Some(v) => self.positive_count("render.spp", v, 1 << 24)?,
+                None => d.spp,
+            },
+            max_depth: match r.max_depth {
+                Some(v) => self.positive_count("render.max_depth", v, 1024)?,
+                None => d.max_depth,
+            },
+            seed: r.seed.unwrap_or(d.seed),
+            sample_start: 0,
+        })
+    }
+}

@@ -1,0 +1,339 @@
+//! `[[shapes]]`: spheres, rectangles and OBJ meshes, their transforms,
+//! materials and emission.
+
+use super::{Builder, DEFAULT_REFLECTANCE};
+use crate::bsdf::Bsdf;
+use crate::error::Result;
+use crate::scene::shapes::{self, flip_winding, transform_mesh};
+use crate::scene::{Emission, Material, Mesh};
+use glam::{Mat4, Quat, Vec2, Vec3};
+use serde::Deserialize;
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct ShapeSection {
+    #[serde(rename = "type")]
+    pub(super) kind: String,
+    pub(super) name: Option<String>,
+    pub(super) file: Option<PathBuf>,
+    pub(super) center: Option<[f32; 3]>,
+    pub(super) radius: Option<f32>,
+    pub(super) subdivisions: Option<u32>,
+    pub(super) flip_normals: Option<bool>,
+    pub(super) material: Option<String>,
+    pub(super) transform: Option<TransformSection>,
+    pub(super) emission: Option<[f32; 3]>,
+    pub(super) two_sided: Option<bool>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct TransformSection {
+    pub(super) translate: Option<[f32; 3]>,
+    pub(super) rotate: Option<RotateSection>,
+    pub(super) scale: Option<ScaleValue>,
+    pub(super) matrix: Option<[[f32; 4]; 4]>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RotateSection {
+    pub(super) axis: [f32; 3],
+    pub(super) angle: f32,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(untagged, expecting = "a number or an array of three numbers")]
+pub(super) enum ScaleValue {
+    Uniform(f32),
+    PerAxis([f32; 3]),
+}
+
+impl Builder<'_> {
+    pub(super) fn transform(&self, field: &str, t: &TransformSection) -> Result<Mat4> {
+        if let Some(m) = &t.matrix {
+            if t.translate.is_some() || t.rotate.is_some() || t.scale.is_some() {
+                return Err(self.err(
+                    format!("{field}.matrix"),
+                    "a matrix cannot be combined with translate/rotate/scale",
+                ));
+            }
+            for (r, row) in m.iter().enumerate() {
+                for (c, x) in row.iter().enumerate() {
+                    if !x.is_finite() {
+                        return Err(self.err(
+                            format!("{field}.matrix[{r}][{c}]"),
+                            format!("must be a finite number, got {x}"),
+                        ));
+                    }
+                }
+            }
+            if m[3] != [0.0, 0.0, 0.0, 1.0] {
+                return Err(self.err(
+                    format!("{field}.matrix[3]"),
+                    format!(
+                        "the last row of an affine transform must be [0, 0, 0, 1], got {:?}",
+                        m[3]
+                    ),
+                ));
+            }
+            // Rows in the file; glam is column-major.
+            let mat = Mat4::from_cols_array_2d(m).transpose();
+            if mat.determinant() == 0.0 {
+                return Err(self.err(format!("{field}.matrix"), "is singular"));
+            }
+            return Ok(mat);
+        }
+        let translate = match t.translate {
+            Some(v) => self.vec3(&format!("{field}.translate"), v)?,
+            None => Vec3::ZERO,
+        };
+        let rotate = match &t.rotate {
+            Some(r) => {
+                let axis = self.vec3(&format!("{field}.rotate.axis"), r.axis)?;
+                let axis = axis
+                    .try_normalize()
+                    .ok_or_else(|| self.err(format!("{field}.rotate.axis"), "must not be zero"))?;
+                let angle = self.finite(&format!("{field}.rotate.angle"), r.angle)?;
+                Quat::from_axis_angle(axis, angle.to_radians())
+            }
+            None => Quat::IDENTITY,
+        };
+        let scale = match &t.scale {
+            Some(ScaleValue::Uniform(s)) => {
+                Vec3::splat(self.finite(&format!("{field}.scale"), *s)?)
+            }
+            Some(ScaleValue::PerAxis(s)) => self.vec3(&format!("{field}.scale"), *s)?,
+            None => Vec3::ONE,
+        };
+        if scale.cmpeq(Vec3::ZERO).any() {
+            return Err(self.err(format!("{field}.scale"), "must not be zero"));
+        }
+        // Scale first, then rotate, then translate.
+        Ok(Mat4::from_scale_rotation_translation(
+            scale, rotate, translate,
+        ))
+    }
+
+    pub(super) fn shape(
+        &self,
+        index: usize,
+        s: &ShapeSection,
+        by_name: &HashMap<String, u32>,
+        materials: &mut Vec<Material>,
+        meshes: &mut Vec<Mesh>,
+    ) -> Result<()> {
+        let field = format!("shapes[{index}]");
+        let unused = |name: &str, present: bool| -> Result<()> {
+            if present {
+                Err(self.err(
+                    format!("{field}.{name}"),
+                    format!("not used by shapes of type `{}`", s.kind),
+                ))
+            } else {
+                Ok(())
+            }
+        };
+        let matrix = match &s.transform {
+            Some(t) => self.transform(&format!("{field}.transform"), t)?,
+            None => Mat4::IDENTITY,
+        };
+        let material = match &s.material {
+            Some(name) => Some(*by_name.get(name).ok_or_else(|| {
+                self.err(
+                    format!("{field}.material"),
+                    format!("no material named `{name}`"),
+                )
+            })?),
+            None => None,
+        };
+        let emission = match s.emission {
+            Some(e) => Some(Emission {
+                radiance: self.colour(&format!("{field}.emission"), e, None)?,
+                two_sided: s.two_sided.unwrap_or(false),
+                cone: None,
+            }),
+            None => {
+                // On OBJ shapes, two_sided also applies to MTL `Ke` emission.
+                if s.two_sided.is_some() && s.kind != "obj" {
+                    return Err(self.err(
+                        format!("{field}.two_sided"),
+                        "only used together with `emission`",
+                    ));
+                }
+                None
+            }
+        };
+        let default_material = |materials: &mut Vec<Material>| -> u32 {
+            let name = "(default)";
+            if let Some(i) = materials.iter().position(|m| m.name == name) {
+                return i as u32;
+            }
+            materials.push(Material::new(
+                name,
+                Bsdf::diffuse(Vec3::splat(DEFAULT_REFLECTANCE)),
+            ));
+            (materials.len() - 1) as u32
+        };
+        let shape_name = s
+            .name
+            .clone()
+            .unwrap_or_else(|| format!("{field} ({})", s.kind));
+        let object_id = index as u32;
+
+        let (mut positions, mut triangles, normals, uvs) = match s.kind.as_str() {
+            "obj" => {
+                for (name, present) in [
+                    ("center", s.center.is_some()),
+                    ("radius", s.radius.is_some()),
+                    ("subdivisions", s.subdivisions.is_some()),
+                    ("flip_normals", s.flip_normals.is_some()),
+                ] {
+                    unused(name, present)?;
+                }
+                let rel = s.file.as_ref().ok_or_else(|| {
+                    self.err(format!("{field}.file"), "required for an OBJ shape")
+                })?;
+                let path = self.base.join(rel);
+                let obj = shapes::load_obj(&path, self.file, &format!("{field}.file"))?;
+                if obj.objects.is_empty() {
+                    return Err(self.err(
+                        format!("{field}.file"),
+                        format!("{} has no triangles", path.display()),
+                    ));
+                }
+                // One material per MTL entry used, shared by the file's objects.
+                let mut mtl_index: HashMap<usize, u32> = HashMap::new();
+                for o in obj.objects {
+                    let (mut p, mut t) = (o.positions, o.triangles);
+                    transform_mesh(&matrix, &mut p, &mut t);
+                    let normals = transform_normals(&matrix, o.normals);
+                    let mtl = o.material.and_then(|m| obj.materials.get(m));
+                    let mat = match (material, o.material, mtl) {
+                        (Some(m), _, _) => m,
+                        (None, Some(mi), Some(mtl)) => match mtl_index.get(&mi) {
+                            Some(&m) => m,
+                            None => {
+                                // load_obj checked the MTL values' ranges.
+                                materials.push(self.mtl_material(
+                                    &format!("{field}.file"),
+                                    format!("{}:{}", rel.display(), mtl.name),
+                                    mtl,
+                                )?);
+                                let m = (materials.len() - 1) as u32;
+                                mtl_index.insert(mi, m);
+                                m
+                            }
+                        },
+                        _ => default_material(materials),
+                    };
+                    let mtl_emission = mtl
+                        .and_then(|m| m.emission)
+                        .filter(|e| e.max_element() > 0.0)
+                        .map(|radiance| Emission {
+                            radiance,
+                            two_sided: s.two_sided.unwrap_or(false),
+                            cone: None,
+                        });
+                    meshes.push(Mesh {
+                        name: format!("{shape_name}/{}", o.name),
+                        positions: p,
+                        triangles: t,
+                        normals,
+                        uvs: o.uvs,
+                        material: mat,
+                        emission: emission.or(mtl_emission),
+                        object_id,
+                        pls: None,
+                    });
+                }
+                return Ok(());
+            }
+            "rectangle" => {
+                for (name, present) in [
+                    ("file", s.file.is_some()),
+                    ("center", s.center.is_some()),
+                    ("radius", s.radius.is_some()),
+                    ("subdivisions", s.subdivisions.is_some()),
+                ] {
+                    unused(name, present)?;
+                }
+                let (p, t) = shapes::rectangle();
+                // u along +x, v along +y, (0, 0) at the (−1, −1) corner.
+                let uvs = p
+                    .iter()
+                    .map(|q| Vec2::new(0.5 * (q.x + 1.0), 0.5 * (q.y + 1.0)))
+                    .collect();
+                (p, t, Vec::new(), uvs)
+            }
+            "sphere" => {
+                unused("file", s.file.is_some())?;
+                let center = self.vec3(&format!("{field}.center"), s.center.unwrap_or([0.0; 3]))?;
+                let radius = self.finite(&format!("{field}.radius"), s.radius.unwrap_or(1.0))?;
+                if radius <= 0.0 {
+                    return Err(self.err(
+                        format!("{field}.radius"),
+                        format!("must be positive, got {radius}"),
+                    ));
+                }
+                let subdivisions = s.subdivisions.unwrap_or(4);
+                if subdivisions > 8 {
+                    return Err(self.err(
+                        format!("{field}.subdivisions"),
+                        format!("must be at most 8 (20·4^8 triangles), got {subdivisions}"),
+                    ));
+                }
+                let (p, t) = shapes::icosphere(center, radius, subdivisions);
+                // The smooth sphere's normals shade the facets.
+                let normals = p.iter().map(|q| (*q - center) / radius).collect();
+                (p, t, normals, Vec::new())
+            }
+            other => {
+                return Err(self.err(
+                    format!("{field}.type"),
+                    format!("unknown shape type `{other}` (known: obj, rectangle, sphere)"),
+                ))
+            }
+        };
+        let flip = s.flip_normals.unwrap_or(false);
+        if flip {
+            flip_winding(&mut triangles);
+        }
+        transform_mesh(&matrix, &mut positions, &mut triangles);
+        let mut normals = transform_normals(&matrix, normals);
+        if flip {
+            normals.iter_mut().for_each(|n| *n = -*n);
+        }
+        let material = match material {
+            Some(m) => m,
+            None => default_material(materials),
+        };
+        meshes.push(Mesh {
+            name: shape_name,
+            positions,
+            triangles,
+            normals,
+            uvs,
+            material,
+            emission,
+            object_id,
+            pls: None,
+        });
+        Ok(())
+    }
+}
+
+/// Normals under the transform `m`: by the inverse transpose of its linear
+/// part, renormalised.
+pub(super) fn transform_normals(m: &Mat4, normals: Vec<Vec3>) -> Vec<Vec3> {
+    if normals.is_empty() {
+        return normals;
+    }
+    let n = glam::Mat3::from_mat4(*m).inverse().transpose();
+    normals
+        .into_iter()
+        .map(|v| (n * v).normalize_or_zero())
+        .collect()
+}
