@@ -22,18 +22,6 @@ pub fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-/// `(a^k, a^(k−1) + … + a + 1)` modulo 2⁶⁴ for the PCG multiplier `a`: the
-/// factors of `k` steps at once (see [`Rng::skip`]).
-const fn jump_factors(k: u32) -> (u64, u64) {
-    let (mut a, mut s, mut i) = (1u64, 0u64, 0);
-    while i < k {
-        s = s.wrapping_mul(PCG_MULT).wrapping_add(1);
-        a = a.wrapping_mul(PCG_MULT);
-        i += 1;
-    }
-    (a, s)
-}
-
 impl Rng {
     /// A generator with the given state seed and stream selector.
     #[inline]
@@ -81,21 +69,18 @@ impl Rng {
         xorshifted.rotate_right(rot)
     }
 
-    /// Advances a raw state by `K` steps, discarding their numbers, at the
-    /// cost of one step: `K` steps of `x ↦ a·x + c` are
-    /// `x ↦ a^K·x + c·(a^(K−1) + … + 1)`, with both factors computed at
-    /// compile time. For kernels that must stay in step with code that draws
-    /// numbers it does not use.
-    #[inline(always)]
-    pub fn skip<const K: u32>(state: &mut u64, inc: u64) {
-        let (a, s) = const { jump_factors(K) };
-        *state = state.wrapping_mul(a).wrapping_add(inc.wrapping_mul(s));
-    }
-
     /// A uniform float in `[0, 1)` from a raw state, as [`Rng::next_f32`].
     #[inline(always)]
     pub fn step_f32(state: &mut u64, inc: u64) -> f32 {
         (Rng::step(state, inc) >> 8) as f32 * (1.0 / 16_777_216.0)
+    }
+
+    /// Two uniform floats in `[0, 1)` from a raw state, as [`Rng::next_2d`].
+    #[inline(always)]
+    pub fn step_2d(state: &mut u64, inc: u64) -> glam::Vec2 {
+        let x = Rng::step_f32(state, inc);
+        let y = Rng::step_f32(state, inc);
+        glam::Vec2::new(x, y)
     }
 
     /// A uniform 32-bit integer.
@@ -155,23 +140,13 @@ mod tests {
     }
 
     #[test]
-    fn skipping_equals_stepping() {
-        fn check<const K: u32>() {
-            for (seed, stream) in [(1u64, 2u64), (u64::MAX, 12345), (7, 0)] {
-                let (mut a, inc) = Rng::new(seed, stream).to_parts();
-                let mut b = a;
-                for _ in 0..K {
-                    Rng::step(&mut a, inc);
-                }
-                Rng::skip::<K>(&mut b, inc);
-                assert_eq!(a, b, "K = {K}");
-            }
+    fn raw_steps_draw_what_the_generator_draws() {
+        let mut rng = Rng::for_sample(3, 1, 4, 1);
+        let (mut state, inc) = rng.to_parts();
+        for _ in 0..100 {
+            assert_eq!(Rng::step_2d(&mut state, inc), rng.next_2d());
+            assert_eq!(Rng::step_f32(&mut state, inc), rng.next_f32());
         }
-        check::<1>();
-        check::<2>();
-        check::<4>();
-        check::<5>();
-        check::<63>();
     }
 
     #[test]

@@ -59,20 +59,25 @@ impl Frame {
 }
 
 /// Concentric map of the unit square onto the unit disk (Shirley–Chiu).
-#[inline]
+#[inline(always)]
 pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
+    // Written with selects, not branches, so that the vectorised kernel
+    // calls it lane by lane (the same operations either way).
     let o = 2.0 * u - Vec2::ONE;
-    if o.x == 0.0 && o.y == 0.0 {
-        return Vec2::ZERO;
-    }
     // θ = φ in the wedges around ±x and θ = π/2 − φ in those around ±y, with
     // φ ∈ [−π/4, π/4]; cos(π/2 − φ) = sin φ, so only (cos φ, sin φ) is needed.
-    if o.x.abs() > o.y.abs() {
-        let (sin, cos) = sin_cos_quarter((PI / 4.0) * (o.y / o.x));
-        o.x * Vec2::new(cos, sin)
+    let wide = o.x.abs() > o.y.abs();
+    let (major, minor) = if wide { (o.x, o.y) } else { (o.y, o.x) };
+    let (sin, cos) = sin_cos_quarter((PI / 4.0) * (minor / major));
+    let d = if wide {
+        major * Vec2::new(cos, sin)
     } else {
-        let (sin, cos) = sin_cos_quarter((PI / 4.0) * (o.x / o.y));
-        o.y * Vec2::new(sin, cos)
+        major * Vec2::new(sin, cos)
+    };
+    if o.x == 0.0 && o.y == 0.0 {
+        Vec2::ZERO
+    } else {
+        d
     }
 }
 
@@ -88,7 +93,7 @@ pub(crate) fn sin_cos_quarter(phi: f32) -> (f32, f32) {
 }
 
 /// Cosine-weighted direction on the hemisphere around +z (local frame).
-#[inline]
+#[inline(always)]
 pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
     let d = square_to_disk_concentric(u);
     let z = (1.0 - d.length_squared()).max(0.0).sqrt();
@@ -96,7 +101,7 @@ pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
 }
 
 /// Solid-angle density of [`square_to_cosine_hemisphere`]: `cos θ / π`.
-#[inline]
+#[inline(always)]
 pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
     if cos_theta > 0.0 {
         cos_theta * FRAC_1_PI
@@ -119,17 +124,17 @@ pub const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * PI);
 
 /// Barycentrics `(b1, b2)` of a uniform point on a triangle (the point is
 /// `(1 − b1 − b2)·p0 + b1·p1 + b2·p2`); area density is `1 / area`.
-#[inline]
+#[inline(always)]
 pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
-    // Heitz 2019, "A low-distortion map between triangle and square".
-    let (b0, b1);
-    if u.y > u.x {
-        b0 = u.x / 2.0;
-        b1 = u.y - b0;
+    // Heitz 2019, "A low-distortion map between triangle and square";
+    // selects rather than branches, for the vectorised kernel.
+    let upper = u.y > u.x;
+    let half = if upper { u.x } else { u.y } / 2.0;
+    let (b0, b1) = if upper {
+        (half, u.y - half)
     } else {
-        b1 = u.y / 2.0;
-        b0 = u.x - b1;
-    }
+        (u.x - half, half)
+    };
     Vec2::new(b1, 1.0 - b0 - b1)
 }
 

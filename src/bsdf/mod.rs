@@ -54,8 +54,8 @@ pub mod models;
 pub use fresnel::METALS;
 pub use microfacet::{Distribution, Microfacet};
 pub use models::{
-    BlinnPhongParams, CookTorranceParams, DielectricParams, DiffuseParams, Fresnel, ParamError,
-    PrincipledParams,
+    lambert_eval, lambert_pdf, lambert_sample, BlinnPhongParams, CookTorranceParams,
+    DielectricParams, DiffuseParams, Fresnel, ParamError, PrincipledParams,
 };
 
 use glam::{Vec2, Vec3};

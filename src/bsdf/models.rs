@@ -15,7 +15,7 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
 /// Both directions on the upper (outside) side.
-#[inline]
+#[inline(always)]
 fn both_above(wo: Vec3, wi: Vec3) -> bool {
     wo.z > 0.0 && wi.z > 0.0
 }
@@ -30,22 +30,14 @@ pub struct DiffuseParams {
 impl DiffuseParams {
     #[inline]
     pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        if both_above(wo, wi) {
-            self.reflectance * FRAC_1_PI
-        } else {
-            Vec3::ZERO
-        }
+        lambert_eval(self.reflectance, wo, wi)
     }
 
     #[inline]
     pub(super) fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
-        if wo.z <= 0.0 {
-            return None;
-        }
-        let wi = square_to_cosine_hemisphere(u);
-        let pdf = cosine_hemisphere_pdf(wi.z);
+        let (valid, wi, pdf) = lambert_sample(wo, u);
         // f·cos/pdf = (ρ/π)·cos / (cos/π) = ρ.
-        (pdf > 0.0).then(|| BsdfSample {
+        valid.then(|| BsdfSample {
             wi,
             f: self.reflectance * FRAC_1_PI,
             pdf,
@@ -56,12 +48,41 @@ impl DiffuseParams {
 
     #[inline]
     pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z > 0.0 {
-            cosine_hemisphere_pdf(wi.z)
-        } else {
-            0.0
-        }
+        lambert_pdf(wo, wi)
     }
+}
+
+/// Lambert's `f = ρ/π` for local directions `wo`, `wi` (zero unless both
+/// are above the surface). Branch-free: the vectorised kernel calls it per
+/// lane, the [`Bsdf`](super::Bsdf) per shading point.
+#[inline(always)]
+pub fn lambert_eval(albedo: Vec3, wo: Vec3, wi: Vec3) -> Vec3 {
+    if both_above(wo, wi) {
+        albedo * FRAC_1_PI
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// Solid-angle density of [`lambert_sample`] for `wi` (cosine-weighted;
+/// zero when `wo` is below the surface). Branch-free.
+#[inline(always)]
+pub fn lambert_pdf(wo: Vec3, wi: Vec3) -> f32 {
+    if wo.z > 0.0 {
+        cosine_hemisphere_pdf(wi.z)
+    } else {
+        0.0
+    }
+}
+
+/// Lambert's cosine-weighted sample from the square sample `u`: whether it
+/// is valid (`wo` above the surface and a non-zero density), the local
+/// direction and its density. Branch-free.
+#[inline(always)]
+pub fn lambert_sample(wo: Vec3, u: Vec2) -> (bool, Vec3, f32) {
+    let wi = square_to_cosine_hemisphere(u);
+    let pdf = cosine_hemisphere_pdf(wi.z);
+    (wo.z > 0.0 && pdf > 0.0, wi, pdf)
 }
 
 /// Normalised Blinn–Phong: `f = kd/π + ks·K(n)·cos^n θh`.

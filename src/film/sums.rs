@@ -63,6 +63,24 @@ impl Default for PixelSums {
 }
 
 impl PixelSums {
+    /// Adds one path's radiance `l` (after the sensor response).
+    #[inline(always)]
+    pub fn add_radiance(&mut self, l: Vec3) {
+        let l = l.as_dvec3();
+        self.sum += l;
+        self.sum_sq += l * l;
+    }
+
+    /// Adds the first-hit layers of a camera sample that hit: camera-space
+    /// depth (scene units), normal and albedo.
+    #[inline(always)]
+    pub fn add_first_hit(&mut self, depth: f32, normal: Vec3, albedo: Vec3) {
+        self.hits += 1;
+        self.depth += depth as f64;
+        self.normal += normal;
+        self.albedo += albedo;
+    }
+
     /// Adds the sums and counts of `later`, a piece of later samples: the
     /// object id stays this piece's unless it has no samples.
     #[inline]

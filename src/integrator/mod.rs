@@ -24,6 +24,7 @@
 //! (`plsr render --scalar`) turns it off.
 
 pub mod soa;
+mod spawn;
 
 pub use soa::{Isa, SoaScene};
 
@@ -35,10 +36,28 @@ use crate::rng::Rng;
 use crate::scene::Scene;
 use crate::warp::{power_heuristic, Frame};
 use glam::{Vec2, Vec3};
+use spawn::{ray_epsilon, shadow_segment, spawn_origin};
 use std::time::Instant;
 
 /// Number of scattering events after which Russian roulette may end a path.
 pub const RUSSIAN_ROULETTE_DEPTH: u32 = 3;
+
+/// Whether Russian roulette spins for a path of throughput `beta` that has
+/// reached [`RUSSIAN_ROULETTE_DEPTH`] (`at_depth`): only where the largest
+/// channel `q` of `beta` is below 1, and only then does it draw a number.
+#[inline(always)]
+pub(crate) fn roulette_spins(beta: Vec3, at_depth: bool) -> bool {
+    at_depth && beta.max_element() < 1.0
+}
+
+/// The roulette's outcome for the uniform number `u`: the path survives
+/// with probability `q` (the largest channel of `beta`), its throughput
+/// divided by `q` so the estimate stays unbiased.
+#[inline(always)]
+pub(crate) fn roulette(beta: Vec3, u: f32) -> (bool, Vec3) {
+    let q = beta.max_element();
+    (u < q, beta / q)
+}
 
 const COHERENT_CAMERA: bool = true;
 
@@ -112,13 +131,6 @@ struct Wavefront {
     rays: Vec<RayHit>,
     shadow_rays: Vec<ShadowRay>,
     pending: Vec<PendingLight>,
-}
-
-/// Offset along the normal that keeps spawned rays off their own surface,
-/// relative to the magnitude of the coordinates.
-#[inline]
-fn ray_epsilon(p: Vec3) -> f32 {
-    1e-4 * (1.0 + p.abs().max_element())
 }
 
 /// The light-leak guard of shading normals: a direction pair must be a
@@ -203,15 +215,34 @@ impl SurfacePoint {
     }
 }
 
-/// Origin of a ray leaving surface point `p` along `dir`: offset by `eps`
-/// along the normal `n`, to the side `dir` leaves on (refracted rays leave
-/// on the far side).
+/// The scattering vertex a path's current ray left from.
+pub(crate) struct PrevVertex {
+    /// Scattering events before it (0: the ray is the camera's).
+    pub depth: u32,
+    /// Solid-angle density of the BSDF sample that chose the ray; 0 after a
+    /// delta lobe.
+    pub pdf: f32,
+    /// Its position.
+    pub point: Vec3,
+}
+
+/// MIS weight of emission from triangle light `li` at `p` found along `dir`
+/// by a BSDF sample (power heuristic against light sampling, which could
+/// have found it too); 1 for the camera ray or after a delta lobe.
 #[inline]
-fn spawn_origin(p: Vec3, n: Vec3, eps: f32, dir: Vec3) -> Vec3 {
-    if n.dot(dir) >= 0.0 {
-        p + n * eps
+pub(crate) fn emission_weight(
+    scene: &Scene,
+    li: usize,
+    prev: &PrevVertex,
+    p: Vec3,
+    dir: Vec3,
+) -> f32 {
+    if prev.depth == 0 || prev.pdf == 0.0 {
+        1.0
     } else {
-        p - n * eps
+        let light = &scene.lights().lights[li];
+        let light_pdf = scene.lights().pick_pmf(li, prev.point) * light.pdf_li(prev.point, p, dir);
+        power_heuristic(prev.pdf, light_pdf)
     }
 }
 
@@ -377,10 +408,7 @@ fn trace_pass(pass: &Pass, wf: &mut Wavefront, pixels: &mut [PixelSums], stats: 
                 live += 1;
             } else {
                 let path = &wf.paths[i];
-                let l = response.apply(path.radiance).as_dvec3();
-                let px = &mut pixels[path.pixel as usize];
-                px.sum += l;
-                px.sum_sq += l * l;
+                pixels[path.pixel as usize].add_radiance(response.apply(path.radiance));
             }
         }
         wf.paths.truncate(live);
@@ -452,17 +480,13 @@ fn shade(
     let shading_n = surface.shading_normal(n, wo);
 
     if path.depth == 0 {
-        pixel.hits += 1;
-        pixel.depth += scene.camera().depth(ray.dir, hit.t) as f64;
-        pixel.normal += if bsdf.transmits() { facing } else { shading_n };
-        pixel.albedo += bsdf.albedo();
+        pixel.add_first_hit(
+            scene.camera().depth(ray.dir, hit.t),
+            if bsdf.transmits() { facing } else { shading_n },
+            bsdf.albedo(),
+        );
         if record_aovs_first {
-            // Light fixtures (u32::MAX) are not objects.
-            pixel.object_id = if mesh.object_id == u32::MAX {
-                -1.0
-            } else {
-                mesh.object_id as f32
-            };
+            pixel.object_id = mesh.object_layer();
         }
     }
 
@@ -473,13 +497,12 @@ fn shade(
         if let Light::Triangle(tl) = light {
             let le = tl.emitted(wo);
             if le != Vec3::ZERO {
-                let weight = if path.depth == 0 || path.prev_pdf == 0.0 {
-                    1.0
-                } else {
-                    let light_pdf = scene.lights().pick_pmf(li, path.prev_point)
-                        * light.pdf_li(path.prev_point, p, ray.dir);
-                    power_heuristic(path.prev_pdf, light_pdf)
+                let prev = PrevVertex {
+                    depth: path.depth,
+                    pdf: path.prev_pdf,
+                    point: path.prev_point,
                 };
+                let weight = emission_weight(scene, li, &prev, p, ray.dir);
                 path.radiance += path.beta * le * weight;
             }
         }
@@ -538,16 +561,12 @@ fn shade(
                 // of the light point: t ∈ [0, tfar] along d = target − origin;
                 // towards the environment (at infinity), unbounded.
                 let origin = origin_for(ls.wi);
-                let shadow = if ls.dist.is_finite() {
-                    let target = p + ls.wi * ls.dist;
-                    Ray {
-                        org: origin,
-                        dir: target - origin,
-                        tnear: 0.0,
-                        tfar: 1.0 - ray_epsilon(target) / ls.dist,
-                    }
-                } else {
-                    Ray::new(origin, ls.wi)
+                let (dir, tfar) = shadow_segment(origin, p, ls.wi, ls.dist);
+                let shadow = Ray {
+                    org: origin,
+                    dir,
+                    tnear: 0.0,
+                    tfar,
                 };
                 if shadow.tfar > 0.0 {
                     shadow_rays.push(ShadowRay::new(shadow));
@@ -581,15 +600,13 @@ fn shade(
     path.prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
     path.prev_point = p;
     path.depth += 1;
-    if path.depth >= RUSSIAN_ROULETTE_DEPTH {
-        let q = path.beta.max_element();
-        if q < 1.0 {
-            if path.rng.next_f32() >= q {
-                path.alive = false;
-                return;
-            }
-            path.beta /= q;
+    if roulette_spins(path.beta, path.depth >= RUSSIAN_ROULETTE_DEPTH) {
+        let (survives, beta) = roulette(path.beta, path.rng.next_f32());
+        if !survives {
+            path.alive = false;
+            return;
         }
+        path.beta = beta;
     }
     if path.beta == Vec3::ZERO {
         path.alive = false;

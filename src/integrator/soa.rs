@@ -25,18 +25,21 @@
 // Lane loops index a dozen arrays by lane; iterator chains would hide that.
 #![allow(clippy::needless_range_loop)]
 
-use super::{camera_sample, PixelSums, RayStats, Tile, RUSSIAN_ROULETTE_DEPTH};
+use super::spawn::{ray_epsilon, shadow_segment};
+use super::{
+    camera_sample, emission_weight, roulette, roulette_spins, PixelSums, PrevVertex, RayStats,
+    Tile, RUSSIAN_ROULETTE_DEPTH,
+};
 use crate::accel::{gather_lanes, RayBatch, INVALID_ID};
-use crate::bsdf::Bsdf;
+use crate::bsdf::{lambert_eval, lambert_pdf, lambert_sample, Bsdf};
 use crate::camera::{Camera, PinholeCamera};
 use crate::filter::PixelFilter;
 use crate::job::RenderJob;
-use crate::light::Light;
+use crate::light::{point_light_sample, triangle_light_sample, Light};
 use crate::rng::Rng;
 use crate::scene::Scene;
-use crate::warp::{power_heuristic, sin_cos_quarter, Frame};
+use crate::warp::{power_heuristic, Frame};
 use glam::{Vec2, Vec3};
-use std::f32::consts::{FRAC_1_PI, PI};
 use std::time::Instant;
 
 /// What the vectorised kernel needs of a scene it can render.
@@ -336,10 +339,7 @@ fn retire(lanes: &SoaLanes, ended: &[u32], scene: &Scene, pixels: &mut [PixelSum
             lanes.radiance[1][i],
             lanes.radiance[2][i],
         );
-        let l = response.apply(radiance).as_dvec3();
-        let px = &mut pixels[lanes.pixel[i] as usize];
-        px.sum += l;
-        px.sum_sq += l * l;
+        pixels[lanes.pixel[i] as usize].add_radiance(response.apply(radiance));
     }
 }
 
@@ -567,19 +567,16 @@ fn add_emission(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes, depth: u
         if le == Vec3::ZERO {
             continue;
         }
-        let prev_pdf = lanes.prev_pdf[i];
-        let weight = if depth == 0 || prev_pdf == 0.0 {
-            1.0
-        } else {
-            let prev_point = Vec3::new(
+        let prev = PrevVertex {
+            depth,
+            pdf: lanes.prev_pdf[i],
+            point: Vec3::new(
                 lanes.prev_point[0][i],
                 lanes.prev_point[1][i],
                 lanes.prev_point[2][i],
-            );
-            let light_pdf =
-                scene.lights().pick_pmf(li, prev_point) * light.pdf_li(prev_point, p, ray.dir);
-            power_heuristic(prev_pdf, light_pdf)
+            ),
         };
+        let weight = emission_weight(scene, li, &prev, p, ray.dir);
         let beta = Vec3::new(lanes.beta[0][i], lanes.beta[1][i], lanes.beta[2][i]);
         let add = beta * le * weight;
         for c in 0..3 {
@@ -627,22 +624,17 @@ fn camera_vertex_layers(pass: &Pass, lanes: &SoaLanes, pixels: &mut [PixelSums])
             }
             let g = (geom[k] as usize).min(last);
             let pixel = &mut pixels[lanes.pixel[start + k] as usize];
-            pixel.hits += 1;
-            pixel.depth += depth[k] as f64;
-            pixel.normal += Vec3::new(normal[0][k], normal[1][k], normal[2][k]);
-            pixel.albedo += Vec3::new(
-                pass.kernel.albedo[0][g],
-                pass.kernel.albedo[1][g],
-                pass.kernel.albedo[2][g],
+            pixel.add_first_hit(
+                depth[k],
+                Vec3::new(normal[0][k], normal[1][k], normal[2][k]),
+                Vec3::new(
+                    pass.kernel.albedo[0][g],
+                    pass.kernel.albedo[1][g],
+                    pass.kernel.albedo[2][g],
+                ),
             );
             if pass.first {
-                // Light fixtures (u32::MAX) are not objects.
-                let mesh = &pass.scene.meshes()[g];
-                pixel.object_id = if mesh.object_id == u32::MAX {
-                    -1.0
-                } else {
-                    mesh.object_id as f32
-                };
+                pixel.object_id = pass.scene.meshes()[g].object_layer();
             }
         }
     }
@@ -845,17 +837,11 @@ struct LaneOut {
     rng: u64,
 }
 
-/// Offset along the normal that keeps spawned rays off their surface
-/// (the general integrator's `ray_epsilon`).
-#[inline(always)]
-fn ray_epsilon(p: Vec3) -> f32 {
-    1e-4 * (1.0 + p.abs().max_element())
-}
-
 /// One bounce of one path: the general integrator's `shade` for a Lambert
-/// surface and a point light, written without branches (every `if` is a
-/// select) so that a loop over lanes vectorises. Same operations, same
-/// order, same random numbers.
+/// surface and a point or area light, written without branches (every `if`
+/// is a select) so that a loop over lanes vectorises. It calls the same
+/// branch-free helpers as the general integrator (ray offsets, the lights'
+/// samples, Lambert, MIS), in the same order, with the same random numbers.
 #[inline(always)]
 fn shade_lane<const TRIANGLES: bool>(l: LaneIn, u: Uniform) -> LaneOut {
     let mut rng = l.rng;
@@ -868,113 +854,59 @@ fn shade_lane<const TRIANGLES: bool>(l: LaneIn, u: Uniform) -> LaneOut {
     let eps = ray_epsilon(p);
     let origin = p + n * eps;
 
-    // Next-event estimation: two numbers pick the light (see `pick_lights`),
-    // two more place the sample on it (unused by a point light).
-    // Without emitting triangles, all five numbers before the direction's
-    // (these four and the BSDF's lobe number) are skipped at once.
-    let ul = if TRIANGLES {
-        Rng::skip::<2>(&mut rng, l.inc);
-        Vec2::new(
-            Rng::step_f32(&mut rng, l.inc),
-            Rng::step_f32(&mut rng, l.inc),
-        )
-    } else {
-        Vec2::ZERO
-    };
+    // The numbers of one bounce, in the general integrator's order: two
+    // pick the light (`pick_lights` drew the pick from them already, or
+    // there is one light), two place the sample on it (unused by a point
+    // light), one picks the BSDF's lobe (Lambert has one), two the direction.
+    let _light_pick = Rng::step_2d(&mut rng, l.inc);
+    let light_point = Rng::step_2d(&mut rng, l.inc);
+    let _lobe = Rng::step_f32(&mut rng, l.inc);
+    let direction = Rng::step_2d(&mut rng, l.inc);
+
     let light = l.light;
-    // Both lights' `sample_li`, computed for every lane and selected (the
+    // Both lights' samples, computed for every lane and selected (the
     // triangle's only where the scene has emitting triangles).
-    let point_sample = {
-        let d = light.p[0] - p;
-        let dist2 = d.length_squared();
-        let inv_dist = dist2.sqrt().recip();
-        let radiance = light.emit * (inv_dist * inv_dist);
-        (dist2 != 0.0, radiance, d * inv_dist, dist2 * inv_dist, 1.0)
-    };
-    let triangle_sample = {
-        let b = uniform_triangle(ul);
-        let x = light.p[0] * (1.0 - b.x - b.y) + light.p[1] * b.x + light.p[2] * b.y;
-        let d = x - p;
-        let dist2 = d.length_squared();
-        let dist = dist2.sqrt();
-        let wi = d / dist;
-        let cos_light = light.n.dot(-wi);
-        let radiance = if light.two_sided || light.n.dot(-wi) > 0.0 {
-            light.emit
-        } else {
-            Vec3::ZERO
+    let (valid, ls) = if TRIANGLES && light.triangle {
+        let emitted = |w: Vec3| {
+            if light.two_sided || light.n.dot(w) > 0.0 {
+                light.emit
+            } else {
+                Vec3::ZERO
+            }
         };
-        let valid = dist2 != 0.0 && !(cos_light == 0.0 || radiance == Vec3::ZERO);
-        let pdf = dist2 / (cos_light.abs() * light.area);
-        (valid, radiance, wi, dist, pdf)
-    };
-    let (valid, radiance, wi, dist, ls_pdf) = if TRIANGLES && light.triangle {
-        triangle_sample
+        triangle_light_sample(light.p, light.n, light.area, emitted, p, light_point)
     } else {
-        point_sample
+        point_light_sample(light.p[0], light.emit, p)
     };
-    let wi_local = frame.to_local(wi);
-    // Lambert::eval and ::pdf; the cosine.
-    let above = wo_local.z > 0.0 && wi_local.z > 0.0;
-    let f = if above {
-        l.albedo * FRAC_1_PI
-    } else {
-        Vec3::ZERO
-    };
-    let bsdf_pdf = if wo_local.z > 0.0 && wi_local.z > 0.0 {
-        wi_local.z * FRAC_1_PI
-    } else {
-        0.0
-    };
+    let wi_local = frame.to_local(ls.wi);
+    let f = lambert_eval(l.albedo, wo_local, wi_local);
+    let bsdf_pdf = lambert_pdf(wo_local, wi_local);
     let f = f * wi_local.z.abs();
-    let light_pdf = light.pmf * ls_pdf;
+    let light_pdf = light.pmf * ls.pdf;
     // A point light is a delta light: no MIS.
     let weight = if TRIANGLES && light.triangle {
         power_heuristic(light_pdf, bsdf_pdf)
     } else {
         1.0
     };
-    // From the offset origin to just short of the light; unbounded where
-    // the distance overflows (as the general integrator does).
-    let target = p + wi * dist;
-    let (shadow_dir, shadow_tfar) = if dist.is_finite() {
-        (target - origin, 1.0 - ray_epsilon(target) / dist)
-    } else {
-        (wi, f32::INFINITY)
-    };
+    let (shadow_dir, shadow_tfar) = shadow_segment(origin, p, ls.wi, ls.dist);
     let shadow = l.hit && valid && f != Vec3::ZERO && shadow_tfar > 0.0;
-    let pending = l.beta * f * radiance * (weight / light_pdf);
+    let pending = l.beta * f * ls.radiance * (weight / light_pdf);
 
-    // Lambert::sample: one number picks the lobe (unused), two the direction.
-    if TRIANGLES {
-        Rng::skip::<1>(&mut rng, l.inc);
-    } else {
-        Rng::skip::<5>(&mut rng, l.inc);
-    }
-    let u1 = Rng::step_f32(&mut rng, l.inc);
-    let u2 = Rng::step_f32(&mut rng, l.inc);
-    let local = cosine_hemisphere(Vec2::new(u1, u2));
-    let pdf = if local.z > 0.0 {
-        local.z * FRAC_1_PI
-    } else {
-        0.0
-    };
-    let sampled = wo_local.z > 0.0 && pdf > 0.0;
+    let (sampled, local, pdf) = lambert_sample(wo_local, direction);
     let next_dir = frame.to_world(local);
     let mut beta = l.beta * l.albedo;
 
-    // Russian roulette: a number is drawn only where q < 1.
-    let q = beta.max_element();
+    // Russian roulette draws a number only where it spins: drawn from a
+    // copy of the state, kept where it spins.
+    let spin = roulette_spins(beta, u.roulette);
     let mut rng_rr = rng;
-    let r = Rng::step_f32(&mut rng_rr, l.inc);
-    let spin = u.roulette && q < 1.0;
+    let (survives, beta_rr) = roulette(beta, Rng::step_f32(&mut rng_rr, l.inc));
     if spin {
         rng = rng_rr;
+        beta = beta_rr;
     }
-    let survived = !spin || r < q;
-    if spin {
-        beta /= q;
-    }
+    let survived = !spin || survives;
     let alive = l.hit && u.continue_paths && sampled && survived && beta != Vec3::ZERO;
     LaneOut {
         alive,
@@ -990,42 +922,6 @@ fn shade_lane<const TRIANGLES: bool>(l: LaneIn, u: Uniform) -> LaneOut {
         point: p,
         rng,
     }
-}
-
-/// `square_to_uniform_triangle` with its branch as a select; bit-identical
-/// to it.
-#[inline(always)]
-fn uniform_triangle(u: Vec2) -> Vec2 {
-    let upper = u.y > u.x;
-    let half = if upper { u.x } else { u.y } / 2.0;
-    let (b0, b1) = if upper {
-        (half, u.y - half)
-    } else {
-        (u.x - half, half)
-    };
-    Vec2::new(b1, 1.0 - b0 - b1)
-}
-
-/// `square_to_cosine_hemisphere` (concentric map, Taylor sine and cosine)
-/// with its branches as selects; bit-identical to it.
-#[inline(always)]
-fn cosine_hemisphere(u: Vec2) -> Vec3 {
-    let o = 2.0 * u - Vec2::ONE;
-    let wide = o.x.abs() > o.y.abs();
-    let (major, minor) = if wide { (o.x, o.y) } else { (o.y, o.x) };
-    let (sin, cos) = sin_cos_quarter((PI / 4.0) * (minor / major));
-    let d = if wide {
-        major * Vec2::new(cos, sin)
-    } else {
-        major * Vec2::new(sin, cos)
-    };
-    let d = if o.x == 0.0 && o.y == 0.0 {
-        Vec2::ZERO
-    } else {
-        d
-    };
-    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
-    Vec3::new(d.x, d.y, z)
 }
 
 /// Lanes per chunk of [`shade_lanes`]: one AVX-512 register of `f32`.
@@ -1225,45 +1121,4 @@ fn shade_chunks<const TRIANGLES: bool>(kernel: &SoaScene, lanes: &mut SoaLanes, 
     rays.tnear.as_mut_slice().fill(0.0);
     rays.geom_id.as_mut_slice().fill(INVALID_ID);
     shadow.tnear.as_mut_slice().fill(0.0);
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::warp::{square_to_cosine_hemisphere, square_to_uniform_triangle};
-
-    /// Points of the unit square, with the corners, the centre, the
-    /// diagonals and the axes through the centre, where the warps branch.
-    fn square_points() -> Vec<Vec2> {
-        let mut out = Vec::new();
-        let n = 97;
-        for i in 0..n {
-            for j in 0..n {
-                out.push(Vec2::new(
-                    i as f32 / (n - 1) as f32,
-                    j as f32 / (n - 1) as f32,
-                ));
-            }
-        }
-        out.extend([Vec2::splat(0.5), Vec2::new(0.5, 0.25), Vec2::new(0.25, 0.5)]);
-        out
-    }
-
-    #[test]
-    fn select_forms_of_the_warps_are_bit_identical() {
-        for u in square_points() {
-            let (a, b) = (cosine_hemisphere(u), square_to_cosine_hemisphere(u));
-            assert_eq!(
-                a.to_array().map(f32::to_bits),
-                b.to_array().map(f32::to_bits),
-                "{u}"
-            );
-            let (a, b) = (uniform_triangle(u), square_to_uniform_triangle(u));
-            assert_eq!(
-                a.to_array().map(f32::to_bits),
-                b.to_array().map(f32::to_bits),
-                "{u}"
-            );
-        }
-    }
 }

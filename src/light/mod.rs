@@ -34,8 +34,8 @@ mod triangle;
 
 pub use envmap::EnvironmentLight;
 pub use pls::{Cone, Reach};
-pub use point::PointLight;
-pub use triangle::TriangleLight;
+pub use point::{point_light_sample, PointLight};
+pub use triangle::{triangle_light_sample, TriangleLight};
 
 use crate::color::luminance;
 

@@ -73,27 +73,9 @@ impl TriangleLight {
     /// `pdf = r² / (|cos θ_light| · A)`.
     #[inline]
     pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
-        let b = square_to_uniform_triangle(u);
-        let x = self.p[0] * (1.0 - b.x - b.y) + self.p[1] * b.x + self.p[2] * b.y;
-        let d = x - p;
-        let dist2 = d.length_squared();
-        if dist2 == 0.0 {
-            return None;
-        }
-        let dist = dist2.sqrt();
-        let wi = d / dist;
-        let cos_light = self.n.dot(-wi);
-        let radiance = self.emitted(-wi);
-        if cos_light == 0.0 || radiance == Vec3::ZERO {
-            return None;
-        }
-        Some(LightSample {
-            radiance,
-            wi,
-            dist,
-            pdf: dist2 / (cos_light.abs() * self.area),
-            delta: false,
-        })
+        let (valid, sample) =
+            triangle_light_sample(self.p, self.n, self.area, |w| self.emitted(w), p, u);
+        valid.then_some(sample)
     }
 
     /// Solid-angle density of [`TriangleLight::sample_li`] for the point `x`
@@ -116,4 +98,39 @@ impl TriangleLight {
             .map_or(1.0, |c| (1.0 - c.cos_a * c.cos_a).max(0.0));
         std::f32::consts::PI * self.area * luminance(self.radiance) * sides * window
     }
+}
+
+/// The light sample of a triangle `vertices` with unit normal `n` and area
+/// `area` (scene units²) seen from `p`, for the square sample `u` (uniform
+/// over the area, density converted to solid angle: `r² / (|cos θ_light|·A)`);
+/// `emitted(w)` is the radiance leaving along `w`. Returns whether the
+/// sample is valid (non-zero distance, cosine and radiance). Branch-free
+/// (with a branch-free `emitted`): the vectorised kernel calls it per lane,
+/// [`TriangleLight::sample_li`] per shading point.
+#[inline(always)]
+pub fn triangle_light_sample(
+    vertices: [Vec3; 3],
+    n: Vec3,
+    area: f32,
+    emitted: impl Fn(Vec3) -> Vec3,
+    p: Vec3,
+    u: Vec2,
+) -> (bool, LightSample) {
+    let b = square_to_uniform_triangle(u);
+    let x = vertices[0] * (1.0 - b.x - b.y) + vertices[1] * b.x + vertices[2] * b.y;
+    let d = x - p;
+    let dist2 = d.length_squared();
+    let dist = dist2.sqrt();
+    let wi = d / dist;
+    let cos_light = n.dot(-wi);
+    let radiance = emitted(-wi);
+    let valid = dist2 != 0.0 && !(cos_light == 0.0 || radiance == Vec3::ZERO);
+    let sample = LightSample {
+        radiance,
+        wi,
+        dist,
+        pdf: dist2 / (cos_light.abs() * area),
+        delta: false,
+    };
+    (valid, sample)
 }

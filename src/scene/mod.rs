@@ -114,6 +114,18 @@ impl std::fmt::Display for MeshError {
 impl std::error::Error for MeshError {}
 
 impl Mesh {
+    /// The value of the film's object layer for this mesh: its object id,
+    /// or −1 for light fixtures (`object_id == u32::MAX`), which are not
+    /// objects.
+    #[inline]
+    pub fn object_layer(&self) -> f32 {
+        if self.object_id == u32::MAX {
+            -1.0
+        } else {
+            self.object_id as f32
+        }
+    }
+
     /// A checked mesh of `positions` and counter-clockwise `triangles`, with
     /// material `material`, no normals, texture coordinates or emission,
     /// and object id `object_id`.
