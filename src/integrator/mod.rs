@@ -249,7 +249,7 @@ pub(crate) fn emission_weight(
 /// Camera sample `sample` of pixel `(x, y)`: its random stream, after the
 /// numbers the filter and (when `lens_sample`) the lens took, and the camera
 /// ray, if the camera has one there.
-#[inline]
+#[inline(always)]
 fn camera_sample(
     scene: &Scene,
     seed: u64,

@@ -243,7 +243,7 @@ impl LightSet {
     /// Picks a light for shading point `p`: `u.x` picks the group, `u.y` the
     /// light within it. Returns `(light index, probability)`. Lights that
     /// cannot reach `p` are never picked.
-    #[inline]
+    #[inline(always)]
     pub fn pick(&self, p: Vec3, u: Vec2) -> Option<(usize, f32)> {
         if self.limited_groups.is_empty() {
             // No spatially varying group: a fixed distribution.
