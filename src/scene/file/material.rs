@@ -117,6 +117,20 @@ struct MicrofacetKeys<'a> {
     alpha_v: Option<f32>,
 }
 
+/// The [`MicrofacetKeys`] of a material type's keys (any struct with the
+/// five microfacet fields).
+macro_rules! microfacet_keys {
+    ($m:expr) => {
+        MicrofacetKeys {
+            distribution: &$m.distribution,
+            roughness: $m.roughness,
+            alpha: $m.alpha,
+            alpha_u: $m.alpha_u,
+            alpha_v: $m.alpha_v,
+        }
+    };
+}
+
 /// The texture keys of a material.
 #[derive(Default)]
 struct TextureKeys<'a> {
@@ -311,13 +325,7 @@ impl Builder<'_> {
             }
             MaterialKeys::CookTorrance(m) => {
                 let ior = |default| ior(m.ior, default);
-                let facets = MicrofacetKeys {
-                    distribution: &m.distribution,
-                    roughness: m.roughness,
-                    alpha: m.alpha,
-                    alpha_u: m.alpha_u,
-                    alpha_v: m.alpha_v,
-                };
+                let facets = microfacet_keys!(m);
                 let microfacet = self
                     .microfacet(field, &facets, Some(0.3))?
                     .expect("a default roughness");
@@ -377,13 +385,7 @@ impl Builder<'_> {
                 })
             }
             MaterialKeys::Dielectric(m) => {
-                let facets = MicrofacetKeys {
-                    distribution: &m.distribution,
-                    roughness: m.roughness,
-                    alpha: m.alpha,
-                    alpha_u: m.alpha_u,
-                    alpha_v: m.alpha_v,
-                };
+                let facets = microfacet_keys!(m);
                 Bsdf::Dielectric(DielectricParams {
                     eta: ior(m.ior, 1.5)?,
                     microfacet: self.microfacet(field, &facets, None)?,
