@@ -1,13 +1,13 @@
 //! `[[materials]]`: named BSDFs with their parameters and textures, and
 //! the materials of OBJ files' MTL libraries.
 
+use super::keys::key_names;
 use super::Builder;
 use crate::bsdf::METALS;
 use crate::bsdf::{
     BlinnPhongParams, Bsdf, CookTorranceParams, DielectricParams, Distribution, Fresnel,
     Microfacet, PrincipledParams,
 };
-use crate::error::Error;
 use crate::error::Result;
 use crate::scene::shapes::{self};
 use crate::scene::{Material, MaterialTextures};
@@ -164,18 +164,6 @@ impl MaterialKeys {
     }
 }
 
-/// Deserialises a material's keys into the struct of its type, with the
-/// failing key's name.
-fn typed_keys<T: serde::de::DeserializeOwned>(
-    keys: &toml::Table,
-) -> std::result::Result<T, (String, String)> {
-    serde_path_to_error::deserialize(toml::Value::Table(keys.clone())).map_err(|e| {
-        let path = e.path().to_string();
-        let inner = e.into_inner().to_string();
-        (path, inner)
-    })
-}
-
 impl Builder<'_> {
     /// The microfacet distribution of a material: `distribution` (`ggx` or
     /// `beckmann`) and `roughness` (α = roughness²), `alpha`, or
@@ -255,8 +243,12 @@ impl Builder<'_> {
             kind: &str,
             keys: &toml::Table,
         ) -> Result<T> {
-            typed_keys::<T>(keys)
-                .map_err(|(path, message)| key_error::<T>(b, field, kind, &path, &message))
+            b.typed_keys::<T>(field, keys, |_| {
+                format!(
+                    "not a parameter of a `{kind}` material (its keys: {})",
+                    key_names::<T>().join(", ")
+                )
+            })
         }
         let (kind, keys) = (m.kind.as_str(), &m.keys);
         Ok(match kind {
@@ -514,85 +506,4 @@ impl Builder<'_> {
             textures,
         })
     }
-}
-
-/// The keys of the struct `T` deserialises, as serde's derive lists them:
-/// the one statement of a type's keys also names them in errors.
-fn key_names<T: serde::de::DeserializeOwned>() -> &'static [&'static str] {
-    use serde::de::{Deserializer, Visitor};
-    /// A deserialiser that only records the fields a struct asks for.
-    struct Fields;
-    #[derive(Debug)]
-    struct Found(&'static [&'static str]);
-    impl std::fmt::Display for Found {
-        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-            f.write_str("fields")
-        }
-    }
-    impl std::error::Error for Found {}
-    impl serde::de::Error for Found {
-        fn custom<M: std::fmt::Display>(_: M) -> Self {
-            Found(&[])
-        }
-    }
-    impl<'de> Deserializer<'de> for Fields {
-        type Error = Found;
-        fn deserialize_any<V: Visitor<'de>>(self, _: V) -> std::result::Result<V::Value, Found> {
-            Err(Found(&[]))
-        }
-        fn deserialize_struct<V: Visitor<'de>>(
-            self,
-            _: &'static str,
-            fields: &'static [&'static str],
-            _: V,
-        ) -> std::result::Result<V::Value, Found> {
-            Err(Found(fields))
-        }
-        serde::forward_to_deserialize_any! {
-            bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string
-            bytes byte_buf option unit unit_struct newtype_struct seq tuple
-            tuple_struct map enum identifier ignored_any
-        }
-    }
-    match T::deserialize(Fields) {
-        Err(Found(fields)) => fields,
-        Ok(_) => &[],
-    }
-}
-
-/// The error of a material key that failed to deserialise, in the words of
-/// the scene format: a key the type does not have, or a value of the wrong
-/// kind.
-fn key_error<T: serde::de::DeserializeOwned>(
-    b: &Builder<'_>,
-    field: &str,
-    kind: &str,
-    path: &str,
-    message: &str,
-) -> Error {
-    // The first line is serde's message; toml adds the key's name below.
-    let message = message.lines().next().unwrap_or("");
-    if let Some(rest) = message.strip_prefix("unknown field `") {
-        let key = rest.split('`').next().unwrap_or("");
-        return b.err(
-            format!("{field}.{key}"),
-            format!(
-                "not a parameter of a `{kind}` material (its keys: {})",
-                key_names::<T>().join(", ")
-            ),
-        );
-    }
-    let what = if message.contains("expected an array of length 3") {
-        "must be an RGB triple [r, g, b]".to_string()
-    } else if message.contains("expected f32") {
-        "must be a number".to_string()
-    } else {
-        message.to_string()
-    };
-    let field = if path.is_empty() || path == "." {
-        field.to_string()
-    } else {
-        format!("{field}.{path}")
-    };
-    b.err(field, what)
 }

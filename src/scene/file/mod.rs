@@ -9,6 +9,7 @@
 mod camera;
 mod environment;
 mod film;
+mod keys;
 mod light;
 mod material;
 mod render;
@@ -27,7 +28,7 @@ use light::{LightSection, PlsSection};
 use material::MaterialSection;
 use render::RenderSection;
 use shape::ShapeSection;
-use toml_path::field_at;
+use toml_path::{field_at, position_of};
 
 use crate::error::{Error, Result};
 use crate::light::PointLight;
@@ -84,12 +85,19 @@ pub fn load(path: &Path) -> Result<SceneDescription> {
         })?
     };
     let base = path.parent().unwrap_or(Path::new("."));
-    Builder { file: path, base }.build(parsed)
+    Builder {
+        file: path,
+        base,
+        toml: (!is_json).then_some(text.as_str()),
+    }
+    .build(parsed)
 }
 
 struct Builder<'a> {
     file: &'a Path,
     base: &'a Path,
+    /// The text of a TOML file, to place errors found after parsing.
+    toml: Option<&'a str>,
 }
 
 impl Builder<'_> {

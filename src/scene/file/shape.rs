@@ -1,6 +1,7 @@
 //! `[[shapes]]`: spheres, rectangles and OBJ meshes, their transforms,
 //! materials and emission.
 
+use super::keys::key_names;
 use super::{Builder, DEFAULT_REFLECTANCE};
 use crate::bsdf::Bsdf;
 use crate::error::Result;
@@ -11,22 +12,48 @@ use serde::Deserialize;
 use std::collections::HashMap;
 use std::path::PathBuf;
 
+/// `[[shapes]]` as read: the keys every shape has, and the keys of its
+/// type, checked by the type's own struct ([`ObjKeys`], [`RectangleKeys`],
+/// [`SphereKeys`]).
 #[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub(super) struct ShapeSection {
     #[serde(rename = "type")]
     pub(super) kind: String,
     pub(super) name: Option<String>,
-    pub(super) file: Option<PathBuf>,
-    pub(super) center: Option<[f32; 3]>,
-    pub(super) radius: Option<f32>,
-    pub(super) subdivisions: Option<u32>,
-    pub(super) flip_normals: Option<bool>,
     pub(super) material: Option<String>,
     pub(super) transform: Option<TransformSection>,
     pub(super) emission: Option<[f32; 3]>,
     pub(super) two_sided: Option<bool>,
+    #[serde(flatten)]
+    pub(super) keys: toml::Table,
 }
+
+/// The keys of an `obj` shape.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ObjKeys {
+    file: Option<PathBuf>,
+}
+
+/// The keys of a `rectangle` shape.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RectangleKeys {
+    flip_normals: Option<bool>,
+}
+
+/// The keys of a `sphere` shape.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SphereKeys {
+    center: Option<[f32; 3]>,
+    radius: Option<f32>,
+    subdivisions: Option<u32>,
+    flip_normals: Option<bool>,
+}
+
+/// The keys every shape has (besides `type`).
+const SHAPE_KEYS: [&str; 5] = ["name", "material", "transform", "emission", "two_sided"];
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -126,14 +153,32 @@ impl Builder<'_> {
         meshes: &mut Vec<Mesh>,
     ) -> Result<()> {
         let field = format!("shapes[{index}]");
-        let unused = |name: &str, present: bool| -> Result<()> {
-            if present {
-                Err(self.err(
-                    format!("{field}.{name}"),
-                    format!("not used by shapes of type `{}`", s.kind),
-                ))
+        // A key of another shape type is "not used"; any other key unknown.
+        let type_keys = || -> Vec<&'static str> {
+            let mut all = SHAPE_KEYS.to_vec();
+            for k in [
+                key_names::<ObjKeys>(),
+                key_names::<RectangleKeys>(),
+                key_names::<SphereKeys>(),
+            ]
+            .concat()
+            {
+                if !all.contains(&k) {
+                    all.push(k);
+                }
+            }
+            all
+        };
+        let unknown = |key: &str| {
+            let all = type_keys();
+            if all.contains(&key) {
+                format!("not used by shapes of type `{}`", s.kind)
             } else {
-                Ok(())
+                let list: Vec<String> = std::iter::once("type")
+                    .chain(all)
+                    .map(|k| format!("`{k}`"))
+                    .collect();
+                format!("unknown field `{key}`, expected one of {}", list.join(", "))
             }
         };
         let matrix = match &s.transform {
@@ -183,17 +228,11 @@ impl Builder<'_> {
             .unwrap_or_else(|| format!("{field} ({})", s.kind));
         let object_id = index as u32;
 
+        let flip;
         let (mut positions, mut triangles, normals, uvs) = match s.kind.as_str() {
             "obj" => {
-                for (name, present) in [
-                    ("center", s.center.is_some()),
-                    ("radius", s.radius.is_some()),
-                    ("subdivisions", s.subdivisions.is_some()),
-                    ("flip_normals", s.flip_normals.is_some()),
-                ] {
-                    unused(name, present)?;
-                }
-                let rel = s.file.as_ref().ok_or_else(|| {
+                let keys: ObjKeys = self.typed_keys(&field, &s.keys, unknown)?;
+                let rel = keys.file.as_ref().ok_or_else(|| {
                     self.err(format!("{field}.file"), "required for an OBJ shape")
                 })?;
                 let path = self.base.join(rel);
@@ -252,14 +291,8 @@ impl Builder<'_> {
                 return Ok(());
             }
             "rectangle" => {
-                for (name, present) in [
-                    ("file", s.file.is_some()),
-                    ("center", s.center.is_some()),
-                    ("radius", s.radius.is_some()),
-                    ("subdivisions", s.subdivisions.is_some()),
-                ] {
-                    unused(name, present)?;
-                }
+                let keys: RectangleKeys = self.typed_keys(&field, &s.keys, unknown)?;
+                flip = keys.flip_normals.unwrap_or(false);
                 let (p, t) = shapes::rectangle();
                 // u along +x, v along +y, (0, 0) at the (−1, −1) corner.
                 let uvs = p
@@ -269,7 +302,8 @@ impl Builder<'_> {
                 (p, t, Vec::new(), uvs)
             }
             "sphere" => {
-                unused("file", s.file.is_some())?;
+                let s: SphereKeys = self.typed_keys(&field, &s.keys, unknown)?;
+                flip = s.flip_normals.unwrap_or(false);
                 let center = self.vec3(&format!("{field}.center"), s.center.unwrap_or([0.0; 3]))?;
                 let radius = self.finite(&format!("{field}.radius"), s.radius.unwrap_or(1.0))?;
                 if radius <= 0.0 {
@@ -297,7 +331,6 @@ impl Builder<'_> {
                 ))
             }
         };
-        let flip = s.flip_normals.unwrap_or(false);
         if flip {
             flip_winding(&mut triangles);
         }

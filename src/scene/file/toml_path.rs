@@ -74,12 +74,43 @@ pub(super) fn field_at(text: &str, offset: usize) -> String {
     }
 }
 
+/// Line and column (1-based) of the key at dotted path `path` in a TOML
+/// text (`shapes[0].radius`): of the key itself, or with `value` of its
+/// value. `None` where the key is not on a line of its own table (inline
+/// tables, dotted keys).
+pub(super) fn position_of(text: &str, path: &str, value: bool) -> Option<(usize, usize)> {
+    let mut offset = 0;
+    for (n, line) in text.split('\n').enumerate() {
+        let indent = line.len() - line.trim_start().len();
+        if !line.trim().is_empty() && field_at(text, offset + indent) == path {
+            let column = if value {
+                let eq = line.find('=')?;
+                eq + 1 + (line[eq + 1..].len() - line[eq + 1..].trim_start().len())
+            } else {
+                indent
+            };
+            return Some((n + 1, column + 1));
+        }
+        offset += line.len() + 1;
+    }
+    None
+}
+
 #[cfg(test)]
 mod field_tests {
-    use super::field_at;
+    use super::{field_at, position_of};
 
     fn at(text: &str, needle: &str) -> String {
         field_at(text, text.find(needle).unwrap())
+    }
+
+    #[test]
+    fn positions_of_keys() {
+        let t = "[camera]\nup = 1\n\n[[shapes]]\ntype = 1\n\n[[shapes]]\n  radius =  2\n";
+        assert_eq!(position_of(t, "shapes[1].radius", false), Some((8, 3)));
+        assert_eq!(position_of(t, "shapes[1].radius", true), Some((8, 13)));
+        assert_eq!(position_of(t, "shapes[0].radius", true), None);
+        assert_eq!(position_of(t, "camera.up", true), Some((2, 6)));
     }
 
     #[test]
