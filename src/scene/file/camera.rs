@@ -1,5 +1,6 @@
 //! `[camera]`: the camera's type, pose, field of view and resolution.
 
+use super::keys::key_names;
 use super::Builder;
 use crate::camera::{
     fov_from_focal_length, preset as camera_preset, Camera, CameraError, CameraPreset,
@@ -10,27 +11,52 @@ use crate::error::Result;
 use glam::Vec3;
 use serde::Deserialize;
 
+/// `[camera]` as read: the keys every camera has, and the keys of its
+/// type, checked by the type's own struct ([`LensKeys`], [`FisheyeKeys`],
+/// [`EquirectKeys`]).
 #[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub(super) struct CameraSection {
     #[serde(rename = "type", default = "pinhole")]
     pub(super) kind: String,
-    pub(super) preset: Option<String>,
     pub(super) position: Option<[f32; 3]>,
     pub(super) look_at: Option<[f32; 3]>,
     pub(super) up: Option<[f32; 3]>,
     pub(super) to_world: Option<[[f32; 4]; 4]>,
-    pub(super) vfov: Option<f32>,
-    pub(super) hfov: Option<f32>,
-    pub(super) focal_length: Option<f32>,
-    pub(super) sensor_height: Option<f32>,
-    pub(super) sensor_width: Option<f32>,
-    pub(super) zoom: Option<f32>,
-    pub(super) aperture_radius: Option<f32>,
-    pub(super) focus_distance: Option<f32>,
-    pub(super) fov: Option<f32>,
     pub(super) resolution: Option<[i64; 2]>,
+    #[serde(flatten)]
+    pub(super) keys: toml::Table,
 }
+
+/// The keys of a perspective camera (`pinhole`, `thin_lens`; the aperture
+/// and focus are the thin lens's alone).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct LensKeys {
+    preset: Option<String>,
+    vfov: Option<f32>,
+    hfov: Option<f32>,
+    focal_length: Option<f32>,
+    sensor_height: Option<f32>,
+    sensor_width: Option<f32>,
+    zoom: Option<f32>,
+    aperture_radius: Option<f32>,
+    focus_distance: Option<f32>,
+}
+
+/// The keys of a `dual_fisheye` camera.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FisheyeKeys {
+    fov: Option<f32>,
+}
+
+/// The keys of an `equirectangular` camera: none of its own.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct EquirectKeys {}
+
+/// The keys every camera has (besides `type`).
+const CAMERA_KEYS: [&str; 5] = ["position", "look_at", "up", "to_world", "resolution"];
 
 fn pinhole() -> String {
     "pinhole".into()
@@ -62,38 +88,50 @@ impl Builder<'_> {
                 format!("unknown camera type `{kind}` (known: {TYPES})"),
             ));
         }
-        let perspective = matches!(kind, "pinhole" | "thin_lens");
-        let unused = |name: &str, present: bool| -> Result<()> {
-            if present {
-                Err(self.err(
-                    format!("camera.{name}"),
-                    format!("not used by cameras of type `{kind}`"),
-                ))
+        // A key of another camera type is "not used"; any other key unknown.
+        let unknown = |key: &str| {
+            let mut all = CAMERA_KEYS.to_vec();
+            all.extend(key_names::<LensKeys>());
+            all.extend(key_names::<FisheyeKeys>());
+            if all.contains(&key) {
+                format!("not used by cameras of type `{kind}`")
             } else {
-                Ok(())
+                let list: Vec<String> = std::iter::once("type")
+                    .chain(all)
+                    .map(|k| format!("`{k}`"))
+                    .collect();
+                format!("unknown field `{key}`, expected one of {}", list.join(", "))
             }
         };
-        if !perspective {
-            for (name, present) in [
-                ("preset", c.preset.is_some()),
-                ("vfov", c.vfov.is_some()),
-                ("hfov", c.hfov.is_some()),
-                ("focal_length", c.focal_length.is_some()),
-                ("sensor_height", c.sensor_height.is_some()),
-                ("sensor_width", c.sensor_width.is_some()),
-                ("zoom", c.zoom.is_some()),
-            ] {
-                unused(name, present)?;
+        let (lens, fisheye) = match kind {
+            "pinhole" | "thin_lens" => {
+                let lens: LensKeys = self.typed_keys("camera", &c.keys, unknown)?;
+                if kind == "pinhole" {
+                    // A pinhole has no aperture to focus.
+                    for (name, present) in [
+                        ("aperture_radius", lens.aperture_radius.is_some()),
+                        ("focus_distance", lens.focus_distance.is_some()),
+                    ] {
+                        if present {
+                            return Err(self.err(
+                                format!("camera.{name}"),
+                                format!("not used by cameras of type `{kind}`"),
+                            ));
+                        }
+                    }
+                }
+                (Some(lens), None)
             }
-        }
-        if kind != "thin_lens" {
-            unused("aperture_radius", c.aperture_radius.is_some())?;
-            unused("focus_distance", c.focus_distance.is_some())?;
-        }
-        if kind != "dual_fisheye" {
-            unused("fov", c.fov.is_some())?;
-        }
-        let preset = match &c.preset {
+            "dual_fisheye" => {
+                let fisheye: FisheyeKeys = self.typed_keys("camera", &c.keys, unknown)?;
+                (None, Some(fisheye))
+            }
+            _ => {
+                let _: EquirectKeys = self.typed_keys("camera", &c.keys, unknown)?;
+                (None, None)
+            }
+        };
+        let preset = match lens.as_ref().and_then(|l| l.preset.as_ref()) {
             Some(name) => Some(camera_preset(name).ok_or_else(|| {
                 let known: Vec<_> = PRESETS.iter().map(|p| p.name).collect();
                 self.err(
@@ -178,15 +216,17 @@ impl Builder<'_> {
                     .map_err(|e| self.err(field_of(&e, "camera"), e.to_string()))?,
             ),
             "dual_fisheye" => {
-                let fov = self.finite("camera.fov", c.fov.unwrap_or(DEFAULT_FISHEYE_FOV_DEG))?;
+                let fov = fisheye.and_then(|f| f.fov);
+                let fov = self.finite("camera.fov", fov.unwrap_or(DEFAULT_FISHEYE_FOV_DEG))?;
                 Camera::DualFisheye(
                     DualFisheyeCamera::new(pose, fov, w, h)
                         .map_err(|e| self.err(field_of(&e, "camera"), e.to_string()))?,
                 )
             }
             _ => {
-                let fov = self.perspective_fov(c, preset)?;
-                let zoom = match c.zoom {
+                let lens = lens.expect("perspective cameras read their lens keys");
+                let fov = self.perspective_fov(&lens, preset)?;
+                let zoom = match lens.zoom {
                     Some(z) => self.finite("camera.zoom", z)?,
                     None => preset.map_or(1.0, |p| p.zoom),
                 };
@@ -195,14 +235,14 @@ impl Builder<'_> {
                 if kind == "pinhole" {
                     Camera::Pinhole(pinhole)
                 } else {
-                    let radius = c.aperture_radius.ok_or_else(|| {
+                    let radius = lens.aperture_radius.ok_or_else(|| {
                         self.err(
                             "camera.aperture_radius",
                             "required for a thin_lens camera (scene units)",
                         )
                     })?;
                     let radius = self.finite("camera.aperture_radius", radius)?;
-                    let focus = match (c.focus_distance, c.look_at) {
+                    let focus = match (lens.focus_distance, c.look_at) {
                         (Some(d), _) => self.finite("camera.focus_distance", d)?,
                         (None, Some(l)) => (Vec3::from_array(l) - pose.position).length(),
                         (None, None) => {
@@ -226,7 +266,7 @@ impl Builder<'_> {
     /// exactly one of vfov, hfov and focal_length.
     pub(super) fn perspective_fov(
         &self,
-        c: &CameraSection,
+        c: &LensKeys,
         preset: Option<&CameraPreset>,
     ) -> Result<Fov> {
         let given: Vec<&str> = [
