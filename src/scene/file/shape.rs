@@ -211,17 +211,6 @@ impl Builder<'_> {
                 None
             }
         };
-        let default_material = |materials: &mut Vec<Material>| -> u32 {
-            let name = "(default)";
-            if let Some(i) = materials.iter().position(|m| m.name == name) {
-                return i as u32;
-            }
-            materials.push(Material::new(
-                name,
-                Bsdf::diffuse(Vec3::splat(DEFAULT_REFLECTANCE)),
-            ));
-            (materials.len() - 1) as u32
-        };
         let shape_name = s
             .name
             .clone()
@@ -232,63 +221,16 @@ impl Builder<'_> {
         let (mut positions, mut triangles, normals, uvs) = match s.kind.as_str() {
             "obj" => {
                 let keys: ObjKeys = self.typed_keys(&field, &s.keys, unknown)?;
-                let rel = keys.file.as_ref().ok_or_else(|| {
-                    self.err(format!("{field}.file"), "required for an OBJ shape")
-                })?;
-                let path = self.base.join(rel);
-                let obj = shapes::load_obj(&path, self.file, &format!("{field}.file"))?;
-                if obj.objects.is_empty() {
-                    return Err(self.err(
-                        format!("{field}.file"),
-                        format!("{} has no triangles", path.display()),
-                    ));
-                }
-                // One material per MTL entry used, shared by the file's objects.
-                let mut mtl_index: HashMap<usize, u32> = HashMap::new();
-                for o in obj.objects {
-                    let (mut p, mut t) = (o.positions, o.triangles);
-                    transform_mesh(&matrix, &mut p, &mut t);
-                    let normals = transform_normals(&matrix, o.normals);
-                    let mtl = o.material.and_then(|m| obj.materials.get(m));
-                    let mat = match (material, o.material, mtl) {
-                        (Some(m), _, _) => m,
-                        (None, Some(mi), Some(mtl)) => match mtl_index.get(&mi) {
-                            Some(&m) => m,
-                            None => {
-                                // load_obj checked the MTL values' ranges.
-                                materials.push(self.mtl_material(
-                                    &format!("{field}.file"),
-                                    format!("{}:{}", rel.display(), mtl.name),
-                                    mtl,
-                                )?);
-                                let m = (materials.len() - 1) as u32;
-                                mtl_index.insert(mi, m);
-                                m
-                            }
-                        },
-                        _ => default_material(materials),
-                    };
-                    let mtl_emission = mtl
-                        .and_then(|m| m.emission)
-                        .filter(|e| e.max_element() > 0.0)
-                        .map(|radiance| Emission {
-                            radiance,
-                            two_sided: s.two_sided.unwrap_or(false),
-                            cone: None,
-                        });
-                    meshes.push(Mesh {
-                        name: format!("{shape_name}/{}", o.name),
-                        positions: p,
-                        triangles: t,
-                        normals,
-                        uvs: o.uvs,
-                        material: mat,
-                        emission: emission.or(mtl_emission),
-                        object_id,
-                        pls: None,
-                    });
-                }
-                return Ok(());
+                let shape = Common {
+                    field: &field,
+                    matrix,
+                    material,
+                    emission,
+                    two_sided: s.two_sided.unwrap_or(false),
+                    name: &shape_name,
+                    object_id,
+                };
+                return self.obj_meshes(&shape, &keys, materials, meshes);
             }
             "rectangle" => {
                 let keys: RectangleKeys = self.typed_keys(&field, &s.keys, unknown)?;
@@ -302,27 +244,9 @@ impl Builder<'_> {
                 (p, t, Vec::new(), uvs)
             }
             "sphere" => {
-                let s: SphereKeys = self.typed_keys(&field, &s.keys, unknown)?;
-                flip = s.flip_normals.unwrap_or(false);
-                let center = self.vec3(&format!("{field}.center"), s.center.unwrap_or([0.0; 3]))?;
-                let radius = self.finite(&format!("{field}.radius"), s.radius.unwrap_or(1.0))?;
-                if radius <= 0.0 {
-                    return Err(self.err(
-                        format!("{field}.radius"),
-                        format!("must be positive, got {radius}"),
-                    ));
-                }
-                let subdivisions = s.subdivisions.unwrap_or(4);
-                if subdivisions > 8 {
-                    return Err(self.err(
-                        format!("{field}.subdivisions"),
-                        format!("must be at most 8 (20·4^8 triangles), got {subdivisions}"),
-                    ));
-                }
-                let (p, t) = shapes::icosphere(center, radius, subdivisions);
-                // The smooth sphere's normals shade the facets.
-                let normals = p.iter().map(|q| (*q - center) / radius).collect();
-                (p, t, normals, Vec::new())
+                let keys: SphereKeys = self.typed_keys(&field, &s.keys, unknown)?;
+                flip = keys.flip_normals.unwrap_or(false);
+                self.sphere_mesh(&field, &keys)?
             }
             other => {
                 return Err(self.err(
@@ -356,6 +280,128 @@ impl Builder<'_> {
         });
         Ok(())
     }
+
+    /// The meshes of an `obj` shape: one per object of the file, with the
+    /// shape's material or the file's MTL materials.
+    fn obj_meshes(
+        &self,
+        shape: &Common,
+        keys: &ObjKeys,
+        materials: &mut Vec<Material>,
+        meshes: &mut Vec<Mesh>,
+    ) -> Result<()> {
+        let field = shape.field;
+        let rel = keys
+            .file
+            .as_ref()
+            .ok_or_else(|| self.err(format!("{field}.file"), "required for an OBJ shape"))?;
+        let path = self.base.join(rel);
+        let obj = shapes::load_obj(&path, self.file, &format!("{field}.file"))?;
+        if obj.objects.is_empty() {
+            return Err(self.err(
+                format!("{field}.file"),
+                format!("{} has no triangles", path.display()),
+            ));
+        }
+        // One material per MTL entry used, shared by the file's objects.
+        let mut mtl_index: HashMap<usize, u32> = HashMap::new();
+        for o in obj.objects {
+            let (mut p, mut t) = (o.positions, o.triangles);
+            transform_mesh(&shape.matrix, &mut p, &mut t);
+            let normals = transform_normals(&shape.matrix, o.normals);
+            let mtl = o.material.and_then(|m| obj.materials.get(m));
+            let mat = match (shape.material, o.material, mtl) {
+                (Some(m), _, _) => m,
+                (None, Some(mi), Some(mtl)) => match mtl_index.get(&mi) {
+                    Some(&m) => m,
+                    None => {
+                        // load_obj checked the MTL values' ranges.
+                        materials.push(self.mtl_material(
+                            &format!("{field}.file"),
+                            format!("{}:{}", rel.display(), mtl.name),
+                            mtl,
+                        )?);
+                        let m = (materials.len() - 1) as u32;
+                        mtl_index.insert(mi, m);
+                        m
+                    }
+                },
+                _ => default_material(materials),
+            };
+            let mtl_emission = mtl
+                .and_then(|m| m.emission)
+                .filter(|e| e.max_element() > 0.0)
+                .map(|radiance| Emission {
+                    radiance,
+                    two_sided: shape.two_sided,
+                    cone: None,
+                });
+            meshes.push(Mesh {
+                name: format!("{}/{}", shape.name, o.name),
+                positions: p,
+                triangles: t,
+                normals,
+                uvs: o.uvs,
+                material: mat,
+                emission: shape.emission.or(mtl_emission),
+                object_id: shape.object_id,
+                pls: None,
+            });
+        }
+        Ok(())
+    }
+
+    /// The icosphere of a `sphere` shape, with its smooth normals.
+    fn sphere_mesh(&self, field: &str, keys: &SphereKeys) -> Result<MeshParts> {
+        let center = self.vec3(&format!("{field}.center"), keys.center.unwrap_or([0.0; 3]))?;
+        let radius = self.finite(&format!("{field}.radius"), keys.radius.unwrap_or(1.0))?;
+        if radius <= 0.0 {
+            return Err(self.err(
+                format!("{field}.radius"),
+                format!("must be positive, got {radius}"),
+            ));
+        }
+        let subdivisions = keys.subdivisions.unwrap_or(4);
+        if subdivisions > 8 {
+            return Err(self.err(
+                format!("{field}.subdivisions"),
+                format!("must be at most 8 (20·4^8 triangles), got {subdivisions}"),
+            ));
+        }
+        let (p, t) = shapes::icosphere(center, radius, subdivisions);
+        // The smooth sphere's normals shade the facets.
+        let normals = p.iter().map(|q| (*q - center) / radius).collect();
+        Ok((p, t, normals, Vec::new()))
+    }
+}
+
+/// Positions, triangles, normals and texture coordinates of a shape.
+type MeshParts = (Vec<Vec3>, Vec<[u32; 3]>, Vec<Vec3>, Vec<Vec2>);
+
+/// What every shape has, read before its type's keys.
+struct Common<'a> {
+    field: &'a str,
+    matrix: Mat4,
+    material: Option<u32>,
+    emission: Option<Emission>,
+    /// Whether emission (the shape's or the MTL's `Ke`) leaves both sides.
+    two_sided: bool,
+    name: &'a str,
+    object_id: u32,
+}
+
+/// The index of the default material (a grey diffuse), added when first
+/// needed.
+fn default_material(materials: &mut Vec<Material>) -> u32 {
+    let name = "(default)";
+    if let Some(i) = materials.iter().position(|m| m.name == name) {
+        return i as u32;
+    }
+    materials.push(Material::new(
+        name,
+        Bsdf::diffuse(Vec3::splat(DEFAULT_REFLECTANCE)),
+    ));
+    (materials.len() - 1) as u32
 }
 
 /// Normals under the transform `m`: by the inverse transpose of its linear
