@@ -41,7 +41,9 @@
 //! when a shutter time is given. The header's attributes are written in name
 //! order, so the same film always gives the same file, byte for byte.
 
-use crate::atomic_write::write_atomically;
+use crate::atomic_write::{write_atomically, OutputSet};
+use std::fs::File;
+use std::io::BufWriter;
 mod sums;
 
 pub use sums::{FilmSums, PixelSums, Tile};
@@ -250,6 +252,17 @@ impl Film {
     /// Writes all layers to an OpenEXR file (32-bit float, ZIP compression),
     /// atomically.
     pub fn write_exr(&self, path: &Path) -> Result<()> {
+        write_atomically(path, |w| self.encode_exr(path, w))
+    }
+
+    /// Writes the OpenEXR file into `outputs`, to be committed with the
+    /// command's other outputs.
+    pub fn stage_exr(&self, outputs: &mut OutputSet, path: &Path) -> Result<()> {
+        outputs.stage(path, |w| self.encode_exr(path, w))
+    }
+
+    /// Encodes all layers as OpenEXR into `w` (a new file, to be `path`).
+    fn encode_exr(&self, path: &Path, w: &mut BufWriter<File>) -> Result<()> {
         let split3 = |v: &[Vec3], i: usize| -> FlatSamples {
             FlatSamples::F32(v.iter().map(|c| c[i]).collect())
         };
@@ -294,7 +307,7 @@ impl Film {
             AnyChannels::sort(list),
         );
         let image = exrp::Image::from_layer(layer);
-        write_atomically(path, |w| {
+        {
             let fail = |message: String| Error::Output {
                 file: path.to_path_buf(),
                 message,
@@ -306,7 +319,7 @@ impl Film {
             std::io::Write::flush(w)
                 .and_then(|()| sort_header_attributes(w.get_mut()))
                 .map_err(|e| fail(format!("cannot finish the EXR header: {e}")))
-        })
+        }
     }
 
     /// Reads an EXR written by [`Film::write_exr`] (missing layers stay at
@@ -419,20 +432,30 @@ impl Film {
 
     /// Writes a tone-mapped 8-bit sRGB PNG, atomically.
     pub fn write_png(&self, path: &Path, tone: ToneMap) -> Result<()> {
+        write_atomically(path, |w| self.encode_png(path, tone, w))
+    }
+
+    /// Writes the PNG into `outputs`, to be committed with the command's
+    /// other outputs.
+    pub fn stage_png(&self, outputs: &mut OutputSet, path: &Path, tone: ToneMap) -> Result<()> {
+        outputs.stage(path, |w| self.encode_png(path, tone, w))
+    }
+
+    /// Encodes the tone-mapped 8-bit sRGB PNG into `w` (a new file, to be
+    /// `path`).
+    fn encode_png(&self, path: &Path, tone: ToneMap, w: &mut BufWriter<File>) -> Result<()> {
         let pixels = self.to_srgb8(tone);
-        write_atomically(path, |w| {
-            image::write_buffer_with_format(
-                w,
-                &pixels,
-                self.width,
-                self.height,
-                image::ExtendedColorType::Rgb8,
-                image::ImageFormat::Png,
-            )
-            .map_err(|e| Error::Output {
-                file: path.to_path_buf(),
-                message: format!("cannot write PNG: {e}"),
-            })
+        image::write_buffer_with_format(
+            w,
+            &pixels,
+            self.width,
+            self.height,
+            image::ExtendedColorType::Rgb8,
+            image::ImageFormat::Png,
+        )
+        .map_err(|e| Error::Output {
+            file: path.to_path_buf(),
+            message: format!("cannot write PNG: {e}"),
         })
     }
 }

@@ -640,6 +640,29 @@ pub fn merge(
             });
         }
     }
+    // No output may replace a bracket (or the other output).
+    let outputs: Vec<&Path> = std::iter::once(output)
+        .chain(options.curve_csv.as_deref())
+        .collect();
+    for out in &outputs {
+        if let Some(input) = inputs
+            .iter()
+            .find(|i| crate::atomic_write::same_file(i, out))
+        {
+            return Err(Error::Output {
+                file: out.to_path_buf(),
+                message: format!("is the input {}: it would be overwritten", input.display()),
+            });
+        }
+    }
+    if let [out, curve] = outputs[..] {
+        if crate::atomic_write::same_file(out, curve) {
+            return Err(Error::Output {
+                file: curve.to_path_buf(),
+                message: "--curve names the same file as the output".into(),
+            });
+        }
+    }
     let mut brackets = open_inputs(inputs, options)?;
     let info = brackets[0].reader.info().clone();
     let pool = crate::threads::thread_pool(options.threads)?;

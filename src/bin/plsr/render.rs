@@ -1,6 +1,7 @@
 //! `plsr render`: a scene file to OpenEXR (and PNG).
 
 use crate::progress::progress_bar;
+use plsr::atomic_write::{same_file, OutputSet};
 use plsr::error::{Error, Result};
 use plsr::film::ToneMap;
 use plsr::job::{JobError, MAX_DEPTH, MAX_SPP};
@@ -51,25 +52,57 @@ pub struct RenderArgs {
     pub quiet: bool,
 }
 
-fn check_output_dir(path: &Path) -> Result<()> {
+/// Checks an output path before any work is done: its folder exists, it
+/// is not a folder itself, and its extension is the format written
+/// (`extension`), so that no file is ever written under the wrong name.
+fn check_output(flag: &str, path: &Path, extension: &str, format: &str) -> Result<()> {
+    let fail = |message: String| Error::Output {
+        file: path.to_path_buf(),
+        message,
+    };
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
     if !dir.is_dir() {
-        return Err(Error::Output {
-            file: path.to_path_buf(),
-            message: format!("folder {} does not exist", dir.display()),
-        });
+        return Err(fail(format!("folder {} does not exist", dir.display())));
+    }
+    if path.is_dir() {
+        return Err(fail(format!("{flag}: is a folder, not a file")));
+    }
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if !ext.eq_ignore_ascii_case(extension) {
+        return Err(fail(format!(
+            "{flag}: writes {format}; name the file `.{extension}` (got `.{ext}`)"
+        )));
     }
     Ok(())
 }
 
 /// Runs `plsr render`.
 pub fn run(a: &RenderArgs) -> Result<()> {
-    check_output_dir(&a.output)?;
+    // Every output is checked before the render, and none may replace an
+    // input or another output.
+    check_output("-o", &a.output, "exr", "OpenEXR")?;
     if let Some(p) = &a.png {
-        check_output_dir(p)?;
+        check_output("--png", p, "png", "PNG")?;
+        if same_file(p, &a.output) {
+            return Err(Error::Output {
+                file: p.clone(),
+                message: "--png names the same file as -o".into(),
+            });
+        }
+    }
+    for out in std::iter::once(&a.output).chain(&a.png) {
+        if same_file(out, &a.scene) {
+            return Err(Error::Output {
+                file: out.clone(),
+                message: format!(
+                    "is the scene file {}: it would be overwritten",
+                    a.scene.display()
+                ),
+            });
+        }
     }
     let scene = Scene::load(&a.scene)?;
     let mut job = scene.default_job();
@@ -114,16 +147,17 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     };
     let (film, stats) = render(&scene, &job, &options, &progress)?;
     bar.finish_and_clear();
-    film.write_exr(&a.output)?;
+    // Both outputs are written first and replace their targets together.
+    let mut outputs = OutputSet::new();
+    film.stage_exr(&mut outputs, &a.output)?;
     if let Some(p) = &a.png {
-        film.write_png(
-            p,
-            ToneMap {
-                exposure: a.exposure,
-                filmic: a.filmic,
-            },
-        )?;
+        let tone = ToneMap {
+            exposure: a.exposure,
+            filmic: a.filmic,
+        };
+        film.stage_png(&mut outputs, p, tone)?;
     }
+    outputs.commit()?;
     eprintln!(
         "rendered {}×{} at {} spp in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s on {} threads{} → {}{}",
         film.width,

@@ -1,0 +1,178 @@
+//! Outputs never destroy a user's file: `plsr render` refuses an output
+//! that is the scene file, a folder, another output or of the wrong
+//! format before rendering, and commits its EXR and PNG together or not at
+//! all. Every case exits with 1, names the file, writes nothing, and leaves
+//! every file that was there byte for byte.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const SCENE: &str = r#"
+[render]
+spp = 1
+
+[camera]
+position = [0, -3, 1]
+look_at = [0, 0, 0]
+up = [0, 0, 1]
+vfov = 40
+resolution = [8, 8]
+
+[[shapes]]
+type = "sphere"
+emission = [1, 1, 1]
+"#;
+
+/// Every file under `dir` (recursively) with its bytes.
+fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                let bytes = std::fs::read(&p).unwrap();
+                out.push((p, bytes));
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// Runs `plsr render scene.toml ARGS` in a folder holding the scene, an
+/// old `old.exr` and a folder `d.png`; checks that it fails with status 1,
+/// that the message names `names` and says `fault`, and that no file
+/// changed, appeared or vanished.
+fn refused(args: &[&str], names: &str, fault: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("scene.toml"), SCENE).unwrap();
+    std::fs::write(dir.path().join("old.exr"), b"an old image").unwrap();
+    std::fs::create_dir(dir.path().join("d.png")).unwrap();
+    let before = snapshot(dir.path());
+    let output = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .current_dir(dir.path())
+        .args(["render", "scene.toml", "--quiet"])
+        .args(args)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{args:?}: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(stderr.contains(names), "{args:?}: names {names}: {stderr}");
+    assert!(stderr.contains(fault), "{args:?}: says {fault}: {stderr}");
+    assert_eq!(snapshot(dir.path()), before, "{args:?}: files changed");
+}
+
+#[test]
+fn the_scene_file_is_never_an_output() {
+    refused(&["-o", "scene.toml"], "scene.toml", "OpenEXR");
+    // Named as an EXR through a link, it is still the scene.
+    #[cfg(unix)]
+    {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = dir.path().join("scene.toml");
+        std::fs::write(&scene, SCENE).unwrap();
+        std::os::unix::fs::symlink(&scene, dir.path().join("link.exr")).unwrap();
+        let before = snapshot(dir.path());
+        let output = Command::new(env!("CARGO_BIN_EXE_plsr"))
+            .current_dir(dir.path())
+            .args(["render", "scene.toml", "--quiet", "-o", "link.exr"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{stderr}");
+        assert!(stderr.contains("scene file"), "{stderr}");
+        assert_eq!(snapshot(dir.path()), before);
+    }
+}
+
+#[test]
+fn outputs_of_the_wrong_format_are_refused() {
+    refused(&["-o", "out.png"], "out.png", "name the file `.exr`");
+    refused(
+        &["-o", "t.exr", "--png", "t.exr"],
+        "t.exr",
+        "name the file `.png`",
+    );
+    refused(&["-o", "old.exr", "--png", "x.jpg"], "x.jpg", "`.png`");
+}
+
+#[test]
+fn a_folder_is_not_an_output_and_nothing_is_replaced() {
+    // The PNG is a folder: old.exr must not be replaced.
+    refused(&["-o", "old.exr", "--png", "d.png"], "d.png", "folder");
+    refused(&["-o", "missing/out.exr"], "missing", "does not exist");
+}
+
+#[test]
+fn both_outputs_are_written_together() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("scene.toml"), SCENE).unwrap();
+    let status = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .current_dir(dir.path())
+        .args([
+            "render",
+            "scene.toml",
+            "--quiet",
+            "-o",
+            "a.exr",
+            "--png",
+            "a.png",
+        ])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    assert!(plsr::film::Film::read_exr(&dir.path().join("a.exr")).is_ok());
+    let png = std::fs::read(dir.path().join("a.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG", "a PNG named .png");
+    // No temporary file is left next to them.
+    let mut names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["a.exr", "a.png", "scene.toml"]);
+}
+
+#[test]
+fn hdr_merge_never_writes_over_a_bracket() {
+    use plsr::hdr::synth::{write_brackets, BracketOptions, CameraModel, SyntheticScene};
+    let dir = tempfile::tempdir().unwrap();
+    let scene = SyntheticScene::new(32, 16);
+    let brackets = write_brackets(
+        &scene,
+        &CameraModel::linear(),
+        &[1.0 / 8.0, 2.0],
+        dir.path(),
+        &BracketOptions {
+            extension: "exr".into(),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let before = snapshot(dir.path());
+    let first = brackets[0].to_str().unwrap();
+    for extra in [
+        vec!["-o", first],
+        vec!["-o", "pano.exr", "--curve", first],
+        vec!["-o", "pano.exr", "--curve", "pano.exr"],
+    ] {
+        let output = Command::new(env!("CARGO_BIN_EXE_plsr"))
+            .current_dir(dir.path())
+            .args(["hdr", "merge", "--quiet", "--exposures", "0.125,2"])
+            .args(&brackets)
+            .args(&extra)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{extra:?}: {stderr}");
+        assert!(
+            stderr.contains("overwritten") || stderr.contains("same file"),
+            "{extra:?}: {stderr}"
+        );
+        assert_eq!(snapshot(dir.path()), before, "{extra:?}: files changed");
+    }
+}
