@@ -18,6 +18,9 @@ use std::time::Instant;
 /// 512×512 image still has 256 tiles to spread over the threads.
 pub const DEFAULT_TILE_SIZE: u32 = 32;
 
+/// The largest tile edge, pixels (a tile's buffers grow with its area).
+pub const MAX_TILE_SIZE: u32 = 4096;
+
 /// How to run a render (what to render is the [`RenderJob`]); no option
 /// changes the image.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -134,6 +137,12 @@ pub fn render_sums(
 ) -> Result<(FilmSums, RenderStats)> {
     job.validate()
         .map_err(|e| Error::InvalidArgument(format!("render: {e}")))?;
+    if options.tile_size == 0 || options.tile_size > MAX_TILE_SIZE {
+        return Err(Error::InvalidArgument(format!(
+            "tile size {} must be in [1, {MAX_TILE_SIZE}] pixels",
+            options.tile_size
+        )));
+    }
     let cam = scene.camera();
     let (width, height) = (cam.width(), cam.height());
     let tiles = tiles(width, height, options.tile_size);

@@ -216,9 +216,8 @@ pub extern "C" fn plsr_image_save_png(
     boundary(|| {
         let img = handle_ref(image, "image")?;
         let path = path_arg(path, "path")?;
-        if !exposure_ev.is_finite() {
-            return Err(FfiError::invalid("`exposure_ev` is not finite"));
-        }
+        crate::film::check_exposure_stops(exposure_ev)
+            .map_err(|m| FfiError::invalid(format!("`exposure_ev` {m}")))?;
         let tone = ToneMap {
             exposure: exposure_ev,
             filmic: filmic != 0,

@@ -170,6 +170,23 @@ pub struct ToneMap {
     pub filmic: bool,
 }
 
+/// The largest exposure compensation, in stops, anywhere plsr takes one
+/// (`[film] exposure_ev`, `--exposure`, the C ABI): 2^64 is far beyond any
+/// real exposure.
+pub const MAX_EXPOSURE_STOPS: f32 = 64.0;
+
+/// Checks an exposure compensation in stops: finite and within
+/// ±[`MAX_EXPOSURE_STOPS`]; the error says what is wrong.
+pub fn check_exposure_stops(stops: f32) -> std::result::Result<f32, String> {
+    if stops.is_finite() && stops.abs() <= MAX_EXPOSURE_STOPS {
+        Ok(stops)
+    } else {
+        Err(format!(
+            "must be between -{MAX_EXPOSURE_STOPS} and {MAX_EXPOSURE_STOPS} stops, got {stops}"
+        ))
+    }
+}
+
 impl Default for ToneMap {
     fn default() -> Self {
         ToneMap {

@@ -3,9 +3,9 @@
 use crate::progress::progress_bar;
 use plsr::atomic_write::{same_file, OutputSet};
 use plsr::error::{Error, Result};
-use plsr::film::ToneMap;
+use plsr::film::{check_exposure_stops, ToneMap};
 use plsr::job::{JobError, MAX_DEPTH, MAX_SPP};
-use plsr::render::{render, RenderOptions, DEFAULT_TILE_SIZE};
+use plsr::render::{render, RenderOptions, DEFAULT_TILE_SIZE, MAX_TILE_SIZE};
 use plsr::scene::Scene;
 use std::path::{Path, PathBuf};
 
@@ -81,6 +81,15 @@ fn check_output(flag: &str, path: &Path, extension: &str, format: &str) -> Resul
 
 /// Runs `plsr render`.
 pub fn run(a: &RenderArgs) -> Result<()> {
+    // Options are checked as strictly as scene files, before any work.
+    check_exposure_stops(a.exposure)
+        .map_err(|m| Error::InvalidArgument(format!("--exposure: {m}")))?;
+    if a.tile_size == 0 || a.tile_size > MAX_TILE_SIZE {
+        return Err(Error::InvalidArgument(format!(
+            "--tile-size {}: must be between 1 and {MAX_TILE_SIZE} pixels",
+            a.tile_size
+        )));
+    }
     // Every output is checked before the render, and none may replace an
     // input or another output.
     check_output("-o", &a.output, "exr", "OpenEXR")?;

@@ -65,12 +65,8 @@ impl Builder<'_> {
             }
         };
         let exposure_ev = self.finite("film.exposure_ev", f.exposure_ev.unwrap_or(0.0))?;
-        if exposure_ev.abs() > 64.0 {
-            return Err(self.err(
-                "film.exposure_ev",
-                format!("must be between -64 and 64 stops, got {exposure_ev}"),
-            ));
-        }
+        let exposure_ev = crate::film::check_exposure_stops(exposure_ev)
+            .map_err(|m| self.err("film.exposure_ev", m))?;
         let camera_exposure = match f.f_number {
             Some(n) => {
                 let n = self.positive("film.f_number", n)?;
