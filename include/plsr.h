@@ -306,7 +306,7 @@ plsr_result plsr_scene_builder_add_point_light(plsr_scene_builder *builder,
                                                const float *intensity);
 
 // Adds a parametric light source (see `plsr_pls_params`), tessellated into
-// `nf` quads (0: the default, 32), as a black emitter that emits into its
+// `nf` quads (0: the default, 32; at most 4096), as a black emitter that emits into its
 // cone. Invalid parameters give `PLSR_ERR_INVALID_ARGUMENT` naming them.
 plsr_result plsr_scene_builder_add_pls(plsr_scene_builder *builder,
                                        const plsr_pls_params *params,

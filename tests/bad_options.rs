@@ -81,3 +81,50 @@ fn the_c_abi_refuses_the_same_exposures() {
     assert!(plsr::film::check_exposure_stops(f32::INFINITY).is_err());
     assert!(plsr::threads::thread_pool(Some(plsr::threads::max_threads() + 1)).is_err());
 }
+
+#[test]
+fn nf_has_one_range_everywhere() {
+    // The command line: `plsr pls check --nf`.
+    for nf in ["0", "100000000", "4294967295"] {
+        let output = Command::new(env!("CARGO_BIN_EXE_plsr"))
+            .args(["pls", "check", "assets/lights/paper.toml", "--nf", nf])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "--nf {nf}: {stderr}");
+        assert!(
+            stderr.contains("--nf") && stderr.contains("between 1 and 4096"),
+            "{stderr}"
+        );
+    }
+    // The C ABI: the builder refuses 4e9 (it used to clamp), 0 is the default.
+    use plsr::capi::*;
+    let params = plsr_pls_params {
+        n: [0.0, 0.0, -1.0],
+        e1: [0.0, 0.0, 1.0],
+        e2: [0.1, 0.0, 1.0],
+        alpha1: 0.3,
+        alpha2: 0.6,
+        d: [0.05; 4],
+        a_deg: 30.0,
+        c: [1.0; 3],
+        b: 1.0,
+        brightness_is_radiance: 0,
+    };
+    let mut b = std::ptr::null_mut();
+    assert_eq!(plsr_scene_builder_new(&mut b), PLSR_OK);
+    assert_eq!(
+        plsr_scene_builder_add_pls(b, &params, 4_000_000_000),
+        PLSR_ERR_INVALID_ARGUMENT
+    );
+    // SAFETY: plsr_last_error returns a NUL-terminated string owned by the library.
+    let msg = unsafe { std::ffi::CStr::from_ptr(plsr_last_error()) }.to_string_lossy();
+    assert!(msg.contains("nf") && msg.contains("4096"), "{msg}");
+    assert_eq!(plsr_scene_builder_add_pls(b, &params, 0), PLSR_OK);
+    assert_eq!(plsr_scene_builder_add_pls(b, &params, 4096), PLSR_OK);
+    assert_eq!(plsr_scene_builder_free(b), PLSR_OK);
+    // The library's one check.
+    assert_eq!(plsr::light::pls::check_nf(32), Ok(32));
+    assert!(plsr::light::pls::check_nf(0).is_err());
+    assert!(plsr::light::pls::check_nf(4097).is_err());
+}

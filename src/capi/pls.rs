@@ -147,11 +147,8 @@ pub extern "C" fn plsr_pls_tessellate(
 ) -> plsr_result {
     boundary(|| {
         let p = slice_arg(params, 1, "params")?[0];
-        if nf == 0 || nf > 4096 {
-            return Err(FfiError::invalid(format!(
-                "`nf` = {nf} must be in [1, 4096]"
-            )));
-        }
+        let nf = crate::light::pls::check_nf(nf as u64)
+            .map_err(|m| FfiError::invalid(format!("`nf` {m}")))?;
         let (light, _) = pls_from_params(&p)?;
         let mesh = light.tessellate(nf);
         let (nv, nt) = (mesh.positions.len(), mesh.triangles.len());

@@ -286,7 +286,7 @@ pub extern "C" fn plsr_scene_builder_add_point_light(
 }
 
 /// Adds a parametric light source (see `plsr_pls_params`), tessellated into
-/// `nf` quads (0: the default, 32), as a black emitter that emits into its
+/// `nf` quads (0: the default, 32; at most 4096), as a black emitter that emits into its
 /// cone. Invalid parameters give `PLSR_ERR_INVALID_ARGUMENT` naming them.
 #[no_mangle]
 pub extern "C" fn plsr_scene_builder_add_pls(
@@ -306,10 +306,12 @@ pub extern "C" fn plsr_scene_builder_add_pls(
                 (b.materials.len() - 1) as u32
             }
         };
+        // 0 asks for the default; anything else must be in range.
         let nf = if nf == 0 {
             crate::light::pls::DEFAULT_NF
         } else {
-            nf.min(crate::light::pls::MAX_NF)
+            crate::light::pls::check_nf(nf as u64)
+                .map_err(|m| FfiError::invalid(format!("`nf` {m}")))?
         };
         let name = format!("pls {}", b.meshes.len());
         b.meshes

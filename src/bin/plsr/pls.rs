@@ -17,8 +17,8 @@ pub enum PlsCommand {
         /// The PLS file (TOML or JSON).
         file: PathBuf,
         /// Quads along each light's axis for the tessellated area.
-        #[arg(long, default_value_t = plsr::light::pls::DEFAULT_NF)]
-        nf: u32,
+        #[arg(long, default_value_t = plsr::light::pls::DEFAULT_NF as u64)]
+        nf: u64,
     },
     /// Export the tessellated emitters as a Wavefront OBJ (one object per light).
     Mesh {
@@ -28,8 +28,8 @@ pub enum PlsCommand {
         #[arg(short, long)]
         output: PathBuf,
         /// Quads along each light's axis.
-        #[arg(long, default_value_t = plsr::light::pls::DEFAULT_NF)]
-        nf: u32,
+        #[arg(long, default_value_t = plsr::light::pls::DEFAULT_NF as u64)]
+        nf: u64,
     },
     /// Transform every light through its parameters (paper eq. 15–21) and
     /// write a new PLS file. Give a matrix, or any of translate/rotate/scale
@@ -61,8 +61,8 @@ pub enum PlsCommand {
 /// Runs one `plsr pls` subcommand.
 pub fn run(command: PlsCommand) -> Result<()> {
     match command {
-        PlsCommand::Check { file, nf } => check(&file, nf),
-        PlsCommand::Mesh { file, output, nf } => mesh(&file, &output, nf),
+        PlsCommand::Check { file, nf } => check(&file, nf_arg(nf)?),
+        PlsCommand::Mesh { file, output, nf } => mesh(&file, &output, nf_arg(nf)?),
         PlsCommand::Transform {
             file,
             output,
@@ -90,6 +90,11 @@ pub fn run(command: PlsCommand) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// `--nf`, checked as scene files check `nf`.
+fn nf_arg(nf: u64) -> Result<u32> {
+    plsr::light::pls::check_nf(nf).map_err(|m| Error::InvalidArgument(format!("--nf: {m}")))
 }
 
 fn check(path: &Path, nf: u32) -> Result<()> {
@@ -134,9 +139,6 @@ fn check(path: &Path, nf: u32) -> Result<()> {
 }
 
 fn mesh(path: &Path, output: &Path, nf: u32) -> Result<()> {
-    if nf == 0 {
-        return Err(Error::InvalidArgument("--nf must be at least 1".into()));
-    }
     let lighting = file::load(path)?;
     file::save_obj(&lighting, nf, output)?;
     eprintln!(

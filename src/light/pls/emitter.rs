@@ -9,6 +9,17 @@ use glam::Vec3;
 /// The most quads a light's outline may be tessellated into.
 pub const MAX_NF: u32 = 4096;
 
+/// Checks a tessellation count: 1 to [`MAX_NF`] quads along the axis. The
+/// one check of Nf that scene files, the command line and the C ABI share;
+/// the error says what is wrong.
+pub fn check_nf(nf: u64) -> Result<u32, String> {
+    if (1..=MAX_NF as u64).contains(&nf) {
+        Ok(nf as u32)
+    } else {
+        Err(format!("must be between 1 and {MAX_NF}, got {nf}"))
+    }
+}
+
 /// One parametric light in a scene.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlsEmitter {
@@ -24,13 +35,11 @@ impl PlsEmitter {
     /// A checked emitter: the light's parameters valid and `nf` in range.
     pub fn new(light: Pls, mode: BrightnessMode, nf: u32) -> Result<PlsEmitter, PlsError> {
         light.validate(0)?;
-        if nf == 0 || nf > MAX_NF {
-            return Err(PlsError {
-                light: light.label(0),
-                parameter: "nf".into(),
-                message: format!("must be between 1 and {MAX_NF}, got {nf}"),
-            });
-        }
+        check_nf(nf as u64).map_err(|message| PlsError {
+            light: light.label(0),
+            parameter: "nf".into(),
+            message,
+        })?;
         Ok(PlsEmitter { light, mode, nf })
     }
 

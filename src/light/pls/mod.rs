@@ -30,7 +30,7 @@ mod reach;
 mod transform;
 mod window;
 
-pub use emitter::{PlsEmitter, MAX_NF};
+pub use emitter::{check_nf, PlsEmitter, MAX_NF};
 pub use outline::PlsMesh;
 pub use reach::Reach;
 pub use window::Cone;

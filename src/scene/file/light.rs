@@ -61,16 +61,8 @@ impl Builder<'_> {
                 )
             })?;
         }
-        let nf = s.nf.unwrap_or(crate::light::pls::DEFAULT_NF);
-        if nf == 0 || nf > crate::light::pls::MAX_NF {
-            return Err(self.err(
-                format!("{field}.nf"),
-                format!(
-                    "must be between 1 and {}, got {nf}",
-                    crate::light::pls::MAX_NF
-                ),
-            ));
-        }
+        let nf = crate::light::pls::check_nf(s.nf.unwrap_or(crate::light::pls::DEFAULT_NF) as u64)
+            .map_err(|m| self.err(format!("{field}.nf"), m))?;
         // PLS emitters do not reflect: a black material.
         let black = match materials.iter().position(|m| m.name == "(pls)") {
             Some(i) => i as u32,
