@@ -160,6 +160,44 @@ pub struct ObjFile {
     pub materials: Vec<ObjMaterial>,
 }
 
+/// Checks what tobj's MTL reader assumes of a library: text (no NUL or
+/// other control bytes), three numbers after `Ka`, `Kd`, `Ks` and `Ke`,
+/// one after `Ns`, `Ni` and `d`. The error names the line.
+fn check_mtl(path: &Path) -> std::result::Result<(), String> {
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    if let Some(i) = bytes
+        .iter()
+        .position(|&b| b < 0x20 && !matches!(b, b'\t' | b'\n' | b'\r' | 0x0c))
+    {
+        return Err(format!(
+            "not a text MTL library (control byte 0x{:02x} at offset {i})",
+            bytes[i]
+        ));
+    }
+    let text = String::from_utf8_lossy(&bytes);
+    for (n, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let (count, what) = match words.next() {
+            Some("Ka" | "Kd" | "Ks" | "Ke") => (3, "three numbers (r g b)"),
+            Some("Ns" | "Ni" | "d") => (1, "a number"),
+            _ => continue,
+        };
+        let numbers = words
+            .take(count)
+            .filter(|w| w.parse::<f32>().is_ok())
+            .count();
+        if numbers < count {
+            let key = line.split_whitespace().next().unwrap_or("");
+            return Err(format!(
+                "line {}: `{key}` needs {what}, got `{}`",
+                n + 1,
+                line.trim()
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Loads an OBJ file and its MTL libraries. Errors name `scene_file` and
 /// `field`, the scene field that referred to the OBJ, and the OBJ or MTL file
 /// at fault.
@@ -185,6 +223,9 @@ pub fn load_obj(path: &Path, scene_file: &Path, field: &str) -> Result<ObjFile> 
                         mtl.display()
                     )));
                 }
+                // tobj panics on some malformed lines and says only
+                // "material parse error" on others: check them first.
+                check_mtl(&mtl).map_err(|m| fail(format!("{}: {m}", mtl.display())))?;
             }
         }
     }

@@ -1,0 +1,94 @@
+//! Malformed MTL libraries are clean errors that name the library and the
+//! line, never a panic (tobj's reader unwraps on some of them), from the
+//! command line and from the library alike.
+
+use std::path::Path;
+use std::process::Command;
+
+const OBJ: &str = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n";
+
+const SCENE: &str = r#"
+[camera]
+position = [0, 0, 3]
+look_at = [0, 0, 0]
+up = [0, 1, 0]
+vfov = 40
+resolution = [8, 8]
+
+[[shapes]]
+type = "obj"
+file = "t.obj"
+"#;
+
+/// A folder with the scene, `t.obj` and `m.mtl` holding `mtl`.
+fn folder(mtl: &[u8]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("scene.toml"), SCENE).unwrap();
+    std::fs::write(dir.path().join("t.obj"), OBJ).unwrap();
+    std::fs::write(dir.path().join("m.mtl"), mtl).unwrap();
+    dir
+}
+
+/// The error of rendering with this MTL, after checking exit status 1, no
+/// panic text and no output.
+fn cli_error(mtl: &[u8]) -> String {
+    let dir = folder(mtl);
+    let output = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .current_dir(dir.path())
+        .args(["render", "scene.toml", "-o", "out.exr", "--quiet"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!dir.path().join("out.exr").exists());
+    // The library says the same, as an error rather than a panic.
+    let err = plsr::scene::Scene::load(&dir.path().join("scene.toml"))
+        .err()
+        .expect("an error")
+        .to_string();
+    assert!(err.contains("m.mtl"), "{err}");
+    stderr
+}
+
+#[test]
+fn a_colour_with_two_values_names_the_line() {
+    let e = cli_error(b"newmtl a\nKd 0.5 0.5\n");
+    assert!(
+        e.contains("m.mtl") && e.contains("line 2") && e.contains("three numbers"),
+        "{e}"
+    );
+}
+
+#[test]
+fn words_for_numbers_name_the_line() {
+    let e = cli_error(b"newmtl a\nNs 10\nKd red green blue\n");
+    assert!(e.contains("line 3") && e.contains("`Kd`"), "{e}");
+    let e = cli_error(b"newmtl a\nd opaque\n");
+    assert!(e.contains("line 2") && e.contains("a number"), "{e}");
+}
+
+#[test]
+fn random_bytes_are_not_a_library() {
+    // A fixed pseudo-random byte string (xorshift), with control bytes.
+    let mut x = 0x2545_f491_4f6c_dd1du64;
+    let bytes: Vec<u8> = (0..512)
+        .map(|_| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x as u8
+        })
+        .collect();
+    let e = cli_error(&bytes);
+    assert!(e.contains("not a text MTL library"), "{e}");
+}
+
+#[test]
+fn a_good_library_still_loads() {
+    let dir = folder(b"# a comment\nnewmtl a\nKd 0.5 0.25 0.125\nNs 10\nd 1\n");
+    let scene = plsr::scene::Scene::load(&dir.path().join("scene.toml")).unwrap();
+    let m = &scene.materials()[scene.meshes()[0].material as usize];
+    assert_eq!(m.bsdf.albedo(), glam::Vec3::new(0.5, 0.25, 0.125));
+    assert!(Path::new(&dir.path().join("t.obj")).is_file());
+}
