@@ -176,3 +176,50 @@ fn hdr_merge_never_writes_over_a_bracket() {
         assert_eq!(snapshot(dir.path()), before, "{extra:?}: files changed");
     }
 }
+
+#[test]
+fn hdr_merge_refuses_unknown_compressions() {
+    use plsr::hdr::synth::{write_brackets, BracketOptions, CameraModel, SyntheticScene};
+    let dir = tempfile::tempdir().unwrap();
+    let brackets = write_brackets(
+        &SyntheticScene::new(32, 16),
+        &CameraModel::linear(),
+        &[1.0 / 8.0, 2.0],
+        dir.path(),
+        &BracketOptions {
+            extension: "exr".into(),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let before = snapshot(dir.path());
+    for (out, compression, fault) in [
+        ("pano.exr", "bogus", "not an OpenEXR compression"),
+        ("pano.exr", "zip:x", "level"),
+        ("pano.hdr", "zip", "only OpenEXR"),
+    ] {
+        let output = Command::new(env!("CARGO_BIN_EXE_plsr"))
+            .current_dir(dir.path())
+            .args(["hdr", "merge", "--quiet", "--exposures", "0.125,2"])
+            .args(&brackets)
+            .args(["-o", out, "--compression", compression])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{compression}: {stderr}");
+        assert!(
+            stderr.contains(compression) && stderr.contains(fault),
+            "{compression}: {stderr}"
+        );
+        assert_eq!(snapshot(dir.path()), before, "{compression}: files changed");
+    }
+    // A known one with a level still merges.
+    let status = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .current_dir(dir.path())
+        .args(["hdr", "merge", "--quiet", "--exposures", "0.125,2"])
+        .args(&brackets)
+        .args(["-o", "pano.exr", "--compression", "zip:4"])
+        .status()
+        .unwrap();
+    assert!(status.success());
+}

@@ -602,6 +602,39 @@ fn merge_row_tables<T: Px>(
     }
 }
 
+/// OpenEXR's compression methods, by OpenImageIO's names.
+pub const EXR_COMPRESSIONS: [&str; 10] = [
+    "none", "rle", "zips", "zip", "piz", "pxr24", "b44", "b44a", "dwaa", "dwab",
+];
+
+/// Checks an output compression: one of [`EXR_COMPRESSIONS`], optionally
+/// with a numeric level (`zip:9`, `dwaa:45`), and only for an EXR output
+/// (`ext`, lower case).
+fn check_compression(c: &str, ext: &str) -> Result<()> {
+    let bad = |why: String| Error::InvalidArgument(format!("compression `{c}`: {why}"));
+    if ext != "exr" {
+        return Err(bad("only OpenEXR (.exr) outputs are compressed".into()));
+    }
+    let (name, level) = match c.split_once(':') {
+        Some((n, l)) => (n, Some(l)),
+        None => (c, None),
+    };
+    if !EXR_COMPRESSIONS.contains(&name) {
+        return Err(bad(format!(
+            "not an OpenEXR compression (known: {})",
+            EXR_COMPRESSIONS.join(", ")
+        )));
+    }
+    if let Some(l) = level {
+        if l.parse::<f32>()
+            .map_or(true, |v| !(v.is_finite() && v >= 0.0))
+        {
+            return Err(bad(format!("the level `{l}` is not a number ≥ 0")));
+        }
+    }
+    Ok(())
+}
+
 /// Merges `inputs` into `output` (OpenEXR `.exr` or Radiance `.hdr`),
 /// reporting progress as `(phase, done, total)`. On any error no output (and
 /// no curve file) is left behind.
@@ -639,6 +672,9 @@ pub fn merge(
                 message: format!("folder {} does not exist", dir.display()),
             });
         }
+    }
+    if let Some(c) = &options.compression {
+        check_compression(c, &ext)?;
     }
     // No output may replace a bracket (or the other output).
     let outputs: Vec<&Path> = std::iter::once(output)
