@@ -23,31 +23,11 @@ pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
 ) -> Result<()> {
-    let tmp = temporary_path(path);
-    let io_err = |source| Error::Io {
-        file: path.to_path_buf(),
-        source,
-    };
-    let result = (|| {
-        // Readable too, so that a writer can fix up what it wrote.
-        let file = std::fs::OpenOptions::new()
-            .read(true)
-            .write(true)
-            .create(true)
-            .truncate(true)
-            .open(&tmp)
-            .map_err(io_err)?;
-        let mut w = BufWriter::new(file);
-        write(&mut w)?;
-        let file = w.into_inner().map_err(|e| io_err(e.into_error()))?;
-        file.sync_all().map_err(io_err)?;
-        drop(file);
-        std::fs::rename(&tmp, path).map_err(io_err)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    // A set of one output: staged, then renamed; on failure its drop
+    // removes the temporary file.
+    let mut outputs = OutputSet::new();
+    outputs.stage(path, write)?;
+    outputs.commit()
 }
 
 /// `path` with its folder's links resolved (and the file's own, where it
@@ -101,7 +81,8 @@ impl OutputSet {
             file: path.to_path_buf(),
             source,
         };
-        // Recorded first, so that a failure below still removes it.
+        // Recorded first, so that a failure below still removes it. Opened
+        // readable too, so that a writer can fix up what it wrote.
         self.staged.push((tmp.clone(), path.to_path_buf()));
         let file = std::fs::OpenOptions::new()
             .read(true)

@@ -2,29 +2,16 @@
 //! value exits with 1 before any work, names the option and the fault, and
 //! writes nothing.
 
+mod common;
+
+use common::SMALL_SCENE;
 use std::process::Command;
-
-const SCENE: &str = r#"
-[render]
-spp = 1
-
-[camera]
-position = [0, -3, 1]
-look_at = [0, 0, 0]
-up = [0, 0, 1]
-vfov = 40
-resolution = [8, 8]
-
-[[shapes]]
-type = "sphere"
-emission = [1, 1, 1]
-"#;
 
 /// Runs `plsr render scene.toml -o out.exr --png out.png ARGS`; checks exit
 /// status 1, the option and fault in the message, and no output.
 fn refused(args: &[&str], option: &str, fault: &str) {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("scene.toml"), SCENE).unwrap();
+    std::fs::write(dir.path().join("scene.toml"), SMALL_SCENE).unwrap();
     let output = Command::new(env!("CARGO_BIN_EXE_plsr"))
         .current_dir(dir.path())
         .args([

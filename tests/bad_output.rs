@@ -4,24 +4,11 @@
 //! all. Every case exits with 1, names the file, writes nothing, and leaves
 //! every file that was there byte for byte.
 
+mod common;
+
+use common::SMALL_SCENE;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-
-const SCENE: &str = r#"
-[render]
-spp = 1
-
-[camera]
-position = [0, -3, 1]
-look_at = [0, 0, 0]
-up = [0, 0, 1]
-vfov = 40
-resolution = [8, 8]
-
-[[shapes]]
-type = "sphere"
-emission = [1, 1, 1]
-"#;
 
 /// Every file under `dir` (recursively) with its bytes.
 fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
@@ -48,7 +35,7 @@ fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
 /// changed, appeared or vanished.
 fn refused(args: &[&str], names: &str, fault: &str) {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("scene.toml"), SCENE).unwrap();
+    std::fs::write(dir.path().join("scene.toml"), SMALL_SCENE).unwrap();
     std::fs::write(dir.path().join("old.exr"), b"an old image").unwrap();
     std::fs::create_dir(dir.path().join("d.png")).unwrap();
     let before = snapshot(dir.path());
@@ -74,7 +61,7 @@ fn the_scene_file_is_never_an_output() {
     {
         let dir = tempfile::tempdir().unwrap();
         let scene = dir.path().join("scene.toml");
-        std::fs::write(&scene, SCENE).unwrap();
+        std::fs::write(&scene, SMALL_SCENE).unwrap();
         std::os::unix::fs::symlink(&scene, dir.path().join("link.exr")).unwrap();
         let before = snapshot(dir.path());
         let output = Command::new(env!("CARGO_BIN_EXE_plsr"))
@@ -110,7 +97,7 @@ fn a_folder_is_not_an_output_and_nothing_is_replaced() {
 #[test]
 fn both_outputs_are_written_together() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("scene.toml"), SCENE).unwrap();
+    std::fs::write(dir.path().join("scene.toml"), SMALL_SCENE).unwrap();
     let status = Command::new(env!("CARGO_BIN_EXE_plsr"))
         .current_dir(dir.path())
         .args([
@@ -137,13 +124,13 @@ fn both_outputs_are_written_together() {
     assert_eq!(names, ["a.exr", "a.png", "scene.toml"]);
 }
 
-#[test]
-fn hdr_merge_never_writes_over_a_bracket() {
+/// A folder with two small float brackets (1/8 s and 2 s) of a synthetic
+/// scene, and their paths.
+fn two_brackets() -> (tempfile::TempDir, Vec<PathBuf>) {
     use plsr::hdr::synth::{write_brackets, BracketOptions, CameraModel, SyntheticScene};
     let dir = tempfile::tempdir().unwrap();
-    let scene = SyntheticScene::new(32, 16);
     let brackets = write_brackets(
-        &scene,
+        &SyntheticScene::new(32, 16),
         &CameraModel::linear(),
         &[1.0 / 8.0, 2.0],
         dir.path(),
@@ -153,6 +140,12 @@ fn hdr_merge_never_writes_over_a_bracket() {
         },
     )
     .unwrap();
+    (dir, brackets)
+}
+
+#[test]
+fn hdr_merge_never_writes_over_a_bracket() {
+    let (dir, brackets) = two_brackets();
     let before = snapshot(dir.path());
     let first = brackets[0].to_str().unwrap();
     for extra in [
@@ -179,19 +172,7 @@ fn hdr_merge_never_writes_over_a_bracket() {
 
 #[test]
 fn hdr_merge_refuses_unknown_compressions() {
-    use plsr::hdr::synth::{write_brackets, BracketOptions, CameraModel, SyntheticScene};
-    let dir = tempfile::tempdir().unwrap();
-    let brackets = write_brackets(
-        &SyntheticScene::new(32, 16),
-        &CameraModel::linear(),
-        &[1.0 / 8.0, 2.0],
-        dir.path(),
-        &BracketOptions {
-            extension: "exr".into(),
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let (dir, brackets) = two_brackets();
     let before = snapshot(dir.path());
     for (out, compression, fault) in [
         ("pano.exr", "bogus", "not an OpenEXR compression"),
