@@ -36,6 +36,7 @@ pub mod error;
 pub mod film;
 pub mod filter;
 pub mod hdr;
+pub mod input;
 pub mod integrator;
 pub mod job;
 pub mod light;

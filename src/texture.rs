@@ -66,9 +66,8 @@ impl ImageTexture {
     /// Loads a PNG or JPEG file. The error message names the file and the
     /// decoder's complaint; callers add the scene field.
     pub fn load(path: &Path, encoding: Encoding) -> std::result::Result<ImageTexture, String> {
-        if !path.is_file() {
-            return Err(format!("{}: texture file not found", path.display()));
-        }
+        crate::input::check_regular_file(path)
+            .map_err(|m| format!("{}: texture file {m}", path.display()))?;
         let image = image::open(path)
             .map_err(|e| format!("{}: cannot read texture: {e}", path.display()))?;
         let rgb = image.to_rgb32f();

@@ -213,3 +213,58 @@ fn a_good_scene_renders_and_writes_both_outputs() {
     // The sphere emits 1 towards the camera: the centre pixel is 1.
     assert!((film.color[film.index(4, 4)].x - 1.0).abs() < 1e-6);
 }
+
+#[test]
+fn a_light_too_small_to_render_is_refused_when_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let lights = dir.path().join("tiny.toml");
+    let text = std::fs::read_to_string("assets/lights/paper.toml").unwrap();
+    let d = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("d ="))
+        .expect("a d line");
+    std::fs::write(&lights, text.replacen(d, "d = [0, 1e-30, 1e-30, 0]", 1)).unwrap();
+    // `plsr pls check` and the renderer say the same.
+    let output = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .args(["pls", "check"])
+        .arg(&lights)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("tiny.toml") && stderr.contains(".d") && stderr.contains("area"),
+        "{stderr}"
+    );
+    let e = expect_error(
+        &format!("{CAMERA}\n[[pls]]\nfile = \"{}\"\n", lights.display()),
+        &[],
+    );
+    assert!(e.contains("tiny.toml") && e.contains("area"), "{e}");
+}
+
+#[test]
+fn a_zero_environment_up_is_blamed_on_up() {
+    let dir = tempfile::tempdir().unwrap();
+    let sky = dir.path().join("sky.exr");
+    plsr::film::Film::new(4, 2).write_exr(&sky).unwrap();
+    let e = expect_error(
+        &format!(
+            "{CAMERA}\n[environment]\nfile = \"{}\"\nup = [0, 0, 0]\nforward = [0, 1, 0]\n",
+            sky.display()
+        ),
+        &[],
+    );
+    assert!(e.contains("environment.up") && e.contains("zero"), "{e}");
+    let e = expect_error(
+        &format!(
+            "{CAMERA}\n[environment]\nfile = \"{}\"\nup = [0, 0, 1]\nforward = [0, 0, 2]\n",
+            sky.display()
+        ),
+        &[],
+    );
+    assert!(
+        e.contains("environment.forward") && e.contains("parallel"),
+        "{e}"
+    );
+}

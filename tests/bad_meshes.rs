@@ -92,3 +92,61 @@ fn a_good_library_still_loads() {
     assert_eq!(m.bsdf.albedo(), glam::Vec3::new(0.5, 0.25, 0.125));
     assert!(Path::new(&dir.path().join("t.obj")).is_file());
 }
+
+#[test]
+fn latin1_comments_and_names_load() {
+    // Older exporters write ISO 8859-1: "é" is the single byte 0xe9.
+    let dir = folder(b"# mat\xe9riau\nnewmtl a\nKd 0.5 0.25 0.125\n");
+    std::fs::write(
+        dir.path().join("t.obj"),
+        b"# cr\xe9\xe9 par un vieux logiciel\nmtllib m.mtl\no caf\xe9\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n",
+    )
+    .unwrap();
+    let scene = plsr::scene::Scene::load(&dir.path().join("scene.toml")).unwrap();
+    assert_eq!(scene.meshes().len(), 1);
+    assert!(
+        scene.meshes()[0].name.contains("café"),
+        "{}",
+        scene.meshes()[0].name
+    );
+    let m = &scene.materials()[scene.meshes()[0].material as usize];
+    assert_eq!(m.bsdf.albedo(), glam::Vec3::new(0.5, 0.25, 0.125));
+}
+
+/// The error of rendering a scene whose OBJ path is `target`, after
+/// checking exit status 1, no panic text and no output.
+#[cfg(unix)]
+fn mesh_path_error(target: &Path) -> String {
+    let dir = folder(b"newmtl a\nKd 1 1 1\n");
+    std::fs::remove_file(dir.path().join("t.obj")).unwrap();
+    std::os::unix::fs::symlink(target, dir.path().join("t.obj")).unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .current_dir(dir.path())
+        .args(["render", "scene.toml", "-o", "out.exr", "--quiet"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!dir.path().join("out.exr").exists());
+    stderr
+}
+
+#[test]
+#[cfg(unix)]
+fn a_fifo_or_a_device_is_not_a_mesh() {
+    // A FIFO with no writer would block a reader forever.
+    let fifos = tempfile::tempdir().unwrap();
+    let fifo = fifos.path().join("pipe.obj");
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    for target in [fifo.as_path(), Path::new("/dev/null")] {
+        let e = mesh_path_error(target);
+        assert!(
+            e.contains("t.obj") && e.contains("not a regular file") && !e.contains("not found"),
+            "{e}"
+        );
+    }
+    let e = mesh_path_error(fifos.path());
+    assert!(e.contains("is a folder"), "{e}");
+}

@@ -204,3 +204,83 @@ fn hdr_merge_refuses_unknown_compressions() {
         .unwrap();
     assert!(status.success());
 }
+
+/// A scene reading an OBJ with an MTL library, a PNG texture and an EXR
+/// environment, written next to it in `dir`.
+fn scene_with_inputs(dir: &Path) {
+    // An EXR and a PNG to read, made by rendering the small scene.
+    std::fs::write(dir.join("small.toml"), SMALL_SCENE).unwrap();
+    let status = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .current_dir(dir)
+        .args(["render", "small.toml", "--quiet", "-o", "sky.exr"])
+        .args(["--png", "tex.png"])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    std::fs::write(dir.join("m.mtl"), "newmtl red\nKd 0.8 0.1 0.1\n").unwrap();
+    std::fs::write(
+        dir.join("m.obj"),
+        "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n",
+    )
+    .unwrap();
+    let scene = SMALL_SCENE.replace(
+        "[[shapes]]",
+        r#"[environment]
+file = "sky.exr"
+up = [0, 0, 1]
+forward = [0, 1, 0]
+
+[[materials]]
+name = "textured"
+type = "diffuse"
+base_color_map = "tex.png"
+
+[[shapes]]
+type = "obj"
+file = "m.obj"
+
+[[shapes]]
+type = "rectangle"
+material = "textured"
+
+[[shapes]]"#,
+    );
+    std::fs::write(dir.join("scene.toml"), scene).unwrap();
+}
+
+#[test]
+fn no_output_replaces_a_file_the_scene_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    scene_with_inputs(dir.path());
+    let (_, inputs) = plsr::scene::file::load_with_inputs(&dir.path().join("scene.toml")).unwrap();
+    let names: Vec<_> = inputs
+        .iter()
+        .map(|p| p.file_name().unwrap().to_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        ["tex.png", "m.obj", "m.mtl", "sky.exr"],
+        "{inputs:?}"
+    );
+    let before = snapshot(dir.path());
+    for args in [
+        vec!["-o", "sky.exr"],
+        vec!["-o", "new.exr", "--png", "tex.png"],
+        vec!["-o", "./sky.exr"],
+    ] {
+        let output = Command::new(env!("CARGO_BIN_EXE_plsr"))
+            .current_dir(dir.path())
+            .args(["render", "scene.toml", "--quiet"])
+            .args(&args)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        assert!(
+            stderr.contains("which the scene reads"),
+            "{args:?}: {stderr}"
+        );
+        assert_eq!(snapshot(dir.path()), before, "{args:?}: files changed");
+    }
+}

@@ -158,6 +158,8 @@ pub struct ObjFile {
     pub objects: Vec<ObjObject>,
     /// MTL materials, in library order.
     pub materials: Vec<ObjMaterial>,
+    /// The MTL libraries read (resolved against the OBJ's folder).
+    pub libraries: Vec<PathBuf>,
 }
 
 /// Checks what tobj's MTL reader assumes of a library: text (no NUL or
@@ -203,29 +205,34 @@ fn check_mtl(path: &Path) -> std::result::Result<(), String> {
 /// at fault.
 pub fn load_obj(path: &Path, scene_file: &Path, field: &str) -> Result<ObjFile> {
     let fail = |message: String| Error::input(scene_file, field, message);
-    if !path.is_file() {
-        return Err(fail(format!(
-            "{}: OBJ file not found (paths are relative to the scene file)",
+    crate::input::check_regular_file(path).map_err(|m| {
+        fail(format!(
+            "{}: OBJ file {m} (paths are relative to the scene file)",
             path.display()
-        )));
-    }
-    // tobj does not say which MTL library is missing: check them first.
-    let text = std::fs::read(path).map_err(|e| fail(format!("{}: {e}", path.display())))?;
+        ))
+    })?;
+    // Read as text leniently: OBJ files from older tools carry Latin-1
+    // comments and names, which tobj's UTF-8 line reader refuses.
+    let text = crate::input::read_text_lenient(path)
+        .map_err(|e| fail(format!("{}: {e}", path.display())))?;
     let base = path.parent().unwrap_or(Path::new("."));
-    for line in String::from_utf8_lossy(&text).lines() {
+    // tobj does not say which MTL library is missing: check them first.
+    let mut libraries = Vec::new();
+    for line in text.lines() {
         if let Some(libs) = line.trim_start().strip_prefix("mtllib ") {
             for lib in libs.split_whitespace() {
                 let mtl = base.join(lib);
-                if !mtl.is_file() {
-                    return Err(fail(format!(
-                        "{}: MTL library {} not found",
+                crate::input::check_regular_file(&mtl).map_err(|m| {
+                    fail(format!(
+                        "{}: MTL library {} {m}",
                         path.display(),
                         mtl.display()
-                    )));
-                }
+                    ))
+                })?;
                 // tobj panics on some malformed lines and says only
                 // "material parse error" on others: check them first.
                 check_mtl(&mtl).map_err(|m| fail(format!("{}: {m}", mtl.display())))?;
+                libraries.push(mtl);
             }
         }
     }
@@ -235,8 +242,16 @@ pub fn load_obj(path: &Path, scene_file: &Path, field: &str) -> Result<ObjFile> 
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, materials) = tobj::load_obj(path, &options)
-        .map_err(|e| fail(format!("{}: cannot read OBJ: {e}", path.display())))?;
+    let (models, materials) = tobj::load_obj_buf(
+        &mut std::io::Cursor::new(text.as_bytes()),
+        &options,
+        |lib| {
+            let text = crate::input::read_text_lenient(&base.join(lib))
+                .map_err(|_| tobj::LoadError::OpenFileFailed)?;
+            tobj::load_mtl_buf(&mut std::io::Cursor::new(text.as_bytes()))
+        },
+    )
+    .map_err(|e| fail(format!("{}: cannot read OBJ: {e}", path.display())))?;
     let materials = match materials {
         // An OBJ without `mtllib` gives an empty list: its objects get the
         // shape's material.
@@ -382,7 +397,11 @@ pub fn load_obj(path: &Path, scene_file: &Path, field: &str) -> Result<ObjFile> 
         });
     }
     let materials = checked;
-    Ok(ObjFile { objects, materials })
+    Ok(ObjFile {
+        objects,
+        materials,
+        libraries,
+    })
 }
 
 #[cfg(test)]

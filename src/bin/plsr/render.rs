@@ -113,7 +113,21 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             });
         }
     }
-    let scene = Scene::load(&a.scene)?;
+    // No output may replace a file the scene reads either: its meshes,
+    // MTL libraries, textures, environment image or PLS files.
+    let (description, inputs) = plsr::scene::file::load_with_inputs(&a.scene)?;
+    for out in std::iter::once(&a.output).chain(&a.png) {
+        if let Some(input) = inputs.iter().find(|i| same_file(out, i)) {
+            return Err(Error::Output {
+                file: out.clone(),
+                message: format!(
+                    "is {}, which the scene reads: it would be overwritten",
+                    input.display()
+                ),
+            });
+        }
+    }
+    let scene = Scene::build(description)?;
     let mut job = scene.default_job();
     if let Some(spp) = a.spp {
         if spp == 0 {

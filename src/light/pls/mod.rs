@@ -48,6 +48,10 @@ use std::fmt;
 /// nothing noticeable.
 pub const DEFAULT_NF: u32 = 32;
 
+/// The smallest outline area a light may have (m², one square of 10 µm):
+/// below it the radiance `b·c/A` (eq. 12) is out of reach of `f32`.
+pub const MIN_AREA: f32 = 1e-10;
+
 /// Factor of the circle approximation: `d2 = d3 = 1.35·r` (the paper, sec. 3).
 pub const CIRCLE_FACTOR: f32 = 1.35;
 
@@ -201,6 +205,19 @@ impl Pls {
             return Err(err(
                 "d",
                 "all four widths are zero: the light has no area".into(),
+            ));
+        }
+        // Widths far below a millimetre pass the checks above but make an
+        // emitter whose radiance b·c/A overflows (eq. 12) and whose
+        // triangles Embree cannot bound.
+        let area = self.outline_area();
+        if area.is_nan() || area < MIN_AREA {
+            return Err(err(
+                "d",
+                format!(
+                    "the outline's area is {area:e} m², below the smallest plsr renders \
+                     ({MIN_AREA:e} m²): widths are in metres"
+                ),
             ));
         }
         if self.c.min_element() < 0.0 {

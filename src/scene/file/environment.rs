@@ -65,10 +65,22 @@ impl Builder<'_> {
                 })?;
                 let up = self.vec3("environment.up", up)?;
                 let forward = self.vec3("environment.forward", forward)?;
+                // Each vector is blamed for its own fault: a zero `up` is
+                // not `forward`'s.
+                if up.length_squared() == 0.0 {
+                    return Err(self.err("environment.up", "must not be the zero vector"));
+                }
+                if forward.length_squared() == 0.0 {
+                    return Err(self.err("environment.forward", "must not be the zero vector"));
+                }
                 let frame = crate::equirect::SphereFrame::new(up, forward).ok_or_else(|| {
-                    self.err("environment.forward", "must not be zero or parallel to up")
+                    self.err(
+                        "environment.forward",
+                        format!("{forward} is parallel to up {up}: the frame is undefined"),
+                    )
                 })?;
                 let path = self.base.join(rel);
+                self.read_input(&path);
                 checked_environment(&path, frame, scale)
                     .map_err(|m| self.err("environment.file", m))
             }
@@ -114,12 +126,12 @@ pub(super) fn checked_environment(
 pub(super) fn load_environment_image(
     path: &Path,
 ) -> std::result::Result<(u32, u32, Vec<Vec3>), String> {
-    if !path.is_file() {
-        return Err(format!(
-            "{}: environment image not found (paths are relative to the scene file)",
+    crate::input::check_regular_file(path).map_err(|m| {
+        format!(
+            "{}: environment image {m} (paths are relative to the scene file)",
             path.display()
-        ));
-    }
+        )
+    })?;
     let ext = path
         .extension()
         .and_then(|e| e.to_str())

@@ -38,17 +38,18 @@ impl Builder<'_> {
     ) -> Result<()> {
         let field = format!("pls[{index}]");
         let path = self.base.join(&s.file);
-        if !path.is_file() {
-            return Err(self.err(
+        crate::input::check_regular_file(&path).map_err(|m| {
+            self.err(
                 format!("{field}.file"),
                 format!(
-                    "{}: PLS file not found (paths are relative to the scene file)",
+                    "{}: PLS file {m} (paths are relative to the scene file)",
                     path.display()
                 ),
-            ));
-        }
+            )
+        })?;
         // Errors inside the PLS file keep its name, light and parameter,
         // behind the scene field that referred to it.
+        self.read_input(&path);
         let mut lighting = crate::light::pls::file::load(&path)
             .map_err(|e| self.err(format!("{field}.file"), e.to_string()))?;
         if let Some(t) = &s.transform {

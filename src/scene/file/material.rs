@@ -444,6 +444,7 @@ impl Builder<'_> {
             };
             let f = format!("{field}.{key}");
             let t = texture::load_for(self.file, &f, &path, encoding)?;
+            self.read_input(&path);
             if encoding == Encoding::Linear && t.max_value() > 1.0 {
                 return Err(self.err(f, format!("{}: values must be in [0, 1]", path.display())));
             }

@@ -35,8 +35,9 @@ use crate::light::PointLight;
 use crate::scene::{Material, SceneDescription};
 use glam::Vec3;
 use serde::Deserialize;
+use std::cell::RefCell;
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -59,6 +60,14 @@ struct SceneFile {
 
 /// Reads and validates a scene file; TOML unless the extension is `.json`.
 pub fn load(path: &Path) -> Result<SceneDescription> {
+    Ok(load_with_inputs(path)?.0)
+}
+
+/// Like [`load`], and also returns every other file the scene read to be
+/// built (meshes, MTL libraries, textures, environment image, PLS files),
+/// so that a command can refuse an output that would overwrite one.
+pub fn load_with_inputs(path: &Path) -> Result<(SceneDescription, Vec<PathBuf>)> {
+    crate::input::check_regular_file(path).map_err(|m| Error::input(path, "", m))?;
     let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
         file: path.to_path_buf(),
         source,
@@ -85,12 +94,14 @@ pub fn load(path: &Path) -> Result<SceneDescription> {
         })?
     };
     let base = path.parent().unwrap_or(Path::new("."));
-    Builder {
+    let builder = Builder {
         file: path,
         base,
         toml: (!is_json).then_some(text.as_str()),
-    }
-    .build(parsed)
+        inputs: RefCell::new(Vec::new()),
+    };
+    let description = builder.build(parsed)?;
+    Ok((description, builder.inputs.into_inner()))
 }
 
 struct Builder<'a> {
@@ -98,9 +109,16 @@ struct Builder<'a> {
     base: &'a Path,
     /// The text of a TOML file, to place errors found after parsing.
     toml: Option<&'a str>,
+    /// The files read so far, besides the scene file.
+    inputs: RefCell<Vec<PathBuf>>,
 }
 
 impl Builder<'_> {
+    /// Records that the scene read `path`.
+    fn read_input(&self, path: &Path) {
+        self.inputs.borrow_mut().push(path.to_path_buf());
+    }
+
     fn err(&self, field: impl Into<String>, message: impl Into<String>) -> Error {
         Error::input(self.file, field, message)
     }

@@ -297,6 +297,10 @@ impl Builder<'_> {
             .ok_or_else(|| self.err(format!("{field}.file"), "required for an OBJ shape"))?;
         let path = self.base.join(rel);
         let obj = shapes::load_obj(&path, self.file, &format!("{field}.file"))?;
+        self.read_input(&path);
+        for lib in &obj.libraries {
+            self.read_input(lib);
+        }
         if obj.objects.is_empty() {
             return Err(self.err(
                 format!("{field}.file"),

@@ -1,0 +1,67 @@
+//! The files a command reads: each is checked to be a regular file before
+//! it is opened, so that a folder, a FIFO or a device named as an input
+//! gets a clear message instead of "not found" or a read that never ends.
+
+use std::path::Path;
+
+/// Checks that `path` names an existing regular file (after following
+/// links). The message does not repeat the path; callers put it in front.
+pub fn check_regular_file(path: &Path) -> std::result::Result<(), String> {
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_file() => Ok(()),
+        Ok(m) if m.is_dir() => Err("is a folder, not a file".into()),
+        Ok(_) => Err("is not a regular file (a FIFO, socket or device)".into()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err("not found".into()),
+        Err(e) => Err(format!("cannot be read: {e}")),
+    }
+}
+
+/// Reads a text file that should be UTF-8 but may come from older tools
+/// in Latin-1 (ISO 8859-1): valid UTF-8 is kept, anything else is decoded
+/// byte for byte as Latin-1, so that an accented comment never stops a load.
+pub fn read_text_lenient(path: &Path) -> std::io::Result<String> {
+    let bytes = std::fs::read(path)?;
+    Ok(match String::from_utf8(bytes) {
+        Ok(s) => s,
+        Err(e) => e.into_bytes().iter().map(|&b| b as char).collect(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kinds_of_path_get_their_own_message() {
+        let dir = std::env::temp_dir().join(format!("plsr-input-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("a.txt");
+        std::fs::write(&file, "x").unwrap();
+        assert_eq!(check_regular_file(&file), Ok(()));
+        assert_eq!(
+            check_regular_file(&dir).unwrap_err(),
+            "is a folder, not a file"
+        );
+        assert_eq!(
+            check_regular_file(&dir.join("missing")).unwrap_err(),
+            "not found"
+        );
+        #[cfg(unix)]
+        assert!(check_regular_file(Path::new("/dev/null"))
+            .unwrap_err()
+            .contains("not a regular file"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn latin1_text_is_decoded_byte_for_byte() {
+        let dir = std::env::temp_dir().join(format!("plsr-latin1-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("a.obj");
+        std::fs::write(&file, b"# caf\xe9\nv 1 2 3\n").unwrap();
+        assert_eq!(read_text_lenient(&file).unwrap(), "# café\nv 1 2 3\n");
+        std::fs::write(&file, "# café\n").unwrap();
+        assert_eq!(read_text_lenient(&file).unwrap(), "# café\n");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
