@@ -209,10 +209,12 @@ const float *plsr_image_rgba(const plsr_image *image);
 
 // Writes the image as OpenEXR (RGBA plus the layers: variance, albedo,
 // normal, depth, object id), through a temporary file then a rename.
+// `path` must end in `.exr` (`PLSR_ERR_INVALID_ARGUMENT` otherwise).
 plsr_result plsr_image_save_exr(const plsr_image *image, const char *path);
 
 // Writes the image as an 8-bit sRGB PNG after an exposure of `exposure_ev`
 // stops (0: none), clamped; `filmic` non-zero uses the filmic curve.
+// `path` must end in `.png` (`PLSR_ERR_INVALID_ARGUMENT` otherwise).
 plsr_result plsr_image_save_png(const plsr_image *image,
                                 const char *path,
                                 float exposure_ev,

@@ -30,6 +30,24 @@ pub fn write_atomically(
     outputs.commit()
 }
 
+/// Checks that `path` ends in `.extension` (any case), the format
+/// `format` that will be written: no file is ever written under the name
+/// of another format. The message does not repeat the path.
+pub fn check_extension(
+    path: &Path,
+    extension: &str,
+    format: &str,
+) -> std::result::Result<(), String> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if ext.eq_ignore_ascii_case(extension) {
+        Ok(())
+    } else {
+        Err(format!(
+            "writes {format}; name the file `.{extension}` (got `.{ext}`)"
+        ))
+    }
+}
+
 /// `path` with its folder's links resolved (and the file's own, where it
 /// exists); `None` where the folder does not exist.
 fn resolved(path: &Path) -> Option<PathBuf> {

@@ -16,6 +16,19 @@ pub fn check_regular_file(path: &Path) -> std::result::Result<(), String> {
     }
 }
 
+/// [`check_regular_file`] as a plsr error: a path that does not exist or
+/// cannot be read is an I/O error (as opening it would give), a folder or a
+/// special file is an input error naming it.
+pub fn check_input_file(path: &Path) -> crate::error::Result<()> {
+    match std::fs::metadata(path) {
+        Err(source) => Err(crate::error::Error::Io {
+            file: path.to_path_buf(),
+            source,
+        }),
+        Ok(_) => check_regular_file(path).map_err(|m| crate::error::Error::input(path, "", m)),
+    }
+}
+
 /// Reads a text file that should be UTF-8 but may come from older tools
 /// in Latin-1 (ISO 8859-1): valid UTF-8 is kept, anything else is decoded
 /// byte for byte as Latin-1, so that an accented comment never stops a load.

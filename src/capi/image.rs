@@ -192,6 +192,7 @@ pub extern "C" fn plsr_image_rgba(image: *const plsr_image) -> *const f32 {
 
 /// Writes the image as OpenEXR (RGBA plus the layers: variance, albedo,
 /// normal, depth, object id), through a temporary file then a rename.
+/// `path` must end in `.exr` (`PLSR_ERR_INVALID_ARGUMENT` otherwise).
 #[no_mangle]
 pub extern "C" fn plsr_image_save_exr(
     image: *const plsr_image,
@@ -200,12 +201,15 @@ pub extern "C" fn plsr_image_save_exr(
     boundary(|| {
         let img = handle_ref(image, "image")?;
         let path = path_arg(path, "path")?;
+        crate::atomic_write::check_extension(&path, "exr", "OpenEXR")
+            .map_err(|m| FfiError::invalid(format!("`path` {}: {m}", path.display())))?;
         Ok(img.film.write_exr(&path)?)
     })
 }
 
 /// Writes the image as an 8-bit sRGB PNG after an exposure of `exposure_ev`
 /// stops (0: none), clamped; `filmic` non-zero uses the filmic curve.
+/// `path` must end in `.png` (`PLSR_ERR_INVALID_ARGUMENT` otherwise).
 #[no_mangle]
 pub extern "C" fn plsr_image_save_png(
     image: *const plsr_image,
@@ -216,6 +220,8 @@ pub extern "C" fn plsr_image_save_png(
     boundary(|| {
         let img = handle_ref(image, "image")?;
         let path = path_arg(path, "path")?;
+        crate::atomic_write::check_extension(&path, "png", "PNG")
+            .map_err(|m| FfiError::invalid(format!("`path` {}: {m}", path.display())))?;
         crate::film::check_exposure_stops(exposure_ev)
             .map_err(|m| FfiError::invalid(format!("`exposure_ev` {m}")))?;
         let tone = ToneMap {

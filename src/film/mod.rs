@@ -41,7 +41,7 @@
 //! when a shutter time is given. The header's attributes are written in name
 //! order, so the same film always gives the same file, byte for byte.
 
-use crate::atomic_write::{write_atomically, OutputSet};
+use crate::atomic_write::{check_extension, OutputSet};
 use std::fs::File;
 use std::io::BufWriter;
 mod sums;
@@ -269,12 +269,18 @@ impl Film {
     /// Writes all layers to an OpenEXR file (32-bit float, ZIP compression),
     /// atomically.
     pub fn write_exr(&self, path: &Path) -> Result<()> {
-        write_atomically(path, |w| self.encode_exr(path, w))
+        let mut outputs = OutputSet::new();
+        self.stage_exr(&mut outputs, path)?;
+        outputs.commit()
     }
 
     /// Writes the OpenEXR file into `outputs`, to be committed with the
     /// command's other outputs.
     pub fn stage_exr(&self, outputs: &mut OutputSet, path: &Path) -> Result<()> {
+        check_extension(path, "exr", "OpenEXR").map_err(|message| Error::Output {
+            file: path.to_path_buf(),
+            message,
+        })?;
         outputs.stage(path, |w| self.encode_exr(path, w))
     }
 
@@ -449,12 +455,18 @@ impl Film {
 
     /// Writes a tone-mapped 8-bit sRGB PNG, atomically.
     pub fn write_png(&self, path: &Path, tone: ToneMap) -> Result<()> {
-        write_atomically(path, |w| self.encode_png(path, tone, w))
+        let mut outputs = OutputSet::new();
+        self.stage_png(&mut outputs, path, tone)?;
+        outputs.commit()
     }
 
     /// Writes the PNG into `outputs`, to be committed with the command's
     /// other outputs.
     pub fn stage_png(&self, outputs: &mut OutputSet, path: &Path, tone: ToneMap) -> Result<()> {
+        check_extension(path, "png", "PNG").map_err(|message| Error::Output {
+            file: path.to_path_buf(),
+            message,
+        })?;
         outputs.stage(path, |w| self.encode_png(path, tone, w))
     }
 

@@ -245,7 +245,7 @@ unsafe impl Send for ImageReader {}
 impl ImageReader {
     /// Opens `path`. Errors name the file and carry OpenImageIO's message.
     pub fn open(path: &Path) -> Result<ImageReader> {
-        crate::input::check_regular_file(path).map_err(|m| Error::input(path, "", m))?;
+        crate::input::check_input_file(path)?;
         let cpath = c_path(path)?;
         let mut handle: *mut ffi::Input = std::ptr::null_mut();
         let mut spec = ffi::Spec::default();

@@ -127,6 +127,9 @@ int main(int argc, char **argv) {
     if (w != 8 || h != 8 || plsr_image_rgba(img) == NULL) { fprintf(stderr, "image %ux%u\n", w, h); failures++; }
     EXPECT(plsr_image_save_exr(img, "/nonexistent-dir/x.exr"), PLSR_ERR_IO, "nonexistent-dir");
     EXPECT(plsr_image_save_png(img, "/nonexistent-dir/x.png", 0.0f / 0.0f, 0), PLSR_ERR_INVALID_ARGUMENT, "exposure");
+    /* The format follows the extension: never OpenEXR bytes named .png. */
+    EXPECT(plsr_image_save_exr(img, "/nonexistent-dir/x.png"), PLSR_ERR_INVALID_ARGUMENT, "`.exr`");
+    EXPECT(plsr_image_save_png(img, "/nonexistent-dir/x.exr", 0.0f, 0), PLSR_ERR_INVALID_ARGUMENT, "`.png`");
     EXPECT(plsr_image_free(img), PLSR_OK, NULL);
     EXPECT(plsr_image_free(img), PLSR_ERR_INVALID_HANDLE, "not a live handle");
     EXPECT(plsr_image_size(img, &w, &h), PLSR_ERR_INVALID_HANDLE, "not a live handle");

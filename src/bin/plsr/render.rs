@@ -1,7 +1,7 @@
 //! `plsr render`: a scene file to OpenEXR (and PNG).
 
 use crate::progress::progress_bar;
-use plsr::atomic_write::{same_file, OutputSet};
+use plsr::atomic_write::{check_extension, same_file, OutputSet};
 use plsr::error::{Error, Result};
 use plsr::film::{check_exposure_stops, ToneMap};
 use plsr::job::{JobError, MAX_DEPTH, MAX_SPP};
@@ -70,13 +70,7 @@ fn check_output(flag: &str, path: &Path, extension: &str, format: &str) -> Resul
     if path.is_dir() {
         return Err(fail(format!("{flag}: is a folder, not a file")));
     }
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
-    if !ext.eq_ignore_ascii_case(extension) {
-        return Err(fail(format!(
-            "{flag}: writes {format}; name the file `.{extension}` (got `.{ext}`)"
-        )));
-    }
-    Ok(())
+    check_extension(path, extension, format).map_err(|m| fail(format!("{flag}: {m}")))
 }
 
 /// Runs `plsr render`.

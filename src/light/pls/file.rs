@@ -187,7 +187,7 @@ pub fn parse(text: &str, path: &Path) -> Result<PlsLighting> {
 
 /// Reads and validates a PLS file.
 pub fn load(path: &Path) -> Result<PlsLighting> {
-    crate::input::check_regular_file(path).map_err(|m| Error::input(path, "", m))?;
+    crate::input::check_input_file(path)?;
     let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
         file: path.to_path_buf(),
         source,

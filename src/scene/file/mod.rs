@@ -67,7 +67,7 @@ pub fn load(path: &Path) -> Result<SceneDescription> {
 /// built (meshes, MTL libraries, textures, environment image, PLS files),
 /// so that a command can refuse an output that would overwrite one.
 pub fn load_with_inputs(path: &Path) -> Result<(SceneDescription, Vec<PathBuf>)> {
-    crate::input::check_regular_file(path).map_err(|m| Error::input(path, "", m))?;
+    crate::input::check_input_file(path)?;
     let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
         file: path.to_path_buf(),
         source,
