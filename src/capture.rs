@@ -109,15 +109,11 @@ pub fn capture(
         progress,
     )?;
 
-    let parent = out
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = out
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let staging = parent.join(format!(".{name}.partial-{}", std::process::id()));
+    // Staged as a hidden folder next to `out`, removed on failure or
+    // signal, swept if a killed run left it.
+    crate::atomic_write::sweep_stale_partials(out);
+    let staging = crate::atomic_write::partial_path(out);
+    crate::atomic_write::register_partial(&staging);
     let io = |e: std::io::Error, f: &Path| Error::Io {
         file: f.to_path_buf(),
         source: e,
@@ -138,17 +134,18 @@ pub fn capture(
             &bracket_options,
         )
     })();
-    let staged = match result {
-        Ok(paths) => paths,
-        Err(e) => {
-            let _ = std::fs::remove_dir_all(&staging);
-            return Err(e);
+    let placed = result.and_then(|paths| {
+        if out.exists() {
+            std::fs::remove_dir(out).map_err(|e| io(e, out))?;
         }
-    };
-    if out.exists() {
-        std::fs::remove_dir(out).map_err(|e| io(e, out))?;
+        std::fs::rename(&staging, out).map_err(|e| io(e, out))?;
+        Ok(paths)
+    });
+    if placed.is_err() {
+        let _ = std::fs::remove_dir_all(&staging);
     }
-    std::fs::rename(&staging, out).map_err(|e| io(e, out))?;
+    crate::atomic_write::forget_partial(&staging);
+    let staged = placed?;
     Ok(staged
         .iter()
         .map(|p| out.join(p.file_name().expect("bracket files have names")))

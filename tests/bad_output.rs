@@ -284,3 +284,162 @@ fn no_output_replaces_a_file_the_scene_reads() {
         assert_eq!(snapshot(dir.path()), before, "{args:?}: files changed");
     }
 }
+
+/// Whether `dir` holds a temporary output (`.NAME….partial…`).
+fn has_partial(dir: &Path) -> bool {
+    std::fs::read_dir(dir).unwrap().any(|e| {
+        e.unwrap()
+            .file_name()
+            .to_string_lossy()
+            .contains(".partial")
+    })
+}
+
+#[test]
+#[cfg(unix)]
+fn an_interrupted_merge_leaves_no_partial_file() {
+    use plsr::hdr::synth::{write_brackets, BracketOptions, CameraModel, SyntheticScene};
+    use std::time::{Duration, Instant};
+    let dir = tempfile::tempdir().unwrap();
+    // Large enough that the merge pass, which streams rows into the
+    // temporary output, lasts long enough to be interrupted.
+    let brackets = write_brackets(
+        &SyntheticScene::new(3072, 1536),
+        &CameraModel::linear(),
+        &[1.0 / 8.0, 1.0 / 2.0, 2.0],
+        dir.path(),
+        &BracketOptions {
+            extension: "tif".into(),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("pano.exr"), b"yesterday's panorama").unwrap();
+    let before = snapshot(dir.path());
+    for (signal, name) in [(2, "INT"), (15, "TERM")] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_plsr"))
+            .current_dir(dir.path())
+            .args(["hdr", "merge", "--quiet", "--exposures", "0.125,0.5,2"])
+            .args(&brackets)
+            .args(["-o", "pano.exr", "--threads", "1"])
+            .spawn()
+            .unwrap();
+        // Signal as soon as the temporary output exists.
+        let start = Instant::now();
+        while !has_partial(dir.path()) {
+            assert!(
+                child.try_wait().unwrap().is_none(),
+                "the merge ended before it could be interrupted"
+            );
+            assert!(
+                start.elapsed() < Duration::from_secs(120),
+                "no partial file"
+            );
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        let killed = Command::new("kill")
+            .args([format!("-{name}"), child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(killed.success());
+        let status = child.wait().unwrap();
+        use std::os::unix::process::ExitStatusExt;
+        assert_eq!(status.signal(), Some(signal), "{status:?}");
+        assert!(!has_partial(dir.path()), "SIG{name} left a partial file");
+        assert_eq!(snapshot(dir.path()), before, "SIG{name}: files changed");
+    }
+}
+
+#[test]
+fn partials_of_killed_runs_are_swept_by_the_next() {
+    let (dir, brackets) = two_brackets();
+    // What `kill -9` during a merge leaves: a temporary of a process that
+    // no longer runs (Linux pids stay below 2^22), next to the output.
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
+    let host: String = host
+        .trim()
+        .chars()
+        .filter(|c| c.is_ascii_alphanumeric() || *c == '-')
+        .take(32)
+        .collect();
+    let host = if host.is_empty() { "host".into() } else { host };
+    let stale = dir
+        .path()
+        .join(format!(".pano.{host}.99999999.0.partial.exr"));
+    std::fs::write(&stale, vec![0u8; 4096]).unwrap();
+    let status = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .current_dir(dir.path())
+        .args(["hdr", "merge", "--quiet", "--exposures", "0.125,2"])
+        .args(&brackets)
+        .args(["-o", "pano.exr"])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    assert!(dir.path().join("pano.exr").is_file());
+    assert!(!stale.exists(), "the stale partial was not swept");
+    assert!(!has_partial(dir.path()));
+}
+
+/// Runs `sh -c script` in a private mount namespace (as root, or as a user
+/// through a user namespace) with a 64 KiB tmpfs mounted on `full`; `None`
+/// where this system allows neither.
+#[cfg(target_os = "linux")]
+fn on_a_tiny_disk(full: &Path, script: &str) -> Option<std::process::Output> {
+    let mount = format!(
+        "mount -t tmpfs -o size=64k tmpfs '{}' && {script}",
+        full.display()
+    );
+    for unshare in [&["-m"][..], &["-r", "-m"][..]] {
+        let output = Command::new("unshare")
+            .args(unshare)
+            .args(["sh", "-c", &mount])
+            .output()
+            .ok()?;
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        if !(stderr.contains("unshare failed") || stderr.contains("mount:")) {
+            return Some(output);
+        }
+    }
+    None
+}
+
+#[test]
+#[cfg(target_os = "linux")]
+fn a_full_disk_says_so() {
+    let (dir, brackets) = two_brackets();
+    let full = dir.path().join("full");
+    std::fs::create_dir(&full).unwrap();
+    let plsr = env!("CARGO_BIN_EXE_plsr");
+    let inputs: Vec<String> = brackets
+        .iter()
+        .map(|b| format!("'{}'", b.display()))
+        .collect();
+    // Fill the disk, then merge and render onto it.
+    std::fs::write(dir.path().join("scene.toml"), SMALL_SCENE).unwrap();
+    let script = format!(
+        "head -c 100000 /dev/zero > full/filler 2>/dev/null; \
+         '{plsr}' hdr merge --quiet --exposures 0.125,2 {} -o full/pano.exr; echo \"merge exit $?\" >&2; \
+         '{plsr}' render --quiet scene.toml -o full/image.exr; echo \"render exit $?\" >&2; \
+         ls -a full >&2",
+        inputs.join(" ")
+    );
+    let Some(output) = on_a_tiny_disk(&full, &format!("cd '{}' && {script}", dir.path().display()))
+    else {
+        eprintln!("skipped: no mount namespace on this system");
+        return;
+    };
+    let stderr = String::from_utf8_lossy(&output.stderr).to_lowercase();
+    assert!(stderr.contains("merge exit 1"), "{stderr}");
+    assert!(stderr.contains("render exit 1"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    for name in ["pano.exr", "image.exr"] {
+        let line = stderr
+            .lines()
+            .find(|l| l.contains("error") && l.contains(name))
+            .unwrap_or_else(|| panic!("no error names {name}: {stderr}"));
+        assert!(line.contains("no space left on device"), "{stderr}");
+    }
+    // Only the filler is on the disk: no partial file left, none named.
+    assert!(!stderr.contains(".partial"), "{stderr}");
+    assert!(stderr.ends_with(".\n..\nfiller\n"), "{stderr}");
+}

@@ -17,7 +17,6 @@ use crate::error::{Error, Result};
 use std::ffi::{c_char, c_int, CStr, CString};
 use std::path::{Path, PathBuf};
 use std::ptr::NonNull;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Raw declarations of the shim (imports, not part of plsr's own C API).
 ///
@@ -416,21 +415,21 @@ pub enum AttrValue {
 /// `compression`, `plsr:response`, …).
 pub type Attribute = (String, AttrValue);
 
-static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
+/// The uncompressed size of an image (bytes), what its file needs at most
+/// (give or take a header).
+fn raw_size(width: usize, height: usize, channels: usize, stored: PixelType) -> u64 {
+    let bytes = match stored {
+        PixelType::U8 => 1,
+        PixelType::U16 | PixelType::Half => 2,
+        PixelType::F32 | PixelType::Other => 4,
+    };
+    (width * height * channels * bytes + (1 << 16)) as u64
+}
 
-/// The temporary name an output is written under: same folder, same
-/// extension (OpenImageIO picks the format from it).
-fn temporary_path(path: &Path) -> PathBuf {
-    let stem = path
-        .file_stem()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let ext = path
-        .extension()
-        .map(|e| format!(".{}", e.to_string_lossy()))
-        .unwrap_or_default();
-    let n = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
-    path.with_file_name(format!(".{stem}.{}.{n}.partial{ext}", std::process::id()))
+/// Removes an unfinished temporary output and forgets it.
+fn discard(tmp: &Path) {
+    let _ = std::fs::remove_file(tmp);
+    crate::atomic_write::forget_partial(tmp);
 }
 
 /// An image being written row by row; call [`ImageWriter::finish`] to close
@@ -443,6 +442,8 @@ pub struct ImageWriter {
     width: usize,
     height: usize,
     channels: usize,
+    /// Bytes the file needs at most.
+    needed: u64,
 }
 
 // SAFETY: an OpenImageIO ImageOutput may be driven from any one thread at a
@@ -471,8 +472,10 @@ impl ImageWriter {
         if dims.iter().any(|&d| d > i32::MAX as usize) {
             return Err(out_err("image too large".into()));
         }
-        let tmp = temporary_path(path);
+        crate::atomic_write::sweep_stale_partials(path);
+        let tmp = crate::atomic_write::partial_path(path);
         let ctmp = c_path(&tmp)?;
+        crate::atomic_write::register_partial(&tmp);
         // Keep the CStrings alive while the Attr array points into them.
         let mut strings = Vec::new();
         for (name, value) in attributes {
@@ -527,12 +530,18 @@ impl ImageWriter {
             )
         };
         if status != ffi::OK {
-            let _ = std::fs::remove_file(&tmp);
-            return Err(out_err(message(&err)));
+            discard(&tmp);
+            let needed = raw_size(width, height, channels, stored);
+            return Err(out_err(crate::atomic_write::write_failure_message(
+                path,
+                &tmp,
+                needed,
+                &message(&err),
+            )));
         }
         let handle = NonNull::new(handle);
         if handle.is_none() {
-            let _ = std::fs::remove_file(&tmp);
+            discard(&tmp);
             return Err(out_err("OpenImageIO returned no writer".into()));
         }
         Ok(ImageWriter {
@@ -542,6 +551,7 @@ impl ImageWriter {
             width,
             height,
             channels,
+            needed: raw_size(width, height, channels, stored),
         })
     }
 
@@ -581,10 +591,16 @@ impl ImageWriter {
         if status != ffi::OK {
             return Err(Error::Output {
                 file: self.path.clone(),
-                message: message(&err),
+                message: self.failure(&message(&err)),
             });
         }
         Ok(())
+    }
+
+    /// The message for a failed write: a full disk said as such, the
+    /// temporary name replaced by the output's.
+    fn failure(&self, message: &str) -> String {
+        crate::atomic_write::write_failure_message(&self.path, &self.tmp, self.needed, message)
     }
 
     /// Closes the file and renames it into place.
@@ -601,14 +617,18 @@ impl ImageWriter {
         // on success and on failure; `err` holds ERR_LEN bytes.
         let status = unsafe { ffi::plsr_oiio_finish(handle.as_ptr(), err.as_mut_ptr(), ERR_LEN) };
         if status != ffi::OK {
-            let _ = std::fs::remove_file(&self.tmp);
+            discard(&self.tmp);
             return Err(Error::Output {
                 file: self.path.clone(),
-                message: message(&err),
+                message: self.failure(&message(&err)),
             });
         }
-        std::fs::rename(&self.tmp, &self.path).map_err(|source| {
-            let _ = std::fs::remove_file(&self.tmp);
+        let renamed = std::fs::rename(&self.tmp, &self.path);
+        if renamed.is_ok() {
+            crate::atomic_write::forget_partial(&self.tmp);
+        }
+        renamed.map_err(|source| {
+            discard(&self.tmp);
             Error::Io {
                 file: self.path.clone(),
                 source,
@@ -622,7 +642,7 @@ impl Drop for ImageWriter {
         if let Some(handle) = self.handle.take() {
             // SAFETY: the handle is live and released exactly once, here.
             unsafe { ffi::plsr_oiio_abort(handle.as_ptr()) };
-            let _ = std::fs::remove_file(&self.tmp);
+            discard(&self.tmp);
         }
     }
 }

@@ -78,7 +78,27 @@ where
     Ok(Outcome::Done)
 }
 
+/// On SIGINT (Ctrl-C), SIGTERM and SIGHUP: removes the temporary files of
+/// outputs being written, then ends the process by the same signal, so the
+/// shell sees what it sent. Without this the hidden `.partial` files of an
+/// interrupted `hdr merge` (hundreds of MB) would stay behind.
+fn remove_partial_outputs_on_signals() {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else {
+        return;
+    };
+    std::thread::spawn(move || {
+        if let Some(signal) = signals.forever().next() {
+            plsr::atomic_write::remove_partial_outputs();
+            // Restores the default action and raises the signal again.
+            let _ = signal_hook::low_level::emulate_default_handler(signal);
+            std::process::exit(128 + signal);
+        }
+    });
+}
+
 fn main() -> ExitCode {
+    remove_partial_outputs_on_signals();
     match run(std::env::args_os()) {
         Ok(Outcome::Done) => ExitCode::SUCCESS,
         Ok(Outcome::Usage) => ExitCode::from(2),
