@@ -308,8 +308,23 @@ impl OutputSet {
         file.sync_all().map_err(io_err)
     }
 
-    /// Renames every staged file into place, in the order staged.
+    /// Takes over `tmp`, a complete temporary file written (and registered
+    /// with [`register_partial`]) by another writer, to be renamed to
+    /// `path` at commit.
+    pub fn adopt(&mut self, tmp: PathBuf, path: PathBuf) {
+        self.staged.push((tmp, path));
+    }
+
+    /// Renames every staged file into place, in the order staged. A target
+    /// that is a folder (the one way a rename fails that checking ahead
+    /// can see) stops the commit before anything is renamed.
     pub fn commit(mut self) -> Result<()> {
+        if let Some((_, path)) = self.staged.iter().find(|(_, p)| p.is_dir()) {
+            return Err(Error::Output {
+                file: path.clone(),
+                message: "is a folder, not a file".into(),
+            });
+        }
         while !self.staged.is_empty() {
             let (tmp, path) = &self.staged[0];
             if let Err(source) = std::fs::rename(tmp, path) {

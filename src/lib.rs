@@ -41,6 +41,7 @@ pub mod integrator;
 pub mod job;
 pub mod light;
 pub mod material;
+pub mod memory;
 pub mod render;
 pub mod rng;
 pub mod scene;

@@ -113,6 +113,45 @@ pub fn tiles(width: u32, height: u32, size: u32) -> Vec<Tile> {
     out
 }
 
+/// Working memory of one pixel of a tile in flight (bytes): its sums and
+/// the wavefront's path state (ray, throughput, vertex, random state).
+const PATH_STATE_BYTES: u64 = 256;
+
+/// Bytes a render of a `width × height` image needs at its peak: the
+/// film's per-pixel sums, the developed film (ten float channels and
+/// three colour layers), the OpenEXR encoder's copy of every channel, and
+/// the tiles in flight, one per thread.
+pub fn memory_needed(width: u32, height: u32, tile_size: u32, threads: usize) -> u64 {
+    let pixels = width as u64 * height as u64;
+    let sums = std::mem::size_of::<crate::film::PixelSums>() as u64;
+    let film = 4 * 3 * 4 + 3 * 4;
+    let exr = 16 * 4;
+    let tile = (tile_size as u64 * tile_size as u64).min(pixels);
+    pixels * (sums + film + exr) + tile * (sums + PATH_STATE_BYTES) * threads as u64
+}
+
+/// Checks that a render of `scene` with `options` fits in the memory this
+/// machine has free; the message gives both. Passes where the machine does
+/// not say (non-Linux).
+pub fn check_memory(scene: &Scene, options: &RenderOptions) -> std::result::Result<(), String> {
+    let cam = scene.camera();
+    let threads = options
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let needed = memory_needed(cam.width(), cam.height(), options.tile_size, threads);
+    match crate::memory::available_bytes() {
+        Some(available) if needed > available => Err(format!(
+            "{}×{} pixels need about {} of memory to render, more than the {} available \
+             (render a smaller image, or pieces of it)",
+            cam.width(),
+            cam.height(),
+            crate::memory::human_bytes(needed),
+            crate::memory::human_bytes(available)
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// Renders `job` of the scene into a developed film (means, variances and
 /// AOVs). `progress(done_tiles, total_tiles)` is called from worker threads
 /// after each tile; returning `false` cancels the render.
@@ -161,6 +200,8 @@ pub fn render_sums(
     } else {
         None
     };
+    check_memory(scene, options)
+        .map_err(|m| Error::InvalidArgument(format!("camera.resolution: {m}")))?;
     let pool = thread_pool(options.threads)?;
     let done = AtomicUsize::new(0);
     let cancelled = AtomicBool::new(false);

@@ -268,3 +268,19 @@ fn a_zero_environment_up_is_blamed_on_up() {
         "{e}"
     );
 }
+
+#[test]
+fn an_image_larger_than_memory_is_refused_before_allocating() {
+    // 2^32 pixels: about 880 GiB of film, more than any test machine has.
+    let e = expect_error(
+        &format!(
+            "{}\n[[shapes]]\ntype = \"sphere\"\n",
+            CAMERA.replace("[8, 8]", "[65536, 65536]")
+        ),
+        &[],
+    );
+    assert!(
+        e.contains("camera.resolution") && e.contains("GiB of memory") && e.contains("available"),
+        "{e}"
+    );
+}

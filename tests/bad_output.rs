@@ -29,6 +29,24 @@ fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
     out
 }
 
+/// Asserts that `dir` holds exactly the files of `before`, byte for byte;
+/// the message names the files that changed, appeared or vanished.
+fn assert_unchanged(dir: &Path, before: &[(PathBuf, Vec<u8>)], what: &str) {
+    let after = snapshot(dir);
+    if after != before {
+        let names = |s: &[(PathBuf, Vec<u8>)]| -> Vec<String> {
+            s.iter()
+                .map(|(p, b)| format!("{} ({} bytes)", p.display(), b.len()))
+                .collect()
+        };
+        panic!(
+            "{what}: files changed\nbefore: {:?}\nafter: {:?}",
+            names(before),
+            names(&after)
+        );
+    }
+}
+
 /// Runs `plsr render scene.toml ARGS` in a folder holding the scene, an
 /// old `old.exr` and a folder `d.png`; checks that it fails with status 1,
 /// that the message names `names` and says `fault`, and that no file
@@ -50,7 +68,7 @@ fn refused(args: &[&str], names: &str, fault: &str) {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(stderr.contains(names), "{args:?}: names {names}: {stderr}");
     assert!(stderr.contains(fault), "{args:?}: says {fault}: {stderr}");
-    assert_eq!(snapshot(dir.path()), before, "{args:?}: files changed");
+    assert_unchanged(dir.path(), &before, &format!("{args:?}: files changed"));
 }
 
 #[test]
@@ -72,7 +90,7 @@ fn the_scene_file_is_never_an_output() {
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert_eq!(output.status.code(), Some(1), "{stderr}");
         assert!(stderr.contains("scene file"), "{stderr}");
-        assert_eq!(snapshot(dir.path()), before);
+        assert_unchanged(dir.path(), &before, "");
     }
 }
 
@@ -166,7 +184,7 @@ fn hdr_merge_never_writes_over_a_bracket() {
             stderr.contains("overwritten") || stderr.contains("same file"),
             "{extra:?}: {stderr}"
         );
-        assert_eq!(snapshot(dir.path()), before, "{extra:?}: files changed");
+        assert_unchanged(dir.path(), &before, &format!("{extra:?}: files changed"));
     }
 }
 
@@ -192,7 +210,11 @@ fn hdr_merge_refuses_unknown_compressions() {
             stderr.contains(compression) && stderr.contains(fault),
             "{compression}: {stderr}"
         );
-        assert_eq!(snapshot(dir.path()), before, "{compression}: files changed");
+        assert_unchanged(
+            dir.path(),
+            &before,
+            &format!("{compression}: files changed"),
+        );
     }
     // A known one with a level still merges.
     let status = Command::new(env!("CARGO_BIN_EXE_plsr"))
@@ -281,7 +303,7 @@ fn no_output_replaces_a_file_the_scene_reads() {
             stderr.contains("which the scene reads"),
             "{args:?}: {stderr}"
         );
-        assert_eq!(snapshot(dir.path()), before, "{args:?}: files changed");
+        assert_unchanged(dir.path(), &before, &format!("{args:?}: files changed"));
     }
 }
 
@@ -346,7 +368,7 @@ fn an_interrupted_merge_leaves_no_partial_file() {
         use std::os::unix::process::ExitStatusExt;
         assert_eq!(status.signal(), Some(signal), "{status:?}");
         assert!(!has_partial(dir.path()), "SIG{name} left a partial file");
-        assert_eq!(snapshot(dir.path()), before, "SIG{name}: files changed");
+        assert_unchanged(dir.path(), &before, &format!("SIG{name}: files changed"));
     }
 }
 
@@ -442,4 +464,55 @@ fn a_full_disk_says_so() {
     // Only the filler is on the disk: no partial file left, none named.
     assert!(!stderr.contains(".partial"), "{stderr}");
     assert!(stderr.ends_with(".\n..\nfiller\n"), "{stderr}");
+}
+
+#[test]
+fn a_curve_that_cannot_be_written_keeps_the_old_panorama() {
+    let (dir, brackets) = two_brackets();
+    std::fs::write(dir.path().join("pano.exr"), b"yesterday's panorama").unwrap();
+    // The curve's plot would be curve.png, which is a folder.
+    std::fs::create_dir(dir.path().join("curve.png")).unwrap();
+    let before = snapshot(dir.path());
+    let output = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .current_dir(dir.path())
+        .args(["hdr", "merge", "--quiet", "--exposures", "0.125,2"])
+        .args(&brackets)
+        .args(["-o", "pano.exr", "--curve", "curve.csv"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("curve.png"), "{stderr}");
+    assert_unchanged(dir.path(), &before, "files changed");
+    assert!(!has_partial(dir.path()));
+}
+
+#[test]
+fn equal_exposures_are_a_warning_and_all_equal_an_error() {
+    let (dir, brackets) = two_brackets();
+    let run = |files: &[&PathBuf], exposures: &str| {
+        Command::new(env!("CARGO_BIN_EXE_plsr"))
+            .current_dir(dir.path())
+            .args(["hdr", "merge", "--quiet", "--exposures", exposures])
+            .args(files)
+            .args(["-o", "pano.exr"])
+            .output()
+            .unwrap()
+    };
+    let output = run(&[&brackets[0], &brackets[1]], "1/60,0.016666667");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("same exposure (1/60 s") && stderr.contains("at least two different"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("pano.exr").exists());
+    let output = run(&[&brackets[0], &brackets[0], &brackets[1]], "0.125,0.125,2");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    let name = brackets[0].file_name().unwrap().to_str().unwrap();
+    assert!(
+        stderr.contains("warning") && stderr.contains(name) && stderr.contains("1/8 s"),
+        "{stderr}"
+    );
 }

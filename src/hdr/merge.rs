@@ -125,6 +125,9 @@ pub struct MergeSummary {
     pub dark_values: u64,
     /// Wall time in seconds.
     pub seconds: f64,
+    /// What the user should know but did not stop the merge (brackets of
+    /// equal exposure), one sentence each.
+    pub warnings: Vec<String>,
 }
 
 /// Parses an exposure time: `1/30`, `0.5`, `15` (seconds).
@@ -286,7 +289,58 @@ fn open_inputs(inputs: &[PathBuf], options: &MergeOptions) -> Result<Vec<Input>>
             .relative_exposure
             .total_cmp(&b.info.relative_exposure)
     });
+    let infos: Vec<&BracketInfo> = out.iter().map(|i| &i.info).collect();
+    if equal_exposure(infos[0], infos[infos.len() - 1]) {
+        return Err(Error::InvalidArgument(format!(
+            "all {} brackets have the same exposure ({}): merging needs at least two \
+             different ones (was the camera in an automatic exposure mode?)",
+            infos.len(),
+            describe_exposure(infos[0])
+        )));
+    }
     Ok(out)
+}
+
+/// Whether two brackets have the same relative exposure (within 0.1 %,
+/// below what any camera's exposure steps tell apart).
+fn equal_exposure(a: &BracketInfo, b: &BracketInfo) -> bool {
+    (a.relative_exposure - b.relative_exposure).abs()
+        <= 1e-3 * a.relative_exposure.max(b.relative_exposure)
+}
+
+/// A bracket's exposure for messages: `1/60 s at f/8, ISO 100`.
+fn describe_exposure(b: &BracketInfo) -> String {
+    let t = b.exposure_time;
+    let mut s = if t < 1.0 && (1.0 / t - (1.0 / t).round()).abs() < 1e-6 {
+        format!("1/{} s", (1.0 / t).round())
+    } else {
+        format!("{t} s")
+    };
+    if let Some(f) = b.f_number {
+        s += &format!(" at f/{f}");
+    }
+    if let Some(iso) = b.iso {
+        s += &format!(", ISO {iso}");
+    }
+    s
+}
+
+/// One warning per pair of neighbouring brackets (sorted by exposure) of
+/// equal exposure: the second adds no dynamic range, and usually means a
+/// mistyped `--exposures` or a camera that chose its own exposure.
+pub fn duplicate_exposure_warnings(brackets: &[BracketInfo]) -> Vec<String> {
+    brackets
+        .windows(2)
+        .filter(|w| equal_exposure(&w[0], &w[1]))
+        .map(|w| {
+            format!(
+                "{} and {} have the same exposure ({}): one adds no dynamic range",
+                w[0].path.display(),
+                w[1].path.display(),
+                describe_exposure(&w[0])
+            )
+        })
+        .collect()
 }
 
 /// Levels of the curve domain for a pixel type.
@@ -661,7 +715,17 @@ pub fn merge(
             message: "--half needs an OpenEXR (.exr) output".into(),
         });
     }
-    for p in std::iter::once(output).chain(options.curve_csv.as_deref()) {
+    let plot = options.curve_csv.as_ref().map(|c| c.with_extension("png"));
+    for p in std::iter::once(output)
+        .chain(options.curve_csv.as_deref())
+        .chain(plot.as_deref())
+    {
+        if p.is_dir() {
+            return Err(Error::Output {
+                file: p.to_path_buf(),
+                message: "is a folder, not a file".into(),
+            });
+        }
         let dir = match p.parent() {
             Some(d) if !d.as_os_str().is_empty() => d,
             _ => Path::new("."),
@@ -700,13 +764,19 @@ pub fn merge(
         }
     }
     let mut brackets = open_inputs(inputs, options)?;
+    let infos: Vec<BracketInfo> = brackets.iter().map(|b| b.info.clone()).collect();
+    let warnings = duplicate_exposure_warnings(&infos);
     let info = brackets[0].reader.info().clone();
     let pool = crate::threads::thread_pool(options.threads)?;
-    match info.format {
+    let summary = match info.format {
         PixelType::U8 => run::<u8>(&mut brackets, output, options, &pool, progress, start),
         PixelType::U16 => run::<u16>(&mut brackets, output, options, &pool, progress, start),
         _ => run::<f32>(&mut brackets, output, options, &pool, progress, start),
-    }
+    }?;
+    Ok(MergeSummary {
+        warnings,
+        ..summary
+    })
 }
 
 fn run<T: Px>(
@@ -890,18 +960,15 @@ fn run<T: Px>(
         writer
     });
     let writer = result?;
-    writer.finish()?;
-
+    // The curve files and the image are renamed into place together, once
+    // all are written: a failure writing any leaves every old file.
+    let mut outputs = crate::atomic_write::OutputSet::new();
     if let Some(csv) = &options.curve_csv {
-        let written = curve
-            .write_csv(csv)
-            .and_then(|_| curve.write_plot_png(&csv.with_extension("png"), 640, 480));
-        if let Err(e) = written {
-            let _ = std::fs::remove_file(output);
-            let _ = std::fs::remove_file(csv);
-            return Err(e);
-        }
+        curve.stage_csv(&mut outputs, csv)?;
+        curve.stage_plot_png(&mut outputs, &csv.with_extension("png"), 640, 480)?;
     }
+    writer.finish_into(&mut outputs)?;
+    outputs.commit()?;
     Ok(MergeSummary {
         width: w,
         height: h,
@@ -913,6 +980,7 @@ fn run<T: Px>(
         saturated_values: stats.0,
         dark_values: stats.1,
         seconds: start.elapsed().as_secs_f64(),
+        warnings: Vec::new(),
     })
 }
 

@@ -19,18 +19,3 @@ pub mod merge;
 pub mod oiio;
 pub mod response;
 pub mod synth;
-
-/// Peak resident memory of this process so far (`VmHWM` in
-/// `/proc/self/status`), in bytes; `None` where not available (non-Linux).
-pub fn peak_memory_bytes() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kib: u64 = line
-        .trim_start_matches("VmHWM:")
-        .trim()
-        .trim_end_matches("kB")
-        .trim()
-        .parse()
-        .ok()?;
-    Some(kib * 1024)
-}

@@ -604,7 +604,15 @@ impl ImageWriter {
     }
 
     /// Closes the file and renames it into place.
-    pub fn finish(mut self) -> Result<()> {
+    pub fn finish(self) -> Result<()> {
+        let mut outputs = crate::atomic_write::OutputSet::new();
+        self.finish_into(&mut outputs)?;
+        outputs.commit()
+    }
+
+    /// Closes the file and hands it to `outputs`, to be renamed into place
+    /// with the command's other outputs (or removed with them).
+    pub fn finish_into(mut self, outputs: &mut crate::atomic_write::OutputSet) -> Result<()> {
         let Some(handle) = self.handle.take() else {
             return Err(Error::Output {
                 file: self.path.clone(),
@@ -623,17 +631,8 @@ impl ImageWriter {
                 message: self.failure(&message(&err)),
             });
         }
-        let renamed = std::fs::rename(&self.tmp, &self.path);
-        if renamed.is_ok() {
-            crate::atomic_write::forget_partial(&self.tmp);
-        }
-        renamed.map_err(|source| {
-            discard(&self.tmp);
-            Error::Io {
-                file: self.path.clone(),
-                source,
-            }
-        })
+        outputs.adopt(self.tmp.clone(), self.path.clone());
+        Ok(())
     }
 }
 

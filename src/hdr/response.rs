@@ -188,12 +188,24 @@ impl ResponseCurve {
     /// `pixel_value` is the normalised value in [0, 1] and the channel
     /// columns (`r,g,b` for three channels) are relative linear exposures.
     pub fn write_csv(&self, path: &Path) -> Result<()> {
+        let mut outputs = crate::atomic_write::OutputSet::new();
+        self.stage_csv(&mut outputs, path)?;
+        outputs.commit()
+    }
+
+    /// [`ResponseCurve::write_csv`] into `outputs`, to be committed with
+    /// the command's other outputs.
+    pub fn stage_csv(
+        &self,
+        outputs: &mut crate::atomic_write::OutputSet,
+        path: &Path,
+    ) -> Result<()> {
         let names: Vec<String> = match self.channels() {
             3 => vec!["r".into(), "g".into(), "b".into()],
             1 => vec!["y".into()],
             n => (0..n).map(|c| format!("c{c}")).collect(),
         };
-        crate::atomic_write::write_atomically(path, |w| {
+        outputs.stage(path, |w| {
             let io = |source| Error::Io {
                 file: path.to_path_buf(),
                 source,
@@ -224,6 +236,20 @@ impl ResponseCurve {
     /// relative exposure (ticks every decade), one coloured line per channel
     /// (red, green, blue; grey for one channel).
     pub fn write_plot_png(&self, path: &Path, width: u32, height: u32) -> Result<()> {
+        let mut outputs = crate::atomic_write::OutputSet::new();
+        self.stage_plot_png(&mut outputs, path, width, height)?;
+        outputs.commit()
+    }
+
+    /// [`ResponseCurve::write_plot_png`] into `outputs`, to be committed
+    /// with the command's other outputs.
+    pub fn stage_plot_png(
+        &self,
+        outputs: &mut crate::atomic_write::OutputSet,
+        path: &Path,
+        width: u32,
+        height: u32,
+    ) -> Result<()> {
         let img = self.plot(width.max(64), height.max(48));
         let mut bytes = Vec::new();
         img.write_to(
@@ -234,7 +260,7 @@ impl ResponseCurve {
             file: path.to_path_buf(),
             message: e.to_string(),
         })?;
-        crate::atomic_write::write_atomically(path, |w| {
+        outputs.stage(path, |w| {
             w.write_all(&bytes).map_err(|source| Error::Io {
                 file: path.to_path_buf(),
                 source,

@@ -245,7 +245,10 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
     let summary = merge(&a.images, &a.output, &options, &progress);
     bar.finish_and_clear();
     let s = summary?;
-    let peak = plsr::hdr::peak_memory_bytes()
+    for w in &s.warnings {
+        eprintln!("plsr: warning: {w}");
+    }
+    let peak = plsr::memory::peak_bytes()
         .map(|b| format!("; peak memory {:.1} MiB", b as f64 / (1u64 << 20) as f64))
         .unwrap_or_default();
     let depth = match s.format {

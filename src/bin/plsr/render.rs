@@ -153,6 +153,9 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         vectorised: !a.scalar,
         ..Default::default()
     };
+    // Named against the scene file, before anything is allocated.
+    plsr::render::check_memory(&scene, &options)
+        .map_err(|m| Error::input(&a.scene, "camera.resolution", m))?;
     let bar = progress_bar(
         a.quiet,
         "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} tiles (eta {eta})",
