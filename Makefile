@@ -11,7 +11,7 @@ DEB_BENCH_PACKAGES := embree-tools
 DEMO_SCENE := assets/scenes/pls-room/pls-room.toml
 OUT := out
 
-.PHONY: demo test deps bench-deps bench build fmt clippy install-deps-if-missing header install
+.PHONY: demo test fuzz deps bench-deps bench build fmt clippy install-deps-if-missing header install
 
 demo: deps
 	$(CARGO) build --release
@@ -21,6 +21,14 @@ demo: deps
 
 test: deps
 	$(CARGO) test --workspace --no-fail-fast
+
+# Searches further than `make test`'s fixed-seed fuzzing: fresh seeds, more
+# cases (FUZZ_CASES per parser). Failures are shrunk and their seeds kept in
+# tests/fuzz_parsers.proptest-regressions.
+FUZZ_CASES ?= 20000
+fuzz: deps
+	PLSR_FUZZ_SEED=random PLSR_FUZZ_CASES=$(FUZZ_CASES) PLSR_FUZZ_TRACE=$(CURDIR)/target/fuzz-case.txt \
+		$(CARGO) test --test fuzz_parsers -- --nocapture
 
 build: deps
 	$(CARGO) build --release

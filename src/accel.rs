@@ -21,6 +21,17 @@
 //! [`enable_flush_to_zero`], which plsr's thread pools call in their start
 //! handler.
 
+/// The largest coordinate (absolute, scene units) a scene may use: Embree
+/// refuses rays whose origin leaves ±1.8·10^18, and f32 geometry far
+/// beyond this has no precision left to render. Meshes, lights and the
+/// camera (with its aperture) are checked against it.
+pub const MAX_COORDINATE: f32 = 1e12;
+
+/// Whether `p` is finite and within [`MAX_COORDINATE`] on every axis.
+pub fn within_coordinates(p: glam::Vec3) -> bool {
+    p.is_finite() && p.abs().max_element() <= MAX_COORDINATE
+}
+
 use crate::sys;
 use glam::Vec3;
 use std::ffi::{c_void, CStr, CString};

@@ -97,6 +97,8 @@ pub enum CameraError {
     BadFocusDistance(f32),
     /// A fisheye field of view outside [180°, 360°).
     BadFisheyeFov(f32),
+    /// A position beyond [`MAX_COORDINATE`](crate::accel::MAX_COORDINATE).
+    TooFar(Vec3),
 }
 
 impl std::fmt::Display for CameraError {
@@ -106,14 +108,25 @@ impl std::fmt::Display for CameraError {
             CameraError::UpParallelToView => {
                 write!(f, "up is zero or parallel to the viewing direction")
             }
+            CameraError::TooFar(p) => write!(
+                f,
+                "position {p} is beyond ±{:e} scene units",
+                crate::accel::MAX_COORDINATE
+            ),
             CameraError::BadFov(v) => write!(f, "field of view {v}° is outside (0°, 180°)"),
             CameraError::EmptyImage => write!(f, "resolution must be at least 1×1"),
             CameraError::NotRigid(m) => write!(f, "{m}"),
             CameraError::BadZoom(z) => write!(f, "must be a positive number, got {z}"),
-            CameraError::BadAperture(r) => {
-                write!(f, "must be a finite number ≥ 0, got {r}")
-            }
-            CameraError::BadFocusDistance(d) => write!(f, "must be a positive number, got {d}"),
+            CameraError::BadAperture(r) => write!(
+                f,
+                "must be a number from 0 to {:e}, got {r}",
+                crate::accel::MAX_COORDINATE
+            ),
+            CameraError::BadFocusDistance(d) => write!(
+                f,
+                "must be a positive number up to {:e}, got {d}",
+                crate::accel::MAX_COORDINATE
+            ),
             CameraError::BadFisheyeFov(v) => {
                 write!(f, "must be in [180, 360) degrees, got {v}")
             }
@@ -142,6 +155,9 @@ impl Pose {
     /// A camera at `position` looking at `look_at`; `up` decides which way is
     /// up in the image and need not be perpendicular to the view.
     pub fn look_at(position: Vec3, look_at: Vec3, up: Vec3) -> Result<Pose, CameraError> {
+        if !crate::accel::within_coordinates(position) {
+            return Err(CameraError::TooFar(position));
+        }
         let forward = (look_at - position)
             .try_normalize()
             .ok_or(CameraError::NoViewDirection)?;
@@ -197,6 +213,9 @@ impl Pose {
         let right = col(0).normalize();
         // Re-orthonormalise within the tolerance.
         let up = right.cross(forward).normalize();
+        if !crate::accel::within_coordinates(col(3)) {
+            return Err(CameraError::TooFar(col(3)));
+        }
         Ok(Pose {
             position: col(3),
             forward,
@@ -396,10 +415,11 @@ impl ThinLensCamera {
         aperture_radius: f32,
         focus_distance: f32,
     ) -> Result<ThinLensCamera, CameraError> {
-        if !(aperture_radius >= 0.0 && aperture_radius.is_finite()) {
+        let max = crate::accel::MAX_COORDINATE;
+        if !(aperture_radius >= 0.0 && aperture_radius <= max) {
             return Err(CameraError::BadAperture(aperture_radius));
         }
-        if !(focus_distance > 0.0 && focus_distance.is_finite()) {
+        if !(focus_distance > 0.0 && focus_distance <= max) {
             return Err(CameraError::BadFocusDistance(focus_distance));
         }
         Ok(ThinLensCamera {

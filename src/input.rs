@@ -40,6 +40,53 @@ pub fn read_text_lenient(path: &Path) -> std::io::Result<String> {
     })
 }
 
+/// Fixed-length arrays in input files, read strictly: the `toml` crate
+/// reads `[1, 2, 3, 4]` into a `[f32; 3]` by dropping the last number, so
+/// every fixed-length field of plsr's files goes through these instead
+/// (`#[serde(deserialize_with = "crate::input::exact::array")]`).
+pub mod exact {
+    use serde::de::{Deserialize, Deserializer, Error};
+
+    /// Exactly `N` values.
+    pub fn array<'de, D, T, const N: usize>(d: D) -> Result<[T; N], D::Error>
+    where
+        D: Deserializer<'de>,
+        T: Deserialize<'de>,
+    {
+        fixed(Vec::<T>::deserialize(d)?)
+    }
+
+    /// An optional array of exactly `N` values (with `default`: absent is
+    /// `None`).
+    pub fn option<'de, D, T, const N: usize>(d: D) -> Result<Option<[T; N]>, D::Error>
+    where
+        D: Deserializer<'de>,
+        T: Deserialize<'de>,
+    {
+        Option::<Vec<T>>::deserialize(d)?.map(fixed).transpose()
+    }
+
+    /// An optional `R × C` matrix, row by row.
+    pub fn option_matrix<'de, D, const R: usize, const C: usize>(
+        d: D,
+    ) -> Result<Option<[[f32; C]; R]>, D::Error>
+    where
+        D: Deserializer<'de>,
+    {
+        let Some(rows) = Option::<Vec<Vec<f32>>>::deserialize(d)? else {
+            return Ok(None);
+        };
+        let rows: Vec<[f32; C]> = rows.into_iter().map(fixed).collect::<Result<_, _>>()?;
+        fixed(rows).map(Some)
+    }
+
+    fn fixed<E: Error, T, const N: usize>(v: Vec<T>) -> Result<[T; N], E> {
+        let n = v.len();
+        v.try_into()
+            .map_err(|_| E::invalid_length(n, &format!("an array of {N} values").as_str()))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -64,6 +111,34 @@ mod tests {
             .unwrap_err()
             .contains("not a regular file"));
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn arrays_of_the_wrong_length_are_refused() {
+        #[derive(serde::Deserialize, Debug)]
+        struct T {
+            #[serde(deserialize_with = "exact::array")]
+            a: [f32; 3],
+            #[serde(default, deserialize_with = "exact::option")]
+            b: Option<[f32; 3]>,
+            #[serde(default, deserialize_with = "exact::option_matrix")]
+            m: Option<[[f32; 2]; 2]>,
+        }
+        let t: T = toml::from_str("a = [1, 2, 3]\nm = [[1, 2], [3, 4]]").unwrap();
+        assert_eq!(
+            (t.a, t.b, t.m),
+            ([1.0, 2.0, 3.0], None, Some([[1.0, 2.0], [3.0, 4.0]]))
+        );
+        for bad in [
+            "a = [1, 2, 3, 4]",
+            "a = [1, 2]",
+            "a = [1, 2, 3]\nb = [1, 2, 3, 4]",
+            "a = [1, 2, 3]\nm = [[1, 2, 3], [3, 4]]",
+            "a = [1, 2, 3]\nm = [[1, 2]]",
+        ] {
+            let e = toml::from_str::<T>(bad).unwrap_err().to_string();
+            assert!(e.contains("invalid length"), "{bad}: {e}");
+        }
     }
 
     #[test]

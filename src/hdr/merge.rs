@@ -130,6 +130,12 @@ pub struct MergeSummary {
     pub warnings: Vec<String>,
 }
 
+/// The shortest exposure time a bracket may have (s): a nanosecond.
+pub const MIN_EXPOSURE_S: f64 = 1e-9;
+
+/// The longest exposure time a bracket may have (s): about 30 years.
+pub const MAX_EXPOSURE_S: f64 = 1e9;
+
 /// Parses an exposure time: `1/30`, `0.5`, `15` (seconds).
 pub fn parse_exposure(s: &str) -> std::result::Result<f64, String> {
     let s = s.trim();
@@ -256,6 +262,21 @@ fn open_inputs(inputs: &[PathBuf], options: &MergeOptions) -> Result<Vec<Input>>
                 )
             })?,
         };
+        // Outside this range a pixel's radiance (value / time) leaves f32.
+        if !(MIN_EXPOSURE_S..=MAX_EXPOSURE_S).contains(&t) {
+            let source = if options.exposures.is_some() {
+                "--exposures"
+            } else {
+                "ExposureTime"
+            };
+            return Err(Error::input(
+                r.path(),
+                "",
+                format!(
+                    "exposure time {t:.3e} s ({source}) is outside {MIN_EXPOSURE_S:e} s to {MAX_EXPOSURE_S:e} s"
+                ),
+            ));
+        }
         times.push(t);
     }
     let all_f = opened.iter().all(|(_, e)| e.f_number.is_some());

@@ -87,6 +87,8 @@ pub enum MeshError {
     },
     /// More vertices than 32-bit indices can address.
     TooManyVertices(usize),
+    /// Vertex `i` lies beyond [`MAX_COORDINATE`](crate::accel::MAX_COORDINATE).
+    PositionTooFar(usize),
 }
 
 impl std::fmt::Display for MeshError {
@@ -107,6 +109,11 @@ impl std::fmt::Display for MeshError {
                 "{given} {attribute} for {vertices} vertices (give one per vertex, or none)"
             ),
             MeshError::TooManyVertices(n) => write!(f, "{n} vertices: at most 2^32"),
+            MeshError::PositionTooFar(i) => write!(
+                f,
+                "position {i} is beyond ±{:e} scene units",
+                crate::accel::MAX_COORDINATE
+            ),
         }
     }
 }
@@ -165,6 +172,13 @@ impl Mesh {
         }
         if let Some(i) = self.positions.iter().position(|v| !v.is_finite()) {
             return Err(MeshError::NonFinitePosition(i));
+        }
+        if let Some(i) = self
+            .positions
+            .iter()
+            .position(|v| !crate::accel::within_coordinates(*v))
+        {
+            return Err(MeshError::PositionTooFar(i));
         }
         if let Some(t) = self
             .triangles
@@ -311,6 +325,21 @@ impl Scene {
                     m.name,
                     m.material,
                     materials.len()
+                )));
+            }
+        }
+        for (i, l) in point_lights.iter().enumerate() {
+            if !crate::accel::within_coordinates(l.position) {
+                return Err(Error::InvalidArgument(format!(
+                    "point light {i}: position {} is beyond ±{:e} scene units",
+                    l.position,
+                    crate::accel::MAX_COORDINATE
+                )));
+            }
+            if !(l.intensity.is_finite() && l.intensity.min_element() >= 0.0) {
+                return Err(Error::InvalidArgument(format!(
+                    "point light {i}: intensity {} must be finite and not negative",
+                    l.intensity
                 )));
             }
         }

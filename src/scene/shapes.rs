@@ -200,6 +200,117 @@ fn check_mtl(path: &Path) -> std::result::Result<(), String> {
     Ok(())
 }
 
+/// Checks what tobj's OBJ reader assumes of a file, so that its errors
+/// name the line (tobj's say only "face parse error") and so that no index
+/// reaches its unchecked arithmetic (a texture index of 0 or past the start
+/// overflows there): three numbers after `v` (then nothing, a weight `w`
+/// that is not zero, or an RGB colour), two after `vt`, three after `vn`;
+/// faces and lines of at least three (two) corners, each `v`, `v/vt`,
+/// `v//vn` or `v/vt/vn` with indices that name an existing element
+/// (1-based, or negative: counted back from the line).
+fn check_obj(text: &str) -> std::result::Result<(), String> {
+    // Totals first: a positive index may name an element defined later.
+    let mut total = [0usize; 3];
+    for line in text.lines() {
+        match line.split_whitespace().next() {
+            Some("v") => total[0] += 1,
+            Some("vt") => total[1] += 1,
+            Some("vn") => total[2] += 1,
+            _ => {}
+        }
+    }
+    let mut so_far = [0usize; 3];
+    const WHAT: [&str; 3] = ["position", "texture coordinate", "normal"];
+    for (n, line) in text.lines().enumerate() {
+        let at = |message: String| format!("line {}: {message}", n + 1);
+        let mut words = line.split_whitespace();
+        let Some(key) = words.next() else { continue };
+        let numbers = |words: std::str::SplitWhitespace, count: usize, what: &str| {
+            let given: Vec<&str> = words.take(count).collect();
+            if given.len() < count || given.iter().any(|w| w.parse::<f32>().is_err()) {
+                Err(at(format!(
+                    "`{key}` needs {count} numbers ({what}), got `{}`",
+                    line.trim()
+                )))
+            } else {
+                Ok(())
+            }
+        };
+        match key {
+            "v" => {
+                numbers(words.clone(), 3, "x y z")?;
+                let rest: Vec<&str> = words.skip(3).collect();
+                let ok = match rest[..] {
+                    [] => true,
+                    [w] => w.parse::<f32>().is_ok_and(|w| w != 0.0),
+                    [r, g, b] => [r, g, b].iter().all(|c| c.parse::<f32>().is_ok()),
+                    _ => false,
+                };
+                if !ok {
+                    return Err(at(format!(
+                        "`v` takes x y z, then a non-zero weight w or a colour r g b; got `{}`",
+                        line.trim()
+                    )));
+                }
+                so_far[0] += 1;
+            }
+            "vt" => {
+                numbers(words, 2, "u v")?;
+                so_far[1] += 1;
+            }
+            "vn" => {
+                numbers(words, 3, "x y z")?;
+                so_far[2] += 1;
+            }
+            "f" | "l" => {
+                let corners: Vec<&str> = words.collect();
+                let least = if key == "f" { 3 } else { 2 };
+                if corners.len() < least {
+                    return Err(at(format!(
+                        "`{key}` needs at least {least} corners, got `{}`",
+                        line.trim()
+                    )));
+                }
+                for (c, corner) in corners.iter().enumerate() {
+                    let parts: Vec<&str> = corner.split('/').collect();
+                    if parts.len() > 3 || parts[0].is_empty() {
+                        return Err(at(format!(
+                            "corner {} `{corner}` is not v, v/vt, v//vn or v/vt/vn",
+                            c + 1
+                        )));
+                    }
+                    for (k, part) in parts.iter().enumerate() {
+                        if part.is_empty() {
+                            continue;
+                        }
+                        let fault = match part.parse::<i64>() {
+                            Err(_) => Some("is not a whole number".to_string()),
+                            Ok(0) => Some("is 0 (indices start at 1)".to_string()),
+                            Ok(i) if i > 0 && i as u64 > total[k] as u64 => {
+                                Some(format!("is past the file's {} {}s", total[k], WHAT[k]))
+                            }
+                            Ok(i) if i < 0 && i.unsigned_abs() > so_far[k] as u64 => Some(format!(
+                                "counts back past the {} {}s before this line",
+                                so_far[k], WHAT[k]
+                            )),
+                            Ok(_) => None,
+                        };
+                        if let Some(fault) = fault {
+                            return Err(at(format!(
+                                "corner {} `{corner}`: {} index {part} {fault}",
+                                c + 1,
+                                WHAT[k]
+                            )));
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 /// Loads an OBJ file and its MTL libraries. Errors name `scene_file` and
 /// `field`, the scene field that referred to the OBJ, and the OBJ or MTL file
 /// at fault.
@@ -215,6 +326,7 @@ pub fn load_obj(path: &Path, scene_file: &Path, field: &str) -> Result<ObjFile> 
     // comments and names, which tobj's UTF-8 line reader refuses.
     let text = crate::input::read_text_lenient(path)
         .map_err(|e| fail(format!("{}: {e}", path.display())))?;
+    check_obj(&text).map_err(|m| fail(format!("{}: {m}", path.display())))?;
     let base = path.parent().unwrap_or(Path::new("."));
     // tobj does not say which MTL library is missing: check them first.
     let mut libraries = Vec::new();

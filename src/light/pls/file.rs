@@ -43,19 +43,33 @@ struct PlsFile {
 struct LightEntry {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     name: Option<String>,
+    #[serde(deserialize_with = "crate::input::exact::array")]
     n: [f32; 3],
     a: f32,
+    #[serde(deserialize_with = "crate::input::exact::array")]
     c: [f32; 3],
     b: f32,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        deserialize_with = "crate::input::exact::option",
+        skip_serializing_if = "Option::is_none"
+    )]
     e1: Option<[f32; 3]>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        deserialize_with = "crate::input::exact::option",
+        skip_serializing_if = "Option::is_none"
+    )]
     e2: Option<[f32; 3]>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     alpha1: Option<f32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     alpha2: Option<f32>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        deserialize_with = "crate::input::exact::option",
+        skip_serializing_if = "Option::is_none"
+    )]
     d: Option<[f32; 4]>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     circle: Option<CircleEntry>,
@@ -64,8 +78,10 @@ struct LightEntry {
 #[derive(Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 struct CircleEntry {
+    #[serde(deserialize_with = "crate::input::exact::array")]
     center: [f32; 3],
     radius: f32,
+    #[serde(deserialize_with = "crate::input::exact::array")]
     axis: [f32; 3],
 }
 

@@ -18,10 +18,15 @@ use serde::Deserialize;
 pub(super) struct CameraSection {
     #[serde(rename = "type", default = "pinhole")]
     pub(super) kind: String,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) position: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) look_at: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) up: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "crate::input::exact::option_matrix")]
     pub(super) to_world: Option<[[f32; 4]; 4]>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) resolution: Option<[i64; 2]>,
     #[serde(flatten)]
     pub(super) keys: toml::Table,
@@ -207,6 +212,7 @@ impl Builder<'_> {
             CameraError::BadAperture(_) => "camera.aperture_radius",
             CameraError::BadFocusDistance(_) => "camera.focus_distance",
             CameraError::BadFisheyeFov(_) => "camera.fov",
+            CameraError::TooFar(_) => "camera.position",
             _ => default,
         };
 

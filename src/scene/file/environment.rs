@@ -11,8 +11,11 @@ use std::path::{Path, PathBuf};
 #[serde(deny_unknown_fields)]
 pub(super) struct EnvironmentSection {
     pub(super) file: Option<PathBuf>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) radiance: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) up: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) forward: Option<[f32; 3]>,
     pub(super) scale: Option<f32>,
 }

@@ -15,7 +15,9 @@ use std::path::PathBuf;
 pub(super) struct LightSection {
     #[serde(rename = "type")]
     pub(super) kind: String,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) position: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) intensity: Option<[f32; 3]>,
 }
 

@@ -35,6 +35,7 @@ pub(super) struct MaterialSection {
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct DiffuseKeys {
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     reflectance: Option<[f32; 3]>,
     base_color_map: Option<PathBuf>,
 }
@@ -43,7 +44,9 @@ pub(super) struct DiffuseKeys {
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct BlinnPhongKeys {
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     diffuse: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     specular: Option<[f32; 3]>,
     exponent: Option<f32>,
     base_color_map: Option<PathBuf>,
@@ -59,10 +62,13 @@ pub(super) struct CookTorranceKeys {
     alpha_u: Option<f32>,
     alpha_v: Option<f32>,
     fresnel: Option<String>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     f0: Option<[f32; 3]>,
     ior: Option<f32>,
     metal: Option<String>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     eta: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     k: Option<[f32; 3]>,
     roughness_map: Option<PathBuf>,
 }
@@ -83,6 +89,7 @@ pub(super) struct DielectricKeys {
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct PrincipledKeys {
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     base_color: Option<[f32; 3]>,
     roughness: Option<f32>,
     metallic: Option<f32>,

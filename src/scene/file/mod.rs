@@ -76,7 +76,13 @@ pub fn load_with_inputs(path: &Path) -> Result<(SceneDescription, Vec<PathBuf>)>
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"));
     let parsed: SceneFile = if is_json {
-        serde_json::from_str(&text).map_err(|e| Error::input(path, "", e.to_string()))?
+        // Errors name the field, as for TOML.
+        let mut json = serde_json::Deserializer::from_str(&text);
+        serde_path_to_error::deserialize(&mut json).map_err(|e| {
+            let field = e.path().to_string();
+            let field = if field == "." { String::new() } else { field };
+            Error::input(path, field, e.into_inner().to_string())
+        })?
     } else {
         toml::from_str(&text).map_err(|e| {
             let (field, at) = e
@@ -90,6 +96,15 @@ pub fn load_with_inputs(path: &Path) -> Result<(SceneDescription, Vec<PathBuf>)>
                     )
                 })
                 .unwrap_or_default();
+            // A key missing from the whole file is placed at its start,
+            // which is not the first table's fault.
+            let field = if e.span().is_some_and(|s| s.start == 0)
+                && e.message().starts_with("missing field")
+            {
+                String::new()
+            } else {
+                field
+            };
             Error::input(path, field, format!("{at}{}", e.message().trim_end()))
         })?
     };

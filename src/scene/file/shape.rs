@@ -22,6 +22,7 @@ pub(super) struct ShapeSection {
     pub(super) name: Option<String>,
     pub(super) material: Option<String>,
     pub(super) transform: Option<TransformSection>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) emission: Option<[f32; 3]>,
     pub(super) two_sided: Option<bool>,
     #[serde(flatten)]
@@ -46,6 +47,7 @@ struct RectangleKeys {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SphereKeys {
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     center: Option<[f32; 3]>,
     radius: Option<f32>,
     subdivisions: Option<u32>,
@@ -58,15 +60,18 @@ const SHAPE_KEYS: [&str; 5] = ["name", "material", "transform", "emission", "two
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct TransformSection {
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) translate: Option<[f32; 3]>,
     pub(super) rotate: Option<RotateSection>,
     pub(super) scale: Option<ScaleValue>,
+    #[serde(default, deserialize_with = "crate::input::exact::option_matrix")]
     pub(super) matrix: Option<[[f32; 4]; 4]>,
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RotateSection {
+    #[serde(deserialize_with = "crate::input::exact::array")]
     pub(super) axis: [f32; 3],
     pub(super) angle: f32,
 }
@@ -75,7 +80,7 @@ pub(super) struct RotateSection {
 #[serde(untagged, expecting = "a number or an array of three numbers")]
 pub(super) enum ScaleValue {
     Uniform(f32),
-    PerAxis([f32; 3]),
+    PerAxis(#[serde(deserialize_with = "crate::input::exact::array")] [f32; 3]),
 }
 
 impl Builder<'_> {
