@@ -119,7 +119,7 @@ impl std::fmt::Display for CameraError {
             CameraError::BadZoom(z) => write!(f, "must be a positive number, got {z}"),
             CameraError::BadAperture(r) => write!(
                 f,
-                "must be a number from 0 to {:e}, got {r}",
+                "must be a number ≥ 0 and at most {:e}, got {r}",
                 crate::accel::MAX_COORDINATE
             ),
             CameraError::BadFocusDistance(d) => write!(

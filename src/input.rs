@@ -45,7 +45,8 @@ pub fn read_text_lenient(path: &Path) -> std::io::Result<String> {
 /// every fixed-length field of plsr's files goes through these instead
 /// (`#[serde(deserialize_with = "crate::input::exact::array")]`).
 pub mod exact {
-    use serde::de::{Deserialize, Deserializer, Error};
+    use serde::de::{Deserialize, Deserializer, Error, SeqAccess, Visitor};
+    use std::marker::PhantomData;
 
     /// Exactly `N` values.
     pub fn array<'de, D, T, const N: usize>(d: D) -> Result<[T; N], D::Error>
@@ -53,7 +54,7 @@ pub mod exact {
         D: Deserializer<'de>,
         T: Deserialize<'de>,
     {
-        fixed(Vec::<T>::deserialize(d)?)
+        Ok(Exact::<T, N>::deserialize(d)?.0)
     }
 
     /// An optional array of exactly `N` values (with `default`: absent is
@@ -63,7 +64,7 @@ pub mod exact {
         D: Deserializer<'de>,
         T: Deserialize<'de>,
     {
-        Option::<Vec<T>>::deserialize(d)?.map(fixed).transpose()
+        Ok(Option::<Exact<T, N>>::deserialize(d)?.map(|e| e.0))
     }
 
     /// An optional `R × C` matrix, row by row.
@@ -73,17 +74,40 @@ pub mod exact {
     where
         D: Deserializer<'de>,
     {
-        let Some(rows) = Option::<Vec<Vec<f32>>>::deserialize(d)? else {
-            return Ok(None);
-        };
-        let rows: Vec<[f32; C]> = rows.into_iter().map(fixed).collect::<Result<_, _>>()?;
-        fixed(rows).map(Some)
+        let rows = Option::<Exact<Exact<f32, C>, R>>::deserialize(d)?;
+        Ok(rows.map(|rows| rows.0.map(|row| row.0)))
     }
 
-    fn fixed<E: Error, T, const N: usize>(v: Vec<T>) -> Result<[T; N], E> {
-        let n = v.len();
-        v.try_into()
-            .map_err(|_| E::invalid_length(n, &format!("an array of {N} values").as_str()))
+    /// `N` values, no more and no fewer.
+    struct Exact<T, const N: usize>([T; N]);
+
+    impl<'de, T: Deserialize<'de>, const N: usize> Deserialize<'de> for Exact<T, N> {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            d.deserialize_seq(ExactVisitor::<T, N>(PhantomData))
+        }
+    }
+
+    struct ExactVisitor<T, const N: usize>(PhantomData<T>);
+
+    impl<'de, T: Deserialize<'de>, const N: usize> Visitor<'de> for ExactVisitor<T, N> {
+        type Value = Exact<T, N>;
+
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            // serde's own words for a fixed-size array.
+            write!(f, "an array of length {N}")
+        }
+
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+            let mut values = Vec::with_capacity(N);
+            while let Some(v) = seq.next_element::<T>()? {
+                values.push(v);
+            }
+            let n = values.len();
+            values
+                .try_into()
+                .map(Exact)
+                .map_err(|_| A::Error::invalid_length(n, &self))
+        }
     }
 }
 

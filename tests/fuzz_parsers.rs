@@ -1403,3 +1403,35 @@ fn found_coordinates_beyond_what_embree_traces() {
         assert!(e.contains(field), "{extra}: {e}");
     }
 }
+
+/// `--half` stored radiance above 65504 (the largest half float) as
+/// infinity; it is now clamped, with a warning.
+#[test]
+fn found_radiance_beyond_half_floats() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut paths = Vec::new();
+    // 0.9 in 10 µs and in 12 µs: about 80,000 (relative units).
+    for (i, t) in [1e-5f32, 1.2e-5].iter().enumerate() {
+        let path = dir.path().join(format!("b{i}.exr"));
+        let attrs = vec![("ExposureTime".to_string(), AttrValue::Float(*t))];
+        write_image(&path, 4, 2, 3, PixelType::F32, &attrs, &[0.9f32; 24]).unwrap();
+        paths.push(path);
+    }
+    let output = dir.path().join("pano.exr");
+    let options = MergeOptions {
+        response: ResponseMethod::Linear,
+        half: true,
+        ..Default::default()
+    };
+    let summary = merge(&paths, &output, &options, &|_, _, _| {}).unwrap();
+    let (_, data) = plsr::hdr::oiio::read_image_f32(&output).unwrap();
+    assert!(data.iter().all(|v| *v == 65504.0), "{data:?}");
+    assert!(
+        summary
+            .warnings
+            .iter()
+            .any(|w| w.contains("24 value(s) above 65504")),
+        "{:?}",
+        summary.warnings
+    );
+}

@@ -7,7 +7,7 @@ use plsr::film::Film;
 use plsr::integrator::{Isa, SoaScene};
 use plsr::render::{render, RenderJob, RenderOptions};
 use plsr::scene::{file::load, Scene};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// A scene and what to render of it.
 struct Case {
@@ -34,9 +34,9 @@ fn embree_demo(size: u32, spp: u32) -> Case {
 fn scene_from(name: &str, text: &str) -> Case {
     let obj =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/cornell/embree_cornell_box.obj");
-    let dir: PathBuf = std::env::temp_dir().join(format!("plsr-vectorised-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(format!("{name}.toml"));
+    // The scene is built once loaded: its file may go with the folder.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(format!("{name}.toml"));
     std::fs::write(
         &path,
         text.replace("OBJ", &obj.display().to_string().replace('\\', "/")),
@@ -352,7 +352,8 @@ fn scenes_the_kernel_cannot_render_go_to_the_general_integrator() {
         )
     };
     assert!(SoaScene::new(&scene_from("base", &base("")).scene).is_some());
-    let texture = std::env::temp_dir().join(format!("plsr-vectorised-{}.png", std::process::id()));
+    let texture_dir = tempfile::tempdir().unwrap();
+    let texture = texture_dir.path().join("texture.png");
     image::RgbImage::from_pixel(2, 2, image::Rgb([200, 100, 50]))
         .save(&texture)
         .unwrap();

@@ -130,6 +130,9 @@ pub struct MergeSummary {
     pub warnings: Vec<String>,
 }
 
+/// The largest finite half float: what `--half` stores values above it as.
+const HALF_MAX: f32 = 65504.0;
+
 /// The shortest exposure time a bracket may have (s): a nanosecond.
 pub const MIN_EXPOSURE_S: f64 = 1e-9;
 
@@ -795,7 +798,7 @@ pub fn merge(
         _ => run::<f32>(&mut brackets, output, options, &pool, progress, start),
     }?;
     Ok(MergeSummary {
-        warnings,
+        warnings: [warnings, summary.warnings.clone()].concat(),
         ..summary
     })
 }
@@ -882,6 +885,7 @@ fn run<T: Px>(
     let (to_writer, from_merge) = sync_channel::<(usize, usize, Vec<f32>)>(2);
     let readers: Vec<&mut ImageReader> = brackets.iter_mut().map(|b| &mut b.reader).collect();
     let mut stats = (0u64, 0u64);
+    let mut clamped = 0u64;
     let result: Result<ImageWriter> = std::thread::scope(|scope| {
         // Reader.
         let shifts_r = shifts.clone();
@@ -966,6 +970,13 @@ fn run<T: Px>(
                     stats.0 += s.0;
                     stats.1 += s.1;
                 }
+                // Half floats end at 65504: beyond it they would be infinite.
+                if options.half {
+                    for v in out.iter_mut().filter(|v| **v > HALF_MAX) {
+                        *v = HALF_MAX;
+                        clamped += 1;
+                    }
+                }
                 progress("merging", y1 as u64, h as u64);
                 if to_writer.send((y0, y1, out)).is_err() {
                     break;
@@ -1001,7 +1012,14 @@ fn run<T: Px>(
         saturated_values: stats.0,
         dark_values: stats.1,
         seconds: start.elapsed().as_secs_f64(),
-        warnings: Vec::new(),
+        warnings: if clamped > 0 {
+            vec![format!(
+                "{clamped} value(s) above {HALF_MAX}, the largest half float, were stored as {HALF_MAX}: \
+                 leave out --half to keep them"
+            )]
+        } else {
+            Vec::new()
+        },
     })
 }
 

@@ -78,6 +78,24 @@ int main(int argc, char **argv) {
     fclose(f);
     EXPECT(plsr_scene_load(path, &scene), PLSR_ERR_INPUT, "render.spp");
     if (scene != NULL) { fprintf(stderr, "out written on failure\n"); failures++; }
+    /* A malformed MTL library (it used to panic inside tobj: PLSR_ERR_PANIC)
+       is an input error naming the library and the line. */
+    snprintf(path, sizeof path, "%s/m.mtl", tmp);
+    f = fopen(path, "w");
+    fputs("newmtl a\nKd 0.5 0.5\n", f);
+    fclose(f);
+    snprintf(path, sizeof path, "%s/t.obj", tmp);
+    f = fopen(path, "w");
+    fputs("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n", f);
+    fclose(f);
+    snprintf(path, sizeof path, "%s/mtl.toml", tmp);
+    f = fopen(path, "w");
+    fputs("[camera]\nposition = [0, -3, 0]\nlook_at = [0, 0, 0]\nup = [0, 0, 1]\nvfov = 40\n"
+          "resolution = [4, 4]\n[[shapes]]\ntype = \"obj\"\nfile = \"t.obj\"\n", f);
+    fclose(f);
+    EXPECT(plsr_scene_load(path, &scene), PLSR_ERR_INPUT, "m.mtl: line 2");
+    /* A folder is not a scene file. */
+    EXPECT(plsr_scene_load(tmp, &scene), PLSR_ERR_INPUT, "is a folder");
 
     /* Builder: invalid arguments. */
     plsr_scene_builder *b = NULL;
