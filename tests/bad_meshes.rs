@@ -150,3 +150,33 @@ fn a_fifo_or_a_device_is_not_a_mesh() {
     let e = mesh_path_error(fifos.path());
     assert!(e.contains("is a folder"), "{e}");
 }
+
+#[test]
+fn loose_obj_files_that_tobj_reads_still_load() {
+    // Normal and texture indices without any `vn`/`vt`, a point and a line
+    // among the faces, CRLF line ends, a weight, a positive index naming a
+    // vertex defined later: all load.
+    let dir = folder(b"newmtl a\nKd 0.5 0.25 0.125\n");
+    std::fs::write(
+        dir.path().join("t.obj"),
+        "mtllib m.mtl\r\nusemtl a\r\nf 1//1 2//2 4//3\r\nv 0 0 0\r\nv 1 0 0 1\r\nv 0 1 0\r\n\
+         v 0 1 1\r\nf 2/1 3/1 1/1\r\np 1\r\nl 1 2\r\nf 1 2\r\nvt 0 0 0\r\n",
+    )
+    .unwrap();
+    let scene = plsr::scene::Scene::load(&dir.path().join("scene.toml")).unwrap();
+    assert_eq!(scene.meshes()[0].triangles.len(), 2);
+    // Vertex colours on some vertices only: tobj cannot; the line is named.
+    std::fs::write(
+        dir.path().join("t.obj"),
+        "v 0 0 0 1 0 0\nv 1 0 0\nv 0 1 0 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    let e = plsr::scene::Scene::load(&dir.path().join("scene.toml"))
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        e.contains("t.obj: line 2: a vertex without a colour"),
+        "{e}"
+    );
+}

@@ -205,9 +205,10 @@ fn check_mtl(path: &Path) -> std::result::Result<(), String> {
 /// reaches its unchecked arithmetic (a texture index of 0 or past the start
 /// overflows there): three numbers after `v` (then nothing, a weight `w`
 /// that is not zero, or an RGB colour), two after `vt`, three after `vn`;
-/// faces and lines of at least three (two) corners, each `v`, `v/vt`,
-/// `v//vn` or `v/vt/vn` with indices that name an existing element
-/// (1-based, or negative: counted back from the line).
+/// faces and lines of at least one corner, each `v`, `v/vt`, `v//vn` or
+/// `v/vt/vn` with indices that name an existing element (1-based, or
+/// negative: counted back from the line; texture and normal indices are
+/// ignored, as tobj does, in a file without any).
 fn check_obj(text: &str) -> std::result::Result<(), String> {
     // Totals first: a positive index may name an element defined later.
     let mut total = [0usize; 3];
@@ -220,6 +221,9 @@ fn check_obj(text: &str) -> std::result::Result<(), String> {
         }
     }
     let mut so_far = [0usize; 3];
+    // tobj needs a colour on every vertex or on none: the lines of the
+    // first vertex with one and the first without.
+    let (mut coloured, mut plain) = (None, None);
     const WHAT: [&str; 3] = ["position", "texture coordinate", "normal"];
     for (n, line) in text.lines().enumerate() {
         let at = |message: String| format!("line {}: {message}", n + 1);
@@ -240,6 +244,11 @@ fn check_obj(text: &str) -> std::result::Result<(), String> {
             "v" => {
                 numbers(words.clone(), 3, "x y z")?;
                 let rest: Vec<&str> = words.skip(3).collect();
+                if rest.len() == 3 {
+                    coloured.get_or_insert(n + 1);
+                } else {
+                    plain.get_or_insert(n + 1);
+                }
                 let ok = match rest[..] {
                     [] => true,
                     [w] => w.parse::<f32>().is_ok_and(|w| w != 0.0),
@@ -263,13 +272,11 @@ fn check_obj(text: &str) -> std::result::Result<(), String> {
                 so_far[2] += 1;
             }
             "f" | "l" => {
+                // Faces of one or two corners are points and lines, which
+                // are skipped; a face of none is an error.
                 let corners: Vec<&str> = words.collect();
-                let least = if key == "f" { 3 } else { 2 };
-                if corners.len() < least {
-                    return Err(at(format!(
-                        "`{key}` needs at least {least} corners, got `{}`",
-                        line.trim()
-                    )));
+                if corners.is_empty() {
+                    return Err(at(format!("`{key}` without corners")));
                 }
                 for (c, corner) in corners.iter().enumerate() {
                     let parts: Vec<&str> = corner.split('/').collect();
@@ -280,7 +287,9 @@ fn check_obj(text: &str) -> std::result::Result<(), String> {
                         )));
                     }
                     for (k, part) in parts.iter().enumerate() {
-                        if part.is_empty() {
+                        // Texture and normal indices of a file that has no
+                        // texture coordinates (normals) are ignored.
+                        if part.is_empty() || (k > 0 && total[k] == 0) {
                             continue;
                         }
                         let fault = match part.parse::<i64>() {
@@ -307,6 +316,11 @@ fn check_obj(text: &str) -> std::result::Result<(), String> {
             }
             _ => {}
         }
+    }
+    if let (Some(c), Some(p)) = (coloured, plain) {
+        return Err(format!(
+            "line {p}: a vertex without a colour, but line {c} gives one: give r g b on every `v` line or on none"
+        ));
     }
     Ok(())
 }
