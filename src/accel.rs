@@ -27,6 +27,15 @@
 /// camera (with its aperture) are checked against it.
 pub const MAX_COORDINATE: f32 = 1e12;
 
+/// The mask bit of geometry that stands for the real scene (the proxy).
+pub const REAL_MASK: u32 = 1;
+
+/// The mask bit of virtual geometry (objects inserted into a photograph).
+pub const VIRTUAL_MASK: u32 = 2;
+
+/// The ray mask that sees every geometry.
+pub const ALL_MASK: u32 = u32::MAX;
+
 /// Whether `p` is finite and within [`MAX_COORDINATE`] on every axis.
 pub fn within_coordinates(p: glam::Vec3) -> bool {
     p.is_finite() && p.abs().max_element() <= MAX_COORDINATE
@@ -290,6 +299,7 @@ impl SceneBuilder<'_> {
         geom_id: u32,
         positions: &[Vec3],
         triangles: &[[u32; 3]],
+        mask: u32,
     ) -> Result<(), EmbreeError> {
         let invalid = |message: String| EmbreeError {
             code: sys::RTC_ERROR_INVALID_ARGUMENT,
@@ -350,6 +360,8 @@ impl SceneBuilder<'_> {
             for (i, t) in triangles.iter().enumerate() {
                 ib.add(i).write(*t);
             }
+            // Rays see this geometry when their mask shares a bit with it.
+            sys::rtcSetGeometryMask(geom.0, mask);
             sys::rtcCommitGeometry(geom.0);
             device.check("rtcCommitGeometry")?;
             sys::rtcAttachGeometryByID(self.scene.0, geom.0, geom_id);
@@ -412,7 +424,7 @@ impl Ray {
         }
     }
 
-    fn to_rtc(self) -> sys::RTCRay {
+    fn to_rtc(self, mask: u32) -> sys::RTCRay {
         sys::RTCRay {
             org_x: self.org.x,
             org_y: self.org.y,
@@ -423,7 +435,7 @@ impl Ray {
             dir_z: self.dir.z,
             time: 0.0,
             tfar: self.tfar,
-            mask: u32::MAX,
+            mask,
             id: 0,
             flags: 0,
         }
@@ -455,10 +467,16 @@ pub struct Hit {
 pub struct RayHit(sys::RTCRayHit);
 
 impl RayHit {
-    /// A ray with no hit yet.
+    /// A ray with no hit yet, that sees every geometry.
     pub fn new(ray: Ray) -> RayHit {
+        RayHit::masked(ray, ALL_MASK)
+    }
+
+    /// A ray with no hit yet, that sees only geometry whose mask shares a
+    /// bit with `mask` ([`REAL_MASK`], [`VIRTUAL_MASK`]).
+    pub fn masked(ray: Ray, mask: u32) -> RayHit {
         RayHit(sys::RTCRayHit {
-            ray: ray.to_rtc(),
+            ray: ray.to_rtc(mask),
             hit: sys::RTCHit {
                 geomID: INVALID_ID,
                 primID: INVALID_ID,
@@ -503,7 +521,13 @@ pub struct ShadowRay(sys::RTCRay);
 impl ShadowRay {
     /// A shadow ray over `[tnear, tfar]`.
     pub fn new(ray: Ray) -> ShadowRay {
-        ShadowRay(ray.to_rtc())
+        ShadowRay::masked(ray, ALL_MASK)
+    }
+
+    /// A shadow ray blocked only by geometry whose mask shares a bit with
+    /// `mask`.
+    pub fn masked(ray: Ray, mask: u32) -> ShadowRay {
+        ShadowRay(ray.to_rtc(mask))
     }
 
     /// Whether the last occlusion query found a blocker.
@@ -577,7 +601,7 @@ impl Accel {
     /// Whether anything blocks `ray` within `[tnear, tfar]`.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        let mut r = ray.to_rtc();
+        let mut r = ray.to_rtc(ALL_MASK);
         let mut ctx = context(false);
         // SAFETY: as in `intersect`.
         unsafe { sys::rtcOccluded1(self.scene.0, &mut ctx, &mut r) };

@@ -28,6 +28,10 @@ pub struct RenderJob {
     pub max_depth: u32,
     /// Seed of the random streams.
     pub seed: u64,
+    /// Render the real scene alone: virtual meshes ([`Mesh::is_virtual`](crate::scene::Mesh::is_virtual))
+    /// are invisible to every ray (camera, bounce and shadow), through
+    /// Embree's ray masks on the same acceleration structure.
+    pub hide_virtual: bool,
 }
 
 impl Default for RenderJob {
@@ -38,6 +42,7 @@ impl Default for RenderJob {
             sample_start: 0,
             max_depth: 8,
             seed: 0,
+            hide_virtual: false,
         }
     }
 }
@@ -66,6 +71,16 @@ impl fmt::Display for JobError {
 impl std::error::Error for JobError {}
 
 impl RenderJob {
+    /// The Embree ray mask of this job's rays.
+    #[inline]
+    pub fn ray_mask(&self) -> u32 {
+        if self.hide_virtual {
+            crate::accel::REAL_MASK
+        } else {
+            crate::accel::ALL_MASK
+        }
+    }
+
     /// A job of `spp` samples from sample 0, checked.
     pub fn new(spp: u32, max_depth: u32, seed: u64) -> Result<RenderJob, JobError> {
         let job = RenderJob {
@@ -73,6 +88,7 @@ impl RenderJob {
             sample_start: 0,
             max_depth,
             seed,
+            hide_virtual: false,
         };
         job.validate()?;
         Ok(job)

@@ -31,6 +31,7 @@ pub mod camera;
 pub mod capi;
 pub mod capture;
 pub mod color;
+pub mod composite;
 pub mod equirect;
 pub mod error;
 pub mod film;

@@ -172,6 +172,7 @@ fn host_scene_in_rust() -> plsr::scene::Scene {
             max_depth: 6,
             seed: 42,
             sample_start: 0,
+            hide_virtual: false,
         },
         robust: false,
     })
@@ -514,6 +515,7 @@ fn render_settings_change_without_rebuilding_the_scene() {
         max_depth: 3,
         seed: 7,
         sample_start: 4,
+        hide_virtual: false,
     };
     let (film, _) = render(&rust_scene, &job, &RenderOptions::default(), &|_, _| true).unwrap();
     let want: Vec<f32> = film

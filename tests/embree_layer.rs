@@ -18,6 +18,7 @@ fn two_layers(options: SceneOptions) -> plsr::accel::Accel {
             Vec3::new(0.0, 1.0, 1.0),
         ],
         &[[0, 1, 2]],
+        plsr::accel::REAL_MASK,
     )
     .unwrap();
     b.add_triangle_mesh(
@@ -29,6 +30,7 @@ fn two_layers(options: SceneOptions) -> plsr::accel::Accel {
             Vec3::new(-2.0, 2.0, 3.0),
         ],
         &[[0, 1, 2], [0, 2, 3]],
+        plsr::accel::REAL_MASK,
     )
     .unwrap();
     b.commit().unwrap()
@@ -124,10 +126,13 @@ fn embree_errors_become_rust_errors() {
     let device = Device::new().unwrap();
     let mut b = device.scene_builder(SceneOptions::default()).unwrap();
     let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
-    b.add_triangle_mesh(0, &tri, &[[0, 1, 2]]).unwrap();
+    b.add_triangle_mesh(0, &tri, &[[0, 1, 2]], plsr::accel::REAL_MASK)
+        .unwrap();
     // Embree itself rejects a second geometry under a taken id; its error
     // callback's code and message must come back as an error.
-    let e = b.add_triangle_mesh(0, &tri, &[[0, 1, 2]]).unwrap_err();
+    let e = b
+        .add_triangle_mesh(0, &tri, &[[0, 1, 2]], plsr::accel::REAL_MASK)
+        .unwrap_err();
     assert_eq!(e.code, plsr::sys::RTC_ERROR_INVALID_OPERATION, "{e}");
     assert!(e.message.contains("invalid geometry ID"), "{e}");
     assert!(e.message.contains("attaching geometry 0"), "{e}");
@@ -136,14 +141,22 @@ fn embree_errors_become_rust_errors() {
         "Embree's message is kept: {e}"
     );
     // Our own checks catch what Embree would read out of bounds.
-    let e = b.add_triangle_mesh(1, &tri, &[[0, 1, 3]]).unwrap_err();
+    let e = b
+        .add_triangle_mesh(1, &tri, &[[0, 1, 3]], plsr::accel::REAL_MASK)
+        .unwrap_err();
     assert!(e.to_string().contains("indexes past the 3 vertices"), "{e}");
     let e = b
-        .add_triangle_mesh(2, &[Vec3::ZERO, Vec3::X, Vec3::NAN], &[[0, 1, 2]])
+        .add_triangle_mesh(
+            2,
+            &[Vec3::ZERO, Vec3::X, Vec3::NAN],
+            &[[0, 1, 2]],
+            plsr::accel::REAL_MASK,
+        )
         .unwrap_err();
     assert!(e.to_string().contains("non-finite"), "{e}");
     // The device is still usable after errors.
-    b.add_triangle_mesh(4, &tri, &[[0, 1, 2]]).unwrap();
+    b.add_triangle_mesh(4, &tri, &[[0, 1, 2]], plsr::accel::REAL_MASK)
+        .unwrap();
     let accel = b.commit().unwrap();
     assert!(accel
         .intersect(&Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z))

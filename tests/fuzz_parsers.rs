@@ -620,6 +620,7 @@ fn shape_section(materials: Vec<String>) -> BoxedStrategy<String> {
         keys(vec![
             ("emission", mostly(good_colour(), colour())),
             ("two_sided", mostly(boolean(), number())),
+            ("virtual", mostly(boolean(), number())),
         ]),
         prop::option::weighted(0.3, transform()),
         stray_key(),
@@ -670,6 +671,28 @@ fn pls_section() -> BoxedStrategy<String> {
         .boxed()
 }
 
+fn photo_section() -> BoxedStrategy<String> {
+    (
+        mostly(
+            word(&["tex.png"]),
+            word(&["missing.png", "sky.exr", "folder.obj"]),
+        ),
+        keys(vec![
+            (
+                "response",
+                mostly(word(&["srgb", "linear"]), word(&["curve.csv", "gamma"])),
+            ),
+            (
+                "exposure",
+                mostly(within(0.1, 4.0), prop_oneof![word(&["auto"]), number()]),
+            ),
+        ]),
+        stray_key(),
+    )
+        .prop_map(|(file, k, x)| format!("[photo]\nfile = {file}\n{k}{x}\n"))
+        .boxed()
+}
+
 fn environment_section() -> BoxedStrategy<String> {
     let source = prop_oneof![
         mostly(good_colour(), colour()).prop_map(|r| format!("radiance = {r}\n")),
@@ -707,15 +730,16 @@ fn scene_text() -> impl Strategy<Value = String> {
                 prop::option::weighted(0.97, camera_section()),
                 prop::option::weighted(0.3, film_section()),
                 prop::option::weighted(0.4, environment_section()),
+                prop::option::weighted(0.15, photo_section()),
                 materials,
                 prop::collection::vec(shape_section(names), n_shapes),
                 prop::collection::vec(light_section(), n_lights),
                 prop::collection::vec(pls_section(), n_pls),
             )
         })
-        .prop_map(|(r, c, f, e, m, s, l, p)| {
+        .prop_map(|(r, c, f, e, photo, m, s, l, p)| {
             let mut text = String::new();
-            for part in [r, c, f, e].into_iter().flatten() {
+            for part in [r, c, f, e, photo].into_iter().flatten() {
                 text += &part;
             }
             for part in m.iter().chain(&s).chain(&l).chain(&p) {
@@ -734,8 +758,8 @@ fn check_scene(
 ) -> Result<Outcome, TestCaseError> {
     let path = dir.join(name);
     std::fs::write(&path, bytes).unwrap();
-    let desc = match plsr::scene::file::load_with_inputs(&path) {
-        Ok((desc, _)) => desc,
+    let desc = match plsr::scene::file::load_contents(&path) {
+        Ok(contents) => contents.description,
         Err(e) => return clean_error(&e, &[name], input),
     };
     let scene = match Scene::build(desc) {

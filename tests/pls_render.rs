@@ -50,6 +50,7 @@ fn floor_radiance(light: &Pls, mode: BrightnessMode, target: Vec3, spp: u32) -> 
             max_depth: 1,
             seed: 5,
             sample_start: 0,
+            hide_virtual: false,
         },
         robust: false,
     })
@@ -180,6 +181,7 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
             max_depth: 1,
             seed: 2,
             sample_start: 0,
+            hide_virtual: false,
         },
         robust: false,
     })

@@ -81,6 +81,7 @@ fn white_furnace() {
             max_depth: 16,
             seed: 3,
             sample_start: 0,
+            hide_virtual: false,
         },
         robust: false,
     });
@@ -172,6 +173,7 @@ fn closed_form_irradiance_under_a_rectangular_emitter() {
                 max_depth: 1,
                 seed: 9,
                 sample_start: 0,
+                hide_virtual: false,
             },
             robust: false,
         });
@@ -239,6 +241,7 @@ fn point_light_inverse_square_law() {
                 max_depth: 1,
                 seed: 0,
                 sample_start: 0,
+                hide_virtual: false,
             },
             robust: false,
         });

@@ -68,6 +68,7 @@ pub(crate) fn job_arg(
         sample_start,
         max_depth,
         seed,
+        hide_virtual: false,
     };
     job.validate().map_err(|e| {
         FfiError::invalid(match e {

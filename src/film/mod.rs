@@ -161,6 +161,67 @@ pub struct Film {
     pub settings: FilmSettings,
 }
 
+/// Stages a float OpenEXR of named single-channel `layers` (each
+/// `width × height` values, row-major), with text header `attributes`, into
+/// `outputs`. For images that are not a [`Film`] (a composite).
+pub fn stage_exr_layers(
+    outputs: &mut OutputSet,
+    path: &Path,
+    width: u32,
+    height: u32,
+    layers: &[(String, Vec<f32>)],
+    attributes: &[(String, String)],
+) -> Result<()> {
+    let fail = |message: String| Error::Output {
+        file: path.to_path_buf(),
+        message,
+    };
+    let mut list: exrp::SmallVec<[AnyChannel<FlatSamples>; 4]> = exrp::SmallVec::new();
+    for (name, values) in layers {
+        if values.len() != (width * height) as usize {
+            return Err(fail(format!(
+                "layer {name} has {} values for {width}×{height} pixels",
+                values.len()
+            )));
+        }
+        list.push(AnyChannel::new(
+            name.as_str(),
+            FlatSamples::F32(values.clone()),
+        ));
+    }
+    let attributes = exrp::LayerAttributes {
+        software_name: Some(exrp::Text::from(
+            format!("plsr {}", env!("CARGO_PKG_VERSION")).as_str(),
+        )),
+        other: attributes
+            .iter()
+            .map(|(k, v)| {
+                (
+                    exrp::Text::from(k.as_str()),
+                    exrp::AttributeValue::Text(exrp::Text::from(v.as_str())),
+                )
+            })
+            .collect(),
+        ..Default::default()
+    };
+    let layer = exrp::Layer::new(
+        (width as usize, height as usize),
+        attributes,
+        exrp::Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(list),
+    );
+    let image = exrp::Image::from_layer(layer);
+    outputs.stage(path, |w| {
+        image
+            .write()
+            .to_buffered(&mut *w)
+            .map_err(|e| fail(format!("cannot write EXR: {e}")))?;
+        std::io::Write::flush(w)
+            .and_then(|()| sort_header_attributes(w.get_mut()))
+            .map_err(|e| fail(format!("cannot finish the EXR header: {e}")))
+    })
+}
+
 /// How radiance becomes display values in [`Film::write_png`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ToneMap {

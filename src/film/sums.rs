@@ -44,6 +44,9 @@ pub struct PixelSums {
     pub albedo: Vec3,
     /// Object id of the first sample's hit (−1: none).
     pub object_id: f32,
+    /// Camera samples whose first hit is a virtual object: over `samples`,
+    /// the virtual objects' coverage of the pixel (the compositing matte).
+    pub virtual_hits: u32,
 }
 
 impl Default for PixelSums {
@@ -58,6 +61,7 @@ impl Default for PixelSums {
             normal: Vec3::ZERO,
             albedo: Vec3::ZERO,
             object_id: -1.0,
+            virtual_hits: 0,
         }
     }
 }
@@ -92,6 +96,7 @@ impl PixelSums {
         self.sum_sq += later.sum_sq;
         self.samples += later.samples;
         self.hits += later.hits;
+        self.virtual_hits += later.virtual_hits;
         self.depth += later.depth;
         self.normal += later.normal;
         self.albedo += later.albedo;
@@ -230,6 +235,8 @@ mod tests {
             normal: if hit { Vec3::Z } else { Vec3::ZERO },
             albedo: if hit { Vec3::splat(0.5) } else { Vec3::ZERO },
             object_id: id,
+            // Every hit of these samples is a virtual object's.
+            virtual_hits: hit as u32,
         }
     }
 
@@ -254,6 +261,8 @@ mod tests {
         let mut early = FilmSums::new(1, 1, 0, settings);
         early.add_tile(tile, &[sample(values[0].0, values[0].1, values[0].2)]);
         late.merge(&early).unwrap();
+        assert_eq!(whole.pixel(0, 0).virtual_hits, 2);
+        assert_eq!(late.pixel(0, 0).virtual_hits, 2, "the matte merges too");
         let (a, b) = (whole.develop(3), late.develop(3));
         assert!(a.bitwise_eq(&b), "{a:?} != {b:?}");
         assert_eq!(a.color[0], Vec3::splat(2.0));

@@ -184,6 +184,75 @@ impl ResponseCurve {
             .join("\n")
     }
 
+    /// Reads a curve written by [`ResponseCurve::write_csv`] (`plsr hdr
+    /// merge --curve`): comment lines starting with `#`, the header
+    /// `level,pixel_value,<channels>`, then one row per level from 0, with
+    /// finite, non-negative, non-decreasing exposures. Errors name the file
+    /// and the line.
+    pub fn read_csv(path: &Path) -> Result<ResponseCurve> {
+        crate::input::check_input_file(path)?;
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            file: path.to_path_buf(),
+            source,
+        })?;
+        let fail = |line: usize, m: String| Error::input(path, "", format!("line {line}: {m}"));
+        let mut rows = text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
+        let (header_line, header) = rows
+            .next()
+            .ok_or_else(|| Error::input(path, "", "empty: no header `level,pixel_value,…`"))?;
+        let names: Vec<&str> = header.split(',').map(str::trim).collect();
+        if names.len() < 3 || names[0] != "level" || names[1] != "pixel_value" {
+            return Err(fail(
+                header_line + 1,
+                format!("expected the header `level,pixel_value,r,g,b`, got `{header}`"),
+            ));
+        }
+        let channels = names.len() - 2;
+        let mut inverse = vec![Vec::new(); channels];
+        for (n, row) in rows {
+            let cells: Vec<&str> = row.split(',').map(str::trim).collect();
+            if cells.len() != names.len() {
+                return Err(fail(
+                    n + 1,
+                    format!("{} values, the header has {}", cells.len(), names.len()),
+                ));
+            }
+            let level = inverse[0].len();
+            if cells[0].parse::<usize>().ok() != Some(level) {
+                return Err(fail(
+                    n + 1,
+                    format!("level `{}` where level {level} belongs", cells[0]),
+                ));
+            }
+            for (c, cell) in cells[2..].iter().enumerate() {
+                let v: f32 = cell
+                    .parse()
+                    .map_err(|_| fail(n + 1, format!("`{cell}` is not a number")))?;
+                let previous = inverse[c].last().copied().unwrap_or(0.0);
+                if !(v.is_finite() && v >= previous) {
+                    return Err(fail(
+                        n + 1,
+                        format!(
+                            "exposure {v} of channel {} must be finite and not below the level before ({previous})",
+                            names[c + 2]
+                        ),
+                    ));
+                }
+                inverse[c].push(v);
+            }
+        }
+        if inverse[0].len() < 2 {
+            return Err(Error::input(path, "", "a curve needs at least two levels"));
+        }
+        Ok(ResponseCurve {
+            method: ResponseMethod::Debevec,
+            inverse,
+        })
+    }
+
     /// Writes the curve as CSV: `level,pixel_value,<channel 0>,…`, where
     /// `pixel_value` is the normalised value in [0, 1] and the channel
     /// columns (`r,g,b` for three channels) are relative linear exposures.

@@ -353,7 +353,7 @@ fn trace_pass(pass: &Pass, wf: &mut Wavefront, pixels: &mut [PixelSums], stats: 
             let (rng, Some(ray)) = camera_sample(scene, job.seed, lens_sample, x, y, sample) else {
                 continue;
             };
-            wf.rays.push(RayHit::new(ray));
+            wf.rays.push(RayHit::masked(ray, job.ray_mask()));
             wf.paths.push(PathState {
                 pixel: py * tile.width + px,
                 rng,
@@ -488,6 +488,9 @@ fn shade(
         if record_aovs_first {
             pixel.object_id = mesh.object_layer();
         }
+        if mesh.is_virtual {
+            pixel.virtual_hits += 1;
+        }
     }
 
     // Emission found by the camera ray or by BSDF sampling, MIS-weighted
@@ -569,7 +572,7 @@ fn shade(
                     tfar,
                 };
                 if shadow.tfar > 0.0 {
-                    shadow_rays.push(ShadowRay::new(shadow));
+                    shadow_rays.push(ShadowRay::masked(shadow, pass.job.ray_mask()));
                     pending.push(PendingLight {
                         path: index,
                         radiance: path.beta * f * ls.radiance * (weight / light_pdf),
@@ -612,5 +615,5 @@ fn shade(
         path.alive = false;
         return;
     }
-    *rh = RayHit::new(Ray::new(origin_for(wi), wi));
+    *rh = RayHit::masked(Ray::new(origin_for(wi), wi), pass.job.ray_mask());
 }

@@ -81,7 +81,9 @@ impl SoaScene {
         let mut albedo = [Vec::new(), Vec::new(), Vec::new()];
         let mut emissive = Vec::new();
         for (g, mesh) in scene.meshes().iter().enumerate() {
-            if !mesh.normals.is_empty() {
+            // Virtual objects (compositing) need ray masks and the matte,
+            // which only the general integrator has so far.
+            if !mesh.normals.is_empty() || mesh.is_virtual {
                 return None;
             }
             let material = scene.materials().get(mesh.material as usize)?;

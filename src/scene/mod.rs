@@ -7,6 +7,7 @@
 //! `i` in Embree is `meshes[i]`, so a hit names its mesh directly.
 
 pub mod file;
+pub mod photo;
 pub mod shapes;
 
 use crate::accel::{Accel, Device, SceneOptions};
@@ -60,6 +61,10 @@ pub struct Mesh {
     pub object_id: u32,
     /// For the emitter of a parametric light: the light it tessellates.
     pub pls: Option<PlsEmitter>,
+    /// Whether the mesh is a virtual object, inserted into a photograph of
+    /// the real scene (the rest of the scene stands for the real one). A
+    /// job with [`RenderJob::hide_virtual`] renders as if it were absent.
+    pub is_virtual: bool,
 }
 
 /// Why a mesh is invalid.
@@ -121,6 +126,17 @@ impl std::fmt::Display for MeshError {
 impl std::error::Error for MeshError {}
 
 impl Mesh {
+    /// The Embree mask of the mesh: [`VIRTUAL_MASK`](crate::accel::VIRTUAL_MASK)
+    /// for virtual objects, [`REAL_MASK`](crate::accel::REAL_MASK) otherwise.
+    #[inline]
+    pub fn mask(&self) -> u32 {
+        if self.is_virtual {
+            crate::accel::VIRTUAL_MASK
+        } else {
+            crate::accel::REAL_MASK
+        }
+    }
+
     /// The value of the film's object layer for this mesh: its object id,
     /// or −1 for light fixtures (`object_id == u32::MAX`), which are not
     /// objects.
@@ -156,6 +172,7 @@ impl Mesh {
             emission: None,
             object_id,
             pls: None,
+            is_virtual: false,
         };
         mesh.validate()?;
         Ok(mesh)
@@ -230,6 +247,7 @@ pub fn pls_mesh(light: &Pls, mode: BrightnessMode, nf: u32, material: u32, name:
         }),
         object_id: u32::MAX,
         pls: Some(emitter),
+        is_virtual: false,
     }
 }
 
@@ -413,7 +431,7 @@ impl Scene {
         let mut builder = device.scene_builder(SceneOptions { robust })?;
         for (i, m) in meshes.iter().enumerate() {
             builder
-                .add_triangle_mesh(i as u32, &m.positions, &m.triangles)
+                .add_triangle_mesh(i as u32, &m.positions, &m.triangles, m.mask())
                 .map_err(|mut e| {
                     e.message = format!("mesh {i} ({}): {}", m.name, e.message);
                     e

@@ -2,6 +2,7 @@
 //! per subcommand; `bench/` holds the benchmark suites.
 
 mod bench;
+mod composite;
 mod hdr;
 mod pls;
 mod progress;
@@ -29,6 +30,10 @@ pub enum Command {
     /// (colour plus variance, alpha, object id, depth, normal and albedo
     /// layers) and optionally to a tone-mapped PNG.
     Render(render::RenderArgs),
+    /// Composite a scene's virtual objects (`virtual = true`) into its
+    /// photograph ([photo]), with the shadows and reflected light they cast
+    /// on the real surfaces (see docs/compositing.md).
+    Composite(composite::CompositeArgs),
     /// Measure throughput. `plsr bench` (suite `core`): raw Embree rays, path
     /// tracing, and Embree's own `pathtracer` (Debian's embree-tools) on the
     /// same Cornell box. `plsr bench pls`: transforming 10,000 PLS lights
@@ -71,6 +76,7 @@ where
     };
     match cli.command {
         Command::Render(a) => render::run(&a),
+        Command::Composite(a) => composite::run(&a),
         Command::Bench(a) => bench::run(a),
         Command::Pls(c) => pls::run(c),
         Command::Hdr(c) => hdr::run(c),

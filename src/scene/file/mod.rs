@@ -12,6 +12,7 @@ mod film;
 mod keys;
 mod light;
 mod material;
+mod photo;
 mod render;
 mod shape;
 mod toml_path;
@@ -26,6 +27,7 @@ use environment::EnvironmentSection;
 use film::FilmSection;
 use light::{LightSection, PlsSection};
 use material::MaterialSection;
+use photo::PhotoSection;
 use render::RenderSection;
 use shape::ShapeSection;
 use toml_path::{field_at, position_of};
@@ -48,6 +50,7 @@ struct SceneFile {
     #[serde(default)]
     film: FilmSection,
     environment: Option<EnvironmentSection>,
+    photo: Option<PhotoSection>,
     #[serde(default)]
     materials: Vec<MaterialSection>,
     #[serde(default)]
@@ -67,6 +70,25 @@ pub fn load(path: &Path) -> Result<SceneDescription> {
 /// built (meshes, MTL libraries, textures, environment image, PLS files),
 /// so that a command can refuse an output that would overwrite one.
 pub fn load_with_inputs(path: &Path) -> Result<(SceneDescription, Vec<PathBuf>)> {
+    let contents = load_contents(path)?;
+    Ok((contents.description, contents.inputs))
+}
+
+/// Everything a scene file says: the scene, the files it names, and the
+/// photograph it is to be composited into.
+#[derive(Debug)]
+pub struct SceneFileContents {
+    /// The scene.
+    pub description: SceneDescription,
+    /// Every other file the scene names (meshes, MTL libraries, textures,
+    /// environment image, PLS files, the photo and its response curve).
+    pub inputs: Vec<PathBuf>,
+    /// The `[photo]` table, if any.
+    pub photo: Option<crate::scene::photo::PhotoSpec>,
+}
+
+/// Reads and validates a scene file with its `[photo]`; see [`load`].
+pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
     crate::input::check_input_file(path)?;
     let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
         file: path.to_path_buf(),
@@ -115,8 +137,16 @@ pub fn load_with_inputs(path: &Path) -> Result<(SceneDescription, Vec<PathBuf>)>
         toml: (!is_json).then_some(text.as_str()),
         inputs: RefCell::new(Vec::new()),
     };
+    let photo = match &parsed.photo {
+        Some(p) => Some(builder.photo(p)?),
+        None => None,
+    };
     let description = builder.build(parsed)?;
-    Ok((description, builder.inputs.into_inner()))
+    Ok(SceneFileContents {
+        description,
+        inputs: builder.inputs.into_inner(),
+        photo,
+    })
 }
 
 struct Builder<'a> {

@@ -29,6 +29,7 @@ impl Builder<'_> {
             },
             seed: r.seed.unwrap_or(d.seed),
             sample_start: 0,
+            hide_virtual: false,
         })
     }
 }

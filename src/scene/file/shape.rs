@@ -25,6 +25,9 @@ pub(super) struct ShapeSection {
     #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) emission: Option<[f32; 3]>,
     pub(super) two_sided: Option<bool>,
+    /// A virtual object, inserted into the photograph (`plsr composite`).
+    #[serde(rename = "virtual")]
+    pub(super) is_virtual: Option<bool>,
     #[serde(flatten)]
     pub(super) keys: toml::Table,
 }
@@ -55,7 +58,14 @@ struct SphereKeys {
 }
 
 /// The keys every shape has (besides `type`).
-const SHAPE_KEYS: [&str; 5] = ["name", "material", "transform", "emission", "two_sided"];
+const SHAPE_KEYS: [&str; 6] = [
+    "name",
+    "material",
+    "transform",
+    "emission",
+    "two_sided",
+    "virtual",
+];
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -221,6 +231,13 @@ impl Builder<'_> {
             .clone()
             .unwrap_or_else(|| format!("{field} ({})", s.kind));
         let object_id = index as u32;
+        let is_virtual = s.is_virtual.unwrap_or(false);
+        if is_virtual && emission.is_some() {
+            return Err(self.err(
+                format!("{field}.emission"),
+                "a virtual object cannot emit: the real scene's lights light it",
+            ));
+        }
 
         let flip;
         let (mut positions, mut triangles, normals, uvs) = match s.kind.as_str() {
@@ -234,6 +251,7 @@ impl Builder<'_> {
                     two_sided: s.two_sided.unwrap_or(false),
                     name: &shape_name,
                     object_id,
+                    is_virtual,
                 };
                 return self.obj_meshes(&shape, &keys, materials, meshes);
             }
@@ -282,6 +300,7 @@ impl Builder<'_> {
             emission,
             object_id,
             pls: None,
+            is_virtual,
         });
         Ok(())
     }
@@ -355,6 +374,7 @@ impl Builder<'_> {
                 emission: shape.emission.or(mtl_emission),
                 object_id: shape.object_id,
                 pls: None,
+                is_virtual: shape.is_virtual,
             });
         }
         Ok(())
@@ -397,6 +417,8 @@ struct Common<'a> {
     two_sided: bool,
     name: &'a str,
     object_id: u32,
+    /// A virtual object (`virtual = true`).
+    is_virtual: bool,
 }
 
 /// The index of the default material (a grey diffuse), added when first
