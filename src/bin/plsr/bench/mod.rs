@@ -1,9 +1,11 @@
 //! `plsr bench`: throughput of plsr against a peer measured in the same run
 //! on the same work. One module per suite: `core` (Embree rays and path
 //! tracing against Embree's own `pathtracer`), `pls` (PLS transforms and the
-//! window's cost), `materials` (diffuse against principled) and `hdr`
-//! (bracket merging against OpenCV).
+//! window's cost), `materials` (diffuse against principled), `hdr`
+//! (bracket merging against OpenCV) and `composite` (a composite against
+//! one render).
 
+mod composite;
 mod core;
 mod hdr;
 mod materials;
@@ -16,9 +18,10 @@ use std::path::PathBuf;
 #[derive(Debug, clap::Args)]
 pub struct BenchArgs {
     /// Which benchmark: `core`, `pls`, `materials` (all-diffuse versus
-    /// all-principled Cornell box) or `hdr` (merging 10 brackets at
-    /// 6720×3360, plsr against OpenCV's MergeDebevec).
-    #[arg(default_value = "core", value_parser = ["core", "pls", "materials", "hdr"])]
+    /// all-principled Cornell box), `hdr` (merging 10 brackets at
+    /// 6720×3360, plsr against OpenCV's MergeDebevec) or `composite` (a
+    /// composite against one render of the same scene).
+    #[arg(default_value = "core", value_parser = ["core", "pls", "materials", "hdr", "composite"])]
     pub suite: String,
     /// Image size for `plsr bench hdr`, WIDTHxHEIGHT.
     #[arg(long, default_value = "6720x3360")]
@@ -61,6 +64,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
     match a.suite.as_str() {
         "pls" => pls::run(a.threads),
         "materials" => materials::run(a.threads).map(|_| ()),
+        "composite" => composite::run(a.threads).map(|_| ()),
         "hdr" => {
             let (width, height) = parse_size(&a.hdr_size)?;
             hdr::run(&hdr::HdrBenchOptions {
