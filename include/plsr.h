@@ -85,6 +85,21 @@ typedef struct plsr_scene plsr_scene;
 // A scene under construction (opaque); one thread at a time.
 typedef struct plsr_scene_builder plsr_scene_builder;
 
+// How to composite, for [`plsr_composite`]. Added in 0.4.0.
+typedef struct {
+  // 0: differential (the objects, their shadows and reflected light);
+  // 1: superimpose (the objects pasted over the photo).
+  uint32_t mode;
+  // How the photo's 8-bit values map to linear radiance: 0 sRGB, 1 linear.
+  uint32_t response;
+  // `k` in photo ≈ k · render; 0: fit it.
+  float exposure;
+  // Samples per pixel of each of the two renders; 0: the scene's.
+  uint32_t spp;
+  // Worker threads; 0: all cores.
+  uint32_t threads;
+} plsr_composite_settings;
+
 // Progress callback: `done` of `total` tiles are finished. Return `true` to
 // go on, `false` to cancel the render (it then fails with
 // `PLSR_ERR_CANCELLED`). Called from the rendering threads, never two
@@ -165,6 +180,20 @@ const char *plsr_last_error(void);
 
 // The library's version, e.g. `"0.1.0"`: a static string, never freed.
 const char *plsr_version(void);
+
+// Composites the virtual meshes of `scene` (shapes loaded with `virtual =
+// true`) into a photo given as `width × height` interleaved 8-bit RGB
+// values (row-major from the top; its size must be the camera's), into
+// `*out`: the composite in the photo's linear radiance (RGB) with the
+// matte as alpha. `*exposure_out` (may be `NULL`) receives the exposure
+// used. Added in 0.4.0.
+plsr_result plsr_composite(const plsr_scene *scene,
+                           const uint8_t *photo_rgb,
+                           uint32_t width,
+                           uint32_t height,
+                           const plsr_composite_settings *settings,
+                           plsr_image **out,
+                           float *exposure_out);
 
 // Merges `count` bracketed photos (paths, any order, any format
 // OpenImageIO reads) into the HDR image `output` (`.exr` or `.hdr`).

@@ -218,6 +218,46 @@ impl Photo {
     }
 }
 
+impl Photo {
+    /// A photo from interleaved 8-bit RGB values (`width × height × 3`,
+    /// row-major from the top), through `transfer` (a curve must have 256
+    /// levels): a camera frame handed over by a host program.
+    pub fn from_rgb8(width: u32, height: u32, rgb: &[u8], transfer: Transfer) -> Result<Photo> {
+        let n = width as usize * height as usize;
+        if n == 0 || rgb.len() != n * 3 {
+            return Err(Error::InvalidArgument(format!(
+                "a {width}×{height} RGB photo has {} bytes, got {}",
+                n * 3,
+                rgb.len()
+            )));
+        }
+        if let Transfer::Curve(curve) = &transfer {
+            if curve.levels() != 256 {
+                return Err(Error::InvalidArgument(format!(
+                    "the curve has {} levels, an 8-bit photo 256",
+                    curve.levels()
+                )));
+            }
+        }
+        let radiance = rgb
+            .chunks_exact(3)
+            .map(|p| {
+                Vec3::new(
+                    transfer.decode(0, p[0] as u32, 256),
+                    transfer.decode(1, p[1] as u32, 256),
+                    transfer.decode(2, p[2] as u32, 256),
+                )
+            })
+            .collect();
+        Ok(Photo {
+            width,
+            height,
+            radiance,
+            transfer,
+        })
+    }
+}
+
 /// The fitted exposure `k` of `photo ≈ k · render`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ExposureFit {
@@ -417,6 +457,9 @@ impl Composite {
     }
 }
 
+/// The start of the error of an exposure that cannot be fitted.
+const FIT_FAILED: &str = "cannot fit the exposure";
+
 /// How to run `plsr composite` (what to composite is the scene file).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CompositeOptions {
@@ -491,6 +534,46 @@ pub fn composite_scene(
             ),
         ));
     }
+    let (result, report) = composite_built(&scene, &photo, spec.exposure, options, progress)
+        .map_err(|e| match e {
+            // The fit's failure is about the scene's `photo.exposure`.
+            Error::InvalidArgument(m) if m.starts_with(FIT_FAILED) => {
+                Error::input(scene_file, "photo.exposure", m)
+            }
+            other => other,
+        })?;
+    Ok((result, photo.transfer, report))
+}
+
+/// Composites the virtual meshes of a built `scene` into `photo` (see
+/// [`composite_scene`]): `exposure` is `k`, or `None` to fit it. The
+/// photo's size must be the camera's.
+pub fn composite_built(
+    scene: &crate::scene::Scene,
+    photo: &Photo,
+    exposure: Option<f32>,
+    options: &CompositeOptions,
+    progress: &(dyn Fn(usize, usize) -> bool + Sync),
+) -> Result<(Composite, CompositeReport)> {
+    if !scene.meshes().iter().any(|m| m.is_virtual) {
+        return Err(Error::InvalidArgument(
+            "no shape is virtual: mark the objects to insert with `virtual = true`".into(),
+        ));
+    }
+    let (cw, ch) = (scene.camera().width(), scene.camera().height());
+    if (photo.width, photo.height) != (cw, ch) {
+        return Err(Error::InvalidArgument(format!(
+            "the photo is {}×{} pixels but the camera renders {cw}×{ch}",
+            photo.width, photo.height
+        )));
+    }
+    if let Some(k) = exposure {
+        if !(k.is_finite() && k > 0.0) {
+            return Err(Error::InvalidArgument(format!(
+                "exposure {k}: must be a positive number"
+            )));
+        }
+    }
     let mut job = scene.default_job();
     if let Some(spp) = options.spp {
         job.spp = spp;
@@ -513,7 +596,7 @@ pub fn composite_scene(
     };
     for (i, job) in jobs.iter().enumerate() {
         let step = |done: usize, total: usize| progress(i * total + done, 2 * total);
-        let (s, stats) = crate::render::render_sums(&scene, job, &options.render, &step)?;
+        let (s, stats) = crate::render::render_sums(scene, job, &options.render, &step)?;
         report.render_seconds += stats.seconds;
         report.samples += stats.samples;
         sums.push(s);
@@ -521,20 +604,18 @@ pub fn composite_scene(
     let matte = matte(&sums[0]);
     let with = sums[0].develop(job.spp).color;
     let without = sums[1].develop(job.spp).color;
-    let k = match spec.exposure {
+    let k = match exposure {
         Some(k) => k,
         None => {
             let fit = fit_exposure(&photo.radiance, &without, &matte).ok_or_else(|| {
-                Error::input(
-                    scene_file,
-                    "photo.exposure",
-                    "cannot fit: no pixel outside the virtual objects is lit in the render; give the exposure",
-                )
+                Error::InvalidArgument(format!(
+                    "{FIT_FAILED}: no pixel outside the virtual objects is lit in the render; give the exposure"
+                ))
             })?;
             report.fit = Some(fit);
             fit.k
         }
     };
-    let result = composite(&photo, &with, &without, &matte, k, options.mode);
-    Ok((result, photo.transfer, report))
+    let result = composite(photo, &with, &without, &matte, k, options.mode);
+    Ok((result, report))
 }

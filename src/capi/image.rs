@@ -157,6 +157,22 @@ fn render_into(
     write_out(out, new_handle(plsr_image { film, rgba }), "out")
 }
 
+impl plsr_image {
+    /// A composite as an image: the composite as colour, the matte as alpha.
+    pub(crate) fn from_composite(c: &crate::composite::Composite) -> plsr_image {
+        let mut film = Film::new(c.width, c.height);
+        film.color = c.color.clone();
+        film.alpha = c.matte.clone();
+        let rgba = film
+            .color
+            .iter()
+            .zip(&film.alpha)
+            .flat_map(|(c, a)| [c.x, c.y, c.z, *a])
+            .collect();
+        plsr_image { film, rgba }
+    }
+}
+
 /// Width and height of an image, pixels.
 #[no_mangle]
 pub extern "C" fn plsr_image_size(

@@ -26,11 +26,13 @@
 //! Units follow the scene-file format: metres (or any consistent unit),
 //! degrees for angles, linear RGB, row-major 4×4 matrices.
 
+mod composite;
 mod hdr;
 mod image;
 mod pls;
 mod scene;
 
+pub use composite::*;
 pub use hdr::*;
 pub use image::*;
 pub use pls::*;

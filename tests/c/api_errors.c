@@ -183,6 +183,51 @@ int main(int argc, char **argv) {
     free(pos);
     free(ind);
 
+    /* Compositing a virtual sphere into a camera frame (added in 0.4.0). */
+    snprintf(path, sizeof path, "%s/ar.toml", tmp);
+    f = fopen(path, "w");
+    fputs("[render]\nspp = 4\n[camera]\nposition = [0, -4, 3]\nlook_at = [0, 0, 0.3]\n"
+          "up = [0, 0, 1]\nvfov = 40\nresolution = [16, 12]\n"
+          "[[shapes]]\ntype = \"rectangle\"\ntransform = { scale = 3 }\n"
+          "[[lights]]\ntype = \"point\"\nposition = [1, -1, 3]\nintensity = [6, 6, 6]\n"
+          "[[shapes]]\ntype = \"sphere\"\ncenter = [0, 0, 0.5]\nradius = 0.5\nvirtual = true\n", f);
+    fclose(f);
+    plsr_scene *ar = NULL;
+    EXPECT(plsr_scene_load(path, &ar), PLSR_OK, NULL);
+    uint8_t frame[16 * 12 * 3];
+    memset(frame, 100, sizeof frame);
+    plsr_composite_settings cs = {0, 0, 0.0f, 0, 1};
+    plsr_image *composite = NULL;
+    float k = 0.0f;
+    EXPECT(plsr_composite(NULL, frame, 16, 12, &cs, &composite, &k), PLSR_ERR_NULL_ARGUMENT, "scene");
+    EXPECT(plsr_composite(ar, NULL, 16, 12, &cs, &composite, &k), PLSR_ERR_NULL_ARGUMENT, "photo_rgb");
+    EXPECT(plsr_composite(ar, frame, 16, 12, NULL, &composite, &k), PLSR_ERR_NULL_ARGUMENT, "settings");
+    EXPECT(plsr_composite(ar, frame, 8, 12, &cs, &composite, &k), PLSR_ERR_INVALID_ARGUMENT, "16×12");
+    cs.mode = 7;
+    EXPECT(plsr_composite(ar, frame, 16, 12, &cs, &composite, &k), PLSR_ERR_INVALID_ARGUMENT, "mode");
+    cs.mode = 0;
+    cs.exposure = -1.0f;
+    EXPECT(plsr_composite(ar, frame, 16, 12, &cs, &composite, &k), PLSR_ERR_INVALID_ARGUMENT, "exposure");
+    cs.exposure = 0.0f;
+    if (composite != NULL) { fprintf(stderr, "composite written on failure\n"); failures++; }
+    EXPECT(plsr_composite(ar, frame, 16, 12, &cs, &composite, &k), PLSR_OK, NULL);
+    if (composite != NULL) {
+        uint32_t cw = 0, ch = 0;
+        EXPECT(plsr_image_size(composite, &cw, &ch), PLSR_OK, NULL);
+        const float *px = plsr_image_rgba(composite);
+        float matte = 0.0f;
+        for (uint32_t i = 0; i < cw * ch; ++i) matte += px[4 * i + 3];
+        if (cw != 16 || ch != 12 || matte <= 0.0f || !(k > 0.0f)) {
+            fprintf(stderr, "composite %ux%u, matte %g, k %g\n", cw, ch, matte, k);
+            failures++;
+        }
+        EXPECT(plsr_image_free(composite), PLSR_OK, NULL);
+    } else {
+        fprintf(stderr, "no composite\n");
+        failures++;
+    }
+    EXPECT(plsr_scene_free(ar), PLSR_OK, NULL);
+
     if (failures) {
         fprintf(stderr, "%d failure(s)\n", failures);
         return 1;
