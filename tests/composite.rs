@@ -417,3 +417,21 @@ fn the_library_composites_without_the_command_line() {
     // Its shadow darkens the floor: some differences are negative.
     assert!(result.difference.iter().any(|d| d.max_element() < 0.0));
 }
+
+#[test]
+fn the_demo_composites_through_its_recovered_curve() {
+    // assets/scenes/ar-demo: an 8-bit photo from plsr's simulated camera
+    // and the response curve `hdr merge --curve` recovered for it.
+    let path = Path::new("assets/scenes/ar-demo/ar-demo.toml");
+    let contents = plsr::scene::file::load_contents(path).unwrap();
+    let options = CompositeOptions {
+        spp: Some(2),
+        ..Default::default()
+    };
+    let (result, transfer, report) =
+        composite_scene(path, contents, &options, &|_, _| true).unwrap();
+    assert!(matches!(transfer, plsr::composite::Transfer::Curve(_)));
+    let fit = report.fit.expect("the demo fits its exposure");
+    assert!(fit.k > 0.0 && fit.used > fit.considered / 2, "{fit:?}");
+    assert!(result.matte.iter().filter(|&&a| a == 1.0).count() > 1000);
+}
