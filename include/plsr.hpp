@@ -113,6 +113,17 @@ public:
         check(plsr_render(h_.get(), threads, progress, user_data, &img));
         return Image(img);
     }
+    /// Composites the scene's virtual objects into a camera frame of
+    /// width·height interleaved 8-bit RGB values (the camera's size); the
+    /// result holds the composite (linear RGB) and the matte (alpha).
+    /// `exposure` 0 fits it; `*exposure_used` (optional) receives it.
+    Image composite(const uint8_t *frame_rgb, uint32_t width, uint32_t height,
+                    plsr_composite_settings settings = {0, 0, 0.0f, 0, 0},
+                    float *exposure_used = nullptr) const {
+        plsr_image *img = nullptr;
+        check(plsr_composite(h_.get(), frame_rgb, width, height, &settings, &img, exposure_used));
+        return Image(img);
+    }
     const plsr_scene *get() const noexcept { return h_.get(); }
 
 private:
