@@ -19,8 +19,10 @@
 //! 5. [`scene`]: the built scene and scene files;
 //! 6. [`integrator`]: the path tracer and its vectorised kernel;
 //! 7. [`render`]: a whole image on the thread pool;
-//! 8. [`capture`], [`capi`]: a simulated 360° bracket capture; the C ABI
-//!    for C and C++ hosts (`include/plsr.h`).
+//! 8. [`capture`], [`composite`], [`fit`], [`capi`]: a simulated 360°
+//!    bracket capture; virtual objects composited into photos; materials
+//!    and lights fitted to photos; the C ABI for C and C++ hosts
+//!    (`include/plsr.h`).
 
 pub use plsr_embree_sys as sys;
 
@@ -36,6 +38,7 @@ pub mod equirect;
 pub mod error;
 pub mod film;
 pub mod filter;
+pub mod fit;
 pub mod hdr;
 pub mod input;
 pub mod integrator;

@@ -3,6 +3,7 @@
 
 use crate::error::{Error, Result};
 use crate::film::{Film, FilmSums};
+use crate::integrator::gradient::{gradient_tile, GradientMap, TileGradient};
 use crate::integrator::{render_tile, Isa, RayStats, SoaScene, Tile};
 pub use crate::job::RenderJob;
 use crate::scene::Scene;
@@ -243,4 +244,72 @@ pub fn render_sums(
         vectorised: kernel.is_some().then_some(isa),
     };
     Ok((film.into_inner().unwrap_or_else(|e| e.into_inner()), stats))
+}
+
+/// What a gradient pass ([`render_gradient`]) returns.
+#[derive(Debug, Clone)]
+pub struct GradientResult {
+    /// The radiance sums of the paths traced (no AOVs); with `all_paths`,
+    /// the same sums the general integrator gives for the job.
+    pub sums: FilmSums,
+    /// `Σ_p adjoint_p · ∂I_p/∂θ` per slot of the [`GradientMap`].
+    pub gradient: Vec<f64>,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+}
+
+/// Estimates `Σ_p adjoint_p · ∂I_p/∂θ` for every slot of `map` over the
+/// image of `job` (see [`crate::integrator::gradient`]): `adjoint` holds
+/// the loss's derivative with respect to each pixel's recorded value,
+/// row-major over the camera's image. The tiles' gradients are added in
+/// tile order, so the result does not depend on the thread count.
+pub fn render_gradient(
+    scene: &Scene,
+    job: &RenderJob,
+    options: &RenderOptions,
+    map: &GradientMap,
+    adjoint: &[glam::Vec3],
+    all_paths: bool,
+) -> Result<GradientResult> {
+    job.validate()
+        .map_err(|e| Error::InvalidArgument(format!("render: {e}")))?;
+    let cam = scene.camera();
+    let (width, height) = (cam.width(), cam.height());
+    if adjoint.len() != width as usize * height as usize {
+        return Err(Error::InvalidArgument(format!(
+            "the adjoint image has {} pixels, the camera {width}×{height}",
+            adjoint.len()
+        )));
+    }
+    if map.materials.len() != scene.materials().len()
+        || map.lights.len() != scene.lights().lights.len()
+    {
+        return Err(Error::InvalidArgument(
+            "the gradient map was made for another scene".into(),
+        ));
+    }
+    check_memory(scene, options)
+        .map_err(|m| Error::InvalidArgument(format!("camera.resolution: {m}")))?;
+    let tiles = tiles(width, height, options.tile_size.max(1));
+    let pool = thread_pool(options.threads)?;
+    let start = Instant::now();
+    let results: Vec<TileGradient> = pool.install(|| {
+        tiles
+            .par_iter()
+            .map(|&tile| gradient_tile(scene, job, map, adjoint, tile, all_paths))
+            .collect()
+    });
+    let mut sums = FilmSums::new(width, height, job.sample_start, *scene.film());
+    let mut gradient = vec![0.0f64; map.len];
+    for r in &results {
+        sums.add_tile(r.tile, &r.pixels);
+        for (g, t) in gradient.iter_mut().zip(&r.gradient) {
+            *g += t;
+        }
+    }
+    Ok(GradientResult {
+        sums,
+        gradient,
+        seconds: start.elapsed().as_secs_f64(),
+    })
 }

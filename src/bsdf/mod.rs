@@ -48,10 +48,12 @@
 
 pub mod albedo;
 pub mod fresnel;
+pub mod gradient;
 pub mod microfacet;
 pub mod models;
 
 pub use fresnel::METALS;
+pub use gradient::{BsdfGradient, BsdfParam, BSDF_PARAMS};
 pub use microfacet::{Distribution, Microfacet};
 pub use models::{
     lambert_eval, lambert_pdf, lambert_sample, BlinnPhongParams, CookTorranceParams,

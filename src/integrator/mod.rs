@@ -23,6 +23,7 @@
 //! so it renders the same image bit for bit; `RenderOptions::vectorised`
 //! (`plsr render --scalar`) turns it off.
 
+pub mod gradient;
 pub mod soa;
 mod spawn;
 

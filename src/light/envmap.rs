@@ -224,6 +224,15 @@ impl EnvironmentLight {
         })
     }
 
+    /// Multiplies the radiance of every texel by `s > 0` (the sampling
+    /// distribution, proportional to radiance, stays the same).
+    pub fn scale_radiance(&mut self, s: f32) {
+        for t in &mut self.texels {
+            *t *= s;
+        }
+        self.integral *= s;
+    }
+
     /// `∫ luminance(L) dω` over the sphere (W/(m²), luminance).
     pub fn luminance_integral(&self) -> f32 {
         self.integral

@@ -202,6 +202,25 @@ impl LightSet {
         }
     }
 
+    /// Multiplies the emission of the lights `range` by `factor` (per
+    /// channel; an environment takes its first channel, as it has one scale)
+    /// and recomputes the selection weights, which follow their power.
+    pub fn scale_emission(&mut self, range: Range<usize>, factor: Vec3) {
+        for light in &mut self.lights[range] {
+            match light {
+                Light::Point(l) => l.intensity *= factor,
+                Light::Triangle(l) => l.radiance *= factor,
+                Light::Environment { light, .. } => light.scale_radiance(factor.x),
+            }
+        }
+        let groups = self
+            .groups
+            .iter()
+            .map(|g| (g.range.clone(), g.reach.clone()))
+            .collect();
+        *self = LightSet::with_groups(std::mem::take(&mut self.lights), groups);
+    }
+
     /// Whether the scene has no light that can be sampled.
     pub fn is_empty(&self) -> bool {
         self.groups.iter().all(|g| g.power <= 0.0)

@@ -452,6 +452,35 @@ impl Scene {
         })
     }
 
+    /// The lights (indices into `lights().lights`) made of mesh `mesh`'s
+    /// triangles, if it emits.
+    pub fn mesh_lights(&self, mesh: usize) -> Option<std::ops::Range<usize>> {
+        let first = self.first_light.get(mesh).copied().flatten()? as usize;
+        Some(first..first + self.meshes[mesh].triangles.len())
+    }
+
+    /// Replaces material `index`'s BSDF (for fitting), after checking its
+    /// parameters.
+    pub fn set_material_bsdf(&mut self, index: usize, bsdf: crate::bsdf::Bsdf) -> Result<()> {
+        let Some(material) = self.materials.get_mut(index) else {
+            return Err(Error::InvalidArgument(format!("no material {index}")));
+        };
+        if let crate::bsdf::Bsdf::Principled(p) = &bsdf {
+            p.validate().map_err(|e| {
+                Error::InvalidArgument(format!("material {index} ({}): {e}", material.name))
+            })?;
+            p.prepare();
+        }
+        material.bsdf = bsdf;
+        Ok(())
+    }
+
+    /// Multiplies the emission of the lights `range` by `factor` (see
+    /// [`LightSet::scale_emission`]), for fitting light brightness.
+    pub fn scale_light_emission(&mut self, range: std::ops::Range<usize>, factor: Vec3) {
+        self.lights.scale_emission(range, factor);
+    }
+
     /// The meshes, indexed by Embree geometry id.
     #[inline]
     pub fn meshes(&self) -> &[Mesh] {

@@ -26,3 +26,13 @@ pub struct PhotoSpec {
     /// fit it (`exposure = "auto"`).
     pub exposure: Option<f32>,
 }
+
+/// A `[[views]]` entry: another photo of the scene, with the camera that
+/// took it (`plsr fit` fits against every view).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ViewSpec {
+    /// The camera.
+    pub camera: crate::camera::Camera,
+    /// The photo.
+    pub photo: PhotoSpec,
+}

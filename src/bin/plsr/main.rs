@@ -3,6 +3,7 @@
 
 mod bench;
 mod composite;
+mod fit;
 mod hdr;
 mod pls;
 mod progress;
@@ -34,6 +35,9 @@ pub enum Command {
     /// photograph ([photo]), with the shadows and reflected light they cast
     /// on the real surfaces (see docs/compositing.md).
     Composite(composite::CompositeArgs),
+    /// Fit the real surfaces' materials (and lights' brightness) to the
+    /// scene's photos by differentiable rendering and Adam.
+    Fit(fit::FitArgs),
     /// Measure throughput. `plsr bench` (suite `core`): raw Embree rays, path
     /// tracing, and Embree's own `pathtracer` (Debian's embree-tools) on the
     /// same Cornell box. `plsr bench pls`: transforming 10,000 PLS lights
@@ -77,6 +81,7 @@ where
     match cli.command {
         Command::Render(a) => render::run(&a),
         Command::Composite(a) => composite::run(&a),
+        Command::Fit(a) => fit::run(&a),
         Command::Bench(a) => bench::run(a),
         Command::Pls(c) => pls::run(c),
         Command::Hdr(c) => hdr::run(c),

@@ -52,6 +52,8 @@ struct SceneFile {
     environment: Option<EnvironmentSection>,
     photo: Option<PhotoSection>,
     #[serde(default)]
+    views: Vec<ViewSection>,
+    #[serde(default)]
     materials: Vec<MaterialSection>,
     #[serde(default)]
     shapes: Vec<ShapeSection>,
@@ -85,6 +87,17 @@ pub struct SceneFileContents {
     pub inputs: Vec<PathBuf>,
     /// The `[photo]` table, if any.
     pub photo: Option<crate::scene::photo::PhotoSpec>,
+    /// The `[[views]]`: more photos of the scene, each with its camera
+    /// (for fitting).
+    pub views: Vec<crate::scene::photo::ViewSpec>,
+}
+
+/// `[[views]]`: a photo of the scene and the camera that took it.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ViewSection {
+    camera: CameraSection,
+    photo: PhotoSection,
 }
 
 /// Reads and validates a scene file with its `[photo]`; see [`load`].
@@ -141,11 +154,31 @@ pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
         Some(p) => Some(builder.photo(p)?),
         None => None,
     };
+    let mut views = Vec::with_capacity(parsed.views.len());
+    for (i, v) in parsed.views.iter().enumerate() {
+        // The builders name `camera.…` and `photo.…`: place them in the view.
+        let within = |e: Error| match e {
+            Error::Input {
+                file,
+                field,
+                message,
+            } => Error::Input {
+                file,
+                field: format!("views[{i}].{field}"),
+                message,
+            },
+            other => other,
+        };
+        let (camera, _) = builder.camera(&v.camera).map_err(within)?;
+        let photo = builder.photo(&v.photo).map_err(within)?;
+        views.push(crate::scene::photo::ViewSpec { camera, photo });
+    }
     let description = builder.build(parsed)?;
     Ok(SceneFileContents {
         description,
         inputs: builder.inputs.into_inner(),
         photo,
+        views,
     })
 }
 

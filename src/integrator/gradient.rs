@@ -1,0 +1,413 @@
+//! The differentiable path tracer: the gradient of a loss over a rendered
+//! image with respect to material and light parameters.
+//!
+//! # The estimator
+//!
+//! A loss `ℒ(I)` of the image `I` has the gradient
+//! `∂ℒ/∂θ = Σ_p ∂ℒ/∂I_p · ∂I_p/∂θ`; the caller renders `I` (the *primal*),
+//! computes the per-pixel adjoint `∂ℒ/∂I_p`, and this module estimates
+//! `Σ_p adjoint_p · ∂I_p/∂θ` from paths drawn with a **different seed** (for
+//! the squared error, using the primal's own paths would correlate the two
+//! factors and bias the gradient).
+//!
+//! The paths are those of the general integrator (same next-event
+//! estimation, BSDF sampling, MIS and Russian roulette, the same random
+//! numbers in the same order: [`gradient_tile`] renders the same image bit
+//! for bit, which `tests/gradients.rs` checks). Every choice the sampler
+//! makes (directions, light picks, MIS weights, roulette probabilities) is
+//! treated as a constant of the parameters: *detached sampling*. Each path
+//! contribution `c = L_e · Π_k f_k cos θ_k / p_k · w` is then a product of
+//! factors that depend on the parameters only through the BSDF values `f_k`
+//! and the emitted radiance `L_e`, and differentiating it under the expected
+//! value keeps the estimator unbiased, provided the densities `p_k` stay
+//! positive wherever `∂f_k/∂θ` is not zero (true of every model that has
+//! derivatives: their sampling covers their support) and the geometry does
+//! not move (it does not: only materials and emission are parameters).
+//!
+//! The derivative of the path throughput `β` travels forward with the path,
+//! one RGB vector per parameter (forward mode): at a vertex whose material
+//! has parameters, `∂β' = ∂β·w + β·∂f·|cos θ|/p`; elsewhere `∂β' = ∂β·w`.
+//! Every contribution `c = β·x` adds `adjoint · (∂β·x + β·∂x)` to the
+//! gradient, where `∂x` holds the BSDF derivative of next-event estimation
+//! and the light's own terms (emission is linear in each light parameter,
+//! so `∂c/∂b = c/b`). The memory is one RGB vector per parameter per path,
+//! independent of the path's length; the work per bounce grows with the
+//! number of parameters, which suits the tens of parameters of a room's
+//! materials and lights (textures, with a parameter per texel, would need
+//! path replay backpropagation instead).
+
+use super::spawn::{ray_epsilon, shadow_segment, spawn_origin};
+use super::{
+    camera_sample, emission_weight, roulette, roulette_spins, sides_agree, PrevVertex,
+    SurfacePoint, RUSSIAN_ROULETTE_DEPTH,
+};
+use crate::accel::{Ray, RayHit, ShadowRay};
+use crate::bsdf::BSDF_PARAMS;
+use crate::film::{PixelSums, Tile};
+use crate::job::RenderJob;
+use crate::light::Light;
+use crate::scene::Scene;
+use crate::warp::{power_heuristic, Frame};
+use glam::Vec3;
+
+/// The gradient slots a light's emission parameters feed.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct LightSlots {
+    /// A scalar multiplier of the light's emission (a PLS light's `b`, the
+    /// environment's `scale`): its slot and current value (> 0).
+    pub scalar: Option<(u32, f32)>,
+    /// An RGB factor of the emission (a PLS light's `c`, a point light's
+    /// `intensity`, a shape's `emission`): the first of its three slots and
+    /// its current value; a channel at 0 gets no derivative.
+    pub colour: Option<(u32, Vec3)>,
+}
+
+/// Where the derivative of each parameter goes: slots of the gradient
+/// vector, per material and per light of the scene.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct GradientMap {
+    /// Per material (index into `Scene::materials`): the slot of each
+    /// [`crate::bsdf::BsdfParam`], if it is a parameter.
+    pub materials: Vec<[Option<u32>; BSDF_PARAMS]>,
+    /// Per light (index into `Scene::lights().lights`).
+    pub lights: Vec<LightSlots>,
+    /// Number of slots.
+    pub len: usize,
+}
+
+impl GradientMap {
+    /// A map with no parameters for `scene`.
+    pub fn empty(scene: &Scene) -> GradientMap {
+        GradientMap {
+            materials: vec![[None; BSDF_PARAMS]; scene.materials().len()],
+            lights: vec![LightSlots::default(); scene.lights().lights.len()],
+            len: 0,
+        }
+    }
+
+    fn material_has_slots(&self, material: u32) -> bool {
+        self.materials[material as usize]
+            .iter()
+            .any(Option::is_some)
+    }
+}
+
+/// The result of differentiating one tile.
+#[derive(Debug, Clone)]
+pub struct TileGradient {
+    /// The tile.
+    pub tile: Tile,
+    /// The radiance sums of the paths traced (only `sum`, `sum_sq` and
+    /// `samples`; no AOVs), row-major within the tile; with `all_paths`,
+    /// the image the general integrator renders for the same job.
+    pub pixels: Vec<PixelSums>,
+    /// `Σ_p adjoint_p · ∂I_p/∂θ` per slot, over this tile's pixels.
+    pub gradient: Vec<f64>,
+}
+
+/// Everything a path of the gradient pass reads.
+struct Context<'a> {
+    scene: &'a Scene,
+    job: &'a RenderJob,
+    map: &'a GradientMap,
+}
+
+/// Estimates the tile's share of the gradient for `adjoint` (the loss's
+/// derivative with respect to each pixel's recorded value, row-major over
+/// the whole image). Pixels whose adjoint is zero are skipped unless
+/// `all_paths`, which traces every pixel (for checking the primal).
+pub fn gradient_tile(
+    scene: &Scene,
+    job: &RenderJob,
+    map: &GradientMap,
+    adjoint: &[Vec3],
+    tile: Tile,
+    all_paths: bool,
+) -> TileGradient {
+    let width = scene.camera().width();
+    let n = (tile.width * tile.height) as usize;
+    let mut pixels = vec![
+        PixelSums {
+            samples: job.spp,
+            ..Default::default()
+        };
+        n
+    ];
+    let mut gradient = vec![0.0f64; map.len];
+    let mut dbeta = vec![Vec3::ZERO; map.len];
+    let ctx = Context { scene, job, map };
+    // The sensor response is linear (`s·W·L`), so the adjoint of a path's
+    // radiance is `s·Wᵀ·adjoint`, over the samples it is averaged with.
+    let response = scene.film().response();
+    let lens_sample = scene.camera().needs_lens_sample();
+    for s in job.samples() {
+        for py in 0..tile.height {
+            for px in 0..tile.width {
+                let (x, y) = (tile.x0 + px, tile.y0 + py);
+                let a = adjoint[(y * width + x) as usize];
+                if a == Vec3::ZERO && !all_paths {
+                    continue;
+                }
+                let a = match response.white_balance {
+                    Some(m) => m.transpose() * a,
+                    None => a,
+                } * (response.scale / job.spp as f32);
+                let (rng, Some(ray)) = camera_sample(scene, job.seed, lens_sample, x, y, s) else {
+                    continue;
+                };
+                dbeta.fill(Vec3::ZERO);
+                let radiance = trace_path(&ctx, rng, ray, a, &mut dbeta, &mut gradient);
+                pixels[(py * tile.width + px) as usize].add_radiance(response.apply(radiance));
+            }
+        }
+    }
+    TileGradient {
+        tile,
+        pixels,
+        gradient,
+    }
+}
+
+/// Adds `adjoint · (∂β·x)` for every slot: the part of a contribution
+/// `β·x` that the earlier vertices' parameters change.
+#[inline]
+fn add_throughput_terms(dbeta: &[Vec3], x: Vec3, adjoint: Vec3, gradient: &mut [f64]) {
+    let ax = adjoint * x;
+    for (g, d) in gradient.iter_mut().zip(dbeta) {
+        *g += ax.dot(*d) as f64;
+    }
+}
+
+/// Adds the light's own terms for a contribution `c` of light `li`
+/// (emission is linear in each of its parameters).
+#[inline]
+fn add_light_terms(map: &GradientMap, li: usize, c: Vec3, adjoint: Vec3, gradient: &mut [f64]) {
+    let slots = &map.lights[li];
+    if let Some((slot, value)) = slots.scalar {
+        if value > 0.0 {
+            gradient[slot as usize] += (adjoint.dot(c) / value) as f64;
+        }
+    }
+    if let Some((slot, value)) = slots.colour {
+        for ch in 0..3 {
+            if value[ch] > 0.0 {
+                gradient[slot as usize + ch] += (adjoint[ch] * c[ch] / value[ch]) as f64;
+            }
+        }
+    }
+}
+
+/// One camera path: the radiance it carries (as the general integrator
+/// computes it) and its gradient terms, added to `gradient`.
+fn trace_path(
+    ctx: &Context,
+    mut rng: crate::rng::Rng,
+    first: Ray,
+    adjoint: Vec3,
+    dbeta: &mut [Vec3],
+    gradient: &mut [f64],
+) -> Vec3 {
+    let Context { scene, job, map } = *ctx;
+    let mask = job.ray_mask();
+    let max_depth = job.max_depth;
+    let mut beta = Vec3::ONE;
+    let mut radiance = Vec3::ZERO;
+    let mut prev_pdf = 0.0f32;
+    let mut prev_point = first.org;
+    let mut depth = 0u32;
+    let mut ray = first;
+    loop {
+        let mut rh = [RayHit::masked(ray, mask)];
+        scene.accel().intersect_each(&mut rh);
+        let Some(hit) = rh[0].hit() else {
+            if let Some(env) = scene.environment_index() {
+                let Light::Environment { light, .. } = &scene.lights().lights[env] else {
+                    unreachable!("Scene::environment indexes an environment light")
+                };
+                let le = light.radiance(ray.dir);
+                if le != Vec3::ZERO {
+                    let weight = if depth == 0 || prev_pdf == 0.0 {
+                        1.0
+                    } else {
+                        let light_pdf =
+                            scene.lights().pick_pmf(env, prev_point) * light.pdf(ray.dir);
+                        power_heuristic(prev_pdf, light_pdf)
+                    };
+                    let contribution = beta * le * weight;
+                    radiance += contribution;
+                    add_throughput_terms(dbeta, le * weight, adjoint, gradient);
+                    add_light_terms(map, env, contribution, adjoint, gradient);
+                }
+            }
+            return radiance;
+        };
+        let mesh = &scene.meshes()[hit.geom_id as usize];
+        let p = ray.org + hit.t * ray.dir;
+        let wo = -ray.dir;
+        let ng = hit.ng.normalize_or_zero();
+        let facing = if ng.dot(wo) >= 0.0 { ng } else { -ng };
+        let material = &scene.materials()[mesh.material as usize];
+        let surface = SurfacePoint::new(mesh, &hit, !material.textures.is_empty());
+        let textured;
+        let bsdf = if material.textures.is_empty() {
+            &material.bsdf
+        } else {
+            textured = material.bsdf_at(surface.uv);
+            &textured
+        };
+        let guard = surface.normal.is_some();
+        let n = if bsdf.transmits() { ng } else { facing };
+        let shading_n = surface.shading_normal(n, wo);
+
+        if let Some(li) = scene.light_index(hit.geom_id, hit.prim_id) {
+            if let Light::Triangle(tl) = &scene.lights().lights[li] {
+                let le = tl.emitted(wo);
+                if le != Vec3::ZERO {
+                    let prev = PrevVertex {
+                        depth,
+                        pdf: prev_pdf,
+                        point: prev_point,
+                    };
+                    let weight = emission_weight(scene, li, &prev, p, ray.dir);
+                    let contribution = beta * le * weight;
+                    radiance += contribution;
+                    add_throughput_terms(dbeta, le * weight, adjoint, gradient);
+                    add_light_terms(map, li, contribution, adjoint, gradient);
+                }
+            }
+        }
+
+        if depth >= max_depth {
+            return radiance;
+        }
+        let slots = &map.materials[mesh.material as usize];
+        let differentiable = map.material_has_slots(mesh.material);
+        // A material whose anisotropy is a parameter needs its tangent frame
+        // even while the anisotropy is 0.
+        let frame = if bsdf.is_anisotropic()
+            || slots[crate::bsdf::BsdfParam::Anisotropic as usize].is_some()
+        {
+            Frame::from_normal_tangent(shading_n, surface.tangent(mesh, &hit))
+        } else {
+            Frame::from_normal(shading_n)
+        };
+        let wo_local = frame.to_local(wo);
+        let eps = ray_epsilon(p);
+        let transmits = bsdf.transmits();
+        let origin_for = |dir: Vec3| {
+            if transmits {
+                spawn_origin(p, n, eps, dir)
+            } else {
+                p + n * eps
+            }
+        };
+
+        let light_pick = if bsdf.is_delta() {
+            None
+        } else {
+            scene.lights().pick(p, rng.next_2d())
+        };
+        if let Some((li, pick_pmf)) = light_pick {
+            let u = rng.next_2d();
+            if let Some(ls) = scene.lights().lights[li].sample_li(p, u) {
+                let wi_local = frame.to_local(ls.wi);
+                let leaks = guard && !sides_agree(wo, ls.wi, ng, wo_local, wi_local);
+                let (f, bsdf_pdf) = if leaks {
+                    (Vec3::ZERO, 0.0)
+                } else if ls.delta {
+                    (bsdf.eval(wo_local, wi_local), 0.0)
+                } else {
+                    bsdf.eval_pdf(wo_local, wi_local)
+                };
+                let cos = wi_local.z.abs();
+                let fc = f * cos;
+                // A zero BSDF value may still have a derivative (a black
+                // albedo): the differentiable case goes on to its shadow ray.
+                let dfc =
+                    (differentiable && !leaks).then(|| bsdf.eval_gradient(wo_local, wi_local));
+                let any_derivative = dfc.is_some_and(|g| g.d.iter().any(|d| *d != Vec3::ZERO));
+                if fc != Vec3::ZERO || any_derivative {
+                    let light_pdf = pick_pmf * ls.pdf;
+                    let weight = if ls.delta {
+                        1.0
+                    } else {
+                        power_heuristic(light_pdf, bsdf_pdf)
+                    };
+                    let origin = origin_for(ls.wi);
+                    let (dir, tfar) = shadow_segment(origin, p, ls.wi, ls.dist);
+                    let shadow = Ray {
+                        org: origin,
+                        dir,
+                        tnear: 0.0,
+                        tfar,
+                    };
+                    if shadow.tfar > 0.0 {
+                        let mut sr = [ShadowRay::masked(shadow, mask)];
+                        scene.accel().occluded_each(&mut sr);
+                        if !sr[0].occluded() {
+                            // As the general integrator: β·f·L·(w/p).
+                            let scale = weight / light_pdf;
+                            let contribution = beta * fc * ls.radiance * scale;
+                            radiance += contribution;
+                            let x = fc * ls.radiance * scale;
+                            add_throughput_terms(dbeta, x, adjoint, gradient);
+                            add_light_terms(map, li, contribution, adjoint, gradient);
+                            if let Some(g) = dfc {
+                                let ax = adjoint * beta * ls.radiance * (cos * scale);
+                                for (k, slot) in slots.iter().enumerate() {
+                                    if let Some(slot) = slot {
+                                        gradient[*slot as usize] += ax.dot(g.d[k]) as f64;
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+
+        if depth + 1 == max_depth && !scene.has_hittable_lights() {
+            return radiance;
+        }
+        let uc = rng.next_f32();
+        let Some(bs) = bsdf.sample(wo_local, uc, rng.next_2d()) else {
+            return radiance;
+        };
+        let wi = frame.to_world(bs.wi);
+        if guard && !sides_agree(wo, wi, ng, wo_local, bs.wi) {
+            return radiance;
+        }
+        // ∂β' = ∂β·w + β·∂f·|cos θ|/p (detached p), with the old β.
+        for d in dbeta.iter_mut() {
+            *d *= bs.weight;
+        }
+        if differentiable && !bs.delta && bs.pdf > 0.0 {
+            let g = bsdf.eval_gradient(wo_local, bs.wi);
+            let k = bs.wi.z.abs() / bs.pdf;
+            for (slot, d) in slots.iter().zip(g.d) {
+                if let Some(slot) = slot {
+                    dbeta[*slot as usize] += beta * d * k;
+                }
+            }
+        }
+        beta *= bs.weight;
+        prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
+        prev_point = p;
+        depth += 1;
+        if roulette_spins(beta, depth >= RUSSIAN_ROULETTE_DEPTH) {
+            let q = beta.max_element();
+            let (survives, b) = roulette(beta, rng.next_f32());
+            if !survives {
+                return radiance;
+            }
+            beta = b;
+            for d in dbeta.iter_mut() {
+                *d /= q;
+            }
+        }
+        if beta == Vec3::ZERO && dbeta.iter().all(|d| *d == Vec3::ZERO) {
+            return radiance;
+        }
+        ray = Ray::new(origin_for(wi), wi);
+    }
+}
