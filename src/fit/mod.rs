@@ -213,6 +213,9 @@ pub struct Fit {
     /// Per gradient slot: whether any iteration saw a non-zero derivative.
     seen: Vec<bool>,
     max_depth: u32,
+    /// Sums of the values reached in the last tenth of the iterations, and
+    /// their count (Polyak–Ruppert averaging, [`Fit::finish`]).
+    averages: (Vec<f64>, u32),
 }
 
 impl Fit {
@@ -252,6 +255,7 @@ impl Fit {
         Ok(Fit {
             adam: Adam::new(n, options.learning_rate),
             seen: vec![false; n],
+            averages: (vec![0.0; n], 0),
             scene,
             views,
             params,
@@ -402,12 +406,21 @@ impl Fit {
         }
         self.adam.step(&mut x, &g, &lo, &hi);
         let mut k = 0;
+        let average = index >= self.average_from();
         for i in 0..self.params.len() {
             let n = self.params[i].value.len();
             let new: Vec<f32> = (0..n).map(|j| (x[k + j] * unit[k + j]) as f32).collect();
+            if average {
+                for (j, v) in new.iter().enumerate() {
+                    self.averages.0[k + j] += *v as f64;
+                }
+            }
             k += n;
             params::apply(&mut self.scene, &self.params[i], &new)?;
             self.params[i].value = new;
+        }
+        if average {
+            self.averages.1 += 1;
         }
         Ok(Iteration {
             index,
@@ -415,6 +428,37 @@ impl Fit {
             gradient,
             seconds: start.elapsed().as_secs_f64(),
         })
+    }
+
+    /// The first iteration whose values are averaged: the last tenth of
+    /// `options.iterations` (at least one).
+    fn average_from(&self) -> u32 {
+        let n = self.options.iterations;
+        n - (n / 10).max(1).min(n)
+    }
+
+    /// Ends the fit: every parameter takes the mean of the values the last
+    /// tenth of the iterations reached (Polyak–Ruppert averaging), which
+    /// removes most of the noise that few-sample gradients leave in the
+    /// last iterate. Does nothing if those iterations have not run.
+    pub fn finish(&mut self) -> Result<()> {
+        let count = self.averages.1;
+        if count == 0 {
+            return Ok(());
+        }
+        let mut k = 0;
+        for i in 0..self.params.len() {
+            let n = self.params[i].value.len();
+            let (lo, hi) = self.params[i].bounds;
+            let mean: Vec<f32> = (0..n)
+                .map(|j| ((self.averages.0[k + j] / count as f64) as f32).clamp(lo, hi))
+                .collect();
+            k += n;
+            params::apply(&mut self.scene, &self.params[i], &mean)?;
+            self.params[i].value = mean;
+        }
+        self.averages = (vec![0.0; k], 0);
+        Ok(())
     }
 
     /// Warnings about parameters no photo pixel saw (their gradient was
@@ -439,7 +483,7 @@ pub struct FitOutcome {
     /// The parameters with their fitted values (and where they started).
     pub parameters: Vec<Parameter>,
     /// The loss after each number of steps (`iterations + 1` values; the
-    /// last is measured after the last step).
+    /// last is measured at the fitted values, after [`Fit::finish`]).
     pub losses: Vec<f64>,
     /// Parameters no photo pixel saw, exposures fitted, …
     pub warnings: Vec<String>,
@@ -517,6 +561,7 @@ pub fn fit_scene_file(
             return Err(Error::Cancelled);
         }
     }
+    fit.finish()?;
     losses.push(fit.loss(options.seed.wrapping_add(2 * options.iterations as u64))?);
     warnings.extend(fit.warnings());
     let fitted = write::fitted_files(path, fit.scene(), fit.parameters(), out)?;

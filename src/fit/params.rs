@@ -8,7 +8,7 @@
 //! | --- | --- |
 //! | a `diffuse` material's name | `reflectance` (RGB) |
 //! | a `principled` material's name | `base_color` (RGB), `roughness`, `metallic`, `anisotropic`, `specular` |
-//! | a PLS light (`pls[i]/NAME`, or `NAME` alone) | `b`, `c` (RGB) |
+//! | a PLS light: its `name`, else `pls[i]/lights[k]` | `b`, `c` (RGB) |
 //! | a point light, `lights[i]` | `intensity` (RGB) |
 //! | an emitting shape's name | `emission` (RGB) |
 //! | `environment` | `scale` |
@@ -81,11 +81,6 @@ impl Parameter {
             _ => Vec3::ZERO,
         }
     }
-}
-
-/// The short name of a PLS light's mesh (`pls[0]/lamp` → `lamp`).
-fn short_name(name: &str) -> &str {
-    name.rsplit('/').next().unwrap_or(name)
 }
 
 /// Whether `text` matches `pattern`, where `*` matches any run of
@@ -197,8 +192,8 @@ fn candidates(scene: &Scene, environment_scale: f32) -> Vec<Candidate> {
     let mut out = Vec::new();
     // Materials seen by the real (not virtual) surfaces, and not emitters'.
     let mut used = vec![false; scene.materials().len()];
-    for m in scene.meshes() {
-        if !m.is_virtual && m.pls.is_none() {
+    for (i, m) in scene.meshes().iter().enumerate() {
+        if !m.is_virtual && m.pls.is_none() && scene.mesh_lights(i).is_none() {
             used[m.material as usize] = true;
         }
     }
@@ -233,9 +228,15 @@ fn candidates(scene: &Scene, environment_scale: f32) -> Vec<Candidate> {
     for (mesh, table, light) in pls_lights(scene) {
         let m = &scene.meshes()[mesh];
         let Some(pls) = &m.pls else { continue };
-        let alias = Some(format!("{}.", short_name(&m.name)));
+        // Named by the light's name where it has one (`lamp.b`), else by its
+        // place (`pls[0]/lights[1].b`); the mesh's full name also matches.
+        let owner_name = match &pls.light.name {
+            Some(n) => n.clone(),
+            None => format!("pls[{table}]/lights[{light}]"),
+        };
+        let alias = Some(format!("{}.", m.name));
         out.push(Candidate {
-            name: format!("{}.b", m.name),
+            name: format!("{owner_name}.b"),
             alias: alias.clone().map(|a| a + "b"),
             owner: Owner::Pls { mesh, table, light },
             field: "b",
@@ -245,7 +246,7 @@ fn candidates(scene: &Scene, environment_scale: f32) -> Vec<Candidate> {
             refusal: None,
         });
         out.push(Candidate {
-            name: format!("{}.c", m.name),
+            name: format!("{owner_name}.c"),
             alias: alias.map(|a| a + "c"),
             owner: Owner::Pls { mesh, table, light },
             field: "c",
