@@ -92,7 +92,7 @@ fn bsdf_derivatives_match_central_differences() {
             0.0,
         )),
     ];
-    let mut rng = Rng::new(0x0915_15, 1);
+    let mut rng = Rng::new(0x0009_1515, 1);
     let h = 1e-3;
     let mut checked = [0usize; BSDF_PARAMS];
     for bsdf in &models {
