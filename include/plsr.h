@@ -78,6 +78,10 @@ typedef uint32_t plsr_result;
 // A rendered image (opaque): RGBA floats plus the film's layers.
 typedef struct plsr_image plsr_image;
 
+// Parameters of a scene selected for fitting (opaque): their names,
+// values, bounds and gradient slots. One thread at a time. Added in 0.5.0.
+typedef struct plsr_parameters plsr_parameters;
+
 // A scene ready to render (opaque). Immutable: may be rendered from several
 // threads at once.
 typedef struct plsr_scene plsr_scene;
@@ -99,6 +103,19 @@ typedef struct {
   // Worker threads; 0: all cores.
   uint32_t threads;
 } plsr_composite_settings;
+
+// How to estimate a gradient. Added in 0.5.0.
+typedef struct {
+  // Samples per pixel (of the primal render and of the gradient pass each).
+  uint32_t spp;
+  // Seed; the gradient pass uses `seed + 1`.
+  uint64_t seed;
+  // Worker threads; 0: all cores.
+  uint32_t threads;
+  // 1: hide the scene's virtual shapes (fitting the real surfaces to a
+  // photo of them); 0: render everything.
+  uint32_t hide_virtual;
+} plsr_gradient_settings;
 
 // Progress callback: `done` of `total` tiles are finished. Return `true` to
 // go on, `false` to cancel the render (it then fails with
@@ -194,6 +211,83 @@ plsr_result plsr_composite(const plsr_scene *scene,
                            const plsr_composite_settings *settings,
                            plsr_image **out,
                            float *exposure_out);
+
+// Selects the parameters of `scene` that `patterns` name (`count` C
+// strings such as `"wall.reflectance"`, `"*.roughness"`, `"lamp.b"`; with
+// `count` 0, the default: every real surface's colour, roughness, metallic
+// and anisotropic) into `*out`. An environment's `scale` is relative to
+// the scene as loaded (1). Added in 0.5.0.
+plsr_result plsr_parameters_select(const plsr_scene *scene,
+                                   const char *const *patterns,
+                                   size_t count,
+                                   plsr_parameters **out);
+
+// Frees a parameter set (`NULL` is ignored). Added in 0.5.0.
+plsr_result plsr_parameters_free(plsr_parameters *params);
+
+// The number of parameters (`*count`) and of floats they hold together
+// (`*len`: a colour has three), which is the length of every values,
+// bounds and gradient array. Either pointer may be `NULL`. Added in 0.5.0.
+plsr_result plsr_parameters_size(const plsr_parameters *params, size_t *count, size_t *len);
+
+// Parameter `index`: its name (`OWNER.FIELD`, owned by `params`, valid
+// until it is freed), its first float in the arrays (`*first`) and its
+// number of floats (`*size`, 1 or 3). Any out-pointer may be `NULL`.
+// Added in 0.5.0.
+plsr_result plsr_parameters_get(const plsr_parameters *params,
+                                size_t index,
+                                const char **name,
+                                size_t *first,
+                                size_t *size);
+
+// Copies the current values (`values`) and bounds (`lower`, `upper`) into
+// arrays of `len` floats (from [`plsr_parameters_size`]); any array may
+// be `NULL`. Added in 0.5.0.
+plsr_result plsr_parameters_values(const plsr_parameters *params,
+                                   float *values,
+                                   float *lower,
+                                   float *upper,
+                                   size_t len);
+
+// Sets the parameters of `scene` to `values` (`len` floats, laid out as
+// [`plsr_parameters_get`] says). Values outside a parameter's bounds are
+// refused, and nothing changes. Not while the scene is being rendered.
+// Added in 0.5.0.
+plsr_result plsr_parameters_set(plsr_scene *scene,
+                                plsr_parameters *params,
+                                const float *values,
+                                size_t len);
+
+// The gradient of `Σ_p adjoint_p · I_p` over the scene's render `I` with
+// respect to the parameters, into `gradient` (`len` floats): `adjoint`
+// holds `width × height` interleaved RGB floats (row-major from the top;
+// the camera's size), the derivative of the host's loss with respect to
+// each pixel's value. Uses `settings.seed` for its paths. Added in 0.5.0.
+plsr_result plsr_render_gradient(const plsr_scene *scene,
+                                 const plsr_parameters *params,
+                                 const float *adjoint,
+                                 uint32_t width,
+                                 uint32_t height,
+                                 const plsr_gradient_settings *settings,
+                                 float *gradient,
+                                 size_t len);
+
+// The mean squared error between the scene's render and `target`
+// (`width × height` interleaved linear RGB floats, the camera's size) over
+// the pixels where `mask` (one byte per pixel; `NULL`: every pixel) is not
+// 0, into `*loss`, and its gradient into `gradient` (`len` floats). The
+// render uses `settings.seed`, the gradient `settings.seed + 1`, so that
+// the gradient is unbiased. Added in 0.5.0.
+plsr_result plsr_loss_gradient(const plsr_scene *scene,
+                               const plsr_parameters *params,
+                               const float *target,
+                               const uint8_t *mask,
+                               uint32_t width,
+                               uint32_t height,
+                               const plsr_gradient_settings *settings,
+                               double *loss,
+                               float *gradient,
+                               size_t len);
 
 // Merges `count` bracketed photos (paths, any order, any format
 // OpenImageIO reads) into the HDR image `output` (`.exr` or `.hdr`).

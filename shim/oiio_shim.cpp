@@ -10,6 +10,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <vector>
 #include <exception>
 #include <memory>
 #include <string>
@@ -164,8 +165,29 @@ extern "C" int plsr_oiio_read_rows(plsr_oiio_input *in, int ybegin, int yend, in
         }
         if (ybegin == yend)
             return PLSR_OIIO_OK;
-        bool ok = in->in->read_scanlines(in->in->current_subimage(), in->in->current_miplevel(),
-                                         s.y + ybegin, s.y + yend, s.z, 0, s.nchannels, t, data);
+        bool ok;
+        if (s.tile_width > 0 && s.tile_height > 0) {
+            // A tiled file (OpenImageIO 2.4's read_scanlines divides by zero
+            // on some): read the rows of tiles that cover the range, then
+            // copy the rows asked for.
+            int th = s.tile_height;
+            int y0 = ybegin - ybegin % th;
+            int y1 = ((yend + th - 1) / th) * th;
+            if (y1 > s.height)
+                y1 = s.height;
+            size_t row = size_t(s.width) * size_t(s.nchannels) * t.size();
+            std::vector<unsigned char> buf(size_t(y1 - y0) * row);
+            int z1 = s.z + (s.depth > 0 ? s.depth : 1);
+            ok = in->in->read_tiles(in->in->current_subimage(), in->in->current_miplevel(), s.x,
+                                    s.x + s.width, s.y + y0, s.y + y1, s.z, z1, 0, s.nchannels, t,
+                                    buf.data());
+            if (ok)
+                std::memcpy(data, buf.data() + size_t(ybegin - y0) * row,
+                            size_t(yend - ybegin) * row);
+        } else {
+            ok = in->in->read_scanlines(in->in->current_subimage(), in->in->current_miplevel(),
+                                        s.y + ybegin, s.y + yend, s.z, 0, s.nchannels, t, data);
+        }
         if (!ok) {
             std::string m = in->in->geterror();
             if (m.empty())

@@ -73,6 +73,7 @@ fn c_program_checks_every_error_path() {
         .arg(format!("-I{}", root().join("include").display()))
         .arg(format!("-L{}", lib.display()))
         .arg("-lplsr")
+        .arg("-lm")
         .arg(format!("-Wl,-rpath,{}", lib.display())));
     let out = run(Command::new(&exe).arg(dir.path()));
     assert!(String::from_utf8_lossy(&out.stdout).contains("all C API error checks passed"));

@@ -27,12 +27,14 @@
 //! degrees for angles, linear RGB, row-major 4×4 matrices.
 
 mod composite;
+mod fit;
 mod hdr;
 mod image;
 mod pls;
 mod scene;
 
 pub use composite::*;
+pub use fit::*;
 pub use hdr::*;
 pub use image::*;
 pub use pls::*;

@@ -148,6 +148,47 @@ pub fn surface_mask(scene: &Scene, camera: &Camera) -> Vec<bool> {
     mask
 }
 
+/// The squared error `Σ_{p ∈ mask} |I_p − target_p|² / terms` of the
+/// scene's render `I` (the primal job) and its gradient per slot of `map`
+/// (from the gradient job, which must have another seed). `target` and
+/// `mask` are row-major over the scene's camera.
+pub fn squared_error_gradient(
+    scene: &Scene,
+    map: &GradientMap,
+    target: &[Vec3],
+    mask: &[bool],
+    (primal, gradient_job): (&RenderJob, &RenderJob),
+    options: &RenderOptions,
+    terms: f64,
+) -> Result<(f64, Vec<f64>)> {
+    let n = (scene.camera().width() * scene.camera().height()) as usize;
+    if target.len() != n || mask.len() != n {
+        return Err(Error::InvalidArgument(format!(
+            "the target has {} pixels and the mask {}, the camera {n}",
+            target.len(),
+            mask.len()
+        )));
+    }
+    let (sums, _) = render_sums(scene, primal, options, &|_, _| true)?;
+    let (w, h) = (sums.width(), sums.height());
+    let mut loss = 0.0;
+    let mut adjoint = vec![Vec3::ZERO; n];
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            if !mask[i] {
+                continue;
+            }
+            let p = sums.pixel(x, y);
+            let d = (p.sum / p.samples.max(1) as f64).as_vec3() - target[i];
+            loss += d.as_dvec3().dot(d.as_dvec3());
+            adjoint[i] = d * (2.0 / terms as f32);
+        }
+    }
+    let r = render_gradient(scene, gradient_job, options, map, &adjoint, false)?;
+    Ok((loss / terms, r.gradient))
+}
+
 /// Projected Adam over a flat vector of numbers.
 #[derive(Debug, Clone)]
 pub struct Adam {
@@ -340,31 +381,26 @@ impl Fit {
         let terms = self.terms();
         let mut loss = 0.0;
         let mut gradient = vec![0.0f64; map.len];
+        let (primal, gradient_job) = (self.job(seed), self.job(seed.wrapping_add(1)));
+        let options = self.render_options();
         for v in 0..self.views.len() {
-            let image = self.render_view(v, seed)?;
+            self.scene.set_camera(self.views[v].camera.clone());
             let view = &self.views[v];
-            let mut adjoint = vec![Vec3::ZERO; image.len()];
-            for (i, (c, t)) in image.iter().zip(&view.target).enumerate() {
-                if view.mask[i] {
-                    let d = *c - *t;
-                    loss += d.as_dvec3().dot(d.as_dvec3());
-                    adjoint[i] = d * (2.0 / terms as f32);
-                }
-            }
-            let job = self.job(seed.wrapping_add(1));
-            let r = render_gradient(
+            let (l, g) = squared_error_gradient(
                 &self.scene,
-                &job,
-                &self.render_options(),
                 &map,
-                &adjoint,
-                false,
+                &view.target,
+                &view.mask,
+                (&primal, &gradient_job),
+                &options,
+                terms,
             )?;
-            for (g, x) in gradient.iter_mut().zip(&r.gradient) {
-                *g += x;
+            loss += l;
+            for (a, b) in gradient.iter_mut().zip(&g) {
+                *a += b;
             }
         }
-        Ok((loss / terms, gradient))
+        Ok((loss, gradient))
     }
 
     /// One iteration: the loss and gradient at the current values, then a

@@ -3,6 +3,7 @@
  * failure prints what went wrong. Built and run by tests/capi.rs. */
 #include "plsr.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -227,6 +228,89 @@ int main(int argc, char **argv) {
         failures++;
     }
     EXPECT(plsr_scene_free(ar), PLSR_OK, NULL);
+
+    /* Gradients for a host's own optimiser (added in 0.5.0): find a floor's
+       reflectance from a render of it. */
+    snprintf(path, sizeof path, "%s/fit.toml", tmp);
+    f = fopen(path, "w");
+    fputs("[render]\nspp = 4\nmax_depth = 2\n[camera]\nposition = [0, -4, 3]\nlook_at = [0, 0, 0]\n"
+          "up = [0, 0, 1]\nvfov = 40\nresolution = [16, 12]\n"
+          "[[materials]]\nname = \"floor\"\ntype = \"diffuse\"\nreflectance = [0.3, 0.3, 0.3]\n"
+          "[[shapes]]\ntype = \"rectangle\"\nmaterial = \"floor\"\ntransform = { scale = 3 }\n"
+          "[[lights]]\ntype = \"point\"\nposition = [1, -1, 3]\nintensity = [6, 6, 6]\n", f);
+    fclose(f);
+    plsr_scene *fs = NULL;
+    EXPECT(plsr_scene_load(path, &fs), PLSR_OK, NULL);
+    plsr_parameters *params = NULL;
+    const char *bad_pattern[] = {"ceiling.*"};
+    EXPECT(plsr_parameters_select(fs, bad_pattern, 1, &params), PLSR_ERR_INVALID_ARGUMENT, "available: floor.reflectance");
+    EXPECT(plsr_parameters_select(fs, NULL, 1, &params), PLSR_ERR_NULL_ARGUMENT, "patterns");
+    const char *pattern[] = {"floor.reflectance"};
+    EXPECT(plsr_parameters_select(fs, pattern, 1, &params), PLSR_OK, NULL);
+    size_t count = 0, len = 0, first = 9, size = 0;
+    const char *pname = NULL;
+    EXPECT(plsr_parameters_size(params, &count, &len), PLSR_OK, NULL);
+    EXPECT(plsr_parameters_get(params, 0, &pname, &first, &size), PLSR_OK, NULL);
+    EXPECT(plsr_parameters_get(params, 1, &pname, &first, &size), PLSR_ERR_INVALID_ARGUMENT, "1 parameters");
+    if (count != 1 || len != 3 || first != 0 || size != 3 || strcmp(pname, "floor.reflectance") != 0) {
+        fprintf(stderr, "parameters: %zu %zu %zu %zu %s\n", count, len, first, size, pname);
+        failures++;
+    }
+    float value[3], lower[3], upper[3];
+    EXPECT(plsr_parameters_values(params, value, lower, upper, 2), PLSR_ERR_INVALID_ARGUMENT, "3 floats");
+    EXPECT(plsr_parameters_values(params, value, lower, upper, 3), PLSR_OK, NULL);
+    if (value[1] != 0.3f || lower[1] != 0.0f || upper[1] != 1.0f) {
+        fprintf(stderr, "values %g in [%g, %g]\n", value[1], lower[1], upper[1]);
+        failures++;
+    }
+    const float above[3] = {0.6f, 1.5f, 0.6f};
+    EXPECT(plsr_parameters_set(fs, params, above, 3), PLSR_ERR_INVALID_ARGUMENT, "must be in [0, 1]");
+    /* The target: the floor at 0.6. */
+    const float truth[3] = {0.6f, 0.6f, 0.6f};
+    EXPECT(plsr_parameters_set(fs, params, truth, 3), PLSR_OK, NULL);
+    plsr_image *target_img = NULL;
+    plsr_render_settings rs = {256, 2, 99, 0};
+    EXPECT(plsr_render_with_settings(fs, &rs, 1, NULL, NULL, &target_img), PLSR_OK, NULL);
+    const float *rgba = plsr_image_rgba(target_img);
+    float target[16 * 12 * 3];
+    for (int i = 0; i < 16 * 12; ++i)
+        for (int c = 0; c < 3; ++c) target[3 * i + c] = rgba[4 * i + c];
+    EXPECT(plsr_image_free(target_img), PLSR_OK, NULL);
+    const float start[3] = {0.3f, 0.3f, 0.3f};
+    EXPECT(plsr_parameters_set(fs, params, start, 3), PLSR_OK, NULL);
+    plsr_gradient_settings gs = {16, 1, 1, 0};
+    double loss = -1.0, first_loss = -1.0;
+    float grad[3];
+    EXPECT(plsr_loss_gradient(fs, params, target, NULL, 8, 12, &gs, &loss, grad, 3), PLSR_ERR_INVALID_ARGUMENT, "16×12");
+    EXPECT(plsr_loss_gradient(fs, params, target, NULL, 16, 12, &gs, NULL, grad, 3), PLSR_ERR_NULL_ARGUMENT, "loss");
+    float adjoint[16 * 12 * 3];
+    for (int i = 0; i < 16 * 12 * 3; ++i) adjoint[i] = 1.0f;
+    EXPECT(plsr_render_gradient(fs, params, adjoint, 16, 12, &gs, grad, 3), PLSR_OK, NULL);
+    if (!(grad[0] > 0.0f && grad[1] > 0.0f && grad[2] > 0.0f)) {
+        fprintf(stderr, "d(sum of pixels)/d(reflectance) = %g %g %g\n", grad[0], grad[1], grad[2]);
+        failures++;
+    }
+    /* Plain gradient descent, the host's own optimiser. */
+    float x[3] = {0.3f, 0.3f, 0.3f};
+    for (int it = 0; it < 40; ++it) {
+        gs.seed = 2 * (uint64_t)it;
+        EXPECT(plsr_loss_gradient(fs, params, target, NULL, 16, 12, &gs, &loss, grad, 3), PLSR_OK, NULL);
+        if (it == 0) first_loss = loss;
+        for (int c = 0; c < 3; ++c) {
+            float step = grad[c] > 0.0f ? 0.02f : (grad[c] < 0.0f ? -0.02f : 0.0f);
+            x[c] -= step;
+            if (x[c] < 0.0f) x[c] = 0.0f;
+            if (x[c] > 1.0f) x[c] = 1.0f;
+        }
+        EXPECT(plsr_parameters_set(fs, params, x, 3), PLSR_OK, NULL);
+    }
+    if (fabsf(x[1] - 0.6f) > 0.05f || !(loss < first_loss)) {
+        fprintf(stderr, "fitted reflectance %g (want 0.6), loss %g → %g\n", x[1], first_loss, loss);
+        failures++;
+    }
+    EXPECT(plsr_parameters_free(params), PLSR_OK, NULL);
+    EXPECT(plsr_parameters_free(params), PLSR_ERR_INVALID_HANDLE, "not a live handle");
+    EXPECT(plsr_scene_free(fs), PLSR_OK, NULL);
 
     if (failures) {
         fprintf(stderr, "%d failure(s)\n", failures);

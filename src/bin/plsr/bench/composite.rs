@@ -70,7 +70,7 @@ virtual = true
 /// commands run.
 /// Returns the ratio composite / render (the target: ≤ 2.1×).
 pub fn run(threads: Option<usize>) -> Result<f64> {
-    let dir = tempfile_dir()?;
+    let dir = super::bench_dir("composite")?;
     let scene_path = dir.join("room.toml");
     // The "photo": the room without the object, from other samples.
     write(&scene_path, &ROOM.replace("PHOTO", ""))?;
@@ -138,16 +138,6 @@ pub fn run(threads: Option<usize>) -> Result<f64> {
         );
     }
     Ok(ratio)
-}
-
-/// A fresh folder under the system's temporary folder.
-fn tempfile_dir() -> Result<std::path::PathBuf> {
-    let dir = std::env::temp_dir().join(format!("plsr-bench-composite-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).map_err(|source| Error::Io {
-        file: dir.clone(),
-        source,
-    })?;
-    Ok(dir)
 }
 
 /// Writes a scene file of the benchmark.

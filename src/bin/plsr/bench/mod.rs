@@ -2,11 +2,13 @@
 //! on the same work. One module per suite: `core` (Embree rays and path
 //! tracing against Embree's own `pathtracer`), `pls` (PLS transforms and the
 //! window's cost), `materials` (diffuse against principled), `hdr`
-//! (bracket merging against OpenCV) and `composite` (a composite against
-//! one render).
+//! (bracket merging against OpenCV), `composite` (a composite against
+//! one render) and `fit` (an Adam iteration of `plsr fit` against one
+//! render, and against Mitsuba 3's `prb`).
 
 mod composite;
 mod core;
+mod fit;
 mod hdr;
 mod materials;
 mod pls;
@@ -20,8 +22,10 @@ pub struct BenchArgs {
     /// Which benchmark: `core`, `pls`, `materials` (all-diffuse versus
     /// all-principled Cornell box), `hdr` (merging 10 brackets at
     /// 6720×3360, plsr against OpenCV's MergeDebevec) or `composite` (a
-    /// composite against one render of the same scene).
-    #[arg(default_value = "core", value_parser = ["core", "pls", "materials", "hdr", "composite"])]
+    /// composite against one render of the same scene) or `fit` (an Adam
+    /// iteration of `plsr fit` against one render, and against Mitsuba 3's
+    /// `prb` when it is installed).
+    #[arg(default_value = "core", value_parser = ["core", "pls", "materials", "hdr", "composite", "fit"])]
     pub suite: String,
     /// Image size for `plsr bench hdr`, WIDTHxHEIGHT.
     #[arg(long, default_value = "6720x3360")]
@@ -30,7 +34,11 @@ pub struct BenchArgs {
     /// if it already holds them). Default: a temporary folder, removed.
     #[arg(long)]
     pub hdr_dir: Option<PathBuf>,
-    /// Python interpreter with OpenCV for `plsr bench hdr`.
+    /// Timed Adam iterations for `plsr bench fit`.
+    #[arg(long, default_value_t = 5)]
+    pub iterations: u32,
+    /// Python interpreter with OpenCV for `plsr bench hdr` (and Mitsuba 3
+    /// for `plsr bench fit`).
     #[arg(long, default_value = "python3")]
     pub python: PathBuf,
     /// The plsr scene reproducing Embree's demo configuration.
@@ -65,6 +73,12 @@ pub fn run(a: BenchArgs) -> Result<()> {
         "pls" => pls::run(a.threads),
         "materials" => materials::run(a.threads).map(|_| ()),
         "composite" => composite::run(a.threads).map(|_| ()),
+        "fit" => fit::run(&fit::FitBenchOptions {
+            threads: a.threads,
+            python: (!a.no_peer).then_some(a.python),
+            iterations: a.iterations,
+        })
+        .map(|_| ()),
         "hdr" => {
             let (width, height) = parse_size(&a.hdr_size)?;
             hdr::run(&hdr::HdrBenchOptions {
@@ -101,4 +115,15 @@ fn parse_size(s: &str) -> Result<(usize, usize)> {
         return Err(bad());
     }
     Ok((w, h))
+}
+
+/// A fresh temporary folder for suite `suite`'s files (the caller removes
+/// it).
+fn bench_dir(suite: &str) -> Result<PathBuf> {
+    let dir = std::env::temp_dir().join(format!("plsr-bench-{suite}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|source| Error::Io {
+        file: dir.clone(),
+        source,
+    })?;
+    Ok(dir)
 }
