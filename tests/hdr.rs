@@ -555,3 +555,30 @@ fn oiio_errors_are_errors_with_its_message() {
     .unwrap_err();
     assert!(e.to_string().contains("x.unknownformat"), "{e}");
 }
+
+/// OpenImageIO 2.4 divides by zero (SIGFPE) reading scanlines of some
+/// tiled EXR files, such as the `exr` crate writes by default: plsr reads
+/// tiled files by tiles, whole or a few rows at a time.
+#[test]
+fn tiled_exr_files_are_read_by_tiles() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("tiled.exr");
+    let (w, h) = (150usize, 100usize);
+    let value = |x: usize, y: usize| (x as f32 * 0.25, y as f32 * 0.5, (x + y) as f32);
+    exr::prelude::write_rgb_file(&path, w, h, value).unwrap();
+    let mut r = ImageReader::open(&path).unwrap();
+    assert_eq!((r.info().width, r.info().height), (w, h));
+    let px: Vec<f32> = r.read_all().unwrap();
+    let c = r.info().channels;
+    for (x, y) in [(0, 0), (149, 0), (64, 63), (65, 64), (149, 99)] {
+        let i = (y * w + x) * c;
+        let (r_, g, b) = value(x, y);
+        assert_eq!(&px[i..i + 3], &[r_, g, b], "pixel ({x}, {y})");
+    }
+    // Rows that straddle a tile boundary.
+    let mut r = ImageReader::open(&path).unwrap();
+    let mut rows = vec![0f32; 3 * w * c];
+    r.read_rows(62, 65, &mut rows).unwrap();
+    let i = (2 * w + 7) * c;
+    assert_eq!(rows[i + 1], 64.0 * 0.5);
+}
