@@ -693,6 +693,19 @@ fn photo_section() -> BoxedStrategy<String> {
         .boxed()
 }
 
+/// A `[[views]]` entry: a camera and a photo, as sub-tables.
+fn view_section() -> BoxedStrategy<String> {
+    (camera_section(), photo_section())
+        .prop_map(|(camera, photo)| {
+            format!(
+                "[[views]]\n{}{}",
+                camera.replacen("[camera]", "[views.camera]", 1),
+                photo.replacen("[photo]", "[views.photo]", 1)
+            )
+        })
+        .boxed()
+}
+
 fn environment_section() -> BoxedStrategy<String> {
     let source = prop_oneof![
         mostly(good_colour(), colour()).prop_map(|r| format!("radiance = {r}\n")),
@@ -731,15 +744,16 @@ fn scene_text() -> impl Strategy<Value = String> {
                 prop::option::weighted(0.3, film_section()),
                 prop::option::weighted(0.4, environment_section()),
                 prop::option::weighted(0.15, photo_section()),
+                prop::option::weighted(0.1, view_section()),
                 materials,
                 prop::collection::vec(shape_section(names), n_shapes),
                 prop::collection::vec(light_section(), n_lights),
                 prop::collection::vec(pls_section(), n_pls),
             )
         })
-        .prop_map(|(r, c, f, e, photo, m, s, l, p)| {
+        .prop_map(|(r, c, f, e, photo, view, m, s, l, p)| {
             let mut text = String::new();
-            for part in [r, c, f, e, photo].into_iter().flatten() {
+            for part in [r, c, f, e, photo, view].into_iter().flatten() {
                 text += &part;
             }
             for part in m.iter().chain(&s).chain(&l).chain(&p) {

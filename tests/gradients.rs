@@ -100,7 +100,12 @@ fn bsdf_derivatives_match_central_differences() {
         for _ in 0..200 {
             let (wo, wi) = (random_direction(&mut rng), random_direction(&mut rng));
             let g = bsdf.eval_gradient(wo, wi);
-            assert_eq!(g.f, bsdf.eval(wo, wi), "the value is eval's");
+            let f = bsdf.eval(wo, wi);
+            assert!(
+                (g.f - f).abs().max_element() <= 1e-5 * (1.0 + f.max_element()),
+                "the value {} is eval's {f}",
+                g.f
+            );
             for p in support {
                 let k = *p as usize;
                 // One-sided at the ends of a parameter's range, where the

@@ -47,7 +47,8 @@ pub enum BsdfParam {
     Specular = 6,
 }
 
-/// A BSDF value and its derivatives.
+/// A BSDF value and its derivatives (the value as [`Bsdf::eval`] gives it,
+/// up to rounding).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BsdfGradient {
     /// `f(wo, wi)` (1/sr), without the cosine.
@@ -175,7 +176,6 @@ fn principled_gradient(p: &PrincipledParams, wo: Vec3, wi: Vec3) -> BsdfGradient
         return BsdfGradient::ZERO;
     }
     let mut g = BsdfGradient::ZERO;
-    g.f = p.eval(wo, wi);
     let h = (wo + wi).normalize();
     let m = p.microfacet();
     let cos_d = wi.dot(h);
@@ -229,6 +229,9 @@ fn principled_gradient(p: &PrincipledParams, wo: Vec3, wi: Vec3) -> BsdfGradient
     let retro = rr * (fo + fi + fo * fi * (rr - 1.0));
     let b = (1.0 - 0.5 * fo) * (1.0 - 0.5 * fi) + retro;
     let diffuse_weight = FRAC_1_PI * (1.0 - metal);
+
+    // The value, from the same pieces.
+    g.f = p.base_color * (diffuse_weight * b) + fresnel * k;
 
     // Colour channels.
     for c in 0..3 {

@@ -134,7 +134,7 @@ pub fn gradient_tile(
         n
     ];
     let mut gradient = vec![0.0f64; map.len];
-    let mut dbeta = vec![Vec3::ZERO; map.len];
+    let mut dbeta = ThroughputDerivative::new(map.len);
     let ctx = Context { scene, job, map };
     // The sensor response is linear (`s·W·L`), so the adjoint of a path's
     // radiance is `s·Wᵀ·adjoint`, over the samples it is averaged with.
@@ -155,7 +155,7 @@ pub fn gradient_tile(
                 let (rng, Some(ray)) = camera_sample(scene, job.seed, lens_sample, x, y, s) else {
                     continue;
                 };
-                dbeta.fill(Vec3::ZERO);
+                dbeta.clear();
                 let radiance = trace_path(&ctx, rng, ray, a, &mut dbeta, &mut gradient);
                 pixels[(py * tile.width + px) as usize].add_radiance(response.apply(radiance));
             }
@@ -168,13 +168,64 @@ pub fn gradient_tile(
     }
 }
 
-/// Adds `adjoint · (∂β·x)` for every slot: the part of a contribution
-/// `β·x` that the earlier vertices' parameters change.
-#[inline]
-fn add_throughput_terms(dbeta: &[Vec3], x: Vec3, adjoint: Vec3, gradient: &mut [f64]) {
-    let ax = adjoint * x;
-    for (g, d) in gradient.iter_mut().zip(dbeta) {
-        *g += ax.dot(*d) as f64;
+/// `∂β` of one path per gradient slot, sparse: only the slots the path's
+/// vertices have touched are visited (a path over surfaces without
+/// parameters costs nothing).
+struct ThroughputDerivative {
+    d: Vec<Vec3>,
+    touched: Vec<u32>,
+    is_touched: Vec<bool>,
+}
+
+impl ThroughputDerivative {
+    fn new(len: usize) -> ThroughputDerivative {
+        ThroughputDerivative {
+            d: vec![Vec3::ZERO; len],
+            touched: Vec::new(),
+            is_touched: vec![false; len],
+        }
+    }
+
+    /// Back to zero, for the next path.
+    fn clear(&mut self) {
+        for &s in &self.touched {
+            self.d[s as usize] = Vec3::ZERO;
+            self.is_touched[s as usize] = false;
+        }
+        self.touched.clear();
+    }
+
+    #[inline]
+    fn add(&mut self, slot: u32, v: Vec3) {
+        if !self.is_touched[slot as usize] {
+            self.is_touched[slot as usize] = true;
+            self.touched.push(slot);
+        }
+        self.d[slot as usize] += v;
+    }
+
+    /// `∂β ← ∂β·w`.
+    #[inline]
+    fn scale(&mut self, w: Vec3) {
+        for &s in &self.touched {
+            self.d[s as usize] *= w;
+        }
+    }
+
+    fn is_zero(&self) -> bool {
+        self.touched
+            .iter()
+            .all(|&s| self.d[s as usize] == Vec3::ZERO)
+    }
+
+    /// Adds `adjoint · (∂β·x)` for every touched slot: the part of a
+    /// contribution `β·x` that the earlier vertices' parameters change.
+    #[inline]
+    fn contribute(&self, x: Vec3, adjoint: Vec3, gradient: &mut [f64]) {
+        let ax = adjoint * x;
+        for &s in &self.touched {
+            gradient[s as usize] += ax.dot(self.d[s as usize]) as f64;
+        }
     }
 }
 
@@ -204,7 +255,7 @@ fn trace_path(
     mut rng: crate::rng::Rng,
     first: Ray,
     adjoint: Vec3,
-    dbeta: &mut [Vec3],
+    dbeta: &mut ThroughputDerivative,
     gradient: &mut [f64],
 ) -> Vec3 {
     let Context { scene, job, map } = *ctx;
@@ -235,7 +286,7 @@ fn trace_path(
                     };
                     let contribution = beta * le * weight;
                     radiance += contribution;
-                    add_throughput_terms(dbeta, le * weight, adjoint, gradient);
+                    dbeta.contribute(le * weight, adjoint, gradient);
                     add_light_terms(map, env, contribution, adjoint, gradient);
                 }
             }
@@ -271,7 +322,7 @@ fn trace_path(
                     let weight = emission_weight(scene, li, &prev, p, ray.dir);
                     let contribution = beta * le * weight;
                     radiance += contribution;
-                    add_throughput_terms(dbeta, le * weight, adjoint, gradient);
+                    dbeta.contribute(le * weight, adjoint, gradient);
                     add_light_terms(map, li, contribution, adjoint, gradient);
                 }
             }
@@ -350,7 +401,7 @@ fn trace_path(
                             let contribution = beta * fc * ls.radiance * scale;
                             radiance += contribution;
                             let x = fc * ls.radiance * scale;
-                            add_throughput_terms(dbeta, x, adjoint, gradient);
+                            dbeta.contribute(x, adjoint, gradient);
                             add_light_terms(map, li, contribution, adjoint, gradient);
                             if let Some(g) = dfc {
                                 let ax = adjoint * beta * ls.radiance * (cos * scale);
@@ -378,15 +429,13 @@ fn trace_path(
             return radiance;
         }
         // ∂β' = ∂β·w + β·∂f·|cos θ|/p (detached p), with the old β.
-        for d in dbeta.iter_mut() {
-            *d *= bs.weight;
-        }
+        dbeta.scale(bs.weight);
         if differentiable && !bs.delta && bs.pdf > 0.0 {
             let g = bsdf.eval_gradient(wo_local, bs.wi);
             let k = bs.wi.z.abs() / bs.pdf;
             for (slot, d) in slots.iter().zip(g.d) {
                 if let Some(slot) = slot {
-                    dbeta[*slot as usize] += beta * d * k;
+                    dbeta.add(*slot, beta * d * k);
                 }
             }
         }
@@ -401,11 +450,9 @@ fn trace_path(
                 return radiance;
             }
             beta = b;
-            for d in dbeta.iter_mut() {
-                *d /= q;
-            }
+            dbeta.scale(Vec3::splat(1.0 / q));
         }
-        if beta == Vec3::ZERO && dbeta.iter().all(|d| *d == Vec3::ZERO) {
+        if beta == Vec3::ZERO && dbeta.is_zero() {
             return radiance;
         }
         ray = Ray::new(origin_for(wi), wi);
