@@ -23,7 +23,8 @@ Setup (Debian 12):
   apt-get install -y libllvm19
 
 The llvm_* variants need LLVM 19 (Dr.Jit aborts with LLVM 15): unless
-DRJIT_LIBLLVM_PATH is set, this script points it at /usr/lib/**/libLLVM.so.19*.
+DRJIT_LIBLLVM_PATH is set, this script points it at a libLLVM.so.19* in
+/usr/lib, /usr/lib/* or /usr/lib/llvm-19/lib.
 
 Run:
 
@@ -112,7 +113,10 @@ def parse_args():
 def import_mitsuba(variant):
     """Imports and returns (mitsuba, drjit) with `variant` set, or exits 2."""
     if "DRJIT_LIBLLVM_PATH" not in os.environ:
-        found = sorted(glob.glob("/usr/lib/**/libLLVM.so.19*", recursive=True))
+        # Not "**": /usr/lib holds symlink cycles (llvm-*/build).
+        found = sorted(glob.glob("/usr/lib/libLLVM.so.19*")
+                       + glob.glob("/usr/lib/*/libLLVM.so.19*")
+                       + glob.glob("/usr/lib/llvm-19/lib/libLLVM.so.19*"))
         if found:
             os.environ["DRJIT_LIBLLVM_PATH"] = found[0]
     try:
@@ -159,7 +163,10 @@ def rectangle(mi, material, scale, rotation, translation):
 
 def scene_dict(mi, materials):
     """fit-room.toml as a Mitsuba scene dict, with `materials` by name."""
-    scene = {
+    # Materials first: mi.traverse names a parameter by the first path that
+    # reaches it, and these names are the ones param_key expects.
+    scene = {name: bsdf(material) for name, material in materials.items()}
+    scene |= {
         "type": "scene",
         "integrator": {"type": "prb", "max_depth": MAX_DEPTH},
         "camera": {
@@ -178,18 +185,14 @@ def scene_dict(mi, materials):
         "light_2": {"type": "point", "position": [-1.2, -0.5, 2.0],
                     "intensity": {"type": "rgb", "value": [3, 2.8, 2.5]}},
     }
-    for name, material in materials.items():
-        scene[name] = bsdf(material)
     for name, material, *placement in RECTANGLES:
         scene[f"{name}_shape"] = rectangle(mi, material, *placement)
     return scene
 
 
 def param_key(material, name):
-    """The mi.traverse key of a material parameter (inside its twosided)."""
-    suffix = ".value" if name in ("base_color", "reflectance", "roughness",
-                                  "metallic") else ""
-    return f"{material}.bsdf.{name}{suffix}"
+    """The mi.traverse key of a material parameter (twosided's brdf_0)."""
+    return f"{material}.brdf_0.{name}.value"
 
 
 def load_target(mi, path):
@@ -251,7 +254,9 @@ def main():
     if args.threads is not None:
         dr.set_thread_count(args.threads)
     target = load_target(mi, args.photo)
-    scene = mi.load_dict(scene_dict(mi, GUESSES))
+    # optimize=False: otherwise Mitsuba merges objects with equal properties,
+    # and the three walls, whose guesses are equal, would share one bsdf.
+    scene = mi.load_dict(scene_dict(mi, GUESSES), optimize=False)
     render_seconds = time_render(mi, dr, scene, args.spp)
     print(f"render: {render_seconds:.4f} s", file=sys.stderr)
     per_iteration, losses = fit(mi, dr, scene, target, args.spp,

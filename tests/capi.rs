@@ -141,6 +141,7 @@ fn host_scene_in_rust() -> plsr::scene::Scene {
             d: [0.0, 0.02, 0.02, 0.0],
         },
         a_deg: 30.0,
+        penumbra_deg: 0.0,
         c: Vec3::new(1.0, 0.9, 0.7),
         b: 4.0,
     };

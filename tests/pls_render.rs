@@ -1,5 +1,6 @@
 //! Parametric light sources in the renderer: inverse-square law, the closed
-//! form in radiance mode, and the hard edge of the cone.
+//! form in radiance mode, the hard edge of the cone, and the closed form of
+//! the soft edge (eq. 12′).
 
 use glam::{Mat4, Vec3};
 use plsr::bsdf::Bsdf;
@@ -357,4 +358,46 @@ fn meshes_and_materials_check_their_own_rules() {
     .unwrap()
     .to_string();
     assert!(err.contains("metallic = 1.5 must be in [0, 1]"), "{err}");
+}
+
+/// The soft edge (eq. 12′): a small light at height h facing down (a
+/// Lambertian emitter: intensity `b·cos θ`) gives the floor point at angle
+/// θ off its axis the irradiance `b·W(θ)·cos⁴θ/h²`,
+/// with `W` falling linearly from 1 at `a − w/2` to 0 at `a + w/2`.
+#[test]
+fn the_soft_edge_matches_its_closed_form_on_a_plane() {
+    let (h, a, w, b) = (1.0f32, 30.0f32, 12.0f32, 2.0f32);
+    let mut light = small_light(h, a, b);
+    light.penumbra_deg = w;
+    light.validate(0).unwrap();
+    for theta in [15.0f32, 25.0, 28.0, 30.0, 33.0, 35.5, 38.0] {
+        let t = theta.to_radians();
+        let target = Vec3::new(h * t.tan(), 0.0, 0.0);
+        let (got, se) = floor_radiance(&light, BrightnessMode::Intensity, target, 256);
+        let window = ((a + 0.5 * w - theta) / w).clamp(0.0, 1.0);
+        let want = (ALBEDO / std::f32::consts::PI * b * window * t.cos().powi(4) / (h * h)) as f64;
+        eprintln!("θ = {theta}°: rendered {got:.5} ± {se:.5}, closed form {want:.5}");
+        assert!(
+            (got - want).abs() <= 0.02 * want.max(0.05 * ALBEDO as f64) + 3.0 * se,
+            "θ = {theta}°: {got} vs {want}"
+        );
+    }
+    // A penumbra of 0 is the paper's hard edge, bit for bit.
+    let hard = small_light(h, a, b);
+    let mut zero = hard.clone();
+    zero.penumbra_deg = 0.0;
+    let target = Vec3::new(0.5, 0.1, 0.0);
+    assert_eq!(
+        floor_radiance(&hard, BrightnessMode::Intensity, target, 8),
+        floor_radiance(&zero, BrightnessMode::Intensity, target, 8)
+    );
+}
+
+#[test]
+fn a_penumbra_beyond_the_hemisphere_is_refused() {
+    let mut light = small_light(1.0, 80.0, 1.0);
+    light.penumbra_deg = 30.0;
+    let e = light.validate(0).unwrap_err();
+    assert_eq!(e.parameter, "penumbra");
+    assert!(e.message.contains("must be in [0°, 20°]"), "{}", e.message);
 }

@@ -46,6 +46,8 @@ pub(crate) fn pls_from_params(p: &plsr_pls_params) -> Result<(Pls, BrightnessMod
             d: p.d,
         },
         a_deg: p.a_deg,
+        // The C struct predates the soft edge (0.5.0): hard-edged.
+        penumbra_deg: 0.0,
         c: Vec3::from(p.c),
         b: p.b,
     };

@@ -61,11 +61,18 @@ impl TriangleLight {
     #[inline]
     pub fn emitted(&self, w: Vec3) -> Vec3 {
         let side = self.two_sided || self.n.dot(w) > 0.0;
-        let window = self.cone.is_none_or(|c| c.contains(w));
-        if side && window {
-            self.radiance
-        } else {
-            Vec3::ZERO
+        match &self.cone {
+            _ if !side => Vec3::ZERO,
+            None => self.radiance,
+            // A hard cone's window is 0 or 1: the radiance itself, exactly.
+            Some(c) if c.soft.is_none() => {
+                if c.contains(w) {
+                    self.radiance
+                } else {
+                    Vec3::ZERO
+                }
+            }
+            Some(c) => self.radiance * c.window(w),
         }
     }
 
@@ -90,12 +97,11 @@ impl TriangleLight {
     }
 
     /// Emitted power `π·A·L` (luminance), doubled when two-sided; within a
-    /// cone of half-angle `a` around the normal, `π·A·L·sin²a`.
+    /// cone of half-angle `a` around the normal, `π·A·L·sin²a` (a soft edge:
+    /// its [`Cone::power_fraction`]).
     pub fn power(&self) -> f32 {
         let sides = if self.two_sided { 2.0 } else { 1.0 };
-        let window = self
-            .cone
-            .map_or(1.0, |c| (1.0 - c.cos_a * c.cos_a).max(0.0));
+        let window = self.cone.map_or(1.0, |c| c.power_fraction());
         std::f32::consts::PI * self.area * luminance(self.radiance) * sides * window
     }
 }

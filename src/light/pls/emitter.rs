@@ -48,9 +48,14 @@ impl PlsEmitter {
         self.light.tessellate(self.nf)
     }
 
-    /// The window: the cone the light emits into (paper eq. 12).
+    /// The window: the cone the light emits into (paper eq. 12, or eq. 12′
+    /// with a soft edge).
     pub fn cone(&self) -> Cone {
-        Cone::new(self.light.normal(), self.light.a_deg)
+        Cone::with_penumbra(
+            self.light.normal(),
+            self.light.a_deg,
+            self.light.penumbra_deg,
+        )
     }
 
     /// Surface radiance of the tessellated emitter of area `area` (m²).

@@ -46,6 +46,8 @@ struct LightEntry {
     #[serde(deserialize_with = "crate::input::exact::array")]
     n: [f32; 3],
     a: f32,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    penumbra: Option<f32>,
     #[serde(deserialize_with = "crate::input::exact::array")]
     c: [f32; 3],
     b: f32,
@@ -176,6 +178,7 @@ pub fn parse(text: &str, path: &Path) -> Result<PlsLighting> {
                     )
                 })?;
                 l.name = e.name;
+                l.penumbra_deg = e.penumbra.unwrap_or(0.0);
                 l
             }
             None => Pls {
@@ -189,6 +192,7 @@ pub fn parse(text: &str, path: &Path) -> Result<PlsLighting> {
                     d: e.d.ok_or_else(|| missing("d"))?,
                 },
                 a_deg: e.a,
+                penumbra_deg: e.penumbra.unwrap_or(0.0),
                 c: Vec3::from_array(e.c),
                 b: e.b,
             },
@@ -229,6 +233,7 @@ pub fn to_string(lighting: &PlsLighting, path: &Path) -> Result<String> {
                 name: l.name.clone(),
                 n: l.n.to_array(),
                 a: l.a_deg,
+                penumbra: (l.penumbra_deg > 0.0).then_some(l.penumbra_deg),
                 c: l.c.to_array(),
                 b: l.b,
                 e1: Some(l.g.e1.to_array()),

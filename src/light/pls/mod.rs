@@ -33,7 +33,7 @@ mod window;
 pub use emitter::{check_nf, PlsEmitter, MAX_NF};
 pub use outline::PlsMesh;
 pub use reach::Reach;
-pub use window::Cone;
+pub use window::{Cone, SoftEdge};
 
 use glam::Vec3;
 use std::fmt;
@@ -93,6 +93,11 @@ pub struct Pls {
     pub g: PlsGeometry,
     /// Divergence half-angle of the beam around `n`, degrees in (0, 90].
     pub a_deg: f32,
+    /// Width of the beam's soft edge, degrees (plsr's extension of the
+    /// paper's hard window, eq. 12): the window falls linearly from 1 at
+    /// `a − w/2` to 0 at `a + w/2` ([`Cone::window`]); 0 is the paper's
+    /// hard edge.
+    pub penumbra_deg: f32,
     /// Colour, linear RGB, non-negative.
     pub c: Vec3,
     /// Brightness, non-negative; its unit depends on the [`BrightnessMode`].
@@ -157,6 +162,7 @@ impl Pls {
             finite(&format!("d[{k}]"), *d)?;
         }
         finite("a", self.a_deg)?;
+        finite("penumbra", self.penumbra_deg)?;
         finite3("c", self.c)?;
         finite("b", self.b)?;
 
@@ -232,6 +238,19 @@ impl Pls {
                 format!("must be in (0°, 90°], got {}°", self.a_deg),
             ));
         }
+        let half = 0.5 * self.penumbra_deg;
+        if self.penumbra_deg < 0.0 || half > self.a_deg || self.a_deg + half > 90.0 {
+            return Err(err(
+                "penumbra",
+                format!(
+                    "must be in [0°, {}°] for a = {}° (the soft edge runs from a − w/2 ≥ 0° to \
+                     a + w/2 ≤ 90°), got {}°",
+                    2.0 * self.a_deg.min(90.0 - self.a_deg),
+                    self.a_deg,
+                    self.penumbra_deg
+                ),
+            ));
+        }
         Ok(())
     }
 
@@ -290,6 +309,7 @@ impl Pls {
         let axis = (axis - axis.dot(n) * n).try_normalize()?;
         Some(Pls {
             name: None,
+            penumbra_deg: 0.0,
             n,
             g: PlsGeometry {
                 e1: centre - radius * axis,

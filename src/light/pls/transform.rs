@@ -30,6 +30,7 @@ impl Pls {
                 d: self.g.d.map(|d| d * s),
             },
             a_deg: self.a_deg,
+            penumbra_deg: self.penumbra_deg,
             c: self.c,
             b: self.b,
         }
