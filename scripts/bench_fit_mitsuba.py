@@ -251,9 +251,11 @@ def fit(mi, dr, scene, target, spp, warmup, iterations):
 def main():
     args = parse_args()
     mi, dr = import_mitsuba(args.variant)
+    # Load before setting the thread count: with one thread (no workers),
+    # Mitsuba 3.9's EXR reading hangs.
+    target = load_target(mi, args.photo)
     if args.threads is not None:
         dr.set_thread_count(args.threads)
-    target = load_target(mi, args.photo)
     # optimize=False: otherwise Mitsuba merges objects with equal properties,
     # and the three walls, whose guesses are equal, would share one bsdf.
     scene = mi.load_dict(scene_dict(mi, GUESSES), optimize=False)

@@ -785,3 +785,112 @@ fn plsr_fit_writes_the_fitted_scene_and_the_loss_curve() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("would be overwritten"), "{stderr}");
 }
+
+// ---------------------------------------------------------------------------
+// A light's window from photos of a lit floor
+
+const SPOT: &str = r#"
+[[lights]]
+name = "spot"
+n = [0.1, 0, -1]
+a = A
+penumbra = W
+c = [1, 0.95, 0.85]
+b = B
+circle = { center = [0, 0, 1.5], radius = 0.03, axis = [0, 1, 0] }
+"#;
+
+fn spot_room(dir: &Path, a: f32, w: f32, b: f32, photo: bool) -> PathBuf {
+    let spot = SPOT
+        .replace("A\n", &format!("{a}\n"))
+        .replace("W\n", &format!("{w}\n"))
+        .replace("B\n", &format!("{b}\n"));
+    std::fs::write(dir.join("spot.toml"), spot).unwrap();
+    let guess = photo;
+    let photo = if guess {
+        "[photo]\nfile = \"photo.exr\"\nresponse = \"linear\"\nexposure = 1\n"
+    } else {
+        ""
+    };
+    let text = format!(
+        r#"
+[render]
+spp = 16
+max_depth = 2
+seed = 1
+
+[camera]
+position = [0.2, -1.2, 2.2]
+look_at = [0.1, 0, 0]
+up = [0, 0, 1]
+vfov = 50
+resolution = [96, 72]
+
+{photo}
+[[materials]]
+name = "floor"
+type = "diffuse"
+reflectance = [0.6, 0.6, 0.6]
+
+[[shapes]]
+name = "floor"
+type = "rectangle"
+material = "floor"
+transform = {{ scale = 3 }}
+
+[[lights]]
+type = "point"
+position = [2, -2, 2]
+intensity = [0.3, 0.3, 0.3]
+
+[[pls]]
+file = "spot.toml"
+"#
+    );
+    let path = dir.join(if guess { "guess.toml" } else { "truth.toml" });
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn a_lights_divergence_soft_edge_and_brightness_are_found_from_a_lit_floor() {
+    let dir = tempdir();
+    let (a, w, b) = (20.0f32, 6.0f32, 3.0f32);
+    let truth = spot_room(dir.path(), a, w, b, false);
+    let scene = Scene::load(&truth).unwrap();
+    let (film, _) =
+        plsr::render::render(&scene, &job(&scene, 1024, 5), &options(2), &|_, _| true).unwrap();
+    film.write_exr(&dir.path().join("photo.exr")).unwrap();
+    // Start from a hard 25° beam at 5/3 of the brightness.
+    let guess = spot_room(dir.path(), 25.0, 0.0, 5.0, true);
+    let options = FitOptions {
+        windows: vec!["spot".into()],
+        threads: Some(2),
+        ..FitOptions::default()
+    };
+    let out = dir.path().join("fitted.toml");
+    let outcome = fit_scene_file(&guess, &out, &options, &mut |_, _| true).unwrap();
+    let (name, found) = &outcome.windows[0];
+    eprintln!("{name}: {found:?}");
+    assert!((found.a_deg - a).abs() <= 1.0, "a = {} vs {a}", found.a_deg);
+    assert!(
+        (found.penumbra_deg - w).abs() <= 0.2 * w,
+        "penumbra = {} vs {w}",
+        found.penumbra_deg
+    );
+    assert!((found.b / b - 1.0).abs() <= 0.02, "b = {} vs {b}", found.b);
+    // The fitted PLS file holds them and loads.
+    outcome
+        .write(
+            &out,
+            &dir.path().join("l.csv"),
+            &dir.path().join("l.png"),
+            &[],
+        )
+        .unwrap();
+    let fitted = Scene::load(&out).unwrap();
+    let pls = fitted.meshes().iter().find_map(|m| m.pls.as_ref()).unwrap();
+    assert!((pls.light.a_deg - found.a_deg).abs() < 1e-3);
+    assert!((pls.light.penumbra_deg - found.penumbra_deg).abs() < 1e-3);
+    assert!((pls.light.b - found.b).abs() < 1e-3 * found.b);
+}

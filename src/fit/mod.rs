@@ -21,6 +21,7 @@
 //! The paper's defaults (learning rate 0.05, 16 spp, 100 iterations) are
 //! [`FitOptions::default`].
 
+pub mod light;
 pub mod params;
 pub mod plot;
 pub mod write;
@@ -55,6 +56,10 @@ pub struct FitOptions {
     pub params: Vec<String>,
     /// Worker threads; `None`: every core.
     pub threads: Option<usize>,
+    /// PLS lights (by name) whose window (`a`, `penumbra`) and brightness
+    /// `b` are found first by a derivative-free search ([`light`]); with
+    /// no `params` given, only they are fitted.
+    pub windows: Vec<String>,
 }
 
 impl Default for FitOptions {
@@ -66,6 +71,7 @@ impl Default for FitOptions {
             seed: 0,
             params: Vec::new(),
             threads: None,
+            windows: Vec::new(),
         }
     }
 }
@@ -527,6 +533,8 @@ pub struct FitOutcome {
     pub seconds_per_iteration: f64,
     /// Pixels in the loss, over all views.
     pub pixels: usize,
+    /// The windows fitted: the light's name and what was found.
+    pub windows: Vec<(String, light::WindowFit)>,
     /// The fitted scene file (and PLS files), ready to write.
     pub fitted: write::FittedFiles,
 }
@@ -544,8 +552,46 @@ pub fn fit_scene_file(
     let contents = crate::scene::file::load_contents(path)?;
     let mut scene = Scene::build(contents.description)?;
     let scale = write::environment_scale(path)?;
-    let params = params::select(&scene, &options.params, scale)?;
-    let fits_lights = params.iter().any(Parameter::relative);
+    let adam = !options.params.is_empty() || options.windows.is_empty();
+    let mut params = if adam {
+        params::select(&scene, &options.params, scale)?
+    } else {
+        Vec::new()
+    };
+    // The PLS lights whose windows are fitted: (name, mesh, table, index).
+    let pls = params::pls_lights(&scene);
+    let mut window_lights = Vec::new();
+    for name in &options.windows {
+        let found = pls.iter().find(|(m, _, _)| {
+            let mesh = &scene.meshes()[*m];
+            mesh.pls.as_ref().and_then(|p| p.light.name.as_deref()) == Some(name.as_str())
+                || mesh.name == *name
+        });
+        match found {
+            Some(&(m, table, light)) => window_lights.push((name.clone(), m, table, light)),
+            None => {
+                let names: Vec<String> = pls
+                    .iter()
+                    .map(|(m, _, _)| {
+                        let mesh = &scene.meshes()[*m];
+                        mesh.pls
+                            .as_ref()
+                            .and_then(|p| p.light.name.clone())
+                            .unwrap_or_else(|| mesh.name.clone())
+                    })
+                    .collect();
+                return Err(Error::InvalidArgument(format!(
+                    "--window {name}: no PLS light of that name (the scene's: {})",
+                    if names.is_empty() {
+                        "none".to_string()
+                    } else {
+                        names.join(", ")
+                    }
+                )));
+            }
+        }
+    }
+    let fits_lights = params.iter().any(Parameter::relative) || !window_lights.is_empty();
     let mut specs = Vec::new();
     if let Some(photo) = contents.photo {
         specs.push(("photo".to_string(), scene.camera().clone(), photo));
@@ -586,6 +632,72 @@ pub fn fit_scene_file(
         views.push(View::new(&scene, &label, camera, &photo, k)?);
     }
     let pixels = views.iter().map(View::pixels).sum();
+    if views.iter().all(|v| v.pixels() == 0) {
+        return Err(Error::InvalidArgument(
+            "no photo pixel sees a real surface of the scene (every mask is empty)".into(),
+        ));
+    }
+    // The windows first: Adam then starts from their brightness.
+    let mut windows = Vec::new();
+    let mut written = Vec::new();
+    for (name, mesh, table, index) in window_lights {
+        let found = light::fit_window(
+            &mut scene,
+            &views,
+            mesh,
+            &light::WindowFitOptions {
+                spp: 4 * options.spp,
+                seed: options.seed ^ 0x9e37,
+                threads: options.threads,
+                ..Default::default()
+            },
+        )?;
+        let owner = Owner::Pls {
+            mesh,
+            table,
+            light: index,
+        };
+        for (field, v) in [
+            ("a", found.a_deg),
+            ("penumbra", found.penumbra_deg),
+            ("b", found.b),
+        ] {
+            written.push(Parameter {
+                name: format!("{name}.{field}"),
+                owner: owner.clone(),
+                field,
+                value: vec![v],
+                initial: vec![v],
+                bounds: (0.0, f32::MAX),
+                slot: u32::MAX,
+            });
+        }
+        for p in &mut params {
+            if p.owner == owner {
+                if let Some(pls) = &scene.meshes()[mesh].pls {
+                    p.value = match p.field {
+                        "b" => vec![pls.light.b],
+                        _ => pls.light.c.to_array().to_vec(),
+                    };
+                    p.initial = p.value.clone();
+                }
+            }
+        }
+        windows.push((name, found));
+    }
+    if !adam {
+        let fitted = write::fitted_files(path, &scene, &written, out)?;
+        let loss = windows.last().map_or(0.0, |w| w.1.loss);
+        return Ok(FitOutcome {
+            parameters: written,
+            losses: vec![loss],
+            warnings,
+            seconds_per_iteration: 0.0,
+            pixels,
+            windows,
+            fitted,
+        });
+    }
     let mut fit = Fit::new(scene, views, params, options.clone())?;
     let mut losses = Vec::with_capacity(options.iterations as usize + 1);
     let mut seconds = 0.0;
@@ -600,9 +712,18 @@ pub fn fit_scene_file(
     fit.finish()?;
     losses.push(fit.loss(options.seed.wrapping_add(2 * options.iterations as u64))?);
     warnings.extend(fit.warnings());
-    let fitted = write::fitted_files(path, fit.scene(), fit.parameters(), out)?;
+    // A light's b fitted by Adam replaces the window search's.
+    written.retain(|w| {
+        !fit.parameters()
+            .iter()
+            .any(|p| p.owner == w.owner && p.field == w.field)
+    });
+    let mut parameters = written;
+    parameters.extend(fit.parameters().iter().cloned());
+    let fitted = write::fitted_files(path, fit.scene(), &parameters, out)?;
     Ok(FitOutcome {
-        parameters: fit.parameters().to_vec(),
+        windows,
+        parameters,
         losses,
         warnings,
         seconds_per_iteration: seconds / options.iterations.max(1) as f64,

@@ -163,7 +163,7 @@ struct Candidate {
 
 /// Each PLS light's `(mesh, [[pls]] table, index in its file)`, from the
 /// meshes' names (`pls[TABLE]/…`, in file order).
-fn pls_lights(scene: &Scene) -> Vec<(usize, usize, usize)> {
+pub(crate) fn pls_lights(scene: &Scene) -> Vec<(usize, usize, usize)> {
     let mut out = Vec::new();
     let mut last: Option<(usize, usize)> = None;
     for (i, m) in scene.meshes().iter().enumerate() {

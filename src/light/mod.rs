@@ -206,19 +206,47 @@ impl LightSet {
     /// channel; an environment takes its first channel, as it has one scale)
     /// and recomputes the selection weights, which follow their power.
     pub fn scale_emission(&mut self, range: Range<usize>, factor: Vec3) {
-        for light in &mut self.lights[range] {
-            match light {
-                Light::Point(l) => l.intensity *= factor,
-                Light::Triangle(l) => l.radiance *= factor,
-                Light::Environment { light, .. } => light.scale_radiance(factor.x),
+        self.edit(|lights| {
+            for light in &mut lights[range] {
+                match light {
+                    Light::Point(l) => l.intensity *= factor,
+                    Light::Triangle(l) => l.radiance *= factor,
+                    Light::Environment { light, .. } => light.scale_radiance(factor.x),
+                }
             }
-        }
+        });
+    }
+
+    /// Changes the lights in place (their emission, a triangle's cone; not
+    /// their number or kind) and recomputes what depends on them: the
+    /// selection weights, and the reach of each cone-limited group from
+    /// its first triangle's cone.
+    pub fn edit(&mut self, f: impl FnOnce(&mut [Light])) {
+        let mut lights = std::mem::take(&mut self.lights);
+        f(&mut lights);
         let groups = self
             .groups
             .iter()
-            .map(|g| (g.range.clone(), g.reach.clone()))
+            .map(|g| {
+                let reach = g.reach.as_ref().map(|old| {
+                    let range = g.range.start as usize..g.range.end as usize;
+                    let cone = match &lights[range.start] {
+                        Light::Triangle(t) => t.cone.unwrap_or(*old.cone()),
+                        _ => *old.cone(),
+                    };
+                    let tris = lights[range]
+                        .iter()
+                        .filter_map(|l| match l {
+                            Light::Triangle(t) => Some(t.p),
+                            _ => None,
+                        })
+                        .collect();
+                    Reach::new(cone, tris)
+                });
+                (g.range.clone(), reach)
+            })
             .collect();
-        *self = LightSet::with_groups(std::mem::take(&mut self.lights), groups);
+        *self = LightSet::with_groups(lights, groups);
     }
 
     /// Whether the scene has no light that can be sampled.

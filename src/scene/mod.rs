@@ -475,6 +475,53 @@ impl Scene {
         Ok(())
     }
 
+    /// Changes the lights in place (see [`LightSet::edit`]), for fitting a
+    /// light's brightness or window.
+    pub fn edit_lights(&mut self, f: impl FnOnce(&mut [Light])) {
+        self.lights.edit(f);
+    }
+
+    /// Sets the PLS light of mesh `mesh` (an emitter made by [`pls_mesh`])
+    /// to `light`'s brightness, colour and window; its outline stays.
+    pub fn set_pls_window_and_brightness(&mut self, mesh: usize, light: &Pls) -> Result<()> {
+        let Some(emitter) = self.meshes.get(mesh).and_then(|m| m.pls.clone()) else {
+            return Err(Error::InvalidArgument(format!(
+                "mesh {mesh} is not a PLS light"
+            )));
+        };
+        let mut updated = emitter.light.clone();
+        updated.b = light.b;
+        updated.c = light.c;
+        updated.a_deg = light.a_deg;
+        updated.penumbra_deg = light.penumbra_deg;
+        updated
+            .validate(0)
+            .map_err(|e| Error::InvalidArgument(format!("{}: {e}", self.meshes[mesh].name)))?;
+        let new = crate::light::pls::PlsEmitter {
+            light: updated,
+            ..emitter
+        };
+        // The area as the emitter was made (`pls_mesh`).
+        let area = new.tessellate().area();
+        let (radiance, cone) = (new.radiance(area), new.cone());
+        if let Some(range) = self.mesh_lights(mesh) {
+            self.lights.edit(|lights| {
+                for l in &mut lights[range] {
+                    if let Light::Triangle(t) = l {
+                        t.radiance = radiance;
+                        t.cone = Some(cone);
+                    }
+                }
+            });
+        }
+        if let Some(e) = &mut self.meshes[mesh].emission {
+            e.radiance = radiance;
+            e.cone = Some(cone);
+        }
+        self.meshes[mesh].pls = Some(new);
+        Ok(())
+    }
+
     /// Multiplies the emission of the lights `range` by `factor` (see
     /// [`LightSet::scale_emission`]), for fitting light brightness.
     pub fn scale_light_emission(&mut self, range: std::ops::Range<usize>, factor: Vec3) {

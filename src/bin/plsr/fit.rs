@@ -30,6 +30,12 @@ pub struct FitArgs {
     /// anisotropic.
     #[arg(long = "param", value_name = "PATTERN")]
     pub params: Vec<String>,
+    /// A PLS light (by name) whose window — divergence `a` and soft-edge
+    /// width `penumbra` — and brightness `b` are found first, by a
+    /// derivative-free search; repeat for more. Without --param, only the
+    /// windows are fitted.
+    #[arg(long = "window", value_name = "LIGHT")]
+    pub windows: Vec<String>,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -122,6 +128,7 @@ pub fn run(a: &FitArgs) -> Result<()> {
         seed: a.seed,
         params: a.params.clone(),
         threads: a.threads,
+        windows: a.windows.clone(),
     };
     let bar = progress_bar(
         a.quiet,
@@ -140,6 +147,12 @@ pub fn run(a: &FitArgs) -> Result<()> {
     outcome.write(&a.output, &loss_csv, &loss_png, &inputs)?;
     for w in &outcome.warnings {
         eprintln!("warning: {w}");
+    }
+    for (name, w) in &outcome.windows {
+        eprintln!(
+            "window of {name}: a = {:.3}°, penumbra = {:.3}°, b = {:.5} ({} renders, loss {:.4e})",
+            w.a_deg, w.penumbra_deg, w.b, w.evaluations, w.loss
+        );
     }
     let fmt = |v: &[f32]| {
         let parts: Vec<String> = v.iter().map(|x| format!("{x:.4}")).collect();

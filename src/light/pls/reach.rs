@@ -197,6 +197,11 @@ impl Reach {
         d.dot(self.cone.axis) - self.cone.cos_a * d.length()
     }
 
+    /// The cone the emitter sends light into.
+    pub fn cone(&self) -> &Cone {
+        &self.cone
+    }
+
     /// The sine of the cone's half-angle.
     pub fn sin_a(&self) -> f32 {
         self.sin_a

@@ -1,0 +1,281 @@
+//! Fitting a PLS light's window — its divergence `a` and soft-edge width
+//! `w` — and its brightness `b` from photos of the surfaces it lights.
+//!
+//! The window moves where the beam's edge falls, which no gradient of a
+//! hard step can see; plsr therefore searches `(a, w)` with Nelder–Mead
+//! (derivative-free) and solves `b` exactly at every point of the search:
+//! a render is linear in emission, `I = b·U(a, w) + R`, where `U` is the
+//! image of the light alone at `b = 1` and `R` that of every other light
+//! (rendered once). With the target `T` over the mask, the best brightness
+//! is `b* = Σ U·(T − R) / Σ U·U` (variable projection), and the search
+//! minimises the squared error at `b*`. Every render of the search uses the
+//! same seed (common random numbers), so the objective is deterministic
+//! and its differences are not noise.
+
+use super::View;
+use crate::error::{Error, Result};
+use crate::job::RenderJob;
+use crate::light::Light;
+use crate::render::{render_sums, RenderOptions};
+use crate::scene::Scene;
+use glam::Vec3;
+
+/// What a window fit found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WindowFit {
+    /// Divergence half-angle `a`, degrees.
+    pub a_deg: f32,
+    /// Soft-edge width `w`, degrees.
+    pub penumbra_deg: f32,
+    /// Brightness `b` (the light's units).
+    pub b: f32,
+    /// The mean squared error at the fitted values (render units).
+    pub loss: f64,
+    /// Renders of the light alone the search took.
+    pub evaluations: u32,
+}
+
+/// How to search.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WindowFitOptions {
+    /// Samples per pixel of each render.
+    pub spp: u32,
+    /// Seed of every render (common random numbers).
+    pub seed: u64,
+    /// The most renders of the light alone.
+    pub max_evaluations: u32,
+    /// Whether `w` is searched too (otherwise it keeps its value).
+    pub fit_penumbra: bool,
+    /// Worker threads.
+    pub threads: Option<usize>,
+}
+
+impl Default for WindowFitOptions {
+    fn default() -> Self {
+        WindowFitOptions {
+            spp: 64,
+            seed: 0x9e37,
+            max_evaluations: 80,
+            fit_penumbra: true,
+            threads: None,
+        }
+    }
+}
+
+/// Renders every view; each pixel's mean.
+fn render_views(
+    scene: &mut Scene,
+    views: &[View],
+    job: &RenderJob,
+    options: &RenderOptions,
+) -> Result<Vec<Vec<Vec3>>> {
+    let mut out = Vec::with_capacity(views.len());
+    for v in views {
+        scene.set_camera(v.camera.clone());
+        let (sums, _) = render_sums(scene, job, options, &|_, _| true)?;
+        let (w, h) = (sums.width(), sums.height());
+        let mut img = Vec::with_capacity((w * h) as usize);
+        for y in 0..h {
+            for x in 0..w {
+                let p = sums.pixel(x, y);
+                img.push((p.sum / p.samples.max(1) as f64).as_vec3());
+            }
+        }
+        out.push(img);
+    }
+    Ok(out)
+}
+
+/// Fits the window and brightness of the PLS light of mesh `mesh` to the
+/// views; leaves the scene with the fitted values.
+pub fn fit_window(
+    scene: &mut Scene,
+    views: &[View],
+    mesh: usize,
+    options: &WindowFitOptions,
+) -> Result<WindowFit> {
+    let Some(emitter) = scene.meshes().get(mesh).and_then(|m| m.pls.clone()) else {
+        return Err(Error::InvalidArgument(format!(
+            "mesh {mesh} is not a PLS light"
+        )));
+    };
+    let Some(range) = scene.mesh_lights(mesh) else {
+        return Err(Error::InvalidArgument(format!(
+            "{}: the light emits nothing (b or c is 0)",
+            scene.meshes()[mesh].name
+        )));
+    };
+    let start = emitter.light.clone();
+    let all = scene.lights().lights.clone();
+    let job = RenderJob {
+        spp: options.spp,
+        seed: options.seed,
+        hide_virtual: true,
+        ..scene.default_job()
+    };
+    let render_options = RenderOptions {
+        threads: options.threads,
+        ..RenderOptions::default()
+    };
+    // R: every other light.
+    scene.edit_lights(|lights| {
+        for l in &mut lights[range.clone()] {
+            if let Light::Triangle(t) = l {
+                t.radiance = Vec3::ZERO;
+            }
+        }
+    });
+    let rest = render_views(scene, views, &job, &render_options)?;
+    // U(a, w): the light alone at b = 1.
+    let mut unit = start.clone();
+    unit.b = 1.0;
+    scene.edit_lights(|lights| {
+        for (i, l) in lights.iter_mut().enumerate() {
+            if range.contains(&i) {
+                continue;
+            }
+            match l {
+                Light::Point(p) => p.intensity = Vec3::ZERO,
+                Light::Triangle(t) => t.radiance = Vec3::ZERO,
+                Light::Environment { light, .. } => light.scale_radiance(0.0),
+            }
+        }
+    });
+    let evaluations = std::cell::Cell::new(0u32);
+    let terms: f64 = 3.0 * views.iter().map(View::pixels).sum::<usize>() as f64;
+    let objective = |a: f32, w: f32, scene: &mut Scene| -> Result<(f64, f64)> {
+        evaluations.set(evaluations.get() + 1);
+        let mut l = unit.clone();
+        l.a_deg = a;
+        l.penumbra_deg = w;
+        scene.set_pls_window_and_brightness(mesh, &l)?;
+        let u = render_views(scene, views, &job, &render_options)?;
+        let (mut ut, mut uu) = (0.0f64, 0.0f64);
+        for (k, v) in views.iter().enumerate() {
+            for i in 0..v.target.len() {
+                if v.mask[i] {
+                    let (ui, ri, ti) = (
+                        u[k][i].as_dvec3(),
+                        rest[k][i].as_dvec3(),
+                        v.target[i].as_dvec3(),
+                    );
+                    ut += ui.dot(ti - ri);
+                    uu += ui.dot(ui);
+                }
+            }
+        }
+        let b = if uu > 0.0 { (ut / uu).max(0.0) } else { 0.0 };
+        let mut loss = 0.0;
+        for (k, v) in views.iter().enumerate() {
+            for i in 0..v.target.len() {
+                if v.mask[i] {
+                    let d = u[k][i].as_dvec3() * b + rest[k][i].as_dvec3() - v.target[i].as_dvec3();
+                    loss += d.dot(d);
+                }
+            }
+        }
+        Ok((loss / terms, b))
+    };
+    // Bounds: a in [0.5°, 89.5°], 0 ≤ w ≤ 2·min(a, 90° − a).
+    let clamp = |x: [f64; 2]| -> [f64; 2] {
+        let a = x[0].clamp(0.5, 89.5);
+        let w = if options.fit_penumbra {
+            x[1].clamp(0.0, 2.0 * a.min(90.0 - a))
+        } else {
+            start.penumbra_deg as f64
+        };
+        [a, w]
+    };
+    let dims = if options.fit_penumbra { 2 } else { 1 };
+    let x0 = clamp([start.a_deg as f64, start.penumbra_deg as f64]);
+    let step = [(0.1 * x0[0]).clamp(1.0, 5.0), 2.0];
+    let mut simplex: Vec<([f64; 2], f64)> = Vec::new();
+    let eval = |x: [f64; 2], scene: &mut Scene| -> Result<([f64; 2], f64)> {
+        let x = clamp(x);
+        Ok((x, objective(x[0] as f32, x[1] as f32, scene)?.0))
+    };
+    simplex.push(eval(x0, scene)?);
+    for d in 0..dims {
+        let mut x = x0;
+        x[d] += step[d];
+        simplex.push(eval(x, scene)?);
+    }
+    // Nelder–Mead (standard coefficients: reflection 1, expansion 2,
+    // contraction ½, shrink ½), until the simplex is below 0.02° or the
+    // budget is spent.
+    loop {
+        simplex.sort_by(|p, q| p.1.total_cmp(&q.1));
+        let size = simplex[1..]
+            .iter()
+            .map(|p| {
+                (0..dims)
+                    .map(|d| (p.0[d] - simplex[0].0[d]).abs())
+                    .fold(0.0, f64::max)
+            })
+            .fold(0.0, f64::max);
+        if size < 0.02 || evaluations.get() >= options.max_evaluations {
+            break;
+        }
+        let worst = simplex[dims];
+        let mut centroid = [0.0; 2];
+        for p in &simplex[..dims] {
+            for (c, x) in centroid.iter_mut().zip(&p.0).take(dims) {
+                *c += x / dims as f64;
+            }
+        }
+        let along = |t: f64| {
+            let mut x = centroid;
+            for d in 0..dims {
+                x[d] = centroid[d] + t * (worst.0[d] - centroid[d]);
+            }
+            x
+        };
+        let reflected = eval(along(-1.0), scene)?;
+        if reflected.1 < simplex[0].1 {
+            let expanded = eval(along(-2.0), scene)?;
+            simplex[dims] = if expanded.1 < reflected.1 {
+                expanded
+            } else {
+                reflected
+            };
+        } else if reflected.1 < simplex[dims - 1].1 {
+            simplex[dims] = reflected;
+        } else {
+            let contracted = if reflected.1 < worst.1 {
+                eval(along(-0.5), scene)?
+            } else {
+                eval(along(0.5), scene)?
+            };
+            if contracted.1 < worst.1.min(reflected.1) {
+                simplex[dims] = contracted;
+            } else {
+                let best = simplex[0].0;
+                for p in simplex.iter_mut().skip(1) {
+                    let mut x = best;
+                    for d in 0..dims {
+                        x[d] = best[d] + 0.5 * (p.0[d] - best[d]);
+                    }
+                    *p = eval(x, scene)?;
+                }
+            }
+        }
+    }
+    simplex.sort_by(|p, q| p.1.total_cmp(&q.1));
+    let best = simplex[0].0;
+    let (loss, b_unit) = objective(best[0] as f32, best[1] as f32, scene)?;
+    // Back to every light, with the fitted window and brightness (b* was
+    // found for the light's own colour at b = 1).
+    scene.edit_lights(|lights| lights.clone_from_slice(&all));
+    let mut fitted = start.clone();
+    fitted.a_deg = best[0] as f32;
+    fitted.penumbra_deg = best[1] as f32;
+    fitted.b = b_unit as f32;
+    scene.set_pls_window_and_brightness(mesh, &fitted)?;
+    Ok(WindowFit {
+        a_deg: fitted.a_deg,
+        penumbra_deg: fitted.penumbra_deg,
+        b: fitted.b,
+        loss,
+        evaluations: evaluations.get(),
+    })
+}
