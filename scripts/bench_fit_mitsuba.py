@@ -15,7 +15,10 @@ guesses. It measures
                          over the timed iterations, after --warmup untimed
                          ones (the first iterations JIT-compile kernels).
 
-Progress goes to stderr; the result is one line of JSON on stdout.
+loss_first is the loss of the first (warm-up) iteration, loss_last that of
+the last. Progress goes to stderr; the result is one line of JSON on stdout.
+Variants without AD (--variant scalar_rgb) time the render only and report
+null for the fit. Exits 2 if Mitsuba or the variant cannot be loaded.
 
 Setup (Debian 12):
 
@@ -44,7 +47,7 @@ SCENE_DIR = Path(__file__).resolve().parent.parent / "assets/scenes/fit-room"
 
 # plsr's max_depth counts scattering events; Mitsuba's counts path segments
 # including the camera ray, hence + 1. Russian roulette: Mitsuba's default
-# rr_depth = 5 only starts at the last segment, which is fine here.
+# rr_depth = 5 is kept; with max_depth 5 it never triggers, which is fine.
 PLSR_MAX_DEPTH = 4
 MAX_DEPTH = PLSR_MAX_DEPTH + 1
 
@@ -107,7 +110,10 @@ def parse_args():
                    help="Dr.Jit CPU threads (default: Dr.Jit's choice)")
     p.add_argument("--variant", default="llvm_ad_rgb",
                    help="Mitsuba variant (default llvm_ad_rgb)")
-    return p.parse_args()
+    args = p.parse_args()
+    if args.iterations < 1 or args.warmup < 0:
+        p.error("--iterations must be at least 1, --warmup at least 0")
+    return args
 
 
 def import_mitsuba(variant):
@@ -131,9 +137,8 @@ def import_mitsuba(variant):
     return mi, dr
 
 
-def bsdf(material):
+def bsdf(m):
     """A two-sided Mitsuba bsdf for one plsr material."""
-    m = dict(material)
     if m["type"] == "diffuse":
         inner = {"type": "diffuse",
                  "reflectance": {"type": "rgb", "value": m["reflectance"]}}
@@ -168,7 +173,7 @@ def scene_dict(mi, materials):
     scene = {name: bsdf(material) for name, material in materials.items()}
     scene |= {
         "type": "scene",
-        "integrator": {"type": "prb", "max_depth": MAX_DEPTH},
+        "integrator": {"type": "path", "max_depth": MAX_DEPTH},
         "camera": {
             "type": "perspective",
             "fov_axis": "y",
@@ -178,8 +183,8 @@ def scene_dict(mi, materials):
             "film": {"type": "hdrfilm", "width": 400, "height": 300,
                      "pixel_format": "rgb", "rfilter": {"type": "box"}},
         },
-        "ball_shape": {"type": "sphere", "center": [0.7, 0.2, 0.45], "radius": 0.45,
-                 "bsdf": {"type": "ref", "id": "ball"}},
+        "ball_shape": {"type": "sphere", "center": [0.7, 0.2, 0.45],
+                       "radius": 0.45, "bsdf": {"type": "ref", "id": "ball"}},
         "light_1": {"type": "point", "position": [1.0, -1.2, 2.2],
                     "intensity": {"type": "rgb", "value": [6, 6, 6]}},
         "light_2": {"type": "point", "position": [-1.2, -0.5, 2.0],
@@ -210,12 +215,12 @@ def force(dr, *values):
 
 
 def time_render(mi, dr, scene, spp):
-    """Best of 3 primal renders with the `path` integrator, after a warm-up."""
-    path = mi.load_dict({"type": "path", "max_depth": MAX_DEPTH})
+    """Best of 3 primal renders with the scene's `path` integrator, after a
+    warm-up render."""
     times = []
     for seed in range(4):
         start = time.perf_counter()
-        force(dr, mi.render(scene, integrator=path, spp=spp, seed=seed))
+        force(dr, mi.render(scene, spp=spp, seed=seed))
         times.append(time.perf_counter() - start)
     return min(times[1:])
 
@@ -225,6 +230,7 @@ def fit(mi, dr, scene, target, spp, warmup, iterations):
     params = mi.traverse(scene)
     keys = [param_key(m, n) for m, n, _, _ in FITTED]
     params.keep(keys)
+    prb = mi.load_dict({"type": "prb", "max_depth": MAX_DEPTH})
     opt = mi.ad.Adam(lr=0.05)
     for key in keys:
         opt[key] = params[key]
@@ -233,7 +239,8 @@ def fit(mi, dr, scene, target, spp, warmup, iterations):
     losses, seconds = [], 0.0
     for i in range(warmup + iterations):
         start = time.perf_counter()
-        image = mi.render(scene, params, spp=spp, seed=i, seed_grad=i + 100000)
+        image = mi.render(scene, params, integrator=prb, spp=spp, seed=i,
+                          seed_grad=i + 100000)
         loss = dr.mean(dr.square(image - target), axis=None)
         dr.backward(loss)
         opt.step()
@@ -245,7 +252,7 @@ def fit(mi, dr, scene, target, spp, warmup, iterations):
             seconds += time.perf_counter() - start
         losses.append(loss.array[0])
         print(f"iteration {i}: loss {losses[-1]:.6g}", file=sys.stderr)
-    return seconds / max(iterations, 1), losses
+    return seconds / iterations, losses
 
 
 def main():
@@ -261,8 +268,13 @@ def main():
     scene = mi.load_dict(scene_dict(mi, GUESSES), optimize=False)
     render_seconds = time_render(mi, dr, scene, args.spp)
     print(f"render: {render_seconds:.4f} s", file=sys.stderr)
-    per_iteration, losses = fit(mi, dr, scene, target, args.spp,
-                                args.warmup, args.iterations)
+    if "_ad_" in mi.variant():
+        per_iteration, losses = fit(mi, dr, scene, target, args.spp,
+                                    args.warmup, args.iterations)
+    else:
+        print(f"{mi.variant()} cannot differentiate: no fit, render time only",
+              file=sys.stderr)
+        per_iteration, losses = None, [None]
     print(json.dumps({
         "variant": mi.variant(),
         "mitsuba_version": mi.__version__,

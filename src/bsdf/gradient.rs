@@ -27,6 +27,9 @@ use std::f32::consts::{FRAC_1_PI, PI};
 /// Number of fittable BSDF parameters (slots of [`BsdfGradient::d`]).
 pub const BSDF_PARAMS: usize = 7;
 
+/// Every parameter's bit, for [`Bsdf::eval_gradient_of`].
+pub const ALL_PARAMS: u8 = (1 << BSDF_PARAMS) - 1;
+
 /// A fittable BSDF parameter; its `as usize` is its slot in
 /// [`BsdfGradient::d`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -87,6 +90,14 @@ impl Bsdf {
     /// derivatives are zero for models without [`Bsdf::gradient_support`].
     #[inline]
     pub fn eval_gradient(&self, wo: Vec3, wi: Vec3) -> BsdfGradient {
+        self.eval_gradient_of(wo, wi, ALL_PARAMS)
+    }
+
+    /// [`Bsdf::eval_gradient`] for the parameters whose bits (`1 << slot`)
+    /// are set in `wanted`; the other derivatives are left at zero (and not
+    /// computed). The value `f` equals [`Bsdf::eval`]'s bit for bit.
+    #[inline]
+    pub fn eval_gradient_of(&self, wo: Vec3, wi: Vec3, wanted: u8) -> BsdfGradient {
         match self {
             Bsdf::Diffuse(p) => {
                 if !(wo.z > 0.0 && wi.z > 0.0) {
@@ -95,11 +106,13 @@ impl Bsdf {
                 let mut g = BsdfGradient::ZERO;
                 g.f = p.eval(wo, wi);
                 for c in 0..3 {
-                    g.d[c][c] = FRAC_1_PI;
+                    if wanted & (1 << c) != 0 {
+                        g.d[c][c] = FRAC_1_PI;
+                    }
                 }
                 g
             }
-            Bsdf::Principled(p) if !p.energy_conserving => principled_gradient(p, wo, wi),
+            Bsdf::Principled(p) if !p.energy_conserving => principled_gradient(p, wo, wi, wanted),
             _ => BsdfGradient {
                 f: self.eval(wo, wi),
                 d: [Vec3::ZERO; BSDF_PARAMS],
@@ -145,7 +158,8 @@ fn ggx_d_gradient(m: &Microfacet, h: Vec3) -> (f32, f32, f32) {
         return (0.0, 0.0, 0.0);
     }
     let (ax, ay) = (m.alpha_x, m.alpha_y);
-    let (x2, y2) = ((h.x / ax).powi(2), (h.y / ay).powi(2));
+    // As `Microfacet::d`, operation for operation.
+    let (x2, y2) = ((h.x / ax) * (h.x / ax), (h.y / ay) * (h.y / ay));
     let s = x2 + y2 + h.z * h.z;
     let d = 1.0 / (PI * ax * ay * s * s);
     // ∂s/∂αx = −2 hx²/αx³, so ∂D/∂αx = −D/αx − (2D/s)·∂s/∂αx.
@@ -171,7 +185,8 @@ fn ggx_g1_gradient(m: &Microfacet, w: Vec3, h: Vec3) -> (f32, f32, f32) {
 
 /// The principled BSDF (Mitsuba's mode) and its derivatives; the formulas
 /// are those of `PrincipledParams::eval`, differentiated term by term.
-fn principled_gradient(p: &PrincipledParams, wo: Vec3, wi: Vec3) -> BsdfGradient {
+fn principled_gradient(p: &PrincipledParams, wo: Vec3, wi: Vec3, wanted: u8) -> BsdfGradient {
+    let want = |k: BsdfParam| wanted & (1 << k as u8) != 0;
     if !(wo.z > 0.0 && wi.z > 0.0) {
         return BsdfGradient::ZERO;
     }
@@ -184,11 +199,26 @@ fn principled_gradient(p: &PrincipledParams, wo: Vec3, wi: Vec3) -> BsdfGradient
 
     // The microfacet factor K = D·G1(wo)·G1(wi)/(4 cos θo cos θi) and its
     // derivatives through αx and αy.
-    let (d, d_ax, d_ay) = ggx_d_gradient(&m, h);
-    let (go, go_ax, go_ay) = ggx_g1_gradient(&m, wo, h);
-    let (gi, gi_ax, gi_ay) = ggx_g1_gradient(&m, wi, h);
+    // The shape's derivatives only when roughness or anisotropy is wanted.
+    let shape = want(BsdfParam::Roughness) || want(BsdfParam::Anisotropic);
+    let (d, d_ax, d_ay) = if shape {
+        ggx_d_gradient(&m, h)
+    } else {
+        (m.d(h), 0.0, 0.0)
+    };
+    let (go, go_ax, go_ay) = if shape {
+        ggx_g1_gradient(&m, wo, h)
+    } else {
+        (m.g1(wo, h), 0.0, 0.0)
+    };
+    let (gi, gi_ax, gi_ay) = if shape {
+        ggx_g1_gradient(&m, wi, h)
+    } else {
+        (m.g1(wi, h), 0.0, 0.0)
+    };
     let denom = 4.0 * wo.z * wi.z;
-    let k = d * go * gi / denom;
+    // As `PrincipledParams::eval`: D·(G1·G1)/(4 cos θo cos θi).
+    let k = d * (go * gi) / denom;
     let k_ax = (d_ax * go * gi + d * go_ax * gi + d * go * gi_ax) / denom;
     let k_ay = (d_ay * go * gi + d * go_ay * gi + d * go * gi_ay) / denom;
 
@@ -209,7 +239,11 @@ fn principled_gradient(p: &PrincipledParams, wo: Vec3, wi: Vec3) -> BsdfGradient
 
     // The Fresnel blend F and its derivatives.
     let w = fresnel::schlick_weight(cos_d);
-    let fd = fresnel::dielectric(cos_d, eta);
+    let fd = if want(BsdfParam::Metallic) || want(BsdfParam::Specular) {
+        fresnel::dielectric(cos_d, eta)
+    } else {
+        0.0
+    };
     let f0 = fresnel::dielectric_f0(eta);
     let lum = luminance(p.base_color);
     let tint = if lum > 0.0 {
@@ -219,9 +253,7 @@ fn principled_gradient(p: &PrincipledParams, wo: Vec3, wi: Vec3) -> BsdfGradient
     };
     let schlick_base = fresnel::schlick(p.base_color, cos_d);
     let schlick_tint = fresnel::schlick(tint * f0, cos_d);
-    let fresnel = Vec3::splat(fd * (1.0 - metal) * (1.0 - tint_w))
-        + schlick_base * metal
-        + schlick_tint * ((1.0 - metal) * tint_w);
+    let fresnel = p.fresnel(cos_d, eta);
 
     // Burley's diffuse lobe: base·(1 − metallic)/π·B.
     let (fo, fi) = (fresnel::schlick_weight(wo.z), fresnel::schlick_weight(wi.z));
@@ -235,6 +267,9 @@ fn principled_gradient(p: &PrincipledParams, wo: Vec3, wi: Vec3) -> BsdfGradient
 
     // Colour channels.
     for c in 0..3 {
+        if wanted & (1 << c) == 0 {
+            continue;
+        }
         let e = unit(c);
         let mut df = e * metal * (1.0 - w);
         if tint_w > 0.0 && lum > 0.0 {
@@ -245,17 +280,23 @@ fn principled_gradient(p: &PrincipledParams, wo: Vec3, wi: Vec3) -> BsdfGradient
         g.d[c] = e * (diffuse_weight * b) + df * k;
     }
     // Roughness: the retro-reflection term and the lobe's shape.
-    let dretro_dr = 2.0 * cos_d * cos_d * (fo + fi + fo * fi * (2.0 * rr - 1.0));
-    g.d[BsdfParam::Roughness as usize] =
-        p.base_color * (diffuse_weight * dretro_dr) + fresnel * k_r;
+    if want(BsdfParam::Roughness) {
+        let dretro_dr = 2.0 * cos_d * cos_d * (fo + fi + fo * fi * (2.0 * rr - 1.0));
+        g.d[BsdfParam::Roughness as usize] =
+            p.base_color * (diffuse_weight * dretro_dr) + fresnel * k_r;
+    }
     // Metallic: the diffuse weight and the Fresnel blend.
-    let df_dm = Vec3::splat(-fd * (1.0 - tint_w)) + schlick_base - schlick_tint * tint_w;
-    g.d[BsdfParam::Metallic as usize] = -p.base_color * (FRAC_1_PI * b) + df_dm * k;
+    if want(BsdfParam::Metallic) {
+        let df_dm = Vec3::splat(-fd * (1.0 - tint_w)) + schlick_base - schlick_tint * tint_w;
+        g.d[BsdfParam::Metallic as usize] = -p.base_color * (FRAC_1_PI * b) + df_dm * k;
+    }
     // Anisotropic: the lobe's shape only.
-    g.d[BsdfParam::Anisotropic as usize] = fresnel * k_a;
+    if want(BsdfParam::Anisotropic) {
+        g.d[BsdfParam::Anisotropic as usize] = fresnel * k_a;
+    }
     // Specular, through η = 2/(1 − √(0.08 s)) − 1.
     let q = (0.08 * p.specular).sqrt();
-    if q > 0.0 {
+    if q > 0.0 && want(BsdfParam::Specular) {
         let deta = 2.0 / ((1.0 - q) * (1.0 - q)) * (0.04 / q);
         let df0 = 4.0 * (eta - 1.0) / (eta + 1.0).powi(3);
         let df_deta = Vec3::splat((1.0 - metal) * (1.0 - tint_w) * dielectric_d_eta(cos_d, eta))

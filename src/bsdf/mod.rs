@@ -53,7 +53,7 @@ pub mod microfacet;
 pub mod models;
 
 pub use fresnel::METALS;
-pub use gradient::{BsdfGradient, BsdfParam, BSDF_PARAMS};
+pub use gradient::{BsdfGradient, BsdfParam, ALL_PARAMS, BSDF_PARAMS};
 pub use microfacet::{Distribution, Microfacet};
 pub use models::{
     lambert_eval, lambert_pdf, lambert_sample, BlinnPhongParams, CookTorranceParams,

@@ -534,7 +534,7 @@ impl PrincipledParams {
     }
 
     #[inline]
-    fn fresnel(&self, cos_theta: f32, eta: f32) -> Vec3 {
+    pub(super) fn fresnel(&self, cos_theta: f32, eta: f32) -> Vec3 {
         // metallic·Schlick(base) + (1 − metallic)·[(1 − t)·F_dielectric(η)
         // + t·Schlick(tint·f0(η))]; the terms with zero weight are skipped
         // (most materials are pure dielectrics or pure metals, untinted).

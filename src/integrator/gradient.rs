@@ -140,7 +140,14 @@ pub fn gradient_tile(
     // radiance is `s·Wᵀ·adjoint`, over the samples it is averaged with.
     let response = scene.film().response();
     let lens_sample = scene.camera().needs_lens_sample();
+    // Per sample pass: the camera rays of the tile go to Embree together
+    // as a coherent stream (as in the general integrator), then each path
+    // continues on its own.
+    let mut starts: Vec<(u32, crate::rng::Rng, Vec3)> = Vec::new();
+    let mut first_hits: Vec<RayHit> = Vec::new();
     for s in job.samples() {
+        starts.clear();
+        first_hits.clear();
         for py in 0..tile.height {
             for px in 0..tile.width {
                 let (x, y) = (tile.x0 + px, tile.y0 + py);
@@ -155,10 +162,15 @@ pub fn gradient_tile(
                 let (rng, Some(ray)) = camera_sample(scene, job.seed, lens_sample, x, y, s) else {
                     continue;
                 };
-                dbeta.clear();
-                let radiance = trace_path(&ctx, rng, ray, a, &mut dbeta, &mut gradient);
-                pixels[(py * tile.width + px) as usize].add_radiance(response.apply(radiance));
+                starts.push((py * tile.width + px, rng, a));
+                first_hits.push(RayHit::masked(ray, job.ray_mask()));
             }
+        }
+        scene.accel().intersect_stream(&mut first_hits, true);
+        for ((pixel, rng, a), first) in starts.drain(..).zip(&first_hits) {
+            dbeta.clear();
+            let radiance = trace_path(&ctx, rng, *first, a, &mut dbeta, &mut gradient);
+            pixels[pixel as usize].add_radiance(response.apply(radiance));
         }
     }
     TileGradient {
@@ -253,7 +265,7 @@ fn add_light_terms(map: &GradientMap, li: usize, c: Vec3, adjoint: Vec3, gradien
 fn trace_path(
     ctx: &Context,
     mut rng: crate::rng::Rng,
-    first: Ray,
+    first: RayHit,
     adjoint: Vec3,
     dbeta: &mut ThroughputDerivative,
     gradient: &mut [f64],
@@ -264,12 +276,17 @@ fn trace_path(
     let mut beta = Vec3::ONE;
     let mut radiance = Vec3::ZERO;
     let mut prev_pdf = 0.0f32;
-    let mut prev_point = first.org;
+    let mut prev_point = first.ray().org;
     let mut depth = 0u32;
-    let mut ray = first;
+    let mut ray = first.ray();
+    let mut rh = [first];
+    let mut traced = true;
     loop {
-        let mut rh = [RayHit::masked(ray, mask)];
-        scene.accel().intersect_each(&mut rh);
+        if !traced {
+            rh = [RayHit::masked(ray, mask)];
+            scene.accel().intersect_each(&mut rh);
+        }
+        traced = false;
         let Some(hit) = rh[0].hit() else {
             if let Some(env) = scene.environment_index() {
                 let Light::Environment { light, .. } = &scene.lights().lights[env] else {
@@ -333,6 +350,12 @@ fn trace_path(
         }
         let slots = &map.materials[mesh.material as usize];
         let differentiable = map.material_has_slots(mesh.material);
+        // The derivatives this material needs (bit k: slot k).
+        let wanted = slots
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.is_some())
+            .fold(0u8, |m, (k, _)| m | 1 << k);
         // A material whose anisotropy is a parameter needs its tangent frame
         // even while the anisotropy is 0.
         let frame = if bsdf.is_anisotropic()
@@ -363,19 +386,20 @@ fn trace_path(
             if let Some(ls) = scene.lights().lights[li].sample_li(p, u) {
                 let wi_local = frame.to_local(ls.wi);
                 let leaks = guard && !sides_agree(wo, ls.wi, ng, wo_local, wi_local);
-                let (f, bsdf_pdf) = if leaks {
-                    (Vec3::ZERO, 0.0)
-                } else if ls.delta {
-                    (bsdf.eval(wo_local, wi_local), 0.0)
-                } else {
-                    bsdf.eval_pdf(wo_local, wi_local)
+                // A zero BSDF value may still have a derivative (a black
+                // albedo): the differentiable case goes on to its shadow ray.
+                // Towards a delta light the derivatives' value is `eval`'s,
+                // bit for bit, and stands for it.
+                let dfc = (differentiable && !leaks)
+                    .then(|| bsdf.eval_gradient_of(wo_local, wi_local, wanted));
+                let (f, bsdf_pdf) = match dfc {
+                    _ if leaks => (Vec3::ZERO, 0.0),
+                    Some(g) if ls.delta => (g.f, 0.0),
+                    _ if ls.delta => (bsdf.eval(wo_local, wi_local), 0.0),
+                    _ => bsdf.eval_pdf(wo_local, wi_local),
                 };
                 let cos = wi_local.z.abs();
                 let fc = f * cos;
-                // A zero BSDF value may still have a derivative (a black
-                // albedo): the differentiable case goes on to its shadow ray.
-                let dfc =
-                    (differentiable && !leaks).then(|| bsdf.eval_gradient(wo_local, wi_local));
                 let any_derivative = dfc.is_some_and(|g| g.d.iter().any(|d| *d != Vec3::ZERO));
                 if fc != Vec3::ZERO || any_derivative {
                     let light_pdf = pick_pmf * ls.pdf;
@@ -431,7 +455,7 @@ fn trace_path(
         // ∂β' = ∂β·w + β·∂f·|cos θ|/p (detached p), with the old β.
         dbeta.scale(bs.weight);
         if differentiable && !bs.delta && bs.pdf > 0.0 {
-            let g = bsdf.eval_gradient(wo_local, bs.wi);
+            let g = bsdf.eval_gradient_of(wo_local, bs.wi, wanted);
             let k = bs.wi.z.abs() / bs.pdf;
             for (slot, d) in slots.iter().zip(g.d) {
                 if let Some(slot) = slot {
