@@ -901,3 +901,57 @@ fn a_lights_divergence_soft_edge_and_brightness_are_found_from_a_lit_floor() {
     assert!((pls.light.penumbra_deg - found.penumbra_deg).abs() < 1e-3);
     assert!((pls.light.b - found.b).abs() < 1e-3 * found.b);
 }
+
+#[test]
+fn a_lights_direction_is_found_too() {
+    let dir = tempdir();
+    let (a, w, b) = (20.0f32, 6.0f32, 3.0f32);
+    let truth = spot_room(dir.path(), a, w, b, false);
+    let scene = Scene::load(&truth).unwrap();
+    let (film, _) =
+        plsr::render::render(&scene, &job(&scene, 1024, 5), &options(2), &|_, _| true).unwrap();
+    film.write_exr(&dir.path().join("photo.exr")).unwrap();
+    // Start pointing straight down (the truth leans 5.7° towards +x).
+    let guess = spot_room(dir.path(), 24.0, 2.0, 4.0, true);
+    let text = std::fs::read_to_string(dir.path().join("spot.toml"))
+        .unwrap()
+        .replace("n = [0.1, 0, -1]", "n = [0, 0, -1]");
+    std::fs::write(dir.path().join("spot.toml"), text).unwrap();
+    let options = FitOptions {
+        windows: vec!["spot".into()],
+        window_direction: true,
+        threads: Some(2),
+        ..FitOptions::default()
+    };
+    let out = dir.path().join("fitted.toml");
+    let outcome = fit_scene_file(&guess, &out, &options, &mut |_, _| true).unwrap();
+    let (_, found) = &outcome.windows[0];
+    eprintln!("{found:?}");
+    let want = Vec3::new(0.1, 0.0, -1.0).normalize();
+    let angle = found.n.dot(want).clamp(-1.0, 1.0).acos().to_degrees();
+    assert!(angle <= 1.0, "n = {} is {angle}° from {want}", found.n);
+    assert!((found.a_deg - a).abs() <= 1.0, "a = {} vs {a}", found.a_deg);
+    assert!(
+        (found.penumbra_deg - w).abs() <= 0.2 * w,
+        "penumbra = {}",
+        found.penumbra_deg
+    );
+    assert!((found.b / b - 1.0).abs() <= 0.02, "b = {} vs {b}", found.b);
+    // The fitted PLS file (a circle: its n changes, its centre stays).
+    outcome
+        .write(
+            &out,
+            &dir.path().join("l.csv"),
+            &dir.path().join("l.png"),
+            &[],
+        )
+        .unwrap();
+    let fitted = Scene::load(&out).unwrap();
+    let pls = fitted.meshes().iter().find_map(|m| m.pls.as_ref()).unwrap();
+    assert!(
+        pls.light.normal().dot(found.n) > 0.99999,
+        "{}: {}",
+        pls.light.normal(),
+        std::fs::read_to_string(dir.path().join("fitted.pls-0.toml")).unwrap()
+    );
+}

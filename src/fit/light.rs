@@ -29,6 +29,11 @@ pub struct WindowFit {
     pub penumbra_deg: f32,
     /// Brightness `b` (the light's units).
     pub b: f32,
+    /// The light's unit normal `n` (changed only when the direction is
+    /// fitted).
+    pub n: Vec3,
+    /// The ends `e1`, `e2` of its outline's axis (turned with `n`).
+    pub e: [Vec3; 2],
     /// The mean squared error at the fitted values (render units).
     pub loss: f64,
     /// Renders of the light alone the search took.
@@ -46,6 +51,9 @@ pub struct WindowFitOptions {
     pub max_evaluations: u32,
     /// Whether `w` is searched too (otherwise it keeps its value).
     pub fit_penumbra: bool,
+    /// Whether the direction `n` is searched too (two tilts about the
+    /// outline's centre; each evaluation rebuilds the scene).
+    pub fit_direction: bool,
     /// Worker threads.
     pub threads: Option<usize>,
 }
@@ -57,6 +65,7 @@ impl Default for WindowFitOptions {
             seed: 0x9e37,
             max_evaluations: 80,
             fit_penumbra: true,
+            fit_direction: false,
             threads: None,
         }
     }
@@ -86,10 +95,37 @@ fn render_views(
     Ok(out)
 }
 
+/// The light `start` turned about its outline's centre so that its normal
+/// tilts by `u` degrees towards `t1` and `v` degrees towards `t2` (unit
+/// vectors perpendicular to its normal).
+fn tilted(
+    start: &crate::light::pls::Pls,
+    t: (Vec3, Vec3),
+    u: f64,
+    v: f64,
+) -> crate::light::pls::Pls {
+    if u == 0.0 && v == 0.0 {
+        return start.clone();
+    }
+    let n0 = start.normal();
+    let n = (n0 + (u.to_radians().tan() as f32) * t.0 + (v.to_radians().tan() as f32) * t.1)
+        .normalize();
+    let c = start.centre();
+    let m = glam::Mat4::from_translation(c)
+        * glam::Mat4::from_quat(glam::Quat::from_rotation_arc(n0, n))
+        * glam::Mat4::from_translation(-c);
+    let mut l = start.transform(&m);
+    l.n = n;
+    l
+}
+
 /// Fits the window and brightness of the PLS light of mesh `mesh` to the
-/// views; leaves the scene with the fitted values.
+/// views (and, with `options.fit_direction`, its direction: then `desc`,
+/// the scene's description, rebuilds the scene for each tilt); leaves the
+/// scene with the fitted values.
 pub fn fit_window(
     scene: &mut Scene,
+    desc: Option<&crate::scene::SceneDescription>,
     views: &[View],
     mesh: usize,
     options: &WindowFitOptions,
@@ -104,6 +140,15 @@ pub fn fit_window(
             "{}: the light emits nothing (b or c is 0)",
             scene.meshes()[mesh].name
         )));
+    };
+    let desc = match (options.fit_direction, desc) {
+        (true, None) => {
+            return Err(Error::InvalidArgument(
+                "fitting a light's direction needs the scene's description".into(),
+            ))
+        }
+        (true, Some(d)) => Some(d),
+        (false, _) => None,
     };
     let start = emitter.light.clone();
     let all = scene.lights().lights.clone();
@@ -126,7 +171,7 @@ pub fn fit_window(
         }
     });
     let rest = render_views(scene, views, &job, &render_options)?;
-    // U(a, w): the light alone at b = 1.
+    // U(a, w[, tilt]): the light alone at b = 1.
     let mut unit = start.clone();
     unit.b = 1.0;
     scene.edit_lights(|lights| {
@@ -141,15 +186,52 @@ pub fn fit_window(
             }
         }
     });
+    // The description with only this light, for tilts.
+    let alone = desc.map(|d| {
+        let mut d = d.clone();
+        for p in &mut d.point_lights {
+            p.intensity = Vec3::ZERO;
+        }
+        for (i, m) in d.meshes.iter_mut().enumerate() {
+            if i != mesh {
+                m.emission = None;
+            }
+        }
+        d.environment = None;
+        d
+    });
+    let frame = crate::warp::Frame::from_normal(start.normal());
+    let axes = (frame.s, frame.t);
     let evaluations = std::cell::Cell::new(0u32);
     let terms: f64 = 3.0 * views.iter().map(View::pixels).sum::<usize>() as f64;
-    let objective = |a: f32, w: f32, scene: &mut Scene| -> Result<(f64, f64)> {
+    let light_at = |x: &[f64]| {
+        let mut l = if x.len() > 2 {
+            tilted(&unit, axes, x[2], x[3])
+        } else {
+            unit.clone()
+        };
+        l.a_deg = x[0] as f32;
+        l.penumbra_deg = x[1] as f32;
+        l
+    };
+    let objective = |x: &[f64], scene: &mut Scene| -> Result<(f64, f64)> {
         evaluations.set(evaluations.get() + 1);
-        let mut l = unit.clone();
-        l.a_deg = a;
-        l.penumbra_deg = w;
-        scene.set_pls_window_and_brightness(mesh, &l)?;
-        let u = render_views(scene, views, &job, &render_options)?;
+        let l = light_at(x);
+        let u = match &alone {
+            Some(d) => {
+                let mut d = d.clone();
+                let old = &d.meshes[mesh];
+                let (nf, mode, material, name) =
+                    (emitter.nf, emitter.mode, old.material, old.name.clone());
+                d.meshes[mesh] = crate::scene::pls_mesh(&l, mode, nf, material, name);
+                let mut s = Scene::build(d)?;
+                render_views(&mut s, views, &job, &render_options)?
+            }
+            None => {
+                scene.set_pls_window_and_brightness(mesh, &l)?;
+                render_views(scene, views, &job, &render_options)?
+            }
+        };
         let (mut ut, mut uu) = (0.0f64, 0.0f64);
         for (k, v) in views.iter().enumerate() {
             for i in 0..v.target.len() {
@@ -176,30 +258,48 @@ pub fn fit_window(
         }
         Ok((loss / terms, b))
     };
-    // Bounds: a in [0.5°, 89.5°], 0 ≤ w ≤ 2·min(a, 90° − a).
-    let clamp = |x: [f64; 2]| -> [f64; 2] {
+    // The search's coordinates: a, w (degrees) and, for the direction, the
+    // tilts u, v (degrees). Bounds: a in [0.5°, 89.5°], 0 ≤ w ≤ 2·min(a,
+    // 90° − a), tilts within ±45°.
+    let dims = if options.fit_direction { 4 } else { 2 };
+    let clamp = |x: &[f64]| -> Vec<f64> {
         let a = x[0].clamp(0.5, 89.5);
         let w = if options.fit_penumbra {
             x[1].clamp(0.0, 2.0 * a.min(90.0 - a))
         } else {
             start.penumbra_deg as f64
         };
-        [a, w]
+        let mut out = vec![a, w];
+        for t in &x[2..] {
+            out.push(t.clamp(-45.0, 45.0));
+        }
+        out
     };
-    let dims = if options.fit_penumbra { 2 } else { 1 };
-    let x0 = clamp([start.a_deg as f64, start.penumbra_deg as f64]);
-    let step = [(0.1 * x0[0]).clamp(1.0, 5.0), 2.0];
-    let mut simplex: Vec<([f64; 2], f64)> = Vec::new();
-    let eval = |x: [f64; 2], scene: &mut Scene| -> Result<([f64; 2], f64)> {
-        let x = clamp(x);
-        Ok((x, objective(x[0] as f32, x[1] as f32, scene)?.0))
+    let mut x0 = vec![start.a_deg as f64, start.penumbra_deg as f64];
+    x0.resize(dims, 0.0);
+    let x0 = clamp(&x0);
+    let step: Vec<f64> = (0..dims)
+        .map(|d| match d {
+            0 => (0.1 * x0[0]).clamp(1.0, 5.0),
+            _ => 2.0,
+        })
+        .collect();
+    // Directions the search moves along (w stays when it is not fitted).
+    let moving: Vec<usize> = (0..dims)
+        .filter(|&d| d != 1 || options.fit_penumbra)
+        .collect();
+    let eval = |x: Vec<f64>, scene: &mut Scene| -> Result<(Vec<f64>, f64)> {
+        let x = clamp(&x);
+        let f = objective(&x, scene)?.0;
+        Ok((x, f))
     };
-    simplex.push(eval(x0, scene)?);
-    for d in 0..dims {
-        let mut x = x0;
+    let mut simplex: Vec<(Vec<f64>, f64)> = vec![eval(x0.clone(), scene)?];
+    for &d in &moving {
+        let mut x = x0.clone();
         x[d] += step[d];
         simplex.push(eval(x, scene)?);
     }
+    let n = moving.len();
     // Nelder–Mead (standard coefficients: reflection 1, expansion 2,
     // contraction ½, shrink ½), until the simplex is below 0.02° or the
     // budget is spent.
@@ -208,38 +308,39 @@ pub fn fit_window(
         let size = simplex[1..]
             .iter()
             .map(|p| {
-                (0..dims)
-                    .map(|d| (p.0[d] - simplex[0].0[d]).abs())
+                moving
+                    .iter()
+                    .map(|&d| (p.0[d] - simplex[0].0[d]).abs())
                     .fold(0.0, f64::max)
             })
             .fold(0.0, f64::max);
         if size < 0.02 || evaluations.get() >= options.max_evaluations {
             break;
         }
-        let worst = simplex[dims];
-        let mut centroid = [0.0; 2];
-        for p in &simplex[..dims] {
-            for (c, x) in centroid.iter_mut().zip(&p.0).take(dims) {
-                *c += x / dims as f64;
+        let worst = simplex[n].clone();
+        let mut centroid = vec![0.0; dims];
+        for p in &simplex[..n] {
+            for (c, x) in centroid.iter_mut().zip(&p.0) {
+                *c += x / n as f64;
             }
         }
-        let along = |t: f64| {
-            let mut x = centroid;
-            for d in 0..dims {
-                x[d] = centroid[d] + t * (worst.0[d] - centroid[d]);
-            }
-            x
+        let along = |t: f64| -> Vec<f64> {
+            centroid
+                .iter()
+                .zip(&worst.0)
+                .map(|(c, w)| c + t * (w - c))
+                .collect()
         };
         let reflected = eval(along(-1.0), scene)?;
         if reflected.1 < simplex[0].1 {
             let expanded = eval(along(-2.0), scene)?;
-            simplex[dims] = if expanded.1 < reflected.1 {
+            simplex[n] = if expanded.1 < reflected.1 {
                 expanded
             } else {
                 reflected
             };
-        } else if reflected.1 < simplex[dims - 1].1 {
-            simplex[dims] = reflected;
+        } else if reflected.1 < simplex[n - 1].1 {
+            simplex[n] = reflected;
         } else {
             let contracted = if reflected.1 < worst.1 {
                 eval(along(-0.5), scene)?
@@ -247,34 +348,47 @@ pub fn fit_window(
                 eval(along(0.5), scene)?
             };
             if contracted.1 < worst.1.min(reflected.1) {
-                simplex[dims] = contracted;
+                simplex[n] = contracted;
             } else {
-                let best = simplex[0].0;
+                let best = simplex[0].0.clone();
                 for p in simplex.iter_mut().skip(1) {
-                    let mut x = best;
-                    for d in 0..dims {
-                        x[d] = best[d] + 0.5 * (p.0[d] - best[d]);
-                    }
+                    let x: Vec<f64> = best
+                        .iter()
+                        .zip(&p.0)
+                        .map(|(b, q)| b + 0.5 * (q - b))
+                        .collect();
                     *p = eval(x, scene)?;
                 }
             }
         }
     }
     simplex.sort_by(|p, q| p.1.total_cmp(&q.1));
-    let best = simplex[0].0;
-    let (loss, b_unit) = objective(best[0] as f32, best[1] as f32, scene)?;
+    let best = simplex[0].0.clone();
+    let (loss, b_unit) = objective(&best, scene)?;
     // Back to every light, with the fitted window and brightness (b* was
     // found for the light's own colour at b = 1).
     scene.edit_lights(|lights| lights.clone_from_slice(&all));
-    let mut fitted = start.clone();
-    fitted.a_deg = best[0] as f32;
-    fitted.penumbra_deg = best[1] as f32;
+    let mut fitted = light_at(&best);
     fitted.b = b_unit as f32;
-    scene.set_pls_window_and_brightness(mesh, &fitted)?;
+    match desc {
+        Some(d) => {
+            let mut d = d.clone();
+            let old = &d.meshes[mesh];
+            let (material, name) = (old.material, old.name.clone());
+            d.meshes[mesh] =
+                crate::scene::pls_mesh(&fitted, emitter.mode, emitter.nf, material, name);
+            let camera = scene.camera().clone();
+            *scene = Scene::build(d)?;
+            scene.set_camera(camera);
+        }
+        None => scene.set_pls_window_and_brightness(mesh, &fitted)?,
+    }
     Ok(WindowFit {
         a_deg: fitted.a_deg,
         penumbra_deg: fitted.penumbra_deg,
         b: fitted.b,
+        n: fitted.n,
+        e: [fitted.g.e1, fitted.g.e2],
         loss,
         evaluations: evaluations.get(),
     })

@@ -60,6 +60,8 @@ pub struct FitOptions {
     /// `b` are found first by a derivative-free search ([`light`]); with
     /// no `params` given, only they are fitted.
     pub windows: Vec<String>,
+    /// Whether the window search also turns the lights' directions `n`.
+    pub window_direction: bool,
 }
 
 impl Default for FitOptions {
@@ -72,6 +74,7 @@ impl Default for FitOptions {
             params: Vec::new(),
             threads: None,
             windows: Vec::new(),
+            window_direction: false,
         }
     }
 }
@@ -550,6 +553,9 @@ pub fn fit_scene_file(
     progress: &mut dyn FnMut(&Iteration, &[Parameter]) -> bool,
 ) -> Result<FitOutcome> {
     let contents = crate::scene::file::load_contents(path)?;
+    // A direction search rebuilds the scene from its description.
+    let description = (options.window_direction && !options.windows.is_empty())
+        .then(|| contents.description.clone());
     let mut scene = Scene::build(contents.description)?;
     let scale = write::environment_scale(path)?;
     let adam = !options.params.is_empty() || options.windows.is_empty();
@@ -643,12 +649,15 @@ pub fn fit_scene_file(
     for (name, mesh, table, index) in window_lights {
         let found = light::fit_window(
             &mut scene,
+            description.as_ref(),
             &views,
             mesh,
             &light::WindowFitOptions {
                 spp: 4 * options.spp,
                 seed: options.seed ^ 0x9e37,
                 threads: options.threads,
+                fit_direction: options.window_direction,
+                max_evaluations: if options.window_direction { 160 } else { 80 },
                 ..Default::default()
             },
         )?;
@@ -657,18 +666,24 @@ pub fn fit_scene_file(
             table,
             light: index,
         };
-        for (field, v) in [
-            ("a", found.a_deg),
-            ("penumbra", found.penumbra_deg),
-            ("b", found.b),
-        ] {
+        let mut fields = vec![
+            ("a", vec![found.a_deg]),
+            ("penumbra", vec![found.penumbra_deg]),
+            ("b", vec![found.b]),
+        ];
+        if options.window_direction {
+            fields.push(("n", found.n.to_array().to_vec()));
+            fields.push(("e1", found.e[0].to_array().to_vec()));
+            fields.push(("e2", found.e[1].to_array().to_vec()));
+        }
+        for (field, v) in fields {
             written.push(Parameter {
                 name: format!("{name}.{field}"),
                 owner: owner.clone(),
                 field,
-                value: vec![v],
-                initial: vec![v],
-                bounds: (0.0, f32::MAX),
+                initial: v.clone(),
+                value: v,
+                bounds: (f32::MIN, f32::MAX),
                 slot: u32::MAX,
             });
         }

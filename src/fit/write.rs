@@ -306,7 +306,21 @@ pub fn fitted_files(
             .map(|e| e.to_string_lossy().into_owned())
             .unwrap_or_else(|| "toml".into());
         let name = format!("{stem}.pls-{table}.{ext}");
-        let fitted = edit(&src, &src_text, e)?;
+        // A light given as a `circle` keeps it: its axis ends follow `n`.
+        let src_doc = parse(&src, &src_text)?;
+        let e: Edits = e
+            .iter()
+            .filter(|(segs, _)| match segs.as_slice() {
+                [_, Seg::Index(k), Seg::Key(f)] if f == "e1" || f == "e2" => src_doc
+                    .get("lights")
+                    .and_then(|l| l.get(*k))
+                    .and_then(|l| l.get("circle"))
+                    .is_none(),
+                _ => true,
+            })
+            .cloned()
+            .collect();
+        let fitted = edit(&src, &src_text, &e)?;
         pls.push((out_dir.join(&name), fitted));
         edits.push((
             vec![key("pls"), Seg::Index(*table), key("file")],

@@ -36,6 +36,10 @@ pub struct FitArgs {
     /// windows are fitted.
     #[arg(long = "window", value_name = "LIGHT")]
     pub windows: Vec<String>,
+    /// With --window: also turn each light's direction `n` (two tilts
+    /// about its outline's centre; every step rebuilds the scene).
+    #[arg(long)]
+    pub window_direction: bool,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -129,6 +133,7 @@ pub fn run(a: &FitArgs) -> Result<()> {
         params: a.params.clone(),
         threads: a.threads,
         windows: a.windows.clone(),
+        window_direction: a.window_direction,
     };
     let bar = progress_bar(
         a.quiet,
@@ -150,8 +155,8 @@ pub fn run(a: &FitArgs) -> Result<()> {
     }
     for (name, w) in &outcome.windows {
         eprintln!(
-            "window of {name}: a = {:.3}°, penumbra = {:.3}°, b = {:.5} ({} renders, loss {:.4e})",
-            w.a_deg, w.penumbra_deg, w.b, w.evaluations, w.loss
+            "window of {name}: n = [{:.4}, {:.4}, {:.4}], a = {:.3}°, penumbra = {:.3}°, b = {:.5} ({} renders, loss {:.4e})",
+            w.n.x, w.n.y, w.n.z, w.a_deg, w.penumbra_deg, w.b, w.evaluations, w.loss
         );
     }
     let fmt = |v: &[f32]| {
