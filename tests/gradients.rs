@@ -955,3 +955,59 @@ fn a_lights_direction_is_found_too() {
         std::fs::read_to_string(dir.path().join("fitted.pls-0.toml")).unwrap()
     );
 }
+
+#[test]
+fn a_hard_edged_lights_size_is_found_from_the_blur_of_its_edge() {
+    let dir = tempdir();
+    let (a, b) = (25.0f32, 3.0f32);
+    let truth = spot_room(dir.path(), a, 0.0, b, false);
+    let big = |dir: &Path, r: f32| {
+        let text = std::fs::read_to_string(dir.join("spot.toml"))
+            .unwrap()
+            .replace("radius = 0.03", &format!("radius = {r}"));
+        std::fs::write(dir.join("spot.toml"), text).unwrap();
+    };
+    big(dir.path(), 0.12);
+    let scene = Scene::load(&truth).unwrap();
+    let (film, _) =
+        plsr::render::render(&scene, &job(&scene, 1024, 5), &options(2), &|_, _| true).unwrap();
+    film.write_exr(&dir.path().join("photo.exr")).unwrap();
+    // Half the size, a narrower beam, brighter.
+    let guess = spot_room(dir.path(), 22.0, 0.0, 4.0, true);
+    big(dir.path(), 0.06);
+    let options = FitOptions {
+        windows: vec!["spot".into()],
+        window_size: true,
+        threads: Some(2),
+        ..FitOptions::default()
+    };
+    let out = dir.path().join("fitted.toml");
+    let outcome = fit_scene_file(&guess, &out, &options, &mut |_, _| true).unwrap();
+    let (_, found) = &outcome.windows[0];
+    eprintln!("{found:?}");
+    let radius = 0.06 * found.size;
+    assert!(
+        (radius / 0.12 - 1.0).abs() <= 0.2,
+        "radius {radius} vs 0.12"
+    );
+    assert!((found.a_deg - a).abs() <= 1.0, "a = {} vs {a}", found.a_deg);
+    assert!((found.b / b - 1.0).abs() <= 0.02, "b = {} vs {b}", found.b);
+    assert_eq!(found.penumbra_deg, 0.0, "the penumbra is held");
+    // The fitted PLS file: the circle's radius.
+    outcome
+        .write(
+            &out,
+            &dir.path().join("l.csv"),
+            &dir.path().join("l.png"),
+            &[],
+        )
+        .unwrap();
+    let text = std::fs::read_to_string(dir.path().join("fitted.pls-0.toml")).unwrap();
+    assert!(
+        !text.contains("radius = 0.06,") && !text.contains("e1"),
+        "{text}"
+    );
+    let fitted = Scene::load(&out).unwrap();
+    let pls = fitted.meshes().iter().find_map(|m| m.pls.as_ref()).unwrap();
+    assert!((pls.light.g.d[1] / 1.35 - radius).abs() < 1e-3, "{text}");
+}

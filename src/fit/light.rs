@@ -32,8 +32,13 @@ pub struct WindowFit {
     /// The light's unit normal `n` (changed only when the direction is
     /// fitted).
     pub n: Vec3,
-    /// The ends `e1`, `e2` of its outline's axis (turned with `n`).
+    /// The ends `e1`, `e2` of its outline's axis (turned with `n`, scaled
+    /// with the size).
     pub e: [Vec3; 2],
+    /// The outline's half-widths `d` (scaled with the size).
+    pub d: [f32; 4],
+    /// The outline's scale against the start (1 unless the size is fitted).
+    pub size: f32,
     /// The mean squared error at the fitted values (render units).
     pub loss: f64,
     /// Renders of the light alone the search took.
@@ -54,6 +59,11 @@ pub struct WindowFitOptions {
     /// Whether the direction `n` is searched too (two tilts about the
     /// outline's centre; each evaluation rebuilds the scene).
     pub fit_direction: bool,
+    /// Whether the outline's size is searched too (its distances `d` and
+    /// axis scaled together about its centre; each evaluation rebuilds the
+    /// scene). From photos of lit surfaces it shows only as the blur of
+    /// the beam's edge, as a soft edge does: hold the penumbra fixed.
+    pub fit_size: bool,
     /// Worker threads.
     pub threads: Option<usize>,
 }
@@ -66,6 +76,7 @@ impl Default for WindowFitOptions {
             max_evaluations: 80,
             fit_penumbra: true,
             fit_direction: false,
+            fit_size: false,
             threads: None,
         }
     }
@@ -141,10 +152,10 @@ pub fn fit_window(
             scene.meshes()[mesh].name
         )));
     };
-    let desc = match (options.fit_direction, desc) {
+    let desc = match (options.fit_direction || options.fit_size, desc) {
         (true, None) => {
             return Err(Error::InvalidArgument(
-                "fitting a light's direction needs the scene's description".into(),
+                "fitting a light's direction or size needs the scene's description".into(),
             ))
         }
         (true, Some(d)) => Some(d),
@@ -204,12 +215,19 @@ pub fn fit_window(
     let axes = (frame.s, frame.t);
     let evaluations = std::cell::Cell::new(0u32);
     let terms: f64 = 3.0 * views.iter().map(View::pixels).sum::<usize>() as f64;
+    // Coordinates: a, w (degrees), tilts u, v (degrees), size s (log₂ of
+    // the outline's scale about its centre).
     let light_at = |x: &[f64]| {
-        let mut l = if x.len() > 2 {
-            tilted(&unit, axes, x[2], x[3])
-        } else {
-            unit.clone()
-        };
+        let mut l = tilted(&unit, axes, x[2], x[3]);
+        if x[4] != 0.0 {
+            let c = l.centre();
+            let m = glam::Mat4::from_translation(c)
+                * glam::Mat4::from_scale(Vec3::splat(2f32.powf(x[4] as f32)))
+                * glam::Mat4::from_translation(-c);
+            let n = l.n;
+            l = l.transform(&m);
+            l.n = n;
+        }
         l.a_deg = x[0] as f32;
         l.penumbra_deg = x[1] as f32;
         l
@@ -258,10 +276,9 @@ pub fn fit_window(
         }
         Ok((loss / terms, b))
     };
-    // The search's coordinates: a, w (degrees) and, for the direction, the
-    // tilts u, v (degrees). Bounds: a in [0.5°, 89.5°], 0 ≤ w ≤ 2·min(a,
-    // 90° − a), tilts within ±45°.
-    let dims = if options.fit_direction { 4 } else { 2 };
+    // Bounds: a in [0.5°, 89.5°], 0 ≤ w ≤ 2·min(a, 90° − a), tilts within
+    // ±45°, the size within 2^±3.
+    let dims = 5;
     let clamp = |x: &[f64]| -> Vec<f64> {
         let a = x[0].clamp(0.5, 89.5);
         let w = if options.fit_penumbra {
@@ -269,11 +286,13 @@ pub fn fit_window(
         } else {
             start.penumbra_deg as f64
         };
-        let mut out = vec![a, w];
-        for t in &x[2..] {
-            out.push(t.clamp(-45.0, 45.0));
-        }
-        out
+        vec![
+            a,
+            w,
+            x[2].clamp(-45.0, 45.0),
+            x[3].clamp(-45.0, 45.0),
+            x[4].clamp(-3.0, 3.0),
+        ]
     };
     let mut x0 = vec![start.a_deg as f64, start.penumbra_deg as f64];
     x0.resize(dims, 0.0);
@@ -281,12 +300,18 @@ pub fn fit_window(
     let step: Vec<f64> = (0..dims)
         .map(|d| match d {
             0 => (0.1 * x0[0]).clamp(1.0, 5.0),
+            4 => 0.5,
             _ => 2.0,
         })
         .collect();
-    // Directions the search moves along (w stays when it is not fitted).
+    // The coordinates the search moves (the others keep their start).
     let moving: Vec<usize> = (0..dims)
-        .filter(|&d| d != 1 || options.fit_penumbra)
+        .filter(|&d| match d {
+            1 => options.fit_penumbra,
+            2 | 3 => options.fit_direction,
+            4 => options.fit_size,
+            _ => true,
+        })
         .collect();
     let eval = |x: Vec<f64>, scene: &mut Scene| -> Result<(Vec<f64>, f64)> {
         let x = clamp(&x);
@@ -389,6 +414,8 @@ pub fn fit_window(
         b: fitted.b,
         n: fitted.n,
         e: [fitted.g.e1, fitted.g.e2],
+        d: fitted.g.d,
+        size: 2f32.powf(best[4] as f32),
         loss,
         evaluations: evaluations.get(),
     })

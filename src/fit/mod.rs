@@ -62,6 +62,9 @@ pub struct FitOptions {
     pub windows: Vec<String>,
     /// Whether the window search also turns the lights' directions `n`.
     pub window_direction: bool,
+    /// Whether the window search also scales the lights' outlines (and
+    /// then holds their penumbra).
+    pub window_size: bool,
 }
 
 impl Default for FitOptions {
@@ -75,6 +78,7 @@ impl Default for FitOptions {
             threads: None,
             windows: Vec::new(),
             window_direction: false,
+            window_size: false,
         }
     }
 }
@@ -553,9 +557,10 @@ pub fn fit_scene_file(
     progress: &mut dyn FnMut(&Iteration, &[Parameter]) -> bool,
 ) -> Result<FitOutcome> {
     let contents = crate::scene::file::load_contents(path)?;
-    // A direction search rebuilds the scene from its description.
-    let description = (options.window_direction && !options.windows.is_empty())
-        .then(|| contents.description.clone());
+    // A direction or size search rebuilds the scene from its description.
+    let description = ((options.window_direction || options.window_size)
+        && !options.windows.is_empty())
+    .then(|| contents.description.clone());
     let mut scene = Scene::build(contents.description)?;
     let scale = write::environment_scale(path)?;
     let adam = !options.params.is_empty() || options.windows.is_empty();
@@ -657,8 +662,13 @@ pub fn fit_scene_file(
                 seed: options.seed ^ 0x9e37,
                 threads: options.threads,
                 fit_direction: options.window_direction,
-                max_evaluations: if options.window_direction { 160 } else { 80 },
-                ..Default::default()
+                fit_size: options.window_size,
+                fit_penumbra: !options.window_size,
+                max_evaluations: if options.window_direction || options.window_size {
+                    160
+                } else {
+                    80
+                },
             },
         )?;
         let owner = Owner::Pls {
@@ -673,8 +683,18 @@ pub fn fit_scene_file(
         ];
         if options.window_direction {
             fields.push(("n", found.n.to_array().to_vec()));
+        }
+        if options.window_direction || options.window_size {
             fields.push(("e1", found.e[0].to_array().to_vec()));
             fields.push(("e2", found.e[1].to_array().to_vec()));
+        }
+        if options.window_size {
+            fields.push(("d", found.d.to_vec()));
+            // A circle light's radius (its `d2 = d3 = 1.35·r`).
+            fields.push((
+                "circle.radius",
+                vec![found.d[1] / crate::light::pls::CIRCLE_FACTOR],
+            ));
         }
         for (field, v) in fields {
             written.push(Parameter {

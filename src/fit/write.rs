@@ -23,7 +23,7 @@ enum Seg {
 #[derive(Debug, Clone, PartialEq)]
 enum NewValue {
     Number(f64),
-    Triple([f64; 3]),
+    List(Vec<f64>),
     Text(String),
 }
 
@@ -40,9 +40,8 @@ fn round(v: f32) -> f64 {
 
 fn new_value(values: &[f32]) -> NewValue {
     match values {
-        [r, g, b] => NewValue::Triple([round(*r), round(*g), round(*b)]),
         [v] => NewValue::Number(round(*v)),
-        _ => NewValue::Number(0.0),
+        many => NewValue::List(many.iter().map(|v| round(*v)).collect()),
     }
 }
 
@@ -96,7 +95,7 @@ fn edit(path: &Path, text: &str, edits: &[(Vec<Seg>, NewValue)]) -> Result<Strin
             }
             *node = match value {
                 NewValue::Number(v) => serde_json::json!(v),
-                NewValue::Triple(t) => serde_json::json!(t),
+                NewValue::List(t) => serde_json::json!(t),
                 NewValue::Text(s) => Json::String(s.clone()),
             };
         }
@@ -136,7 +135,7 @@ fn field_name(segs: &[Seg]) -> String {
 fn toml_value(value: &NewValue, old: Option<&toml_edit::Value>) -> toml_edit::Value {
     let mut v = match value {
         NewValue::Number(x) => toml_edit::Value::from(*x),
-        NewValue::Triple(t) => toml_edit::Value::Array(t.iter().copied().collect()),
+        NewValue::List(t) => toml_edit::Value::Array(t.iter().copied().collect()),
         NewValue::Text(s) => toml_edit::Value::from(s.as_str()),
     };
     if let Some(old) = old {
@@ -280,7 +279,9 @@ pub fn fitted_files(
                         pls_edits.last_mut().expect("just pushed")
                     }
                 };
-                e.1.push((vec![key("lights"), Seg::Index(*light), key(p.field)], value));
+                let mut segs = vec![key("lights"), Seg::Index(*light)];
+                segs.extend(p.field.split('.').map(key));
+                e.1.push((segs, value));
             }
         }
     }
@@ -306,16 +307,23 @@ pub fn fitted_files(
             .map(|e| e.to_string_lossy().into_owned())
             .unwrap_or_else(|| "toml".into());
         let name = format!("{stem}.pls-{table}.{ext}");
-        // A light given as a `circle` keeps it: its axis ends follow `n`.
+        // A light given as a `circle` keeps it (its radius; its axis ends
+        // follow `n`); one given by its outline gets `e1`, `e2`, `d`.
         let src_doc = parse(&src, &src_text)?;
+        let is_circle = |k: usize| {
+            src_doc
+                .get("lights")
+                .and_then(|l| l.get(k))
+                .and_then(|l| l.get("circle"))
+                .is_some()
+        };
         let e: Edits = e
             .iter()
             .filter(|(segs, _)| match segs.as_slice() {
-                [_, Seg::Index(k), Seg::Key(f)] if f == "e1" || f == "e2" => src_doc
-                    .get("lights")
-                    .and_then(|l| l.get(*k))
-                    .and_then(|l| l.get("circle"))
-                    .is_none(),
+                [_, Seg::Index(k), Seg::Key(f)] if f == "e1" || f == "e2" || f == "d" => {
+                    !is_circle(*k)
+                }
+                [_, Seg::Index(k), Seg::Key(f), _] if f == "circle" => is_circle(*k),
                 _ => true,
             })
             .cloned()

@@ -40,6 +40,11 @@ pub struct FitArgs {
     /// about its outline's centre; every step rebuilds the scene).
     #[arg(long)]
     pub window_direction: bool,
+    /// With --window: also scale each light's outline about its centre
+    /// (its size shows only as the blur of the beam's edge, as a soft edge
+    /// does, so the penumbra is then held).
+    #[arg(long)]
+    pub window_size: bool,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -134,6 +139,7 @@ pub fn run(a: &FitArgs) -> Result<()> {
         threads: a.threads,
         windows: a.windows.clone(),
         window_direction: a.window_direction,
+        window_size: a.window_size,
     };
     let bar = progress_bar(
         a.quiet,
@@ -155,8 +161,8 @@ pub fn run(a: &FitArgs) -> Result<()> {
     }
     for (name, w) in &outcome.windows {
         eprintln!(
-            "window of {name}: n = [{:.4}, {:.4}, {:.4}], a = {:.3}°, penumbra = {:.3}°, b = {:.5} ({} renders, loss {:.4e})",
-            w.n.x, w.n.y, w.n.z, w.a_deg, w.penumbra_deg, w.b, w.evaluations, w.loss
+            "window of {name}: n = [{:.4}, {:.4}, {:.4}], a = {:.3}°, penumbra = {:.3}°, size ×{:.3}, b = {:.5} ({} renders, loss {:.4e})",
+            w.n.x, w.n.y, w.n.z, w.a_deg, w.penumbra_deg, w.size, w.b, w.evaluations, w.loss
         );
     }
     let fmt = |v: &[f32]| {
