@@ -24,6 +24,12 @@
 //! derivatives: their sampling covers their support) and the geometry does
 //! not move (it does not: only materials and emission are parameters).
 //!
+//! The pass runs as the general integrator's wavefront: the paths of one
+//! sample pass over a tile advance together, their camera rays, bounce
+//! rays and shadow rays going to Embree as streams; a next-event
+//! contribution's gradient terms wait with its shadow ray and count only
+//! if it is not blocked.
+//!
 //! The derivative of the path throughput `β` travels forward with the path,
 //! one RGB vector per parameter (forward mode): at a vertex whose material
 //! has parameters, `∂β' = ∂β·w + β·∂f·|cos θ|/p`; elsewhere `∂β' = ∂β·w`.
@@ -134,20 +140,23 @@ pub fn gradient_tile(
         n
     ];
     let mut gradient = vec![0.0f64; map.len];
-    let mut dbeta = ThroughputDerivative::new(map.len);
     let ctx = Context { scene, job, map };
     // The sensor response is linear (`s·W·L`), so the adjoint of a path's
     // radiance is `s·Wᵀ·adjoint`, over the samples it is averaged with.
     let response = scene.film().response();
     let lens_sample = scene.camera().needs_lens_sample();
-    // Per sample pass: the camera rays of the tile go to Embree together
-    // as a coherent stream (as in the general integrator), then each path
-    // continues on its own.
-    let mut starts: Vec<(u32, crate::rng::Rng, Vec3)> = Vec::new();
-    let mut first_hits: Vec<RayHit> = Vec::new();
+    // A wavefront per sample pass, as the general integrator's: camera rays
+    // as a coherent stream, then each bounce's rays and shadow rays as
+    // streams. Each path keeps its own ∂β (a pool, reused).
+    let mut paths: Vec<GradientPath> = Vec::new();
+    let mut dbetas: Vec<ThroughputDerivative> = Vec::new();
+    let mut rays: Vec<RayHit> = Vec::new();
+    let mut shadow_rays: Vec<ShadowRay> = Vec::new();
+    let mut pending: Vec<PendingContribution> = Vec::new();
+    let mut terms: Vec<(u32, f64)> = Vec::new();
     for s in job.samples() {
-        starts.clear();
-        first_hits.clear();
+        paths.clear();
+        rays.clear();
         for py in 0..tile.height {
             for px in 0..tile.width {
                 let (x, y) = (tile.x0 + px, tile.y0 + py);
@@ -162,15 +171,71 @@ pub fn gradient_tile(
                 let (rng, Some(ray)) = camera_sample(scene, job.seed, lens_sample, x, y, s) else {
                     continue;
                 };
-                starts.push((py * tile.width + px, rng, a));
-                first_hits.push(RayHit::masked(ray, job.ray_mask()));
+                if dbetas.len() <= paths.len() {
+                    dbetas.push(ThroughputDerivative::new(map.len));
+                }
+                dbetas[paths.len()].clear();
+                paths.push(GradientPath {
+                    pixel: py * tile.width + px,
+                    rng,
+                    adjoint: a,
+                    beta: Vec3::ONE,
+                    radiance: Vec3::ZERO,
+                    prev_pdf: 0.0,
+                    prev_point: ray.org,
+                    depth: 0,
+                    alive: true,
+                });
+                rays.push(RayHit::masked(ray, job.ray_mask()));
             }
         }
-        scene.accel().intersect_stream(&mut first_hits, true);
-        for ((pixel, rng, a), first) in starts.drain(..).zip(&first_hits) {
-            dbeta.clear();
-            let radiance = trace_path(&ctx, rng, *first, a, &mut dbeta, &mut gradient);
-            pixels[pixel as usize].add_radiance(response.apply(radiance));
+        scene.accel().intersect_stream(&mut rays, true);
+        while !paths.is_empty() {
+            shadow_rays.clear();
+            pending.clear();
+            terms.clear();
+            for (i, (path, rh)) in paths.iter_mut().zip(rays.iter_mut()).enumerate() {
+                let queues = Queues {
+                    shadow_rays: &mut shadow_rays,
+                    pending: &mut pending,
+                    terms: &mut terms,
+                };
+                step(
+                    &ctx,
+                    path,
+                    i as u32,
+                    rh,
+                    &mut dbetas[i],
+                    &mut gradient,
+                    queues,
+                );
+            }
+            scene.accel().occluded_stream(&mut shadow_rays, false);
+            for (ray, p) in shadow_rays.iter().zip(&pending) {
+                if !ray.occluded() {
+                    paths[p.path as usize].radiance += p.radiance;
+                    for &(slot, v) in &terms[p.terms.clone()] {
+                        gradient[slot as usize] += v;
+                    }
+                }
+            }
+            // Retire finished paths (in order) and compact the live ones,
+            // each with its ∂β.
+            let mut live = 0;
+            for i in 0..paths.len() {
+                if paths[i].alive {
+                    paths.swap(live, i);
+                    rays.swap(live, i);
+                    dbetas.swap(live, i);
+                    live += 1;
+                } else {
+                    let path = &paths[i];
+                    pixels[path.pixel as usize].add_radiance(response.apply(path.radiance));
+                }
+            }
+            paths.truncate(live);
+            rays.truncate(live);
+            scene.accel().intersect_stream(&mut rays, false);
         }
     }
     TileGradient {
@@ -233,252 +298,309 @@ impl ThroughputDerivative {
     /// Adds `adjoint · (∂β·x)` for every touched slot: the part of a
     /// contribution `β·x` that the earlier vertices' parameters change.
     #[inline]
-    fn contribute(&self, x: Vec3, adjoint: Vec3, gradient: &mut [f64]) {
+    fn contribute(&self, x: Vec3, adjoint: Vec3, gradient: &mut (impl GradientSink + ?Sized)) {
         let ax = adjoint * x;
         for &s in &self.touched {
-            gradient[s as usize] += ax.dot(self.d[s as usize]) as f64;
+            gradient.add(s, ax.dot(self.d[s as usize]) as f64);
         }
+    }
+}
+
+/// Where gradient terms go: straight into the gradient, or (for a
+/// contribution that waits on its shadow ray) into a list of terms applied
+/// if the ray is not blocked.
+trait GradientSink {
+    fn add(&mut self, slot: u32, value: f64);
+}
+
+impl GradientSink for [f64] {
+    #[inline]
+    fn add(&mut self, slot: u32, value: f64) {
+        self[slot as usize] += value;
+    }
+}
+
+impl GradientSink for Vec<(u32, f64)> {
+    #[inline]
+    fn add(&mut self, slot: u32, value: f64) {
+        self.push((slot, value));
     }
 }
 
 /// Adds the light's own terms for a contribution `c` of light `li`
 /// (emission is linear in each of its parameters).
 #[inline]
-fn add_light_terms(map: &GradientMap, li: usize, c: Vec3, adjoint: Vec3, gradient: &mut [f64]) {
+fn add_light_terms(
+    map: &GradientMap,
+    li: usize,
+    c: Vec3,
+    adjoint: Vec3,
+    gradient: &mut (impl GradientSink + ?Sized),
+) {
     let slots = &map.lights[li];
     if let Some((slot, value)) = slots.scalar {
         if value > 0.0 {
-            gradient[slot as usize] += (adjoint.dot(c) / value) as f64;
+            gradient.add(slot, (adjoint.dot(c) / value) as f64);
         }
     }
     if let Some((slot, value)) = slots.colour {
         for ch in 0..3 {
             if value[ch] > 0.0 {
-                gradient[slot as usize + ch] += (adjoint[ch] * c[ch] / value[ch]) as f64;
+                gradient.add(slot + ch as u32, (adjoint[ch] * c[ch] / value[ch]) as f64);
             }
         }
     }
 }
 
-/// One camera path: the radiance it carries (as the general integrator
-/// computes it) and its gradient terms, added to `gradient`.
-fn trace_path(
-    ctx: &Context,
-    mut rng: crate::rng::Rng,
-    first: RayHit,
+/// One path of the gradient pass's wavefront.
+struct GradientPath {
+    /// Pixel index within the tile.
+    pixel: u32,
+    rng: crate::rng::Rng,
+    /// `s·Wᵀ·∂ℒ/∂I` of the pixel, over its samples.
     adjoint: Vec3,
+    beta: Vec3,
+    radiance: Vec3,
+    prev_pdf: f32,
+    prev_point: Vec3,
+    depth: u32,
+    alive: bool,
+}
+
+/// A next-event contribution waiting on its shadow ray: its radiance and
+/// its gradient terms (a range of the pass's term list).
+struct PendingContribution {
+    path: u32,
+    radiance: Vec3,
+    terms: std::ops::Range<usize>,
+}
+
+/// What one vertex of a path queues: a shadow ray and its contribution.
+struct Queues<'a> {
+    shadow_rays: &'a mut Vec<ShadowRay>,
+    pending: &'a mut Vec<PendingContribution>,
+    terms: &'a mut Vec<(u32, f64)>,
+}
+
+/// Processes the hit of one path (as the general integrator's `shade`,
+/// with the gradient terms): emission, next-event estimation (queued on
+/// its shadow ray), and the next ray, written back into `rh`, or ends the
+/// path.
+#[allow(clippy::too_many_arguments)]
+fn step(
+    ctx: &Context,
+    path: &mut GradientPath,
+    index: u32,
+    rh: &mut RayHit,
     dbeta: &mut ThroughputDerivative,
     gradient: &mut [f64],
-) -> Vec3 {
+    queues: Queues,
+) {
     let Context { scene, job, map } = *ctx;
     let mask = job.ray_mask();
     let max_depth = job.max_depth;
-    let mut beta = Vec3::ONE;
-    let mut radiance = Vec3::ZERO;
-    let mut prev_pdf = 0.0f32;
-    let mut prev_point = first.ray().org;
-    let mut depth = 0u32;
-    let mut ray = first.ray();
-    let mut rh = [first];
-    let mut traced = true;
-    loop {
-        if !traced {
-            rh = [RayHit::masked(ray, mask)];
-            scene.accel().intersect_each(&mut rh);
-        }
-        traced = false;
-        let Some(hit) = rh[0].hit() else {
-            if let Some(env) = scene.environment_index() {
-                let Light::Environment { light, .. } = &scene.lights().lights[env] else {
-                    unreachable!("Scene::environment indexes an environment light")
+    let adjoint = path.adjoint;
+    let ray = rh.ray();
+    let Some(hit) = rh.hit() else {
+        if let Some(env) = scene.environment_index() {
+            let Light::Environment { light, .. } = &scene.lights().lights[env] else {
+                unreachable!("Scene::environment indexes an environment light")
+            };
+            let le = light.radiance(ray.dir);
+            if le != Vec3::ZERO {
+                let weight = if path.depth == 0 || path.prev_pdf == 0.0 {
+                    1.0
+                } else {
+                    let light_pdf =
+                        scene.lights().pick_pmf(env, path.prev_point) * light.pdf(ray.dir);
+                    power_heuristic(path.prev_pdf, light_pdf)
                 };
-                let le = light.radiance(ray.dir);
-                if le != Vec3::ZERO {
-                    let weight = if depth == 0 || prev_pdf == 0.0 {
-                        1.0
-                    } else {
-                        let light_pdf =
-                            scene.lights().pick_pmf(env, prev_point) * light.pdf(ray.dir);
-                        power_heuristic(prev_pdf, light_pdf)
-                    };
-                    let contribution = beta * le * weight;
-                    radiance += contribution;
-                    dbeta.contribute(le * weight, adjoint, gradient);
-                    add_light_terms(map, env, contribution, adjoint, gradient);
-                }
-            }
-            return radiance;
-        };
-        let mesh = &scene.meshes()[hit.geom_id as usize];
-        let p = ray.org + hit.t * ray.dir;
-        let wo = -ray.dir;
-        let ng = hit.ng.normalize_or_zero();
-        let facing = if ng.dot(wo) >= 0.0 { ng } else { -ng };
-        let material = &scene.materials()[mesh.material as usize];
-        let surface = SurfacePoint::new(mesh, &hit, !material.textures.is_empty());
-        let textured;
-        let bsdf = if material.textures.is_empty() {
-            &material.bsdf
-        } else {
-            textured = material.bsdf_at(surface.uv);
-            &textured
-        };
-        let guard = surface.normal.is_some();
-        let n = if bsdf.transmits() { ng } else { facing };
-        let shading_n = surface.shading_normal(n, wo);
-
-        if let Some(li) = scene.light_index(hit.geom_id, hit.prim_id) {
-            if let Light::Triangle(tl) = &scene.lights().lights[li] {
-                let le = tl.emitted(wo);
-                if le != Vec3::ZERO {
-                    let prev = PrevVertex {
-                        depth,
-                        pdf: prev_pdf,
-                        point: prev_point,
-                    };
-                    let weight = emission_weight(scene, li, &prev, p, ray.dir);
-                    let contribution = beta * le * weight;
-                    radiance += contribution;
-                    dbeta.contribute(le * weight, adjoint, gradient);
-                    add_light_terms(map, li, contribution, adjoint, gradient);
-                }
+                let contribution = path.beta * le * weight;
+                path.radiance += contribution;
+                dbeta.contribute(le * weight, adjoint, gradient);
+                add_light_terms(map, env, contribution, adjoint, gradient);
             }
         }
+        path.alive = false;
+        return;
+    };
+    let (beta, depth) = (path.beta, path.depth);
+    let mesh = &scene.meshes()[hit.geom_id as usize];
+    let p = ray.org + hit.t * ray.dir;
+    let wo = -ray.dir;
+    let ng = hit.ng.normalize_or_zero();
+    let facing = if ng.dot(wo) >= 0.0 { ng } else { -ng };
+    let material = &scene.materials()[mesh.material as usize];
+    let surface = SurfacePoint::new(mesh, &hit, !material.textures.is_empty());
+    let textured;
+    let bsdf = if material.textures.is_empty() {
+        &material.bsdf
+    } else {
+        textured = material.bsdf_at(surface.uv);
+        &textured
+    };
+    let guard = surface.normal.is_some();
+    let n = if bsdf.transmits() { ng } else { facing };
+    let shading_n = surface.shading_normal(n, wo);
 
-        if depth >= max_depth {
-            return radiance;
+    if let Some(li) = scene.light_index(hit.geom_id, hit.prim_id) {
+        if let Light::Triangle(tl) = &scene.lights().lights[li] {
+            let le = tl.emitted(wo);
+            if le != Vec3::ZERO {
+                let prev = PrevVertex {
+                    depth,
+                    pdf: path.prev_pdf,
+                    point: path.prev_point,
+                };
+                let weight = emission_weight(scene, li, &prev, p, ray.dir);
+                let contribution = beta * le * weight;
+                path.radiance += contribution;
+                dbeta.contribute(le * weight, adjoint, gradient);
+                add_light_terms(map, li, contribution, adjoint, gradient);
+            }
         }
-        let slots = &map.materials[mesh.material as usize];
-        let differentiable = map.material_has_slots(mesh.material);
-        // The derivatives this material needs (bit k: slot k).
-        let wanted = slots
-            .iter()
-            .enumerate()
-            .filter(|(_, s)| s.is_some())
-            .fold(0u8, |m, (k, _)| m | 1 << k);
-        // A material whose anisotropy is a parameter needs its tangent frame
-        // even while the anisotropy is 0.
-        let frame = if bsdf.is_anisotropic()
-            || slots[crate::bsdf::BsdfParam::Anisotropic as usize].is_some()
-        {
+    }
+
+    if depth >= max_depth {
+        path.alive = false;
+        return;
+    }
+    let slots = &map.materials[mesh.material as usize];
+    let differentiable = map.material_has_slots(mesh.material);
+    // The derivatives this material needs (bit k: slot k).
+    let wanted = slots
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.is_some())
+        .fold(0u8, |m, (k, _)| m | 1 << k);
+    // A material whose anisotropy is a parameter needs its tangent frame
+    // even while the anisotropy is 0.
+    let frame =
+        if bsdf.is_anisotropic() || slots[crate::bsdf::BsdfParam::Anisotropic as usize].is_some() {
             Frame::from_normal_tangent(shading_n, surface.tangent(mesh, &hit))
         } else {
             Frame::from_normal(shading_n)
         };
-        let wo_local = frame.to_local(wo);
-        let eps = ray_epsilon(p);
-        let transmits = bsdf.transmits();
-        let origin_for = |dir: Vec3| {
-            if transmits {
-                spawn_origin(p, n, eps, dir)
-            } else {
-                p + n * eps
-            }
-        };
-
-        let light_pick = if bsdf.is_delta() {
-            None
+    let wo_local = frame.to_local(wo);
+    let eps = ray_epsilon(p);
+    let transmits = bsdf.transmits();
+    let origin_for = |dir: Vec3| {
+        if transmits {
+            spawn_origin(p, n, eps, dir)
         } else {
-            scene.lights().pick(p, rng.next_2d())
-        };
-        if let Some((li, pick_pmf)) = light_pick {
-            let u = rng.next_2d();
-            if let Some(ls) = scene.lights().lights[li].sample_li(p, u) {
-                let wi_local = frame.to_local(ls.wi);
-                let leaks = guard && !sides_agree(wo, ls.wi, ng, wo_local, wi_local);
-                // A zero BSDF value may still have a derivative (a black
-                // albedo): the differentiable case goes on to its shadow ray.
-                // Towards a delta light the derivatives' value is `eval`'s,
-                // bit for bit, and stands for it.
-                let dfc = (differentiable && !leaks)
-                    .then(|| bsdf.eval_gradient_of(wo_local, wi_local, wanted));
-                let (f, bsdf_pdf) = match dfc {
-                    _ if leaks => (Vec3::ZERO, 0.0),
-                    Some(g) if ls.delta => (g.f, 0.0),
-                    _ if ls.delta => (bsdf.eval(wo_local, wi_local), 0.0),
-                    _ => bsdf.eval_pdf(wo_local, wi_local),
+            p + n * eps
+        }
+    };
+
+    let light_pick = if bsdf.is_delta() {
+        None
+    } else {
+        scene.lights().pick(p, path.rng.next_2d())
+    };
+    if let Some((li, pick_pmf)) = light_pick {
+        let u = path.rng.next_2d();
+        if let Some(ls) = scene.lights().lights[li].sample_li(p, u) {
+            let wi_local = frame.to_local(ls.wi);
+            let leaks = guard && !sides_agree(wo, ls.wi, ng, wo_local, wi_local);
+            // A zero BSDF value may still have a derivative (a black
+            // albedo): the differentiable case goes on to its shadow ray.
+            // Towards a delta light the derivatives' value is `eval`'s,
+            // bit for bit, and stands for it.
+            let dfc = (differentiable && !leaks)
+                .then(|| bsdf.eval_gradient_of(wo_local, wi_local, wanted));
+            let (f, bsdf_pdf) = match dfc {
+                _ if leaks => (Vec3::ZERO, 0.0),
+                Some(g) if ls.delta => (g.f, 0.0),
+                _ if ls.delta => (bsdf.eval(wo_local, wi_local), 0.0),
+                _ => bsdf.eval_pdf(wo_local, wi_local),
+            };
+            let cos = wi_local.z.abs();
+            let fc = f * cos;
+            let any_derivative = dfc.is_some_and(|g| g.d.iter().any(|d| *d != Vec3::ZERO));
+            if fc != Vec3::ZERO || any_derivative {
+                let light_pdf = pick_pmf * ls.pdf;
+                let weight = if ls.delta {
+                    1.0
+                } else {
+                    power_heuristic(light_pdf, bsdf_pdf)
                 };
-                let cos = wi_local.z.abs();
-                let fc = f * cos;
-                let any_derivative = dfc.is_some_and(|g| g.d.iter().any(|d| *d != Vec3::ZERO));
-                if fc != Vec3::ZERO || any_derivative {
-                    let light_pdf = pick_pmf * ls.pdf;
-                    let weight = if ls.delta {
-                        1.0
-                    } else {
-                        power_heuristic(light_pdf, bsdf_pdf)
-                    };
-                    let origin = origin_for(ls.wi);
-                    let (dir, tfar) = shadow_segment(origin, p, ls.wi, ls.dist);
-                    let shadow = Ray {
-                        org: origin,
-                        dir,
-                        tnear: 0.0,
-                        tfar,
-                    };
-                    if shadow.tfar > 0.0 {
-                        let mut sr = [ShadowRay::masked(shadow, mask)];
-                        scene.accel().occluded_each(&mut sr);
-                        if !sr[0].occluded() {
-                            // As the general integrator: β·f·L·(w/p).
-                            let scale = weight / light_pdf;
-                            let contribution = beta * fc * ls.radiance * scale;
-                            radiance += contribution;
-                            let x = fc * ls.radiance * scale;
-                            dbeta.contribute(x, adjoint, gradient);
-                            add_light_terms(map, li, contribution, adjoint, gradient);
-                            if let Some(g) = dfc {
-                                let ax = adjoint * beta * ls.radiance * (cos * scale);
-                                for (k, slot) in slots.iter().enumerate() {
-                                    if let Some(slot) = slot {
-                                        gradient[*slot as usize] += ax.dot(g.d[k]) as f64;
-                                    }
-                                }
+                let origin = origin_for(ls.wi);
+                let (dir, tfar) = shadow_segment(origin, p, ls.wi, ls.dist);
+                let shadow = Ray {
+                    org: origin,
+                    dir,
+                    tnear: 0.0,
+                    tfar,
+                };
+                if shadow.tfar > 0.0 {
+                    // As the general integrator: β·f·L·(w/p), and its terms
+                    // with this vertex's ∂β, applied if the ray is clear.
+                    let scale = weight / light_pdf;
+                    let contribution = beta * fc * ls.radiance * scale;
+                    let start = queues.terms.len();
+                    dbeta.contribute(fc * ls.radiance * scale, adjoint, queues.terms);
+                    add_light_terms(map, li, contribution, adjoint, queues.terms);
+                    if let Some(g) = dfc {
+                        let ax = adjoint * beta * ls.radiance * (cos * scale);
+                        for (k, slot) in slots.iter().enumerate() {
+                            if let Some(slot) = slot {
+                                queues.terms.push((*slot, ax.dot(g.d[k]) as f64));
                             }
                         }
                     }
+                    queues.shadow_rays.push(ShadowRay::masked(shadow, mask));
+                    queues.pending.push(PendingContribution {
+                        path: index,
+                        radiance: contribution,
+                        terms: start..queues.terms.len(),
+                    });
                 }
             }
         }
-
-        if depth + 1 == max_depth && !scene.has_hittable_lights() {
-            return radiance;
-        }
-        let uc = rng.next_f32();
-        let Some(bs) = bsdf.sample(wo_local, uc, rng.next_2d()) else {
-            return radiance;
-        };
-        let wi = frame.to_world(bs.wi);
-        if guard && !sides_agree(wo, wi, ng, wo_local, bs.wi) {
-            return radiance;
-        }
-        // ∂β' = ∂β·w + β·∂f·|cos θ|/p (detached p), with the old β.
-        dbeta.scale(bs.weight);
-        if differentiable && !bs.delta && bs.pdf > 0.0 {
-            let g = bsdf.eval_gradient_of(wo_local, bs.wi, wanted);
-            let k = bs.wi.z.abs() / bs.pdf;
-            for (slot, d) in slots.iter().zip(g.d) {
-                if let Some(slot) = slot {
-                    dbeta.add(*slot, beta * d * k);
-                }
-            }
-        }
-        beta *= bs.weight;
-        prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
-        prev_point = p;
-        depth += 1;
-        if roulette_spins(beta, depth >= RUSSIAN_ROULETTE_DEPTH) {
-            let q = beta.max_element();
-            let (survives, b) = roulette(beta, rng.next_f32());
-            if !survives {
-                return radiance;
-            }
-            beta = b;
-            dbeta.scale(Vec3::splat(1.0 / q));
-        }
-        if beta == Vec3::ZERO && dbeta.is_zero() {
-            return radiance;
-        }
-        ray = Ray::new(origin_for(wi), wi);
     }
+
+    if depth + 1 == max_depth && !scene.has_hittable_lights() {
+        path.alive = false;
+        return;
+    }
+    let uc = path.rng.next_f32();
+    let Some(bs) = bsdf.sample(wo_local, uc, path.rng.next_2d()) else {
+        path.alive = false;
+        return;
+    };
+    let wi = frame.to_world(bs.wi);
+    if guard && !sides_agree(wo, wi, ng, wo_local, bs.wi) {
+        path.alive = false;
+        return;
+    }
+    // ∂β' = ∂β·w + β·∂f·|cos θ|/p (detached p), with the old β.
+    dbeta.scale(bs.weight);
+    if differentiable && !bs.delta && bs.pdf > 0.0 {
+        let g = bsdf.eval_gradient_of(wo_local, bs.wi, wanted);
+        let k = bs.wi.z.abs() / bs.pdf;
+        for (slot, d) in slots.iter().zip(g.d) {
+            if let Some(slot) = slot {
+                dbeta.add(*slot, beta * d * k);
+            }
+        }
+    }
+    path.beta *= bs.weight;
+    path.prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
+    path.prev_point = p;
+    path.depth += 1;
+    if roulette_spins(path.beta, path.depth >= RUSSIAN_ROULETTE_DEPTH) {
+        let q = path.beta.max_element();
+        let (survives, b) = roulette(path.beta, path.rng.next_f32());
+        if !survives {
+            path.alive = false;
+            return;
+        }
+        path.beta = b;
+        dbeta.scale(Vec3::splat(1.0 / q));
+    }
+    if path.beta == Vec3::ZERO && dbeta.is_zero() {
+        path.alive = false;
+        return;
+    }
+    *rh = RayHit::masked(Ray::new(origin_for(wi), wi), mask);
 }
