@@ -180,16 +180,28 @@ pub fn run(a: &FitArgs) -> Result<()> {
         outcome.losses.first().copied().unwrap_or(0.0),
         outcome.losses.last().copied().unwrap_or(0.0),
     );
-    eprintln!(
-        "fitted {} parameters on {} pixels in {} iterations ({:.3} s each): loss {l0:.4e} → {l1:.4e} ({:.1}× lower) → {}, {}, {}",
-        outcome.parameters.len(),
-        outcome.pixels,
-        a.iterations,
-        outcome.seconds_per_iteration,
-        if l1 > 0.0 { l0 / l1 } else { f64::INFINITY },
+    let outputs = format!(
+        "{}, {}, {}",
         a.output.display(),
         loss_csv.display(),
         loss_png.display()
     );
+    if outcome.losses.len() > 1 {
+        eprintln!(
+            "fitted {} parameters on {} pixels in {} iterations ({:.3} s each): loss {l0:.4e} → {l1:.4e} ({:.1}× lower) → {outputs}",
+            outcome.parameters.len(),
+            outcome.pixels,
+            a.iterations,
+            outcome.seconds_per_iteration,
+            if l1 > 0.0 { l0 / l1 } else { f64::INFINITY },
+        );
+    } else {
+        // Only windows were searched: no Adam iterations.
+        eprintln!(
+            "fitted the windows of {} lights on {} pixels: loss {l1:.4e} → {outputs}",
+            outcome.windows.len(),
+            outcome.pixels
+        );
+    }
     Ok(())
 }
