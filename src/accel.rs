@@ -640,16 +640,6 @@ impl Accel {
         }
     }
 
-    /// Occlusion queries for a batch of incoherent rays, one `rtcOccluded1`
-    /// call per ray.
-    pub fn occluded_each(&self, rays: &mut [ShadowRay]) {
-        let mut ctx = context(false);
-        for r in rays {
-            // SAFETY: as in `intersect`; `r.0` is an aligned RTCRay.
-            unsafe { sys::rtcOccluded1(self.scene.0, &mut ctx, &mut r.0) };
-        }
-    }
-
     /// Occlusion queries for a batch (Embree's stream API, `rtcOccluded1M`).
     pub fn occluded_stream(&self, rays: &mut [ShadowRay], coherent: bool) {
         if rays.is_empty() {

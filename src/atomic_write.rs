@@ -11,7 +11,7 @@
 
 use crate::error::{Error, Result};
 use std::fs::File;
-use std::io::BufWriter;
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, MutexGuard};
@@ -306,6 +306,30 @@ impl OutputSet {
         write(&mut w)?;
         let file = w.into_inner().map_err(|e| io_err(e.into_error()))?;
         file.sync_all().map_err(io_err)
+    }
+
+    /// Stages `bytes` as the future `path` (see [`OutputSet::stage`]).
+    pub fn stage_bytes(&mut self, path: &Path, bytes: &[u8]) -> Result<()> {
+        self.stage(path, |w| {
+            w.write_all(bytes).map_err(|source| Error::Io {
+                file: path.to_path_buf(),
+                source,
+            })
+        })
+    }
+
+    /// Stages `img` encoded as PNG as the future `path`.
+    pub fn stage_png(&mut self, path: &Path, img: &image::RgbImage) -> Result<()> {
+        let mut bytes = Vec::new();
+        img.write_to(
+            &mut std::io::Cursor::new(&mut bytes),
+            image::ImageFormat::Png,
+        )
+        .map_err(|e| Error::Output {
+            file: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        self.stage_bytes(path, &bytes)
     }
 
     /// Takes over `tmp`, a complete temporary file written (and registered

@@ -423,11 +423,20 @@ fn gradients_match_central_differences_with_common_random_numbers() {
 // ---------------------------------------------------------------------------
 // Recovery from synthetic photos
 
+/// The "photo" of a true scene: rendered with 1024 spp and `seed`, written
+/// as `photo.exr` in `dir`.
+fn render_photo(truth: &Path, dir: &Path, seed: u64) {
+    let scene = Scene::load(truth).unwrap();
+    let (film, _) =
+        plsr::render::render(&scene, &job(&scene, 1024, seed), &options(2), &|_, _| true).unwrap();
+    film.write_exr(&dir.join("photo.exr")).unwrap();
+}
+
 /// A room lit by a PLS lamp and a point light, seen from above: a glossy
 /// principled floor (its highlight fixes the roughness), a coloured back
 /// wall, and a white side wall of known reflectance (the grey card that
 /// separates the lamp's brightness from the surfaces' albedos).
-fn recovery_room(floor: [f32; 3], roughness: f32, wall: [f32; 3], b: f32, photo: &str) -> String {
+fn recovery_room(floor: [f32; 3], roughness: f32, wall: [f32; 3], photo: &str) -> String {
     format!(
         r#"
 [render]
@@ -489,24 +498,18 @@ intensity = [2, 2, 2]
 file = "lamp.toml"
 "#
     )
-    .replace("b = 5", &format!("b = {b}"))
 }
 
 fn write_recovery(dir: &Path, floor: [f32; 3], roughness: f32, wall: [f32; 3], b: f32) -> PathBuf {
-    let lamp = LAMP.replace("b = 5", &format!("b = {b}"));
-    std::fs::write(dir.join("lamp.toml"), lamp).unwrap();
-    // The photo: the true scene rendered with many samples.
+    // The photo: the true scene (the lamp at b = 5) with many samples.
     let truth = dir.join("truth.toml");
     std::fs::write(
         &truth,
-        recovery_room([0.6, 0.45, 0.3], 0.3, [0.25, 0.55, 0.4], 5.0, ""),
+        recovery_room([0.6, 0.45, 0.3], 0.3, [0.25, 0.55, 0.4], ""),
     )
     .unwrap();
     std::fs::write(dir.join("lamp.toml"), LAMP).unwrap();
-    let scene = Scene::load(&truth).unwrap();
-    let (film, _) =
-        plsr::render::render(&scene, &job(&scene, 1024, 77), &options(2), &|_, _| true).unwrap();
-    film.write_exr(&dir.join("photo.exr")).unwrap();
+    render_photo(&truth, dir, 77);
     // The guess, with the lamp's brightness in its own PLS file.
     std::fs::write(
         dir.join("lamp.toml"),
@@ -515,7 +518,7 @@ fn write_recovery(dir: &Path, floor: [f32; 3], roughness: f32, wall: [f32; 3], b
     .unwrap();
     let guess = dir.join("guess.toml");
     let photo = "[photo]\nfile = \"photo.exr\"\nresponse = \"linear\"\nexposure = 1";
-    std::fs::write(&guess, recovery_room(floor, roughness, wall, b, photo)).unwrap();
+    std::fs::write(&guess, recovery_room(floor, roughness, wall, photo)).unwrap();
     guess
 }
 
@@ -864,10 +867,7 @@ fn a_lights_divergence_soft_edge_and_brightness_are_found_from_a_lit_floor() {
     let dir = tempdir();
     let (a, w, b) = (20.0f32, 6.0f32, 3.0f32);
     let truth = spot_room(dir.path(), a, w, b, false);
-    let scene = Scene::load(&truth).unwrap();
-    let (film, _) =
-        plsr::render::render(&scene, &job(&scene, 1024, 5), &options(2), &|_, _| true).unwrap();
-    film.write_exr(&dir.path().join("photo.exr")).unwrap();
+    render_photo(&truth, dir.path(), 5);
     // Start from a hard 25° beam at 5/3 of the brightness.
     let guess = spot_room(dir.path(), 25.0, 0.0, 5.0, true);
     let options = FitOptions {
@@ -907,10 +907,7 @@ fn a_lights_direction_is_found_too() {
     let dir = tempdir();
     let (a, w, b) = (20.0f32, 6.0f32, 3.0f32);
     let truth = spot_room(dir.path(), a, w, b, false);
-    let scene = Scene::load(&truth).unwrap();
-    let (film, _) =
-        plsr::render::render(&scene, &job(&scene, 1024, 5), &options(2), &|_, _| true).unwrap();
-    film.write_exr(&dir.path().join("photo.exr")).unwrap();
+    render_photo(&truth, dir.path(), 5);
     // Start pointing straight down (the truth leans 5.7° towards +x).
     let guess = spot_room(dir.path(), 24.0, 2.0, 4.0, true);
     let text = std::fs::read_to_string(dir.path().join("spot.toml"))
@@ -968,10 +965,7 @@ fn a_hard_edged_lights_size_is_found_from_the_blur_of_its_edge() {
         std::fs::write(dir.join("spot.toml"), text).unwrap();
     };
     big(dir.path(), 0.12);
-    let scene = Scene::load(&truth).unwrap();
-    let (film, _) =
-        plsr::render::render(&scene, &job(&scene, 1024, 5), &options(2), &|_, _| true).unwrap();
-    film.write_exr(&dir.path().join("photo.exr")).unwrap();
+    render_photo(&truth, dir.path(), 5);
     // Half the size, a narrower beam, brighter.
     let guess = spot_room(dir.path(), 22.0, 0.0, 4.0, true);
     big(dir.path(), 0.06);

@@ -271,11 +271,7 @@ pub extern "C" fn plsr_render_gradient(
         let job = c.job(&s.scene, c.seed)?;
         let map = gradient_map(&s.scene, &p.params);
         let r = render_gradient(&s.scene, &job, &c.options(), &map, &adjoint, false)?;
-        let out = slice_mut_arg(gradient, len, "gradient")?;
-        for (o, g) in out.iter_mut().zip(&r.gradient) {
-            *o = *g as f32;
-        }
-        Ok(())
+        write_gradient(gradient, len, &r.gradient)
     })
 }
 
@@ -338,12 +334,18 @@ pub extern "C" fn plsr_loss_gradient(
             &c.options(),
             3.0 * pixels as f64,
         )?;
-        let out = slice_mut_arg(gradient, len, "gradient")?;
-        for (o, x) in out.iter_mut().zip(&g) {
-            *o = *x as f32;
-        }
+        write_gradient(gradient, len, &g)?;
         write_out(loss, l, "loss")
     })
+}
+
+/// Copies a gradient into the host's array of `len` floats.
+fn write_gradient(out: *mut f32, len: usize, gradient: &[f64]) -> Result<(), FfiError> {
+    let out = slice_mut_arg(out, len, "gradient")?;
+    for (o, g) in out.iter_mut().zip(gradient) {
+        *o = *g as f32;
+    }
+    Ok(())
 }
 
 /// The number of pixels of the camera, checking `width × height` against it.

@@ -187,6 +187,15 @@ impl FilmSums {
         Ok(())
     }
 
+    /// Each pixel's mean recorded value (0 where it has no samples),
+    /// row-major: the colour [`FilmSums::develop`] gives, without the rest.
+    pub fn means(&self) -> Vec<glam::Vec3> {
+        self.pixels
+            .iter()
+            .map(|s| (s.sum / s.samples.max(1) as f64).as_vec3())
+            .collect()
+    }
+
     /// The image: per pixel the mean of its samples, the variance of that
     /// mean, coverage, and the mean first-hit layers. `spp` is recorded as
     /// the film's samples per pixel.

@@ -93,15 +93,7 @@ fn render_views(
     for v in views {
         scene.set_camera(v.camera.clone());
         let (sums, _) = render_sums(scene, job, options, &|_, _| true)?;
-        let (w, h) = (sums.width(), sums.height());
-        let mut img = Vec::with_capacity((w * h) as usize);
-        for y in 0..h {
-            for x in 0..w {
-                let p = sums.pixel(x, y);
-                img.push((p.sum / p.samples.max(1) as f64).as_vec3());
-            }
-        }
-        out.push(img);
+        out.push(sums.means());
     }
     Ok(out)
 }

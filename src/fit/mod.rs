@@ -183,17 +183,11 @@ pub fn squared_error_gradient(
         )));
     }
     let (sums, _) = render_sums(scene, primal, options, &|_, _| true)?;
-    let (w, h) = (sums.width(), sums.height());
     let mut loss = 0.0;
     let mut adjoint = vec![Vec3::ZERO; n];
-    for y in 0..h {
-        for x in 0..w {
-            let i = (y * w + x) as usize;
-            if !mask[i] {
-                continue;
-            }
-            let p = sums.pixel(x, y);
-            let d = (p.sum / p.samples.max(1) as f64).as_vec3() - target[i];
+    for (i, mean) in sums.means().into_iter().enumerate() {
+        if mask[i] {
+            let d = mean - target[i];
             loss += d.as_dvec3().dot(d.as_dvec3());
             adjoint[i] = d * (2.0 / terms as f32);
         }
@@ -360,15 +354,7 @@ impl Fit {
         self.scene.set_camera(self.views[v].camera.clone());
         let job = self.job(seed);
         let (sums, _) = render_sums(&self.scene, &job, &self.render_options(), &|_, _| true)?;
-        let (w, h) = (sums.width(), sums.height());
-        let mut out = Vec::with_capacity((w * h) as usize);
-        for y in 0..h {
-            for x in 0..w {
-                let p = sums.pixel(x, y);
-                out.push((p.sum / p.samples.max(1) as f64).as_vec3());
-            }
-        }
-        Ok(out)
+        Ok(sums.means())
     }
 
     /// The loss at the current values, from a render with `seed`.
@@ -799,14 +785,7 @@ fn auto_exposure(
         ..RenderOptions::default()
     };
     let (sums, _) = render_sums(scene, &job, &render_options, &|_, _| true)?;
-    let (w, h) = (sums.width(), sums.height());
-    let mut without = Vec::with_capacity((w * h) as usize);
-    for y in 0..h {
-        for x in 0..w {
-            let p = sums.pixel(x, y);
-            without.push((p.sum / p.samples.max(1) as f64).as_vec3());
-        }
-    }
+    let without = sums.means();
     let matte: Vec<f32> = mask.iter().map(|m| if *m { 0.0 } else { 1.0 }).collect();
     crate::composite::fit_exposure(&photo.radiance, &without, &matte)
         .map(|f| f.k)
@@ -830,7 +809,6 @@ impl FitOutcome {
         loss_png: &std::path::Path,
         inputs: &[std::path::PathBuf],
     ) -> Result<()> {
-        use std::io::Write as _;
         let mut targets: Vec<(&std::path::Path, &str)> = vec![(out, self.fitted.scene.as_str())];
         for (p, text) in &self.fitted.pls {
             targets.push((p, text));
@@ -859,12 +837,7 @@ impl FitOutcome {
         }
         let mut outputs = crate::atomic_write::OutputSet::new();
         for (target, text) in targets {
-            outputs.stage(target, |w| {
-                w.write_all(text.as_bytes()).map_err(|source| Error::Io {
-                    file: target.to_path_buf(),
-                    source,
-                })
-            })?;
+            outputs.stage_bytes(target, text.as_bytes())?;
         }
         plot::stage_loss_csv(&mut outputs, loss_csv, &self.losses)?;
         plot::stage_loss_plot(&mut outputs, loss_png, &self.losses)?;

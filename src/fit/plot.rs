@@ -4,6 +4,7 @@
 
 use crate::atomic_write::OutputSet;
 use crate::error::{Error, Result};
+use crate::hdr::response::line;
 use image::{Rgb, RgbImage};
 use std::io::Write;
 use std::path::Path;
@@ -70,18 +71,6 @@ fn text(img: &mut RgbImage, x: i32, y: i32, s: &str, vertical: bool) {
     }
 }
 
-/// Draws a line (DDA), clipped to the image.
-fn line(img: &mut RgbImage, (x0, y0): (i32, i32), (x1, y1): (i32, i32), c: Rgb<u8>) {
-    let n = (x1 - x0).abs().max((y1 - y0).abs()).max(1);
-    for k in 0..=n {
-        let x = x0 + (x1 - x0) * k / n;
-        let y = y0 + (y1 - y0) * k / n;
-        if x >= 0 && y >= 0 && (x as u32) < img.width() && (y as u32) < img.height() {
-            img.put_pixel(x as u32, y as u32, c);
-        }
-    }
-}
-
 /// The loss curve (`losses[i]` after `i` iterations) as an image
 /// `width × height`: y is log10 of the loss in whole decades, x the
 /// iteration, both ticked and labelled.
@@ -114,8 +103,8 @@ pub fn loss_plot(losses: &[f64], width: u32, height: u32) -> RgbImage {
     let mut d = lo;
     while d <= hi + 1e-9 {
         let y = py(d) as i32;
-        line(&mut img, (l, y), (r, y), grey);
-        line(&mut img, (l - 5, y), (l, y), black);
+        line(&mut img, l, y, r, y, grey);
+        line(&mut img, l - 5, y, l, y, black);
         let label = format!("1e{}", d as i32);
         text(
             &mut img,
@@ -136,14 +125,14 @@ pub fn loss_plot(losses: &[f64], width: u32, height: u32) -> RgbImage {
     let mut i = 0.0;
     while i <= n + 1e-9 {
         let x = px(i) as i32;
-        line(&mut img, (x, t), (x, b), grey);
-        line(&mut img, (x, b), (x, b + 5), black);
+        line(&mut img, x, t, x, b, grey);
+        line(&mut img, x, b, x, b + 5, black);
         let label = format!("{}", i as u64);
         text(&mut img, x - 3 * label.len() as i32, b + 8, &label, false);
         i += step;
     }
-    line(&mut img, (l, b), (r, b), black);
-    line(&mut img, (l, t), (l, b), black);
+    line(&mut img, l, b, r, b, black);
+    line(&mut img, l, t, l, b, black);
     let xlabel = "iteration";
     text(
         &mut img,
@@ -170,8 +159,8 @@ pub fn loss_plot(losses: &[f64], width: u32, height: u32) -> RgbImage {
         }
         let p = (px(i as f64) as i32, py(v.log10()) as i32);
         if let Some(q) = prev {
-            line(&mut img, q, p, blue);
-            line(&mut img, (q.0, q.1 + 1), (p.0, p.1 + 1), blue);
+            line(&mut img, q.0, q.1, p.0, p.1, blue);
+            line(&mut img, q.0, q.1 + 1, p.0, p.1 + 1, blue);
         }
         prev = Some(p);
     }
@@ -180,22 +169,7 @@ pub fn loss_plot(losses: &[f64], width: u32, height: u32) -> RgbImage {
 
 /// Stages the loss curve as a PNG at `path` (see [`loss_plot`]).
 pub fn stage_loss_plot(outputs: &mut OutputSet, path: &Path, losses: &[f64]) -> Result<()> {
-    let img = loss_plot(losses, 640, 400);
-    let mut bytes = Vec::new();
-    img.write_to(
-        &mut std::io::Cursor::new(&mut bytes),
-        image::ImageFormat::Png,
-    )
-    .map_err(|e| Error::Output {
-        file: path.to_path_buf(),
-        message: e.to_string(),
-    })?;
-    outputs.stage(path, |w| {
-        w.write_all(&bytes).map_err(|source| Error::Io {
-            file: path.to_path_buf(),
-            source,
-        })
-    })
+    outputs.stage_png(path, &loss_plot(losses, 640, 400))
 }
 
 /// Stages the loss curve as CSV at `path`: `iteration,loss`, one row per

@@ -319,22 +319,7 @@ impl ResponseCurve {
         width: u32,
         height: u32,
     ) -> Result<()> {
-        let img = self.plot(width.max(64), height.max(48));
-        let mut bytes = Vec::new();
-        img.write_to(
-            &mut std::io::Cursor::new(&mut bytes),
-            image::ImageFormat::Png,
-        )
-        .map_err(|e| Error::Output {
-            file: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
-        outputs.stage(path, |w| {
-            w.write_all(&bytes).map_err(|source| Error::Io {
-                file: path.to_path_buf(),
-                source,
-            })
-        })
+        outputs.stage_png(path, &self.plot(width.max(64), height.max(48)))
     }
 
     fn plot(&self, width: u32, height: u32) -> image::RgbImage {
@@ -409,7 +394,14 @@ impl ResponseCurve {
 }
 
 /// Draws a line (DDA), clipped to the image.
-fn line(img: &mut image::RgbImage, x0: i32, y0: i32, x1: i32, y1: i32, c: image::Rgb<u8>) {
+pub(crate) fn line(
+    img: &mut image::RgbImage,
+    x0: i32,
+    y0: i32,
+    x1: i32,
+    y1: i32,
+    c: image::Rgb<u8>,
+) {
     let n = (x1 - x0).abs().max((y1 - y0).abs()).max(1);
     for k in 0..=n {
         let x = x0 + (x1 - x0) * k / n;
