@@ -1005,3 +1005,120 @@ fn a_hard_edged_lights_size_is_found_from_the_blur_of_its_edge() {
     let pls = fitted.meshes().iter().find_map(|m| m.pls.as_ref()).unwrap();
     assert!((pls.light.g.d[1] / 1.35 - radius).abs() < 1e-3, "{text}");
 }
+
+/// A floor under a strip light close above it (its outline given as
+/// `outline`: the PLS keys of its shape), seen from above.
+fn strip_room(dir: &Path, outline: &str, a: f32, b: f32, photo: bool) -> PathBuf {
+    let light = format!(
+        "[[lights]]\nname = \"strip\"\nn = [0, 0, -1]\na = {a}\nc = [1, 0.95, 0.85]\nb = {b}\n{outline}\n"
+    );
+    std::fs::write(dir.join("strip.toml"), light).unwrap();
+    let photo_table = if photo {
+        "[photo]\nfile = \"photo.exr\"\nresponse = \"linear\"\nexposure = 1\n"
+    } else {
+        ""
+    };
+    let text = format!(
+        r#"
+[render]
+spp = 16
+max_depth = 1
+seed = 1
+
+[camera]
+position = [0, -0.5, 1.3]
+look_at = [0, 0, 0]
+up = [0, 0, 1]
+vfov = 40
+resolution = [96, 72]
+
+{photo_table}
+[[materials]]
+name = "floor"
+type = "diffuse"
+reflectance = [0.6, 0.6, 0.6]
+
+[[shapes]]
+name = "floor"
+type = "rectangle"
+material = "floor"
+transform = {{ scale = 3 }}
+
+[[lights]]
+type = "point"
+position = [2, -2, 2]
+intensity = [0.3, 0.3, 0.3]
+
+[[pls]]
+file = "strip.toml"
+"#
+    );
+    let path = dir.join(if photo { "guess.toml" } else { "truth.toml" });
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn a_lights_outline_shape_is_found_and_a_circle_becomes_an_outline() {
+    let dir = tempdir();
+    let (a, b) = (10.0f32, 2.0f32);
+    // A tapered strip 40 cm long, 16 cm wide in its middle, 4 cm at its
+    // ends, 30 cm above the floor.
+    let truth = strip_room(
+        dir.path(),
+        "e1 = [-0.2, 0, 0.3]\ne2 = [0.2, 0, 0.3]\nalpha1 = 0\nalpha2 = 1\nd = [0.02, 0.08, 0.08, 0.02]",
+        a,
+        b,
+        false,
+    );
+    render_photo(&truth, dir.path(), 5);
+    // Start from a disk of radius 10 cm (its axis along the strip's).
+    let guess = strip_room(
+        dir.path(),
+        "circle = { center = [0, 0, 0.3], radius = 0.1, axis = [1, 0, 0] }",
+        12.0,
+        3.0,
+        true,
+    );
+    let options = FitOptions {
+        windows: vec!["strip".into()],
+        window_shape: true,
+        spp: 32,
+        threads: Some(2),
+        ..FitOptions::default()
+    };
+    let out = dir.path().join("fitted.toml");
+    let outcome = fit_scene_file(&guess, &out, &options, &mut |_, _| true).unwrap();
+    let (_, found) = &outcome.windows[0];
+    eprintln!("{found:?}");
+    let length = (found.e[1] - found.e[0]).length();
+    assert!(
+        (length / 0.4 - 1.0).abs() <= 0.1,
+        "axis length {length} vs 0.4"
+    );
+    for (k, (got, want)) in found.d.iter().zip([0.02, 0.08, 0.08, 0.02]).enumerate() {
+        assert!((got - want).abs() <= 0.015, "d{} = {got} vs {want}", k + 1);
+    }
+    assert!((found.a_deg - a).abs() <= 1.0, "a = {} vs {a}", found.a_deg);
+    assert!((found.b / b - 1.0).abs() <= 0.02, "b = {} vs {b}", found.b);
+    // The fitted PLS file: an explicit outline, the circle gone.
+    outcome
+        .write(
+            &out,
+            &dir.path().join("l.csv"),
+            &dir.path().join("l.png"),
+            &[],
+        )
+        .unwrap();
+    let text = std::fs::read_to_string(dir.path().join("fitted.pls-0.toml")).unwrap();
+    assert!(
+        !text.contains("circle") && text.contains("alpha1"),
+        "{text}"
+    );
+    let fitted = Scene::load(&out).unwrap();
+    let pls = fitted.meshes().iter().find_map(|m| m.pls.as_ref()).unwrap();
+    for (got, want) in pls.light.g.d.iter().zip(found.d) {
+        assert!((got - want).abs() < 1e-5, "{text}");
+    }
+    assert!((pls.light.g.e1 - found.e[0]).length() < 1e-5, "{text}");
+}

@@ -65,6 +65,10 @@ pub struct FitOptions {
     /// Whether the window search also scales the lights' outlines (and
     /// then holds their penumbra).
     pub window_size: bool,
+    /// Whether the window search also fits each light's outline shape:
+    /// its axis length and its four half-widths `d` on their own
+    /// (includes the size).
+    pub window_shape: bool,
 }
 
 impl Default for FitOptions {
@@ -79,6 +83,7 @@ impl Default for FitOptions {
             windows: Vec::new(),
             window_direction: false,
             window_size: false,
+            window_shape: false,
         }
     }
 }
@@ -544,9 +549,9 @@ pub fn fit_scene_file(
 ) -> Result<FitOutcome> {
     let contents = crate::scene::file::load_contents(path)?;
     // A direction or size search rebuilds the scene from its description.
-    let description = ((options.window_direction || options.window_size)
-        && !options.windows.is_empty())
-    .then(|| contents.description.clone());
+    let rebuilds = options.window_direction || options.window_size || options.window_shape;
+    let description =
+        (rebuilds && !options.windows.is_empty()).then(|| contents.description.clone());
     let mut scene = Scene::build(contents.description)?;
     let scale = write::environment_scale(path)?;
     let adam = !options.params.is_empty() || options.windows.is_empty();
@@ -649,8 +654,11 @@ pub fn fit_scene_file(
                 threads: options.threads,
                 fit_direction: options.window_direction,
                 fit_size: options.window_size,
-                fit_penumbra: !options.window_size,
-                max_evaluations: if options.window_direction || options.window_size {
+                fit_shape: options.window_shape,
+                fit_penumbra: !(options.window_size || options.window_shape),
+                max_evaluations: if options.window_shape {
+                    400
+                } else if rebuilds {
                     160
                 } else {
                     80
@@ -670,11 +678,22 @@ pub fn fit_scene_file(
         if options.window_direction {
             fields.push(("n", found.n.to_array().to_vec()));
         }
-        if options.window_direction || options.window_size {
+        if rebuilds {
             fields.push(("e1", found.e[0].to_array().to_vec()));
             fields.push(("e2", found.e[1].to_array().to_vec()));
         }
-        if options.window_size {
+        if options.window_shape {
+            // The explicit outline (a circle light becomes one).
+            let alpha = scene.meshes()[mesh]
+                .pls
+                .as_ref()
+                .map_or([1.0 / 3.0, 2.0 / 3.0], |p| {
+                    [p.light.g.alpha1, p.light.g.alpha2]
+                });
+            fields.push(("alpha1", vec![alpha[0]]));
+            fields.push(("alpha2", vec![alpha[1]]));
+            fields.push(("d", found.d.to_vec()));
+        } else if options.window_size {
             fields.push(("d", found.d.to_vec()));
             // A circle light's radius (its `d2 = d3 = 1.35·r`).
             fields.push((

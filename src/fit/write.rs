@@ -25,6 +25,8 @@ enum NewValue {
     Number(f64),
     List(Vec<f64>),
     Text(String),
+    /// The key is removed (a circle light whose outline was fitted).
+    Remove,
 }
 
 /// Rounds a fitted number for the file: 6 significant digits.
@@ -75,6 +77,22 @@ fn edit(path: &Path, text: &str, edits: &[(Vec<Seg>, NewValue)]) -> Result<Strin
     if is_json(path) {
         let mut doc = parse(path, text)?;
         for (segs, value) in edits {
+            if *value == NewValue::Remove {
+                let Some((Seg::Key(last), parents)) = segs.split_last() else {
+                    continue;
+                };
+                let mut node = Some(&mut doc);
+                for s in parents {
+                    node = node.and_then(|n| match s {
+                        Seg::Key(k) => n.get_mut(k),
+                        Seg::Index(i) => n.get_mut(*i),
+                    });
+                }
+                if let Some(Json::Object(m)) = node {
+                    m.remove(last);
+                }
+                continue;
+            }
             let mut node = &mut doc;
             for s in segs {
                 node = match s {
@@ -97,6 +115,7 @@ fn edit(path: &Path, text: &str, edits: &[(Vec<Seg>, NewValue)]) -> Result<Strin
                 NewValue::Number(v) => serde_json::json!(v),
                 NewValue::List(t) => serde_json::json!(t),
                 NewValue::Text(s) => Json::String(s.clone()),
+                NewValue::Remove => unreachable!("handled above"),
             };
         }
         let mut out = serde_json::to_string_pretty(&doc)
@@ -137,6 +156,7 @@ fn toml_value(value: &NewValue, old: Option<&toml_edit::Value>) -> toml_edit::Va
         NewValue::Number(x) => toml_edit::Value::from(*x),
         NewValue::List(t) => toml_edit::Value::Array(t.iter().copied().collect()),
         NewValue::Text(s) => toml_edit::Value::from(s.as_str()),
+        NewValue::Remove => unreachable!("removals do not reach toml_value"),
     };
     if let Some(old) = old {
         *v.decor_mut() = old.decor().clone();
@@ -150,6 +170,10 @@ fn set_in_table(
     value: &NewValue,
 ) -> std::result::Result<(), String> {
     match segs {
+        [Seg::Key(k)] if *value == NewValue::Remove => {
+            t.remove(k);
+            Ok(())
+        }
         [Seg::Key(k)] => {
             let old = t.get(k).and_then(toml_edit::Item::as_value).cloned();
             t.insert(k, toml_edit::Item::Value(toml_value(value, old.as_ref())));
@@ -191,6 +215,10 @@ fn set_in_inline(
     value: &NewValue,
 ) -> std::result::Result<(), String> {
     match segs {
+        [Seg::Key(k)] if *value == NewValue::Remove => {
+            t.remove(k);
+            Ok(())
+        }
         [Seg::Key(k)] => {
             let old = t.get(k).cloned();
             t.insert(k, toml_value(value, old.as_ref()));
@@ -308,16 +336,24 @@ pub fn fitted_files(
             .unwrap_or_else(|| "toml".into());
         let name = format!("{stem}.pls-{table}.{ext}");
         // A light given as a `circle` keeps it (its radius; its axis ends
-        // follow `n`); one given by its outline gets `e1`, `e2`, `d`.
+        // follow `n`); one given by its outline gets `e1`, `e2`, `d`. A
+        // circle whose shape was fitted (the edits then hold `alpha1`) is
+        // no circle any more: it gets the explicit outline instead.
         let src_doc = parse(&src, &src_text)?;
-        let is_circle = |k: usize| {
-            src_doc
-                .get("lights")
-                .and_then(|l| l.get(k))
-                .and_then(|l| l.get("circle"))
-                .is_some()
+        let shaped = |k: usize| {
+            e.iter().any(|(segs, _)| {
+                matches!(segs.as_slice(), [_, Seg::Index(j), Seg::Key(f)] if *j == k && f == "alpha1")
+            })
         };
-        let e: Edits = e
+        let is_circle = |k: usize| {
+            !shaped(k)
+                && src_doc
+                    .get("lights")
+                    .and_then(|l| l.get(k))
+                    .and_then(|l| l.get("circle"))
+                    .is_some()
+        };
+        let mut e: Edits = e
             .iter()
             .filter(|(segs, _)| match segs.as_slice() {
                 [_, Seg::Index(k), Seg::Key(f)] if f == "e1" || f == "e2" || f == "d" => {
@@ -328,6 +364,18 @@ pub fn fitted_files(
             })
             .cloned()
             .collect();
+        for k in 0..src_doc
+            .get("lights")
+            .and_then(Json::as_array)
+            .map_or(0, Vec::len)
+        {
+            if shaped(k) {
+                e.push((
+                    vec![key("lights"), Seg::Index(k), key("circle")],
+                    NewValue::Remove,
+                ));
+            }
+        }
         let fitted = edit(&src, &src_text, &e)?;
         pls.push((out_dir.join(&name), fitted));
         edits.push((

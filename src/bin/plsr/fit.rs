@@ -45,6 +45,12 @@ pub struct FitArgs {
     /// does, so the penumbra is then held).
     #[arg(long)]
     pub window_size: bool,
+    /// With --window: also fit each light's outline shape: the length of
+    /// its axis and each of its four half-widths `d` on their own (this
+    /// includes the size; the penumbra is held; up to 400 renders). A
+    /// circle light comes out as an explicit outline.
+    #[arg(long)]
+    pub window_shape: bool,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -140,6 +146,7 @@ pub fn run(a: &FitArgs) -> Result<()> {
         windows: a.windows.clone(),
         window_direction: a.window_direction,
         window_size: a.window_size,
+        window_shape: a.window_shape,
     };
     let bar = progress_bar(
         a.quiet,
