@@ -19,9 +19,10 @@
 //! 5. [`scene`]: the built scene and scene files;
 //! 6. [`integrator`]: the path tracer and its vectorised kernel;
 //! 7. [`render`]: a whole image on the thread pool;
-//! 8. [`capture`], [`composite`], [`fit`], [`capi`]: a simulated 360°
-//!    bracket capture; virtual objects composited into photos; materials
-//!    and lights fitted to photos; the C ABI for C and C++ hosts
+//! 8. [`capture`], [`composite`], [`fit`], [`metrics`], [`capi`]: a
+//!    simulated 360° bracket capture; virtual objects composited into
+//!    photos; materials and lights fitted to photos; image quality metrics
+//!    (CW-SSIM, SSIM, PSNR, RMSE); the C ABI for C and C++ hosts
 //!    (`include/plsr.h`).
 
 pub use plsr_embree_sys as sys;
@@ -46,6 +47,7 @@ pub mod job;
 pub mod light;
 pub mod material;
 pub mod memory;
+pub mod metrics;
 pub mod render;
 pub mod rng;
 pub mod scene;

@@ -2,6 +2,7 @@
 //! per subcommand; `bench/` holds the benchmark suites.
 
 mod bench;
+mod compare;
 mod composite;
 mod fit;
 mod hdr;
@@ -38,6 +39,9 @@ pub enum Command {
     /// Fit the real surfaces' materials (and lights' brightness) to the
     /// scene's photos by differentiable rendering and Adam.
     Fit(fit::FitArgs),
+    /// Score an image against a reference as the paper does (CW-SSIM) and
+    /// by SSIM, PSNR and RMSE, over a crop and a mask (see docs/metrics.md).
+    Compare(compare::CompareArgs),
     /// Measure throughput. `plsr bench` (suite `core`): raw Embree rays, path
     /// tracing, and Embree's own `pathtracer` (Debian's embree-tools) on the
     /// same Cornell box. `plsr bench pls`: transforming 10,000 PLS lights
@@ -82,6 +86,7 @@ where
         Command::Render(a) => render::run(&a),
         Command::Composite(a) => composite::run(&a),
         Command::Fit(a) => fit::run(&a),
+        Command::Compare(a) => compare::run(&a),
         Command::Bench(a) => bench::run(a),
         Command::Pls(c) => pls::run(c),
         Command::Hdr(c) => hdr::run(c),
