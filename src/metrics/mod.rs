@@ -11,10 +11,12 @@
 //! MATLAB's `rgb2gray` makes them, on the 0–255 scale.
 //!
 //! - [`cwssim`]: CW-SSIM (complex steerable pyramid, one band level).
+//! - [`lpips`]: LPIPS (AlexNet, v0.1; the weights ship inside plsr).
 //! - [`ssim`]: SSIM (Wang et al. 2004, Gaussian 11×11 windows).
 //! - [`pixel`]: RMSE (on the files' own values) and PSNR (display values).
 
 pub mod cwssim;
+pub mod lpips;
 pub mod pixel;
 pub mod ssim;
 
@@ -251,6 +253,8 @@ impl Mask {
 pub enum Metric {
     /// CW-SSIM (higher is better, 1 for identical images).
     CwSsim,
+    /// LPIPS, AlexNet v0.1 (lower is better, 0 for identical images).
+    Lpips,
     /// SSIM (higher is better).
     Ssim,
     /// PSNR in dB over display values (higher is better).
@@ -261,12 +265,19 @@ pub enum Metric {
 
 impl Metric {
     /// Every metric, in the order reports list them.
-    pub const ALL: [Metric; 4] = [Metric::CwSsim, Metric::Ssim, Metric::Psnr, Metric::Rmse];
+    pub const ALL: [Metric; 5] = [
+        Metric::CwSsim,
+        Metric::Lpips,
+        Metric::Ssim,
+        Metric::Psnr,
+        Metric::Rmse,
+    ];
 
     /// The metric's name on the command line and in reports.
     pub fn name(self) -> &'static str {
         match self {
             Metric::CwSsim => "cwssim",
+            Metric::Lpips => "lpips",
             Metric::Ssim => "ssim",
             Metric::Psnr => "psnr",
             Metric::Rmse => "rmse",
@@ -327,6 +338,7 @@ pub fn compare(
         let value = match (metric, &greys) {
             (Metric::CwSsim, Some((a, b))) => cwssim::cwssim(a, b, &options.cwssim)?,
             (Metric::Ssim, Some((a, b))) => ssim::ssim(a, b)?,
+            (Metric::Lpips, _) => lpips::lpips(reference, test)?,
             (Metric::CwSsim | Metric::Ssim, None) => unreachable!("greys made above"),
             (Metric::Psnr, _) => pixel::psnr(&reference.display(), &test.display(), inside),
             (Metric::Rmse, _) => pixel::rmse(&reference.rgb, &test.rgb, inside),

@@ -1,5 +1,5 @@
 //! `plsr compare`: scores a test image against a reference (CW-SSIM,
-//! SSIM, PSNR, RMSE), over a crop and a mask.
+//! LPIPS, SSIM, PSNR, RMSE), over a crop and a mask.
 
 use plsr::atomic_write::{check_extension, OutputSet};
 use plsr::error::{Error, Result};
@@ -21,7 +21,8 @@ pub struct CompareArgs {
     /// pixels a side) or `X,Y,W,H` in pixels; default: the whole image.
     #[arg(long, value_name = "auto|X,Y,W,H")]
     pub crop: Option<String>,
-    /// Comma-separated metrics: cwssim, ssim, psnr, rmse (default: all).
+    /// Comma-separated metrics: cwssim, lpips, ssim, psnr, rmse (default:
+    /// all).
     #[arg(long = "metric", value_name = "LIST", value_delimiter = ',')]
     pub metrics: Vec<String>,
     /// CW-SSIM: pyramid levels (the last level's bands are compared).
