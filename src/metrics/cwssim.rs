@@ -82,8 +82,8 @@ pub fn cwssim(a: &GreyImage, b: &GreyImage, options: &CwSsimOptions) -> Result<f
             options.level
         )));
     }
-    let pa = bands(a, options);
-    let pb = bands(b, options);
+    // The two pyramids are independent: build them side by side.
+    let (pa, pb) = rayon::join(|| bands(a, options), || bands(b, options));
     let (bw, bh) = (pa[0].w, pa[0].h);
     let gb = (options.guard >> (options.level - 1)) as usize;
     if bw < 2 * gb + WINDOW || bh < 2 * gb + WINDOW {

@@ -3,9 +3,11 @@
 //! tracing against Embree's own `pathtracer`), `pls` (PLS transforms and the
 //! window's cost), `materials` (diffuse against principled), `hdr`
 //! (bracket merging against OpenCV), `composite` (a composite against
-//! one render) and `fit` (an Adam iteration of `plsr fit` against one
-//! render, and against Mitsuba 3's `prb`).
+//! one render), `fit` (an Adam iteration of `plsr fit` against one
+//! render, and against Mitsuba 3's `prb`) and `compare` (CW-SSIM and LPIPS
+//! against their reference implementations in Python).
 
+mod compare;
 mod composite;
 mod core;
 mod fit;
@@ -24,10 +26,12 @@ pub struct BenchArgs {
     /// 6720×3360, plsr against OpenCV's MergeDebevec) or `composite` (a
     /// composite against one render of the same scene) or `fit` (an Adam
     /// iteration of `plsr fit` against one render, and against Mitsuba 3's
-    /// `prb` when it is installed).
-    #[arg(default_value = "core", value_parser = ["core", "pls", "materials", "hdr", "composite", "fit"])]
+    /// `prb` when it is installed) or `compare` (CW-SSIM and LPIPS on a
+    /// 400×300 crop and a panorama, against pyiqa and the lpips package).
+    #[arg(default_value = "core", value_parser = ["core", "pls", "materials", "hdr", "composite", "fit", "compare"])]
     pub suite: String,
-    /// Image size for `plsr bench hdr`, WIDTHxHEIGHT.
+    /// Image size for `plsr bench hdr` and the panorama of `plsr bench
+    /// compare`, WIDTHxHEIGHT.
     #[arg(long, default_value = "6720x3360")]
     pub hdr_size: String,
     /// Folder for the brackets of `plsr bench hdr` (kept afterwards; reused
@@ -37,8 +41,8 @@ pub struct BenchArgs {
     /// Timed Adam iterations for `plsr bench fit`.
     #[arg(long, default_value_t = 5)]
     pub iterations: u32,
-    /// Python interpreter with OpenCV for `plsr bench hdr` (and Mitsuba 3
-    /// for `plsr bench fit`).
+    /// Python interpreter with OpenCV for `plsr bench hdr` (Mitsuba 3 for
+    /// `plsr bench fit`; torch, pyiqa and lpips for `plsr bench compare`).
     #[arg(long, default_value = "python3")]
     pub python: PathBuf,
     /// The plsr scene reproducing Embree's demo configuration.
@@ -79,6 +83,11 @@ pub fn run(a: BenchArgs) -> Result<()> {
             iterations: a.iterations,
         })
         .map(|_| ()),
+        "compare" => compare::run(&compare::CompareBenchOptions {
+            threads: a.threads,
+            python: (!a.no_peer).then_some(a.python),
+            panorama: parse_size(&a.hdr_size)?,
+        }),
         "hdr" => {
             let (width, height) = parse_size(&a.hdr_size)?;
             hdr::run(&hdr::HdrBenchOptions {
