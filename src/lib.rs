@@ -22,7 +22,7 @@
 //! 8. [`capture`], [`composite`], [`fit`], [`metrics`], [`capi`]: a
 //!    simulated 360° bracket capture; virtual objects composited into
 //!    photos; materials and lights fitted to photos; image quality metrics
-//!    (CW-SSIM, LPIPS, SSIM, PSNR, RMSE); the C ABI for C and C++ hosts
+//!    (CW-SSIM, LPIPS, FLIP, SSIM, PSNR, RMSE); the C ABI for C and C++ hosts
 //!    (`include/plsr.h`).
 
 pub use plsr_embree_sys as sys;

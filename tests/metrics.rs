@@ -1,8 +1,9 @@
 //! Image metrics against their reference implementations: the scores of
 //! `tests/fixtures/metrics/reference.json` were computed once by
 //! `scripts/metrics_reference.py` (pyiqa's CW-SSIM, SSIM and PSNR, the
-//! `lpips` package's LPIPS); plsr's agree within 1e-3 (CW-SSIM, SSIM,
-//! LPIPS) and 1e-4 dB (PSNR). And `plsr compare`
+//! `lpips` package's LPIPS, `flip-evaluator`'s LDR- and HDR-FLIP); plsr's
+//! agree within 1e-3 (CW-SSIM, SSIM, LPIPS), 1e-4 dB (PSNR) and 1e-4 (mean
+//! FLIP, on PNG pairs and on half-float EXR pairs). And `plsr compare`
 //! on bad input: clear errors, exit status 1.
 
 use plsr::metrics::{compare_files, CompareOptions, Crop, CropSpec, Metric};
@@ -25,16 +26,40 @@ fn scores_agree_with_the_reference_implementations() {
         metrics: Metric::ALL.to_vec(),
         ..CompareOptions::default()
     };
-    let mut worst = [0.0f64; 4];
+    let mut worst = [0.0f64; 5];
+    let mut hdr_pairs = 0;
     for pair in doc["pairs"].as_array().unwrap() {
         let r = fixtures().join(pair["reference"].as_str().unwrap());
         let t = fixtures().join(pair["test"].as_str().unwrap());
         let report = compare_files(&r, &t, None, CropSpec::Whole, &options).unwrap();
+        let hdr = pair["hdr"].as_bool().unwrap_or(false);
+        assert_eq!(
+            report.reference.hdr && report.test.hdr,
+            hdr,
+            "{}",
+            t.display()
+        );
+        if hdr {
+            // HDR-FLIP chose the reference's exposures.
+            hdr_pairs += 1;
+            let map = plsr::metrics::flip::hdr_flip(
+                &report.reference,
+                &report.test,
+                &plsr::metrics::flip::FlipOptions::default(),
+            )
+            .unwrap();
+            let e = map.exposures.unwrap();
+            let want = pair["flip_exposures"].as_array().unwrap();
+            assert!((e.start - want[0].as_f64().unwrap()).abs() < 1e-5, "{e:?}");
+            assert!((e.stop - want[1].as_f64().unwrap()).abs() < 1e-5, "{e:?}");
+            assert_eq!(e.count as u64, want[2].as_u64().unwrap());
+        }
         for (k, (name, tolerance)) in [
             ("cwssim", 1e-3),
             ("ssim", 1e-3),
             ("psnr", 1e-4),
             ("lpips", 1e-3),
+            ("flip", 1e-4),
         ]
         .into_iter()
         .enumerate()
@@ -62,9 +87,10 @@ fn scores_agree_with_the_reference_implementations() {
             );
         }
     }
+    assert!(hdr_pairs >= 2, "the fixtures hold HDR pairs");
     eprintln!(
-        "largest differences: CW-SSIM {:.2e}, SSIM {:.2e}, PSNR {:.2e} dB, LPIPS {:.2e}",
-        worst[0], worst[1], worst[2], worst[3]
+        "largest differences: CW-SSIM {:.2e}, SSIM {:.2e}, PSNR {:.2e} dB, LPIPS {:.2e}, FLIP {:.2e}",
+        worst[0], worst[1], worst[2], worst[3], worst[4]
     );
 }
 
@@ -190,7 +216,7 @@ fn plsr_compare_prints_scores_as_text_and_json_and_writes_a_map() {
         String::from_utf8_lossy(&out.stderr)
     );
     let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    for m in ["cwssim", "lpips", "ssim", "psnr", "rmse"] {
+    for m in ["cwssim", "lpips", "ssim", "psnr", "rmse", "flip"] {
         assert!(doc["scores"][m].is_number(), "{doc}");
     }
     let img = image::open(&map).unwrap();

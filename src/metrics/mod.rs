@@ -14,8 +14,11 @@
 //! - [`lpips`]: LPIPS (AlexNet, v0.1; the weights ship inside plsr).
 //! - [`ssim`]: SSIM (Wang et al. 2004, Gaussian 11×11 windows).
 //! - [`pixel`]: RMSE (on the files' own values) and PSNR (display values).
+//! - [`flip`]: FLIP (NVIDIA's, LDR-FLIP on display values; HDR-FLIP when
+//!   both files are float files).
 
 pub mod cwssim;
+pub mod flip;
 pub mod lpips;
 pub mod pixel;
 pub mod ssim;
@@ -261,16 +264,20 @@ pub enum Metric {
     Psnr,
     /// RMSE over the files' own values (lower is better).
     Rmse,
+    /// Mean FLIP (lower is better, 0 for identical images): HDR-FLIP when
+    /// both images are HDR, LDR-FLIP of the display values otherwise.
+    Flip,
 }
 
 impl Metric {
     /// Every metric, in the order reports list them.
-    pub const ALL: [Metric; 5] = [
+    pub const ALL: [Metric; 6] = [
         Metric::CwSsim,
         Metric::Lpips,
         Metric::Ssim,
         Metric::Psnr,
         Metric::Rmse,
+        Metric::Flip,
     ];
 
     /// The metric's name on the command line and in reports.
@@ -281,6 +288,7 @@ impl Metric {
             Metric::Ssim => "ssim",
             Metric::Psnr => "psnr",
             Metric::Rmse => "rmse",
+            Metric::Flip => "flip",
         }
     }
 
@@ -297,6 +305,8 @@ pub struct CompareOptions {
     pub metrics: Vec<Metric>,
     /// CW-SSIM's settings.
     pub cwssim: cwssim::CwSsimOptions,
+    /// FLIP's settings.
+    pub flip: flip::FlipOptions,
 }
 
 /// One metric's score.
@@ -342,6 +352,7 @@ pub fn compare(
             (Metric::CwSsim | Metric::Ssim, None) => unreachable!("greys made above"),
             (Metric::Psnr, _) => pixel::psnr(&reference.display(), &test.display(), inside),
             (Metric::Rmse, _) => pixel::rmse(&reference.rgb, &test.rgb, inside),
+            (Metric::Flip, _) => flip_map(reference, test, &options.flip)?.mean,
         };
         scores.push(Score { metric, value });
     }
@@ -471,19 +482,16 @@ pub fn compare_files(
     })
 }
 
-/// A heat map of the per-pixel difference of two images' display values:
-/// the largest channel difference, 0 (black) through red and yellow to
-/// 0.25 and above (white), as 8-bit RGB.
-pub fn difference_map(a: &MetricImage, b: &MetricImage) -> image::RgbImage {
-    let (da, db) = (a.display(), b.display());
-    let mut img = image::RgbImage::new(a.width as u32, a.height as u32);
-    for (i, px) in img.pixels_mut().enumerate() {
-        let d = (0..3)
-            .map(|c| (da[3 * i + c] - db[3 * i + c]).abs())
-            .fold(0.0f32, f32::max);
-        let t = (d / 0.25).clamp(0.0, 1.0) * 3.0;
-        let ramp = [t, t - 1.0, t - 2.0].map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8);
-        *px = image::Rgb(ramp);
+/// The FLIP error map of `test` against `reference`: HDR-FLIP when both
+/// are HDR (float files), LDR-FLIP of their display values otherwise.
+pub fn flip_map(
+    reference: &MetricImage,
+    test: &MetricImage,
+    options: &flip::FlipOptions,
+) -> Result<flip::FlipMap> {
+    if reference.hdr && test.hdr {
+        flip::hdr_flip(reference, test, options)
+    } else {
+        flip::ldr_flip(reference, test, options)
     }
-    img
 }

@@ -1,5 +1,5 @@
 //! `plsr compare`: scores a test image against a reference (CW-SSIM,
-//! LPIPS, SSIM, PSNR, RMSE), over a crop and a mask.
+//! LPIPS, SSIM, PSNR, RMSE, FLIP), over a crop and a mask.
 
 use plsr::atomic_write::{check_extension, OutputSet};
 use plsr::error::{Error, Result};
@@ -21,8 +21,8 @@ pub struct CompareArgs {
     /// pixels a side) or `X,Y,W,H` in pixels; default: the whole image.
     #[arg(long, value_name = "auto|X,Y,W,H")]
     pub crop: Option<String>,
-    /// Comma-separated metrics: cwssim, lpips, ssim, psnr, rmse (default:
-    /// all).
+    /// Comma-separated metrics: cwssim, lpips, ssim, psnr, rmse, flip
+    /// (default: all).
     #[arg(long = "metric", value_name = "LIST", value_delimiter = ',')]
     pub metrics: Vec<String>,
     /// CW-SSIM: pyramid levels (the last level's bands are compared).
@@ -37,10 +37,15 @@ pub struct CompareArgs {
     /// CW-SSIM: border left out of the bands, in pixels of the image.
     #[arg(long, default_value_t = 0)]
     pub cwssim_guard: u32,
+    /// FLIP: pixels per degree of visual angle (default: a 0.7 m wide
+    /// 3840-pixel display seen from 0.7 m, 67.02).
+    #[arg(long)]
+    pub flip_ppd: Option<f64>,
     /// Print the scores as JSON.
     #[arg(long)]
     pub json: bool,
-    /// Write a heat map of the per-pixel difference over the crop (PNG).
+    /// Write FLIP's error map of the crop (PNG, magma colours: black for no
+    /// visible difference, yellow-white for the largest).
     #[arg(long, value_name = "OUT.png")]
     pub map: Option<PathBuf>,
 }
@@ -95,14 +100,18 @@ pub fn run(a: &CompareArgs) -> Result<()> {
             guard: a.cwssim_guard,
             k: a.cwssim_k,
         },
+        flip: plsr::metrics::flip::FlipOptions {
+            pixels_per_degree: a
+                .flip_ppd
+                .unwrap_or(plsr::metrics::flip::FlipOptions::default().pixels_per_degree),
+            ..Default::default()
+        },
     };
     let report = compare_files(&a.reference, &a.test, a.mask.as_deref(), crop, &options)?;
     if let Some(p) = &a.map {
         let mut out = OutputSet::new();
-        out.stage_png(
-            p,
-            &plsr::metrics::difference_map(&report.reference, &report.test),
-        )?;
+        let map = plsr::metrics::flip_map(&report.reference, &report.test, &options.flip)?;
+        out.stage_png(p, &map.magma())?;
         out.commit()?;
     }
     let c = report.crop;
