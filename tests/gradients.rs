@@ -816,8 +816,21 @@ fn spot_room(dir: &Path, a: f32, w: f32, b: f32, photo: bool) -> PathBuf {
         .replace("W\n", &format!("{w}\n"))
         .replace("B\n", &format!("{b}\n"));
     std::fs::write(dir.join("spot.toml"), spot).unwrap();
-    let guess = photo;
-    let photo = if guess {
+    lit_floor(
+        dir,
+        "spot.toml",
+        2,
+        "position = [0.2, -1.2, 2.2]\nlook_at = [0.1, 0, 0]\nvfov = 50",
+        photo,
+    )
+}
+
+/// A 6 m floor lit by the PLS file `pls` (in `dir`) and a dim point light,
+/// seen by the camera `camera` (its position, look_at and vfov keys) at
+/// 96×72: `guess.toml` with `photo.exr` as its photo when `photo`, else
+/// `truth.toml`.
+fn lit_floor(dir: &Path, pls: &str, max_depth: u32, camera: &str, photo: bool) -> PathBuf {
+    let photo_table = if photo {
         "[photo]\nfile = \"photo.exr\"\nresponse = \"linear\"\nexposure = 1\n"
     } else {
         ""
@@ -826,17 +839,15 @@ fn spot_room(dir: &Path, a: f32, w: f32, b: f32, photo: bool) -> PathBuf {
         r#"
 [render]
 spp = 16
-max_depth = 2
+max_depth = {max_depth}
 seed = 1
 
 [camera]
-position = [0.2, -1.2, 2.2]
-look_at = [0.1, 0, 0]
+{camera}
 up = [0, 0, 1]
-vfov = 50
 resolution = [96, 72]
 
-{photo}
+{photo_table}
 [[materials]]
 name = "floor"
 type = "diffuse"
@@ -854,10 +865,10 @@ position = [2, -2, 2]
 intensity = [0.3, 0.3, 0.3]
 
 [[pls]]
-file = "spot.toml"
+file = "{pls}"
 "#
     );
-    let path = dir.join(if guess { "guess.toml" } else { "truth.toml" });
+    let path = dir.join(if photo { "guess.toml" } else { "truth.toml" });
     std::fs::write(&path, text).unwrap();
     path
 }
@@ -1013,49 +1024,13 @@ fn strip_room(dir: &Path, outline: &str, a: f32, b: f32, photo: bool) -> PathBuf
         "[[lights]]\nname = \"strip\"\nn = [0, 0, -1]\na = {a}\nc = [1, 0.95, 0.85]\nb = {b}\n{outline}\n"
     );
     std::fs::write(dir.join("strip.toml"), light).unwrap();
-    let photo_table = if photo {
-        "[photo]\nfile = \"photo.exr\"\nresponse = \"linear\"\nexposure = 1\n"
-    } else {
-        ""
-    };
-    let text = format!(
-        r#"
-[render]
-spp = 16
-max_depth = 1
-seed = 1
-
-[camera]
-position = [0, -0.5, 1.3]
-look_at = [0, 0, 0]
-up = [0, 0, 1]
-vfov = 40
-resolution = [96, 72]
-
-{photo_table}
-[[materials]]
-name = "floor"
-type = "diffuse"
-reflectance = [0.6, 0.6, 0.6]
-
-[[shapes]]
-name = "floor"
-type = "rectangle"
-material = "floor"
-transform = {{ scale = 3 }}
-
-[[lights]]
-type = "point"
-position = [2, -2, 2]
-intensity = [0.3, 0.3, 0.3]
-
-[[pls]]
-file = "strip.toml"
-"#
-    );
-    let path = dir.join(if photo { "guess.toml" } else { "truth.toml" });
-    std::fs::write(&path, text).unwrap();
-    path
+    lit_floor(
+        dir,
+        "strip.toml",
+        1,
+        "position = [0, -0.5, 1.3]\nlook_at = [0, 0, 0]\nvfov = 40",
+        photo,
+    )
 }
 
 #[test]

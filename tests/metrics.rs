@@ -320,6 +320,15 @@ fn bad_compare_input_is_a_clear_error_with_status_1_and_no_output() {
             ],
             "missing.png",
         ),
+        (
+            vec![
+                small.clone().into(),
+                small.clone().into(),
+                "--map".into(),
+                small.clone().into(),
+            ],
+            "it would be overwritten",
+        ),
     ];
     for (args, want) in cases {
         let out = plsr().arg("compare").args(&args).output().unwrap();

@@ -315,17 +315,7 @@ pub fn hdr_flip(reference: &MetricImage, test: &MetricImage, o: &FlipOptions) ->
 
 /// Checks the images' sizes and the options; the pixels per degree.
 fn check(reference: &MetricImage, test: &MetricImage, o: &FlipOptions) -> Result<f32> {
-    if (reference.width, reference.height) != (test.width, test.height) {
-        return Err(Error::InvalidArgument(format!(
-            "FLIP: {} is {}×{} but {} is {}×{}: the images must have the same size",
-            reference.path.display(),
-            reference.width,
-            reference.height,
-            test.path.display(),
-            test.width,
-            test.height
-        )));
-    }
+    super::same_size("FLIP: ", reference, test)?;
     if reference.width == 0 || reference.height == 0 {
         return Err(Error::InvalidArgument(format!(
             "FLIP: {} has no pixels",

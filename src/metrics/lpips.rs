@@ -253,24 +253,21 @@ fn features(net: &Network, img: &MetricImage) -> Vec<Features> {
             v[c * w * h + p] = (display[3 * p + c] * 2.0 - 1.0 - SHIFT[c]) / SCALE[c];
         }
     }
-    let mut x = Features {
+    let input = Features {
         channels: 3,
         w,
         h,
         v,
     };
-    let mut out = Vec::with_capacity(5);
+    let mut out: Vec<Features> = Vec::with_capacity(5);
     for (k, conv) in net.conv.iter().enumerate() {
-        if k == 1 || k == 2 {
-            x = max_pool(&x);
-        }
-        x = conv.apply(&x);
-        out.push(Features {
-            channels: x.channels,
-            w: x.w,
-            h: x.h,
-            v: x.v.clone(),
-        });
+        let x = out.last().unwrap_or(&input);
+        let next = if k == 1 || k == 2 {
+            conv.apply(&max_pool(x))
+        } else {
+            conv.apply(x)
+        };
+        out.push(next);
     }
     out
 }
@@ -280,12 +277,7 @@ pub const MIN_SIDE: usize = 32;
 
 /// LPIPS of two images of the same size (0 when identical).
 pub fn lpips(a: &MetricImage, b: &MetricImage) -> Result<f64> {
-    if (a.width, a.height) != (b.width, b.height) {
-        return Err(Error::InvalidArgument(format!(
-            "LPIPS: the images differ in size ({}×{} and {}×{})",
-            a.width, a.height, b.width, b.height
-        )));
-    }
+    super::same_size("LPIPS: ", a, b)?;
     if a.width.min(a.height) < MIN_SIDE {
         return Err(Error::InvalidArgument(format!(
             "LPIPS: a {}×{} image is too small (at least {MIN_SIDE} pixels a side)",

@@ -318,6 +318,23 @@ pub struct Score {
     pub value: f64,
 }
 
+/// An error unless `reference` and `test` have the same size; `metric`
+/// (with its colon, or empty) starts the message.
+fn same_size(metric: &str, reference: &MetricImage, test: &MetricImage) -> Result<()> {
+    if (reference.width, reference.height) == (test.width, test.height) {
+        return Ok(());
+    }
+    Err(Error::InvalidArgument(format!(
+        "{metric}{} is {}×{} but {} is {}×{}: the images must have the same size",
+        reference.path.display(),
+        reference.width,
+        reference.height,
+        test.path.display(),
+        test.width,
+        test.height
+    )))
+}
+
 /// Scores `test` against `reference` (both already cropped; `mask`, of
 /// the same size, restricts the pixel metrics).
 pub fn compare(
@@ -326,17 +343,7 @@ pub fn compare(
     mask: Option<&Mask>,
     options: &CompareOptions,
 ) -> Result<Vec<Score>> {
-    if (reference.width, reference.height) != (test.width, test.height) {
-        return Err(Error::InvalidArgument(format!(
-            "{} is {}×{} but {} is {}×{}: the images must have the same size",
-            reference.path.display(),
-            reference.width,
-            reference.height,
-            test.path.display(),
-            test.width,
-            test.height
-        )));
-    }
+    same_size("", reference, test)?;
     let inside = mask.map(|m| m.inside.as_slice());
     let mut scores = Vec::new();
     let greys = options

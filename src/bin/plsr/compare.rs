@@ -1,7 +1,7 @@
 //! `plsr compare`: scores a test image against a reference (CW-SSIM,
 //! LPIPS, SSIM, PSNR, RMSE, FLIP), over a crop and a mask.
 
-use plsr::atomic_write::{check_extension, OutputSet};
+use plsr::atomic_write::{check_extension, same_file, OutputSet};
 use plsr::error::{Error, Result};
 use plsr::metrics::{compare_files, CompareOptions, Crop, CropSpec, Metric};
 use std::path::PathBuf;
@@ -87,10 +87,18 @@ pub fn run(a: &CompareArgs) -> Result<()> {
             .collect::<Result<Vec<_>>>()?
     };
     if let Some(p) = &a.map {
-        check_extension(p, "png", "PNG").map_err(|m| Error::Output {
+        let output_error = |message: String| Error::Output {
             file: p.clone(),
-            message: format!("--map: {m}"),
-        })?;
+            message,
+        };
+        check_extension(p, "png", "PNG").map_err(|m| output_error(format!("--map: {m}")))?;
+        let inputs = [Some(&a.reference), Some(&a.test), a.mask.as_ref()];
+        if let Some(input) = inputs.into_iter().flatten().find(|i| same_file(p, i)) {
+            return Err(output_error(format!(
+                "--map names the input {}; it would be overwritten",
+                input.display()
+            )));
+        }
     }
     let options = CompareOptions {
         metrics,

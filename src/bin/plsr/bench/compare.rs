@@ -179,16 +179,7 @@ fn python_peer(
     if let Some(t) = threads {
         cmd.arg("--threads").arg(t.to_string());
     }
-    let out = cmd
-        .output()
-        .map_err(|e| format!("{}: {e}", python.display()))?;
-    if !out.status.success() {
-        let err = String::from_utf8_lossy(&out.stderr);
-        return Err(err.lines().last().unwrap_or("failed").to_string());
-    }
-    let text = String::from_utf8_lossy(&out.stdout);
-    let line = text.lines().last().unwrap_or_default();
-    let v: serde_json::Value = serde_json::from_str(line).map_err(|e| format!("{e}: {line}"))?;
+    let (v, line) = super::python_json(&mut cmd, python)?;
     let pairs = v["pairs"].as_array().ok_or(format!("no pairs in {line}"))?;
     pairs
         .iter()

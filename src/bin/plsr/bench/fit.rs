@@ -57,16 +57,7 @@ fn mitsuba(
     if let Some(t) = o.threads {
         cmd.arg("--threads").arg(t.to_string());
     }
-    let out = cmd
-        .output()
-        .map_err(|e| format!("{}: {e}", python.display()))?;
-    if !out.status.success() {
-        let err = String::from_utf8_lossy(&out.stderr);
-        return Err(err.lines().last().unwrap_or("failed").to_string());
-    }
-    let text = String::from_utf8_lossy(&out.stdout);
-    let line = text.lines().last().unwrap_or_default();
-    let v: serde_json::Value = serde_json::from_str(line).map_err(|e| format!("{e}: {line}"))?;
+    let (v, line) = super::python_json(&mut cmd, python)?;
     let get = |k: &str| {
         v.get(k)
             .and_then(serde_json::Value::as_f64)

@@ -136,3 +136,23 @@ fn bench_dir(suite: &str) -> Result<PathBuf> {
     })?;
     Ok(dir)
 }
+
+/// Runs a peer script (`cmd`, started with the interpreter `python`) that
+/// prints its result as one line of JSON last on stdout; the value and
+/// that line, or why not (the last line of its stderr when it fails).
+fn python_json(
+    cmd: &mut std::process::Command,
+    python: &std::path::Path,
+) -> std::result::Result<(serde_json::Value, String), String> {
+    let out = cmd
+        .output()
+        .map_err(|e| format!("{}: {e}", python.display()))?;
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        return Err(err.lines().last().unwrap_or("failed").to_string());
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text.lines().last().unwrap_or_default().to_string();
+    let v = serde_json::from_str(&line).map_err(|e| format!("{e}: {line}"))?;
+    Ok((v, line))
+}
