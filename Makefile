@@ -11,7 +11,7 @@ DEB_BENCH_PACKAGES := embree-tools
 DEMO_SCENE := assets/scenes/pls-room/pls-room.toml
 OUT := out
 
-.PHONY: demo test fuzz deps bench-deps bench build fmt clippy install-deps-if-missing header install
+.PHONY: demo test paper fuzz deps bench-deps bench build fmt clippy install-deps-if-missing header install
 
 demo: deps
 	$(CARGO) build --release
@@ -21,6 +21,16 @@ demo: deps
 
 test: deps
 	$(CARGO) test --workspace --no-fail-fast
+
+# The paper's experiment redone on a synthetic room (docs/paper-experiment.md):
+# ground-truth photos, PLS lights and an HDR panorama, composites, CW-SSIM,
+# LPIPS and FLIP; about 12 minutes on two cores. Writes $(OUT)/paper/
+# (results.md, results.json, figure.png), replacing an earlier run.
+# `plsr experiment paper --quick` runs it small (and is part of `make test`).
+paper: deps
+	$(CARGO) build --release
+	rm -rf $(OUT)/paper
+	./target/release/plsr experiment paper -o $(OUT)/paper
 
 # Searches further than `make test`'s fixed-seed fuzzing: fresh seeds, more
 # cases (FUZZ_CASES per parser). Failures are shrunk and their seeds kept in

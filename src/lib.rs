@@ -23,7 +23,8 @@
 //!    simulated 360° bracket capture; virtual objects composited into
 //!    photos; materials and lights fitted to photos; image quality metrics
 //!    (CW-SSIM, LPIPS, FLIP, SSIM, PSNR, RMSE); the C ABI for C and C++ hosts
-//!    (`include/plsr.h`).
+//!    (`include/plsr.h`);
+//! 9. [`experiment`]: the paper's experiment redone on a generated room.
 
 pub use plsr_embree_sys as sys;
 
@@ -37,6 +38,7 @@ pub mod color;
 pub mod composite;
 pub mod equirect;
 pub mod error;
+pub mod experiment;
 pub mod film;
 pub mod filter;
 pub mod fit;

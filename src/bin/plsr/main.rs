@@ -4,6 +4,7 @@
 mod bench;
 mod compare;
 mod composite;
+mod experiment;
 mod fit;
 mod hdr;
 mod pls;
@@ -56,6 +57,10 @@ pub enum Command {
     /// docs/hdr.md).
     #[command(subcommand)]
     Hdr(hdr::HdrCommand),
+    /// Reproducible experiments: `plsr experiment paper` redoes the paper's
+    /// experiment (see docs/paper-experiment.md).
+    #[command(subcommand)]
+    Experiment(experiment::ExperimentCommand),
 }
 
 /// How the program ends: success, a failure (1) or a usage error (2).
@@ -90,6 +95,7 @@ where
         Command::Bench(a) => bench::run(a),
         Command::Pls(c) => pls::run(c),
         Command::Hdr(c) => hdr::run(c),
+        Command::Experiment(c) => experiment::run(c),
     }?;
     Ok(Outcome::Done)
 }
