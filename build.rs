@@ -2,8 +2,15 @@
 //!
 //! Embree is linked by the `plsr-embree-sys` crate. This script compiles the
 //! small C++ shim over OpenImageIO (`shim/oiio_shim.cpp`, C ABI in
-//! `shim/oiio_shim.h`) used by the HDR merge, and links OpenImageIO, found with
-//! pkg-config.
+//! `shim/oiio_shim.h`) into a shared library of its own,
+//! `$OUT_DIR/libplsr_oiio.so`, linked against OpenImageIO (found with
+//! pkg-config). plsr does not link OpenImageIO itself: `hdr::oiio` embeds
+//! the shim and opens it with `dlopen` the first time an image is read or
+//! written, so the commands that never touch an image (`plsr --version`,
+//! most renders) do not pay for loading OpenImageIO's ~260 libraries.
+use std::path::PathBuf;
+use std::process::Command;
+
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-changed=shim/oiio_shim.cpp");
@@ -11,6 +18,8 @@ fn main() {
 
     let oiio = match pkg_config::Config::new()
         .atleast_version("2.2")
+        // The link lines go to the shim, not to plsr.
+        .cargo_metadata(false)
         .probe("OpenImageIO")
     {
         Ok(lib) => lib,
@@ -32,13 +41,38 @@ fn main() {
     build
         .cpp(true)
         .std("c++17")
+        .pic(true)
         .file("shim/oiio_shim.cpp")
         .include("shim")
         .warnings(true);
     for dir in &oiio.include_paths {
         build.include(dir);
     }
-    build.compile("plsr_oiio_shim");
-    // pkg-config already printed the link lines for OpenImageIO; the shim is
-    // C++, so the C++ runtime is linked by cc.
+    let objects = build.compile_intermediates();
+
+    let out_dir = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+    let shim = out_dir.join("libplsr_oiio.so");
+    let mut link: Command = build.get_compiler().to_command();
+    link.arg("-shared")
+        .arg("-o")
+        .arg(&shim)
+        .args(&objects)
+        .arg("-Wl,-soname,libplsr_oiio.so")
+        .arg("-Wl,--as-needed")
+        // Stripped: the library is embedded in every plsr binary.
+        .arg("-s");
+    for dir in &oiio.link_paths {
+        link.arg(format!("-L{}", dir.display()));
+    }
+    for lib in &oiio.libs {
+        link.arg(format!("-l{lib}"));
+    }
+    let status = link.status().unwrap_or_else(|e| {
+        panic!("cannot run the C++ compiler to link the OpenImageIO shim: {e}")
+    });
+    assert!(
+        status.success(),
+        "linking the OpenImageIO shim ({}) failed: {status}",
+        shim.display()
+    );
 }

@@ -582,3 +582,84 @@ fn tiled_exr_files_are_read_by_tiles() {
     let i = (2 * w + 7) * c;
     assert_eq!(rows[i + 1], 64.0 * 0.5);
 }
+
+/// The libraries the dynamic loader opened while `plsr ARGS` ran (its
+/// `LD_DEBUG=files` report), or the report itself when the run failed.
+fn libraries_loaded_by(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .args(args)
+        .env("LD_DEBUG", "files")
+        .output()
+        .unwrap();
+    let report = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "plsr {args:?} failed:\n{report}");
+    report
+}
+
+/// OpenImageIO (and its ~260 libraries) is loaded only by the commands that
+/// read or write images through it: `plsr --version` and a render to EXR
+/// and PNG (written by plsr's own encoders) start without it, while a
+/// command that reads a JPEG bracket loads it on first use.
+#[test]
+fn openimageio_is_loaded_only_when_an_image_is_read_or_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("tiny.toml");
+    std::fs::write(
+        &scene,
+        r#"[render]
+spp = 1
+max_depth = 1
+[camera]
+type = "pinhole"
+position = [0, 0, 3]
+look_at = [0, 0, 0]
+up = [0, 1, 0]
+vfov = 40
+resolution = [8, 8]
+[[materials]]
+name = "m"
+type = "diffuse"
+reflectance = [0.5, 0.5, 0.5]
+[[shapes]]
+type = "sphere"
+center = [0, 0, 0]
+radius = 1
+material = "m"
+[[lights]]
+type = "point"
+position = [0, 2, 3]
+intensity = [10, 10, 10]
+"#,
+    )
+    .unwrap();
+    let oiio = "libOpenImageIO";
+    let version = libraries_loaded_by(&["--version"]);
+    // The report is real: it lists the libraries plsr does link.
+    assert!(version.contains("libembree3"), "{version}");
+    assert!(!version.contains(oiio), "{version}");
+    let exr = dir.path().join("tiny.exr");
+    let png = dir.path().join("tiny.png");
+    let render = libraries_loaded_by(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+        "--png",
+        png.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(!render.contains(oiio), "{render}");
+    assert!(exr.is_file() && png.is_file());
+    // Reading an image through OpenImageIO loads it.
+    let jpg = dir.path().join("photo.jpg");
+    let pixels = vec![128u8; 8 * 8 * 3];
+    oiio::write_image(&jpg, 8, 8, 3, PixelType::U8, &[], &pixels).unwrap();
+    let compare = libraries_loaded_by(&[
+        "compare",
+        jpg.to_str().unwrap(),
+        jpg.to_str().unwrap(),
+        "--metric",
+        "rmse",
+    ]);
+    assert!(compare.contains(oiio), "{compare}");
+}

@@ -18,11 +18,19 @@ use std::ffi::{c_char, c_int, CStr, CString};
 use std::path::{Path, PathBuf};
 use std::ptr::NonNull;
 
-/// Raw declarations of the shim (imports, not part of plsr's own C API).
+/// Raw declarations of the shim (imports, not part of plsr's own C API),
+/// and the loader that opens it.
+///
+/// The shim is a shared library of its own (`libplsr_oiio.so`, built by
+/// `build.rs` and linked against OpenImageIO), embedded in plsr's code and
+/// opened with `dlopen` the first time an image is read or written: plsr
+/// itself does not link OpenImageIO, so the commands that never touch an
+/// image start without loading its ~260 libraries.
 ///
 /// cbindgen:ignore
 mod ffi {
-    use std::ffi::{c_char, c_float, c_int};
+    use std::ffi::{c_char, c_float, c_int, c_void, CStr};
+    use std::sync::OnceLock;
 
     pub const OK: c_int = 0;
     pub const U8: c_int = 0;
@@ -58,37 +66,37 @@ mod ffi {
         pub s: *const c_char,
     }
 
-    extern "C" {
-        pub fn plsr_oiio_open(
+    /// The shim's entry points (`shim/oiio_shim.h`), looked up in the
+    /// loaded library.
+    pub struct Api {
+        pub open: unsafe extern "C" fn(
             path: *const c_char,
             out: *mut *mut Input,
             spec: *mut Spec,
             err: *mut c_char,
             err_len: usize,
-        ) -> c_int;
-        pub fn plsr_oiio_get_float(
-            in_: *const Input,
-            name: *const c_char,
-            value: *mut f32,
-        ) -> c_int;
-        pub fn plsr_oiio_get_string(
+        ) -> c_int,
+        pub get_float:
+            unsafe extern "C" fn(in_: *const Input, name: *const c_char, value: *mut f32) -> c_int,
+        pub get_string: unsafe extern "C" fn(
             in_: *const Input,
             name: *const c_char,
             buf: *mut c_char,
             buf_len: usize,
-        ) -> c_int;
-        pub fn plsr_oiio_read_rows(
+        ) -> c_int,
+        pub read_rows: unsafe extern "C" fn(
             in_: *mut Input,
             ybegin: c_int,
             yend: c_int,
             type_: c_int,
-            data: *mut std::ffi::c_void,
+            data: *mut c_void,
             data_len: usize,
             err: *mut c_char,
             err_len: usize,
-        ) -> c_int;
-        pub fn plsr_oiio_close(in_: *mut Input);
-        pub fn plsr_oiio_create(
+        ) -> c_int,
+        pub close: unsafe extern "C" fn(in_: *mut Input),
+        #[allow(clippy::type_complexity)]
+        pub create: unsafe extern "C" fn(
             path: *const c_char,
             width: c_int,
             height: c_int,
@@ -99,19 +107,160 @@ mod ffi {
             out: *mut *mut Output,
             err: *mut c_char,
             err_len: usize,
-        ) -> c_int;
-        pub fn plsr_oiio_write_rows(
+        ) -> c_int,
+        pub write_rows: unsafe extern "C" fn(
             out: *mut Output,
             ybegin: c_int,
             yend: c_int,
             type_: c_int,
-            data: *const std::ffi::c_void,
+            data: *const c_void,
             data_len: usize,
             err: *mut c_char,
             err_len: usize,
-        ) -> c_int;
-        pub fn plsr_oiio_finish(out: *mut Output, err: *mut c_char, err_len: usize) -> c_int;
-        pub fn plsr_oiio_abort(out: *mut Output);
+        ) -> c_int,
+        pub finish:
+            unsafe extern "C" fn(out: *mut Output, err: *mut c_char, err_len: usize) -> c_int,
+        pub abort: unsafe extern "C" fn(out: *mut Output),
+    }
+
+    /// The shim library, as `build.rs` linked it.
+    static SHIM: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/libplsr_oiio.so"));
+
+    static API: OnceLock<Result<Api, String>> = OnceLock::new();
+
+    /// The shim's entry points, loading it (and with it OpenImageIO) on
+    /// first use; the error says why it could not be loaded.
+    pub fn api() -> Result<&'static Api, &'static str> {
+        API.get_or_init(load).as_ref().map_err(|e| e.as_str())
+    }
+
+    /// The entry points of the shim already loaded: every handle came from
+    /// [`api`], so a call on a handle finds them.
+    pub fn loaded() -> &'static Api {
+        match API.get() {
+            Some(Ok(api)) => api,
+            _ => unreachable!("an OpenImageIO handle exists only once the shim is loaded"),
+        }
+    }
+
+    /// The last `dlerror` message.
+    fn dl_error() -> String {
+        // SAFETY: dlerror returns NULL or a NUL-terminated string valid until
+        // the next dl call on this thread; it is copied at once.
+        let e = unsafe { libc::dlerror() };
+        if e.is_null() {
+            "unknown dlopen error".into()
+        } else {
+            // SAFETY: non-null, NUL-terminated (see above).
+            unsafe { CStr::from_ptr(e) }.to_string_lossy().into_owned()
+        }
+    }
+
+    /// Opens the embedded library: from an anonymous in-memory file
+    /// (`memfd_create`), or where that is unavailable from a temporary file
+    /// removed again once it is mapped.
+    fn open_library() -> Result<*mut c_void, String> {
+        use std::io::Write;
+        use std::os::fd::FromRawFd;
+        let flags = libc::RTLD_NOW | libc::RTLD_LOCAL;
+        // SAFETY: the name is a NUL-terminated literal; the returned
+        // descriptor, when valid, is owned by the File made from it.
+        let fd = unsafe { libc::memfd_create(c"plsr-oiio-shim".as_ptr(), libc::MFD_CLOEXEC) };
+        if fd >= 0 {
+            // SAFETY: `fd` is a fresh descriptor nobody else owns.
+            let mut file = unsafe { std::fs::File::from_raw_fd(fd) };
+            file.write_all(SHIM)
+                .map_err(|e| format!("cannot write the OpenImageIO shim to memory: {e}"))?;
+            let path = std::ffi::CString::new(format!("/proc/self/fd/{fd}"))
+                .expect("no NUL in a formatted path");
+            // SAFETY: a NUL-terminated path; the descriptor stays open (the
+            // File lives) until dlopen has mapped the library.
+            let handle = unsafe { libc::dlopen(path.as_ptr(), flags) };
+            drop(file);
+            if !handle.is_null() {
+                return Ok(handle);
+            }
+            let why = dl_error();
+            // /proc not mounted: fall back to a file. Anything else (a
+            // missing OpenImageIO) would fail there too.
+            if !why.contains("/proc/self/fd") {
+                return Err(why);
+            }
+        }
+        let dir = std::env::temp_dir();
+        let path = dir.join(format!(
+            ".plsr-oiio-shim.{}.{:?}.so",
+            std::process::id(),
+            std::thread::current().id()
+        ));
+        let write = || -> std::io::Result<()> {
+            let mut f = std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&path)?;
+            f.write_all(SHIM)
+        };
+        if let Err(e) = write() {
+            let _ = std::fs::remove_file(&path);
+            return Err(format!(
+                "cannot write the OpenImageIO shim to {}: {e}",
+                path.display()
+            ));
+        }
+        let cpath = std::ffi::CString::new(path.as_os_str().as_encoded_bytes())
+            .map_err(|_| format!("{}: the path contains a NUL byte", path.display()))?;
+        // SAFETY: a NUL-terminated path to a complete library file.
+        let handle = unsafe { libc::dlopen(cpath.as_ptr(), flags) };
+        let result = if handle.is_null() {
+            Err(dl_error())
+        } else {
+            Ok(handle)
+        };
+        let _ = std::fs::remove_file(&path);
+        result
+    }
+
+    fn load() -> Result<Api, String> {
+        let lib = open_library().map_err(|why| {
+            format!(
+                "OpenImageIO could not be loaded ({why}); install it \
+                 (Debian: apt-get install libopenimageio-dev)"
+            )
+        })?;
+        let symbol = |name: &CStr| -> Result<*mut c_void, String> {
+            // SAFETY: `lib` is a live handle from dlopen (never closed) and
+            // `name` a NUL-terminated symbol name.
+            let p = unsafe { libc::dlsym(lib, name.as_ptr()) };
+            if p.is_null() {
+                Err(format!(
+                    "the OpenImageIO shim lacks {}: {}",
+                    name.to_string_lossy(),
+                    dl_error()
+                ))
+            } else {
+                Ok(p)
+            }
+        };
+        // SAFETY (each transmute): the symbol is the shim's function of that
+        // name, defined in shim/oiio_shim.cpp with exactly the C signature of
+        // the field it is stored in, and the library stays loaded for the
+        // life of the process.
+        macro_rules! function {
+            ($name:literal) => {
+                unsafe { std::mem::transmute::<*mut c_void, _>(symbol($name)?) }
+            };
+        }
+        Ok(Api {
+            open: function!(c"plsr_oiio_open"),
+            get_float: function!(c"plsr_oiio_get_float"),
+            get_string: function!(c"plsr_oiio_get_string"),
+            read_rows: function!(c"plsr_oiio_read_rows"),
+            close: function!(c"plsr_oiio_close"),
+            create: function!(c"plsr_oiio_create"),
+            write_rows: function!(c"plsr_oiio_write_rows"),
+            finish: function!(c"plsr_oiio_finish"),
+            abort: function!(c"plsr_oiio_abort"),
+        })
     }
 }
 
@@ -249,11 +398,12 @@ impl ImageReader {
         let mut handle: *mut ffi::Input = std::ptr::null_mut();
         let mut spec = ffi::Spec::default();
         let mut err = [0 as c_char; ERR_LEN];
+        let api = ffi::api().map_err(|why| Error::input(path, "", why))?;
         // SAFETY: all pointers are valid for the duration of the call: the
         // path is a NUL-terminated CString, `handle` and `spec` are local
         // out-parameters, and `err` holds ERR_LEN bytes as stated.
         let status = unsafe {
-            ffi::plsr_oiio_open(
+            (api.open)(
                 cpath.as_ptr(),
                 &mut handle,
                 &mut spec,
@@ -297,7 +447,7 @@ impl ImageReader {
         // SAFETY: the handle is live (owned by self), the name is a valid C
         // string, and `v` is a valid out-parameter; the shim never throws.
         let found =
-            unsafe { ffi::plsr_oiio_get_float(self.handle.as_ptr(), cname.as_ptr(), &mut v) };
+            unsafe { (ffi::loaded().get_float)(self.handle.as_ptr(), cname.as_ptr(), &mut v) };
         (found == 1 && v.is_finite()).then_some(v as f64)
     }
 
@@ -308,7 +458,7 @@ impl ImageReader {
         // SAFETY: the handle is live, the name is a valid C string, and `buf`
         // holds `buf.len()` bytes; the shim NUL-terminates within them.
         let found = unsafe {
-            ffi::plsr_oiio_get_string(
+            (ffi::loaded().get_string)(
                 self.handle.as_ptr(),
                 cname.as_ptr(),
                 buf.as_mut_ptr(),
@@ -359,7 +509,7 @@ impl ImageReader {
         // `size_of_val(out)` bytes, which the shim checks against the rows
         // requested; `err` holds ERR_LEN bytes.
         let status = unsafe {
-            ffi::plsr_oiio_read_rows(
+            (ffi::loaded().read_rows)(
                 self.handle.as_ptr(),
                 y0 as c_int,
                 y1 as c_int,
@@ -389,7 +539,7 @@ impl Drop for ImageReader {
     fn drop(&mut self) {
         // SAFETY: the handle came from plsr_oiio_open and is closed exactly
         // once, here; the shim never throws.
-        unsafe { ffi::plsr_oiio_close(self.handle.as_ptr()) }
+        unsafe { (ffi::loaded().close)(self.handle.as_ptr()) }
     }
 }
 
@@ -511,12 +661,19 @@ impl ImageWriter {
             .collect();
         let mut handle: *mut ffi::Output = std::ptr::null_mut();
         let mut err = [0 as c_char; ERR_LEN];
+        let api = match ffi::api() {
+            Ok(api) => api,
+            Err(why) => {
+                discard(&tmp);
+                return Err(out_err(why.to_string()));
+            }
+        };
         // SAFETY: the path and every attribute name/string are NUL-terminated
         // CStrings alive until after the call (`ctmp`, `strings`); `attrs`
         // holds `attrs.len()` elements; `handle` and `err` are valid
         // out-parameters (err of ERR_LEN bytes).
         let status = unsafe {
-            ffi::plsr_oiio_create(
+            (api.create)(
                 ctmp.as_ptr(),
                 width as c_int,
                 height as c_int,
@@ -577,7 +734,7 @@ impl ImageWriter {
         // self); `data` is a readable buffer of size_of_val(data) bytes that
         // the shim checks against the rows; `err` holds ERR_LEN bytes.
         let status = unsafe {
-            ffi::plsr_oiio_write_rows(
+            (ffi::loaded().write_rows)(
                 handle.as_ptr(),
                 y0 as c_int,
                 y1 as c_int,
@@ -623,7 +780,7 @@ impl ImageWriter {
         // SAFETY: the handle came from plsr_oiio_create and is finished once
         // (taken out of self, so Drop will not abort it); the shim frees it
         // on success and on failure; `err` holds ERR_LEN bytes.
-        let status = unsafe { ffi::plsr_oiio_finish(handle.as_ptr(), err.as_mut_ptr(), ERR_LEN) };
+        let status = unsafe { (ffi::loaded().finish)(handle.as_ptr(), err.as_mut_ptr(), ERR_LEN) };
         if status != ffi::OK {
             discard(&self.tmp);
             return Err(Error::Output {
@@ -640,7 +797,7 @@ impl Drop for ImageWriter {
     fn drop(&mut self) {
         if let Some(handle) = self.handle.take() {
             // SAFETY: the handle is live and released exactly once, here.
-            unsafe { ffi::plsr_oiio_abort(handle.as_ptr()) };
+            unsafe { (ffi::loaded().abort)(handle.as_ptr()) };
             discard(&self.tmp);
         }
     }
