@@ -66,61 +66,70 @@ mod ffi {
         pub s: *const c_char,
     }
 
+    pub type OpenFn = unsafe extern "C" fn(
+        path: *const c_char,
+        out: *mut *mut Input,
+        spec: *mut Spec,
+        err: *mut c_char,
+        err_len: usize,
+    ) -> c_int;
+    pub type GetFloatFn =
+        unsafe extern "C" fn(in_: *const Input, name: *const c_char, value: *mut f32) -> c_int;
+    pub type GetStringFn = unsafe extern "C" fn(
+        in_: *const Input,
+        name: *const c_char,
+        buf: *mut c_char,
+        buf_len: usize,
+    ) -> c_int;
+    pub type ReadRowsFn = unsafe extern "C" fn(
+        in_: *mut Input,
+        ybegin: c_int,
+        yend: c_int,
+        type_: c_int,
+        data: *mut c_void,
+        data_len: usize,
+        err: *mut c_char,
+        err_len: usize,
+    ) -> c_int;
+    pub type CloseFn = unsafe extern "C" fn(in_: *mut Input);
+    pub type CreateFn = unsafe extern "C" fn(
+        path: *const c_char,
+        width: c_int,
+        height: c_int,
+        channels: c_int,
+        type_: c_int,
+        attrs: *const Attr,
+        n_attrs: usize,
+        out: *mut *mut Output,
+        err: *mut c_char,
+        err_len: usize,
+    ) -> c_int;
+    pub type WriteRowsFn = unsafe extern "C" fn(
+        out: *mut Output,
+        ybegin: c_int,
+        yend: c_int,
+        type_: c_int,
+        data: *const c_void,
+        data_len: usize,
+        err: *mut c_char,
+        err_len: usize,
+    ) -> c_int;
+    pub type FinishFn =
+        unsafe extern "C" fn(out: *mut Output, err: *mut c_char, err_len: usize) -> c_int;
+    pub type AbortFn = unsafe extern "C" fn(out: *mut Output);
+
     /// The shim's entry points (`shim/oiio_shim.h`), looked up in the
     /// loaded library.
     pub struct Api {
-        pub open: unsafe extern "C" fn(
-            path: *const c_char,
-            out: *mut *mut Input,
-            spec: *mut Spec,
-            err: *mut c_char,
-            err_len: usize,
-        ) -> c_int,
-        pub get_float:
-            unsafe extern "C" fn(in_: *const Input, name: *const c_char, value: *mut f32) -> c_int,
-        pub get_string: unsafe extern "C" fn(
-            in_: *const Input,
-            name: *const c_char,
-            buf: *mut c_char,
-            buf_len: usize,
-        ) -> c_int,
-        pub read_rows: unsafe extern "C" fn(
-            in_: *mut Input,
-            ybegin: c_int,
-            yend: c_int,
-            type_: c_int,
-            data: *mut c_void,
-            data_len: usize,
-            err: *mut c_char,
-            err_len: usize,
-        ) -> c_int,
-        pub close: unsafe extern "C" fn(in_: *mut Input),
-        #[allow(clippy::type_complexity)]
-        pub create: unsafe extern "C" fn(
-            path: *const c_char,
-            width: c_int,
-            height: c_int,
-            channels: c_int,
-            type_: c_int,
-            attrs: *const Attr,
-            n_attrs: usize,
-            out: *mut *mut Output,
-            err: *mut c_char,
-            err_len: usize,
-        ) -> c_int,
-        pub write_rows: unsafe extern "C" fn(
-            out: *mut Output,
-            ybegin: c_int,
-            yend: c_int,
-            type_: c_int,
-            data: *const c_void,
-            data_len: usize,
-            err: *mut c_char,
-            err_len: usize,
-        ) -> c_int,
-        pub finish:
-            unsafe extern "C" fn(out: *mut Output, err: *mut c_char, err_len: usize) -> c_int,
-        pub abort: unsafe extern "C" fn(out: *mut Output),
+        pub open: OpenFn,
+        pub get_float: GetFloatFn,
+        pub get_string: GetStringFn,
+        pub read_rows: ReadRowsFn,
+        pub close: CloseFn,
+        pub create: CreateFn,
+        pub write_rows: WriteRowsFn,
+        pub finish: FinishFn,
+        pub abort: AbortFn,
     }
 
     /// The shim library, as `build.rs` linked it.
@@ -246,20 +255,20 @@ mod ffi {
         // the field it is stored in, and the library stays loaded for the
         // life of the process.
         macro_rules! function {
-            ($name:literal) => {
-                unsafe { std::mem::transmute::<*mut c_void, _>(symbol($name)?) }
+            ($name:literal, $type:ty) => {
+                unsafe { std::mem::transmute::<*mut c_void, $type>(symbol($name)?) }
             };
         }
         Ok(Api {
-            open: function!(c"plsr_oiio_open"),
-            get_float: function!(c"plsr_oiio_get_float"),
-            get_string: function!(c"plsr_oiio_get_string"),
-            read_rows: function!(c"plsr_oiio_read_rows"),
-            close: function!(c"plsr_oiio_close"),
-            create: function!(c"plsr_oiio_create"),
-            write_rows: function!(c"plsr_oiio_write_rows"),
-            finish: function!(c"plsr_oiio_finish"),
-            abort: function!(c"plsr_oiio_abort"),
+            open: function!(c"plsr_oiio_open", OpenFn),
+            get_float: function!(c"plsr_oiio_get_float", GetFloatFn),
+            get_string: function!(c"plsr_oiio_get_string", GetStringFn),
+            read_rows: function!(c"plsr_oiio_read_rows", ReadRowsFn),
+            close: function!(c"plsr_oiio_close", CloseFn),
+            create: function!(c"plsr_oiio_create", CreateFn),
+            write_rows: function!(c"plsr_oiio_write_rows", WriteRowsFn),
+            finish: function!(c"plsr_oiio_finish", FinishFn),
+            abort: function!(c"plsr_oiio_abort", AbortFn),
         })
     }
 }

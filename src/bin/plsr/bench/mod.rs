@@ -5,7 +5,9 @@
 //! (bracket merging against OpenCV), `composite` (a composite against
 //! one render), `fit` (an Adam iteration of `plsr fit` against one
 //! render, and against Mitsuba 3's `prb`) and `compare` (CW-SSIM and LPIPS
-//! against their reference implementations in Python).
+//! against their reference implementations in Python) and `peers` (plsr
+//! against Mitsuba 3 on a glossy scene lit by an HDR sky, the Cornell box
+//! and the PLS room: samples/s, error at equal spp, time to equal error).
 
 mod compare;
 mod composite;
@@ -13,6 +15,7 @@ mod core;
 mod fit;
 mod hdr;
 mod materials;
+mod peers;
 mod pls;
 
 use plsr::error::{Error, Result};
@@ -28,7 +31,10 @@ pub struct BenchArgs {
     /// iteration of `plsr fit` against one render, and against Mitsuba 3's
     /// `prb` when it is installed) or `compare` (CW-SSIM and LPIPS on a
     /// 400×300 crop and a panorama, against pyiqa and the lpips package).
-    #[arg(default_value = "core", value_parser = ["core", "pls", "materials", "hdr", "composite", "fit", "compare"])]
+    /// `peers` (plsr against Mitsuba 3 on a glossy scene lit by an HDR sky,
+    /// the Cornell box and the PLS room: samples/s, error at equal spp and
+    /// time to equal error).
+    #[arg(default_value = "core", value_parser = ["core", "pls", "materials", "hdr", "composite", "fit", "compare", "peers"])]
     pub suite: String,
     /// Image size for `plsr bench hdr` and the panorama of `plsr bench
     /// compare`, WIDTHxHEIGHT.
@@ -66,6 +72,17 @@ pub struct BenchArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Samples per pixel of `plsr bench peers`' reference images.
+    #[arg(long, default_value_t = 1024)]
+    pub reference_spp: u32,
+    /// Work folder of `plsr bench peers` (scenes in both formats, cached
+    /// references, Mitsuba's images).
+    #[arg(long, default_value = "out/bench-peers")]
+    pub peers_dir: PathBuf,
+    /// Only these scenes of `plsr bench peers` (comma-separated:
+    /// glossy-env, cornell, pls-room).
+    #[arg(long, value_delimiter = ',')]
+    pub scenes: Vec<String>,
     /// Skip the peer (Embree's pathtracer; OpenCV for `hdr`).
     #[arg(long)]
     pub no_peer: bool,
@@ -83,6 +100,14 @@ pub fn run(a: BenchArgs) -> Result<()> {
             iterations: a.iterations,
         })
         .map(|_| ()),
+        "peers" => peers::run(&peers::PeersBenchOptions {
+            threads: a.threads,
+            python: (!a.no_peer).then_some(a.python),
+            spp: a.spp,
+            reference_spp: a.reference_spp,
+            dir: a.peers_dir,
+            only: a.scenes,
+        }),
         "compare" => compare::run(&compare::CompareBenchOptions {
             threads: a.threads,
             python: (!a.no_peer).then_some(a.python),

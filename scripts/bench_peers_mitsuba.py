@@ -1,0 +1,99 @@
+#!/usr/bin/env python3
+"""Peer renderer for `plsr bench peers`: Mitsuba 3 on the same scenes.
+
+`plsr bench peers` writes each scene twice, in plsr's format and as Mitsuba 3
+XML (the meshes as shared OBJ files, the environment as a shared EXR), and
+starts this script with a JSON job list:
+
+  {"threads": 2, "scenes": [{"name": "cornell", "xml": ".../cornell.xml",
+   "spp": 64, "image": ".../cornell.mitsuba.f32"}, ...]}
+
+For each scene it loads the XML, renders once at the job's spp to compile
+Dr.Jit's kernels (untimed), then renders `--repeats` more times with other
+seeds and keeps the fastest; the last image is written as raw little-endian
+float32 RGB rows (top row first) to the job's `image` path. Progress goes to
+stderr; the result is one line of JSON on stdout:
+
+  {"mitsuba_version": "3.x", "variant": "llvm_ad_rgb",
+   "scenes": [{"name": ..., "seconds": ..., "width": ..., "height": ...}]}
+
+Exits 2 if Mitsuba or the variant cannot be loaded.
+
+Setup (Debian 12):
+
+  pip install --break-system-packages mitsuba
+  apt-get install -y libllvm19
+
+The llvm_* variants need LLVM 19 (Dr.Jit aborts with LLVM 15 on path-tracing
+kernels): unless DRJIT_LIBLLVM_PATH is set, this script points it at a
+libLLVM.so.19* in /usr/lib, /usr/lib/* or /usr/lib/llvm-19/lib.
+"""
+
+import argparse
+import glob
+import json
+import os
+import sys
+import time
+
+
+def find_llvm19():
+    if os.environ.get("DRJIT_LIBLLVM_PATH"):
+        return
+    for pattern in ("/usr/lib/libLLVM.so.19*", "/usr/lib/*/libLLVM.so.19*",
+                    "/usr/lib/llvm-19/lib/libLLVM.so*", "/usr/lib/*/libLLVM-19.so"):
+        hits = sorted(glob.glob(pattern))
+        if hits:
+            os.environ["DRJIT_LIBLLVM_PATH"] = hits[0]
+            return
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("jobs", help="the JSON job list plsr wrote")
+    ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument("--repeats", type=int, default=2)
+    args = ap.parse_args()
+    with open(args.jobs) as f:
+        jobs = json.load(f)
+
+    find_llvm19()
+    try:
+        import mitsuba as mi
+        import drjit as dr
+        import numpy as np
+        mi.set_variant(args.variant)
+    except Exception as e:  # noqa: BLE001 - any import failure means "no peer"
+        print(f"cannot load Mitsuba 3 ({args.variant}): {e}", file=sys.stderr)
+        sys.exit(2)
+    threads = jobs.get("threads")
+    if threads:
+        dr.set_thread_count(int(threads))
+
+    results = []
+    for job in jobs["scenes"]:
+        name, spp = job["name"], int(job["spp"])
+        print(f"mitsuba: {name}: loading", file=sys.stderr)
+        scene = mi.load_file(job["xml"])
+        print(f"mitsuba: {name}: warm-up render at {spp} spp", file=sys.stderr)
+        image = scene.integrator().render(scene, seed=1000, spp=spp)
+        dr.eval(image)
+        dr.sync_thread()
+        best = float("inf")
+        for r in range(max(1, args.repeats)):
+            t = time.perf_counter()
+            image = scene.integrator().render(scene, seed=r + 1, spp=spp)
+            dr.eval(image)
+            dr.sync_thread()
+            best = min(best, time.perf_counter() - t)
+        pixels = np.array(image, dtype=np.float32)
+        height, width = pixels.shape[0], pixels.shape[1]
+        pixels[:, :, :3].astype("<f4").tofile(job["image"])
+        print(f"mitsuba: {name}: {best:.3f} s", file=sys.stderr)
+        results.append({"name": name, "seconds": best, "width": width, "height": height})
+    print(json.dumps({"mitsuba_version": mi.__version__, "variant": args.variant,
+                      "scenes": results}))
+
+
+if __name__ == "__main__":
+    main()
