@@ -43,6 +43,10 @@ pub struct EnvironmentLight {
     row_cdf: Vec<f32>,
     /// Conditional CDFs over columns, `height × (width + 1)` entries.
     column_cdf: Vec<f32>,
+    /// The guide table of `row_cdf` ([`guide`]).
+    row_guide: Vec<u32>,
+    /// The guide tables of the column CDFs, `height × guide_slots(width)`.
+    column_guide: Vec<u32>,
     /// `∫ luminance(L) dω` (W/m² per unit projected area, luminance).
     integral: f32,
 }
@@ -69,14 +73,50 @@ fn cdf(weights: impl Iterator<Item = f64>) -> (Vec<f32>, f64) {
     (out, acc)
 }
 
-/// Samples a piecewise-constant 1D distribution given by `cdf` (n + 1
-/// entries): returns the cell, the continuous position in `[0, 1)` and
-/// the cell's probability.
-#[inline]
-fn sample_cdf(cdf: &[f32], u: f32) -> (usize, f32, f32) {
+/// Slots of the guide table of a CDF of `n` cells: the power of two at or
+/// above `n`, so that `u · slots` and `j / slots` are exact in `f32`.
+fn guide_slots(n: usize) -> usize {
+    n.next_power_of_two()
+}
+
+/// The guide table of `cdf` (n + 1 entries; the cutpoint method of Chen and
+/// Asau 1974): for each slot `j` of [`guide_slots`], the last cell `i < n`
+/// whose start `cdf[i]` is ≤ `j / slots`. A number `u` in slot `j` then
+/// lies in a cell between `guide[j]` and `guide[j + 1]`, found by a short
+/// search instead of one over the whole CDF.
+fn guide(cdf: &[f32]) -> Vec<u32> {
     let n = cdf.len() - 1;
-    // The last cell whose start is ≤ u, skipping empty cells.
-    let mut i = cdf.partition_point(|&c| c <= u).clamp(1, n) - 1;
+    let m = guide_slots(n);
+    let mut out = Vec::with_capacity(m);
+    let mut i = 0usize;
+    for j in 0..m {
+        let t = j as f32 / m as f32;
+        while i + 1 < n && cdf[i + 1] <= t {
+            i += 1;
+        }
+        out.push(i as u32);
+    }
+    out
+}
+
+/// Samples a piecewise-constant 1D distribution given by `cdf` (n + 1
+/// entries) and its [`guide`] table: returns the cell, the continuous
+/// position in `[0, 1)` and the cell's probability.
+#[inline]
+fn sample_cdf(cdf: &[f32], guide: &[u32], u: f32) -> (usize, f32, f32) {
+    let n = cdf.len() - 1;
+    // The last cell whose start is ≤ u (the same cell a binary search over
+    // the whole CDF finds), then skipping empty cells. `u · m` is exact
+    // (m a power of two), so slot j's start j/m is ≤ u.
+    let m = guide.len();
+    let j = ((u * m as f32) as usize).min(m - 1);
+    let lo = guide[j] as usize;
+    let hi = if j + 1 < m {
+        guide[j + 1] as usize
+    } else {
+        n - 1
+    };
+    let mut i = lo + cdf[lo + 1..=hi].partition_point(|&c| c <= u);
     while cdf[i + 1] - cdf[i] <= 0.0 && i + 1 < n {
         i += 1;
     }
@@ -130,6 +170,8 @@ impl EnvironmentLight {
             row_weights.push(total);
         }
         let (row_cdf, total) = cdf(row_weights.into_iter());
+        let row_guide = guide(&row_cdf);
+        let column_guide = column_cdf.chunks_exact(w + 1).flat_map(guide).collect();
         // Σ L sin θ · (2π/w)(π/h): the integral of luminance over the sphere.
         let integral =
             (total * 2.0 * std::f64::consts::PI * std::f64::consts::PI / (w * h) as f64) as f32;
@@ -140,6 +182,8 @@ impl EnvironmentLight {
             frame,
             row_cdf,
             column_cdf,
+            row_guide,
+            column_guide,
             integral,
         }
     }
@@ -178,10 +222,11 @@ impl EnvironmentLight {
         if self.integral <= 0.0 {
             return None;
         }
-        let (y, v, p_row) = sample_cdf(&self.row_cdf, u.y);
+        let (y, v, p_row) = sample_cdf(&self.row_cdf, &self.row_guide, u.y);
         let w = self.width as usize;
         let row = &self.column_cdf[y * (w + 1)..(y + 1) * (w + 1)];
-        let (x, uu, p_col) = sample_cdf(row, u.x);
+        let m = guide_slots(w);
+        let (x, uu, p_col) = sample_cdf(row, &self.column_guide[y * m..(y + 1) * m], u.x);
         let sin_theta = (PI * v).sin();
         if sin_theta <= 0.0 || p_row <= 0.0 || p_col <= 0.0 {
             return None;
@@ -254,12 +299,66 @@ mod tests {
         let (c, total) = cdf([1.0f64, 0.0, 3.0].into_iter());
         assert_eq!(total, 4.0);
         assert_eq!(c, vec![0.0, 0.25, 0.25, 1.0]);
-        let (i, x, p) = sample_cdf(&c, 0.125);
+        let g = guide(&c);
+        let (i, x, p) = sample_cdf(&c, &g, 0.125);
         assert_eq!((i, p), (0, 0.25));
         assert!((x - 0.5 / 3.0).abs() < 1e-6);
         // u on the empty cell's edge lands in the next non-empty cell.
-        let (i, _, p) = sample_cdf(&c, 0.25);
+        let (i, _, p) = sample_cdf(&c, &g, 0.25);
         assert_eq!((i, p), (2, 0.75));
+    }
+
+    /// `sample_cdf` as a binary search over the whole CDF does it (the
+    /// guide table must not change a single result).
+    fn binary_search_sample(cdf: &[f32], u: f32) -> (usize, f32, f32) {
+        let n = cdf.len() - 1;
+        let mut i = cdf.partition_point(|&c| c <= u).clamp(1, n) - 1;
+        while cdf[i + 1] - cdf[i] <= 0.0 && i + 1 < n {
+            i += 1;
+        }
+        let p = cdf[i + 1] - cdf[i];
+        let offset = if p > 0.0 {
+            ((u - cdf[i]) / p).clamp(0.0, 1.0 - f32::EPSILON)
+        } else {
+            0.5
+        };
+        (i, (i as f32 + offset) / n as f32, p)
+    }
+
+    /// The guide table finds the cell a binary search over the whole CDF
+    /// finds, for every kind of CDF: spikes, empty runs, ties, a single
+    /// cell, sizes that are and are not powers of two.
+    #[test]
+    fn guided_search_finds_the_binary_searchs_cell() {
+        let mut rng = crate::rng::Rng::new(7, 0);
+        let shapes: Vec<Vec<f64>> = vec![
+            vec![1.0],
+            vec![0.0, 0.0, 5.0],
+            (0..1000)
+                .map(|i| if i == 500 { 1e6 } else { 1e-3 })
+                .collect(),
+            (0..1024)
+                .map(|i| if i % 7 == 0 { 0.0 } else { (i % 13) as f64 })
+                .collect(),
+            (0..37).map(|i| (i as f64 * 0.3).sin().abs()).collect(),
+            (0..300).map(|i| if i < 290 { 0.0 } else { 1.0 }).collect(),
+        ];
+        for weights in shapes {
+            let (c, _) = cdf(weights.iter().copied());
+            let g = guide(&c);
+            let n = c.len() - 1;
+            let probes = (0..20_000)
+                .map(|_| rng.next_f32())
+                .chain(c.iter().copied().filter(|&x| x < 1.0))
+                .chain([0.0, 1.0 - f32::EPSILON / 2.0]);
+            for u in probes {
+                assert_eq!(
+                    sample_cdf(&c, &g, u),
+                    binary_search_sample(&c, u),
+                    "u = {u}, n = {n}"
+                );
+            }
+        }
     }
 
     #[test]
