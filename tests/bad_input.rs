@@ -97,6 +97,13 @@ fn negative_spp() {
 }
 
 #[test]
+fn roulette_depth_out_of_range() {
+    let e = expect_error(&format!("[render]\nrr_depth = 2000\n{CAMERA}"), &[]);
+    assert!(e.contains("render.rr_depth"), "{e}");
+    assert!(e.contains("2000"), "{e}");
+}
+
+#[test]
 fn unknown_key() {
     let e = expect_error(&format!("[render]\nsamples = 4\n{CAMERA}"), &[]);
     assert!(e.contains("unknown field `samples`"), "{e}");

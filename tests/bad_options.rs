@@ -55,6 +55,11 @@ fn tile_size_must_be_positive_and_bounded() {
 }
 
 #[test]
+fn roulette_depth_is_bounded() {
+    refused(&["--rr-depth", "5000"], "--rr-depth 5000", "at most 1024");
+}
+
+#[test]
 fn thread_counts_are_capped() {
     refused(&["--threads", "100000"], "thread count 100000", "per core");
     refused(&["--threads", "0"], "thread count", "at least 1");

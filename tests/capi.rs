@@ -175,6 +175,7 @@ fn host_scene_in_rust() -> plsr::scene::Scene {
             seed: 42,
             sample_start: 0,
             hide_virtual: false,
+            ..Default::default()
         },
         robust: false,
     })
@@ -518,6 +519,7 @@ fn render_settings_change_without_rebuilding_the_scene() {
         seed: 7,
         sample_start: 4,
         hide_virtual: false,
+        ..Default::default()
     };
     let (film, _) = render(&rust_scene, &job, &RenderOptions::default(), &|_, _| true).unwrap();
     let want: Vec<f32> = film

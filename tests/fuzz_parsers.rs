@@ -446,6 +446,7 @@ fn render_section() -> BoxedStrategy<String> {
         keys(vec![
             ("spp", mostly(count(1, 4), integer())),
             ("max_depth", mostly(count(1, 6), integer())),
+            ("rr_depth", mostly(count(1, 8), integer())),
             ("seed", mostly(count(0, 1000), integer())),
             ("robust", mostly(boolean(), number())),
         ]),

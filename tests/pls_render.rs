@@ -52,6 +52,7 @@ fn floor_radiance(light: &Pls, mode: BrightnessMode, target: Vec3, spp: u32) -> 
             seed: 5,
             sample_start: 0,
             hide_virtual: false,
+            ..Default::default()
         },
         robust: false,
     })
@@ -183,6 +184,7 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
             seed: 2,
             sample_start: 0,
             hide_virtual: false,
+            ..Default::default()
         },
         robust: false,
     })

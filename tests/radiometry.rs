@@ -82,6 +82,7 @@ fn white_furnace() {
             seed: 3,
             sample_start: 0,
             hide_virtual: false,
+            ..Default::default()
         },
         robust: false,
     });
@@ -174,6 +175,7 @@ fn closed_form_irradiance_under_a_rectangular_emitter() {
                 seed: 9,
                 sample_start: 0,
                 hide_virtual: false,
+                ..Default::default()
             },
             robust: false,
         });
@@ -242,6 +244,7 @@ fn point_light_inverse_square_law() {
                 seed: 0,
                 sample_start: 0,
                 hide_virtual: false,
+                ..Default::default()
             },
             robust: false,
         });
@@ -254,4 +257,74 @@ fn point_light_inverse_square_law() {
             "h={height}, x={px}: {got} vs {want}"
         );
     }
+}
+
+/// A smooth glass sphere under a uniform sky of radiance 1 must look like the
+/// sky: glass absorbs nothing. Every path through it carries radiance 1
+/// exactly: refraction scales the throughput by 1/η² going in and η² coming
+/// out, and the Russian roulette (here from the first bounce) judges the
+/// throughput times the η² of the refractions so far, so it never spins
+/// inside the glass, where the throughput alone is 1/η² < 1. Every pixel
+/// is therefore 1 with no variance at all; a roulette that judged the
+/// throughput alone would end most paths inside and leave the pixels noisy.
+#[test]
+fn glass_sphere_in_a_furnace_is_invisible_and_noiseless() {
+    use plsr::bsdf::DielectricParams;
+    use plsr::light::EnvironmentLight;
+    let glass = Material {
+        name: "glass".into(),
+        bsdf: Bsdf::Dielectric(DielectricParams {
+            eta: 1.5,
+            microfacet: None,
+        }),
+        textures: Default::default(),
+    };
+    let sphere = mesh("sphere", icosphere(Vec3::ZERO, 1.0, 4), 0, None);
+    let film = render_scene(SceneDescription {
+        meshes: vec![sphere],
+        materials: vec![glass],
+        point_lights: vec![],
+        camera: PinholeCamera::look_at(
+            Vec3::new(0.0, -3.0, 0.5),
+            Vec3::ZERO,
+            Vec3::Z,
+            50.0,
+            16,
+            16,
+        )
+        .unwrap()
+        .into(),
+        film: Default::default(),
+        environment: Some(EnvironmentLight::constant(Vec3::ONE)),
+        job: RenderJob {
+            spp: 32,
+            max_depth: 1024,
+            seed: 5,
+            rr_depth: 1,
+            ..Default::default()
+        },
+        robust: false,
+    });
+    let centre = film.index(8, 8);
+    assert_eq!(film.object_id[centre], 0.0, "the sphere fills the middle");
+    // The sphere is a polyhedron (flat facets): total internal reflection
+    // can keep a path inside for dozens of bounces, hence the deep
+    // `max_depth`; every path gets out long before it.
+    let on_sphere: Vec<usize> = (0..film.color.len())
+        .filter(|&i| film.object_id[i] == 0.0)
+        .collect();
+    let exact = on_sphere
+        .iter()
+        .filter(|&&i| {
+            let (c, v) = (film.color[i], film.variance[i]);
+            (c - Vec3::ONE).abs().max_element() < 1e-4 && v.max_element() < 1e-8
+        })
+        .count();
+    assert!(
+        exact == on_sphere.len(),
+        "{exact} of {} sphere pixels are exactly 1 without variance",
+        on_sphere.len()
+    );
+    let mean = film.mean_color();
+    assert!((mean - Vec3::ONE).abs().max_element() < 2e-3, "mean {mean}");
 }

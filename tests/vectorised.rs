@@ -223,6 +223,26 @@ fn every_path_length_is_bit_identical() {
     }
 }
 
+/// The roulette's depth (`rr_depth`) is the job's: each depth gives its own
+/// image, the same on both kernels (7, above `max_depth`, turns the
+/// roulette off).
+#[test]
+fn every_roulette_depth_is_bit_identical() {
+    let mut images = Vec::new();
+    // Coloured walls (throughput below 1, so the roulette spins), max_depth 6.
+    for rr_depth in [1, 2, 4, 7] {
+        let mut scene = three_lights();
+        scene.job.rr_depth = rr_depth;
+        assert_identical(&format!("rr_depth {rr_depth}"), &scene);
+        images.push(render_with(&scene, None, 1, 16));
+    }
+    for (i, a) in images.iter().enumerate() {
+        for b in &images[i + 1..] {
+            assert!(!a.bitwise_eq(b), "rr_depth changes the image ({i})");
+        }
+    }
+}
+
 #[test]
 fn several_lights_thin_lens_and_gaussian_filter_are_bit_identical() {
     assert_identical("three lights", &three_lights());

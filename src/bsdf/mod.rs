@@ -152,6 +152,22 @@ impl Bsdf {
         matches!(self, Bsdf::Dielectric(_))
     }
 
+    /// `η²` of a scattering from `wo` to `wi` (local frame): the square of
+    /// the relative index across the interface for a refraction (`η` going
+    /// in, `1/η` coming out), 1 for a reflection or a BSDF that does not
+    /// transmit. A refraction scales radiance by `1/η²`; the path tracer's
+    /// Russian roulette multiplies it back (see `integrator`).
+    #[inline]
+    pub fn eta_scale(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            Bsdf::Dielectric(p) if wo.z * wi.z < 0.0 => {
+                let eta = if wo.z > 0.0 { p.eta } else { 1.0 / p.eta };
+                eta * eta
+            }
+            _ => 1.0,
+        }
+    }
+
     /// Whether every lobe is a delta distribution, so that light sampling
     /// cannot contribute and is skipped.
     #[inline]

@@ -69,6 +69,7 @@ pub(crate) fn job_arg(
         max_depth,
         seed,
         hide_virtual: false,
+        ..Default::default()
     };
     job.validate().map_err(|e| {
         FfiError::invalid(match e {
@@ -77,6 +78,8 @@ pub(crate) fn job_arg(
             JobError::SampleRangeOverflows => {
                 format!("`sample_start` + `spp` = {sample_start} + {spp} overflows 32 bits")
             }
+            // The C ABI keeps the default roulette depth.
+            JobError::RrDepth(v) => format!("`rr_depth` = {v} must be in [0, 1024]"),
         })
     })?;
     Ok(job)

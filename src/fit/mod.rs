@@ -339,6 +339,7 @@ impl Fit {
             max_depth: self.max_depth,
             seed,
             hide_virtual: true,
+            ..Default::default()
         }
     }
 
@@ -798,6 +799,7 @@ fn auto_exposure(
         max_depth: scene.default_job().max_depth,
         seed: options.seed ^ 0x5eed,
         hide_virtual: true,
+        ..Default::default()
     };
     let render_options = RenderOptions {
         threads: options.threads,

@@ -44,8 +44,7 @@
 
 use super::spawn::{ray_epsilon, shadow_segment, spawn_origin};
 use super::{
-    camera_sample, emission_weight, roulette, roulette_spins, sides_agree, PrevVertex,
-    SurfacePoint, RUSSIAN_ROULETTE_DEPTH,
+    camera_sample, emission_weight, roulette, roulette_spins, sides_agree, PrevVertex, SurfacePoint,
 };
 use crate::accel::{Ray, RayHit, ShadowRay};
 use crate::bsdf::BSDF_PARAMS;
@@ -184,6 +183,7 @@ pub fn gradient_tile(
                     prev_pdf: 0.0,
                     prev_point: ray.org,
                     depth: 0,
+                    eta_scale: 1.0,
                     alive: true,
                 });
                 rays.push(RayHit::masked(ray, job.ray_mask()));
@@ -364,6 +364,9 @@ struct GradientPath {
     prev_pdf: f32,
     prev_point: Vec3,
     depth: u32,
+    /// `η²` of the refractions so far, for the roulette (as the general
+    /// integrator's `PathState::eta_scale`).
+    eta_scale: f32,
     alive: bool,
 }
 
@@ -588,9 +591,11 @@ fn step(
     path.prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
     path.prev_point = p;
     path.depth += 1;
-    if roulette_spins(path.beta, path.depth >= RUSSIAN_ROULETTE_DEPTH) {
-        let q = path.beta.max_element();
-        let (survives, b) = roulette(path.beta, path.rng.next_f32());
+    path.eta_scale *= bsdf.eta_scale(wo_local, bs.wi);
+    let rr_beta = path.beta * path.eta_scale;
+    if roulette_spins(rr_beta, path.depth >= job.rr_depth) {
+        let q = rr_beta.max_element();
+        let (survives, b) = roulette(path.beta, rr_beta, path.rng.next_f32());
         if !survives {
             path.alive = false;
             return;

@@ -3,7 +3,9 @@
 //! Per camera sample: next-event estimation at every scattering vertex (one
 //! light picked by power, one point on it), BSDF sampling to continue the
 //! path, multiple importance sampling of the two strategies with the power
-//! heuristic (Veach 1997), and Russian roulette from the fourth vertex on.
+//! heuristic (Veach 1997), and Russian roulette by throughput (times `η²`
+//! of the refractions so far) from [`RenderJob::rr_depth`] scattering events
+//! on (3 by default).
 //! `max_depth` counts scattering events, as pbrt's `maxdepth` does: a path of
 //! `max_depth = 1` is direct lighting only.
 //!
@@ -40,23 +42,22 @@ use glam::{Vec2, Vec3};
 use spawn::{ray_epsilon, shadow_segment, spawn_origin};
 use std::time::Instant;
 
-/// Number of scattering events after which Russian roulette may end a path.
-pub const RUSSIAN_ROULETTE_DEPTH: u32 = 3;
-
-/// Whether Russian roulette spins for a path of throughput `beta` that has
-/// reached [`RUSSIAN_ROULETTE_DEPTH`] (`at_depth`): only where the largest
-/// channel `q` of `beta` is below 1, and only then does it draw a number.
+/// Whether Russian roulette spins for a path that has reached
+/// [`RenderJob::rr_depth`] (`at_depth`), judged by `rr_beta`, its
+/// throughput `β` times `η²` of the refractions it went through (see
+/// [`PathState::eta_scale`]): only where the largest channel `q` of
+/// `rr_beta` is below 1, and only then does it draw a number.
 #[inline(always)]
-pub(crate) fn roulette_spins(beta: Vec3, at_depth: bool) -> bool {
-    at_depth && beta.max_element() < 1.0
+pub(crate) fn roulette_spins(rr_beta: Vec3, at_depth: bool) -> bool {
+    at_depth && rr_beta.max_element() < 1.0
 }
 
 /// The roulette's outcome for the uniform number `u`: the path survives
-/// with probability `q` (the largest channel of `beta`), its throughput
-/// divided by `q` so the estimate stays unbiased.
+/// with probability `q` (the largest channel of `rr_beta`), its throughput
+/// `beta` divided by `q` so the estimate stays unbiased.
 #[inline(always)]
-pub(crate) fn roulette(beta: Vec3, u: f32) -> (bool, Vec3) {
-    let q = beta.max_element();
+pub(crate) fn roulette(beta: Vec3, rr_beta: Vec3, u: f32) -> (bool, Vec3) {
+    let q = rr_beta.max_element();
     (u < q, beta / q)
 }
 
@@ -116,6 +117,13 @@ struct PathState {
     prev_point: Vec3,
     /// Scattering events so far.
     depth: u32,
+    /// The product of `η²` over the refractions so far (`η` the relative
+    /// index across each): refraction scales radiance by `1/η²`, which
+    /// the roulette must not mistake for lost energy, or paths inside
+    /// glass (β × 1/1.5² on the way in) would be ended needlessly; the
+    /// roulette judges `β · eta_scale` (pbrt-v4's `etaScale`, Mitsuba's
+    /// `eta`).
+    eta_scale: f32,
     alive: bool,
 }
 
@@ -363,6 +371,7 @@ fn trace_pass(pass: &Pass, wf: &mut Wavefront, pixels: &mut [PixelSums], stats: 
                 prev_pdf: 0.0,
                 prev_point: ray.org,
                 depth: 0,
+                eta_scale: 1.0,
                 alive: true,
             });
         }
@@ -604,8 +613,10 @@ fn shade(
     path.prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
     path.prev_point = p;
     path.depth += 1;
-    if roulette_spins(path.beta, path.depth >= RUSSIAN_ROULETTE_DEPTH) {
-        let (survives, beta) = roulette(path.beta, path.rng.next_f32());
+    path.eta_scale *= bsdf.eta_scale(wo_local, bs.wi);
+    let rr_beta = path.beta * path.eta_scale;
+    if roulette_spins(rr_beta, path.depth >= pass.job.rr_depth) {
+        let (survives, beta) = roulette(path.beta, rr_beta, path.rng.next_f32());
         if !survives {
             path.alive = false;
             return;

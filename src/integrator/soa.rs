@@ -27,8 +27,7 @@
 
 use super::spawn::{ray_epsilon, shadow_segment};
 use super::{
-    camera_sample, emission_weight, roulette, roulette_spins, PixelSums, PrevVertex, RayStats,
-    Tile, RUSSIAN_ROULETTE_DEPTH,
+    camera_sample, emission_weight, roulette, roulette_spins, PixelSums, PrevVertex, RayStats, Tile,
 };
 use crate::accel::{gather_lanes, RayBatch, INVALID_ID};
 use crate::bsdf::{lambert_eval, lambert_pdf, lambert_sample, Bsdf};
@@ -512,7 +511,7 @@ fn trace_pass_body(
         let uniform = Uniform {
             // The ray after the last light sample can only find a light.
             continue_paths: depth + 1 < max_depth || scene.has_hittable_lights(),
-            roulette: depth + 1 >= RUSSIAN_ROULETTE_DEPTH,
+            roulette: depth + 1 >= pass.job.rr_depth,
         };
         pick_lights(kernel, scene, lanes);
         shade_lanes(kernel, lanes, uniform);
@@ -903,7 +902,8 @@ fn shade_lane<const TRIANGLES: bool>(l: LaneIn, u: Uniform) -> LaneOut {
     // copy of the state, kept where it spins.
     let spin = roulette_spins(beta, u.roulette);
     let mut rng_rr = rng;
-    let (survives, beta_rr) = roulette(beta, Rng::step_f32(&mut rng_rr, l.inc));
+    // Lambert never refracts: the roulette judges β itself (η² = 1).
+    let (survives, beta_rr) = roulette(beta, beta, Rng::step_f32(&mut rng_rr, l.inc));
     if spin {
         rng = rng_rr;
         beta = beta_rr;

@@ -26,6 +26,10 @@ pub struct RenderArgs {
     /// Maximum number of scattering events (overrides render.max_depth).
     #[arg(long)]
     pub max_depth: Option<u32>,
+    /// Scattering events after which Russian roulette may end a path
+    /// (overrides render.rr_depth; default 3).
+    #[arg(long)]
+    pub rr_depth: Option<u32>,
     /// Random seed (overrides render.seed); the image depends only on the
     /// scene, seed and spp, never on the thread count.
     #[arg(long)]
@@ -140,10 +144,14 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     if let Some(s) = a.seed {
         job.seed = s;
     }
+    if let Some(d) = a.rr_depth {
+        job.rr_depth = d;
+    }
     job.validate().map_err(|e| {
         Error::InvalidArgument(match e {
             JobError::Spp(v) => format!("--spp {v}: at most {MAX_SPP}"),
             JobError::MaxDepth(v) => format!("--max-depth {v}: at most {MAX_DEPTH}"),
+            JobError::RrDepth(v) => format!("--rr-depth {v}: at most {MAX_DEPTH}"),
             other => other.to_string(),
         })
     })?;

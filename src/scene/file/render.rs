@@ -12,6 +12,7 @@ pub(super) struct RenderSection {
     pub(super) spp: Option<i64>,
     pub(super) max_depth: Option<i64>,
     pub(super) seed: Option<u64>,
+    pub(super) rr_depth: Option<i64>,
     pub(super) robust: Option<bool>,
 }
 
@@ -30,6 +31,10 @@ impl Builder<'_> {
             seed: r.seed.unwrap_or(d.seed),
             sample_start: 0,
             hide_virtual: false,
+            rr_depth: match r.rr_depth {
+                Some(v) => self.positive_count("render.rr_depth", v, 1024)?,
+                None => d.rr_depth,
+            },
         })
     }
 }
