@@ -34,7 +34,7 @@ pub use soa::{Isa, SoaScene};
 use crate::accel::{Ray, RayHit, ShadowRay};
 pub use crate::film::{PixelSums, Tile};
 use crate::job::RenderJob;
-use crate::light::Light;
+use crate::light::{Light, LightSample};
 use crate::rng::Rng;
 use crate::scene::Scene;
 use crate::warp::{power_heuristic, Frame};
@@ -140,6 +140,90 @@ struct Wavefront {
     rays: Vec<RayHit>,
     shadow_rays: Vec<ShadowRay>,
     pending: Vec<PendingLight>,
+    /// Environment light samples taken ahead for this bounce, per path
+    /// (see [`sample_environment_ahead`]).
+    env_ahead: Vec<Option<EnvAhead>>,
+    env_us: Vec<Vec2>,
+    env_paths: Vec<u32>,
+    env_samples: Vec<Option<LightSample>>,
+    /// The environment's radiance and density along each path's ray that
+    /// left the scene, looked up ahead for this bounce (`None`: the ray hit
+    /// something, or the scene has no environment).
+    env_seen: Vec<Option<(Vec3, f32)>>,
+    env_dirs: Vec<Vec3>,
+    env_values: Vec<(Vec3, f32)>,
+}
+
+/// A sample of the environment light taken ahead of a path's shading: the
+/// numbers it was taken with and the result; used only if the path draws
+/// the same numbers and picks the environment.
+#[derive(Clone, Copy)]
+struct EnvAhead {
+    u: Vec2,
+    sample: Option<LightSample>,
+}
+
+/// What was looked up ahead of one path's shading for its bounce (see
+/// [`sample_environment_ahead`]).
+#[derive(Clone, Copy)]
+struct Ahead {
+    /// An environment sample and the environment's light index.
+    light: Option<(EnvAhead, usize)>,
+    /// The environment's radiance and density along the path's ray, if it
+    /// left the scene.
+    seen: Option<(Vec3, f32)>,
+}
+
+/// Takes the environment-light samples that this bounce's next-event
+/// estimation will take, all together ([`EnvironmentLight::sample_li_many`]
+/// overlaps their cache misses on a large map), into `wf.env_ahead`. For
+/// each path whose ray hit something it repeats, on a copy of the path's
+/// random stream, the draws `shade` makes before sampling a light (the
+/// light pick, then the light sample's numbers): the same numbers, so
+/// `shade` finds its sample here, unless the path does not sample a light
+/// at all (the copy is then simply dropped). Images do not change.
+fn sample_environment_ahead(pass: &Pass, wf: &mut Wavefront, env: usize) {
+    let scene = pass.scene;
+    let Light::Environment { light, .. } = &scene.lights().lights[env] else {
+        unreachable!("Scene::environment indexes an environment light")
+    };
+    wf.env_us.clear();
+    wf.env_paths.clear();
+    wf.env_dirs.clear();
+    wf.env_seen.clear();
+    wf.env_seen.resize(wf.paths.len(), None);
+    for (i, (path, rh)) in wf.paths.iter().zip(&wf.rays).enumerate() {
+        let Some(hit) = rh.hit() else {
+            // Marked now, filled in below.
+            wf.env_seen[i] = Some((Vec3::ZERO, 0.0));
+            wf.env_dirs.push(rh.ray().dir);
+            continue;
+        };
+        if path.depth >= pass.job.max_depth {
+            continue;
+        }
+        let ray = rh.ray();
+        // As `shade` computes the point, bit for bit.
+        let p = ray.org + hit.t * ray.dir;
+        let mut rng = path.rng.clone();
+        if let Some((li, _)) = scene.lights().pick(p, rng.next_2d()) {
+            if li == env {
+                wf.env_us.push(rng.next_2d());
+                wf.env_paths.push(i as u32);
+            }
+        }
+    }
+    light.sample_li_many(&wf.env_us, &mut wf.env_samples);
+    light.radiance_pdf_many(&wf.env_dirs, &mut wf.env_values);
+    let mut values = wf.env_values.iter();
+    for seen in wf.env_seen.iter_mut().filter(|s| s.is_some()) {
+        *seen = values.next().copied();
+    }
+    wf.env_ahead.clear();
+    wf.env_ahead.resize(wf.paths.len(), None);
+    for ((&i, &u), &sample) in wf.env_paths.iter().zip(&wf.env_us).zip(&wf.env_samples) {
+        wf.env_ahead[i as usize] = Some(EnvAhead { u, sample });
+    }
 }
 
 /// The light-leak guard of shading normals: a direction pair must be a
@@ -387,9 +471,27 @@ fn trace_pass(pass: &Pass, wf: &mut Wavefront, pixels: &mut [PixelSums], stats: 
     while !wf.paths.is_empty() {
         wf.shadow_rays.clear();
         wf.pending.clear();
-        for (i, (path, rh)) in wf.paths.iter_mut().zip(wf.rays.iter_mut()).enumerate() {
+        let env = scene.environment_index();
+        match env {
+            Some(env) => sample_environment_ahead(pass, wf, env),
+            None => {
+                wf.env_ahead.clear();
+                wf.env_ahead.resize(wf.paths.len(), None);
+                wf.env_seen.clear();
+                wf.env_seen.resize(wf.paths.len(), None);
+            }
+        }
+        for (i, (((path, rh), ahead), &seen)) in wf
+            .paths
+            .iter_mut()
+            .zip(wf.rays.iter_mut())
+            .zip(&wf.env_ahead)
+            .zip(&wf.env_seen)
+            .enumerate()
+        {
             let pixel = &mut pixels[path.pixel as usize];
             let queue = (&mut wf.shadow_rays, &mut wf.pending);
+            let ahead = ahead.zip(env);
             shade(
                 pass,
                 path,
@@ -398,6 +500,7 @@ fn trace_pass(pass: &Pass, wf: &mut Wavefront, pixels: &mut [PixelSums], stats: 
                 camera_vertex && first,
                 pixel,
                 queue,
+                Ahead { light: ahead, seen },
             );
         }
         stats.shadow += wf.shadow_rays.len() as u64;
@@ -434,6 +537,7 @@ fn trace_pass(pass: &Pass, wf: &mut Wavefront, pixels: &mut [PixelSums], stats: 
 /// Processes the hit of one path: emission, next-event estimation, and the
 /// next ray (written back into `rh`), or ends the path.
 #[inline]
+#[allow(clippy::too_many_arguments)] // the path, its pixel, its queues, what was looked up ahead
 fn shade(
     pass: &Pass,
     path: &mut PathState,
@@ -442,7 +546,12 @@ fn shade(
     record_aovs_first: bool,
     pixel: &mut PixelSums,
     (shadow_rays, pending): (&mut Vec<ShadowRay>, &mut Vec<PendingLight>),
+    ahead: Ahead,
 ) {
+    let Ahead {
+        light: env_ahead,
+        seen: env_seen,
+    } = ahead;
     let (scene, max_depth) = (pass.scene, pass.job.max_depth);
     let ray = rh.ray();
     let Some(hit) = rh.hit() else {
@@ -452,13 +561,17 @@ fn shade(
             let Light::Environment { light, .. } = &scene.lights().lights[env] else {
                 unreachable!("Scene::environment indexes an environment light")
             };
-            let le = light.radiance(ray.dir);
+            // Looked up ahead where the scene has an environment.
+            let (le, seen_pdf) = match env_seen {
+                Some((le, pdf)) => (le, Some(pdf)),
+                None => (light.radiance(ray.dir), None),
+            };
             if le != Vec3::ZERO {
                 let weight = if path.depth == 0 || path.prev_pdf == 0.0 {
                     1.0
                 } else {
-                    let light_pdf =
-                        scene.lights().pick_pmf(env, path.prev_point) * light.pdf(ray.dir);
+                    let pdf = seen_pdf.unwrap_or_else(|| light.pdf(ray.dir));
+                    let light_pdf = scene.lights().pick_pmf(env, path.prev_point) * pdf;
                     power_heuristic(path.prev_pdf, light_pdf)
                 };
                 path.radiance += path.beta * le * weight;
@@ -552,7 +665,11 @@ fn shade(
     };
     if let Some((li, pick_pmf)) = light_pick {
         let u = path.rng.next_2d();
-        if let Some(ls) = scene.lights().lights[li].sample_li(p, u) {
+        let ls = match env_ahead {
+            Some((ahead, env)) if env == li && ahead.u == u => ahead.sample,
+            _ => scene.lights().lights[li].sample_li(p, u),
+        };
+        if let Some(ls) = ls {
             let wi_local = frame.to_local(ls.wi);
             // A delta light needs no MIS weight, so no BSDF density.
             let (f, bsdf_pdf) = if guard && !sides_agree(wo, ls.wi, ng, wo_local, wi_local) {

@@ -73,6 +73,22 @@ fn cdf(weights: impl Iterator<Item = f64>) -> (Vec<f32>, f64) {
     (out, acc)
 }
 
+/// Asks the CPU to bring the cache line holding `value` closer (a hint:
+/// no effect on results, nothing on other architectures).
+#[inline(always)]
+fn prefetch<T>(value: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint that never faults, and the pointer comes
+    // from a live reference.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+            (value as *const T).cast(),
+        )
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = value;
+}
+
 /// Slots of the guide table of a CDF of `n` cells: the power of two at or
 /// above `n`, so that `u · slots` and `j / slots` are exact in `f32`.
 fn guide_slots(n: usize) -> usize {
@@ -222,11 +238,35 @@ impl EnvironmentLight {
         if self.integral <= 0.0 {
             return None;
         }
-        let (y, v, p_row) = sample_cdf(&self.row_cdf, &self.row_guide, u.y);
+        let row = self.sample_row(u.y);
+        let column = self.sample_column(row.0, u.x);
+        self.finish_sample(row, column)
+    }
+
+    /// The first step of [`EnvironmentLight::sample`]: the row, `v` and the
+    /// row's probability, from `u_y`.
+    #[inline]
+    fn sample_row(&self, u_y: f32) -> (usize, f32, f32) {
+        sample_cdf(&self.row_cdf, &self.row_guide, u_y)
+    }
+
+    /// The second step: the column of row `y`, `u` and its conditional
+    /// probability, from `u_x`.
+    #[inline]
+    fn sample_column(&self, y: usize, u_x: f32) -> (usize, f32, f32) {
         let w = self.width as usize;
         let row = &self.column_cdf[y * (w + 1)..(y + 1) * (w + 1)];
         let m = guide_slots(w);
-        let (x, uu, p_col) = sample_cdf(row, &self.column_guide[y * m..(y + 1) * m], u.x);
+        sample_cdf(row, &self.column_guide[y * m..(y + 1) * m], u_x)
+    }
+
+    /// The last step: the direction, its radiance and density.
+    #[inline]
+    fn finish_sample(
+        &self,
+        (y, v, p_row): (usize, f32, f32),
+        (x, uu, p_col): (usize, f32, f32),
+    ) -> Option<(Vec3, Vec3, f32)> {
         let sin_theta = (PI * v).sin();
         if sin_theta <= 0.0 || p_row <= 0.0 || p_col <= 0.0 {
             return None;
@@ -234,9 +274,53 @@ impl EnvironmentLight {
         let pdf_uv = p_row * p_col * (self.width * self.height) as f32;
         let pdf = pdf_uv / (2.0 * PI * PI * sin_theta);
         let dir = equirect_direction(Vec2::new(uu, v), &self.frame);
-        Some((self.texels[y * w + x], dir, pdf))
+        Some((self.texels[y * self.width as usize + x], dir, pdf))
     }
 
+    /// [`EnvironmentLight::sample_li`] for many numbers at once, the same
+    /// results, into `out` (cleared first). The samples of a large map
+    /// read memory far apart; taken one at a time each waits for its own
+    /// cache misses, so this takes them in stages, each a loop over all
+    /// samples that prefetches what the next stage reads (the column's
+    /// guide entry, then its CDF cells, then the texel), and the misses of
+    /// many samples overlap.
+    pub fn sample_li_many(&self, us: &[Vec2], out: &mut Vec<Option<LightSample>>) {
+        out.clear();
+        if self.integral <= 0.0 {
+            out.resize(us.len(), None);
+            return;
+        }
+        let w = self.width as usize;
+        let m = guide_slots(w);
+        let rows: Vec<(usize, f32, f32)> = us
+            .iter()
+            .map(|u| {
+                let row = self.sample_row(u.y);
+                let j = ((u.x * m as f32) as usize).min(m - 1);
+                prefetch(&self.column_guide[row.0 * m + j]);
+                row
+            })
+            .collect();
+        for (u, row) in us.iter().zip(&rows) {
+            let j = ((u.x * m as f32) as usize).min(m - 1);
+            let lo = self.column_guide[row.0 * m + j] as usize;
+            prefetch(&self.column_cdf[row.0 * (w + 1) + lo + 1]);
+        }
+        let columns: Vec<(usize, f32, f32)> = us
+            .iter()
+            .zip(&rows)
+            .map(|(u, row)| {
+                let column = self.sample_column(row.0, u.x);
+                prefetch(&self.texels[row.0 * w + column.0]);
+                column
+            })
+            .collect();
+        out.extend(
+            rows.into_iter()
+                .zip(columns)
+                .map(|(row, column)| Self::light_sample(self.finish_sample(row, column))),
+        );
+    }
     /// Solid-angle density of [`EnvironmentLight::sample`] for `dir`.
     #[inline]
     pub fn pdf(&self, dir: Vec3) -> f32 {
@@ -245,6 +329,40 @@ impl EnvironmentLight {
         }
         let uv = equirect_uv(dir, &self.frame);
         let (x, y) = self.texel_at(uv);
+        self.pdf_at(uv, x, y)
+    }
+
+    /// [`EnvironmentLight::radiance`] and [`EnvironmentLight::pdf`] of many
+    /// directions at once, the same values, into `out` (cleared first): the
+    /// lookups of all directions are made in two stages, the first
+    /// prefetching what the second reads, so that their cache misses on a
+    /// large map overlap.
+    pub fn radiance_pdf_many(&self, dirs: &[Vec3], out: &mut Vec<(Vec3, f32)>) {
+        out.clear();
+        let w = self.width as usize;
+        let texels: Vec<(Vec2, usize, usize)> = dirs
+            .iter()
+            .map(|&dir| {
+                let uv = equirect_uv(dir, &self.frame);
+                let (x, y) = self.texel_at(uv);
+                prefetch(&self.texels[y * w + x]);
+                prefetch(&self.column_cdf[y * (w + 1) + x]);
+                (uv, x, y)
+            })
+            .collect();
+        out.extend(texels.into_iter().map(|(uv, x, y)| {
+            let pdf = if self.integral <= 0.0 {
+                0.0
+            } else {
+                self.pdf_at(uv, x, y)
+            };
+            (self.texels[y * w + x], pdf)
+        }));
+    }
+
+    /// The density at `uv`, in texel `(x, y)`.
+    #[inline]
+    fn pdf_at(&self, uv: Vec2, x: usize, y: usize) -> f32 {
         let w = self.width as usize;
         let p_row = self.row_cdf[y + 1] - self.row_cdf[y];
         let p_col = self.column_cdf[y * (w + 1) + x + 1] - self.column_cdf[y * (w + 1) + x];
@@ -259,7 +377,14 @@ impl EnvironmentLight {
     /// radiance, an infinite distance and the density.
     #[inline]
     pub fn sample_li(&self, u: Vec2) -> Option<LightSample> {
-        let (radiance, wi, pdf) = self.sample(u)?;
+        Self::light_sample(self.sample(u))
+    }
+
+    /// A sample of [`EnvironmentLight::sample`] as a light sample: none
+    /// where its density or radiance is zero.
+    #[inline]
+    fn light_sample(sample: Option<(Vec3, Vec3, f32)>) -> Option<LightSample> {
+        let (radiance, wi, pdf) = sample?;
         (pdf > 0.0 && radiance != Vec3::ZERO).then_some(LightSample {
             radiance,
             wi,
@@ -358,6 +483,39 @@ mod tests {
                     "u = {u}, n = {n}"
                 );
             }
+        }
+    }
+
+    /// The batched lookups give what the single ones give, bit for bit
+    /// (the integrator takes either, and images must not change).
+    #[test]
+    fn batched_lookups_equal_single_ones() {
+        let mut rng = crate::rng::Rng::new(11, 0);
+        let (w, h) = (64u32, 32u32);
+        let texels: Vec<Vec3> = (0..w * h)
+            .map(|i| {
+                let spike = if i == 700 { 500.0 } else { 0.0 };
+                Vec3::new(rng.next_f32(), rng.next_f32() * 2.0, spike + (i % 5) as f32)
+            })
+            .collect();
+        let env = EnvironmentLight::from_image(w, h, texels, 1.5, SphereFrame::Z_UP);
+        let us: Vec<Vec2> = (0..5000).map(|_| rng.next_2d()).collect();
+        let mut samples = Vec::new();
+        env.sample_li_many(&us, &mut samples);
+        assert_eq!(samples.len(), us.len());
+        for (u, s) in us.iter().zip(&samples) {
+            assert_eq!(*s, env.sample_li(*u), "u = {u}");
+        }
+        let dirs: Vec<Vec3> = samples
+            .iter()
+            .flatten()
+            .map(|s| s.wi)
+            .chain((0..2000).map(|_| crate::warp::square_to_uniform_sphere(rng.next_2d())))
+            .collect();
+        let mut values = Vec::new();
+        env.radiance_pdf_many(&dirs, &mut values);
+        for (d, v) in dirs.iter().zip(&values) {
+            assert_eq!(*v, (env.radiance(*d), env.pdf(*d)), "dir {d}");
         }
     }
 
