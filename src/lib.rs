@@ -50,6 +50,7 @@ pub mod light;
 pub mod material;
 pub mod memory;
 pub mod metrics;
+pub mod prefetch;
 pub mod render;
 pub mod rng;
 pub mod scene;

@@ -35,6 +35,7 @@ use crate::accel::{Ray, RayHit, ShadowRay};
 pub use crate::film::{PixelSums, Tile};
 use crate::job::RenderJob;
 use crate::light::{Light, LightSample};
+use crate::prefetch::prefetch;
 use crate::rng::Rng;
 use crate::scene::Scene;
 use crate::warp::{power_heuristic, Frame};
@@ -161,6 +162,42 @@ struct Wavefront {
 struct EnvAhead {
     u: Vec2,
     sample: Option<LightSample>,
+}
+
+/// Prefetches what `SurfacePoint::new` will read of each hit's mesh (its
+/// triangle, then the triangle's vertex normals and texture coordinates),
+/// in two loops over all hits, so that the cache misses on large meshes
+/// overlap instead of stalling each shading in turn.
+fn prefetch_surfaces(scene: &Scene, rays: &[RayHit]) {
+    let meshes = scene.meshes();
+    let attributes = |m: &crate::scene::Mesh| !m.normals.is_empty() || !m.uvs.is_empty();
+    if !meshes.iter().any(attributes) {
+        return;
+    }
+    for rh in rays {
+        if let Some(hit) = rh.hit() {
+            let mesh = &meshes[hit.geom_id as usize];
+            if attributes(mesh) {
+                prefetch(&mesh.triangles[hit.prim_id as usize]);
+            }
+        }
+    }
+    for rh in rays {
+        if let Some(hit) = rh.hit() {
+            let mesh = &meshes[hit.geom_id as usize];
+            if !attributes(mesh) {
+                continue;
+            }
+            for i in mesh.triangles[hit.prim_id as usize] {
+                if let Some(n) = mesh.normals.get(i as usize) {
+                    prefetch(n);
+                }
+                if let Some(uv) = mesh.uvs.get(i as usize) {
+                    prefetch(uv);
+                }
+            }
+        }
+    }
 }
 
 /// What was looked up ahead of one path's shading for its bounce (see
@@ -471,6 +508,7 @@ fn trace_pass(pass: &Pass, wf: &mut Wavefront, pixels: &mut [PixelSums], stats: 
     while !wf.paths.is_empty() {
         wf.shadow_rays.clear();
         wf.pending.clear();
+        prefetch_surfaces(scene, &wf.rays);
         let env = scene.environment_index();
         match env {
             Some(env) => sample_environment_ahead(pass, wf, env),

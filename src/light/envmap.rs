@@ -24,6 +24,7 @@
 
 use super::{luminance, LightSample};
 use crate::equirect::{equirect_direction, equirect_uv, SphereFrame};
+use crate::prefetch::prefetch;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -71,22 +72,6 @@ fn cdf(weights: impl Iterator<Item = f64>) -> (Vec<f32>, f64) {
         out.extend((1..=n).map(|i| i as f32 / n as f32));
     }
     (out, acc)
-}
-
-/// Asks the CPU to bring the cache line holding `value` closer (a hint:
-/// no effect on results, nothing on other architectures).
-#[inline(always)]
-fn prefetch<T>(value: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch is a hint that never faults, and the pointer comes
-    // from a live reference.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-            (value as *const T).cast(),
-        )
-    };
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = value;
 }
 
 /// Slots of the guide table of a CDF of `n` cells: the power of two at or
