@@ -141,18 +141,17 @@ struct Wavefront {
     rays: Vec<RayHit>,
     shadow_rays: Vec<ShadowRay>,
     pending: Vec<PendingLight>,
-    /// Environment light samples taken ahead for this bounce, per path
+    /// What was looked up ahead of each path's shading for this bounce
     /// (see [`sample_environment_ahead`]).
-    env_ahead: Vec<Option<EnvAhead>>,
-    env_us: Vec<Vec2>,
+    ahead: Vec<Ahead>,
+    /// The paths that sample the environment, and their numbers.
     env_paths: Vec<u32>,
+    env_us: Vec<Vec2>,
     env_samples: Vec<Option<LightSample>>,
-    /// The environment's radiance and density along each path's ray that
-    /// left the scene, looked up ahead for this bounce (`None`: the ray hit
-    /// something, or the scene has no environment).
-    env_seen: Vec<Option<(Vec3, f32)>>,
-    env_dirs: Vec<Vec3>,
-    env_values: Vec<(Vec3, f32)>,
+    /// The paths whose rays left the scene, and their directions.
+    escaped_paths: Vec<u32>,
+    escaped_dirs: Vec<Vec3>,
+    escaped_values: Vec<(Vec3, f32)>,
 }
 
 /// A sample of the environment light taken ahead of a path's shading: the
@@ -164,16 +163,19 @@ struct EnvAhead {
     sample: Option<LightSample>,
 }
 
+/// Whether a mesh has vertex attributes (normals or texture coordinates)
+/// that `SurfacePoint::new` reads at its hits.
+#[inline]
+fn attributes(m: &crate::scene::Mesh) -> bool {
+    !m.normals.is_empty() || !m.uvs.is_empty()
+}
+
 /// Prefetches what `SurfacePoint::new` will read of each hit's mesh (its
 /// triangle, then the triangle's vertex normals and texture coordinates),
 /// in two loops over all hits, so that the cache misses on large meshes
 /// overlap instead of stalling each shading in turn.
 fn prefetch_surfaces(scene: &Scene, rays: &[RayHit]) {
     let meshes = scene.meshes();
-    let attributes = |m: &crate::scene::Mesh| !m.normals.is_empty() || !m.uvs.is_empty();
-    if !meshes.iter().any(attributes) {
-        return;
-    }
     for rh in rays {
         if let Some(hit) = rh.hit() {
             let mesh = &meshes[hit.geom_id as usize];
@@ -201,11 +203,12 @@ fn prefetch_surfaces(scene: &Scene, rays: &[RayHit]) {
 }
 
 /// What was looked up ahead of one path's shading for its bounce (see
-/// [`sample_environment_ahead`]).
-#[derive(Clone, Copy)]
+/// [`sample_environment_ahead`]); nothing where the scene has no
+/// environment.
+#[derive(Clone, Copy, Default)]
 struct Ahead {
-    /// An environment sample and the environment's light index.
-    light: Option<(EnvAhead, usize)>,
+    /// An environment light sample.
+    light: Option<EnvAhead>,
     /// The environment's radiance and density along the path's ray, if it
     /// left the scene.
     seen: Option<(Vec3, f32)>,
@@ -213,27 +216,27 @@ struct Ahead {
 
 /// Takes the environment-light samples that this bounce's next-event
 /// estimation will take, all together ([`EnvironmentLight::sample_li_many`]
-/// overlaps their cache misses on a large map), into `wf.env_ahead`. For
+/// overlaps their cache misses on a large map), into `wf.ahead`. For
 /// each path whose ray hit something it repeats, on a copy of the path's
 /// random stream, the draws `shade` makes before sampling a light (the
 /// light pick, then the light sample's numbers): the same numbers, so
 /// `shade` finds its sample here, unless the path does not sample a light
-/// at all (the copy is then simply dropped). Images do not change.
+/// at all (the copy is then simply dropped). For each path whose ray left
+/// the scene it looks up the environment's radiance and density along it.
+/// Images do not change.
 fn sample_environment_ahead(pass: &Pass, wf: &mut Wavefront, env: usize) {
     let scene = pass.scene;
     let Light::Environment { light, .. } = &scene.lights().lights[env] else {
         unreachable!("Scene::environment indexes an environment light")
     };
-    wf.env_us.clear();
     wf.env_paths.clear();
-    wf.env_dirs.clear();
-    wf.env_seen.clear();
-    wf.env_seen.resize(wf.paths.len(), None);
+    wf.env_us.clear();
+    wf.escaped_paths.clear();
+    wf.escaped_dirs.clear();
     for (i, (path, rh)) in wf.paths.iter().zip(&wf.rays).enumerate() {
         let Some(hit) = rh.hit() else {
-            // Marked now, filled in below.
-            wf.env_seen[i] = Some((Vec3::ZERO, 0.0));
-            wf.env_dirs.push(rh.ray().dir);
+            wf.escaped_paths.push(i as u32);
+            wf.escaped_dirs.push(rh.ray().dir);
             continue;
         };
         if path.depth >= pass.job.max_depth {
@@ -251,15 +254,14 @@ fn sample_environment_ahead(pass: &Pass, wf: &mut Wavefront, env: usize) {
         }
     }
     light.sample_li_many(&wf.env_us, &mut wf.env_samples);
-    light.radiance_pdf_many(&wf.env_dirs, &mut wf.env_values);
-    let mut values = wf.env_values.iter();
-    for seen in wf.env_seen.iter_mut().filter(|s| s.is_some()) {
-        *seen = values.next().copied();
-    }
-    wf.env_ahead.clear();
-    wf.env_ahead.resize(wf.paths.len(), None);
+    light.radiance_pdf_many(&wf.escaped_dirs, &mut wf.escaped_values);
+    wf.ahead.clear();
+    wf.ahead.resize(wf.paths.len(), Ahead::default());
     for ((&i, &u), &sample) in wf.env_paths.iter().zip(&wf.env_us).zip(&wf.env_samples) {
-        wf.env_ahead[i as usize] = Some(EnvAhead { u, sample });
+        wf.ahead[i as usize].light = Some(EnvAhead { u, sample });
+    }
+    for (&i, &seen) in wf.escaped_paths.iter().zip(&wf.escaped_values) {
+        wf.ahead[i as usize].seen = Some(seen);
     }
 }
 
@@ -505,31 +507,29 @@ fn trace_pass(pass: &Pass, wf: &mut Wavefront, pixels: &mut [PixelSums], stats: 
     stats.trace_nanos += clock.elapsed().as_nanos() as u64;
 
     let mut camera_vertex = true;
+    let has_attributes = scene.meshes().iter().any(attributes);
     while !wf.paths.is_empty() {
         wf.shadow_rays.clear();
         wf.pending.clear();
-        prefetch_surfaces(scene, &wf.rays);
-        let env = scene.environment_index();
-        match env {
+        if has_attributes {
+            prefetch_surfaces(scene, &wf.rays);
+        }
+        match scene.environment_index() {
             Some(env) => sample_environment_ahead(pass, wf, env),
             None => {
-                wf.env_ahead.clear();
-                wf.env_ahead.resize(wf.paths.len(), None);
-                wf.env_seen.clear();
-                wf.env_seen.resize(wf.paths.len(), None);
+                wf.ahead.clear();
+                wf.ahead.resize(wf.paths.len(), Ahead::default());
             }
         }
-        for (i, (((path, rh), ahead), &seen)) in wf
+        for (i, ((path, rh), &ahead)) in wf
             .paths
             .iter_mut()
             .zip(wf.rays.iter_mut())
-            .zip(&wf.env_ahead)
-            .zip(&wf.env_seen)
+            .zip(&wf.ahead)
             .enumerate()
         {
             let pixel = &mut pixels[path.pixel as usize];
             let queue = (&mut wf.shadow_rays, &mut wf.pending);
-            let ahead = ahead.zip(env);
             shade(
                 pass,
                 path,
@@ -538,7 +538,7 @@ fn trace_pass(pass: &Pass, wf: &mut Wavefront, pixels: &mut [PixelSums], stats: 
                 camera_vertex && first,
                 pixel,
                 queue,
-                Ahead { light: ahead, seen },
+                ahead,
             );
         }
         stats.shadow += wf.shadow_rays.len() as u64;
@@ -704,7 +704,7 @@ fn shade(
     if let Some((li, pick_pmf)) = light_pick {
         let u = path.rng.next_2d();
         let ls = match env_ahead {
-            Some((ahead, env)) if env == li && ahead.u == u => ahead.sample,
+            Some(ahead) if scene.environment_index() == Some(li) && ahead.u == u => ahead.sample,
             _ => scene.lights().lights[li].sample_li(p, u),
         };
         if let Some(ls) = ls {

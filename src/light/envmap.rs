@@ -117,7 +117,15 @@ fn sample_cdf(cdf: &[f32], guide: &[u32], u: f32) -> (usize, f32, f32) {
     } else {
         n - 1
     };
-    let mut i = lo + cdf[lo + 1..=hi].partition_point(|&c| c <= u);
+    sample_cell(cdf, lo + cdf[lo + 1..=hi].partition_point(|&c| c <= u), u)
+}
+
+/// The rest of [`sample_cdf`] once the last cell `i` whose start is ≤ `u`
+/// is found: skips empty cells, and returns the cell, the continuous
+/// position in `[0, 1)` and the cell's probability.
+#[inline]
+fn sample_cell(cdf: &[f32], mut i: usize, u: f32) -> (usize, f32, f32) {
+    let n = cdf.len() - 1;
     while cdf[i + 1] - cdf[i] <= 0.0 && i + 1 < n {
         i += 1;
     }
@@ -422,17 +430,7 @@ mod tests {
     /// guide table must not change a single result).
     fn binary_search_sample(cdf: &[f32], u: f32) -> (usize, f32, f32) {
         let n = cdf.len() - 1;
-        let mut i = cdf.partition_point(|&c| c <= u).clamp(1, n) - 1;
-        while cdf[i + 1] - cdf[i] <= 0.0 && i + 1 < n {
-            i += 1;
-        }
-        let p = cdf[i + 1] - cdf[i];
-        let offset = if p > 0.0 {
-            ((u - cdf[i]) / p).clamp(0.0, 1.0 - f32::EPSILON)
-        } else {
-            0.5
-        };
-        (i, (i as f32 + offset) / n as f32, p)
+        sample_cell(cdf, cdf.partition_point(|&c| c <= u).clamp(1, n) - 1, u)
     }
 
     /// The guide table finds the cell a binary search over the whole CDF

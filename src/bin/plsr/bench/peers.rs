@@ -29,6 +29,7 @@ use plsr::camera::Camera;
 use plsr::error::{Error, Result};
 use plsr::film::Film;
 use plsr::filter::PixelFilter;
+use plsr::hdr::oiio::PixelType;
 use plsr::render::{render, RenderOptions};
 use plsr::scene::{Scene, SceneDescription};
 use std::fmt::Write as _;
@@ -68,8 +69,12 @@ fn io_err(file: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
     }
 }
 
+/// Writes a text file whole or not at all.
 fn write(path: &Path, text: &str) -> Result<()> {
-    std::fs::write(path, text).map_err(io_err(path))
+    plsr::atomic_write::write_atomically(path, |w| {
+        use std::io::Write as _;
+        w.write_all(text.as_bytes()).map_err(io_err(path))
+    })
 }
 
 /// Writes a mesh as OBJ (positions, and normals where given).
@@ -124,8 +129,14 @@ fn write_sky(path: &Path) -> Result<()> {
             (0.12, 0.10, 0.08)
         }
     };
-    exr::prelude::write_rgb_file(path, w, h, texel)
-        .map_err(|e| Error::InvalidArgument(format!("{}: {e}", path.display())))
+    let mut pixels = Vec::with_capacity(w * h * 3);
+    for y in 0..h {
+        for x in 0..w {
+            let (r, g, b) = texel(x, y);
+            pixels.extend([r, g, b]);
+        }
+    }
+    plsr::hdr::oiio::write_image(path, w, h, 3, PixelType::F32, &[], &pixels)
 }
 
 /// Writes the glossy/environment scene's files into `dir`; plsr's scene file.
