@@ -382,7 +382,21 @@ impl PaperRoom {
     pub fn write_assets(&self, dir: &Path, bunny: &Path) -> Result<()> {
         let meshes = dir.join("meshes");
         create_dir(&meshes)?;
-        for (name, text) in self.meshes() {
+        let mesh_files = self.meshes();
+        for (name, _) in &mesh_files {
+            let path = meshes.join(name);
+            if crate::atomic_write::same_file(&path, bunny) {
+                return Err(Error::input(
+                    bunny,
+                    "",
+                    format!(
+                        "the bunny would be overwritten by the generated {}",
+                        path.display()
+                    ),
+                ));
+            }
+        }
+        for (name, text) in mesh_files {
             write_file(&meshes.join(name), &text)?;
         }
         let pls = self.pls();
