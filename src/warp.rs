@@ -203,11 +203,20 @@ pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
     }
 }
 
-/// A discrete distribution over `n` items, sampled by binary search on its CDF.
+/// A discrete distribution over `n` items, sampled by a search on its CDF
+/// that a guide table narrows to a few entries (the cutpoint method of Chen
+/// and Asau, 1974).
 #[derive(Debug, Clone, Default)]
 pub struct Distribution1D {
     pmf: Vec<f32>,
+    /// `cdf[i]`: the probability of items `0..=i` (the last is exactly 1).
     cdf: Vec<f32>,
+    /// `guide[j]`: the item a number `j / m` picks, for `m = guide.len()`
+    /// (a power of two ≥ n, so `j / m` and `u · m` are exact).
+    guide: Vec<u32>,
+    /// `skip[i]`: the first item from `i` on with a non-zero probability
+    /// (the last item if none has), where a search landing on `i` ends.
+    skip: Vec<u32>,
 }
 
 impl Distribution1D {
@@ -219,11 +228,13 @@ impl Distribution1D {
             return Distribution1D {
                 pmf: vec![0.0; weights.len()],
                 cdf: vec![],
+                guide: vec![],
+                skip: vec![],
             };
         }
         let mut acc = 0.0f64;
         let mut cdf = Vec::with_capacity(weights.len());
-        let pmf = weights
+        let pmf: Vec<f32> = weights
             .iter()
             .map(|&w| {
                 let p = w.max(0.0) as f64 / total;
@@ -235,7 +246,24 @@ impl Distribution1D {
         if let Some(last) = cdf.last_mut() {
             *last = 1.0;
         }
-        Distribution1D { pmf, cdf }
+        let m = cdf.len().next_power_of_two();
+        let guide = (0..m)
+            .map(|j| first_above(&cdf, j as f32 / m as f32) as u32)
+            .collect();
+        let mut skip = vec![0u32; cdf.len()];
+        let mut next = cdf.len() - 1;
+        for i in (0..cdf.len()).rev() {
+            if pmf[i] != 0.0 {
+                next = i;
+            }
+            skip[i] = next as u32;
+        }
+        Distribution1D {
+            pmf,
+            cdf,
+            guide,
+            skip,
+        }
     }
 
     /// Number of items.
@@ -249,19 +277,22 @@ impl Distribution1D {
     }
 
     /// Picks an item for `u ∈ [0, 1)`; returns `(index, probability)`.
-    #[inline]
+    #[inline(always)]
     pub fn sample(&self, u: f32) -> Option<(usize, f32)> {
         if self.cdf.is_empty() {
             return None;
         }
-        let mut i = self
-            .cdf
-            .partition_point(|&c| c <= u)
-            .min(self.cdf.len() - 1);
-        // Skip zero-probability items a rounding tie may land on.
-        while self.pmf[i] == 0.0 && i + 1 < self.pmf.len() {
-            i += 1;
-        }
+        // The first item whose CDF exceeds u: between the items of u's slot
+        // and of the next slot's start, as the search is monotone in u.
+        let m = self.guide.len();
+        let j = ((u * m as f32) as usize).min(m - 1);
+        let lo = self.guide[j] as usize;
+        let hi = self
+            .guide
+            .get(j + 1)
+            .map_or(self.cdf.len(), |&g| g as usize + 1);
+        // Skipping zero-probability items a rounding tie may land on.
+        let i = self.skip[lo + first_above(&self.cdf[lo..hi], u)] as usize;
         Some((i, self.pmf[i]))
     }
 
@@ -270,6 +301,13 @@ impl Distribution1D {
     pub fn pmf(&self, i: usize) -> f32 {
         self.pmf.get(i).copied().unwrap_or(0.0)
     }
+}
+
+/// The first index of the non-decreasing `cdf` whose value exceeds `u`, at
+/// most its last index.
+#[inline]
+fn first_above(cdf: &[f32], u: f32) -> usize {
+    cdf.partition_point(|&c| c <= u).min(cdf.len() - 1)
 }
 
 #[cfg(test)]
@@ -303,6 +341,45 @@ mod tests {
         assert_eq!(d.sample(0.25).unwrap().0, 2);
         assert_eq!(d.sample(0.9999).unwrap().0, 2);
         assert!(Distribution1D::new(&[0.0, 0.0]).sample(0.5).is_none());
+    }
+
+    #[test]
+    fn guided_sampling_picks_what_a_binary_search_picks() {
+        let mut rng = crate::rng::Rng::new(3, 0);
+        for n in [1usize, 2, 3, 5, 8, 9, 64, 100, 1000] {
+            let weights: Vec<f32> = (0..n)
+                .map(|i| match i % 4 {
+                    0 => 0.0,
+                    1 => rng.next_f32() * 1e-6,
+                    _ => rng.next_f32(),
+                })
+                .collect();
+            let d = Distribution1D::new(&weights);
+            let reference = |u: f32| {
+                let mut i = d.cdf.partition_point(|&c| c <= u).min(d.cdf.len() - 1);
+                while d.pmf[i] == 0.0 && i + 1 < d.pmf.len() {
+                    i += 1;
+                }
+                (i, d.pmf[i])
+            };
+            // Random numbers, and every CDF value and its neighbours.
+            let mut us: Vec<f32> = (0..20_000).map(|_| rng.next_f32()).collect();
+            for &c in &d.cdf {
+                us.extend(
+                    [c, c.next_down(), c.next_up()]
+                        .into_iter()
+                        .filter(|u| *u < 1.0),
+                );
+            }
+            us.extend([0.0, 1.0f32.next_down()]);
+            for u in us {
+                if d.is_empty() {
+                    assert!(d.sample(u).is_none());
+                } else {
+                    assert_eq!(d.sample(u), Some(reference(u)), "n = {n}, u = {u}");
+                }
+            }
+        }
     }
 
     #[test]

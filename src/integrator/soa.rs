@@ -1,7 +1,8 @@
 //! A vectorised wavefront for the commonest kind of scene: every material
 //! plain Lambert (no textures), meshes without vertex normals, lit by point
-//! lights and emissive meshes (area lights) without emission cones; no
-//! environment, no reach-limited (PLS) light groups.
+//! lights, emissive meshes (area lights) and parametric lights (emitting
+//! triangles with a cone, picked only where their cone reaches); no
+//! environment.
 //!
 //! It computes what the general integrator ([`super::render_tile`])
 //! computes, in the same floating-point operations in the same order, with
@@ -34,7 +35,8 @@ use crate::bsdf::{lambert_eval, lambert_pdf, lambert_sample, Bsdf};
 use crate::camera::{Camera, PinholeCamera};
 use crate::filter::PixelFilter;
 use crate::job::RenderJob;
-use crate::light::{point_light_sample, triangle_light_sample, Light};
+use crate::light::pls::SoftEdge;
+use crate::light::{point_light_sample, Cone, Light, TrianglePoint};
 use crate::rng::Rng;
 use crate::scene::Scene;
 use crate::warp::{power_heuristic, Frame};
@@ -52,31 +54,26 @@ pub struct SoaScene {
     /// The one light, when there is exactly one, with the probability of
     /// picking it: the same for every lane.
     single_light: Option<LightIn>,
+    /// Each light of the scene as a lane takes it (with no pick
+    /// probability), and last an entry for no light at all.
+    light_table: Vec<LightIn>,
     /// Whether any light is an emitting triangle.
     triangle_lights: bool,
+    /// Whether any light is an emitting triangle with a cone (a parametric
+    /// light).
+    cones: bool,
 }
 
 impl SoaScene {
     /// The kernel's view of `scene`, or `None` when the scene needs the
     /// general integrator: a material that is not untextured Lambert, vertex
-    /// normals, an environment, a light that is neither a point light nor an
-    /// emissive triangle without a cone, reach-limited light groups, or no
-    /// light that can be picked.
+    /// normals, virtual objects, or an environment.
     pub fn new(scene: &Scene) -> Option<SoaScene> {
-        let supported = |l: &Light| match l {
-            Light::Point(_) => true,
-            Light::Triangle(t) => t.cone.is_none(),
-            Light::Environment { .. } => false,
-        };
-        if scene.environment_index().is_some()
-            || !scene.lights().is_spatially_uniform()
-            || !scene.lights().lights.iter().all(supported)
-        {
+        // The kernel picks lights by a mask of the cone-limited groups that
+        // reach a point (`LightSet::pick_among`).
+        if scene.environment_index().is_some() || scene.lights().limited_reaches().len() > 64 {
             return None;
         }
-        // Light picking must always succeed, as the scalar path assumes when
-        // it draws the light sample's numbers.
-        let (first, pmf) = scene.lights().pick(Vec3::ZERO, Vec2::splat(0.5))?;
         let mut albedo = [Vec::new(), Vec::new(), Vec::new()];
         let mut emissive = Vec::new();
         for (g, mesh) in scene.meshes().iter().enumerate() {
@@ -101,27 +98,40 @@ impl SoaScene {
             a.push(0.0);
         }
         emissive.push(false);
-        let single_light = match scene.lights().lights.as_slice() {
-            [l] if first == 0 => Some(LightIn::new(l, pmf)),
+        let lights = scene.lights();
+        // One light picked the same way everywhere: the same for every lane.
+        let single_light = match lights.lights.as_slice() {
+            [l] if lights.is_spatially_uniform() => lights
+                .pick(Vec3::ZERO, Vec2::splat(0.5))
+                .filter(|&(first, _)| first == 0)
+                .map(|(_, pmf)| LightIn::new(l, pmf)),
             _ => None,
         };
+        let triangle = |l: &Light| matches!(l, Light::Triangle(_));
+        let cone = |l: &Light| matches!(l, Light::Triangle(t) if t.cone.is_some());
+        let mut light_table: Vec<LightIn> =
+            lights.lights.iter().map(|l| LightIn::new(l, 0.0)).collect();
+        light_table.push(LightIn::default());
         Some(SoaScene {
             albedo,
             emissive,
             single_light,
-            triangle_lights: scene
-                .lights()
-                .lights
-                .iter()
-                .any(|l| matches!(l, Light::Triangle(_))),
+            light_table,
+            triangle_lights: lights.lights.iter().any(triangle),
+            cones: lights.lights.iter().any(cone),
         })
     }
 }
 
 /// One lane's light for a light sample: a point light or an emitting
-/// triangle, and the probability it was picked with.
-#[derive(Debug, Clone, Copy, Default)]
+/// triangle (with the cone of a parametric light, if it has one), and the
+/// probability it was picked with.
+#[derive(Debug, Clone, Copy)]
 struct LightIn {
+    /// Whether a light was picked: picking fails where no light can reach
+    /// the shading point (a parametric light's cone), and the lane then
+    /// takes no light sample.
+    picked: bool,
     /// An emitting triangle (else a point light).
     triangle: bool,
     /// The triangle emits on both sides.
@@ -136,29 +146,109 @@ struct LightIn {
     emit: Vec3,
     /// Probability of picking this light.
     pmf: f32,
+    /// The triangle emits only into a cone (see [`Cone`]).
+    cone: bool,
+    /// The cone's unit axis.
+    axis: Vec3,
+    /// The cosine of the cone's outer half-angle.
+    cos_a: f32,
+    /// The cone's window has a soft edge (`edge` holds it).
+    soft: bool,
+    /// The soft edge (a harmless placeholder for a hard cone).
+    edge: SoftEdge,
+}
+
+/// The soft edge of a light without one: never used, but finite.
+const NO_EDGE: SoftEdge = SoftEdge {
+    cos_inner: 1.0,
+    outer: 0.0,
+    width: 1.0,
+};
+
+impl Default for LightIn {
+    fn default() -> LightIn {
+        LightIn {
+            picked: false,
+            triangle: false,
+            two_sided: false,
+            p: [Vec3::ZERO; 3],
+            n: Vec3::ZERO,
+            area: 0.0,
+            emit: Vec3::ZERO,
+            pmf: 0.0,
+            cone: false,
+            axis: Vec3::Z,
+            cos_a: -1.0,
+            soft: false,
+            edge: NO_EDGE,
+        }
+    }
 }
 
 impl LightIn {
     fn new(light: &Light, pmf: f32) -> LightIn {
         match light {
             Light::Point(l) => LightIn {
+                picked: true,
                 p: [l.position; 3],
                 emit: l.intensity,
                 pmf,
                 ..Default::default()
             },
-            Light::Triangle(t) => LightIn {
-                triangle: true,
-                two_sided: t.two_sided,
-                p: t.p,
-                n: t.n,
-                area: t.area,
-                emit: t.radiance,
-                pmf,
-            },
+            Light::Triangle(t) => {
+                let none = LightIn::default();
+                let cone = t.cone.unwrap_or(Cone {
+                    axis: none.axis,
+                    cos_a: none.cos_a,
+                    soft: None,
+                });
+                LightIn {
+                    picked: true,
+                    triangle: true,
+                    two_sided: t.two_sided,
+                    p: t.p,
+                    n: t.n,
+                    area: t.area,
+                    emit: t.radiance,
+                    pmf,
+                    cone: t.cone.is_some(),
+                    axis: cone.axis,
+                    cos_a: cone.cos_a,
+                    soft: cone.soft.is_some(),
+                    edge: cone.soft.unwrap_or(NO_EDGE),
+                }
+            }
             Light::Environment { .. } => {
                 unreachable!("SoaScene::new refuses environment lights")
             }
+        }
+    }
+
+    /// The radiance leaving the triangle along the unit direction `w`:
+    /// [`TriangleLight::emitted`](crate::light::TriangleLight::emitted)
+    /// without branches, rounding as it does (a window of 1 or 0 multiplies
+    /// the radiance exactly).
+    #[inline(always)]
+    fn emitted<const CONES: bool>(&self, w: Vec3) -> Vec3 {
+        let side = self.two_sided || self.n.dot(w) > 0.0;
+        let radiance = if CONES && self.cone {
+            let d = w.dot(self.axis);
+            let ramp = self.edge.ramp(d);
+            let window = if d < self.cos_a {
+                0.0
+            } else if !self.soft || d >= self.edge.cos_inner {
+                1.0
+            } else {
+                ramp
+            };
+            self.emit * window
+        } else {
+            self.emit
+        };
+        if side {
+            radiance
+        } else {
+            Vec3::ZERO
         }
     }
 }
@@ -166,6 +256,7 @@ impl LightIn {
 /// The lights of [`W`] lanes, one array per component.
 #[derive(Clone, Copy)]
 struct LightChunk {
+    picked: [bool; W],
     triangle: [bool; W],
     two_sided: [bool; W],
     p: [[[f32; W]; 3]; 3],
@@ -173,41 +264,84 @@ struct LightChunk {
     area: [f32; W],
     emit: [[f32; W]; 3],
     pmf: [f32; W],
+    cone: [bool; W],
+    axis: [[f32; W]; 3],
+    cos_a: [f32; W],
+    soft: [bool; W],
+    edge: [[f32; W]; 3],
 }
 
 impl LightChunk {
+    /// The same light in every lane.
     #[inline(always)]
     fn splat(l: LightIn) -> LightChunk {
-        let v = |v: Vec3| [[v.x; W], [v.y; W], [v.z; W]];
+        let mut chunk = LightChunk::empty();
+        for k in 0..W {
+            chunk.set(k, &l);
+        }
+        chunk
+    }
+
+    /// The lights of lanes `start..start + W` (no light past the end):
+    /// `table[light[i]]` picked with probability `pmf[i]`.
+    #[inline(always)]
+    fn load(table: &[LightIn], light: &[u32], pmf: &[f32], start: usize) -> LightChunk {
+        let mut chunk = LightChunk::empty();
+        let end = light.len().min(start + W);
+        for (k, (&li, &pmf)) in light[start..end].iter().zip(&pmf[start..end]).enumerate() {
+            chunk.set(k, &table[li as usize]);
+            chunk.pmf[k] = pmf;
+        }
+        chunk
+    }
+
+    #[inline(always)]
+    fn empty() -> LightChunk {
         LightChunk {
-            triangle: [l.triangle; W],
-            two_sided: [l.two_sided; W],
-            p: [v(l.p[0]), v(l.p[1]), v(l.p[2])],
-            n: v(l.n),
-            area: [l.area; W],
-            emit: v(l.emit),
-            pmf: [l.pmf; W],
+            picked: [false; W],
+            triangle: [false; W],
+            two_sided: [false; W],
+            p: [[[0.0; W]; 3]; 3],
+            n: [[0.0; W]; 3],
+            area: [0.0; W],
+            emit: [[0.0; W]; 3],
+            pmf: [0.0; W],
+            cone: [false; W],
+            axis: [[0.0; W]; 3],
+            cos_a: [0.0; W],
+            soft: [false; W],
+            edge: [[0.0; W]; 3],
         }
     }
 
     #[inline(always)]
-    fn load(lanes: &LightLanes, start: usize) -> LightChunk {
-        let v = |a: &[Vec<f32>; 3]| [load(&a[0], start), load(&a[1], start), load(&a[2], start)];
-        LightChunk {
-            triangle: load(&lanes.triangle, start),
-            two_sided: load(&lanes.two_sided, start),
-            p: [v(&lanes.p[0]), v(&lanes.p[1]), v(&lanes.p[2])],
-            n: v(&lanes.n),
-            area: load(&lanes.area, start),
-            emit: v(&lanes.emit),
-            pmf: load(&lanes.pmf, start),
+    fn set(&mut self, k: usize, l: &LightIn) {
+        self.picked[k] = l.picked;
+        self.triangle[k] = l.triangle;
+        self.two_sided[k] = l.two_sided;
+        for c in 0..3 {
+            for v in 0..3 {
+                self.p[v][c][k] = l.p[v][c];
+            }
+            self.n[c][k] = l.n[c];
+            self.emit[c][k] = l.emit[c];
+            self.axis[c][k] = l.axis[c];
         }
+        self.area[k] = l.area;
+        self.pmf[k] = l.pmf;
+        self.cone[k] = l.cone;
+        self.cos_a[k] = l.cos_a;
+        self.soft[k] = l.soft;
+        self.edge[0][k] = l.edge.cos_inner;
+        self.edge[1][k] = l.edge.outer;
+        self.edge[2][k] = l.edge.width;
     }
 
     #[inline(always)]
     fn lane(&self, k: usize) -> LightIn {
         let v = |a: &[[f32; W]; 3]| Vec3::new(a[0][k], a[1][k], a[2][k]);
         LightIn {
+            picked: self.picked[k],
             triangle: self.triangle[k],
             two_sided: self.two_sided[k],
             p: [v(&self.p[0]), v(&self.p[1]), v(&self.p[2])],
@@ -215,51 +349,16 @@ impl LightChunk {
             area: self.area[k],
             emit: v(&self.emit),
             pmf: self.pmf[k],
+            cone: self.cone[k],
+            axis: v(&self.axis),
+            cos_a: self.cos_a[k],
+            soft: self.soft[k],
+            edge: SoftEdge {
+                cos_inner: self.edge[0][k],
+                outer: self.edge[1][k],
+                width: self.edge[2][k],
+            },
         }
-    }
-}
-
-/// Each lane's picked light, one array per component (see [`LightIn`]).
-#[derive(Default)]
-struct LightLanes {
-    triangle: Vec<bool>,
-    two_sided: Vec<bool>,
-    p: [[Vec<f32>; 3]; 3],
-    n: [Vec<f32>; 3],
-    area: Vec<f32>,
-    emit: [Vec<f32>; 3],
-    pmf: Vec<f32>,
-}
-
-impl LightLanes {
-    fn resize(&mut self, n: usize) {
-        self.triangle.resize(n, false);
-        self.two_sided.resize(n, false);
-        for a in self
-            .p
-            .iter_mut()
-            .flatten()
-            .chain(&mut self.n)
-            .chain(&mut self.emit)
-        {
-            a.resize(n, 0.0);
-        }
-        self.area.resize(n, 0.0);
-        self.pmf.resize(n, 0.0);
-    }
-
-    fn set(&mut self, i: usize, l: LightIn) {
-        self.triangle[i] = l.triangle;
-        self.two_sided[i] = l.two_sided;
-        for c in 0..3 {
-            for v in 0..3 {
-                self.p[v][c][i] = l.p[v][c];
-            }
-            self.n[c][i] = l.n[c];
-            self.emit[c][i] = l.emit[c];
-        }
-        self.area[i] = l.area;
-        self.pmf[i] = l.pmf;
     }
 }
 
@@ -279,7 +378,10 @@ pub struct SoaLanes {
     prev_pdf: Vec<f32>,
     /// The scattering point the current ray left from.
     prev_point: [Vec<f32>; 3],
-    lights: LightLanes,
+    /// Each lane's picked light (when the scene has several), an index
+    /// into [`SoaScene::light_table`], and the probability of its pick.
+    light: Vec<u32>,
+    light_pmf: Vec<f32>,
     /// Lanes whose paths go on, ascending (rebuilt every bounce).
     kept: Vec<u32>,
     /// Lanes whose paths have ended, ascending (rebuilt every bounce).
@@ -301,7 +403,8 @@ impl SoaLanes {
             self.prev_point[c].resize(n, 0.0);
         }
         self.prev_pdf.resize(n, 0.0);
-        self.lights.resize(n);
+        self.light.resize(n, 0);
+        self.light_pmf.resize(n, 0.0);
     }
 
     /// Keeps the lanes listed in `self.kept`, in order; the previous
@@ -724,11 +827,13 @@ fn pinhole_camera_rays(camera: &PinholeCamera, pass: &Pass, lanes: &mut SoaLanes
     }
 }
 
-/// Fills each lane's light (position, intensity, pick probability) for the
-/// next light sample. With several lights the pick draws the lane's next
-/// two random numbers, as the general integrator does; the draw itself
-/// (advancing the state) happens in [`shade_lane`]. With one light there is
-/// nothing to fill: [`shade_lanes`] uses it for every lane.
+/// Fills each lane's light for the next light sample: the light the
+/// general integrator's [`LightSet::pick`](crate::light::LightSet::pick)
+/// picks at the lane's hit point with the lane's next two random numbers
+/// (the draw itself, advancing the state, happens in [`shade_lane`]), or
+/// none where no light can reach the point. With one light picked the same
+/// way everywhere there is nothing to fill: [`shade_lanes`] uses it for
+/// every lane.
 #[inline(always)]
 fn pick_lights(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
     let n = lanes.rays.len();
@@ -736,19 +841,66 @@ fn pick_lights(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
         // `shade_lanes` uses it directly.
         return;
     }
-    let geom = lanes.rays.geom_id.as_slice();
-    for i in 0..n {
-        if geom[i] == INVALID_ID {
-            continue;
+    let set = scene.lights();
+    let none = (kernel.light_table.len() - 1) as u32;
+    let rays = &lanes.rays;
+    for start in (0..n).step_by(W) {
+        // The hit points exactly as `shade_lane` computes them, and the
+        // pick's two numbers, for a chunk of lanes at once.
+        let t = load(rays.tfar.as_slice(), start);
+        let org = [
+            load(rays.org_x.as_slice(), start),
+            load(rays.org_y.as_slice(), start),
+            load(rays.org_z.as_slice(), start),
+        ];
+        let dir = [
+            load(rays.dir_x.as_slice(), start),
+            load(rays.dir_y.as_slice(), start),
+            load(rays.dir_z.as_slice(), start),
+        ];
+        let mut state = load(&lanes.rng_state, start);
+        let inc = load(&lanes.rng_inc, start);
+        let mut p = [[0.0f32; W]; 3];
+        let mut u = [Vec2::ZERO; W];
+        for k in 0..W {
+            let x = Vec3::new(org[0][k], org[1][k], org[2][k])
+                + t[k] * Vec3::new(dir[0][k], dir[1][k], dir[2][k]);
+            for c in 0..3 {
+                p[c][k] = x[c];
+            }
+            u[k] = Rng::step_2d(&mut state[k], inc[k]);
         }
-        let mut rng = Rng::from_parts(lanes.rng_state[i], lanes.rng_inc[i]);
-        let (li, pmf) = scene
-            .lights()
-            .pick(Vec3::ZERO, rng.next_2d())
-            .expect("SoaScene::new checked that picking succeeds");
-        lanes
-            .lights
-            .set(i, LightIn::new(&scene.lights().lights[li], pmf));
+        // Which cone-limited groups reach each lane's point: the bounding
+        // cones for the whole chunk, the exact test where they cannot tell.
+        let mut reaches = [0u64; W];
+        for (g, reach) in set.limited_reaches().enumerate() {
+            let Some(reach) = reach else { continue };
+            let mut decided = [false; W];
+            let mut inside = [false; W];
+            for k in 0..W {
+                (decided[k], inside[k]) =
+                    reach.bounding_cones(Vec3::new(p[0][k], p[1][k], p[2][k]));
+            }
+            for k in 0..W {
+                let yes = if decided[k] {
+                    inside[k]
+                } else {
+                    reach.can_reach(Vec3::new(p[0][k], p[1][k], p[2][k]))
+                };
+                reaches[k] |= (yes as u64) << g;
+            }
+        }
+        let geom = load_or(rays.geom_id.as_slice(), start, INVALID_ID);
+        for k in 0..(n - start).min(W) {
+            if geom[k] == INVALID_ID {
+                continue;
+            }
+            (lanes.light[start + k], lanes.light_pmf[start + k]) =
+                match set.pick_among(reaches[k], u[k]) {
+                    Some((li, pmf)) => (li as u32, pmf),
+                    None => (none, 0.0),
+                };
+        }
     }
 }
 
@@ -844,7 +996,7 @@ struct LaneOut {
 /// branch-free helpers as the general integrator (ray offsets, the lights'
 /// samples, Lambert, MIS), in the same order, with the same random numbers.
 #[inline(always)]
-fn shade_lane<const TRIANGLES: bool>(l: LaneIn, u: Uniform) -> LaneOut {
+fn shade_lane<const TRIANGLES: bool, const CONES: bool>(l: LaneIn, u: Uniform) -> LaneOut {
     let mut rng = l.rng;
     let p = l.org + l.t * l.dir;
     let wo = -l.dir;
@@ -859,23 +1011,23 @@ fn shade_lane<const TRIANGLES: bool>(l: LaneIn, u: Uniform) -> LaneOut {
     // pick the light (`pick_lights` drew the pick from them already, or
     // there is one light), two place the sample on it (unused by a point
     // light), one picks the BSDF's lobe (Lambert has one), two the direction.
+    // Where no light was picked, the general integrator draws no numbers
+    // for a light sample: drawn on a copy, kept where a light was picked.
+    let light = l.light;
     let _light_pick = Rng::step_2d(&mut rng, l.inc);
-    let light_point = Rng::step_2d(&mut rng, l.inc);
+    let mut rng_point = rng;
+    let light_point = Rng::step_2d(&mut rng_point, l.inc);
+    if light.picked {
+        rng = rng_point;
+    }
     let _lobe = Rng::step_f32(&mut rng, l.inc);
     let direction = Rng::step_2d(&mut rng, l.inc);
 
-    let light = l.light;
     // Both lights' samples, computed for every lane and selected (the
     // triangle's only where the scene has emitting triangles).
     let (valid, ls) = if TRIANGLES && light.triangle {
-        let emitted = |w: Vec3| {
-            if light.two_sided || light.n.dot(w) > 0.0 {
-                light.emit
-            } else {
-                Vec3::ZERO
-            }
-        };
-        triangle_light_sample(light.p, light.n, light.area, emitted, p, light_point)
+        let point = TrianglePoint::new(light.p, light.n, light.area, p, light_point);
+        point.sample(light.emitted::<CONES>(-point.wi))
     } else {
         point_light_sample(light.p[0], light.emit, p)
     };
@@ -891,7 +1043,7 @@ fn shade_lane<const TRIANGLES: bool>(l: LaneIn, u: Uniform) -> LaneOut {
         1.0
     };
     let (shadow_dir, shadow_tfar) = shadow_segment(origin, p, ls.wi, ls.dist);
-    let shadow = l.hit && valid && f != Vec3::ZERO && shadow_tfar > 0.0;
+    let shadow = l.hit && light.picked && valid && f != Vec3::ZERO && shadow_tfar > 0.0;
     let pending = l.beta * f * ls.radiance * (weight / light_pdf);
 
     let (sampled, local, pdf) = lambert_sample(wo_local, direction);
@@ -971,17 +1123,21 @@ fn store<T: Copy>(dst: &mut [T], start: usize, src: &[T; W]) {
 /// some thirty lane arrays and a table lookup.
 #[inline(always)]
 fn shade_lanes(kernel: &SoaScene, lanes: &mut SoaLanes, u: Uniform) {
-    if kernel.triangle_lights {
-        shade_chunks::<true>(kernel, lanes, u)
-    } else {
-        shade_chunks::<false>(kernel, lanes, u)
+    match (kernel.triangle_lights, kernel.cones) {
+        (true, true) => shade_chunks::<true, true>(kernel, lanes, u),
+        (true, false) => shade_chunks::<true, false>(kernel, lanes, u),
+        (false, _) => shade_chunks::<false, false>(kernel, lanes, u),
     }
 }
 
 /// [`shade_lanes`] for scenes with (`TRIANGLES`) or without emitting
-/// triangles.
+/// triangles, and with (`CONES`) or without emission cones among them.
 #[inline(always)]
-fn shade_chunks<const TRIANGLES: bool>(kernel: &SoaScene, lanes: &mut SoaLanes, u: Uniform) {
+fn shade_chunks<const TRIANGLES: bool, const CONES: bool>(
+    kernel: &SoaScene,
+    lanes: &mut SoaLanes,
+    u: Uniform,
+) {
     let n = lanes.rays.len();
     let last = kernel.albedo[0].len() - 1;
     let rays = &mut lanes.rays;
@@ -1021,7 +1177,7 @@ fn shade_chunks<const TRIANGLES: bool>(kernel: &SoaScene, lanes: &mut SoaLanes, 
         // One light: the same for every lane, so no per-lane arrays.
         let lights = match kernel.single_light {
             Some(l) => LightChunk::splat(l),
-            None => LightChunk::load(&lanes.lights, start),
+            None => LightChunk::load(&kernel.light_table, &lanes.light, &lanes.light_pmf, start),
         };
         let mut rng = load(&lanes.rng_state, start);
         let inc = load(&lanes.rng_inc, start);
@@ -1041,7 +1197,7 @@ fn shade_chunks<const TRIANGLES: bool>(kernel: &SoaScene, lanes: &mut SoaLanes, 
         }
         for k in 0..W {
             let hit = geom[k] != INVALID_ID;
-            let out = shade_lane::<TRIANGLES>(
+            let out = shade_lane::<TRIANGLES, CONES>(
                 LaneIn {
                     org: Vec3::new(ox[k], oy[k], oz[k]),
                     dir: Vec3::new(dx[k], dy[k], dz[k]),

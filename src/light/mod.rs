@@ -35,7 +35,7 @@ mod triangle;
 pub use envmap::EnvironmentLight;
 pub use pls::{Cone, Reach};
 pub use point::{point_light_sample, PointLight};
-pub use triangle::{triangle_light_sample, TriangleLight};
+pub use triangle::{triangle_light_sample, TriangleLight, TrianglePoint};
 
 use crate::color::luminance;
 
@@ -263,20 +263,21 @@ impl LightSet {
         }
     }
 
-    /// Selection weights at `p` of the first 64 cone-limited groups (the
-    /// rest are recomputed when needed) and the total weight.
+    /// Which of the first 64 cone-limited groups can reach `p` (bit `k` for
+    /// `limited_groups[k]`; the rest are recomputed when needed) and the
+    /// total selection weight at `p`.
     #[inline]
-    fn weights_at(&self, p: Vec3) -> ([f32; 64], f32) {
-        let mut w = [0.0f32; 64];
+    fn weights_at(&self, p: Vec3) -> (u64, f32) {
+        let mut reaches = 0u64;
         let mut total = self.everywhere_power;
         for (k, &g) in self.limited_groups.iter().enumerate() {
             let x = self.limited_power(g, p);
-            if k < 64 {
-                w[k] = x;
+            if k < 64 && x > 0.0 {
+                reaches |= 1 << k;
             }
             total += x;
         }
-        (w, total)
+        (reaches, total)
     }
 
     #[inline]
@@ -303,7 +304,55 @@ impl LightSet {
                 g.power / self.everywhere_power * pi,
             ));
         }
-        let (weights, total) = self.weights_at(p);
+        let (reaches, _) = self.weights_at(p);
+        self.pick_where(
+            |k, g| {
+                if k < 64 {
+                    reaches >> k & 1 == 1
+                } else {
+                    self.limited_power(g, p) > 0.0
+                }
+            },
+            u,
+        )
+    }
+
+    /// The cone-limited groups in the order [`LightSet::pick_among`]'s mask
+    /// numbers them: each one's reach, or `None` for a group that never
+    /// reaches anything (no power).
+    pub fn limited_reaches(&self) -> impl ExactSizeIterator<Item = Option<&Reach>> {
+        self.limited_groups.iter().map(|&g| {
+            let group = &self.groups[g as usize];
+            group.reach.as_ref().filter(|_| group.power > 0.0)
+        })
+    }
+
+    /// [`LightSet::pick`] at a point that the cone-limited groups whose bits
+    /// are set in `reaches` can reach (bit `k` for the `k`-th of
+    /// [`LightSet::limited_reaches`]; at most 64 groups), for a caller that
+    /// tests the reach of many points at once. The same light and
+    /// probability as `pick`.
+    #[inline(always)]
+    pub fn pick_among(&self, reaches: u64, u: Vec2) -> Option<(usize, f32)> {
+        debug_assert!(self.limited_groups.len() <= 64);
+        if self.limited_groups.is_empty() {
+            return self.pick(Vec3::ZERO, u);
+        }
+        self.pick_where(|k, _| reaches >> k & 1 == 1, u)
+    }
+
+    /// The pick among the everywhere-groups and the cone-limited groups for
+    /// which `reaches(k, group)` holds (`k`-th cone-limited group).
+    #[inline(always)]
+    fn pick_where(&self, reaches: impl Fn(usize, u32) -> bool, u: Vec2) -> Option<(usize, f32)> {
+        // The total weight, summed in the order `weights_at` sums it (a
+        // group that cannot reach adds nothing).
+        let mut total = self.everywhere_power;
+        for (k, &g) in self.limited_groups.iter().enumerate() {
+            if reaches(k, g) {
+                total += self.groups[g as usize].power;
+            }
+        }
         if total <= 0.0 {
             return None;
         }
@@ -315,12 +364,8 @@ impl LightSet {
             target -= self.everywhere_power;
             let mut chosen = None;
             for (k, &g) in self.limited_groups.iter().enumerate() {
-                let w = if k < 64 {
-                    weights[k]
-                } else {
-                    self.limited_power(g, p)
-                };
-                if w > 0.0 {
+                if reaches(k, g) {
+                    let w = self.groups[g as usize].power;
                     chosen = Some(g);
                     if target < w {
                         break;

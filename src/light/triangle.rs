@@ -106,13 +106,65 @@ impl TriangleLight {
     }
 }
 
+/// A point sampled uniformly on a triangle light, seen from a shading
+/// point: the first half of [`triangle_light_sample`].
+#[derive(Debug, Clone, Copy)]
+pub struct TrianglePoint {
+    /// Unit direction from the shading point to the light point.
+    pub wi: Vec3,
+    /// Distance and squared distance to the light point.
+    pub dist: f32,
+    dist2: f32,
+    /// Cosine between the light's normal and `−wi`.
+    cos_light: f32,
+    area: f32,
+}
+
+impl TrianglePoint {
+    /// The triangle `vertices` with unit normal `n` and area `area` (scene
+    /// units²) sampled from `p` with the square sample `u`.
+    #[inline(always)]
+    pub fn new(vertices: [Vec3; 3], n: Vec3, area: f32, p: Vec3, u: Vec2) -> TrianglePoint {
+        let b = square_to_uniform_triangle(u);
+        let x = vertices[0] * (1.0 - b.x - b.y) + vertices[1] * b.x + vertices[2] * b.y;
+        let d = x - p;
+        let dist2 = d.length_squared();
+        let dist = dist2.sqrt();
+        let wi = d / dist;
+        TrianglePoint {
+            wi,
+            dist,
+            dist2,
+            cos_light: n.dot(-wi),
+            area,
+        }
+    }
+
+    /// The light sample for the radiance `radiance` leaving the point
+    /// towards the shading point (along `−wi`), and whether it is valid
+    /// (non-zero distance, cosine and radiance).
+    #[inline(always)]
+    pub fn sample(&self, radiance: Vec3) -> (bool, LightSample) {
+        let valid = self.dist2 != 0.0 && !(self.cos_light == 0.0 || radiance == Vec3::ZERO);
+        let sample = LightSample {
+            radiance,
+            wi: self.wi,
+            dist: self.dist,
+            pdf: self.dist2 / (self.cos_light.abs() * self.area),
+            delta: false,
+        };
+        (valid, sample)
+    }
+}
+
 /// The light sample of a triangle `vertices` with unit normal `n` and area
 /// `area` (scene units²) seen from `p`, for the square sample `u` (uniform
 /// over the area, density converted to solid angle: `r² / (|cos θ_light|·A)`);
 /// `emitted(w)` is the radiance leaving along `w`. Returns whether the
 /// sample is valid (non-zero distance, cosine and radiance). Branch-free
-/// (with a branch-free `emitted`): the vectorised kernel calls it per lane,
-/// [`TriangleLight::sample_li`] per shading point.
+/// (with a branch-free `emitted`): the vectorised kernel takes the same
+/// steps per lane ([`TrianglePoint`]), [`TriangleLight::sample_li`] per
+/// shading point.
 #[inline(always)]
 pub fn triangle_light_sample(
     vertices: [Vec3; 3],
@@ -122,21 +174,6 @@ pub fn triangle_light_sample(
     p: Vec3,
     u: Vec2,
 ) -> (bool, LightSample) {
-    let b = square_to_uniform_triangle(u);
-    let x = vertices[0] * (1.0 - b.x - b.y) + vertices[1] * b.x + vertices[2] * b.y;
-    let d = x - p;
-    let dist2 = d.length_squared();
-    let dist = dist2.sqrt();
-    let wi = d / dist;
-    let cos_light = n.dot(-wi);
-    let radiance = emitted(-wi);
-    let valid = dist2 != 0.0 && !(cos_light == 0.0 || radiance == Vec3::ZERO);
-    let sample = LightSample {
-        radiance,
-        wi,
-        dist,
-        pdf: dist2 / (cos_light.abs() * area),
-        delta: false,
-    };
-    (valid, sample)
+    let point = TrianglePoint::new(vertices, n, area, p, u);
+    point.sample(emitted(-point.wi))
 }

@@ -32,6 +32,9 @@ pub struct Reach {
     rectangle: Option<Rectangle>,
     /// Distance from `centre` to the rectangle's farthest corner.
     rectangle_radius: f32,
+    /// The bounding cones of [`Reach::bounding_cones`]: apexes and cosines.
+    back: (Vec3, f32),
+    front: (Vec3, f32),
 }
 
 impl Reach {
@@ -77,9 +80,19 @@ impl Reach {
                 .map(|(a, _)| (*a - centre).length())
                 .fold(radius, f32::max)
         });
+        // The cones of all points within `radius` of the centre lie inside
+        // the cone whose apex is moved back by r / sin a along the axis, and
+        // all contain the one moved forward by as much (with a little slack
+        // for rounding).
+        let sin_a = (1.0 - cone.cos_a * cone.cos_a).max(0.0).sqrt();
+        let shift = radius / sin_a.max(1e-6);
+        let back = (centre - shift * cone.axis, (cone.cos_a - 1e-6).max(0.0));
+        let front = (centre + shift * cone.axis, (cone.cos_a + 1e-6).max(0.0));
         Reach {
+            back,
+            front,
             rectangle_radius,
-            sin_a: (1.0 - cone.cos_a * cone.cos_a).max(0.0).sqrt(),
+            sin_a,
             cone,
             centre,
             radius,
@@ -99,24 +112,33 @@ impl Reach {
 
     /// Whether any point of the emitter sends light towards `p`.
     pub fn can_reach(&self, p: Vec3) -> bool {
-        // The cones of all points within `radius` of the centre lie inside
-        // the cone whose apex is moved back by r / sin a along the axis, and
-        // all contain the one moved forward by as much.
+        let (decided, reaches) = self.bounding_cones(p);
+        if decided {
+            return reaches;
+        }
+        self.reaches_exactly(p)
+    }
+
+    /// The quick answer of two cones around the emitter's axis, one that
+    /// holds every point the emitter can reach and one that only holds such
+    /// points: `(decided, reaches)`, where `reaches` is the answer when
+    /// `decided`. Branch-free, for testing many points at once; where it
+    /// does not decide, [`Reach::can_reach`] does.
+    #[inline(always)]
+    pub fn bounding_cones(&self, p: Vec3) -> (bool, bool) {
         let n = self.cone.axis;
-        let shift = self.radius / self.sin_a.max(1e-6);
         // d·n ≥ c·|d| without a square root (c = cos a ≥ 0 for a ≤ 90°).
-        let inside = |apex: Vec3, slack: f32| {
+        let inside = |(apex, c): (Vec3, f32)| {
             let d = p - apex;
             let dn = d.dot(n);
-            let c = (self.cone.cos_a + slack).max(0.0);
-            dn >= 0.0 && dn * dn >= c * c * d.length_squared()
+            (dn >= 0.0) & (dn * dn >= c * c * d.length_squared())
         };
-        if !inside(self.centre - shift * n, -1e-6) {
-            return false;
-        }
-        if inside(self.centre + shift * n, 1e-6) {
-            return true;
-        }
+        let (back, front) = (inside(self.back), inside(self.front));
+        (!back | front, back & front)
+    }
+
+    /// [`Reach::can_reach`] for a point the bounding cones leave undecided.
+    fn reaches_exactly(&self, p: Vec3) -> bool {
         if let Some((tris, edges)) = &self.rectangle {
             if !self.polygon_reaches(tris, edges, self.rectangle_radius, p) {
                 return false;
