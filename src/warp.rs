@@ -203,9 +203,13 @@ pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
     }
 }
 
+/// Up to this many items, [`Distribution1D::sample`] searches the whole CDF
+/// (a few steps), as the guide table would cost more than it saves.
+const SMALL: usize = 16;
+
 /// A discrete distribution over `n` items, sampled by a search on its CDF
 /// that a guide table narrows to a few entries (the cutpoint method of Chen
-/// and Asau, 1974).
+/// and Asau, 1974) when there are more than [`SMALL`] items.
 #[derive(Debug, Clone, Default)]
 pub struct Distribution1D {
     pmf: Vec<f32>,
@@ -284,6 +288,10 @@ impl Distribution1D {
         }
         // The first item whose CDF exceeds u: between the items of u's slot
         // and of the next slot's start, as the search is monotone in u.
+        if self.cdf.len() <= SMALL {
+            let i = self.skip[first_above(&self.cdf, u)] as usize;
+            return Some((i, self.pmf[i]));
+        }
         let m = self.guide.len();
         let j = ((u * m as f32) as usize).min(m - 1);
         let lo = self.guide[j] as usize;

@@ -1142,6 +1142,8 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool>(
     let last = kernel.albedo[0].len() - 1;
     let rays = &mut lanes.rays;
     let shadow = &mut lanes.shadow;
+    // One light: the same for every lane, so no per-lane arrays.
+    let single = kernel.single_light.map(LightChunk::splat);
     for start in (0..n).step_by(W) {
         let (ox, oy, oz) = (
             load(rays.org_x.as_slice(), start),
@@ -1174,10 +1176,14 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool>(
             load(&lanes.beta[1], start),
             load(&lanes.beta[2], start),
         );
-        // One light: the same for every lane, so no per-lane arrays.
-        let lights = match kernel.single_light {
-            Some(l) => LightChunk::splat(l),
-            None => LightChunk::load(&kernel.light_table, &lanes.light, &lanes.light_pmf, start),
+        let loaded;
+        let lights = match &single {
+            Some(chunk) => chunk,
+            None => {
+                loaded =
+                    LightChunk::load(&kernel.light_table, &lanes.light, &lanes.light_pmf, start);
+                &loaded
+            }
         };
         let mut rng = load(&lanes.rng_state, start);
         let inc = load(&lanes.rng_inc, start);
