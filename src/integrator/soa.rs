@@ -1,8 +1,10 @@
 //! A vectorised wavefront for the commonest kind of scene: every material
 //! plain Lambert (no textures), meshes without vertex normals, lit by point
-//! lights, emissive meshes (area lights) and parametric lights (emitting
-//! triangles with a cone, picked only where their cone reaches); no
-//! environment.
+//! lights, emissive meshes (area lights), parametric lights (emitting
+//! triangles with a cone, picked only where their cone reaches) and an
+//! environment (an importance-sampled panorama or a constant sky; its
+//! samples and the lookups of rays that leave the scene are taken for all
+//! lanes at once, with the batched lookups the general integrator uses).
 //!
 //! It computes what the general integrator ([`super::render_tile`])
 //! computes, in the same floating-point operations in the same order, with
@@ -36,7 +38,7 @@ use crate::camera::{Camera, PinholeCamera};
 use crate::filter::PixelFilter;
 use crate::job::RenderJob;
 use crate::light::pls::SoftEdge;
-use crate::light::{point_light_sample, Cone, Light, TrianglePoint};
+use crate::light::{point_light_sample, Cone, Light, LightSample, TrianglePoint};
 use crate::rng::Rng;
 use crate::scene::Scene;
 use crate::warp::{power_heuristic, Frame};
@@ -57,6 +59,8 @@ pub struct SoaScene {
     /// Each light of the scene as a lane takes it (with no pick
     /// probability), and last an entry for no light at all.
     light_table: Vec<LightIn>,
+    /// The environment light (index into the scene's lights), if any.
+    environment: Option<usize>,
     /// Whether any light is an emitting triangle.
     triangle_lights: bool,
     /// Whether any light is an emitting triangle with a cone (a parametric
@@ -67,11 +71,11 @@ pub struct SoaScene {
 impl SoaScene {
     /// The kernel's view of `scene`, or `None` when the scene needs the
     /// general integrator: a material that is not untextured Lambert, vertex
-    /// normals, virtual objects, or an environment.
+    /// normals, virtual objects, or more than 64 reach-limited groups.
     pub fn new(scene: &Scene) -> Option<SoaScene> {
         // The kernel picks lights by a mask of the cone-limited groups that
         // reach a point (`LightSet::pick_among`).
-        if scene.environment_index().is_some() || scene.lights().limited_reaches().len() > 64 {
+        if scene.lights().limited_reaches().len() > 64 {
             return None;
         }
         let mut albedo = [Vec::new(), Vec::new(), Vec::new()];
@@ -117,6 +121,7 @@ impl SoaScene {
             emissive,
             single_light,
             light_table,
+            environment: scene.environment_index(),
             triangle_lights: lights.lights.iter().any(triangle),
             cones: lights.lights.iter().any(cone),
         })
@@ -132,8 +137,10 @@ struct LightIn {
     /// the shading point (a parametric light's cone), and the lane then
     /// takes no light sample.
     picked: bool,
-    /// An emitting triangle (else a point light).
+    /// An emitting triangle (else a point light or the environment).
     triangle: bool,
+    /// The environment (its sample is taken per lane by `pick_lights`).
+    environment: bool,
     /// The triangle emits on both sides.
     two_sided: bool,
     /// The triangle's vertices; the point light's position is `p[0]`.
@@ -170,6 +177,7 @@ impl Default for LightIn {
         LightIn {
             picked: false,
             triangle: false,
+            environment: false,
             two_sided: false,
             p: [Vec3::ZERO; 3],
             n: Vec3::ZERO,
@@ -205,6 +213,7 @@ impl LightIn {
                 LightIn {
                     picked: true,
                     triangle: true,
+                    environment: false,
                     two_sided: t.two_sided,
                     p: t.p,
                     n: t.n,
@@ -218,9 +227,12 @@ impl LightIn {
                     edge: cone.soft.unwrap_or(NO_EDGE),
                 }
             }
-            Light::Environment { .. } => {
-                unreachable!("SoaScene::new refuses environment lights")
-            }
+            Light::Environment { .. } => LightIn {
+                picked: true,
+                environment: true,
+                pmf,
+                ..Default::default()
+            },
         }
     }
 
@@ -258,6 +270,7 @@ impl LightIn {
 struct LightChunk {
     picked: [bool; W],
     triangle: [bool; W],
+    environment: [bool; W],
     two_sided: [bool; W],
     p: [[[f32; W]; 3]; 3],
     n: [[f32; W]; 3],
@@ -300,6 +313,7 @@ impl LightChunk {
         LightChunk {
             picked: [false; W],
             triangle: [false; W],
+            environment: [false; W],
             two_sided: [false; W],
             p: [[[0.0; W]; 3]; 3],
             n: [[0.0; W]; 3],
@@ -318,6 +332,7 @@ impl LightChunk {
     fn set(&mut self, k: usize, l: &LightIn) {
         self.picked[k] = l.picked;
         self.triangle[k] = l.triangle;
+        self.environment[k] = l.environment;
         self.two_sided[k] = l.two_sided;
         for c in 0..3 {
             for v in 0..3 {
@@ -343,6 +358,7 @@ impl LightChunk {
         LightIn {
             picked: self.picked[k],
             triangle: self.triangle[k],
+            environment: self.environment[k],
             two_sided: self.two_sided[k],
             p: [v(&self.p[0]), v(&self.p[1]), v(&self.p[2])],
             n: v(&self.n),
@@ -382,6 +398,20 @@ pub struct SoaLanes {
     /// into [`SoaScene::light_table`], and the probability of its pick.
     light: Vec<u32>,
     light_pmf: Vec<f32>,
+    /// Each lane's sample of the environment, where it picked the
+    /// environment: whether it is valid, its direction, radiance and
+    /// density (see [`crate::light::EnvironmentLight::sample_li`]).
+    env_valid: Vec<bool>,
+    env_wi: [Vec<f32>; 3],
+    env_radiance: [Vec<f32>; 3],
+    env_pdf: Vec<f32>,
+    /// Scratch of the environment's batched lookups: lanes, their numbers
+    /// or directions, and the results.
+    env_lanes: Vec<u32>,
+    env_us: Vec<Vec2>,
+    env_samples: Vec<Option<LightSample>>,
+    env_dirs: Vec<Vec3>,
+    env_seen: Vec<(Vec3, f32)>,
     /// Lanes whose paths go on, ascending (rebuilt every bounce).
     kept: Vec<u32>,
     /// Lanes whose paths have ended, ascending (rebuilt every bounce).
@@ -405,6 +435,12 @@ impl SoaLanes {
         self.prev_pdf.resize(n, 0.0);
         self.light.resize(n, 0);
         self.light_pmf.resize(n, 0.0);
+        self.env_valid.resize(n, false);
+        self.env_pdf.resize(n, 0.0);
+        for c in 0..3 {
+            self.env_wi[c].resize(n, 0.0);
+            self.env_radiance[c].resize(n, 0.0);
+        }
     }
 
     /// Keeps the lanes listed in `self.kept`, in order; the previous
@@ -599,9 +635,10 @@ fn trace_pass_body(
     camera_vertex_layers(pass, lanes, pixels);
 
     let max_depth = pass.job.max_depth;
-    // Emission is only found on emitting triangles (and only then are the
-    // previous points and densities its MIS weight needs kept).
-    let has_emitters = kernel.triangle_lights;
+    // Emission is only found on emitting triangles and in the environment
+    // (and only then are the previous points and densities its MIS weight
+    // needs kept).
+    let has_emitters = kernel.triangle_lights || kernel.environment.is_some();
     let mut depth = 0;
     while !lanes.rays.is_empty() {
         if has_emitters {
@@ -633,7 +670,7 @@ fn trace_pass_body(
         }
         if live * 3 <= n * 2 {
             retire(lanes, &lanes.ended, scene, pixels);
-            lanes.retain(kernel.triangle_lights);
+            lanes.retain(has_emitters);
         }
         let clock = Instant::now();
         scene.accel().intersect_batch(&mut lanes.rays, false);
@@ -646,11 +683,15 @@ fn trace_pass_body(
     retire(lanes, &lanes.ended, scene, pixels);
 }
 
-/// Adds the emission that the lanes' rays found on emitting triangles,
-/// MIS-weighted against the light sample that could have found it, as the
-/// general integrator does; lane by lane, as such hits are few.
+/// Adds the emission that the lanes' rays found on emitting triangles or,
+/// leaving the scene, in the environment, MIS-weighted against the light
+/// sample that could have found it, as the general integrator does; lane
+/// by lane, as such hits are few (but for an environment).
 #[inline(always)]
 fn add_emission(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes, depth: u32) {
+    if let Some(env) = kernel.environment {
+        add_environment(scene, lanes, env, depth);
+    }
     for i in 0..lanes.rays.len() {
         let g = lanes.rays.geom_id.as_slice()[i];
         if g == INVALID_ID || !kernel.emissive[g as usize] {
@@ -681,6 +722,49 @@ fn add_emission(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes, depth: u
             ),
         };
         let weight = emission_weight(scene, li, &prev, p, ray.dir);
+        let beta = Vec3::new(lanes.beta[0][i], lanes.beta[1][i], lanes.beta[2][i]);
+        let add = beta * le * weight;
+        for c in 0..3 {
+            lanes.radiance[c][i] += add[c];
+        }
+    }
+}
+
+/// Adds the environment's radiance along the rays that left the scene
+/// (lanes without a hit whose paths go on: an ended path has `tfar = −∞`),
+/// MIS-weighted as the general integrator weighs it; the lookups of all
+/// lanes at once (`EnvironmentLight::radiance_pdf_many`).
+#[inline(always)]
+fn add_environment(scene: &Scene, lanes: &mut SoaLanes, env: usize, depth: u32) {
+    let Light::Environment { light, .. } = &scene.lights().lights[env] else {
+        return;
+    };
+    lanes.env_lanes.clear();
+    lanes.env_dirs.clear();
+    for i in 0..lanes.rays.len() {
+        if lanes.rays.geom_id.as_slice()[i] == INVALID_ID && lanes.rays.tfar.as_slice()[i] > 0.0 {
+            lanes.env_lanes.push(i as u32);
+            lanes.env_dirs.push(lanes.rays.ray(i).dir);
+        }
+    }
+    light.radiance_pdf_many(&lanes.env_dirs, &mut lanes.env_seen);
+    for (&i, &(le, pdf)) in lanes.env_lanes.iter().zip(&lanes.env_seen) {
+        let i = i as usize;
+        if le == Vec3::ZERO {
+            continue;
+        }
+        let prev_pdf = lanes.prev_pdf[i];
+        let weight = if depth == 0 || prev_pdf == 0.0 {
+            1.0
+        } else {
+            let prev_point = Vec3::new(
+                lanes.prev_point[0][i],
+                lanes.prev_point[1][i],
+                lanes.prev_point[2][i],
+            );
+            let light_pdf = scene.lights().pick_pmf(env, prev_point) * pdf;
+            power_heuristic(prev_pdf, light_pdf)
+        };
         let beta = Vec3::new(lanes.beta[0][i], lanes.beta[1][i], lanes.beta[2][i]);
         let add = beta * le * weight;
         for c in 0..3 {
@@ -836,11 +920,56 @@ fn pinhole_camera_rays(camera: &PinholeCamera, pass: &Pass, lanes: &mut SoaLanes
 /// every lane.
 #[inline(always)]
 fn pick_lights(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
-    let n = lanes.rays.len();
-    if kernel.single_light.is_some() {
-        // `shade_lanes` uses it directly.
-        return;
+    if kernel.single_light.is_none() {
+        pick_per_lane(kernel, scene, lanes);
     }
+    if let Some(env) = kernel.environment {
+        sample_environment(kernel, scene, lanes, env);
+    }
+}
+
+/// The environment's light sample of each lane that picked it, with the
+/// lane's numbers after the pick's two (as the general integrator draws
+/// them); all lanes' samples at once (`EnvironmentLight::sample_li_many`,
+/// whose cache misses on a large map overlap).
+#[inline(always)]
+fn sample_environment(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes, env: usize) {
+    let Light::Environment { light, .. } = &scene.lights().lights[env] else {
+        return;
+    };
+    let single = kernel.single_light.map(|l| l.environment);
+    lanes.env_lanes.clear();
+    lanes.env_us.clear();
+    for i in 0..lanes.rays.len() {
+        lanes.env_valid[i] = false;
+        let picked = single.unwrap_or(lanes.light[i] == env as u32);
+        if lanes.rays.geom_id.as_slice()[i] == INVALID_ID || !picked {
+            continue;
+        }
+        let mut rng = Rng::from_parts(lanes.rng_state[i], lanes.rng_inc[i]);
+        let _pick = rng.next_2d();
+        lanes.env_lanes.push(i as u32);
+        lanes.env_us.push(rng.next_2d());
+    }
+    light.sample_li_many(&lanes.env_us, &mut lanes.env_samples);
+    for (&i, sample) in lanes.env_lanes.iter().zip(&lanes.env_samples) {
+        let i = i as usize;
+        lanes.env_valid[i] = sample.is_some();
+        if let Some(ls) = sample {
+            for c in 0..3 {
+                lanes.env_wi[c][i] = ls.wi[c];
+                lanes.env_radiance[c][i] = ls.radiance[c];
+            }
+            lanes.env_pdf[i] = ls.pdf;
+        }
+    }
+}
+
+/// Each lane's light for a scene with several lights or one picked only
+/// where it reaches (see [`pick_lights`]).
+#[inline(always)]
+fn pick_per_lane(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
+    let n = lanes.rays.len();
     let set = scene.lights();
     let none = (kernel.light_table.len() - 1) as u32;
     let rays = &lanes.rays;
@@ -966,6 +1095,11 @@ struct LaneIn {
     rng: u64,
     inc: u64,
     light: LightIn,
+    /// The lane's sample of the environment, where it picked it.
+    env_valid: bool,
+    env_wi: Vec3,
+    env_radiance: Vec3,
+    env_pdf: f32,
 }
 
 /// One lane's results of a bounce.
@@ -996,7 +1130,10 @@ struct LaneOut {
 /// branch-free helpers as the general integrator (ray offsets, the lights'
 /// samples, Lambert, MIS), in the same order, with the same random numbers.
 #[inline(always)]
-fn shade_lane<const TRIANGLES: bool, const CONES: bool>(l: LaneIn, u: Uniform) -> LaneOut {
+fn shade_lane<const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
+    l: LaneIn,
+    u: Uniform,
+) -> LaneOut {
     let mut rng = l.rng;
     let p = l.org + l.t * l.dir;
     let wo = -l.dir;
@@ -1023,9 +1160,19 @@ fn shade_lane<const TRIANGLES: bool, const CONES: bool>(l: LaneIn, u: Uniform) -
     let _lobe = Rng::step_f32(&mut rng, l.inc);
     let direction = Rng::step_2d(&mut rng, l.inc);
 
-    // Both lights' samples, computed for every lane and selected (the
-    // triangle's only where the scene has emitting triangles).
-    let (valid, ls) = if TRIANGLES && light.triangle {
+    // Every kind's sample, computed for every lane and selected (the
+    // triangle's only where the scene has emitting triangles, the
+    // environment's, taken by `sample_environment`, where it has one).
+    let (valid, ls) = if ENV && light.environment {
+        let sample = LightSample {
+            radiance: l.env_radiance,
+            wi: l.env_wi,
+            dist: f32::INFINITY,
+            pdf: l.env_pdf,
+            delta: false,
+        };
+        (l.env_valid, sample)
+    } else if TRIANGLES && light.triangle {
         let point = TrianglePoint::new(light.p, light.n, light.area, p, light_point);
         point.sample(light.emitted::<CONES>(-point.wi))
     } else {
@@ -1037,7 +1184,7 @@ fn shade_lane<const TRIANGLES: bool, const CONES: bool>(l: LaneIn, u: Uniform) -
     let f = f * wi_local.z.abs();
     let light_pdf = light.pmf * ls.pdf;
     // A point light is a delta light: no MIS.
-    let weight = if TRIANGLES && light.triangle {
+    let weight = if (TRIANGLES && light.triangle) || (ENV && light.environment) {
         power_heuristic(light_pdf, bsdf_pdf)
     } else {
         1.0
@@ -1123,17 +1270,25 @@ fn store<T: Copy>(dst: &mut [T], start: usize, src: &[T; W]) {
 /// some thirty lane arrays and a table lookup.
 #[inline(always)]
 fn shade_lanes(kernel: &SoaScene, lanes: &mut SoaLanes, u: Uniform) {
-    match (kernel.triangle_lights, kernel.cones) {
-        (true, true) => shade_chunks::<true, true>(kernel, lanes, u),
-        (true, false) => shade_chunks::<true, false>(kernel, lanes, u),
-        (false, _) => shade_chunks::<false, false>(kernel, lanes, u),
+    match (
+        kernel.triangle_lights,
+        kernel.cones,
+        kernel.environment.is_some(),
+    ) {
+        (true, true, true) => shade_chunks::<true, true, true>(kernel, lanes, u),
+        (true, true, false) => shade_chunks::<true, true, false>(kernel, lanes, u),
+        (true, false, true) => shade_chunks::<true, false, true>(kernel, lanes, u),
+        (true, false, false) => shade_chunks::<true, false, false>(kernel, lanes, u),
+        (false, _, true) => shade_chunks::<false, false, true>(kernel, lanes, u),
+        (false, _, false) => shade_chunks::<false, false, false>(kernel, lanes, u),
     }
 }
 
 /// [`shade_lanes`] for scenes with (`TRIANGLES`) or without emitting
-/// triangles, and with (`CONES`) or without emission cones among them.
+/// triangles, with (`CONES`) or without emission cones among them, and
+/// with (`ENV`) or without an environment.
 #[inline(always)]
-fn shade_chunks<const TRIANGLES: bool, const CONES: bool>(
+fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
     kernel: &SoaScene,
     lanes: &mut SoaLanes,
     u: Uniform,
@@ -1195,7 +1350,17 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool>(
         let mut pending = [[0.0f32; W]; 3];
         let mut beta = [br, bg, bb];
         let (mut prev_pdf, mut prev_point) = ([0.0f32; W], [[0.0f32; W]; 3]);
-        if TRIANGLES {
+        let (mut env_valid, mut env_wi, mut env_radiance, mut env_pdf) =
+            ([false; W], [[0.0f32; W]; 3], [[0.0f32; W]; 3], [0.0f32; W]);
+        if ENV {
+            env_valid = load(&lanes.env_valid, start);
+            env_pdf = load(&lanes.env_pdf, start);
+            for c in 0..3 {
+                env_wi[c] = load(&lanes.env_wi[c], start);
+                env_radiance[c] = load(&lanes.env_radiance[c], start);
+            }
+        }
+        if TRIANGLES || ENV {
             prev_pdf = load(&lanes.prev_pdf, start);
             for c in 0..3 {
                 prev_point[c] = load(&lanes.prev_point[c], start);
@@ -1203,7 +1368,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool>(
         }
         for k in 0..W {
             let hit = geom[k] != INVALID_ID;
-            let out = shade_lane::<TRIANGLES, CONES>(
+            let out = shade_lane::<TRIANGLES, CONES, ENV>(
                 LaneIn {
                     org: Vec3::new(ox[k], oy[k], oz[k]),
                     dir: Vec3::new(dx[k], dy[k], dz[k]),
@@ -1215,6 +1380,14 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool>(
                     rng: rng[k],
                     inc: inc[k],
                     light: lights.lane(k),
+                    env_valid: env_valid[k],
+                    env_wi: Vec3::new(env_wi[0][k], env_wi[1][k], env_wi[2][k]),
+                    env_radiance: Vec3::new(
+                        env_radiance[0][k],
+                        env_radiance[1][k],
+                        env_radiance[2][k],
+                    ),
+                    env_pdf: env_pdf[k],
                 },
                 u,
             );
@@ -1226,7 +1399,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool>(
                 }
             }
             // Only emission found later needs them (for its MIS weight).
-            if TRIANGLES && hit {
+            if (TRIANGLES || ENV) && hit {
                 prev_pdf[k] = out.pdf;
                 for c in 0..3 {
                     prev_point[c][k] = out.point[c];
@@ -1252,7 +1425,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool>(
         }
 
         store(&mut lanes.rng_state, start, &rng);
-        if TRIANGLES {
+        if TRIANGLES || ENV {
             store(&mut lanes.prev_pdf, start, &prev_pdf);
             for c in 0..3 {
                 store(&mut lanes.prev_point[c], start, &prev_point[c]);
