@@ -16,8 +16,8 @@
 //! stream ([`Rng::for_sample`]) and every pixel adds its samples in sample
 //! order, so an image is bit-identical whatever the number of threads.
 //!
-//! Scenes of plain Lambert materials lit by point lights and emissive
-//! meshes (see
+//! Scenes of Lambert materials (textured or not) lit by point lights,
+//! emissive meshes, parametric lights and environments (see
 //! [`SoaScene::new`]) run on a vectorised version of the same wavefront
 //! ([`soa`]): structure-of-arrays lanes, compiled for AVX-512, AVX2 and
 //! the baseline and picked at run time ([`Isa`]). It performs the same

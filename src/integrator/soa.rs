@@ -1,5 +1,5 @@
 //! A vectorised wavefront for the commonest kind of scene: every material
-//! plain Lambert (no textures), meshes without vertex normals, lit by point
+//! Lambert (its colour textured or not), meshes without vertex normals, lit by point
 //! lights, emissive meshes (area lights), parametric lights (emitting
 //! triangles with a cone, picked only where their cone reaches) and an
 //! environment (an importance-sampled panorama or a constant sky; its
@@ -53,6 +53,12 @@ pub struct SoaScene {
     albedo: [Vec<f32>; 3],
     /// Whether each geometry (by Embree id) emits, with one extra `false`.
     emissive: Vec<bool>,
+    /// Whether each geometry's albedo comes from a texture (then `albedo`
+    /// holds no value for it), with one extra `false`.
+    textured: Vec<bool>,
+    /// Whether any geometry's is (then each lane's albedo is looked up by
+    /// `lane_albedo` into `SoaLanes::albedo`).
+    any_textured: bool,
     /// The one light, when there is exactly one, with the probability of
     /// picking it: the same for every lane.
     single_light: Option<LightIn>,
@@ -72,6 +78,7 @@ impl SoaScene {
     /// The kernel's view of `scene`, or `None` when the scene needs the
     /// general integrator: a material that is not untextured Lambert, vertex
     /// normals, virtual objects, or more than 64 reach-limited groups.
+    /// Lambert materials may be textured.
     pub fn new(scene: &Scene) -> Option<SoaScene> {
         // The kernel picks lights by a mask of the cone-limited groups that
         // reach a point (`LightSet::pick_among`).
@@ -80,6 +87,7 @@ impl SoaScene {
         }
         let mut albedo = [Vec::new(), Vec::new(), Vec::new()];
         let mut emissive = Vec::new();
+        let mut textured = Vec::new();
         for (g, mesh) in scene.meshes().iter().enumerate() {
             // Virtual objects (compositing) need ray masks and the matte,
             // which only the general integrator has so far.
@@ -90,18 +98,17 @@ impl SoaScene {
             let Bsdf::Diffuse(d) = material.bsdf else {
                 return None;
             };
-            if !material.textures.is_empty() {
-                return None;
-            }
             for (c, a) in albedo.iter_mut().enumerate() {
                 a.push(d.reflectance[c]);
             }
             emissive.push(scene.light_index(g as u32, 0).is_some());
+            textured.push(!material.textures.is_empty());
         }
         for a in &mut albedo {
             a.push(0.0);
         }
         emissive.push(false);
+        textured.push(false);
         let lights = scene.lights();
         // One light picked the same way everywhere: the same for every lane.
         let single_light = match lights.lights.as_slice() {
@@ -119,6 +126,8 @@ impl SoaScene {
         Some(SoaScene {
             albedo,
             emissive,
+            any_textured: textured.contains(&true),
+            textured,
             single_light,
             light_table,
             environment: scene.environment_index(),
@@ -390,6 +399,8 @@ pub struct SoaLanes {
     beta: [Vec<f32>; 3],
     radiance: [Vec<f32>; 3],
     pending: [Vec<f32>; 3],
+    /// Each lane's albedo at its hit, where a texture gives it.
+    albedo: [Vec<f32>; 3],
     /// Solid-angle density of the BSDF sample that led to the current hit.
     prev_pdf: Vec<f32>,
     /// The scattering point the current ray left from.
@@ -430,6 +441,7 @@ impl SoaLanes {
             self.beta[c].resize(n, 0.0);
             self.radiance[c].resize(n, 0.0);
             self.pending[c].resize(n, 0.0);
+            self.albedo[c].resize(n, 0.0);
             self.prev_point[c].resize(n, 0.0);
         }
         self.prev_pdf.resize(n, 0.0);
@@ -630,6 +642,9 @@ fn trace_pass_body(
     let clock = Instant::now();
     scene.accel().intersect_batch(&mut lanes.rays, true);
     stats.trace_nanos += clock.elapsed().as_nanos() as u64;
+    if kernel.any_textured {
+        lane_albedo(kernel, scene, lanes);
+    }
 
     // The camera vertex's auxiliary layers.
     camera_vertex_layers(pass, lanes, pixels);
@@ -675,6 +690,9 @@ fn trace_pass_body(
         let clock = Instant::now();
         scene.accel().intersect_batch(&mut lanes.rays, false);
         stats.trace_nanos += clock.elapsed().as_nanos() as u64;
+        if kernel.any_textured {
+            lane_albedo(kernel, scene, lanes);
+        }
         depth += 1;
     }
     // Every path still in a lane has ended now.
@@ -773,6 +791,35 @@ fn add_environment(scene: &Scene, lanes: &mut SoaLanes, env: usize, depth: u32) 
     }
 }
 
+/// Each lane's albedo at its hit into `lanes.albedo`: from the table for an
+/// untextured material, else the texture at the hit's texture coordinates,
+/// looked up as the general integrator looks it up (`Material::bsdf_at`).
+#[inline(always)]
+fn lane_albedo(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
+    let last = kernel.albedo[0].len() - 1;
+    for i in 0..lanes.rays.len() {
+        let g = (lanes.rays.geom_id.as_slice()[i] as usize).min(last);
+        let mut albedo = Vec3::new(
+            kernel.albedo[0][g],
+            kernel.albedo[1][g],
+            kernel.albedo[2][g],
+        );
+        if kernel.textured[g] {
+            if let Some(hit) = lanes.rays.hit(i) {
+                let mesh = &scene.meshes()[g];
+                let material = &scene.materials()[mesh.material as usize];
+                let surface = super::SurfacePoint::new(mesh, &hit, true);
+                if let Bsdf::Diffuse(d) = material.bsdf_at(surface.uv) {
+                    albedo = d.reflectance;
+                }
+            }
+        }
+        for c in 0..3 {
+            lanes.albedo[c][i] = albedo[c];
+        }
+    }
+}
+
 /// Adds the camera vertex's auxiliary layers (hit count, depth, normal,
 /// albedo, and on the first pass the object id) to the pixels, as the
 /// general integrator does at a path's first hit: per-lane values in
@@ -812,14 +859,20 @@ fn camera_vertex_layers(pass: &Pass, lanes: &SoaLanes, pixels: &mut [PixelSums])
             }
             let g = (geom[k] as usize).min(last);
             let pixel = &mut pixels[lanes.pixel[start + k] as usize];
-            pixel.add_first_hit(
-                depth[k],
-                Vec3::new(normal[0][k], normal[1][k], normal[2][k]),
+            let albedo = if pass.kernel.any_textured {
+                let i = start + k;
+                Vec3::new(lanes.albedo[0][i], lanes.albedo[1][i], lanes.albedo[2][i])
+            } else {
                 Vec3::new(
                     pass.kernel.albedo[0][g],
                     pass.kernel.albedo[1][g],
                     pass.kernel.albedo[2][g],
-                ),
+                )
+            };
+            pixel.add_first_hit(
+                depth[k],
+                Vec3::new(normal[0][k], normal[1][k], normal[2][k]),
+                albedo,
             );
             if pass.first {
                 pixel.object_id = pass.scene.meshes()[g].object_layer();
@@ -1318,13 +1371,21 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
         );
         let geom = load_or(rays.geom_id.as_slice(), start, INVALID_ID);
         let (mut ar, mut ag, mut ab) = ([0.0f32; W], [0.0f32; W], [0.0f32; W]);
-        for k in 0..W {
-            let g = (geom[k] as usize).min(last);
-            (ar[k], ag[k], ab[k]) = (
-                kernel.albedo[0][g],
-                kernel.albedo[1][g],
-                kernel.albedo[2][g],
+        if kernel.any_textured {
+            (ar, ag, ab) = (
+                load(&lanes.albedo[0], start),
+                load(&lanes.albedo[1], start),
+                load(&lanes.albedo[2], start),
             );
+        } else {
+            for k in 0..W {
+                let g = (geom[k] as usize).min(last);
+                (ar[k], ag[k], ab[k]) = (
+                    kernel.albedo[0][g],
+                    kernel.albedo[1][g],
+                    kernel.albedo[2][g],
+                );
+            }
         }
         let (br, bg, bb) = (
             load(&lanes.beta[0], start),
