@@ -216,7 +216,8 @@ pub struct Distribution1D {
     /// `cdf[i]`: the probability of items `0..=i` (the last is exactly 1).
     cdf: Vec<f32>,
     /// `guide[j]`: the item a number `j / m` picks, for `m = guide.len()`
-    /// (a power of two ≥ n, so `j / m` and `u · m` are exact).
+    /// (a power of two ≥ n, so `j / m` and `u · m` are exact); empty for
+    /// [`SMALL`] items or fewer.
     guide: Vec<u32>,
     /// `skip[i]`: the first item from `i` on with a non-zero probability
     /// (the last item if none has), where a search landing on `i` ends.
@@ -250,10 +251,14 @@ impl Distribution1D {
         if let Some(last) = cdf.last_mut() {
             *last = 1.0;
         }
-        let m = cdf.len().next_power_of_two();
-        let guide = (0..m)
-            .map(|j| first_above(&cdf, j as f32 / m as f32) as u32)
-            .collect();
+        let guide = if cdf.len() > SMALL {
+            let m = cdf.len().next_power_of_two();
+            (0..m)
+                .map(|j| first_above(&cdf, j as f32 / m as f32) as u32)
+                .collect()
+        } else {
+            Vec::new()
+        };
         let mut skip = vec![0u32; cdf.len()];
         let mut next = cdf.len() - 1;
         for i in (0..cdf.len()).rev() {
@@ -286,12 +291,14 @@ impl Distribution1D {
         if self.cdf.is_empty() {
             return None;
         }
-        // The first item whose CDF exceeds u: between the items of u's slot
-        // and of the next slot's start, as the search is monotone in u.
-        if self.cdf.len() <= SMALL {
+        // The first item whose CDF exceeds u, then skipping zero-probability
+        // items a rounding tie may land on.
+        if self.guide.is_empty() {
             let i = self.skip[first_above(&self.cdf, u)] as usize;
             return Some((i, self.pmf[i]));
         }
+        // With a guide: between the items of u's slot and of the next
+        // slot's start, as the search is monotone in u.
         let m = self.guide.len();
         let j = ((u * m as f32) as usize).min(m - 1);
         let lo = self.guide[j] as usize;
@@ -299,7 +306,6 @@ impl Distribution1D {
             .guide
             .get(j + 1)
             .map_or(self.cdf.len(), |&g| g as usize + 1);
-        // Skipping zero-probability items a rounding tie may land on.
         let i = self.skip[lo + first_above(&self.cdf[lo..hi], u)] as usize;
         Some((i, self.pmf[i]))
     }

@@ -378,6 +378,25 @@ pub(crate) fn emission_weight(
     }
 }
 
+/// MIS weight of the environment (light `env`) seen along a ray that left
+/// the scene, whose direction the environment samples with density `pdf()`
+/// (asked only when needed): power heuristic against light sampling; 1 for
+/// the camera ray or after a delta lobe.
+#[inline]
+pub(crate) fn environment_weight(
+    scene: &Scene,
+    env: usize,
+    prev: &PrevVertex,
+    pdf: impl FnOnce() -> f32,
+) -> f32 {
+    if prev.depth == 0 || prev.pdf == 0.0 {
+        1.0
+    } else {
+        let light_pdf = scene.lights().pick_pmf(env, prev.point) * pdf();
+        power_heuristic(prev.pdf, light_pdf)
+    }
+}
+
 /// Camera sample `sample` of pixel `(x, y)`: its random stream, after the
 /// numbers the filter and (when `lens_sample`) the lens took, and the camera
 /// ray, if the camera has one there.
@@ -605,13 +624,14 @@ fn shade(
                 None => (light.radiance(ray.dir), None),
             };
             if le != Vec3::ZERO {
-                let weight = if path.depth == 0 || path.prev_pdf == 0.0 {
-                    1.0
-                } else {
-                    let pdf = seen_pdf.unwrap_or_else(|| light.pdf(ray.dir));
-                    let light_pdf = scene.lights().pick_pmf(env, path.prev_point) * pdf;
-                    power_heuristic(path.prev_pdf, light_pdf)
+                let prev = PrevVertex {
+                    depth: path.depth,
+                    pdf: path.prev_pdf,
+                    point: path.prev_point,
                 };
+                let weight = environment_weight(scene, env, &prev, || {
+                    seen_pdf.unwrap_or_else(|| light.pdf(ray.dir))
+                });
                 path.radiance += path.beta * le * weight;
             }
         }

@@ -30,7 +30,8 @@
 
 use super::spawn::{ray_epsilon, shadow_segment};
 use super::{
-    camera_sample, emission_weight, roulette, roulette_spins, PixelSums, PrevVertex, RayStats, Tile,
+    camera_sample, emission_weight, environment_weight, roulette, roulette_spins, PixelSums,
+    PrevVertex, RayStats, Tile,
 };
 use crate::accel::{gather_lanes, RayBatch, INVALID_ID};
 use crate::bsdf::{lambert_eval, lambert_pdf, lambert_sample, Bsdf};
@@ -53,8 +54,8 @@ pub struct SoaScene {
     albedo: [Vec<f32>; 3],
     /// Whether each geometry (by Embree id) emits, with one extra `false`.
     emissive: Vec<bool>,
-    /// Whether each geometry's albedo comes from a texture (then `albedo`
-    /// holds no value for it), with one extra `false`.
+    /// Whether each geometry's material is textured (then `albedo` holds
+    /// its colour where the texture gives none), with one extra `false`.
     textured: Vec<bool>,
     /// Whether any geometry's is (then each lane's albedo is looked up by
     /// `lane_albedo` into `SoaLanes::albedo`).
@@ -76,9 +77,9 @@ pub struct SoaScene {
 
 impl SoaScene {
     /// The kernel's view of `scene`, or `None` when the scene needs the
-    /// general integrator: a material that is not untextured Lambert, vertex
-    /// normals, virtual objects, or more than 64 reach-limited groups.
-    /// Lambert materials may be textured.
+    /// general integrator: a material that is not Lambert (textured or
+    /// not), vertex normals, virtual objects, or more than 64 reach-limited
+    /// groups.
     pub fn new(scene: &Scene) -> Option<SoaScene> {
         // The kernel picks lights by a mask of the cone-limited groups that
         // reach a point (`LightSet::pick_among`).
@@ -771,18 +772,16 @@ fn add_environment(scene: &Scene, lanes: &mut SoaLanes, env: usize, depth: u32) 
         if le == Vec3::ZERO {
             continue;
         }
-        let prev_pdf = lanes.prev_pdf[i];
-        let weight = if depth == 0 || prev_pdf == 0.0 {
-            1.0
-        } else {
-            let prev_point = Vec3::new(
+        let prev = PrevVertex {
+            depth,
+            pdf: lanes.prev_pdf[i],
+            point: Vec3::new(
                 lanes.prev_point[0][i],
                 lanes.prev_point[1][i],
                 lanes.prev_point[2][i],
-            );
-            let light_pdf = scene.lights().pick_pmf(env, prev_point) * pdf;
-            power_heuristic(prev_pdf, light_pdf)
+            ),
         };
+        let weight = environment_weight(scene, env, &prev, || pdf);
         let beta = Vec3::new(lanes.beta[0][i], lanes.beta[1][i], lanes.beta[2][i]);
         let add = beta * le * weight;
         for c in 0..3 {
