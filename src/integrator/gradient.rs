@@ -356,7 +356,7 @@ fn add_light_terms(
 struct GradientPath {
     /// Pixel index within the tile.
     pixel: u32,
-    rng: crate::rng::Rng,
+    rng: crate::sampler::PathSampler,
     /// `s·Wᵀ·∂ℒ/∂I` of the pixel, over its samples.
     adjoint: Vec3,
     beta: Vec3,

@@ -13,7 +13,7 @@
 //! one sample pass over a tile advance together, so their rays go to Embree in
 //! batches: camera rays as a coherent stream, then each bounce's continuation
 //! rays and shadow rays as streams. Every path draws from its own random
-//! stream ([`Rng::for_sample`]) and every pixel adds its samples in sample
+//! stream ([`PathSampler::for_sample`]) and every pixel adds its samples in sample
 //! order, so an image is bit-identical whatever the number of threads.
 //!
 //! Scenes of Lambert materials (textured or not) lit by point lights,
@@ -36,7 +36,7 @@ pub use crate::film::{PixelSums, Tile};
 use crate::job::RenderJob;
 use crate::light::{Light, LightSample};
 use crate::prefetch::prefetch;
-use crate::rng::Rng;
+use crate::sampler::PathSampler;
 use crate::scene::Scene;
 use crate::warp::{power_heuristic, Frame};
 use glam::{Vec2, Vec3};
@@ -109,7 +109,7 @@ pub struct TileResult {
 #[derive(Clone)]
 struct PathState {
     pixel: u32,
-    rng: Rng,
+    rng: PathSampler,
     beta: Vec3,
     radiance: Vec3,
     /// Solid-angle pdf of the BSDF sample that produced the current ray;
@@ -408,8 +408,8 @@ fn camera_sample(
     x: u32,
     y: u32,
     sample: u32,
-) -> (Rng, Option<Ray>) {
-    let mut rng = Rng::for_sample(seed, x, y, sample);
+) -> (PathSampler, Option<Ray>) {
+    let mut rng = PathSampler::for_sample(seed, x, y, sample);
     // Filter importance sampling: the filter places the sample, which keeps
     // weight 1 (see `crate::filter`).
     let film = Vec2::new(x as f32, y as f32) + scene.film().filter.sample(rng.next_2d());

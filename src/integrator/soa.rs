@@ -40,7 +40,7 @@ use crate::filter::PixelFilter;
 use crate::job::RenderJob;
 use crate::light::pls::SoftEdge;
 use crate::light::{point_light_sample, Cone, Light, LightSample, TrianglePoint};
-use crate::rng::Rng;
+use crate::sampler::PathSampler;
 use crate::scene::Scene;
 use crate::warp::{power_heuristic, Frame};
 use glam::{Vec2, Vec3};
@@ -924,7 +924,7 @@ fn pinhole_camera_rays(camera: &PinholeCamera, pass: &Pass, lanes: &mut SoaLanes
         for k in 0..W {
             let i = (start + k) as u32;
             let (px, py) = (i % tile.width, i / tile.width);
-            let mut rng = Rng::for_sample(seed, tile.x0 + px, tile.y0 + py, sample);
+            let mut rng = PathSampler::for_sample(seed, tile.x0 + px, tile.y0 + py, sample);
             let u = rng.next_2d();
             let film = Vec2::new((tile.x0 + px) as f32, (tile.y0 + py) as f32) + u;
             let ray = camera.generate_ray(film);
@@ -998,7 +998,7 @@ fn sample_environment(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes, en
         if lanes.rays.geom_id.as_slice()[i] == INVALID_ID || !picked {
             continue;
         }
-        let mut rng = Rng::from_parts(lanes.rng_state[i], lanes.rng_inc[i]);
+        let mut rng = PathSampler::from_parts(lanes.rng_state[i], lanes.rng_inc[i]);
         let _pick = rng.next_2d();
         lanes.env_lanes.push(i as u32);
         lanes.env_us.push(rng.next_2d());
@@ -1049,7 +1049,7 @@ fn pick_per_lane(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
             for c in 0..3 {
                 p[c][k] = x[c];
             }
-            u[k] = Rng::step_2d(&mut state[k], inc[k]);
+            u[k] = PathSampler::step_2d(&mut state[k], inc[k]);
         }
         // Which cone-limited groups reach each lane's point: the bounding
         // cones for the whole chunk, the exact test where they cannot tell.
@@ -1203,14 +1203,14 @@ fn shade_lane<const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
     // Where no light was picked, the general integrator draws no numbers
     // for a light sample: drawn on a copy, kept where a light was picked.
     let light = l.light;
-    let _light_pick = Rng::step_2d(&mut rng, l.inc);
+    let _light_pick = PathSampler::step_2d(&mut rng, l.inc);
     let mut rng_point = rng;
-    let light_point = Rng::step_2d(&mut rng_point, l.inc);
+    let light_point = PathSampler::step_2d(&mut rng_point, l.inc);
     if light.picked {
         rng = rng_point;
     }
-    let _lobe = Rng::step_f32(&mut rng, l.inc);
-    let direction = Rng::step_2d(&mut rng, l.inc);
+    let _lobe = PathSampler::step_f32(&mut rng, l.inc);
+    let direction = PathSampler::step_2d(&mut rng, l.inc);
 
     // Every kind's sample, computed for every lane and selected (the
     // triangle's only where the scene has emitting triangles, the
@@ -1254,7 +1254,7 @@ fn shade_lane<const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
     let spin = roulette_spins(beta, u.roulette);
     let mut rng_rr = rng;
     // Lambert never refracts: the roulette judges β itself (η² = 1).
-    let (survives, beta_rr) = roulette(beta, beta, Rng::step_f32(&mut rng_rr, l.inc));
+    let (survives, beta_rr) = roulette(beta, beta, PathSampler::step_f32(&mut rng_rr, l.inc));
     if spin {
         rng = rng_rr;
         beta = beta_rr;
