@@ -510,8 +510,8 @@ fn scenes_the_kernel_cannot_render_go_to_the_general_integrator() {
             "[[materials]]\nname = \"p\"\ntype = \"principled\"\n\n[[shapes]]\ntype = \"rectangle\"\nmaterial = \"p\"\n",
         ),
         (
-            "vertex normals",
-            "[[shapes]]\ntype = \"sphere\"\ncenter = [278, 100, 300]\nradius = 50\n",
+            "a virtual object",
+            "[[shapes]]\ntype = \"sphere\"\ncenter = [278, 100, 300]\nradius = 50\nvirtual = true\n",
         ),
     ] {
         let name: String = what.chars().filter(|c| c.is_alphanumeric()).collect();
@@ -537,4 +537,57 @@ fn asking_for_an_instruction_set_the_cpu_lacks_is_an_error() {
     let demo = embree_demo(8, 1);
     let err = render(&demo.scene, &demo.job, &o, &|_, _| true).unwrap_err();
     assert!(err.to_string().contains(missing.name()), "{err}");
+}
+
+#[test]
+fn shading_normals_are_bit_identical() {
+    // A sphere (smooth vertex normals) and a panel whose vertex normals
+    // lean 68° outwards at its corners, so that the light-leak guard
+    // (directions on different sides for the geometric and the shading
+    // normal) rejects many light and BSDF samples; one colour of the panel
+    // comes from a texture. Lit by a point light, an area light and a
+    // constant sky through the box's open side; the normal layer shows
+    // the shading normals.
+    let dir = tempfile::tempdir().unwrap();
+    let panel = dir.path().join("panel.obj");
+    let mut obj = String::new();
+    for (x, y) in [(-1.0f32, -1.0f32), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+        obj += &format!(
+            "v {} {} 300\nvt {} {}\n",
+            278.0 + 120.0 * x,
+            220.0 + 120.0 * y,
+            (x + 1.0) / 2.0,
+            (y + 1.0) / 2.0
+        );
+        obj += &format!("vn {} {} -1\n", 2.5 * x, 2.5 * y);
+    }
+    obj += "f 1/1/1 2/2/2 3/3/3\nf 1/1/1 3/3/3 4/4/4\n";
+    std::fs::write(&panel, obj).unwrap();
+    let texture = dir.path().join("texture.png");
+    let mut rng = plsr::rng::Rng::new(4, 1);
+    image::RgbImage::from_fn(4, 4, |_, _| {
+        image::Rgb([0, 0, 0].map(|_: u8| (rng.next_f32() * 255.0) as u8))
+    })
+    .save(&texture)
+    .unwrap();
+    let path = |p: &Path| p.display().to_string().replace('\\', "/");
+    let scene = scene_from(
+        "shading-normals",
+        &format!(
+            "[render]\nspp = 3\nmax_depth = 5\nseed = 8\n\n\
+             [camera]\nposition = [278, 273, -600]\nlook_at = [278, 273, 0]\nup = [0, 1, 0]\n\
+             vfov = 50\nresolution = [33, 29]\n\n[[shapes]]\ntype = \"obj\"\nfile = \"OBJ\"\n\n\
+             [environment]\nradiance = [0.3, 0.4, 0.6]\n\n\
+             [[materials]]\nname = \"t\"\ntype = \"diffuse\"\nbase_color_map = \"{}\"\n\n\
+             [[materials]]\nname = \"grey\"\ntype = \"diffuse\"\nreflectance = [0.6, 0.6, 0.6]\n\n\
+             [[shapes]]\ntype = \"obj\"\nfile = \"{}\"\nmaterial = \"t\"\n\n\
+             [[shapes]]\ntype = \"sphere\"\ncenter = [400, 90, 200]\nradius = 80\nmaterial = \"grey\"\n\n\
+             [[shapes]]\ntype = \"rectangle\"\nemission = [5, 5, 5]\n\
+             transform = {{ scale = 40, rotate = {{ axis = [1, 0, 0], angle = 90 }}, translate = [150, 500, 150] }}\n\n\
+             [[lights]]\ntype = \"point\"\nposition = [278, 450, -100]\nintensity = [60000, 60000, 60000]\n",
+            path(&texture),
+            path(&panel)
+        ),
+    );
+    assert_identical("shading normals", &scene);
 }

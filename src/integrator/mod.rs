@@ -16,7 +16,8 @@
 //! stream ([`PathSampler::for_sample`]) and every pixel adds its samples in sample
 //! order, so an image is bit-identical whatever the number of threads.
 //!
-//! Scenes of Lambert materials (textured or not) lit by point lights,
+//! Scenes of Lambert materials (textured or not, with or without shading
+//! normals) lit by point lights,
 //! emissive meshes, parametric lights and environments (see
 //! [`SoaScene::new`]) run on a vectorised version of the same wavefront
 //! ([`soa`]): structure-of-arrays lanes, compiled for AVX-512, AVX2 and
@@ -269,8 +270,8 @@ fn sample_environment_ahead(pass: &Pass, wf: &mut Wavefront, env: usize) {
 /// reflection (or a transmission) both for the geometric normal `ng` and in
 /// the shading frame (`*_local`), or it is discarded; otherwise a bent
 /// shading normal would let light through opaque surfaces.
-#[inline]
-fn sides_agree(wo: Vec3, wi: Vec3, ng: Vec3, wo_local: Vec3, wi_local: Vec3) -> bool {
+#[inline(always)]
+pub(crate) fn sides_agree(wo: Vec3, wi: Vec3, ng: Vec3, wo_local: Vec3, wi_local: Vec3) -> bool {
     (wo.dot(ng) * wi.dot(ng) > 0.0) == (wo_local.z * wi_local.z > 0.0)
 }
 
@@ -318,14 +319,7 @@ impl SurfacePoint {
     #[inline]
     fn shading_normal(&self, n: Vec3, wo: Vec3) -> Vec3 {
         match self.normal {
-            Some(ns) => {
-                let ns = if ns.dot(n) < 0.0 { -ns } else { ns };
-                if ns.dot(wo) * n.dot(wo) > 0.0 {
-                    ns
-                } else {
-                    n
-                }
-            }
+            Some(ns) => shading_normal_towards(ns, n, wo),
             None => n,
         }
     }
@@ -344,6 +338,20 @@ impl SurfacePoint {
             }
         }
         dp1
+    }
+}
+
+/// The normal of the shading frame for the interpolated unit normal `ns`:
+/// `ns` turned to the side of `n` (the geometric normal as the BSDF sees
+/// it), or `n` where `wo` lies on different sides of the two. Branch-free
+/// (both integrators call it).
+#[inline(always)]
+pub(crate) fn shading_normal_towards(ns: Vec3, n: Vec3, wo: Vec3) -> Vec3 {
+    let ns = if ns.dot(n) < 0.0 { -ns } else { ns };
+    if ns.dot(wo) * n.dot(wo) > 0.0 {
+        ns
+    } else {
+        n
     }
 }
 

@@ -1,5 +1,5 @@
 //! A vectorised wavefront for the commonest kind of scene: every material
-//! Lambert (its colour textured or not), meshes without vertex normals, lit by point
+//! Lambert (its colour textured or not, with or without vertex normals), lit by point
 //! lights, emissive meshes (area lights), parametric lights (emitting
 //! triangles with a cone, picked only where their cone reaches) and an
 //! environment (an importance-sampled panorama or a constant sky; its
@@ -30,8 +30,8 @@
 
 use super::spawn::{ray_epsilon, shadow_segment};
 use super::{
-    camera_sample, emission_weight, environment_weight, roulette, roulette_spins, PixelSums,
-    PrevVertex, RayStats, Tile,
+    camera_sample, emission_weight, environment_weight, roulette, roulette_spins,
+    shading_normal_towards, sides_agree, PixelSums, PrevVertex, RayStats, Tile,
 };
 use crate::accel::{gather_lanes, RayBatch, INVALID_ID};
 use crate::bsdf::{lambert_eval, lambert_pdf, lambert_sample, Bsdf};
@@ -40,6 +40,7 @@ use crate::filter::PixelFilter;
 use crate::job::RenderJob;
 use crate::light::pls::SoftEdge;
 use crate::light::{point_light_sample, Cone, Light, LightSample, TrianglePoint};
+use crate::prefetch::prefetch;
 use crate::sampler::PathSampler;
 use crate::scene::Scene;
 use crate::warp::{power_heuristic, Frame};
@@ -58,8 +59,14 @@ pub struct SoaScene {
     /// its colour where the texture gives none), with one extra `false`.
     textured: Vec<bool>,
     /// Whether any geometry's is (then each lane's albedo is looked up by
-    /// `lane_albedo` into `SoaLanes::albedo`).
+    /// `lane_surfaces` into `SoaLanes::albedo`).
     any_textured: bool,
+    /// Whether each geometry (by Embree id) has vertex normals (shading
+    /// normals), with one extra `false`.
+    smooth: Vec<bool>,
+    /// Whether any geometry has (then each lane's interpolated normal is
+    /// looked up by `lane_surfaces` into `SoaLanes::ns`).
+    any_smooth: bool,
     /// The one light, when there is exactly one, with the probability of
     /// picking it: the same for every lane.
     single_light: Option<LightIn>,
@@ -78,8 +85,7 @@ pub struct SoaScene {
 impl SoaScene {
     /// The kernel's view of `scene`, or `None` when the scene needs the
     /// general integrator: a material that is not Lambert (textured or
-    /// not), vertex normals, virtual objects, or more than 64 reach-limited
-    /// groups.
+    /// not), virtual objects, or more than 64 reach-limited groups.
     pub fn new(scene: &Scene) -> Option<SoaScene> {
         // The kernel picks lights by a mask of the cone-limited groups that
         // reach a point (`LightSet::pick_among`).
@@ -89,12 +95,14 @@ impl SoaScene {
         let mut albedo = [Vec::new(), Vec::new(), Vec::new()];
         let mut emissive = Vec::new();
         let mut textured = Vec::new();
+        let mut smooth = Vec::new();
         for (g, mesh) in scene.meshes().iter().enumerate() {
             // Virtual objects (compositing) need ray masks and the matte,
             // which only the general integrator has so far.
-            if !mesh.normals.is_empty() || mesh.is_virtual {
+            if mesh.is_virtual {
                 return None;
             }
+            smooth.push(!mesh.normals.is_empty());
             let material = scene.materials().get(mesh.material as usize)?;
             let Bsdf::Diffuse(d) = material.bsdf else {
                 return None;
@@ -110,6 +118,7 @@ impl SoaScene {
         }
         emissive.push(false);
         textured.push(false);
+        smooth.push(false);
         let lights = scene.lights();
         // One light picked the same way everywhere: the same for every lane.
         let single_light = match lights.lights.as_slice() {
@@ -129,6 +138,8 @@ impl SoaScene {
             emissive,
             any_textured: textured.contains(&true),
             textured,
+            any_smooth: smooth.contains(&true),
+            smooth,
             single_light,
             light_table,
             environment: scene.environment_index(),
@@ -402,6 +413,10 @@ pub struct SoaLanes {
     pending: [Vec<f32>; 3],
     /// Each lane's albedo at its hit, where a texture gives it.
     albedo: [Vec<f32>; 3],
+    /// Each lane's interpolated unit normal at its hit, where its mesh has
+    /// vertex normals (`ns_valid`; zero elsewhere).
+    ns: [Vec<f32>; 3],
+    ns_valid: Vec<bool>,
     /// Solid-angle density of the BSDF sample that led to the current hit.
     prev_pdf: Vec<f32>,
     /// The scattering point the current ray left from.
@@ -443,8 +458,10 @@ impl SoaLanes {
             self.radiance[c].resize(n, 0.0);
             self.pending[c].resize(n, 0.0);
             self.albedo[c].resize(n, 0.0);
+            self.ns[c].resize(n, 0.0);
             self.prev_point[c].resize(n, 0.0);
         }
+        self.ns_valid.resize(n, false);
         self.prev_pdf.resize(n, 0.0);
         self.light.resize(n, 0);
         self.light_pmf.resize(n, 0.0);
@@ -643,8 +660,8 @@ fn trace_pass_body(
     let clock = Instant::now();
     scene.accel().intersect_batch(&mut lanes.rays, true);
     stats.trace_nanos += clock.elapsed().as_nanos() as u64;
-    if kernel.any_textured {
-        lane_albedo(kernel, scene, lanes);
+    if kernel.any_textured || kernel.any_smooth {
+        lane_surfaces(kernel, scene, lanes);
     }
 
     // The camera vertex's auxiliary layers.
@@ -691,8 +708,8 @@ fn trace_pass_body(
         let clock = Instant::now();
         scene.accel().intersect_batch(&mut lanes.rays, false);
         stats.trace_nanos += clock.elapsed().as_nanos() as u64;
-        if kernel.any_textured {
-            lane_albedo(kernel, scene, lanes);
+        if kernel.any_textured || kernel.any_smooth {
+            lane_surfaces(kernel, scene, lanes);
         }
         depth += 1;
     }
@@ -790,31 +807,65 @@ fn add_environment(scene: &Scene, lanes: &mut SoaLanes, env: usize, depth: u32) 
     }
 }
 
-/// Each lane's albedo at its hit into `lanes.albedo`: from the table for an
-/// untextured material, else the texture at the hit's texture coordinates,
-/// looked up as the general integrator looks it up (`Material::bsdf_at`).
+/// What each lane's hit knows of its surface, looked up as the general
+/// integrator looks it up (`SurfacePoint::new`, `Material::bsdf_at`): its
+/// albedo into `lanes.albedo` (from the table for an untextured material,
+/// else the texture at the hit's texture coordinates) and, where its mesh
+/// has vertex normals, the interpolated normal into `lanes.ns`. The
+/// triangles, then their vertices' attributes, are prefetched for all
+/// lanes first, so that the cache misses on large meshes overlap.
 #[inline(always)]
-fn lane_albedo(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
+fn lane_surfaces(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
     let last = kernel.albedo[0].len() - 1;
-    for i in 0..lanes.rays.len() {
+    let n = lanes.rays.len();
+    let meshes = scene.meshes();
+    let (geom, prim) = (lanes.rays.geom_id.as_slice(), lanes.rays.prim_id.as_slice());
+    let attributes = |i: usize| {
+        let g = (geom[i] as usize).min(last);
+        kernel.textured[g] || kernel.smooth[g]
+    };
+    for i in (0..n).filter(|&i| attributes(i)) {
+        prefetch(&meshes[geom[i] as usize].triangles[prim[i] as usize]);
+    }
+    for i in (0..n).filter(|&i| attributes(i)) {
+        let mesh = &meshes[geom[i] as usize];
+        for v in mesh.triangles[prim[i] as usize] {
+            if let Some(ns) = mesh.normals.get(v as usize) {
+                prefetch(ns);
+            }
+            if let Some(uv) = mesh.uvs.get(v as usize) {
+                prefetch(uv);
+            }
+        }
+    }
+    for i in 0..n {
         let g = (lanes.rays.geom_id.as_slice()[i] as usize).min(last);
         let mut albedo = Vec3::new(
             kernel.albedo[0][g],
             kernel.albedo[1][g],
             kernel.albedo[2][g],
         );
-        if kernel.textured[g] {
+        let mut ns = None;
+        if kernel.textured[g] || kernel.smooth[g] {
             if let Some(hit) = lanes.rays.hit(i) {
-                let mesh = &scene.meshes()[g];
-                let material = &scene.materials()[mesh.material as usize];
-                let surface = super::SurfacePoint::new(mesh, &hit, true);
-                if let Bsdf::Diffuse(d) = material.bsdf_at(surface.uv) {
-                    albedo = d.reflectance;
+                let mesh = &meshes[g];
+                let surface = super::SurfacePoint::new(mesh, &hit, kernel.textured[g]);
+                if kernel.textured[g] {
+                    let material = &scene.materials()[mesh.material as usize];
+                    if let Bsdf::Diffuse(d) = material.bsdf_at(surface.uv) {
+                        albedo = d.reflectance;
+                    }
                 }
+                ns = surface.normal;
             }
         }
         for c in 0..3 {
             lanes.albedo[c][i] = albedo[c];
+        }
+        lanes.ns_valid[i] = ns.is_some();
+        let ns = ns.unwrap_or(Vec3::ZERO);
+        for c in 0..3 {
+            lanes.ns[c][i] = ns[c];
         }
     }
 }
@@ -841,12 +892,26 @@ fn camera_vertex_layers(pass: &Pass, lanes: &SoaLanes, pixels: &mut [PixelSums])
             load(rays.ng_y.as_slice(), start),
             load(rays.ng_z.as_slice(), start),
         ];
+        let (mut ns, mut ns_valid) = ([[0.0f32; W]; 3], [false; W]);
+        if pass.kernel.any_smooth {
+            ns_valid = load(&lanes.ns_valid, start);
+            for c in 0..3 {
+                ns[c] = load(&lanes.ns[c], start);
+            }
+        }
         let mut normal = [[0.0f32; W]; 3];
         let mut depth = [0.0f32; W];
         for k in 0..W {
             let d = Vec3::new(dir[0][k], dir[1][k], dir[2][k]);
             let n = Vec3::new(ng[0][k], ng[1][k], ng[2][k]).normalize_or_zero();
             let facing = if n.dot(-d) >= 0.0 { n } else { -n };
+            // The shading normal, as the general integrator records it.
+            let shading = Vec3::new(ns[0][k], ns[1][k], ns[2][k]);
+            let facing = if ns_valid[k] {
+                shading_normal_towards(shading, facing, -d)
+            } else {
+                facing
+            };
             for c in 0..3 {
                 normal[c][k] = facing[c];
             }
@@ -1142,6 +1207,10 @@ struct LaneIn {
     /// Unnormalised geometric normal.
     ng: Vec3,
     hit: bool,
+    /// The interpolated unit normal, where the mesh has vertex normals
+    /// (`smooth`).
+    ns: Vec3,
+    smooth: bool,
     albedo: Vec3,
     beta: Vec3,
     rng: u64,
@@ -1182,7 +1251,7 @@ struct LaneOut {
 /// branch-free helpers as the general integrator (ray offsets, the lights'
 /// samples, Lambert, MIS), in the same order, with the same random numbers.
 #[inline(always)]
-fn shade_lane<const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
+fn shade_lane<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const SMOOTH: bool>(
     l: LaneIn,
     u: Uniform,
 ) -> LaneOut {
@@ -1191,7 +1260,15 @@ fn shade_lane<const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
     let wo = -l.dir;
     let ng = l.ng.normalize_or_zero();
     let n = if ng.dot(wo) >= 0.0 { ng } else { -ng };
-    let frame = Frame::from_normal(n);
+    // A shading normal bends the frame; directions on different sides for
+    // it and for the geometric normal are rejected (the light-leak guard).
+    let smooth = SMOOTH && l.smooth;
+    let shading_n = if smooth {
+        shading_normal_towards(l.ns, n, wo)
+    } else {
+        n
+    };
+    let frame = Frame::from_normal(shading_n);
     let wo_local = frame.to_local(wo);
     let eps = ray_epsilon(p);
     let origin = p + n * eps;
@@ -1231,8 +1308,14 @@ fn shade_lane<const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
         point_light_sample(light.p[0], light.emit, p)
     };
     let wi_local = frame.to_local(ls.wi);
+    let leaks = smooth && !sides_agree(wo, ls.wi, ng, wo_local, wi_local);
     let f = lambert_eval(l.albedo, wo_local, wi_local);
     let bsdf_pdf = lambert_pdf(wo_local, wi_local);
+    let (f, bsdf_pdf) = if leaks {
+        (Vec3::ZERO, 0.0)
+    } else {
+        (f, bsdf_pdf)
+    };
     let f = f * wi_local.z.abs();
     let light_pdf = light.pmf * ls.pdf;
     // A point light is a delta light: no MIS.
@@ -1247,6 +1330,8 @@ fn shade_lane<const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
 
     let (sampled, local, pdf) = lambert_sample(wo_local, direction);
     let next_dir = frame.to_world(local);
+    // Where the guard rejects the direction, the path ends.
+    let sampled = sampled && (!smooth || sides_agree(wo, next_dir, ng, wo_local, local));
     let mut beta = l.beta * l.albedo;
 
     // Russian roulette draws a number only where it spins: drawn from a
@@ -1322,25 +1407,36 @@ fn store<T: Copy>(dst: &mut [T], start: usize, src: &[T; W]) {
 /// some thirty lane arrays and a table lookup.
 #[inline(always)]
 fn shade_lanes(kernel: &SoaScene, lanes: &mut SoaLanes, u: Uniform) {
+    if kernel.any_smooth {
+        shade_lanes_with::<true>(kernel, lanes, u)
+    } else {
+        shade_lanes_with::<false>(kernel, lanes, u)
+    }
+}
+
+/// [`shade_lanes`] for scenes with (`SMOOTH`) or without vertex normals.
+#[inline(always)]
+fn shade_lanes_with<const SMOOTH: bool>(kernel: &SoaScene, lanes: &mut SoaLanes, u: Uniform) {
     match (
         kernel.triangle_lights,
         kernel.cones,
         kernel.environment.is_some(),
     ) {
-        (true, true, true) => shade_chunks::<true, true, true>(kernel, lanes, u),
-        (true, true, false) => shade_chunks::<true, true, false>(kernel, lanes, u),
-        (true, false, true) => shade_chunks::<true, false, true>(kernel, lanes, u),
-        (true, false, false) => shade_chunks::<true, false, false>(kernel, lanes, u),
-        (false, _, true) => shade_chunks::<false, false, true>(kernel, lanes, u),
-        (false, _, false) => shade_chunks::<false, false, false>(kernel, lanes, u),
+        (true, true, true) => shade_chunks::<true, true, true, SMOOTH>(kernel, lanes, u),
+        (true, true, false) => shade_chunks::<true, true, false, SMOOTH>(kernel, lanes, u),
+        (true, false, true) => shade_chunks::<true, false, true, SMOOTH>(kernel, lanes, u),
+        (true, false, false) => shade_chunks::<true, false, false, SMOOTH>(kernel, lanes, u),
+        (false, _, true) => shade_chunks::<false, false, true, SMOOTH>(kernel, lanes, u),
+        (false, _, false) => shade_chunks::<false, false, false, SMOOTH>(kernel, lanes, u),
     }
 }
 
 /// [`shade_lanes`] for scenes with (`TRIANGLES`) or without emitting
-/// triangles, with (`CONES`) or without emission cones among them, and
-/// with (`ENV`) or without an environment.
+/// triangles, with (`CONES`) or without emission cones among them, with
+/// (`ENV`) or without an environment, and with (`SMOOTH`) or without
+/// vertex normals.
 #[inline(always)]
-fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
+fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const SMOOTH: bool>(
     kernel: &SoaScene,
     lanes: &mut SoaLanes,
     u: Uniform,
@@ -1402,6 +1498,13 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
         };
         let mut rng = load(&lanes.rng_state, start);
         let inc = load(&lanes.rng_inc, start);
+        let (mut ns, mut ns_valid) = ([[0.0f32; W]; 3], [false; W]);
+        if SMOOTH {
+            ns_valid = load(&lanes.ns_valid, start);
+            for c in 0..3 {
+                ns[c] = load(&lanes.ns[c], start);
+            }
+        }
 
         let mut next = [[0.0f32; W]; 6];
         let mut next_tfar = [0.0f32; W];
@@ -1428,13 +1531,15 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
         }
         for k in 0..W {
             let hit = geom[k] != INVALID_ID;
-            let out = shade_lane::<TRIANGLES, CONES, ENV>(
+            let out = shade_lane::<TRIANGLES, CONES, ENV, SMOOTH>(
                 LaneIn {
                     org: Vec3::new(ox[k], oy[k], oz[k]),
                     dir: Vec3::new(dx[k], dy[k], dz[k]),
                     t: t[k],
                     ng: Vec3::new(nx[k], ny[k], nz[k]),
                     hit,
+                    ns: Vec3::new(ns[0][k], ns[1][k], ns[2][k]),
+                    smooth: ns_valid[k],
                     albedo: Vec3::new(ar[k], ag[k], ab[k]),
                     beta: Vec3::new(br[k], bg[k], bb[k]),
                     rng: rng[k],
