@@ -800,14 +800,23 @@ impl RayBatch {
             c.resize(len, 0.0);
         }
         self.tfar.resize(len, f32::NEG_INFINITY);
-        // `mask`, `id`, `flags` and `time` are never written after this
-        // fill, so they hold Embree's defaults in every lane.
-        self.mask.resize(len, u32::MAX);
+        // `id`, `flags` and `time` are never written after this fill, so
+        // they hold Embree's defaults in every lane; `mask` only by
+        // `set_mask`, with one value for every lane.
+        self.mask.resize(len, ALL_MASK);
         self.id.resize(len, 0);
         self.flags.resize(len, 0);
         for c in [&mut self.prim_id, &mut self.geom_id, &mut self.inst_id] {
             c.resize(len, INVALID_ID);
         }
+    }
+
+    /// Sets the Embree ray mask of every lane: rays see (or are blocked by)
+    /// only geometry whose mask shares a bit with it ([`REAL_MASK`],
+    /// [`VIRTUAL_MASK`], [`ALL_MASK`]). Lanes added later by
+    /// [`RayBatch::resize`] get [`ALL_MASK`].
+    pub fn set_mask(&mut self, mask: u32) {
+        self.mask.as_mut_slice().fill(mask);
     }
 
     /// Replaces lane `i` by `ray`, with no hit yet.

@@ -510,8 +510,9 @@ fn scenes_the_kernel_cannot_render_go_to_the_general_integrator() {
             "[[materials]]\nname = \"p\"\ntype = \"principled\"\n\n[[shapes]]\ntype = \"rectangle\"\nmaterial = \"p\"\n",
         ),
         (
-            "a virtual object",
-            "[[shapes]]\ntype = \"sphere\"\ncenter = [278, 100, 300]\nradius = 50\nvirtual = true\n",
+            "a glass sphere",
+            "[[materials]]\nname = \"g\"\ntype = \"dielectric\"\nior = 1.5\n\n\
+             [[shapes]]\ntype = \"sphere\"\ncenter = [278, 100, 300]\nradius = 50\nmaterial = \"g\"\n",
         ),
     ] {
         let name: String = what.chars().filter(|c| c.is_alphanumeric()).collect();
@@ -590,4 +591,62 @@ fn shading_normals_are_bit_identical() {
         ),
     );
     assert_identical("shading normals", &scene);
+}
+
+#[test]
+fn virtual_objects_are_bit_identical() {
+    // A virtual sphere and panel (objects inserted into a photograph) in
+    // the Cornell box, rendered as `plsr composite` renders a scene: with
+    // them, their coverage counted in the matte, and without them
+    // (`hide_virtual`: camera, bounce and shadow rays pass through them).
+    let mut case = scene_from(
+        "virtual",
+        "[render]\nspp = 3\nmax_depth = 4\nseed = 3\n\n\
+         [camera]\nposition = [278, 273, -800]\nlook_at = [278, 273, 0]\nup = [0, 1, 0]\n\
+         vfov = 37\nresolution = [29, 27]\n\n[[shapes]]\ntype = \"obj\"\nfile = \"OBJ\"\n\n\
+         [[shapes]]\ntype = \"sphere\"\ncenter = [300, 120, 250]\nradius = 110\nvirtual = true\n\n\
+         [[shapes]]\ntype = \"rectangle\"\nvirtual = true\n\
+         transform = { scale = 60, rotate = { axis = [0, 1, 0], angle = 30 }, translate = [150, 300, 200] }\n\n\
+         [[lights]]\ntype = \"point\"\nposition = [278, 500, 100]\nintensity = [90000, 90000, 90000]\n",
+    );
+    let sums = |case: &Case, kernel: Option<Isa>| {
+        let o = RenderOptions {
+            threads: Some(2),
+            tile_size: 16,
+            vectorised: kernel.is_some(),
+            isa: kernel,
+        };
+        let (sums, stats) =
+            plsr::render::render_sums(&case.scene, &case.job, &o, &|_, _| true).unwrap();
+        assert_eq!(stats.vectorised, kernel, "kernel choice");
+        (0..27)
+            .flat_map(|y| (0..29).map(move |x| (x, y)))
+            .map(|(x, y)| sums.pixel(x, y).virtual_hits)
+            .collect::<Vec<u32>>()
+    };
+    let mut colours = Vec::new();
+    for hide in [false, true] {
+        case.job.hide_virtual = hide;
+        let what = if hide {
+            "virtual objects hidden"
+        } else {
+            "virtual objects seen"
+        };
+        assert_identical(what, &case);
+        let matte = sums(&case, None);
+        assert_eq!(matte.iter().any(|&m| m > 0), !hide, "{what}: the matte");
+        for isa in isas() {
+            assert_eq!(
+                matte,
+                sums(&case, Some(isa)),
+                "{what}, {}: the matte",
+                isa.name()
+            );
+        }
+        colours.push(render_with(&case, None, 1, 16).color);
+    }
+    assert_ne!(
+        colours[0], colours[1],
+        "hiding the virtual objects changes the image"
+    );
 }

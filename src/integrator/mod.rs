@@ -17,7 +17,7 @@
 //! order, so an image is bit-identical whatever the number of threads.
 //!
 //! Scenes of Lambert materials (textured or not, with or without shading
-//! normals) lit by point lights,
+//! normals, real or virtual) lit by point lights,
 //! emissive meshes, parametric lights and environments (see
 //! [`SoaScene::new`]) run on a vectorised version of the same wavefront
 //! ([`soa`]): structure-of-arrays lanes, compiled for AVX-512, AVX2 and

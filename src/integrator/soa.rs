@@ -4,7 +4,9 @@
 //! triangles with a cone, picked only where their cone reaches) and an
 //! environment (an importance-sampled panorama or a constant sky; its
 //! samples and the lookups of rays that leave the scene are taken for all
-//! lanes at once, with the batched lookups the general integrator uses).
+//! lanes at once, with the batched lookups the general integrator uses);
+//! virtual objects (compositing) included: the job's ray mask on every
+//! ray, and their coverage counted in the matte.
 //!
 //! It computes what the general integrator ([`super::render_tile`])
 //! computes, in the same floating-point operations in the same order, with
@@ -61,6 +63,10 @@ pub struct SoaScene {
     /// Whether any geometry's is (then each lane's albedo is looked up by
     /// `lane_surfaces` into `SoaLanes::albedo`).
     any_textured: bool,
+    /// Whether each geometry (by Embree id) is a virtual object (inserted
+    /// into a photograph; counted in the compositing matte), with one extra
+    /// `false`.
+    is_virtual: Vec<bool>,
     /// Whether each geometry (by Embree id) has vertex normals (shading
     /// normals), with one extra `false`.
     smooth: Vec<bool>,
@@ -85,7 +91,7 @@ pub struct SoaScene {
 impl SoaScene {
     /// The kernel's view of `scene`, or `None` when the scene needs the
     /// general integrator: a material that is not Lambert (textured or
-    /// not), virtual objects, or more than 64 reach-limited groups.
+    /// not), or more than 64 reach-limited groups.
     pub fn new(scene: &Scene) -> Option<SoaScene> {
         // The kernel picks lights by a mask of the cone-limited groups that
         // reach a point (`LightSet::pick_among`).
@@ -96,13 +102,10 @@ impl SoaScene {
         let mut emissive = Vec::new();
         let mut textured = Vec::new();
         let mut smooth = Vec::new();
+        let mut is_virtual = Vec::new();
         for (g, mesh) in scene.meshes().iter().enumerate() {
-            // Virtual objects (compositing) need ray masks and the matte,
-            // which only the general integrator has so far.
-            if mesh.is_virtual {
-                return None;
-            }
             smooth.push(!mesh.normals.is_empty());
+            is_virtual.push(mesh.is_virtual);
             let material = scene.materials().get(mesh.material as usize)?;
             let Bsdf::Diffuse(d) = material.bsdf else {
                 return None;
@@ -119,6 +122,7 @@ impl SoaScene {
         emissive.push(false);
         textured.push(false);
         smooth.push(false);
+        is_virtual.push(false);
         let lights = scene.lights();
         // One light picked the same way everywhere: the same for every lane.
         let single_light = match lights.lights.as_slice() {
@@ -140,6 +144,7 @@ impl SoaScene {
             textured,
             any_smooth: smooth.contains(&true),
             smooth,
+            is_virtual,
             single_light,
             light_table,
             environment: scene.environment_index(),
@@ -656,6 +661,10 @@ fn trace_pass_body(
         _ => general_camera_rays(pass, lanes),
     };
     lanes.resize(n);
+    // The job's rays see the virtual objects or not (compositing renders
+    // the scene both ways); one mask for every ray, shadow rays included.
+    lanes.rays.set_mask(pass.job.ray_mask());
+    lanes.shadow.set_mask(pass.job.ray_mask());
     stats.camera += n as u64;
     let clock = Instant::now();
     scene.accel().intersect_batch(&mut lanes.rays, true);
@@ -940,6 +949,9 @@ fn camera_vertex_layers(pass: &Pass, lanes: &SoaLanes, pixels: &mut [PixelSums])
             );
             if pass.first {
                 pixel.object_id = pass.scene.meshes()[g].object_layer();
+            }
+            if pass.kernel.is_virtual[g] {
+                pixel.virtual_hits += 1;
             }
         }
     }

@@ -47,8 +47,8 @@ pub struct RenderArgs {
     #[arg(long)]
     pub filmic: bool,
     /// Render with the general integrator even where the vectorised kernel
-    /// applies (Lambert materials, textured or not, with or without vertex normals, lit by point,
-    /// area and PLS lights and environments). The image is
+    /// applies (Lambert materials, textured or not, with or without vertex normals, real or
+    /// virtual, lit by point, area and PLS lights and environments). The image is
     /// the same, bit for bit; this is for checking and timing.
     #[arg(long)]
     pub scalar: bool,
