@@ -10,10 +10,12 @@ use std::ops::Range;
 pub const MAX_SPP: u32 = 1 << 24;
 /// The deepest path a render may trace, in scattering events.
 pub const MAX_DEPTH: u32 = 1024;
-/// The default [`RenderJob::rr_depth`]: Russian roulette from the third
-/// scattering event on. (Mitsuba 3's default is 5; on the Cornell box 3
-/// reaches the same error about 8 % sooner, measured by `plsr bench peers`.)
-pub const DEFAULT_RR_DEPTH: u32 = 3;
+/// The default [`RenderJob::rr_depth`]: Russian roulette from the fourth
+/// scattering event on, where Mitsuba 3 starts it (its default 5 counts
+/// the camera ray). With stratified samples this reaches a given error
+/// sooner than 3: 15–20 % on the PLS room and the glossy spheres under a
+/// sky, level on the Cornell box (`plsr bench peers`' scenes, 64 spp).
+pub const DEFAULT_RR_DEPTH: u32 = 4;
 
 /// Which samples of every pixel to render, how deep, with which seed.
 ///

@@ -5,7 +5,7 @@
 //! path, multiple importance sampling of the two strategies with the power
 //! heuristic (Veach 1997), and Russian roulette by throughput (times `η²`
 //! of the refractions so far) from [`RenderJob::rr_depth`] scattering events
-//! on (3 by default).
+//! on (4 by default).
 //! `max_depth` counts scattering events, as pbrt's `maxdepth` does: a path of
 //! `max_depth = 1` is direct lighting only.
 //!

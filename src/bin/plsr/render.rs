@@ -27,7 +27,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub max_depth: Option<u32>,
     /// Scattering events after which Russian roulette may end a path
-    /// (overrides render.rr_depth; default 3).
+    /// (overrides render.rr_depth; default 4).
     #[arg(long)]
     pub rr_depth: Option<u32>,
     /// Random seed (overrides render.seed); the image depends only on the
