@@ -18,9 +18,11 @@
 //! space, exact float round trip), and the same environment EXR. Both
 //! render at the same spp; each time is the best of two after a warm-up
 //! (Mitsuba's warm-up compiles its kernels). The reference is plsr at
-//! `--reference-spp` (cached in the folder); the relative MSE subtracts the
-//! reference's own variance, so it estimates the error against the
-//! converged image. plsr's `max_depth` counts scattering events, Mitsuba's
+//! `--reference-spp` (cached in the folder), the mean of two independent
+//! halves (different seeds); the relative MSE subtracts the reference's own
+//! error, estimated from the halves' difference, so it estimates the error
+//! against the converged image. (The `variance` layer of one render would
+//! overestimate it: plsr's samples are stratified.) plsr's `max_depth` counts scattering events, Mitsuba's
 //! path segments, so Mitsuba gets plsr's + 1.
 
 use super::python_json;
@@ -421,8 +423,11 @@ fn mean(image: &[glam::Vec3]) -> f64 {
     image.iter().map(|c| (c.x + c.y + c.z) as f64).sum::<f64>() / (3 * image.len()) as f64
 }
 
-/// The converged reference of `scene`: plsr at `spp`, cached in `dir` under
-/// a key of the scene file's text and `spp`.
+/// The converged reference of `scene`: plsr at `spp`, as the mean of two
+/// renders of `spp/2` with different seeds, its `variance` layer the
+/// estimate `(a − b)²/4` of the mean's own error (unbiased, as the halves
+/// are independent; one render's layer overestimates it for stratified
+/// samples); cached in `dir` under a key of the scene file's text and `spp`.
 fn reference(
     scene: &PeerScene,
     built: &Scene,
@@ -432,7 +437,7 @@ fn reference(
     dir: &Path,
 ) -> Result<Film> {
     let text = std::fs::read_to_string(&scene.plsr).map_err(io_err(&scene.plsr))?;
-    let key = format!("{spp} {:016x}", fnv1a(text.as_bytes()));
+    let key = format!("{spp} halves {:016x}", fnv1a(text.as_bytes()));
     let exr = dir.join(format!("{}.reference.exr", scene.name));
     let key_file = dir.join(format!("{}.reference.key", scene.name));
     if exr.is_file() && std::fs::read_to_string(&key_file).ok().as_deref() == Some(key.as_str()) {
@@ -440,11 +445,23 @@ fn reference(
         return Film::read_exr(&exr);
     }
     let mut job = description.job;
-    job.spp = spp;
+    job.spp = spp.div_ceil(2);
     job.seed = 0x5EED_F2EF;
-    println!("  reference: plsr at {spp} spp …");
-    let (film, stats) = render(built, &job, options, &|_, _| true)?;
-    println!("  reference: {:.1} s", stats.seconds);
+    println!("  reference: plsr at {spp} spp (two halves) …");
+    let (mut film, first) = render(built, &job, options, &|_, _| true)?;
+    job.seed ^= 0x9E37_79B9;
+    let (other, second) = render(built, &job, options, &|_, _| true)?;
+    for ((a, v), b) in film
+        .color
+        .iter_mut()
+        .zip(&mut film.variance)
+        .zip(&other.color)
+    {
+        let d = *a - *b;
+        *v = d * d * 0.25;
+        *a = (*a + *b) * 0.5;
+    }
+    println!("  reference: {:.1} s", first.seconds + second.seconds);
     film.write_exr(&exr)?;
     write(&key_file, &key)?;
     Ok(film)
