@@ -13,7 +13,7 @@
 //! exactly one point — so the light sample, the BSDF sample and the pixel
 //! position are stratified across a pixel's samples, and the error of an
 //! image falls faster than with independent numbers (the Cornell box
-//! at 64 spp: about a quarter less relMSE). Each draw is still uniform
+//! at 64 spp: about 40 % less relMSE). Each draw is still uniform
 //! on `[0, 1)²` and independent between pixels and draws (different
 //! hashes), so every estimator stays unbiased. The draws of a path are
 //! numbered in the order it makes them: a path that skips a draw (no light

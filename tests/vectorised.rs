@@ -461,18 +461,26 @@ fn environments_are_bit_identical() {
     assert_identical("constant sky and an area light", &sky);
 }
 
+/// A `size`×`size` PNG of random colours (`Rng::new(seed, stream)`) in
+/// `dir`.
+fn random_texture(dir: &Path, size: u32, seed: u64, stream: u64) -> std::path::PathBuf {
+    let path = dir.join("texture.png");
+    let mut rng = plsr::rng::Rng::new(seed, stream);
+    image::RgbImage::from_fn(size, size, |_, _| {
+        image::Rgb([0, 0, 0].map(|_: u8| (rng.next_f32() * 255.0) as u8))
+    })
+    .save(&path)
+    .unwrap();
+    path
+}
+
 #[test]
 fn textured_lambert_is_bit_identical() {
     // A panel with an 8×8 texture of random colours in the Cornell box, lit
     // by a point light and the box's walls; its texels show in the image,
     // in the light it reflects and in the albedo layer.
     let dir = tempfile::tempdir().unwrap();
-    let texture = dir.path().join("texture.png");
-    let mut rng = plsr::rng::Rng::new(2, 9);
-    let image = image::RgbImage::from_fn(8, 8, |_, _| {
-        image::Rgb([0, 0, 0].map(|_: u8| (rng.next_f32() * 255.0) as u8))
-    });
-    image.save(&texture).unwrap();
+    let texture = random_texture(dir.path(), 8, 2, 9);
     let texture = texture.display().to_string().replace('\\', "/");
     let scene = scene_from(
         "textured",
@@ -564,13 +572,7 @@ fn shading_normals_are_bit_identical() {
     }
     obj += "f 1/1/1 2/2/2 3/3/3\nf 1/1/1 3/3/3 4/4/4\n";
     std::fs::write(&panel, obj).unwrap();
-    let texture = dir.path().join("texture.png");
-    let mut rng = plsr::rng::Rng::new(4, 1);
-    image::RgbImage::from_fn(4, 4, |_, _| {
-        image::Rgb([0, 0, 0].map(|_: u8| (rng.next_f32() * 255.0) as u8))
-    })
-    .save(&texture)
-    .unwrap();
+    let texture = random_texture(dir.path(), 4, 4, 1);
     let path = |p: &Path| p.display().to_string().replace('\\', "/");
     let scene = scene_from(
         "shading-normals",

@@ -478,6 +478,33 @@ impl SoaLanes {
         }
     }
 
+    /// The scattering vertex lane `i`'s ray left from, after `depth`
+    /// scattering events (for the MIS weight of emission the ray finds).
+    #[inline(always)]
+    fn prev_vertex(&self, i: usize, depth: u32) -> PrevVertex {
+        PrevVertex {
+            depth,
+            pdf: self.prev_pdf[i],
+            point: Vec3::new(
+                self.prev_point[0][i],
+                self.prev_point[1][i],
+                self.prev_point[2][i],
+            ),
+        }
+    }
+
+    /// Adds emission `le` that lane `i`'s ray found, MIS weight `weight`,
+    /// through the lane's throughput: `β · le · weight`, as the general
+    /// integrator adds it.
+    #[inline(always)]
+    fn add_found_emission(&mut self, i: usize, le: Vec3, weight: f32) {
+        let beta = Vec3::new(self.beta[0][i], self.beta[1][i], self.beta[2][i]);
+        let add = beta * le * weight;
+        for c in 0..3 {
+            self.radiance[c][i] += add[c];
+        }
+    }
+
     /// Keeps the lanes listed in `self.kept`, in order; the previous
     /// scattering points and densities only where `emitters` need them.
     #[inline(always)]
@@ -757,21 +784,9 @@ fn add_emission(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes, depth: u
         if le == Vec3::ZERO {
             continue;
         }
-        let prev = PrevVertex {
-            depth,
-            pdf: lanes.prev_pdf[i],
-            point: Vec3::new(
-                lanes.prev_point[0][i],
-                lanes.prev_point[1][i],
-                lanes.prev_point[2][i],
-            ),
-        };
+        let prev = lanes.prev_vertex(i, depth);
         let weight = emission_weight(scene, li, &prev, p, ray.dir);
-        let beta = Vec3::new(lanes.beta[0][i], lanes.beta[1][i], lanes.beta[2][i]);
-        let add = beta * le * weight;
-        for c in 0..3 {
-            lanes.radiance[c][i] += add[c];
-        }
+        lanes.add_found_emission(i, le, weight);
     }
 }
 
@@ -793,26 +808,14 @@ fn add_environment(scene: &Scene, lanes: &mut SoaLanes, env: usize, depth: u32) 
         }
     }
     light.radiance_pdf_many(&lanes.env_dirs, &mut lanes.env_seen);
-    for (&i, &(le, pdf)) in lanes.env_lanes.iter().zip(&lanes.env_seen) {
-        let i = i as usize;
+    for j in 0..lanes.env_lanes.len() {
+        let (i, (le, pdf)) = (lanes.env_lanes[j] as usize, lanes.env_seen[j]);
         if le == Vec3::ZERO {
             continue;
         }
-        let prev = PrevVertex {
-            depth,
-            pdf: lanes.prev_pdf[i],
-            point: Vec3::new(
-                lanes.prev_point[0][i],
-                lanes.prev_point[1][i],
-                lanes.prev_point[2][i],
-            ),
-        };
+        let prev = lanes.prev_vertex(i, depth);
         let weight = environment_weight(scene, env, &prev, || pdf);
-        let beta = Vec3::new(lanes.beta[0][i], lanes.beta[1][i], lanes.beta[2][i]);
-        let add = beta * le * weight;
-        for c in 0..3 {
-            lanes.radiance[c][i] += add[c];
-        }
+        lanes.add_found_emission(i, le, weight);
     }
 }
 

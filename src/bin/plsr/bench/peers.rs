@@ -22,8 +22,9 @@
 //! halves (different seeds); the relative MSE subtracts the reference's own
 //! error, estimated from the halves' difference, so it estimates the error
 //! against the converged image. (The `variance` layer of one render would
-//! overestimate it: plsr's samples are stratified.) plsr's `max_depth` counts scattering events, Mitsuba's
-//! path segments, so Mitsuba gets plsr's + 1.
+//! overestimate it: plsr's samples are stratified.) plsr's `max_depth`
+//! counts scattering events, Mitsuba's path segments, so Mitsuba gets
+//! plsr's + 1.
 
 use super::python_json;
 use plsr::bsdf::{Bsdf, Distribution, Fresnel};
@@ -461,6 +462,7 @@ fn reference(
         *v = d * d * 0.25;
         *a = (*a + *b) * 0.5;
     }
+    film.spp = 2 * job.spp;
     println!("  reference: {:.1} s", first.seconds + second.seconds);
     film.write_exr(&exr)?;
     write(&key_file, &key)?;
