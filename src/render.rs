@@ -30,9 +30,9 @@ pub struct RenderOptions {
     pub threads: Option<usize>,
     /// Tile edge in pixels.
     pub tile_size: u32,
-    /// Use the vectorised kernel where the scene qualifies (see
-    /// [`SoaScene`]); it gives the same image as the general integrator,
-    /// faster. `false` forces the general integrator.
+    /// Use the vectorised kernel (see [`SoaScene`]); it gives the same
+    /// image as the general integrator, faster. `false` forces the general
+    /// integrator (the reference).
     pub vectorised: bool,
     /// Instruction set of the vectorised kernel; `None` picks the best the
     /// CPU has. Every choice gives the same image (for tests and timing);
@@ -196,11 +196,7 @@ pub fn render_sums(
         Some(isa) => isa,
         None => Isa::best(),
     };
-    let kernel = if options.vectorised {
-        SoaScene::new(scene)
-    } else {
-        None
-    };
+    let kernel = options.vectorised.then(|| SoaScene::new(scene));
     check_memory(scene, options)
         .map_err(|m| Error::InvalidArgument(format!("camera.resolution: {m}")))?;
     let pool = thread_pool(options.threads)?;

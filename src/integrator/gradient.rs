@@ -480,7 +480,7 @@ fn step(
     // even while the anisotropy is 0.
     let frame =
         if bsdf.is_anisotropic() || slots[crate::bsdf::BsdfParam::Anisotropic as usize].is_some() {
-            Frame::from_normal_tangent(shading_n, surface.tangent(mesh, &hit))
+            Frame::from_normal_tangent(shading_n, SurfacePoint::tangent(mesh, &hit))
         } else {
             Frame::from_normal(shading_n)
         };

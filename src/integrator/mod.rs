@@ -16,15 +16,15 @@
 //! stream ([`PathSampler::for_sample`]) and every pixel adds its samples in sample
 //! order, so an image is bit-identical whatever the number of threads.
 //!
-//! Scenes of Lambert materials (textured or not, with or without shading
-//! normals, real or virtual) lit by point lights,
-//! emissive meshes, parametric lights and environments (see
-//! [`SoaScene::new`]) run on a vectorised version of the same wavefront
+//! Every scene runs on a vectorised version of the same wavefront
 //! ([`soa`]): structure-of-arrays lanes, compiled for AVX-512, AVX2 and
-//! the baseline and picked at run time ([`Isa`]). It performs the same
-//! floating-point operations in the same order with the same random numbers,
-//! so it renders the same image bit for bit; `RenderOptions::vectorised`
-//! (`plsr render --scalar`) turns it off.
+//! the baseline and picked at run time ([`Isa`]); Lambert surfaces are
+//! shaded in its branch-free loop, the other models by this module's
+//! [`scatter`] lane by lane. It performs the same floating-point
+//! operations in the same order with the same random numbers, so it
+//! renders the same image bit for bit; `RenderOptions::vectorised`
+//! (`plsr render --scalar`) turns it off, leaving this general integrator
+//! as the reference.
 
 pub mod gradient;
 pub mod soa;
@@ -33,6 +33,7 @@ mod spawn;
 pub use soa::{Isa, SoaScene};
 
 use crate::accel::{Ray, RayHit, ShadowRay};
+use crate::bsdf::Bsdf;
 pub use crate::film::{PixelSums, Tile};
 use crate::job::RenderJob;
 use crate::light::{Light, LightSample};
@@ -326,7 +327,7 @@ impl SurfacePoint {
 
     /// The first tangent for anisotropic BSDFs: ∂p/∂u where the mesh has
     /// texture coordinates, else the triangle's first edge.
-    fn tangent(&self, mesh: &crate::scene::Mesh, hit: &crate::accel::Hit) -> Vec3 {
+    fn tangent(mesh: &crate::scene::Mesh, hit: &crate::accel::Hit) -> Vec3 {
         let [i0, i1, i2] = mesh.triangles[hit.prim_id as usize].map(|i| i as usize);
         let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
         let (dp1, dp2) = (p1 - p0, p2 - p0);
@@ -647,32 +648,15 @@ fn shade(
         return;
     };
     let mesh = &scene.meshes()[hit.geom_id as usize];
-    let p = ray.org + hit.t * ray.dir;
-    let wo = -ray.dir;
-    let ng = hit.ng.normalize_or_zero();
-    let facing = if ng.dot(wo) >= 0.0 { ng } else { -ng };
     let material = &scene.materials()[mesh.material as usize];
     let surface = SurfacePoint::new(mesh, &hit, !material.textures.is_empty());
-    let textured;
-    let bsdf = if material.textures.is_empty() {
-        &material.bsdf
-    } else {
-        textured = material.bsdf_at(surface.uv);
-        &textured
-    };
-    // Without shading normals the frame's normal is ±ng and the light-leak
-    // guard cannot fail.
-    let guard = surface.normal.is_some();
-    // Opaque surfaces are two-sided: shade in the frame facing the viewer.
-    // Transmissive ones keep the geometric normal as their outside.
-    let n = if bsdf.transmits() { ng } else { facing };
-    let shading_n = surface.shading_normal(n, wo);
+    let at = SurfaceHit::new(scene, &ray, &hit, surface);
 
     if path.depth == 0 {
         pixel.add_first_hit(
             scene.camera().depth(ray.dir, hit.t),
-            if bsdf.transmits() { facing } else { shading_n },
-            bsdf.albedo(),
+            at.aov_normal(),
+            at.bsdf.albedo(),
         );
         if record_aovs_first {
             pixel.object_id = mesh.object_layer();
@@ -687,14 +671,14 @@ fn shade(
     if let Some(li) = scene.light_index(hit.geom_id, hit.prim_id) {
         let light = &scene.lights().lights[li];
         if let Light::Triangle(tl) = light {
-            let le = tl.emitted(wo);
+            let le = tl.emitted(at.wo);
             if le != Vec3::ZERO {
                 let prev = PrevVertex {
                     depth: path.depth,
                     pdf: path.prev_pdf,
                     point: path.prev_point,
                 };
-                let weight = emission_weight(scene, li, &prev, p, ray.dir);
+                let weight = emission_weight(scene, li, &prev, at.p, ray.dir);
                 path.radiance += path.beta * le * weight;
             }
         }
@@ -705,11 +689,169 @@ fn shade(
         return;
     }
 
-    let frame = if bsdf.is_anisotropic() {
-        Frame::from_normal_tangent(shading_n, surface.tangent(mesh, &hit))
-    } else {
-        Frame::from_normal(shading_n)
+    let bounce = Bounce {
+        // The ray after the last light sample only matters if it can hit a light.
+        continue_path: path.depth + 1 < max_depth || scene.has_hittable_lights(),
+        roulette: path.depth + 1 >= pass.job.rr_depth,
     };
+    let lights = scene.lights();
+    let scattered = scatter(
+        &at,
+        &mut path.rng,
+        &mut path.beta,
+        &mut path.eta_scale,
+        bounce,
+        |p, u| lights.pick(p, u),
+        |li, p, u| match env_ahead {
+            Some(ahead) if scene.environment_index() == Some(li) && ahead.u == u => ahead.sample,
+            _ => lights.lights[li].sample_li(p, u),
+        },
+    );
+    if let Some((shadow, radiance)) = scattered.shadow {
+        shadow_rays.push(ShadowRay::masked(shadow, pass.job.ray_mask()));
+        pending.push(PendingLight {
+            path: index,
+            radiance,
+        });
+    }
+    match scattered.next {
+        Some((next, pdf)) => {
+            path.prev_pdf = pdf;
+            path.prev_point = at.p;
+            path.depth += 1;
+            *rh = RayHit::masked(next, pass.job.ray_mask());
+        }
+        None => path.alive = false,
+    }
+}
+
+/// A path's hit as scattering sees it: the point, the directions and
+/// normals, and the BSDF of the material there.
+struct SurfaceHit<'a> {
+    /// The hit point (scene units).
+    pub p: Vec3,
+    /// Unit direction towards the ray's origin.
+    pub wo: Vec3,
+    /// Unit geometric normal, as the mesh winds it.
+    pub ng: Vec3,
+    /// `ng` turned towards `wo`.
+    pub facing: Vec3,
+    /// The BSDF's outside: `facing` for an opaque BSDF (two-sided), `ng`
+    /// for a transmissive one.
+    pub n: Vec3,
+    /// The normal of the shading frame (see [`SurfacePoint::shading_normal`]).
+    pub shading_n: Vec3,
+    /// Whether the mesh has vertex normals (then the light-leak guard
+    /// applies, see [`sides_agree`]).
+    pub guard: bool,
+    /// The material's BSDF at the hit (its textures looked up).
+    pub bsdf: Bsdf,
+    mesh: &'a crate::scene::Mesh,
+    hit: crate::accel::Hit,
+}
+
+impl<'a> SurfaceHit<'a> {
+    /// The hit `hit` of `ray`, whose surface attributes are `surface`.
+    #[inline]
+    fn new(
+        scene: &'a Scene,
+        ray: &Ray,
+        hit: &crate::accel::Hit,
+        surface: SurfacePoint,
+    ) -> SurfaceHit<'a> {
+        let mesh = &scene.meshes()[hit.geom_id as usize];
+        let material = &scene.materials()[mesh.material as usize];
+        let p = ray.org + hit.t * ray.dir;
+        let wo = -ray.dir;
+        let ng = hit.ng.normalize_or_zero();
+        let facing = if ng.dot(wo) >= 0.0 { ng } else { -ng };
+        let bsdf = if material.textures.is_empty() {
+            material.bsdf
+        } else {
+            material.bsdf_at(surface.uv)
+        };
+        // Opaque surfaces are two-sided: shade in the frame facing the viewer.
+        // Transmissive ones keep the geometric normal as their outside.
+        let n = if bsdf.transmits() { ng } else { facing };
+        SurfaceHit {
+            p,
+            wo,
+            ng,
+            facing,
+            n,
+            shading_n: surface.shading_normal(n, wo),
+            // Without shading normals the frame's normal is ±ng and the
+            // light-leak guard cannot fail.
+            guard: surface.normal.is_some(),
+            bsdf,
+            mesh,
+            hit: *hit,
+        }
+    }
+
+    /// The normal the normal layer records: the shading normal, or for a
+    /// transmissive BSDF the geometric normal facing the viewer.
+    #[inline]
+    fn aov_normal(&self) -> Vec3 {
+        if self.bsdf.transmits() {
+            self.facing
+        } else {
+            self.shading_n
+        }
+    }
+
+    /// The local shading frame (with the tangent anisotropic BSDFs need).
+    #[inline]
+    fn frame(&self) -> Frame {
+        if self.bsdf.is_anisotropic() {
+            Frame::from_normal_tangent(self.shading_n, SurfacePoint::tangent(self.mesh, &self.hit))
+        } else {
+            Frame::from_normal(self.shading_n)
+        }
+    }
+}
+
+/// What is decided for a whole bounce before a path scatters.
+#[derive(Debug, Clone, Copy)]
+struct Bounce {
+    /// Whether the path goes on after the light sample (BSDF sampling).
+    pub continue_path: bool,
+    /// Whether Russian roulette applies after this scattering.
+    pub roulette: bool,
+}
+
+/// What one scattering decides: the light sample's shadow ray with the
+/// radiance it adds if unoccluded, and the next ray with the density of
+/// the BSDF sample that chose it (0 after a delta lobe), or `None` where
+/// the path ends.
+struct Scattered {
+    pub shadow: Option<(Ray, Vec3)>,
+    pub next: Option<(Ray, f32)>,
+}
+
+/// One scattering at `at`: next-event estimation (a light picked by
+/// `pick(p, u)`, a point on it by `sample(light, p, u)`, MIS-weighted),
+/// then BSDF sampling of the next direction and Russian roulette, drawing
+/// from `rng` and updating the path's throughput `beta` and `η²` product
+/// `eta_scale`. Both integrators call it (the vectorised kernel for the
+/// lanes whose material it does not vectorise), so they trace the same
+/// paths.
+#[inline]
+fn scatter(
+    at: &SurfaceHit,
+    rng: &mut PathSampler,
+    beta: &mut Vec3,
+    eta_scale: &mut f32,
+    bounce: Bounce,
+    pick: impl FnOnce(Vec3, Vec2) -> Option<(usize, f32)>,
+    sample: impl FnOnce(usize, Vec3, Vec2) -> Option<LightSample>,
+) -> Scattered {
+    let (p, wo, ng, n, bsdf) = (at.p, at.wo, at.ng, at.n, &at.bsdf);
+    let mut out = Scattered {
+        shadow: None,
+        next: None,
+    };
+    let frame = at.frame();
     let wo_local = frame.to_local(wo);
     let eps = ray_epsilon(p);
     // Reflected rays leave on the side of `n`; only a transmissive BSDF can
@@ -727,18 +869,14 @@ fn shade(
     let light_pick = if bsdf.is_delta() {
         None
     } else {
-        scene.lights().pick(p, path.rng.next_2d())
+        pick(p, rng.next_2d())
     };
     if let Some((li, pick_pmf)) = light_pick {
-        let u = path.rng.next_2d();
-        let ls = match env_ahead {
-            Some(ahead) if scene.environment_index() == Some(li) && ahead.u == u => ahead.sample,
-            _ => scene.lights().lights[li].sample_li(p, u),
-        };
-        if let Some(ls) = ls {
+        let u = rng.next_2d();
+        if let Some(ls) = sample(li, p, u) {
             let wi_local = frame.to_local(ls.wi);
             // A delta light needs no MIS weight, so no BSDF density.
-            let (f, bsdf_pdf) = if guard && !sides_agree(wo, ls.wi, ng, wo_local, wi_local) {
+            let (f, bsdf_pdf) = if at.guard && !sides_agree(wo, ls.wi, ng, wo_local, wi_local) {
                 (Vec3::ZERO, 0.0)
             } else if ls.delta {
                 (bsdf.eval(wo_local, wi_local), 0.0)
@@ -758,57 +896,46 @@ fn shade(
                 // towards the environment (at infinity), unbounded.
                 let origin = origin_for(ls.wi);
                 let (dir, tfar) = shadow_segment(origin, p, ls.wi, ls.dist);
-                let shadow = Ray {
-                    org: origin,
-                    dir,
-                    tnear: 0.0,
-                    tfar,
-                };
-                if shadow.tfar > 0.0 {
-                    shadow_rays.push(ShadowRay::masked(shadow, pass.job.ray_mask()));
-                    pending.push(PendingLight {
-                        path: index,
-                        radiance: path.beta * f * ls.radiance * (weight / light_pdf),
-                    });
+                if tfar > 0.0 {
+                    let shadow = Ray {
+                        org: origin,
+                        dir,
+                        tnear: 0.0,
+                        tfar,
+                    };
+                    out.shadow = Some((shadow, *beta * f * ls.radiance * (weight / light_pdf)));
                 }
             }
         }
     }
 
-    // The ray after the last light sample only matters if it can hit a light.
-    if path.depth + 1 == max_depth && !scene.has_hittable_lights() {
-        path.alive = false;
-        return;
+    if !bounce.continue_path {
+        return out;
     }
 
     // BSDF sampling for the next ray.
-    let uc = path.rng.next_f32();
-    let Some(bs) = bsdf.sample(wo_local, uc, path.rng.next_2d()) else {
-        path.alive = false;
-        return;
+    let uc = rng.next_f32();
+    let Some(bs) = bsdf.sample(wo_local, uc, rng.next_2d()) else {
+        return out;
     };
     let wi = frame.to_world(bs.wi);
-    if guard && !sides_agree(wo, wi, ng, wo_local, bs.wi) {
-        path.alive = false;
-        return;
+    if at.guard && !sides_agree(wo, wi, ng, wo_local, bs.wi) {
+        return out;
     }
-    path.beta *= bs.weight;
-    path.prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
-    path.prev_point = p;
-    path.depth += 1;
-    path.eta_scale *= bsdf.eta_scale(wo_local, bs.wi);
-    let rr_beta = path.beta * path.eta_scale;
-    if roulette_spins(rr_beta, path.depth >= pass.job.rr_depth) {
-        let (survives, beta) = roulette(path.beta, rr_beta, path.rng.next_f32());
+    *beta *= bs.weight;
+    *eta_scale *= bsdf.eta_scale(wo_local, bs.wi);
+    let rr_beta = *beta * *eta_scale;
+    if roulette_spins(rr_beta, bounce.roulette) {
+        let (survives, survivor) = roulette(*beta, rr_beta, rng.next_f32());
         if !survives {
-            path.alive = false;
-            return;
+            return out;
         }
-        path.beta = beta;
+        *beta = survivor;
     }
-    if path.beta == Vec3::ZERO {
-        path.alive = false;
-        return;
+    if *beta == Vec3::ZERO {
+        return out;
     }
-    *rh = RayHit::masked(Ray::new(origin_for(wi), wi), pass.job.ray_mask());
+    let pdf = if bs.delta { 0.0 } else { bs.pdf };
+    out.next = Some((Ray::new(origin_for(wi), wi), pdf));
+    out
 }

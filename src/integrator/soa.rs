@@ -1,12 +1,18 @@
-//! A vectorised wavefront for the commonest kind of scene: every material
-//! Lambert (its colour textured or not, with or without vertex normals), lit by point
+//! The vectorised wavefront that renders every scene. Lambert surfaces
+//! (their colour textured or not, with or without vertex normals) are shaded
+//! in a branch-free loop over structure-of-arrays lanes, lit by point
 //! lights, emissive meshes (area lights), parametric lights (emitting
 //! triangles with a cone, picked only where their cone reaches) and an
 //! environment (an importance-sampled panorama or a constant sky; its
 //! samples and the lookups of rays that leave the scene are taken for all
 //! lanes at once, with the batched lookups the general integrator uses);
 //! virtual objects (compositing) included: the job's ray mask on every
-//! ray, and their coverage counted in the matte.
+//! ray, and their coverage counted in the matte. Lanes whose material is
+//! another model (Blinn–Phong, Cook–Torrance, dielectrics, principled)
+//! scatter one by one through the general integrator's own code
+//! ([`scatter`]) inside the same wavefront, after the vectorised loop, with
+//! the light the kernel picked for them and the environment sample it took;
+//! their rays still go to Embree in the lanes' streams.
 //!
 //! It computes what the general integrator ([`super::render_tile`])
 //! computes, in the same floating-point operations in the same order, with
@@ -24,18 +30,19 @@
 //! which the compiler turns into AVX-512 or AVX2 code, picked at run time.
 //! Rays go to Embree as SoA streams (`rtcIntersectNp`, `rtcOccludedNp`).
 //!
-//! [`SoaScene::new`] decides whether a scene qualifies; a scene that
-//! does not is rendered by the general integrator.
+//! [`SoaScene::new`] prepares any scene for it; the general integrator
+//! stays as the reference (`plsr render --scalar`).
 
 // Lane loops index a dozen arrays by lane; iterator chains would hide that.
 #![allow(clippy::needless_range_loop)]
 
 use super::spawn::{ray_epsilon, shadow_segment};
 use super::{
-    camera_sample, emission_weight, environment_weight, roulette, roulette_spins,
-    shading_normal_towards, sides_agree, PixelSums, PrevVertex, RayStats, Tile,
+    camera_sample, emission_weight, environment_weight, roulette, roulette_spins, scatter,
+    shading_normal_towards, sides_agree, Bounce, PixelSums, PrevVertex, RayStats, Scattered,
+    SurfaceHit, Tile,
 };
-use crate::accel::{gather_lanes, RayBatch, INVALID_ID};
+use crate::accel::{gather_lanes, Hit, Ray, RayBatch, INVALID_ID};
 use crate::bsdf::{lambert_eval, lambert_pdf, lambert_sample, Bsdf};
 use crate::camera::{Camera, PinholeCamera};
 use crate::filter::PixelFilter;
@@ -63,6 +70,15 @@ pub struct SoaScene {
     /// Whether any geometry's is (then each lane's albedo is looked up by
     /// `lane_surfaces` into `SoaLanes::albedo`).
     any_textured: bool,
+    /// Whether each geometry's material is one the kernel does not shade in
+    /// its vectorised loop (anything but Lambert): such lanes scatter
+    /// through the general integrator's [`scatter`], with one extra `false`.
+    general: Vec<bool>,
+    /// Whether any geometry's is.
+    any_general: bool,
+    /// Whether each geometry's material transmits light (its normal layer
+    /// records the geometric normal), with one extra `false`.
+    transmits: Vec<bool>,
     /// Whether each geometry (by Embree id) is a virtual object (inserted
     /// into a photograph; counted in the compositing matte), with one extra
     /// `false`.
@@ -89,30 +105,27 @@ pub struct SoaScene {
 }
 
 impl SoaScene {
-    /// The kernel's view of `scene`, or `None` when the scene needs the
-    /// general integrator: a material that is not Lambert (textured or
-    /// not), or more than 64 reach-limited groups.
-    pub fn new(scene: &Scene) -> Option<SoaScene> {
-        // The kernel picks lights by a mask of the cone-limited groups that
-        // reach a point (`LightSet::pick_among`).
-        if scene.lights().limited_reaches().len() > 64 {
-            return None;
-        }
+    /// The kernel's view of `scene` (any scene).
+    pub fn new(scene: &Scene) -> SoaScene {
         let mut albedo = [Vec::new(), Vec::new(), Vec::new()];
         let mut emissive = Vec::new();
         let mut textured = Vec::new();
+        let mut general = Vec::new();
+        let mut transmits = Vec::new();
         let mut smooth = Vec::new();
         let mut is_virtual = Vec::new();
         for (g, mesh) in scene.meshes().iter().enumerate() {
             smooth.push(!mesh.normals.is_empty());
             is_virtual.push(mesh.is_virtual);
-            let material = scene.materials().get(mesh.material as usize)?;
-            let Bsdf::Diffuse(d) = material.bsdf else {
-                return None;
-            };
-            for (c, a) in albedo.iter_mut().enumerate() {
-                a.push(d.reflectance[c]);
+            let material = &scene.materials()[mesh.material as usize];
+            // Lambert's albedo is its reflectance; for the other models it
+            // is what the albedo layer records.
+            let a = material.bsdf.albedo();
+            for (c, albedo) in albedo.iter_mut().enumerate() {
+                albedo.push(a[c]);
             }
+            general.push(!matches!(material.bsdf, Bsdf::Diffuse(_)));
+            transmits.push(material.bsdf.transmits());
             emissive.push(scene.light_index(g as u32, 0).is_some());
             textured.push(!material.textures.is_empty());
         }
@@ -121,6 +134,8 @@ impl SoaScene {
         }
         emissive.push(false);
         textured.push(false);
+        general.push(false);
+        transmits.push(false);
         smooth.push(false);
         is_virtual.push(false);
         let lights = scene.lights();
@@ -137,11 +152,14 @@ impl SoaScene {
         let mut light_table: Vec<LightIn> =
             lights.lights.iter().map(|l| LightIn::new(l, 0.0)).collect();
         light_table.push(LightIn::default());
-        Some(SoaScene {
+        SoaScene {
             albedo,
             emissive,
             any_textured: textured.contains(&true),
             textured,
+            any_general: general.contains(&true),
+            general,
+            transmits,
             any_smooth: smooth.contains(&true),
             smooth,
             is_virtual,
@@ -150,7 +168,7 @@ impl SoaScene {
             environment: scene.environment_index(),
             triangle_lights: lights.lights.iter().any(triangle),
             cones: lights.lights.iter().any(cone),
-        })
+        }
     }
 }
 
@@ -416,8 +434,14 @@ pub struct SoaLanes {
     beta: [Vec<f32>; 3],
     radiance: [Vec<f32>; 3],
     pending: [Vec<f32>; 3],
+    /// The product of `η²` over each path's refractions so far (see
+    /// `PathState::eta_scale`).
+    eta_scale: Vec<f32>,
     /// Each lane's albedo at its hit, where a texture gives it.
     albedo: [Vec<f32>; 3],
+    /// Each lane's texture coordinates at its hit, where its material is
+    /// textured (for the lanes that [`scatter`]).
+    uv: [Vec<f32>; 2],
     /// Each lane's interpolated unit normal at its hit, where its mesh has
     /// vertex normals (`ns_valid`; zero elsewhere).
     ns: [Vec<f32>; 3],
@@ -467,6 +491,9 @@ impl SoaLanes {
             self.prev_point[c].resize(n, 0.0);
         }
         self.ns_valid.resize(n, false);
+        self.eta_scale.resize(n, 1.0);
+        self.uv[0].resize(n, 0.0);
+        self.uv[1].resize(n, 0.0);
         self.prev_pdf.resize(n, 0.0);
         self.light.resize(n, 0);
         self.light_pmf.resize(n, 0.0);
@@ -514,6 +541,7 @@ impl SoaLanes {
         gather_lanes(&mut self.pixel, kept);
         gather_lanes(&mut self.rng_state, kept);
         gather_lanes(&mut self.rng_inc, kept);
+        gather_lanes(&mut self.eta_scale, kept);
         for c in 0..3 {
             gather_lanes(&mut self.beta[c], kept);
             gather_lanes(&mut self.radiance[c], kept);
@@ -723,7 +751,7 @@ fn trace_pass_body(
             roulette: depth + 1 >= pass.job.rr_depth,
         };
         pick_lights(kernel, scene, lanes);
-        shade_lanes(kernel, lanes, uniform);
+        shade_lanes(kernel, scene, lanes, uniform);
 
         let shadow_tfar = lanes.shadow.tfar.as_slice();
         stats.shadow += shadow_tfar.iter().filter(|&&t| t > 0.0).count() as u64;
@@ -857,20 +885,20 @@ fn lane_surfaces(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
             kernel.albedo[1][g],
             kernel.albedo[2][g],
         );
-        let mut ns = None;
+        let (mut ns, mut uv) = (None, Vec2::ZERO);
         if kernel.textured[g] || kernel.smooth[g] {
             if let Some(hit) = lanes.rays.hit(i) {
                 let mesh = &meshes[g];
                 let surface = super::SurfacePoint::new(mesh, &hit, kernel.textured[g]);
                 if kernel.textured[g] {
                     let material = &scene.materials()[mesh.material as usize];
-                    if let Bsdf::Diffuse(d) = material.bsdf_at(surface.uv) {
-                        albedo = d.reflectance;
-                    }
+                    albedo = material.bsdf_at(surface.uv).albedo();
                 }
-                ns = surface.normal;
+                (ns, uv) = (surface.normal, surface.uv);
             }
         }
+        lanes.uv[0][i] = uv.x;
+        lanes.uv[1][i] = uv.y;
         for c in 0..3 {
             lanes.albedo[c][i] = albedo[c];
         }
@@ -911,15 +939,22 @@ fn camera_vertex_layers(pass: &Pass, lanes: &SoaLanes, pixels: &mut [PixelSums])
                 ns[c] = load(&lanes.ns[c], start);
             }
         }
+        let mut transmits = [false; W];
+        if pass.kernel.any_general {
+            for k in 0..W {
+                transmits[k] = pass.kernel.transmits[(geom[k] as usize).min(last)];
+            }
+        }
         let mut normal = [[0.0f32; W]; 3];
         let mut depth = [0.0f32; W];
         for k in 0..W {
             let d = Vec3::new(dir[0][k], dir[1][k], dir[2][k]);
             let n = Vec3::new(ng[0][k], ng[1][k], ng[2][k]).normalize_or_zero();
             let facing = if n.dot(-d) >= 0.0 { n } else { -n };
-            // The shading normal, as the general integrator records it.
+            // The shading normal, as the general integrator records it (for
+            // a transmissive material, the geometric normal).
             let shading = Vec3::new(ns[0][k], ns[1][k], ns[2][k]);
-            let facing = if ns_valid[k] {
+            let facing = if ns_valid[k] && !transmits[k] {
                 shading_normal_towards(shading, facing, -d)
             } else {
                 facing
@@ -979,6 +1014,7 @@ fn general_camera_rays(pass: &Pass, lanes: &mut SoaLanes) -> usize {
             lanes.rays.set(n, ray);
             lanes.pixel[n] = py * tile.width + px;
             (lanes.rng_state[n], lanes.rng_inc[n]) = rng.to_parts();
+            lanes.eta_scale[n] = 1.0;
             for c in 0..3 {
                 lanes.beta[c][n] = 1.0;
                 lanes.radiance[c][n] = 0.0;
@@ -1037,6 +1073,7 @@ fn pinhole_camera_rays(camera: &PinholeCamera, pass: &Pass, lanes: &mut SoaLanes
     for (i, p) in lanes.pixel.iter_mut().enumerate() {
         *p = i as u32;
     }
+    lanes.eta_scale.fill(1.0);
     for c in 0..3 {
         lanes.beta[c].fill(1.0);
         lanes.radiance[c].fill(0.0);
@@ -1134,7 +1171,8 @@ fn pick_per_lane(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
         // Which cone-limited groups reach each lane's point: the bounding
         // cones for the whole chunk, the exact test where they cannot tell.
         let mut reaches = [0u64; W];
-        for (g, reach) in set.limited_reaches().enumerate() {
+        // (`pick_among` tests any further groups itself.)
+        for (g, reach) in set.limited_reaches().take(64).enumerate() {
             let Some(reach) = reach else { continue };
             let mut decided = [false; W];
             let mut inside = [false; W];
@@ -1157,7 +1195,7 @@ fn pick_per_lane(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
                 continue;
             }
             (lanes.light[start + k], lanes.light_pmf[start + k]) =
-                match set.pick_among(reaches[k], u[k]) {
+                match set.pick_among(reaches[k], Vec3::new(p[0][k], p[1][k], p[2][k]), u[k]) {
                     Some((li, pmf)) => (li as u32, pmf),
                     None => (none, 0.0),
                 };
@@ -1228,6 +1266,7 @@ struct LaneIn {
     smooth: bool,
     albedo: Vec3,
     beta: Vec3,
+    eta_scale: f32,
     rng: u64,
     inc: u64,
     light: LightIn,
@@ -1351,10 +1390,11 @@ fn shade_lane<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const S
 
     // Russian roulette draws a number only where it spins: drawn from a
     // copy of the state, kept where it spins.
-    let spin = roulette_spins(beta, u.roulette);
+    let rr_beta = beta * l.eta_scale;
+    let spin = roulette_spins(rr_beta, u.roulette);
     let mut rng_rr = rng;
-    // Lambert never refracts: the roulette judges β itself (η² = 1).
-    let (survives, beta_rr) = roulette(beta, beta, PathSampler::step_f32(&mut rng_rr, l.inc));
+    // Lambert never refracts, but the path may have (η² of its refractions).
+    let (survives, beta_rr) = roulette(beta, rr_beta, PathSampler::step_f32(&mut rng_rr, l.inc));
     if spin {
         rng = rng_rr;
         beta = beta_rr;
@@ -1375,6 +1415,57 @@ fn shade_lane<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const S
         point: p,
         rng,
     }
+}
+
+/// A lane that scatters through the general integrator's code
+/// ([`scatter_lane`]): its ray and hit, the surface attributes
+/// `lane_surfaces` looked up, the light `pick_lights` picked for it (light
+/// index and probability) and the environment's sample it took there.
+struct GeneralLane {
+    ray: Ray,
+    hit: Hit,
+    surface: super::SurfacePoint,
+    pick: Option<(usize, f32)>,
+    environment: Option<LightSample>,
+}
+
+/// One bounce of a lane whose material the vectorised loop does not shade:
+/// the general integrator's [`scatter`] with the lane's state, the light
+/// the kernel picked for it with the same numbers, and the environment
+/// sample it took (other lights sampled here, as the general integrator
+/// samples them). Returns what it decided and the hit point.
+#[inline(never)]
+fn scatter_lane(
+    kernel: &SoaScene,
+    scene: &Scene,
+    lane: GeneralLane,
+    rng: &mut PathSampler,
+    beta: &mut Vec3,
+    eta_scale: &mut f32,
+    u: Uniform,
+) -> (Scattered, Vec3) {
+    let at = SurfaceHit::new(scene, &lane.ray, &lane.hit, lane.surface);
+    let bounce = Bounce {
+        continue_path: u.continue_paths,
+        roulette: u.roulette,
+    };
+    let environment = kernel.environment;
+    let out = scatter(
+        &at,
+        rng,
+        beta,
+        eta_scale,
+        bounce,
+        |_, _| lane.pick,
+        |li, p, u| {
+            if Some(li) == environment {
+                lane.environment
+            } else {
+                scene.lights().lights[li].sample_li(p, u)
+            }
+        },
+    );
+    (out, at.p)
 }
 
 /// Lanes per chunk of [`shade_lanes`]: one AVX-512 register of `f32`.
@@ -1421,28 +1512,33 @@ fn store<T: Copy>(dst: &mut [T], start: usize, src: &[T; W]) {
 /// loop without run-time overlap checks, which it could not generate for
 /// some thirty lane arrays and a table lookup.
 #[inline(always)]
-fn shade_lanes(kernel: &SoaScene, lanes: &mut SoaLanes, u: Uniform) {
+fn shade_lanes(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes, u: Uniform) {
     if kernel.any_smooth {
-        shade_lanes_with::<true>(kernel, lanes, u)
+        shade_lanes_with::<true>(kernel, scene, lanes, u)
     } else {
-        shade_lanes_with::<false>(kernel, lanes, u)
+        shade_lanes_with::<false>(kernel, scene, lanes, u)
     }
 }
 
 /// [`shade_lanes`] for scenes with (`SMOOTH`) or without vertex normals.
 #[inline(always)]
-fn shade_lanes_with<const SMOOTH: bool>(kernel: &SoaScene, lanes: &mut SoaLanes, u: Uniform) {
+fn shade_lanes_with<const SMOOTH: bool>(
+    kernel: &SoaScene,
+    scene: &Scene,
+    lanes: &mut SoaLanes,
+    u: Uniform,
+) {
     match (
         kernel.triangle_lights,
         kernel.cones,
         kernel.environment.is_some(),
     ) {
-        (true, true, true) => shade_chunks::<true, true, true, SMOOTH>(kernel, lanes, u),
-        (true, true, false) => shade_chunks::<true, true, false, SMOOTH>(kernel, lanes, u),
-        (true, false, true) => shade_chunks::<true, false, true, SMOOTH>(kernel, lanes, u),
-        (true, false, false) => shade_chunks::<true, false, false, SMOOTH>(kernel, lanes, u),
-        (false, _, true) => shade_chunks::<false, false, true, SMOOTH>(kernel, lanes, u),
-        (false, _, false) => shade_chunks::<false, false, false, SMOOTH>(kernel, lanes, u),
+        (true, true, true) => shade_chunks::<true, true, true, SMOOTH>(kernel, scene, lanes, u),
+        (true, true, false) => shade_chunks::<true, true, false, SMOOTH>(kernel, scene, lanes, u),
+        (true, false, true) => shade_chunks::<true, false, true, SMOOTH>(kernel, scene, lanes, u),
+        (true, false, false) => shade_chunks::<true, false, false, SMOOTH>(kernel, scene, lanes, u),
+        (false, _, true) => shade_chunks::<false, false, true, SMOOTH>(kernel, scene, lanes, u),
+        (false, _, false) => shade_chunks::<false, false, false, SMOOTH>(kernel, scene, lanes, u),
     }
 }
 
@@ -1453,6 +1549,7 @@ fn shade_lanes_with<const SMOOTH: bool>(kernel: &SoaScene, lanes: &mut SoaLanes,
 #[inline(always)]
 fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const SMOOTH: bool>(
     kernel: &SoaScene,
+    scene: &Scene,
     lanes: &mut SoaLanes,
     u: Uniform,
 ) {
@@ -1511,8 +1608,10 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
                 &loaded
             }
         };
-        let mut rng = load(&lanes.rng_state, start);
+        let rng_in = load(&lanes.rng_state, start);
+        let mut rng = rng_in;
         let inc = load(&lanes.rng_inc, start);
+        let mut eta_scale = load(&lanes.eta_scale, start);
         let (mut ns, mut ns_valid) = ([[0.0f32; W]; 3], [false; W]);
         if SMOOTH {
             ns_valid = load(&lanes.ns_valid, start);
@@ -1522,9 +1621,9 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
         }
 
         let mut next = [[0.0f32; W]; 6];
-        let mut next_tfar = [0.0f32; W];
+        let mut next_tfar = [f32::NEG_INFINITY; W];
         let mut shadow_ray = [[0.0f32; W]; 6];
-        let mut shadow_tfar = [0.0f32; W];
+        let mut shadow_tfar = [f32::NEG_INFINITY; W];
         let mut pending = [[0.0f32; W]; 3];
         let mut beta = [br, bg, bb];
         let (mut prev_pdf, mut prev_point) = ([0.0f32; W], [[0.0f32; W]; 3]);
@@ -1544,67 +1643,154 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
                 prev_point[c] = load(&lanes.prev_point[c], start);
             }
         }
-        for k in 0..W {
-            let hit = geom[k] != INVALID_ID;
-            let out = shade_lane::<TRIANGLES, CONES, ENV, SMOOTH>(
-                LaneIn {
-                    org: Vec3::new(ox[k], oy[k], oz[k]),
-                    dir: Vec3::new(dx[k], dy[k], dz[k]),
-                    t: t[k],
-                    ng: Vec3::new(nx[k], ny[k], nz[k]),
-                    hit,
-                    ns: Vec3::new(ns[0][k], ns[1][k], ns[2][k]),
-                    smooth: ns_valid[k],
-                    albedo: Vec3::new(ar[k], ag[k], ab[k]),
-                    beta: Vec3::new(br[k], bg[k], bb[k]),
-                    rng: rng[k],
-                    inc: inc[k],
-                    light: lights.lane(k),
-                    env_valid: env_valid[k],
-                    env_wi: Vec3::new(env_wi[0][k], env_wi[1][k], env_wi[2][k]),
-                    env_radiance: Vec3::new(
-                        env_radiance[0][k],
-                        env_radiance[1][k],
-                        env_radiance[2][k],
-                    ),
-                    env_pdf: env_pdf[k],
-                },
-                u,
-            );
-            // A lane without a hit keeps its state: its path has ended.
-            if hit {
-                rng[k] = out.rng;
-                for c in 0..3 {
-                    beta[c][k] = out.beta[c];
+        // Lanes of other materials get their results below; a chunk
+        // without a Lambert lane skips the loop (its lanes without a hit
+        // keep the initial values: no ray, no shadow ray, state unchanged).
+        let lambert = !kernel.any_general
+            || (0..W).any(|k| {
+                let g = (geom[k] as usize).min(last);
+                geom[k] != INVALID_ID && !kernel.general[g]
+            });
+        if lambert {
+            for k in 0..W {
+                let hit = geom[k] != INVALID_ID;
+                let out = shade_lane::<TRIANGLES, CONES, ENV, SMOOTH>(
+                    LaneIn {
+                        org: Vec3::new(ox[k], oy[k], oz[k]),
+                        dir: Vec3::new(dx[k], dy[k], dz[k]),
+                        t: t[k],
+                        ng: Vec3::new(nx[k], ny[k], nz[k]),
+                        hit,
+                        ns: Vec3::new(ns[0][k], ns[1][k], ns[2][k]),
+                        smooth: ns_valid[k],
+                        albedo: Vec3::new(ar[k], ag[k], ab[k]),
+                        beta: Vec3::new(br[k], bg[k], bb[k]),
+                        eta_scale: eta_scale[k],
+                        rng: rng[k],
+                        inc: inc[k],
+                        light: lights.lane(k),
+                        env_valid: env_valid[k],
+                        env_wi: Vec3::new(env_wi[0][k], env_wi[1][k], env_wi[2][k]),
+                        env_radiance: Vec3::new(
+                            env_radiance[0][k],
+                            env_radiance[1][k],
+                            env_radiance[2][k],
+                        ),
+                        env_pdf: env_pdf[k],
+                    },
+                    u,
+                );
+                // A lane without a hit keeps its state: its path has ended.
+                if hit {
+                    rng[k] = out.rng;
+                    for c in 0..3 {
+                        beta[c][k] = out.beta[c];
+                    }
                 }
-            }
-            // Only emission found later needs them (for its MIS weight).
-            if (TRIANGLES || ENV) && hit {
-                prev_pdf[k] = out.pdf;
-                for c in 0..3 {
-                    prev_point[c][k] = out.point[c];
+                // Only emission found later needs them (for its MIS weight).
+                if (TRIANGLES || ENV) && hit {
+                    prev_pdf[k] = out.pdf;
+                    for c in 0..3 {
+                        prev_point[c][k] = out.point[c];
+                    }
                 }
+                for c in 0..3 {
+                    pending[c][k] = out.pending[c];
+                    shadow_ray[c][k] = out.shadow_org[c];
+                    shadow_ray[3 + c][k] = out.shadow_dir[c];
+                    next[c][k] = out.next_org[c];
+                    next[3 + c][k] = out.next_dir[c];
+                }
+                shadow_tfar[k] = if out.shadow {
+                    out.shadow_tfar
+                } else {
+                    f32::NEG_INFINITY
+                };
+                next_tfar[k] = if out.alive {
+                    f32::INFINITY
+                } else {
+                    f32::NEG_INFINITY
+                };
             }
-            for c in 0..3 {
-                pending[c][k] = out.pending[c];
-                shadow_ray[c][k] = out.shadow_org[c];
-                shadow_ray[3 + c][k] = out.shadow_dir[c];
-                next[c][k] = out.next_org[c];
-                next[3 + c][k] = out.next_dir[c];
-            }
-            shadow_tfar[k] = if out.shadow {
-                out.shadow_tfar
-            } else {
-                f32::NEG_INFINITY
-            };
-            next_tfar[k] = if out.alive {
-                f32::INFINITY
-            } else {
-                f32::NEG_INFINITY
-            };
         }
 
+        // The lanes whose material the loop above does not shade (it
+        // computed something for them, discarded here): one by one, through
+        // the general integrator's scattering.
+        if kernel.any_general {
+            for k in 0..(n - start).min(W) {
+                if geom[k] == INVALID_ID || !kernel.general[geom[k] as usize] {
+                    continue;
+                }
+                let i = start + k;
+                let Some(hit) = rays.hit(i) else { continue };
+                let surface = super::SurfacePoint {
+                    uv: Vec2::new(lanes.uv[0][i], lanes.uv[1][i]),
+                    normal: (SMOOTH && ns_valid[k])
+                        .then(|| Vec3::new(ns[0][k], ns[1][k], ns[2][k])),
+                };
+                let pick = match kernel.single_light {
+                    Some(l) => Some((0, l.pmf)),
+                    None if lanes.light[i] as usize == kernel.light_table.len() - 1 => None,
+                    None => Some((lanes.light[i] as usize, lanes.light_pmf[i])),
+                };
+                let environment = (ENV && env_valid[k]).then(|| LightSample {
+                    radiance: Vec3::new(env_radiance[0][k], env_radiance[1][k], env_radiance[2][k]),
+                    wi: Vec3::new(env_wi[0][k], env_wi[1][k], env_wi[2][k]),
+                    dist: f32::INFINITY,
+                    pdf: env_pdf[k],
+                    delta: false,
+                });
+                // The lane's state before the loop above changed it.
+                let mut sampler = PathSampler::from_parts(rng_in[k], inc[k]);
+                let mut b = Vec3::new(br[k], bg[k], bb[k]);
+                let lane = GeneralLane {
+                    ray: rays.ray(i),
+                    hit,
+                    surface,
+                    pick,
+                    environment,
+                };
+                let (out, p) = scatter_lane(
+                    kernel,
+                    scene,
+                    lane,
+                    &mut sampler,
+                    &mut b,
+                    &mut eta_scale[k],
+                    u,
+                );
+                rng[k] = sampler.to_parts().0;
+                for c in 0..3 {
+                    beta[c][k] = b[c];
+                }
+                shadow_tfar[k] = f32::NEG_INFINITY;
+                if let Some((ray, radiance)) = out.shadow {
+                    for c in 0..3 {
+                        shadow_ray[c][k] = ray.org[c];
+                        shadow_ray[3 + c][k] = ray.dir[c];
+                        pending[c][k] = radiance[c];
+                    }
+                    shadow_tfar[k] = ray.tfar;
+                }
+                next_tfar[k] = f32::NEG_INFINITY;
+                if let Some((ray, pdf)) = out.next {
+                    for c in 0..3 {
+                        next[c][k] = ray.org[c];
+                        next[3 + c][k] = ray.dir[c];
+                    }
+                    next_tfar[k] = f32::INFINITY;
+                    if TRIANGLES || ENV {
+                        prev_pdf[k] = pdf;
+                        for c in 0..3 {
+                            prev_point[c][k] = p[c];
+                        }
+                    }
+                }
+            }
+        }
         store(&mut lanes.rng_state, start, &rng);
+        store(&mut lanes.eta_scale, start, &eta_scale);
         if TRIANGLES || ENV {
             store(&mut lanes.prev_pdf, start, &prev_pdf);
             for c in 0..3 {

@@ -327,18 +327,26 @@ impl LightSet {
         })
     }
 
-    /// [`LightSet::pick`] at a point that the cone-limited groups whose bits
-    /// are set in `reaches` can reach (bit `k` for the `k`-th of
-    /// [`LightSet::limited_reaches`]; at most 64 groups), for a caller that
-    /// tests the reach of many points at once. The same light and
-    /// probability as `pick`.
+    /// [`LightSet::pick`] at point `p`, where the first 64 cone-limited
+    /// groups that can reach `p` are given by the bits of `reaches` (bit `k`
+    /// for the `k`-th of [`LightSet::limited_reaches`]; any further groups
+    /// are tested here), for a caller that tests the reach of many points at
+    /// once. The same light and probability as `pick`.
     #[inline(always)]
-    pub fn pick_among(&self, reaches: u64, u: Vec2) -> Option<(usize, f32)> {
-        debug_assert!(self.limited_groups.len() <= 64);
+    pub fn pick_among(&self, reaches: u64, p: Vec3, u: Vec2) -> Option<(usize, f32)> {
         if self.limited_groups.is_empty() {
-            return self.pick(Vec3::ZERO, u);
+            return self.pick(p, u);
         }
-        self.pick_where(|k, _| reaches >> k & 1 == 1, u)
+        self.pick_where(
+            |k, g| {
+                if k < 64 {
+                    reaches >> k & 1 == 1
+                } else {
+                    self.limited_power(g, p) > 0.0
+                }
+            },
+            u,
+        )
     }
 
     /// The pick among the everywhere-groups and the cone-limited groups for
