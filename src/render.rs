@@ -175,6 +175,19 @@ pub fn render_sums(
     options: &RenderOptions,
     progress: &(dyn Fn(usize, usize) -> bool + Sync),
 ) -> Result<(FilmSums, RenderStats)> {
+    render_window_sums(scene, job, options, None, progress)
+}
+
+/// [`render_sums`] of the pixels of `window` only (the whole image for
+/// `None`): the others keep no samples. Each pixel's sums are those of the
+/// whole image's render, bit for bit, so windows stitch exactly.
+pub fn render_window_sums(
+    scene: &Scene,
+    job: &RenderJob,
+    options: &RenderOptions,
+    window: Option<Tile>,
+    progress: &(dyn Fn(usize, usize) -> bool + Sync),
+) -> Result<(FilmSums, RenderStats)> {
     job.validate()
         .map_err(|e| Error::InvalidArgument(format!("render: {e}")))?;
     if options.tile_size == 0 || options.tile_size > MAX_TILE_SIZE {
@@ -185,7 +198,30 @@ pub fn render_sums(
     }
     let cam = scene.camera();
     let (width, height) = (cam.width(), cam.height());
-    let tiles = tiles(width, height, options.tile_size);
+    let window = window.unwrap_or(Tile {
+        x0: 0,
+        y0: 0,
+        width,
+        height,
+    });
+    if window.width == 0
+        || window.height == 0
+        || window.x0 + window.width > width
+        || window.y0 + window.height > height
+    {
+        return Err(Error::InvalidArgument(format!(
+            "window {}×{} at ({}, {}) does not lie inside the {width}×{height} image",
+            window.width, window.height, window.x0, window.y0
+        )));
+    }
+    let tiles: Vec<Tile> = tiles(window.width, window.height, options.tile_size)
+        .into_iter()
+        .map(|t| Tile {
+            x0: t.x0 + window.x0,
+            y0: t.y0 + window.y0,
+            ..t
+        })
+        .collect();
     let isa = match options.isa {
         Some(isa) if !isa.is_available() => {
             return Err(Error::InvalidArgument(format!(
@@ -234,7 +270,7 @@ pub fn render_sums(
     let seconds = start.elapsed().as_secs_f64();
     let stats = RenderStats {
         seconds,
-        samples: width as u64 * height as u64 * job.spp as u64,
+        samples: window.width as u64 * window.height as u64 * job.spp as u64,
         rays: rays.into_inner().unwrap_or_else(|e| e.into_inner()),
         threads: pool.current_num_threads(),
         vectorised: kernel.is_some().then_some(isa),

@@ -44,6 +44,7 @@
 use crate::atomic_write::{check_extension, OutputSet};
 use std::fs::File;
 use std::io::BufWriter;
+pub mod part;
 mod sums;
 
 pub use sums::{FilmSums, PixelSums, Tile};
@@ -342,11 +343,44 @@ impl Film {
             file: path.to_path_buf(),
             message,
         })?;
-        outputs.stage(path, |w| self.encode_exr(path, w))
+        self.stage_exr_with(
+            outputs,
+            path,
+            Vec::new(),
+            Vec::new(),
+            exrp::Encoding::SMALL_LOSSLESS,
+        )
     }
 
-    /// Encodes all layers as OpenEXR into `w` (a new file, to be `path`).
-    fn encode_exr(&self, path: &Path, w: &mut BufWriter<File>) -> Result<()> {
+    /// [`Film::stage_exr`] with `extra` channels and header `attributes`
+    /// (a render's part, see [`part`]), compressed as `encoding` says.
+    pub(crate) fn stage_exr_with(
+        &self,
+        outputs: &mut OutputSet,
+        path: &Path,
+        extra: Vec<AnyChannel<FlatSamples>>,
+        attributes: Vec<(exrp::Text, exrp::AttributeValue)>,
+        encoding: exrp::Encoding,
+    ) -> Result<()> {
+        check_extension(path, "exr", "OpenEXR").map_err(|message| Error::Output {
+            file: path.to_path_buf(),
+            message,
+        })?;
+        outputs.stage(path, |w| {
+            self.encode_exr(path, w, extra, attributes, encoding)
+        })
+    }
+
+    /// Encodes all layers as OpenEXR into `w` (a new file, to be `path`),
+    /// with `extra` channels and header `attributes`.
+    fn encode_exr(
+        &self,
+        path: &Path,
+        w: &mut BufWriter<File>,
+        extra: Vec<AnyChannel<FlatSamples>>,
+        attributes: Vec<(exrp::Text, exrp::AttributeValue)>,
+        encoding: exrp::Encoding,
+    ) -> Result<()> {
         let split3 = |v: &[Vec3], i: usize| -> FlatSamples {
             FlatSamples::F32(v.iter().map(|c| c[i]).collect())
         };
@@ -374,11 +408,16 @@ impl Film {
             "object_id",
             FlatSamples::F32(self.object_id.clone()),
         ));
+        list.extend(extra);
         let attributes = exrp::LayerAttributes {
             software_name: Some(exrp::Text::from(
                 format!("plsr {} ({} spp)", env!("CARGO_PKG_VERSION"), self.spp).as_str(),
             )),
-            other: self.header_attributes().into_iter().collect(),
+            other: self
+                .header_attributes()
+                .into_iter()
+                .chain(attributes)
+                .collect(),
             exposure: self.settings.camera_exposure.map(|c| c.shutter_s),
             aperture: self.settings.camera_exposure.map(|c| c.f_number),
             iso_speed: self.settings.camera_exposure.map(|c| c.iso),
@@ -387,7 +426,7 @@ impl Film {
         let layer = exrp::Layer::new(
             (self.width as usize, self.height as usize),
             attributes,
-            exrp::Encoding::SMALL_LOSSLESS,
+            encoding,
             AnyChannels::sort(list),
         );
         let image = exrp::Image::from_layer(layer);

@@ -127,6 +127,38 @@ impl FilmSums {
         }
     }
 
+    /// Sums of `width × height` pixels (row-major) for samples from
+    /// `sample_start` on, recorded with `settings`.
+    ///
+    /// # Panics
+    /// If `pixels` does not hold `width × height` entries.
+    pub fn from_pixels(
+        width: u32,
+        height: u32,
+        sample_start: u32,
+        pixels: Vec<PixelSums>,
+        settings: FilmSettings,
+    ) -> FilmSums {
+        assert_eq!(pixels.len(), width as usize * height as usize);
+        FilmSums {
+            width,
+            height,
+            sample_start,
+            pixels,
+            settings,
+        }
+    }
+
+    /// Every pixel's sums, row-major.
+    pub fn pixels(&self) -> &[PixelSums] {
+        &self.pixels
+    }
+
+    /// The film settings the sums were recorded with.
+    pub fn settings(&self) -> FilmSettings {
+        self.settings
+    }
+
     /// Width in pixels.
     pub fn width(&self) -> u32 {
         self.width

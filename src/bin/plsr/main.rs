@@ -7,6 +7,7 @@ mod composite;
 mod experiment;
 mod fit;
 mod hdr;
+mod merge;
 mod pls;
 mod progress;
 mod render;
@@ -37,6 +38,10 @@ pub enum Command {
     /// photograph ([photo]), with the shadows and reflected light they cast
     /// on the real surfaces (see docs/compositing.md).
     Composite(composite::CompositeArgs),
+    /// Merge the parts of a render (`plsr render --samples START..END` or
+    /// `--crop X0,Y0,X1,Y1`) into the image one render of their union gives
+    /// (see docs/farm.md)
+    Merge(merge::MergeArgs),
     /// Fit the real surfaces' materials (and lights' brightness) to the
     /// scene's photos by differentiable rendering and Adam.
     Fit(fit::FitArgs),
@@ -90,6 +95,7 @@ where
     match cli.command {
         Command::Render(a) => render::run(&a),
         Command::Composite(a) => composite::run(&a),
+        Command::Merge(a) => merge::run(&a),
         Command::Fit(a) => fit::run(&a),
         Command::Compare(a) => compare::run(&a),
         Command::Bench(a) => bench::run(a),

@@ -3,9 +3,12 @@
 use crate::progress::progress_bar;
 use plsr::atomic_write::{check_extension, same_file, OutputSet};
 use plsr::error::{Error, Result};
+use plsr::film::part::{scene_hash, Part, PartInfo};
+use plsr::film::Tile;
 use plsr::film::{check_exposure_stops, ToneMap};
+use plsr::job::RenderJob;
 use plsr::job::{JobError, MAX_DEPTH, MAX_SPP};
-use plsr::render::{render, RenderOptions, DEFAULT_TILE_SIZE, MAX_TILE_SIZE};
+use plsr::render::{render_window_sums, RenderOptions, DEFAULT_TILE_SIZE, MAX_TILE_SIZE};
 use plsr::scene::Scene;
 use std::path::{Path, PathBuf};
 
@@ -21,8 +24,16 @@ pub struct RenderArgs {
     #[arg(long, value_name = "OUT.png")]
     pub png: Option<PathBuf>,
     /// Samples per pixel (overrides the scene's render.spp).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "samples")]
     pub spp: Option<u32>,
+    /// Render only sample indices [START, END) of every pixel, as a part
+    /// that `plsr merge` combines with the others (see docs/farm.md).
+    #[arg(long, value_name = "START..END")]
+    pub samples: Option<String>,
+    /// Render only the window of columns [X0, X1) and rows [Y0, Y1), as a
+    /// part that `plsr merge` stitches with the others (see docs/farm.md).
+    #[arg(long, value_name = "X0,Y0,X1,Y1")]
+    pub crop: Option<String>,
     /// Maximum number of scattering events (overrides render.max_depth).
     #[arg(long)]
     pub max_depth: Option<u32>,
@@ -46,10 +57,9 @@ pub struct RenderArgs {
     /// PNG tone mapping: a filmic curve (ACES fit) instead of a plain clamp.
     #[arg(long)]
     pub filmic: bool,
-    /// Render with the general integrator even where the vectorised kernel
-    /// applies (Lambert materials, textured or not, with or without vertex normals, real or
-    /// virtual, lit by point, area and PLS lights and environments). The image is
-    /// the same, bit for bit; this is for checking and timing.
+    /// Render with the general integrator (the reference) instead of the
+    /// vectorised kernel. The image is the same, bit for bit; this is for
+    /// checking and timing.
     #[arg(long)]
     pub scalar: bool,
     /// No progress bar.
@@ -60,7 +70,7 @@ pub struct RenderArgs {
 /// Checks an output path before any work is done: its folder exists, it
 /// is not a folder itself, and its extension is the format written
 /// (`extension`), so that no file is ever written under the wrong name.
-fn check_output(flag: &str, path: &Path, extension: &str, format: &str) -> Result<()> {
+pub(crate) fn check_output(flag: &str, path: &Path, extension: &str, format: &str) -> Result<()> {
     let fail = |message: String| Error::Output {
         file: path.to_path_buf(),
         message,
@@ -148,6 +158,17 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     if let Some(d) = a.rr_depth {
         job.rr_depth = d;
     }
+    if let Some(s) = &a.samples {
+        let (start, end) = parse_samples(s)?;
+        job.sample_start = start;
+        job.spp = end - start;
+    }
+    let (width, height) = (scene.camera().width(), scene.camera().height());
+    let window = a
+        .crop
+        .as_deref()
+        .map(|c| parse_crop(c, width, height))
+        .transpose()?;
     job.validate().map_err(|e| {
         Error::InvalidArgument(match e {
             JobError::Spp(v) => format!("--spp {v}: at most {MAX_SPP}"),
@@ -174,11 +195,35 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         bar.set_position(done as u64);
         true
     };
-    let (film, stats) = render(&scene, &job, &options, &progress)?;
+    let part = a.samples.is_some() || window.is_some();
+    let (sums, stats) = render_window_sums(&scene, &job, &options, window, &progress)?;
     bar.finish_and_clear();
     // Both outputs are written first and replace their targets together.
     let mut outputs = OutputSet::new();
-    film.stage_exr(&mut outputs, &a.output)?;
+    let film = if part {
+        // A part: the window's sums, exactly, and what merging checks.
+        let mut files = vec![a.scene.clone()];
+        files.extend(inputs.iter().cloned());
+        let info = PartInfo {
+            scene_hash: scene_hash(&files, &job_identity(&job))?,
+            image: (width, height),
+            window: window.unwrap_or(Tile {
+                x0: 0,
+                y0: 0,
+                width,
+                height,
+            }),
+            sample_start: job.sample_start,
+            sample_end: job.sample_start + job.spp,
+        };
+        let part = Part::from_render(info, &sums);
+        part.stage_exr(&mut outputs, &a.output)?;
+        part.sums.develop(job.spp)
+    } else {
+        let film = sums.develop(job.spp);
+        film.stage_exr(&mut outputs, &a.output)?;
+        film
+    };
     if let Some(p) = &a.png {
         let tone = ToneMap {
             exposure: a.exposure,
@@ -207,4 +252,66 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             .unwrap_or_default()
     );
     Ok(())
+}
+
+/// What of a job besides the sample range changes the image, for the
+/// parts' scene hash.
+fn job_identity(job: &RenderJob) -> String {
+    format!(
+        "seed {} max_depth {} rr_depth {} hide_virtual {}",
+        job.seed, job.max_depth, job.rr_depth, job.hide_virtual
+    )
+}
+
+/// `--samples START..END`: `START < END`.
+fn parse_samples(s: &str) -> Result<(u32, u32)> {
+    let bad = |why: &str| Error::InvalidArgument(format!("--samples {s}: {why}"));
+    let (a, b) = s
+        .split_once("..")
+        .ok_or_else(|| bad("expected START..END, e.g. 0..64"))?;
+    let parse = |x: &str| {
+        x.trim()
+            .parse::<u32>()
+            .map_err(|_| bad(&format!("{x:?} is not a sample index")))
+    };
+    let (start, end) = (parse(a)?, parse(b)?);
+    if start >= end {
+        return Err(bad("START must be below END"));
+    }
+    if end - start > MAX_SPP {
+        return Err(bad(&format!("at most {MAX_SPP} samples")));
+    }
+    Ok((start, end))
+}
+
+/// `--crop X0,Y0,X1,Y1`: a non-empty window inside the `width × height` image.
+fn parse_crop(s: &str, width: u32, height: u32) -> Result<Tile> {
+    let bad = |why: String| Error::InvalidArgument(format!("--crop {s}: {why}"));
+    let v: Vec<u32> = s
+        .split(',')
+        .map(|x| {
+            x.trim()
+                .parse::<u32>()
+                .map_err(|_| bad(format!("{x:?} is not a pixel coordinate")))
+        })
+        .collect::<Result<_>>()?;
+    let [x0, y0, x1, y1] = v[..] else {
+        return Err(bad("expected X0,Y0,X1,Y1".into()));
+    };
+    if x0 >= x1 || y0 >= y1 {
+        return Err(bad(
+            "the window is empty (X0 < X1 and Y0 < Y1 needed)".into()
+        ));
+    }
+    if x1 > width || y1 > height {
+        return Err(bad(format!(
+            "the window reaches past the {width}×{height} image"
+        )));
+    }
+    Ok(Tile {
+        x0,
+        y0,
+        width: x1 - x0,
+        height: y1 - y0,
+    })
 }

@@ -5,13 +5,15 @@
 //! (bracket merging against OpenCV), `composite` (a composite against
 //! one render), `fit` (an Adam iteration of `plsr fit` against one
 //! render, and against Mitsuba 3's `prb`) and `compare` (CW-SSIM and LPIPS
-//! against their reference implementations in Python) and `peers` (plsr
+//! against their reference implementations in Python), `farm` (one render
+//! against the same render in parts plus their merge) and `peers` (plsr
 //! against Mitsuba 3 on a glossy scene lit by an HDR sky, the Cornell box
 //! and the PLS room: samples/s, error at equal spp, time to equal error).
 
 mod compare;
 mod composite;
 mod core;
+mod farm;
 mod fit;
 mod hdr;
 mod materials;
@@ -33,8 +35,9 @@ pub struct BenchArgs {
     /// 400×300 crop and a panorama, against pyiqa and the lpips package).
     /// `peers` (plsr against Mitsuba 3 on a glossy scene lit by an HDR sky,
     /// the Cornell box and the PLS room: samples/s, error at equal spp and
-    /// time to equal error).
-    #[arg(default_value = "core", value_parser = ["core", "pls", "materials", "hdr", "composite", "fit", "compare", "peers"])]
+    /// time to equal error). `farm` (one render of the Cornell box against
+    /// the same render in `--parts` parts plus `plsr merge`).
+    #[arg(default_value = "core", value_parser = ["core", "pls", "materials", "hdr", "composite", "fit", "compare", "peers", "farm"])]
     pub suite: String,
     /// Image size for `plsr bench hdr` and the panorama of `plsr bench
     /// compare`, WIDTHxHEIGHT.
@@ -63,9 +66,10 @@ pub struct BenchArgs {
     /// Image size (square) for the path-tracing comparison.
     #[arg(long, default_value_t = 512)]
     pub size: u32,
-    /// Samples per pixel for the path-tracing comparison.
-    #[arg(long, default_value_t = 64)]
-    pub spp: u32,
+    /// Samples per pixel for the path-tracing comparison and `peers`
+    /// (default 64) and for `farm` (default 256).
+    #[arg(long)]
+    pub spp: Option<u32>,
     /// Random rays for the raw Embree measurement (millions).
     #[arg(long, default_value_t = 4.0)]
     pub mrays: f64,
@@ -83,6 +87,9 @@ pub struct BenchArgs {
     /// glossy-env, cornell, pls-room).
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
+    /// Parts of `plsr bench farm` (they must divide its spp).
+    #[arg(long, default_value_t = 8)]
+    pub parts: u32,
     /// Skip the peer (Embree's pathtracer; OpenCV for `hdr`).
     #[arg(long)]
     pub no_peer: bool,
@@ -93,6 +100,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
     match a.suite.as_str() {
         "pls" => pls::run(a.threads),
         "materials" => materials::run(a.threads).map(|_| ()),
+        "farm" => farm::run(a.threads, a.size, a.spp.unwrap_or(256), a.parts).map(|_| ()),
         "composite" => composite::run(a.threads).map(|_| ()),
         "fit" => fit::run(&fit::FitBenchOptions {
             threads: a.threads,
@@ -103,7 +111,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         "peers" => peers::run(&peers::PeersBenchOptions {
             threads: a.threads,
             python: (!a.no_peer).then_some(a.python),
-            spp: a.spp,
+            spp: a.spp.unwrap_or(64),
             reference_spp: a.reference_spp,
             dir: a.peers_dir,
             only: a.scenes,
@@ -128,7 +136,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
             pathtracer: (!a.no_peer).then_some(a.pathtracer),
             ecs: a.ecs,
             size: a.size,
-            spp: a.spp,
+            spp: a.spp.unwrap_or(64),
             random_rays: (a.mrays * 1e6) as usize,
             threads: a.threads,
         }),

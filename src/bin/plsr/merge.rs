@@ -1,0 +1,77 @@
+//! `plsr merge`: combines the parts of a render (`plsr render --samples` or
+//! `--crop`) into the image one render of their union gives.
+
+use plsr::atomic_write::{same_file, OutputSet};
+use plsr::error::{Error, Result};
+use plsr::film::part::{merge_parts, Part};
+use plsr::film::{check_exposure_stops, ToneMap};
+use std::path::PathBuf;
+
+/// Arguments of `plsr merge`.
+#[derive(Debug, clap::Args)]
+pub struct MergeArgs {
+    /// The parts (OpenEXR files written by `plsr render --samples … / --crop …`).
+    #[arg(required = true, value_name = "PART.exr")]
+    pub parts: Vec<PathBuf>,
+    /// Output OpenEXR file: the whole image, as `plsr render` writes it.
+    #[arg(short, long, value_name = "OUT.exr")]
+    pub output: PathBuf,
+    /// Also write an 8-bit sRGB PNG here.
+    #[arg(long, value_name = "OUT.png")]
+    pub png: Option<PathBuf>,
+    /// PNG exposure compensation in stops (+1 doubles brightness).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub exposure: f32,
+    /// PNG tone mapping: a filmic curve (ACES fit) instead of a plain clamp.
+    #[arg(long)]
+    pub filmic: bool,
+}
+
+/// Runs `plsr merge`.
+pub fn run(a: &MergeArgs) -> Result<()> {
+    check_exposure_stops(a.exposure)
+        .map_err(|m| Error::InvalidArgument(format!("--exposure: {m}")))?;
+    crate::render::check_output("-o", &a.output, "exr", "OpenEXR")?;
+    if let Some(p) = &a.png {
+        crate::render::check_output("--png", p, "png", "PNG")?;
+    }
+    for out in std::iter::once(&a.output).chain(&a.png) {
+        if let Some(part) = a.parts.iter().find(|p| same_file(out, p)) {
+            return Err(Error::Output {
+                file: out.clone(),
+                message: format!("is the part {}: it would be overwritten", part.display()),
+            });
+        }
+    }
+    let mut parts = Vec::with_capacity(a.parts.len());
+    for path in &a.parts {
+        if parts
+            .iter()
+            .any(|(p, _): &(PathBuf, Part)| same_file(p, path))
+        {
+            return Err(Error::input(path, "", "named twice"));
+        }
+        parts.push((path.clone(), Part::read_exr(path)?));
+    }
+    let (sums, spp) = merge_parts(&parts)?;
+    let film = sums.develop(spp);
+    let mut outputs = OutputSet::new();
+    film.stage_exr(&mut outputs, &a.output)?;
+    if let Some(p) = &a.png {
+        let tone = ToneMap {
+            exposure: a.exposure,
+            filmic: a.filmic,
+        };
+        film.stage_png(&mut outputs, p, tone)?;
+    }
+    outputs.commit()?;
+    eprintln!(
+        "merged {} parts into {}×{} at {} spp → {}",
+        parts.len(),
+        film.width,
+        film.height,
+        spp,
+        a.output.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,515 @@
+//! A piece of a render on disk (a *part*): the samples `[start, end)` of
+//! every pixel of a window of the image, written as an OpenEXR file that
+//! holds, beside the usual layers of the piece (for looking at it), every
+//! pixel's exact sums and counts and, in its header, what merging needs:
+//! the scene's hash, the image size, the window and the sample range.
+//! [`merge_parts`] combines parts into the image one render of their union
+//! gives: sample ranges of the same window add sum by sum
+//! ([`FilmSums::merge`]), windows are stitched.
+//!
+//! Exact sums: the path tracer accumulates in `f64`, which EXR cannot
+//! store, so each `f64` sum is written as two 32-bit unsigned channels
+//! holding its bit pattern (`part.sum.R.hi`, `part.sum.R.lo`, …); counts
+//! are 32-bit unsigned channels and the `f32` sums (normals, albedos)
+//! float channels, so a part read back holds exactly what was rendered.
+//!
+//! Header attributes (text): `plsrPartScene` (the scene's hash, 16 hex
+//! digits), `plsrPartImage` (`W H`), `plsrPartWindow` (`x0 y0 x1 y1`, the
+//! window's columns `[x0, x1)` and rows `[y0, y1)`), `plsrPartSamples`
+//! (`start end`).
+
+use super::{FilmSums, PixelSums, Tile};
+use crate::atomic_write::OutputSet;
+use crate::error::{Error, Result};
+use exr::prelude::{self as exrp, AnyChannel, FlatSamples};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+/// Header attribute: the scene's hash.
+const SCENE: &str = "plsrPartScene";
+/// Header attribute: the full image's size.
+const IMAGE: &str = "plsrPartImage";
+/// Header attribute: the window.
+const WINDOW: &str = "plsrPartWindow";
+/// Header attribute: the sample range.
+const SAMPLES: &str = "plsrPartSamples";
+
+/// What a part is a piece of.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PartInfo {
+    /// Hash of everything the image depends on but the sample range and
+    /// the window (see [`scene_hash`]).
+    pub scene_hash: u64,
+    /// Width and height of the full image, pixels.
+    pub image: (u32, u32),
+    /// The window of the image the part covers.
+    pub window: Tile,
+    /// Start of the part's sample indices.
+    pub sample_start: u32,
+    /// End (exclusive) of its sample indices.
+    pub sample_end: u32,
+}
+
+impl PartInfo {
+    /// The part's sample indices.
+    pub fn samples(&self) -> Range<u32> {
+        self.sample_start..self.sample_end
+    }
+}
+
+/// A part in memory: what it is a piece of, and its sums (window-sized).
+#[derive(Debug, Clone)]
+pub struct Part {
+    /// What it is a piece of.
+    pub info: PartInfo,
+    /// The window's per-pixel sums and counts.
+    pub sums: FilmSums,
+}
+
+/// FNV-1a, 64 bits: a hash that is the same on every machine and in every
+/// build (unlike `std`'s), for [`scene_hash`].
+#[derive(Debug, Clone, Copy)]
+pub struct StableHasher(u64);
+
+impl Default for StableHasher {
+    fn default() -> Self {
+        StableHasher(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl StableHasher {
+    /// Adds bytes.
+    pub fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 ^= b as u64;
+            self.0 = self.0.wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+
+    /// Adds a length-prefixed field, so that fields cannot run into each other.
+    pub fn field(&mut self, bytes: &[u8]) {
+        self.write(&(bytes.len() as u64).to_le_bytes());
+        self.write(bytes);
+    }
+
+    /// The hash.
+    pub fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+/// The hash that says two parts are pieces of the same image: of the scene
+/// file and every file it reads (`files`, their contents), and of `extra`
+/// (the render settings that change the image: seed, depths, and what else
+/// the caller overrides), but not of the sample range or the window.
+pub fn scene_hash(files: &[PathBuf], extra: &str) -> Result<u64> {
+    let mut h = StableHasher::default();
+    for file in files {
+        let bytes = std::fs::read(file).map_err(|source| Error::Io {
+            file: file.clone(),
+            source,
+        })?;
+        h.field(&bytes);
+    }
+    h.field(extra.as_bytes());
+    Ok(h.finish())
+}
+
+impl Part {
+    /// The part of `sums` (a full-image render of `info.samples()`) that
+    /// lies in `info.window`.
+    pub fn from_render(info: PartInfo, full: &FilmSums) -> Part {
+        let w = info.window;
+        let mut pixels = Vec::with_capacity((w.width * w.height) as usize);
+        for y in w.y0..w.y0 + w.height {
+            for x in w.x0..w.x0 + w.width {
+                pixels.push(*full.pixel(x, y));
+            }
+        }
+        Part {
+            info,
+            sums: FilmSums::from_pixels(
+                w.width,
+                w.height,
+                info.sample_start,
+                pixels,
+                full.settings(),
+            ),
+        }
+    }
+
+    /// Writes the part into `outputs` as `path` (an OpenEXR file: the
+    /// piece's developed layers, its exact sums and the header).
+    pub fn stage_exr(&self, outputs: &mut OutputSet, path: &Path) -> Result<()> {
+        let spp = self.info.sample_end - self.info.sample_start;
+        let film = self.sums.develop(spp);
+        let pixels = self.sums.pixels();
+        let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
+        let mut f64_channels = |name: &str, get: &dyn Fn(&PixelSums) -> f64| {
+            let bits: Vec<u64> = pixels.iter().map(|p| get(p).to_bits()).collect();
+            channels.push(AnyChannel::new(
+                format!("part.{name}.hi").as_str(),
+                FlatSamples::U32(bits.iter().map(|b| (b >> 32) as u32).collect()),
+            ));
+            channels.push(AnyChannel::new(
+                format!("part.{name}.lo").as_str(),
+                FlatSamples::U32(bits.iter().map(|&b| b as u32).collect()),
+            ));
+        };
+        for (c, n) in ["R", "G", "B"].iter().enumerate() {
+            f64_channels(&format!("sum.{n}"), &|p| p.sum[c]);
+            f64_channels(&format!("sum_sq.{n}"), &|p| p.sum_sq[c]);
+        }
+        f64_channels("depth", &|p| p.depth);
+        let mut u32_channel = |name: &str, get: &dyn Fn(&PixelSums) -> u32| {
+            channels.push(AnyChannel::new(
+                format!("part.{name}").as_str(),
+                FlatSamples::U32(pixels.iter().map(get).collect()),
+            ));
+        };
+        u32_channel("samples", &|p| p.samples);
+        u32_channel("hits", &|p| p.hits);
+        u32_channel("virtual_hits", &|p| p.virtual_hits);
+        let mut f32_channel = |name: &str, get: &dyn Fn(&PixelSums) -> f32| {
+            channels.push(AnyChannel::new(
+                format!("part.{name}").as_str(),
+                FlatSamples::F32(pixels.iter().map(get).collect()),
+            ));
+        };
+        for (c, n) in ["X", "Y", "Z"].iter().enumerate() {
+            f32_channel(&format!("normal.{n}"), &|p| p.normal[c]);
+        }
+        for (c, n) in ["R", "G", "B"].iter().enumerate() {
+            f32_channel(&format!("albedo.{n}"), &|p| p.albedo[c]);
+        }
+        f32_channel("object_id", &|p| p.object_id);
+        let i = &self.info;
+        let w = i.window;
+        let text = |k: &str, v: String| {
+            (
+                exrp::Text::from(k),
+                exrp::AttributeValue::Text(exrp::Text::from(v.as_str())),
+            )
+        };
+        let attributes = vec![
+            text(SCENE, format!("{:016x}", i.scene_hash)),
+            text(IMAGE, format!("{} {}", i.image.0, i.image.1)),
+            text(
+                WINDOW,
+                format!("{} {} {} {}", w.x0, w.y0, w.x0 + w.width, w.y0 + w.height),
+            ),
+            text(SAMPLES, format!("{} {}", i.sample_start, i.sample_end)),
+        ];
+        // Uncompressed: parts are written and read once, on the way to the
+        // merge, and compression would cost more than the disk.
+        film.stage_exr_with(
+            outputs,
+            path,
+            channels,
+            attributes,
+            exrp::Encoding::UNCOMPRESSED,
+        )
+    }
+
+    /// Reads a part written by [`Part::stage_exr`]; a file that is not one
+    /// (a plain render, a truncated file) is an error naming it.
+    pub fn read_exr(path: &Path) -> Result<Part> {
+        let image = exrp::read_first_flat_layer_from_file(path).map_err(|e| Error::Input {
+            file: path.to_path_buf(),
+            field: String::new(),
+            message: format!("cannot read EXR: {e}"),
+        })?;
+        let layer = image.layer_data;
+        let (width, height) = (layer.size.0 as u32, layer.size.1 as u32);
+        let attrs = &layer.attributes.other;
+        let header = |key: &str| -> Result<Vec<u64>> {
+            let Some(exrp::AttributeValue::Text(t)) = attrs.get(&exrp::Text::from(key)) else {
+                return Err(Error::input(
+                    path,
+                    key,
+                    "missing from the header: not a part of a render (render pieces with \
+                     `plsr render --samples START..END` or `--crop X0,Y0,X1,Y1`)",
+                ));
+            };
+            let text = t.to_string();
+            let radix = if key == SCENE { 16 } else { 10 };
+            text.split_whitespace()
+                .map(|s| u64::from_str_radix(s, radix))
+                .collect::<std::result::Result<Vec<u64>, _>>()
+                .map_err(|_| Error::input(path, key, format!("cannot read {text:?}")))
+        };
+        let bad = |key: &str, message: String| Error::input(path, key, message);
+        let scene_hash = match header(SCENE)?.as_slice() {
+            [h] => *h,
+            _ => return Err(bad(SCENE, "expected one hash".into())),
+        };
+        let image = match header(IMAGE)?.as_slice() {
+            &[w, h] if w > 0 && h > 0 && w <= u32::MAX as u64 && h <= u32::MAX as u64 => {
+                (w as u32, h as u32)
+            }
+            _ => return Err(bad(IMAGE, "expected the width and height".into())),
+        };
+        let window = match header(WINDOW)?.as_slice() {
+            &[x0, y0, x1, y1]
+                if x0 < x1
+                    && y0 < y1
+                    && x1 <= image.0 as u64
+                    && y1 <= image.1 as u64
+                    && (x1 - x0, y1 - y0) == (width as u64, height as u64) =>
+            {
+                Tile {
+                    x0: x0 as u32,
+                    y0: y0 as u32,
+                    width,
+                    height,
+                }
+            }
+            _ => {
+                return Err(bad(
+                    WINDOW,
+                    format!(
+                        "expected x0 y0 x1 y1 inside the {}×{} image, of the file's {width}×{height} pixels",
+                        image.0, image.1
+                    ),
+                ))
+            }
+        };
+        let (sample_start, sample_end) = match header(SAMPLES)?.as_slice() {
+            &[s, e] if s < e && e <= u32::MAX as u64 => (s as u32, e as u32),
+            _ => return Err(bad(SAMPLES, "expected start < end".into())),
+        };
+        let channel = |name: &str| -> Result<&FlatSamples> {
+            layer
+                .channel_data
+                .list
+                .iter()
+                .find(|c| c.name.to_string() == name)
+                .map(|c| &c.sample_data)
+                .ok_or_else(|| Error::input(path, name, "channel missing from the part"))
+        };
+        let u32s = |name: &str| -> Result<&Vec<u32>> {
+            match channel(name)? {
+                FlatSamples::U32(v) => Ok(v),
+                _ => Err(Error::input(path, name, "expected 32-bit unsigned samples")),
+            }
+        };
+        let f32s = |name: &str| -> Result<&Vec<f32>> {
+            match channel(name)? {
+                FlatSamples::F32(v) => Ok(v),
+                _ => Err(Error::input(path, name, "expected 32-bit float samples")),
+            }
+        };
+        let f64s = |name: &str| -> Result<Vec<f64>> {
+            let (hi, lo) = (
+                u32s(&format!("part.{name}.hi"))?,
+                u32s(&format!("part.{name}.lo"))?,
+            );
+            Ok(hi
+                .iter()
+                .zip(lo)
+                .map(|(&h, &l)| f64::from_bits((h as u64) << 32 | l as u64))
+                .collect())
+        };
+        let n = (width * height) as usize;
+        let mut pixels = vec![PixelSums::default(); n];
+        for (c, name) in ["R", "G", "B"].iter().enumerate() {
+            let (sum, sum_sq) = (
+                f64s(&format!("sum.{name}"))?,
+                f64s(&format!("sum_sq.{name}"))?,
+            );
+            let albedo = f32s(&format!("part.albedo.{name}"))?;
+            for i in 0..n {
+                pixels[i].sum[c] = sum[i];
+                pixels[i].sum_sq[c] = sum_sq[i];
+                pixels[i].albedo[c] = albedo[i];
+            }
+        }
+        for (c, name) in ["X", "Y", "Z"].iter().enumerate() {
+            let normal = f32s(&format!("part.normal.{name}"))?;
+            for i in 0..n {
+                pixels[i].normal[c] = normal[i];
+            }
+        }
+        let depth = f64s("depth")?;
+        let (samples, hits, virtual_hits) = (
+            u32s("part.samples")?,
+            u32s("part.hits")?,
+            u32s("part.virtual_hits")?,
+        );
+        let object_id = f32s("part.object_id")?;
+        for i in 0..n {
+            let p = &mut pixels[i];
+            p.depth = depth[i];
+            p.samples = samples[i];
+            p.hits = hits[i];
+            p.virtual_hits = virtual_hits[i];
+            p.object_id = object_id[i];
+        }
+        let settings = super::settings_from_header(&layer.attributes);
+        Ok(Part {
+            info: PartInfo {
+                scene_hash,
+                image,
+                window,
+                sample_start,
+                sample_end,
+            },
+            sums: FilmSums::from_pixels(width, height, sample_start, pixels, settings),
+        })
+    }
+}
+
+/// Combines parts (each with the file it came from, for messages) into the
+/// sums of the whole image and their number of samples per pixel: the
+/// parts must be pieces of one scene (same hash, image size and film
+/// settings); the parts of each window must cover one range of samples
+/// without gaps or overlaps, the same range for every window; and the
+/// windows must cover the image without overlapping. Sample ranges of a
+/// window are added in sample order.
+pub fn merge_parts(parts: &[(PathBuf, Part)]) -> Result<(FilmSums, u32)> {
+    let Some((first_file, first)) = parts.first() else {
+        return Err(Error::InvalidArgument("no parts to merge".into()));
+    };
+    let name = |f: &Path| f.display().to_string();
+    for (file, part) in parts {
+        if part.info.scene_hash != first.info.scene_hash {
+            return Err(Error::input(
+                file,
+                SCENE,
+                format!(
+                    "scene hash {:016x} differs from {:016x} of {}: parts of different scenes or settings",
+                    part.info.scene_hash,
+                    first.info.scene_hash,
+                    name(first_file)
+                ),
+            ));
+        }
+        if part.info.image != first.info.image {
+            return Err(Error::input(
+                file,
+                IMAGE,
+                format!(
+                    "image size {}×{} differs from {}×{} of {}",
+                    part.info.image.0,
+                    part.info.image.1,
+                    first.info.image.0,
+                    first.info.image.1,
+                    name(first_file)
+                ),
+            ));
+        }
+        if part.sums.settings() != first.sums.settings() {
+            return Err(Error::input(
+                file,
+                "plsrFilter",
+                format!("film settings differ from those of {}", name(first_file)),
+            ));
+        }
+    }
+    // The parts of each window, in sample order.
+    let mut windows: Vec<(Tile, Vec<&(PathBuf, Part)>)> = Vec::new();
+    for entry in parts {
+        let w = entry.1.info.window;
+        match windows.iter_mut().find(|(t, _)| *t == w) {
+            Some((_, list)) => list.push(entry),
+            None => windows.push((w, vec![entry])),
+        }
+    }
+    let mut union: Option<(Range<u32>, &Path)> = None;
+    for (_, list) in &mut windows {
+        list.sort_by_key(|(_, p)| (p.info.sample_start, p.info.sample_end));
+        for pair in list.windows(2) {
+            let ((fa, a), (fb, b)) = (pair[0], pair[1]);
+            let (ra, rb) = (a.info.samples(), b.info.samples());
+            if rb.start < ra.end {
+                return Err(Error::input(
+                    fb,
+                    SAMPLES,
+                    format!(
+                        "samples {}..{} overlap samples {}..{} of {}",
+                        rb.start,
+                        rb.end,
+                        ra.start,
+                        ra.end,
+                        name(fa)
+                    ),
+                ));
+            }
+            if rb.start > ra.end {
+                return Err(Error::input(
+                    fb,
+                    SAMPLES,
+                    format!(
+                        "samples {}..{} are missing between {} (samples {}..{}) and this part (samples {}..{})",
+                        ra.end,
+                        rb.start,
+                        name(fa),
+                        ra.start,
+                        ra.end,
+                        rb.start,
+                        rb.end
+                    ),
+                ));
+            }
+        }
+        let range = list[0].1.info.sample_start..list[list.len() - 1].1.info.sample_end;
+        let file = list[0].0.as_path();
+        match &union {
+            None => union = Some((range, file)),
+            Some((r, f)) if *r != range => {
+                return Err(Error::input(
+                    file,
+                    SAMPLES,
+                    format!(
+                        "its window's parts cover samples {}..{}, but the window of {} has samples {}..{}",
+                        range.start,
+                        range.end,
+                        name(f),
+                        r.start,
+                        r.end
+                    ),
+                ))
+            }
+            Some(_) => {}
+        }
+    }
+    let (range, _) = union.expect("at least one part");
+    // The windows must cover every pixel once.
+    let (width, height) = first.info.image;
+    let mut owner: Vec<Option<&Path>> = vec![None; width as usize * height as usize];
+    for (w, list) in &windows {
+        let file = list[0].0.as_path();
+        for y in w.y0..w.y0 + w.height {
+            for x in w.x0..w.x0 + w.width {
+                let slot = &mut owner[y as usize * width as usize + x as usize];
+                if let Some(other) = slot {
+                    return Err(Error::input(
+                        file,
+                        WINDOW,
+                        format!(
+                            "its window overlaps that of {} at pixel ({x}, {y})",
+                            name(other)
+                        ),
+                    ));
+                }
+                *slot = Some(file);
+            }
+        }
+    }
+    if let Some(i) = owner.iter().position(|o| o.is_none()) {
+        let (x, y) = (i as u32 % width, i as u32 / width);
+        return Err(Error::InvalidArgument(format!(
+            "no part covers pixel ({x}, {y}) of the {width}×{height} image: a window is missing"
+        )));
+    }
+    let mut whole = FilmSums::new(width, height, range.start, first.sums.settings());
+    for (w, list) in &windows {
+        let mut sums = list[0].1.sums.clone();
+        for (file, part) in &list[1..] {
+            sums.merge(&part.sums)
+                .map_err(|e| Error::input(file, "", e.to_string()))?;
+        }
+        whole.add_tile(*w, sums.pixels());
+    }
+    Ok((whole, range.end - range.start))
+}
