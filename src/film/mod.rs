@@ -223,6 +223,18 @@ pub fn stage_exr_layers(
     })
 }
 
+/// The first layer of the OpenEXR file `path`, every channel read flat
+/// (an unreadable or truncated file is an error naming it).
+fn read_flat_layer(path: &Path) -> Result<exrp::Layer<AnyChannels<FlatSamples>>> {
+    exrp::read_first_flat_layer_from_file(path)
+        .map(|image| image.layer_data)
+        .map_err(|e| Error::Input {
+            file: path.to_path_buf(),
+            field: String::new(),
+            message: format!("cannot read EXR: {e}"),
+        })
+}
+
 /// How radiance becomes display values in [`Film::write_png`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ToneMap {
@@ -448,12 +460,7 @@ impl Film {
     /// Reads an EXR written by [`Film::write_exr`] (missing layers stay at
     /// their defaults; `R G B` are required).
     pub fn read_exr(path: &Path) -> Result<Film> {
-        let image = exrp::read_first_flat_layer_from_file(path).map_err(|e| Error::Input {
-            file: path.to_path_buf(),
-            field: String::new(),
-            message: format!("cannot read EXR: {e}"),
-        })?;
-        let layer = image.layer_data;
+        let layer = read_flat_layer(path)?;
         let (w, h) = (layer.size.0 as u32, layer.size.1 as u32);
         let mut film = Film::new(w, h);
         let attrs = &layer.attributes.other;

@@ -214,12 +214,7 @@ impl Part {
     /// Reads a part written by [`Part::stage_exr`]; a file that is not one
     /// (a plain render, a truncated file) is an error naming it.
     pub fn read_exr(path: &Path) -> Result<Part> {
-        let image = exrp::read_first_flat_layer_from_file(path).map_err(|e| Error::Input {
-            file: path.to_path_buf(),
-            field: String::new(),
-            message: format!("cannot read EXR: {e}"),
-        })?;
-        let layer = image.layer_data;
+        let layer = super::read_flat_layer(path)?;
         let (width, height) = (layer.size.0 as u32, layer.size.1 as u32);
         let attrs = &layer.attributes.other;
         let header = |key: &str| -> Result<Vec<u64>> {

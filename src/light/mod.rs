@@ -305,16 +305,7 @@ impl LightSet {
             ));
         }
         let (reaches, _) = self.weights_at(p);
-        self.pick_where(
-            |k, g| {
-                if k < 64 {
-                    reaches >> k & 1 == 1
-                } else {
-                    self.limited_power(g, p) > 0.0
-                }
-            },
-            u,
-        )
+        self.pick_among(reaches, p, u)
     }
 
     /// The cone-limited groups in the order [`LightSet::pick_among`]'s mask
