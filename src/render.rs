@@ -206,8 +206,8 @@ pub fn render_window_sums(
     });
     if window.width == 0
         || window.height == 0
-        || window.x0 + window.width > width
-        || window.y0 + window.height > height
+        || window.x0.saturating_add(window.width) > width
+        || window.y0.saturating_add(window.height) > height
     {
         return Err(Error::InvalidArgument(format!(
             "window {}×{} at ({}, {}) does not lie inside the {width}×{height} image",

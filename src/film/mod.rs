@@ -351,10 +351,6 @@ impl Film {
     /// Writes the OpenEXR file into `outputs`, to be committed with the
     /// command's other outputs.
     pub fn stage_exr(&self, outputs: &mut OutputSet, path: &Path) -> Result<()> {
-        check_extension(path, "exr", "OpenEXR").map_err(|message| Error::Output {
-            file: path.to_path_buf(),
-            message,
-        })?;
         self.stage_exr_with(
             outputs,
             path,

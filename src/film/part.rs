@@ -120,7 +120,7 @@ impl Part {
     /// lies in `info.window`.
     pub fn from_render(info: PartInfo, full: &FilmSums) -> Part {
         let w = info.window;
-        let mut pixels = Vec::with_capacity((w.width * w.height) as usize);
+        let mut pixels = Vec::with_capacity(w.width as usize * w.height as usize);
         for y in w.y0..w.y0 + w.height {
             for x in w.x0..w.x0 + w.width {
                 pixels.push(*full.pixel(x, y));
@@ -305,7 +305,7 @@ impl Part {
                 .map(|(&h, &l)| f64::from_bits((h as u64) << 32 | l as u64))
                 .collect())
         };
-        let n = (width * height) as usize;
+        let n = width as usize * height as usize;
         let mut pixels = vec![PixelSums::default(); n];
         for (c, name) in ["R", "G", "B"].iter().enumerate() {
             let (sum, sum_sq) = (

@@ -729,23 +729,23 @@ fn shade(
 /// normals, and the BSDF of the material there.
 struct SurfaceHit<'a> {
     /// The hit point (scene units).
-    pub p: Vec3,
+    p: Vec3,
     /// Unit direction towards the ray's origin.
-    pub wo: Vec3,
+    wo: Vec3,
     /// Unit geometric normal, as the mesh winds it.
-    pub ng: Vec3,
+    ng: Vec3,
     /// `ng` turned towards `wo`.
-    pub facing: Vec3,
+    facing: Vec3,
     /// The BSDF's outside: `facing` for an opaque BSDF (two-sided), `ng`
     /// for a transmissive one.
-    pub n: Vec3,
+    n: Vec3,
     /// The normal of the shading frame (see [`SurfacePoint::shading_normal`]).
-    pub shading_n: Vec3,
+    shading_n: Vec3,
     /// Whether the mesh has vertex normals (then the light-leak guard
     /// applies, see [`sides_agree`]).
-    pub guard: bool,
+    guard: bool,
     /// The material's BSDF at the hit (its textures looked up).
-    pub bsdf: Bsdf,
+    bsdf: Bsdf,
     mesh: &'a crate::scene::Mesh,
     hit: crate::accel::Hit,
 }
@@ -815,9 +815,9 @@ impl<'a> SurfaceHit<'a> {
 #[derive(Debug, Clone, Copy)]
 struct Bounce {
     /// Whether the path goes on after the light sample (BSDF sampling).
-    pub continue_path: bool,
+    continue_path: bool,
     /// Whether Russian roulette applies after this scattering.
-    pub roulette: bool,
+    roulette: bool,
 }
 
 /// What one scattering decides: the light sample's shadow ray with the
@@ -825,8 +825,8 @@ struct Bounce {
 /// the BSDF sample that chose it (0 after a delta lobe), or `None` where
 /// the path ends.
 struct Scattered {
-    pub shadow: Option<(Ray, Vec3)>,
-    pub next: Option<(Ray, f32)>,
+    shadow: Option<(Ray, Vec3)>,
+    next: Option<(Ray, f32)>,
 }
 
 /// One scattering at `at`: next-event estimation (a light picked by

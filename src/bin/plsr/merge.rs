@@ -34,6 +34,12 @@ pub fn run(a: &MergeArgs) -> Result<()> {
     crate::render::check_output("-o", &a.output, "exr", "OpenEXR")?;
     if let Some(p) = &a.png {
         crate::render::check_output("--png", p, "png", "PNG")?;
+        if same_file(p, &a.output) {
+            return Err(Error::Output {
+                file: p.clone(),
+                message: "--png names the same file as -o".into(),
+            });
+        }
     }
     for out in std::iter::once(&a.output).chain(&a.png) {
         if let Some(part) = a.parts.iter().find(|p| same_file(out, p)) {
