@@ -5,7 +5,7 @@
 
 SHELL := /bin/bash
 CARGO ?= cargo
-DEB_PACKAGES := libembree-dev libopenimageio-dev libclang-dev clang pkg-config valgrind cmake
+DEB_PACKAGES := libembree-dev libopenimageio-dev libclang-dev clang pkg-config valgrind cmake slurm-wlm munge
 # Embree's own pathtracer, the peer of `plsr bench` (optional at run time).
 DEB_BENCH_PACKAGES := embree-tools
 DEMO_SCENE := assets/scenes/pls-room/pls-room.toml

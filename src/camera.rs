@@ -632,6 +632,19 @@ impl Camera {
         }
     }
 
+    /// The same camera moved to `pose` (a frame of a camera path); every
+    /// other setting (field of view, resolution, lens) is kept.
+    pub fn with_pose(&self, pose: Pose) -> Camera {
+        let mut c = self.clone();
+        match &mut c {
+            Camera::Pinhole(c) => c.pose = pose,
+            Camera::ThinLens(c) => c.pinhole.pose = pose,
+            Camera::Equirect(c) => c.pose = pose,
+            Camera::DualFisheye(c) => c.pose = pose,
+        }
+        c
+    }
+
     /// Centre of projection (scene units).
     #[inline]
     pub fn position(&self) -> Vec3 {

@@ -32,6 +32,7 @@ pub mod accel;
 pub mod atomic_write;
 pub mod bsdf;
 pub mod camera;
+pub mod camera_path;
 pub mod capi;
 pub mod capture;
 pub mod color;

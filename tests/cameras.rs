@@ -696,6 +696,7 @@ fn scene_format_camera_and_film_examples_load() {
     }
     for want in [
         "camera-focal.toml",
+        "camera-path.toml",
         "camera-paper.toml",
         "camera-thin-lens.toml",
         "camera-matrix.toml",

@@ -3,6 +3,9 @@
 //! union, stitched windows the full image bit for bit, and bad sets of
 //! parts are refused with the file named and no output written.
 
+mod common;
+
+use common::films::assert_close;
 use plsr::film::Film;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -51,38 +54,6 @@ fn part(dir: &Path, name: &str, extra: &[&str]) -> PathBuf {
     let (ok, err) = plsr(&args);
     assert!(ok, "{name}: {err}");
     path
-}
-
-fn layers(f: &Film) -> Vec<(&'static str, Vec<f32>)> {
-    let v3 = |v: &[glam::Vec3]| v.iter().flat_map(|c| c.to_array()).collect::<Vec<f32>>();
-    vec![
-        ("color", v3(&f.color)),
-        ("variance", v3(&f.variance)),
-        ("normal", v3(&f.normal)),
-        ("albedo", v3(&f.albedo)),
-        ("alpha", f.alpha.clone()),
-        ("depth", f.depth.clone()),
-        ("object_id", f.object_id.clone()),
-    ]
-}
-
-/// Every layer equal within `rel` (relative to the value; 0: bit for bit).
-fn assert_close(what: &str, a: &Film, b: &Film, rel: f32) {
-    assert_eq!(
-        (a.width, a.height, a.spp),
-        (b.width, b.height, b.spp),
-        "{what}"
-    );
-    for ((name, x), (_, y)) in layers(a).into_iter().zip(layers(b)) {
-        for (i, (&p, &q)) in x.iter().zip(&y).enumerate() {
-            let ok = if rel == 0.0 {
-                p.to_bits() == q.to_bits()
-            } else {
-                (p - q).abs() <= rel * p.abs().max(q.abs()) + 1e-30
-            };
-            assert!(ok, "{what}: layer {name} element {i}: {p} vs {q}");
-        }
-    }
 }
 
 #[test]
@@ -233,4 +204,358 @@ fn bad_sets_of_parts_are_refused_naming_the_file() {
         assert!(!ok && err.contains(says), "{args:?}: {err}");
         assert!(!o.exists());
     }
+}
+
+/// The test scene in `dir` (its mesh by absolute path) with `camera` in
+/// place of its `[camera]` table.
+fn scene_with_camera(dir: &Path, camera: &str) -> PathBuf {
+    let text = std::fs::read_to_string(SCENE).unwrap();
+    let assets = std::fs::canonicalize("assets").unwrap();
+    let start = text.find("[camera]").unwrap();
+    let end = start + text[start..].find("\n\n").unwrap();
+    let text = format!("{}{camera}{}", &text[..start], &text[end..]).replace(
+        "\"../../assets/",
+        &format!("\"{}/", assets.to_str().unwrap()),
+    );
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// A camera at `position` (x, z) looking into the box.
+fn static_camera(x: f32, z: f32) -> String {
+    format!(
+        "[camera]\nposition = [{x}, 273, {z}]\nlook_at = [278, 273, 0]\nup = [0, 1, 0]\n\
+         vfov = 37\nresolution = [64, 64]"
+    )
+}
+
+/// Three keys: frame 0 at x 278, frame 4 at x 378 (z −800 throughout),
+/// frame 6 at z −700.
+const PATH_CAMERA: &str = "[camera]\nup = [0, 1, 0]\nvfov = 37\nresolution = [64, 64]\n\
+    [[camera.path]]\nframe = 0\nposition = [278, 273, -800]\nlook_at = [278, 273, 0]\n\
+    [[camera.path]]\nframe = 4\nposition = [378, 273, -800]\nlook_at = [278, 273, 0]\n\
+    [[camera.path]]\nframe = 6\nposition = [378, 273, -700]\nlook_at = [278, 273, 0]";
+
+#[test]
+fn frames_follow_the_camera_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let anim = scene_with_camera(d, PATH_CAMERA);
+    let pattern = d.join("frame-{frame}.exr");
+    let (ok, err) = plsr(&[
+        "render",
+        anim.to_str().unwrap(),
+        "-o",
+        pattern.to_str().unwrap(),
+        "--frames",
+        "0..=6",
+        "--spp",
+        "2",
+    ]);
+    assert!(ok, "{err}");
+    // Keys and the frames between are the poses of static cameras there,
+    // bit for bit (the interpolated positions are exact in f32 here).
+    let sub = tempfile::tempdir().unwrap();
+    for (frame, x, z) in [
+        (0, 278.0, -800.0),
+        (2, 328.0, -800.0),
+        (4, 378.0, -800.0),
+        (5, 378.0, -750.0),
+        (6, 378.0, -700.0),
+    ] {
+        let still = scene_with_camera(sub.path(), &static_camera(x, z));
+        let out = sub.path().join("still.exr");
+        let (ok, err) = plsr(&[
+            "render",
+            still.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--spp",
+            "2",
+        ]);
+        assert!(ok, "{err}");
+        let framed = d.join(format!("frame-{frame:04}.exr"));
+        assert_close(
+            &format!("frame {frame}"),
+            &Film::read_exr(&out).unwrap(),
+            &Film::read_exr(&framed).unwrap(),
+            0.0,
+        );
+    }
+    assert!(!d.join("frame-0007.exr").exists());
+    // Frames differ from each other.
+    assert_ne!(
+        Film::read_exr(&d.join("frame-0000.exr")).unwrap().color,
+        Film::read_exr(&d.join("frame-0006.exr")).unwrap().color
+    );
+    // Bad frames and paths.
+    let one = d.join("one.exr");
+    let anim_s = anim.to_str().unwrap();
+    for (args, says) in [
+        (
+            vec!["--frame", "7"],
+            "the camera path runs from frame 0 to 6",
+        ),
+        (vec!["--frames", "0..3"], "the name must contain {frame}"),
+        (vec!["--frames", "4..4"], "no frames"),
+        (vec!["--frames", "a..4"], "not a frame number"),
+    ] {
+        let mut full = vec!["render", anim_s, "-o", one.to_str().unwrap()];
+        full.extend(args.iter().copied());
+        let (ok, err) = plsr(&full);
+        assert!(!ok && err.contains(says), "{args:?}: {err}");
+        assert!(!one.exists());
+    }
+    let (ok, err) = plsr(&["render", SCENE, "-o", one.to_str().unwrap(), "--frame", "0"]);
+    assert!(!ok && err.contains("has no camera path"), "{err}");
+    let bad = scene_with_camera(d, &PATH_CAMERA.replace("frame = 4", "frame = 0"));
+    let (ok, err) = plsr(&["render", bad.to_str().unwrap(), "-o", one.to_str().unwrap()]);
+    assert!(
+        !ok && err.contains("camera.path[1].frame") && err.contains("frames must increase"),
+        "{err}"
+    );
+}
+
+/// Runs the plsr command line `command` (its first word `plsr`) with the
+/// pods' `mount` mapped to the local `root`, and `env`.
+fn run_as_pod(
+    command: &[String],
+    mount: &str,
+    root: &Path,
+    env: &[(&str, String)],
+) -> (bool, String) {
+    assert_eq!(command[0], "plsr");
+    let args: Vec<String> = command[1..]
+        .iter()
+        .map(|a| a.replace(mount, root.to_str().unwrap()))
+        .collect();
+    let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .args(&args)
+        .envs(env.iter().map(|(k, v)| (k, v)))
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+#[test]
+fn kubernetes_manifests_are_indexed_jobs_whose_pods_render_the_pieces() {
+    let volume = tempfile::tempdir().unwrap();
+    let root = std::fs::canonicalize(volume.path()).unwrap();
+    let anim = scene_with_camera(&root, PATH_CAMERA);
+    let out = root.join("renders/shot");
+    let (ok, err) = plsr(&[
+        "farm",
+        "k8s",
+        anim.to_str().unwrap(),
+        "--parts",
+        "2",
+        "--spp",
+        "6",
+        "--frames",
+        "3..5",
+        "-o",
+        out.to_str().unwrap(),
+        "--image",
+        "registry.example.com/plsr:0.2",
+        "--claim",
+        "render-data",
+        "--volume-root",
+        root.to_str().unwrap(),
+        "--mount",
+        "/mnt/vol",
+        "--cpus",
+        "2",
+        "--memory",
+        "2Gi",
+    ]);
+    assert!(ok, "{err}");
+    let yaml = |name: &str| -> serde_yaml::Value {
+        serde_yaml::from_str(&std::fs::read_to_string(out.join(name)).unwrap()).unwrap()
+    };
+    let render = yaml("render-job.yaml");
+    let merge = yaml("merge-job.yaml");
+    let s = |v: &serde_yaml::Value| v.as_str().unwrap().to_string();
+    let command = |job: &serde_yaml::Value| -> Vec<String> {
+        job["spec"]["template"]["spec"]["containers"][0]["command"]
+            .as_sequence()
+            .unwrap()
+            .iter()
+            .map(s)
+            .collect()
+    };
+    for job in [&render, &merge] {
+        assert_eq!(s(&job["apiVersion"]), "batch/v1");
+        assert_eq!(s(&job["kind"]), "Job");
+        let pod = &job["spec"]["template"]["spec"];
+        assert_eq!(s(&pod["restartPolicy"]), "Never");
+        let c = &pod["containers"][0];
+        assert_eq!(s(&c["image"]), "registry.example.com/plsr:0.2");
+        assert_eq!(s(&c["volumeMounts"][0]["mountPath"]), "/mnt/vol");
+        assert_eq!(s(&c["resources"]["requests"]["memory"]), "2Gi");
+        assert_eq!(s(&c["resources"]["requests"]["cpu"]), "2");
+        let volume = &pod["volumes"][0];
+        assert_eq!(volume["name"], c["volumeMounts"][0]["name"]);
+        assert_eq!(
+            s(&volume["persistentVolumeClaim"]["claimName"]),
+            "render-data"
+        );
+    }
+    assert_eq!(s(&render["metadata"]["name"]), "plsr-shot-render");
+    assert_eq!(s(&merge["metadata"]["name"]), "plsr-shot-merge");
+    // Frames 3 and 4, two parts each.
+    assert_eq!(s(&render["spec"]["completionMode"]), "Indexed");
+    assert_eq!(render["spec"]["completions"].as_u64(), Some(4));
+    assert_eq!(render["spec"]["parallelism"].as_u64(), Some(4));
+    let render_cmd = command(&render);
+    assert_eq!(
+        render_cmd,
+        [
+            "plsr",
+            "farm",
+            "piece",
+            "/mnt/vol/renders/shot/farm.toml",
+            "--threads",
+            "2"
+        ]
+    );
+    assert_eq!(
+        command(&merge),
+        ["plsr", "farm", "merge", "/mnt/vol/renders/shot/farm.toml"]
+    );
+    let script = std::fs::read_to_string(out.join("run-k8s.sh")).unwrap();
+    let order: Vec<usize> = [
+        "apply -f ",
+        "wait --for=condition=complete --timeout=${PLSR_TIMEOUT:-168h} job/plsr-shot-render",
+        "merge-job.yaml",
+        "job/plsr-shot-merge",
+    ]
+    .iter()
+    .map(|w| {
+        script
+            .find(w)
+            .unwrap_or_else(|| panic!("{w} not in {script}"))
+    })
+    .collect();
+    assert!(order.windows(2).all(|w| w[0] < w[1]), "{script}");
+
+    // The pods, run here with the volume at its local path: merging before
+    // every piece is there is refused, naming what is missing.
+    let merge_cmd = command(&merge);
+    let pod = |i: u32| {
+        let (ok, err) = run_as_pod(
+            &render_cmd,
+            "/mnt/vol",
+            &root,
+            &[("JOB_COMPLETION_INDEX", i.to_string())],
+        );
+        assert!(ok, "pod {i}: {err}");
+    };
+    for i in [0, 2, 3] {
+        pod(i);
+    }
+    let (ok, err) = run_as_pod(&merge_cmd, "/mnt/vol", &root, &[]);
+    assert!(
+        !ok && err.contains("1 of 4 pieces are missing or stale (1)"),
+        "{err}"
+    );
+    assert!(!out.join("image-0003.exr").exists());
+    pod(1);
+    let (ok, err) = run_as_pod(&merge_cmd, "/mnt/vol", &root, &[]);
+    assert!(ok, "{err}");
+    let single = root.join("single.exr");
+    assert!(
+        plsr(&[
+            "render",
+            anim.to_str().unwrap(),
+            "--frame",
+            "4",
+            "--spp",
+            "6",
+            "-o",
+            single.to_str().unwrap()
+        ])
+        .0
+    );
+    assert_close(
+        "frame 4 from pods",
+        &Film::read_exr(&single).unwrap(),
+        &Film::read_exr(&out.join("image-0004.exr")).unwrap(),
+        1e-6,
+    );
+    assert!(out.join("image-0003.png").is_file());
+    let (ok, err) = run_as_pod(
+        &render_cmd,
+        "/mnt/vol",
+        &root,
+        &[("JOB_COMPLETION_INDEX", "4".into())],
+    );
+    assert!(!ok && err.contains("has pieces 0 to 3"), "{err}");
+}
+
+#[test]
+fn bad_farm_requests_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("out");
+    let o = out.to_str().unwrap();
+    let (ok, err) = plsr(&["farm", "slurm", SCENE, "--parts", "0", "-o", o]);
+    assert!(
+        !ok && err.contains("--parts: must be between 1 and spp"),
+        "{err}"
+    );
+    let (ok, err) = plsr(&[
+        "farm", "slurm", SCENE, "--parts", "9", "--spp", "8", "-o", o,
+    ]);
+    assert!(
+        !ok && err.contains("each part renders at least one sample"),
+        "{err}"
+    );
+    let (ok, err) = plsr(&[
+        "farm", "slurm", SCENE, "--parts", "2", "--frames", "0..2", "-o", o,
+    ]);
+    assert!(!ok && err.contains("has no camera path"), "{err}");
+    assert!(!out.join("farm.toml").exists());
+    // The pods see only the volume: a scene outside it is refused.
+    let root = d.join("volume");
+    std::fs::create_dir(&root).unwrap();
+    let (ok, err) = plsr(&[
+        "farm",
+        "k8s",
+        SCENE,
+        "--parts",
+        "2",
+        "-o",
+        root.join("o").to_str().unwrap(),
+        "--image",
+        "i",
+        "--claim",
+        "c",
+        "--volume-root",
+        root.to_str().unwrap(),
+    ]);
+    assert!(!ok && err.contains("is not inside --volume-root"), "{err}");
+    let (ok, err) = plsr(&[
+        "farm",
+        "piece",
+        d.join("nothing.toml").to_str().unwrap(),
+        "0",
+    ]);
+    assert!(!ok && err.contains("nothing.toml"), "{err}");
+    // A plan, then a piece without an index outside a batch system.
+    assert!(plsr(&["farm", "slurm", SCENE, "--parts", "2", "--spp", "2", "-o", o]).0);
+    let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .args(["farm", "piece", out.join("farm.toml").to_str().unwrap()])
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env_remove("JOB_COMPLETION_INDEX")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("no piece index"),
+        "{err}"
+    );
 }

@@ -480,9 +480,10 @@ fn camera_section() -> BoxedStrategy<String> {
             ("focus_distance", mostly(within(0.5, 5.0), number())),
         ]),
         stray_key(),
+        prop::option::weighted(0.2, camera_path()),
     )
         .prop_map(
-            |((kind, fov_key), position, look_at, up, fov, resolution, lens, stray)| {
+            |((kind, fov_key), position, look_at, up, fov, resolution, lens, stray, path)| {
                 let mut s = format!(
                     "[camera]\ntype = \"{kind}\"\nposition = {position}\nlook_at = {look_at}\n\
                  up = {up}\nresolution = {resolution}\n"
@@ -493,9 +494,33 @@ fn camera_section() -> BoxedStrategy<String> {
                 if kind == "thin_lens" {
                     s += &lens;
                 }
-                s + &stray
+                s + &stray + &path.unwrap_or_default()
             },
         )
+        .boxed()
+}
+
+/// `[[camera.path]]` keyframes: frames mostly increasing and small, poses
+/// mostly valid.
+fn camera_path() -> BoxedStrategy<String> {
+    let key = (
+        mostly((-2i64..60).prop_map(|f| f.to_string()), integer()),
+        mostly(point((-3.0, 3.0), (-5.0, -2.0), (0.0, 3.0)), vec3()),
+        mostly(point((-0.5, 0.5), (-0.5, 0.5), (-0.5, 0.5)), vec3()),
+        prop::option::weighted(0.3, mostly(Just("[0, 0, 1]".to_string()), vec3())),
+        stray_key(),
+    )
+        .prop_map(|(frame, position, look_at, up, stray)| {
+            let mut s = format!(
+                "[[camera.path]]\nframe = {frame}\nposition = {position}\nlook_at = {look_at}\n"
+            );
+            if let Some(up) = up {
+                s += &format!("up = {up}\n");
+            }
+            s + &stray
+        });
+    prop::collection::vec(key, 0..4)
+        .prop_map(|keys| keys.concat())
         .boxed()
 }
 

@@ -103,6 +103,14 @@ impl StableHasher {
 /// (the render settings that change the image: seed, depths, and what else
 /// the caller overrides), but not of the sample range or the window.
 pub fn scene_hash(files: &[PathBuf], extra: &str) -> Result<u64> {
+    let mut h = scene_files_hasher(files)?;
+    h.field(extra.as_bytes());
+    Ok(h.finish())
+}
+
+/// [`scene_hash`] before its `extra` is added: the files are read once and
+/// the hasher copied for each frame of an animation.
+pub fn scene_files_hasher(files: &[PathBuf]) -> Result<StableHasher> {
     let mut h = StableHasher::default();
     for file in files {
         let bytes = std::fs::read(file).map_err(|source| Error::Io {
@@ -111,8 +119,7 @@ pub fn scene_hash(files: &[PathBuf], extra: &str) -> Result<u64> {
         })?;
         h.field(&bytes);
     }
-    h.field(extra.as_bytes());
-    Ok(h.finish())
+    Ok(h)
 }
 
 impl Part {

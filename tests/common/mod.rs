@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 pub mod chi2;
+pub mod films;
 
 /// A small valid scene (8×8 pixels, 1 spp, an emitting sphere) for the
 /// command-line tests.

@@ -5,6 +5,7 @@ mod bench;
 mod compare;
 mod composite;
 mod experiment;
+mod farm;
 mod fit;
 mod hdr;
 mod merge;
@@ -42,6 +43,11 @@ pub enum Command {
     /// `--crop X0,Y0,X1,Y1`) into the image one render of their union gives
     /// (see docs/farm.md)
     Merge(merge::MergeArgs),
+    /// Render on a batch system: cut a render (and an animation's frames)
+    /// into pieces for a Slurm job array or a Kubernetes Indexed Job, and
+    /// merge them exactly (see docs/farm.md).
+    #[command(subcommand)]
+    Farm(farm::FarmCommand),
     /// Fit the real surfaces' materials (and lights' brightness) to the
     /// scene's photos by differentiable rendering and Adam.
     Fit(fit::FitArgs),
@@ -96,6 +102,7 @@ where
         Command::Render(a) => render::run(&a),
         Command::Composite(a) => composite::run(&a),
         Command::Merge(a) => merge::run(&a),
+        Command::Farm(c) => farm::run(c),
         Command::Fit(a) => fit::run(&a),
         Command::Compare(a) => compare::run(&a),
         Command::Bench(a) => bench::run(a),

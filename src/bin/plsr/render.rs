@@ -3,7 +3,7 @@
 use crate::progress::progress_bar;
 use plsr::atomic_write::{check_extension, same_file, OutputSet};
 use plsr::error::{Error, Result};
-use plsr::film::part::{scene_hash, Part, PartInfo};
+use plsr::film::part::{scene_files_hasher, Part, PartInfo, StableHasher};
 use plsr::film::Tile;
 use plsr::film::{check_exposure_stops, ToneMap};
 use plsr::job::RenderJob;
@@ -34,6 +34,14 @@ pub struct RenderArgs {
     /// part that `plsr merge` stitches with the others (see docs/farm.md).
     #[arg(long, value_name = "X0,Y0,X1,Y1")]
     pub crop: Option<String>,
+    /// Render frame N of the scene's camera path ([[camera.path]]); `{frame}`
+    /// in -o and --png becomes the frame number, four digits or more.
+    #[arg(long, value_name = "N", conflicts_with = "frames")]
+    pub frame: Option<u32>,
+    /// Render frames A to B−1 of the camera path (A..=B includes B), one
+    /// output per frame: -o (and --png) must contain `{frame}`.
+    #[arg(long, value_name = "A..B")]
+    pub frames: Option<String>,
     /// Maximum number of scattering events (overrides render.max_depth).
     #[arg(long)]
     pub max_depth: Option<u32>,
@@ -99,44 +107,52 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             a.tile_size
         )));
     }
-    // Every output is checked before the render, and none may replace an
-    // input or another output.
-    check_output("-o", &a.output, "exr", "OpenEXR")?;
-    if let Some(p) = &a.png {
-        check_output("--png", p, "png", "PNG")?;
-        if same_file(p, &a.output) {
-            return Err(Error::Output {
-                file: p.clone(),
-                message: "--png names the same file as -o".into(),
-            });
+    let contents = plsr::scene::file::load_contents(&a.scene)?;
+    let inputs = contents.inputs;
+    // The frames asked for, checked against the scene's camera path.
+    let frames: Vec<Option<u32>> = match (a.frame, &a.frames, &contents.camera_path) {
+        (None, None, _) => vec![None],
+        (_, _, None) => {
+            return Err(Error::InvalidArgument(format!(
+            "--frame/--frames: {} has no camera path ([[camera.path]]; see docs/scene-format.md)",
+            a.scene.display()
+        )))
         }
-    }
-    for out in std::iter::once(&a.output).chain(&a.png) {
-        if same_file(out, &a.scene) {
+        (Some(f), _, Some(path)) => {
+            check_frame(f, path)?;
+            vec![Some(f)]
+        }
+        (None, Some(range), Some(path)) => {
+            let frames = parse_frames(range)?;
+            for f in [*frames.start(), *frames.end()] {
+                check_frame(f, path)?;
+            }
+            frames.map(Some).collect()
+        }
+    };
+    // Every output of every frame is checked before the render, and none
+    // may replace an input (the scene file, its meshes, MTL libraries,
+    // textures, environment image or PLS files) or another output.
+    let many = frames.len() > 1;
+    for (flag, path) in std::iter::once(("-o", &a.output)).chain(a.png.iter().map(|p| ("--png", p)))
+    {
+        if many && !path.to_string_lossy().contains(FRAME_FIELD) {
             return Err(Error::Output {
-                file: out.clone(),
+                file: path.clone(),
                 message: format!(
-                    "is the scene file {}: it would be overwritten",
-                    a.scene.display()
+                    "{flag}: --frames writes one file per frame: the name must contain {FRAME_FIELD}"
                 ),
             });
         }
     }
-    // No output may replace a file the scene reads either: its meshes,
-    // MTL libraries, textures, environment image or PLS files.
-    let (description, inputs) = plsr::scene::file::load_with_inputs(&a.scene)?;
-    for out in std::iter::once(&a.output).chain(&a.png) {
-        if let Some(input) = inputs.iter().find(|i| same_file(out, i)) {
-            return Err(Error::Output {
-                file: out.clone(),
-                message: format!(
-                    "is {}, which the scene reads: it would be overwritten",
-                    input.display()
-                ),
-            });
-        }
+    let mut outputs_of = Vec::with_capacity(frames.len());
+    for frame in &frames {
+        let output = frame_path(&a.output, *frame);
+        let png = a.png.as_ref().map(|p| frame_path(p, *frame));
+        check_outputs(a, &output, png.as_ref(), &inputs)?;
+        outputs_of.push((output, png));
     }
-    let scene = Scene::build(description)?;
+    let mut scene = Scene::build(contents.description)?;
     let mut job = scene.default_job();
     if let Some(spp) = a.spp {
         if spp == 0 {
@@ -186,26 +202,24 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     // Named against the scene file, before anything is allocated.
     plsr::render::check_memory(&scene, &options)
         .map_err(|m| Error::input(&a.scene, "camera.resolution", m))?;
-    let bar = progress_bar(
-        a.quiet,
-        "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} tiles (eta {eta})",
-    );
-    let progress = |done: usize, total: usize| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
-        true
+    let base_camera = scene.camera().clone();
+    let mut files = vec![a.scene.clone()];
+    files.extend(inputs.iter().cloned());
+    let parts = a.samples.is_some() || window.is_some();
+    let files_hasher = if parts {
+        scene_files_hasher(&files)?
+    } else {
+        StableHasher::default()
     };
-    let part = a.samples.is_some() || window.is_some();
-    let (sums, stats) = render_window_sums(&scene, &job, &options, window, &progress)?;
-    bar.finish_and_clear();
-    // Both outputs are written first and replace their targets together.
-    let mut outputs = OutputSet::new();
-    let film = if part {
-        // A part: the window's sums, exactly, and what merging checks.
-        let mut files = vec![a.scene.clone()];
-        files.extend(inputs.iter().cloned());
-        let info = PartInfo {
-            scene_hash: scene_hash(&files, &job_identity(&job))?,
+    for (frame, (output, png)) in frames.iter().zip(&outputs_of) {
+        if let (Some(f), Some(path)) = (frame, &contents.camera_path) {
+            let pose = path
+                .pose_at(*f)
+                .map_err(|e| Error::input(&a.scene, "camera.path", e.to_string()))?;
+            scene.set_camera(base_camera.with_pose(pose));
+        }
+        let part = parts.then(|| PartInfo {
+            scene_hash: part_hash(files_hasher, &job, *frame),
             image: (width, height),
             window: window.unwrap_or(Tile {
                 x0: 0,
@@ -215,16 +229,163 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             }),
             sample_start: job.sample_start,
             sample_end: job.sample_start + job.spp,
-        };
-        let part = Part::from_render(info, &sums);
-        part.stage_exr(&mut outputs, &a.output)?;
-        part.sums.develop(job.spp)
-    } else {
-        let film = sums.develop(job.spp);
-        film.stage_exr(&mut outputs, &a.output)?;
-        film
+        });
+        render_one(
+            a,
+            &scene,
+            &job,
+            &options,
+            window,
+            part,
+            output,
+            png.as_ref(),
+            *frame,
+        )?;
+    }
+    Ok(())
+}
+
+/// What `--frame`/`--frames` replace in output names.
+const FRAME_FIELD: &str = "{frame}";
+
+/// `path` with `{frame}` replaced by the frame number (at least four
+/// digits: `0007`, `12345`), or unchanged when no frame is rendered.
+pub(crate) fn frame_path(path: &Path, frame: Option<u32>) -> PathBuf {
+    match frame {
+        Some(f) => PathBuf::from(
+            path.to_string_lossy()
+                .replace(FRAME_FIELD, &format!("{f:04}")),
+        ),
+        None => path.to_path_buf(),
+    }
+}
+
+/// A frame the camera path covers.
+fn check_frame(frame: u32, path: &plsr::camera_path::CameraPath) -> Result<()> {
+    let frames = path.frames();
+    if !frames.contains(&frame) {
+        return Err(Error::InvalidArgument(format!(
+            "frame {frame}: the camera path runs from frame {} to {}",
+            frames.start(),
+            frames.end()
+        )));
+    }
+    Ok(())
+}
+
+/// `--frames A..B` (B excluded) or `A..=B` (B included): a non-empty range.
+pub(crate) fn parse_frames(s: &str) -> Result<std::ops::RangeInclusive<u32>> {
+    let bad = |why: &str| Error::InvalidArgument(format!("--frames {s}: {why}"));
+    let (a, b, inclusive) = match s.split_once("..=") {
+        Some((a, b)) => (a, b, true),
+        None => {
+            let (a, b) = s
+                .split_once("..")
+                .ok_or_else(|| bad("expected A..B (B excluded) or A..=B, e.g. 0..24"))?;
+            (a, b, false)
+        }
     };
-    if let Some(p) = &a.png {
+    let parse = |x: &str| {
+        x.trim()
+            .parse::<u32>()
+            .map_err(|_| bad(&format!("{x:?} is not a frame number")))
+    };
+    let (start, end) = (parse(a)?, parse(b)?);
+    let last = if inclusive {
+        end
+    } else {
+        end.checked_sub(1)
+            .filter(|&l| l >= start)
+            .ok_or_else(|| bad("no frames: A must be below B"))?
+    };
+    if last < start {
+        return Err(bad("no frames: A must not be above B"));
+    }
+    Ok(start..=last)
+}
+
+/// Checks one frame's outputs: folders exist, extensions match, and no
+/// output replaces the scene, a file it reads, or the other output.
+fn check_outputs(
+    a: &RenderArgs,
+    output: &Path,
+    png: Option<&PathBuf>,
+    inputs: &[PathBuf],
+) -> Result<()> {
+    check_output("-o", output, "exr", "OpenEXR")?;
+    if let Some(p) = png {
+        check_output("--png", p, "png", "PNG")?;
+        if same_file(p, output) {
+            return Err(Error::Output {
+                file: p.clone(),
+                message: "--png names the same file as -o".into(),
+            });
+        }
+    }
+    for out in std::iter::once(output).chain(png.map(|p| p.as_path())) {
+        if same_file(out, &a.scene) {
+            return Err(Error::Output {
+                file: out.to_path_buf(),
+                message: format!(
+                    "is the scene file {}: it would be overwritten",
+                    a.scene.display()
+                ),
+            });
+        }
+        if let Some(input) = inputs.iter().find(|i| same_file(out, i)) {
+            return Err(Error::Output {
+                file: out.to_path_buf(),
+                message: format!(
+                    "is {}, which the scene reads: it would be overwritten",
+                    input.display()
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Renders one image (one frame) and writes it: a whole image, or a part
+/// when `part` says which.
+#[allow(clippy::too_many_arguments)]
+fn render_one(
+    a: &RenderArgs,
+    scene: &Scene,
+    job: &RenderJob,
+    options: &RenderOptions,
+    window: Option<Tile>,
+    part: Option<PartInfo>,
+    output: &Path,
+    png: Option<&PathBuf>,
+    frame: Option<u32>,
+) -> Result<()> {
+    let bar = progress_bar(
+        a.quiet,
+        "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} tiles (eta {eta})",
+    );
+    let progress = |done: usize, total: usize| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+        true
+    };
+    let (sums, stats) = render_window_sums(scene, job, options, window, &progress)?;
+    bar.finish_and_clear();
+    // Both outputs are written first and replace their targets together.
+    let mut outputs = OutputSet::new();
+    let film = match part {
+        Some(info) => {
+            // A part: the window's sums, exactly, and what merging checks.
+            let part = Part::from_render(info, &sums);
+            part.stage_exr(&mut outputs, output)?;
+            part.sums.develop(job.spp)
+        }
+        None => {
+            let film = sums.develop(job.spp);
+            film.stage_exr(&mut outputs, output)?;
+            film
+        }
+    };
+    if let Some(p) = png {
         let tone = ToneMap {
             exposure: a.exposure,
             filmic: a.filmic,
@@ -233,7 +394,8 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     }
     outputs.commit()?;
     eprintln!(
-        "rendered {}×{} at {} spp in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s on {} threads{} → {}{}",
+        "rendered {}{}×{} at {} spp in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s on {} threads{} → {}{}",
+        frame.map(|f| format!("frame {f}, ")).unwrap_or_default(),
         film.width,
         film.height,
         film.spp,
@@ -245,21 +407,35 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             .vectorised
             .map(|isa| format!(", vectorised ({})", isa.name()))
             .unwrap_or_default(),
-        a.output.display(),
-        a.png
-            .as_ref()
-            .map(|p| format!(", {}", p.display()))
+        output.display(),
+        png.map(|p| format!(", {}", p.display()))
             .unwrap_or_default()
     );
     Ok(())
 }
 
+/// The scene hash of a part (see [`plsr::film::part::scene_hash`]): of the
+/// files hashed into `files_hasher` (the scene file, then every file it
+/// reads, in the loader's order), the job's settings and the frame.
+pub(crate) fn part_hash(
+    mut files_hasher: StableHasher,
+    job: &RenderJob,
+    frame: Option<u32>,
+) -> u64 {
+    files_hasher.field(job_identity(job, frame).as_bytes());
+    files_hasher.finish()
+}
+
 /// What of a job besides the sample range changes the image, for the
 /// parts' scene hash.
-fn job_identity(job: &RenderJob) -> String {
+fn job_identity(job: &RenderJob, frame: Option<u32>) -> String {
     format!(
-        "seed {} max_depth {} rr_depth {} hide_virtual {}",
-        job.seed, job.max_depth, job.rr_depth, job.hide_virtual
+        "seed {} max_depth {} rr_depth {} hide_virtual {}{}",
+        job.seed,
+        job.max_depth,
+        job.rr_depth,
+        job.hide_virtual,
+        frame.map(|f| format!(" frame {f}")).unwrap_or_default()
     )
 }
 

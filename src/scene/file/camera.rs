@@ -7,6 +7,7 @@ use crate::camera::{
     DualFisheyeCamera, EquirectCamera, Fov, PinholeCamera, Pose, ThinLensCamera,
     DEFAULT_FISHEYE_FOV_DEG, DEFAULT_SENSOR_HEIGHT_MM, PRESETS,
 };
+use crate::camera_path::{CameraPath, CameraPathError, PathKey, MAX_FRAME};
 use crate::error::Result;
 use glam::Vec3;
 use serde::Deserialize;
@@ -28,8 +29,24 @@ pub(super) struct CameraSection {
     pub(super) to_world: Option<[[f32; 4]; 4]>,
     #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) resolution: Option<[i64; 2]>,
+    /// `[[camera.path]]`: keyframes of an animation (see [`CameraPath`]).
+    #[serde(default)]
+    pub(super) path: Option<Vec<PathKeySection>>,
     #[serde(flatten)]
     pub(super) keys: toml::Table,
+}
+
+/// `[[camera.path]]`: one keyframe of a camera path.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct PathKeySection {
+    frame: i64,
+    #[serde(deserialize_with = "crate::input::exact::array")]
+    position: [f32; 3],
+    #[serde(deserialize_with = "crate::input::exact::array")]
+    look_at: [f32; 3],
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
+    up: Option<[f32; 3]>,
 }
 
 /// The keys of a perspective camera (`pinhole`, `thin_lens`; the aperture
@@ -61,7 +78,14 @@ struct FisheyeKeys {
 struct EquirectKeys {}
 
 /// The keys every camera has (besides `type`).
-const CAMERA_KEYS: [&str; 5] = ["position", "look_at", "up", "to_world", "resolution"];
+const CAMERA_KEYS: [&str; 6] = [
+    "position",
+    "look_at",
+    "up",
+    "to_world",
+    "resolution",
+    "path",
+];
 
 fn pinhole() -> String {
     "pinhole".into()
@@ -179,9 +203,21 @@ impl Builder<'_> {
                     })?;
                     self.vec3(&format!("camera.{name}"), v)
                 };
-                let position = get("position", c.position)?;
-                let look_at = get("look_at", c.look_at)?;
-                let up = get("up", c.up)?;
+                // A camera with a path may leave its pose to the first key.
+                let first = c.path.as_ref().and_then(|p| p.first());
+                let position = match (c.position, first) {
+                    (None, Some(k)) => self.vec3("camera.path[0].position", k.position)?,
+                    _ => get("position", c.position)?,
+                };
+                let look_at = match (c.look_at, first) {
+                    (None, Some(k)) => self.vec3("camera.path[0].look_at", k.look_at)?,
+                    _ => get("look_at", c.look_at)?,
+                };
+                let up = match (c.up, first.and_then(|k| k.up)) {
+                    (None, Some(u)) => self.vec3("camera.path[0].up", u)?,
+                    (None, None) if first.is_some() => Vec3::Y,
+                    _ => get("up", c.up)?,
+                };
                 Pose::look_at(position, look_at, up).map_err(|e| {
                     let field = match e {
                         CameraError::NoViewDirection => "camera.look_at",
@@ -266,6 +302,53 @@ impl Builder<'_> {
             }
         };
         Ok((camera, preset))
+    }
+
+    /// The camera path of `[[camera.path]]`, if any.
+    pub(super) fn camera_path(&self, c: &CameraSection) -> Result<Option<CameraPath>> {
+        let Some(keys) = &c.path else {
+            return Ok(None);
+        };
+        if c.to_world.is_some() {
+            return Err(self.err(
+                "camera.path",
+                "a path is made of look-at poses: give it with position/look_at/up, not to_world",
+            ));
+        }
+        let default_up = match c.up {
+            Some(u) => self.vec3("camera.up", u)?,
+            None => Vec3::Y,
+        };
+        let mut path = Vec::with_capacity(keys.len());
+        for (i, k) in keys.iter().enumerate() {
+            let field = format!("camera.path[{i}]");
+            if !(0..=MAX_FRAME as i64).contains(&k.frame) {
+                return Err(self.err(
+                    format!("{field}.frame"),
+                    format!("must be between 0 and {MAX_FRAME}, got {}", k.frame),
+                ));
+            }
+            path.push(PathKey {
+                frame: k.frame as u32,
+                position: self.vec3(&format!("{field}.position"), k.position)?,
+                look_at: self.vec3(&format!("{field}.look_at"), k.look_at)?,
+                up: match k.up {
+                    Some(u) => self.vec3(&format!("{field}.up"), u)?,
+                    None => default_up,
+                },
+            });
+        }
+        CameraPath::new(path).map(Some).map_err(|e| {
+            let field = match &e {
+                CameraPathError::Empty => "camera.path".to_string(),
+                CameraPathError::FrameTooLarge { key, .. }
+                | CameraPathError::NotIncreasing { key, .. } => {
+                    format!("camera.path[{key}].frame")
+                }
+                CameraPathError::BadPose { .. } => "camera.path".to_string(),
+            };
+            self.err(field, e.to_string())
+        })
     }
 
     /// The field of view of a perspective camera: from the preset, or from

@@ -90,6 +90,8 @@ pub struct SceneFileContents {
     /// The `[[views]]`: more photos of the scene, each with its camera
     /// (for fitting).
     pub views: Vec<crate::scene::photo::ViewSpec>,
+    /// The camera's path (`[[camera.path]]`), for animations.
+    pub camera_path: Option<crate::camera_path::CameraPath>,
 }
 
 /// `[[views]]`: a photo of the scene and the camera that took it.
@@ -169,16 +171,24 @@ pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
             },
             other => other,
         };
+        if v.camera.path.is_some() {
+            return Err(builder.err(
+                format!("views[{i}].camera.path"),
+                "a view is one photo: its camera has no path",
+            ));
+        }
         let (camera, _) = builder.camera(&v.camera).map_err(within)?;
         let photo = builder.photo(&v.photo).map_err(within)?;
         views.push(crate::scene::photo::ViewSpec { camera, photo });
     }
+    let camera_path = builder.camera_path(&parsed.camera)?;
     let description = builder.build(parsed)?;
     Ok(SceneFileContents {
         description,
         inputs: builder.inputs.into_inner(),
         photo,
         views,
+        camera_path,
     })
 }
 

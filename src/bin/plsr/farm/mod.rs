@@ -1,0 +1,364 @@
+//! `plsr farm`: a render cut into pieces for a batch system — Slurm job
+//! arrays and Kubernetes Indexed Jobs — and merged exactly (see
+//! docs/farm.md).
+//!
+//! `plsr farm slurm` / `plsr farm k8s` write the plan (`OUTDIR/farm.toml`,
+//! [`plan`]) and the batch system's files; every piece then runs
+//! `plsr farm piece OUTDIR/farm.toml INDEX` and the merge
+//! `plsr farm merge OUTDIR/farm.toml`. A piece whose part is already there
+//! (the same scene, settings and samples) returns at once, so running the
+//! whole array again re-renders only what is missing.
+
+mod k8s;
+mod plan;
+mod slurm;
+
+use crate::render::{parse_frames, RenderArgs};
+use plan::{index_list, relative_path, DoneCheck, FarmPlan, PLAN_FILE};
+use plsr::error::{Error, Result};
+use plsr::render::DEFAULT_TILE_SIZE;
+use std::path::{Path, PathBuf};
+
+/// The `plsr farm` subcommands.
+#[derive(Debug, clap::Subcommand)]
+pub enum FarmCommand {
+    /// Write (and with --submit, submit) a Slurm job array rendering the
+    /// pieces, and a merge job that runs after all of them succeed.
+    Slurm(slurm::SlurmArgs),
+    /// Write a Kubernetes Indexed Job rendering the pieces and the merge
+    /// Job, with the scene and outputs on a persistent volume.
+    K8s(k8s::K8sArgs),
+    /// Render one piece of a plan (what each array task or pod runs).
+    Piece(PieceArgs),
+    /// Merge the pieces of a plan into its images.
+    Merge(FarmMergeArgs),
+    /// List which pieces of a plan are done and which are missing.
+    Status(StatusArgs),
+}
+
+/// What every batch system's plan takes.
+#[derive(Debug, clap::Args)]
+pub struct PlanArgs {
+    /// The scene file (on a folder every node sees).
+    pub scene: PathBuf,
+    /// Parts per frame: each renders spp/parts of the samples.
+    #[arg(long)]
+    pub parts: u32,
+    /// Samples per pixel of each frame, all parts together (default: the
+    /// scene's render.spp).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Frames A to B−1 of the scene's camera path (A..=B includes B); each
+    /// frame is cut into --parts pieces.
+    #[arg(long, value_name = "A..B")]
+    pub frames: Option<String>,
+    /// The output folder (on a folder every node sees): the plan, the
+    /// batch files, the parts, the logs and the merged images.
+    #[arg(short, long, value_name = "OUTDIR")]
+    pub output_dir: PathBuf,
+    /// Name of the merged images: NAME.exr, or NAME-NNNN.exr per frame.
+    #[arg(long, default_value = "image")]
+    pub name: String,
+    /// No PNG beside each merged EXR.
+    #[arg(long)]
+    pub no_png: bool,
+    /// Print nothing but the submitted jobs' ids.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+/// Arguments of `plsr farm piece`.
+#[derive(Debug, clap::Args)]
+pub struct PieceArgs {
+    /// The plan (OUTDIR/farm.toml).
+    pub plan: PathBuf,
+    /// The piece's index; default: $SLURM_ARRAY_TASK_ID or
+    /// $JOB_COMPLETION_INDEX (Kubernetes), whichever is set.
+    pub index: Option<u32>,
+    /// Worker threads (default: all cores the process may use).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Render it again even if its part is there.
+    #[arg(long)]
+    pub force: bool,
+    /// Print nothing but errors.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+/// Arguments of `plsr farm merge`.
+#[derive(Debug, clap::Args)]
+pub struct FarmMergeArgs {
+    /// The plan (OUTDIR/farm.toml).
+    pub plan: PathBuf,
+}
+
+/// Arguments of `plsr farm status`.
+#[derive(Debug, clap::Args)]
+pub struct StatusArgs {
+    /// The plan (OUTDIR/farm.toml), or the folder holding it.
+    pub plan: PathBuf,
+}
+
+/// Runs `plsr farm …`.
+pub fn run(c: FarmCommand) -> Result<()> {
+    match c {
+        FarmCommand::Slurm(a) => slurm::run(&a),
+        FarmCommand::K8s(a) => k8s::run(&a),
+        FarmCommand::Piece(a) => piece(&a),
+        FarmCommand::Merge(a) => merge(&a),
+        FarmCommand::Status(a) => status(&a),
+    }
+}
+
+/// Makes the output folder and writes the plan of `a` into it; returns the
+/// plan, the folder (absolute) and the plan file.
+pub fn make_plan(a: &PlanArgs) -> Result<(FarmPlan, PathBuf, PathBuf)> {
+    let contents = plsr::scene::file::load_contents(&a.scene)?;
+    let spp = a.spp.unwrap_or(contents.description.job.spp);
+    if spp == 0 {
+        return Err(Error::InvalidArgument("--spp must be at least 1".into()));
+    }
+    if spp > plsr::job::MAX_SPP {
+        return Err(Error::InvalidArgument(format!(
+            "--spp {spp}: at most {}",
+            plsr::job::MAX_SPP
+        )));
+    }
+    let frames = match (&a.frames, &contents.camera_path) {
+        (None, _) => None,
+        (Some(_), None) => {
+            return Err(Error::InvalidArgument(format!(
+                "--frames: {} has no camera path ([[camera.path]]; see docs/scene-format.md)",
+                a.scene.display()
+            )))
+        }
+        (Some(s), Some(path)) => {
+            let range = parse_frames(s)?;
+            let have = path.frames();
+            if range.start() < have.start() || range.end() > have.end() {
+                return Err(Error::InvalidArgument(format!(
+                    "--frames {s}: the camera path runs from frame {} to {}",
+                    have.start(),
+                    have.end()
+                )));
+            }
+            Some([*range.start(), *range.end()])
+        }
+    };
+    std::fs::create_dir_all(&a.output_dir).map_err(|source| Error::Io {
+        file: a.output_dir.clone(),
+        source,
+    })?;
+    let dir = std::fs::canonicalize(&a.output_dir).map_err(|source| Error::Io {
+        file: a.output_dir.clone(),
+        source,
+    })?;
+    let scene_dir = match a.scene.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let scene_name = a
+        .scene
+        .file_name()
+        .ok_or_else(|| Error::InvalidArgument(format!("{}: not a file name", a.scene.display())))?;
+    let plan = FarmPlan {
+        scene: relative_path(&dir, scene_dir)?.join(scene_name),
+        spp,
+        parts: a.parts,
+        frames,
+        name: a.name.clone(),
+        png: !a.no_png,
+    };
+    plan.check().map_err(|(field, m)| {
+        let flag = match field {
+            "name" => "--name",
+            "frames" => "--frames",
+            _ => "--parts",
+        };
+        Error::InvalidArgument(format!("{flag}: {m}"))
+    })?;
+    let plan_file = dir.join(PLAN_FILE);
+    if plan_file.exists() {
+        if let Ok(old) = FarmPlan::read(&plan_file) {
+            if old != plan && !a.quiet {
+                eprintln!(
+                    "replacing the plan in {} (its pieces that no longer fit are rendered again)",
+                    dir.display()
+                );
+            }
+        }
+    }
+    plan.write(&dir)?;
+    Ok((plan, dir, plan_file))
+}
+
+/// Reads a plan given as its file or the folder holding it; returns it,
+/// its folder and its file.
+fn read_plan(path: &Path) -> Result<(FarmPlan, PathBuf, PathBuf)> {
+    let file = if path.is_dir() {
+        path.join(PLAN_FILE)
+    } else {
+        path.to_path_buf()
+    };
+    let plan = FarmPlan::read(&file)?;
+    let dir = match file.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    Ok((plan, dir, file))
+}
+
+/// The index a piece runs: given, or from the batch system's environment.
+fn piece_index(given: Option<u32>) -> Result<u32> {
+    if let Some(i) = given {
+        return Ok(i);
+    }
+    for var in ["SLURM_ARRAY_TASK_ID", "JOB_COMPLETION_INDEX"] {
+        if let Ok(v) = std::env::var(var) {
+            return v.trim().parse().map_err(|_| {
+                Error::InvalidArgument(format!("${var} is {v:?}, not a piece index"))
+            });
+        }
+    }
+    Err(Error::InvalidArgument(
+        "no piece index: give INDEX, or run inside a Slurm array task ($SLURM_ARRAY_TASK_ID) \
+         or a Kubernetes Indexed Job ($JOB_COMPLETION_INDEX)"
+            .into(),
+    ))
+}
+
+/// `plsr farm piece`.
+fn piece(a: &PieceArgs) -> Result<()> {
+    let (plan, dir, file) = read_plan(&a.plan)?;
+    let index = piece_index(a.index)?;
+    let piece = plan.piece(index).ok_or_else(|| {
+        Error::InvalidArgument(format!(
+            "piece {index}: {} has pieces 0 to {}",
+            file.display(),
+            plan.piece_count() - 1
+        ))
+    })?;
+    let output = plan.part_path(&dir, &piece);
+    if !a.force && DoneCheck::new(&plan, &dir)?.is_done(&plan, &dir, &piece) {
+        if !a.quiet {
+            eprintln!(
+                "piece {index} is done already ({}); nothing to render",
+                output.display()
+            );
+        }
+        return Ok(());
+    }
+    if let Some(folder) = output.parent() {
+        std::fs::create_dir_all(folder).map_err(|source| Error::Io {
+            file: folder.to_path_buf(),
+            source,
+        })?;
+    }
+    if !a.quiet {
+        eprintln!(
+            "piece {index} of {}: {}samples {}..{}",
+            plan.piece_count(),
+            piece
+                .frame
+                .map(|f| format!("frame {f}, "))
+                .unwrap_or_default(),
+            piece.samples.start,
+            piece.samples.end
+        );
+    }
+    crate::render::run(&RenderArgs {
+        scene: plan.scene_path(&dir),
+        output,
+        png: None,
+        spp: None,
+        samples: Some(format!("{}..{}", piece.samples.start, piece.samples.end)),
+        crop: None,
+        frame: piece.frame,
+        frames: None,
+        max_depth: None,
+        rr_depth: None,
+        seed: None,
+        threads: a.threads,
+        tile_size: DEFAULT_TILE_SIZE,
+        exposure: 0.0,
+        filmic: false,
+        scalar: false,
+        quiet: true,
+    })
+}
+
+/// `plsr farm merge`: every frame's parts into its image; refuses, before
+/// writing anything, while pieces are missing.
+fn merge(a: &FarmMergeArgs) -> Result<()> {
+    let (plan, dir, file) = read_plan(&a.plan)?;
+    let missing = DoneCheck::new(&plan, &dir)?.missing(&plan, &dir);
+    if !missing.is_empty() {
+        return Err(Error::InvalidArgument(format!(
+            "{}: {} of {} pieces are missing or stale ({}): render them first \
+             (`plsr farm piece {} INDEX`, or submit again: only they are rendered)",
+            file.display(),
+            missing.len(),
+            plan.piece_count(),
+            index_list(&missing),
+            file.display()
+        )));
+    }
+    for frame in plan.frame_list() {
+        let parts = plan
+            .pieces()
+            .filter(|p| p.frame == frame)
+            .map(|p| plan.part_path(&dir, &p))
+            .collect();
+        let (output, png) = plan.output_paths(&dir, frame);
+        crate::merge::run(&crate::merge::MergeArgs {
+            parts,
+            output,
+            png,
+            exposure: 0.0,
+            filmic: false,
+        })?;
+    }
+    Ok(())
+}
+
+/// `plsr farm status`.
+fn status(a: &StatusArgs) -> Result<()> {
+    let (plan, dir, _) = read_plan(&a.plan)?;
+    let missing = DoneCheck::new(&plan, &dir)?.missing(&plan, &dir);
+    let total = plan.piece_count();
+    println!(
+        "{} of {total} pieces done{}",
+        total - missing.len() as u32,
+        if missing.is_empty() {
+            String::new()
+        } else {
+            format!("; missing: {}", index_list(&missing))
+        }
+    );
+    let frames = plan.frame_list();
+    let merged = frames
+        .iter()
+        .filter(|f| plan.output_paths(&dir, **f).0.is_file())
+        .count();
+    println!("{merged} of {} merged images written", frames.len());
+    Ok(())
+}
+
+/// Quotes `s` for a POSIX shell (single quotes).
+pub fn shell_quote(s: &str) -> String {
+    if !s.is_empty()
+        && s.bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b"/._-+=:,@".contains(&b))
+    {
+        return s.to_string();
+    }
+    format!("'{}'", s.replace('\'', r"'\''"))
+}
+
+/// The absolute path of this `plsr` program.
+pub fn this_program() -> Result<PathBuf> {
+    std::env::current_exe()
+        .and_then(std::fs::canonicalize)
+        .map_err(|e| Error::InvalidArgument(format!("cannot find the plsr program's path: {e}")))
+}

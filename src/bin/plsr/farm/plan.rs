@@ -1,0 +1,320 @@
+//! The farm plan: how a render is cut into pieces, written once to
+//! `OUTDIR/farm.toml` and read by every piece and by the merge.
+//!
+//! Piece `i` (0 ≤ i < frames × parts) renders frame `frames[i / parts]`
+//! and part `k = i % parts`, whose sample indices are
+//! `[k·spp/parts, (k+1)·spp/parts)`: the parts of a frame cover its samples
+//! exactly once, so their merge is the image one render of all `spp`
+//! samples gives. A piece writes `parts/[frame-NNNN/]samples-START-END.exr`
+//! under the plan's folder; the merge writes `NAME.exr` (`NAME-NNNN.exr`
+//! per frame) and its PNG there.
+
+use crate::render::part_hash;
+use plsr::atomic_write::OutputSet;
+use plsr::error::{Error, Result};
+use plsr::film::part::{scene_files_hasher, Part, StableHasher};
+use serde::{Deserialize, Serialize};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+/// The plan's file name in the output folder.
+pub const PLAN_FILE: &str = "farm.toml";
+
+/// The plan: everything a piece or the merge needs besides the scene.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FarmPlan {
+    /// The scene file, relative to the plan's folder (so that the plan
+    /// works wherever the shared folder is mounted) or absolute.
+    pub scene: PathBuf,
+    /// Samples per pixel of each frame, all parts together.
+    pub spp: u32,
+    /// Parts per frame (each a range of sample indices), 1 to `spp`.
+    pub parts: u32,
+    /// First and last frame (both included) of the camera path to render;
+    /// absent: the scene's camera as it is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frames: Option<[u32; 2]>,
+    /// The merged outputs' name: `NAME.exr`, or `NAME-NNNN.exr` per frame.
+    pub name: String,
+    /// Whether the merge writes a PNG beside each EXR.
+    pub png: bool,
+}
+
+/// One piece of a plan: a sample range of one frame.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Piece {
+    /// Its index: the Slurm array task id or Kubernetes completion index.
+    pub index: u32,
+    /// The frame, or `None` for a still.
+    pub frame: Option<u32>,
+    /// The sample indices it renders.
+    pub samples: Range<u32>,
+}
+
+impl FarmPlan {
+    /// Reads a plan file.
+    pub fn read(path: &Path) -> Result<FarmPlan> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            file: path.to_path_buf(),
+            source,
+        })?;
+        let plan: FarmPlan = toml::from_str(&text).map_err(|e| {
+            Error::input(
+                path,
+                "",
+                format!("not a farm plan: {}", e.message().trim_end()),
+            )
+        })?;
+        plan.check()
+            .map_err(|(field, m)| Error::input(path, field, m))?;
+        Ok(plan)
+    }
+
+    /// Checks the numbers: parts between 1 and spp, frames in order, a
+    /// name that is a plain file name, and at most `u32::MAX` pieces.
+    pub fn check(&self) -> std::result::Result<(), (&'static str, String)> {
+        if self.spp == 0 {
+            return Err(("spp", "must be at least 1".into()));
+        }
+        if self.parts == 0 || self.parts > self.spp {
+            return Err((
+                "parts",
+                format!(
+                    "must be between 1 and spp ({}): each part renders at least one sample, got {}",
+                    self.spp, self.parts
+                ),
+            ));
+        }
+        if let Some([a, b]) = self.frames {
+            if a > b {
+                return Err(("frames", format!("first frame {a} is after the last, {b}")));
+            }
+        }
+        if self.name.is_empty() || self.name.contains(['/', '\\']) || self.name.starts_with('.') {
+            return Err(("name", format!("{:?} is not a plain file name", self.name)));
+        }
+        if self.piece_count_u64() > u32::MAX as u64 {
+            return Err(("parts", "too many pieces (frames × parts)".into()));
+        }
+        Ok(())
+    }
+
+    /// Writes the plan to `dir/farm.toml` (atomically).
+    pub fn write(&self, dir: &Path) -> Result<PathBuf> {
+        let path = dir.join(PLAN_FILE);
+        let text = format!(
+            "# A render cut into pieces by `plsr farm` (see docs/farm.md): piece i renders\n\
+             # frame (i / parts) and sample range (i % parts); `plsr farm piece {PLAN_FILE} i`\n\
+             # renders it, `plsr farm merge {PLAN_FILE}` merges them, `plsr farm status` lists them.\n{}",
+            toml::to_string(self).expect("a plan serialises")
+        );
+        let mut outputs = OutputSet::new();
+        outputs.stage_bytes(&path, text.as_bytes())?;
+        outputs.commit()?;
+        Ok(path)
+    }
+
+    fn piece_count_u64(&self) -> u64 {
+        self.frame_list().len() as u64 * self.parts as u64
+    }
+
+    /// How many pieces: frames × parts.
+    pub fn piece_count(&self) -> u32 {
+        self.piece_count_u64() as u32
+    }
+
+    /// The frames, in order (`[None]` for a still).
+    pub fn frame_list(&self) -> Vec<Option<u32>> {
+        match self.frames {
+            Some([a, b]) => (a..=b).map(Some).collect(),
+            None => vec![None],
+        }
+    }
+
+    /// Piece `index`, or `None` past the last.
+    pub fn piece(&self, index: u32) -> Option<Piece> {
+        if index >= self.piece_count() {
+            return None;
+        }
+        let frame = self.frames.map(|[a, _]| a + index / self.parts);
+        let k = (index % self.parts) as u64;
+        let bound = |k: u64| (k * self.spp as u64 / self.parts as u64) as u32;
+        Some(Piece {
+            index,
+            frame,
+            samples: bound(k)..bound(k + 1),
+        })
+    }
+
+    /// Every piece, in index order.
+    pub fn pieces(&self) -> impl Iterator<Item = Piece> + '_ {
+        (0..self.piece_count()).filter_map(|i| self.piece(i))
+    }
+
+    /// The scene file's path, seen from where the plan is (`dir`).
+    pub fn scene_path(&self, dir: &Path) -> PathBuf {
+        dir.join(&self.scene)
+    }
+
+    /// The part file piece `p` writes.
+    pub fn part_path(&self, dir: &Path, p: &Piece) -> PathBuf {
+        let file = format!("samples-{:06}-{:06}.exr", p.samples.start, p.samples.end);
+        match p.frame {
+            Some(f) => dir.join("parts").join(format!("frame-{f:04}")).join(file),
+            None => dir.join("parts").join(file),
+        }
+    }
+
+    /// The merged EXR (and PNG) of `frame`.
+    pub fn output_paths(&self, dir: &Path, frame: Option<u32>) -> (PathBuf, Option<PathBuf>) {
+        let stem = match frame {
+            Some(f) => format!("{}-{f:04}", self.name),
+            None => self.name.clone(),
+        };
+        (
+            dir.join(format!("{stem}.exr")),
+            self.png.then(|| dir.join(format!("{stem}.png"))),
+        )
+    }
+}
+
+/// Decides which pieces are done: a piece is done when its part file reads
+/// as a part of the scene as it is now (same scene hash: same files, same
+/// settings, same frame) with the piece's sample range over the whole image.
+pub struct DoneCheck {
+    files_hasher: StableHasher,
+    job: plsr::job::RenderJob,
+    image: (u32, u32),
+}
+
+impl DoneCheck {
+    /// Reads the scene of the plan in `dir` (its files, not its geometry's
+    /// acceleration structure).
+    pub fn new(plan: &FarmPlan, dir: &Path) -> Result<DoneCheck> {
+        let scene = plan.scene_path(dir);
+        let contents = plsr::scene::file::load_contents(&scene)?;
+        let mut files = vec![scene];
+        files.extend(contents.inputs);
+        let camera = &contents.description.camera;
+        Ok(DoneCheck {
+            files_hasher: scene_files_hasher(&files)?,
+            job: contents.description.job,
+            image: (camera.width(), camera.height()),
+        })
+    }
+
+    /// Whether piece `p`'s part file is there and is the piece.
+    pub fn is_done(&self, plan: &FarmPlan, dir: &Path, p: &Piece) -> bool {
+        let path = plan.part_path(dir, p);
+        if !path.is_file() {
+            return false;
+        }
+        let Ok(part) = Part::read_exr(&path) else {
+            return false;
+        };
+        let i = &part.info;
+        i.scene_hash == part_hash(self.files_hasher, &self.job, p.frame)
+            && i.image == self.image
+            && i.samples() == p.samples
+            && (i.window.x0, i.window.y0, i.window.width, i.window.height)
+                == (0, 0, self.image.0, self.image.1)
+    }
+
+    /// The indices of the pieces not done.
+    pub fn missing(&self, plan: &FarmPlan, dir: &Path) -> Vec<u32> {
+        plan.pieces()
+            .filter(|p| !self.is_done(plan, dir, p))
+            .map(|p| p.index)
+            .collect()
+    }
+}
+
+/// Indices as Slurm's `--array` writes them: runs joined, `0-3,5,7-9`.
+pub fn index_list(indices: &[u32]) -> String {
+    let mut out: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < indices.len() {
+        let mut j = i;
+        while j + 1 < indices.len() && indices[j + 1] == indices[j] + 1 {
+            j += 1;
+        }
+        out.push(if i == j {
+            indices[i].to_string()
+        } else {
+            format!("{}-{}", indices[i], indices[j])
+        });
+        i = j + 1;
+    }
+    out.join(",")
+}
+
+/// `to` relative to the folder `from` (both made absolute first), or `to`
+/// made absolute where they share nothing but the root.
+pub fn relative_path(from: &Path, to: &Path) -> Result<PathBuf> {
+    let abs = |p: &Path| {
+        std::fs::canonicalize(p).map_err(|source| Error::Io {
+            file: p.to_path_buf(),
+            source,
+        })
+    };
+    let (from, to) = (abs(from)?, abs(to)?);
+    let common = from
+        .components()
+        .zip(to.components())
+        .take_while(|(a, b)| a == b)
+        .count();
+    if common <= 1 {
+        return Ok(to);
+    }
+    let mut rel = PathBuf::new();
+    for _ in from.components().skip(common) {
+        rel.push("..");
+    }
+    for c in to.components().skip(common) {
+        rel.push(c);
+    }
+    Ok(rel)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan(spp: u32, parts: u32, frames: Option<[u32; 2]>) -> FarmPlan {
+        FarmPlan {
+            scene: "s.toml".into(),
+            spp,
+            parts,
+            frames,
+            name: "image".into(),
+            png: false,
+        }
+    }
+
+    #[test]
+    fn the_parts_of_a_frame_cover_its_samples_once() {
+        for (spp, parts) in [(16, 4), (10, 3), (7, 7), (1000, 999)] {
+            let p = plan(spp, parts, Some([5, 7]));
+            assert_eq!(p.piece_count(), 3 * parts);
+            for frame in 5..=7 {
+                let mut next = 0;
+                for piece in p.pieces().filter(|x| x.frame == Some(frame)) {
+                    assert_eq!(piece.samples.start, next);
+                    assert!(piece.samples.end > piece.samples.start);
+                    next = piece.samples.end;
+                }
+                assert_eq!(next, spp);
+            }
+        }
+        assert!(plan(16, 4, None).piece(4).is_none());
+        assert!(plan(4, 5, None).check().is_err());
+    }
+
+    #[test]
+    fn index_lists_join_runs() {
+        assert_eq!(index_list(&[0, 1, 2, 3, 5, 7, 8, 9]), "0-3,5,7-9");
+        assert_eq!(index_list(&[4]), "4");
+        assert_eq!(index_list(&[]), "");
+    }
+}
