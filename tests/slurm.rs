@@ -112,9 +112,13 @@ impl Cluster {
                 String::from_utf8_lossy(&out.stderr)
             ));
         }
-        let host = String::from_utf8(Command::new("hostname").arg("-s").output().unwrap().stdout)
-            .unwrap()
+        // The short host name, as slurmd finds its own node by it.
+        let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
+            .expect("the host name (/proc/sys/kernel/hostname)")
             .trim()
+            .split('.')
+            .next()
+            .unwrap()
             .to_string();
         let user = String::from_utf8(Command::new("id").arg("-un").output().unwrap().stdout)
             .unwrap()
