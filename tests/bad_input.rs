@@ -291,3 +291,54 @@ fn an_image_larger_than_memory_is_refused_before_allocating() {
         "{e}"
     );
 }
+
+/// A file that is not a plsr scene — another program's scene, a mesh, a
+/// binary file — is "unsupported scene format", not a TOML syntax error.
+#[test]
+fn other_formats_are_unsupported_not_toml_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, bytes, says) in [
+        (
+            "scene.xml",
+            b"<scene version=\"3.0.0\">\n</scene>\n".to_vec(),
+            "XML (a Mitsuba 3 scene?)",
+        ),
+        (
+            "mitsuba.toml",
+            b"\n  <?xml version=\"1.0\"?>\n<scene/>".to_vec(),
+            "XML",
+        ),
+        ("model.glb", b"glTF\x02\x00\x00\x00".to_vec(), "a glTF file"),
+        (
+            "model.gltf",
+            b"{\"asset\": {\"version\": \"2.0\"}}".to_vec(),
+            "a glTF file",
+        ),
+        ("bunny.obj", b"v 0 0 0\n".to_vec(), "a mesh"),
+        (
+            "noise.toml",
+            vec![0xff, 0xfe, 0x00, 0x41],
+            "not a text file",
+        ),
+    ] {
+        let scene = dir.path().join(name);
+        std::fs::write(&scene, &bytes).unwrap();
+        let out = dir.path().join("out.exr");
+        let output = Command::new(env!("CARGO_BIN_EXE_plsr"))
+            .arg("render")
+            .arg(&scene)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{name}: {stderr}");
+        assert!(
+            stderr.contains(name)
+                && stderr.contains("unsupported scene format")
+                && stderr.contains(says),
+            "{name}: {stderr}"
+        );
+        assert!(!out.exists());
+    }
+}

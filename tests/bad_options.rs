@@ -120,3 +120,36 @@ fn nf_has_one_range_everywhere() {
     assert!(plsr::light::pls::check_nf(0).is_err());
     assert!(plsr::light::pls::check_nf(4097).is_err());
 }
+
+#[test]
+fn resolution_overrides_the_scene_and_is_checked() {
+    refused(&["--resolution", "0,8"], "--resolution 0,8", "not a size");
+    refused(&["--resolution", "8"], "--resolution 8", "expected W,H");
+    refused(
+        &["--resolution", "70000,8"],
+        "--resolution",
+        "from 1 to 65536",
+    );
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("scene.toml"), SMALL_SCENE).unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .current_dir(dir.path())
+        .args([
+            "render",
+            "scene.toml",
+            "-o",
+            "out.exr",
+            "-q",
+            "--resolution",
+            "12,5",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let film = plsr::film::Film::read_exr(&dir.path().join("out.exr")).unwrap();
+    assert_eq!((film.width, film.height), (12, 5));
+}

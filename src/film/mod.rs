@@ -261,6 +261,31 @@ pub fn check_exposure_stops(stops: f32) -> std::result::Result<f32, String> {
     }
 }
 
+/// The exposure compensation, in stops, that `--exposure auto` applies:
+/// the image's key — the log-average luminance `L̄ = exp(mean(ln Y))` of
+/// its lit pixels (Reinhard et al. 2002) — maps to middle grey (0.18), but
+/// the exposure is lowered, by at most 2 stops, until no more than 2 % of
+/// the lit pixels have a channel above 1 (where a plain clamp clips). An
+/// image with no lit pixel gets 0.
+pub fn auto_exposure_stops(color: &[Vec3]) -> f32 {
+    let lit: Vec<(f32, f32)> = color
+        .iter()
+        .map(|c| (0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z, c.max_element()))
+        .filter(|(y, m)| y.is_finite() && m.is_finite() && *y > 0.0)
+        .collect();
+    if lit.is_empty() {
+        return 0.0;
+    }
+    let log_mean = lit.iter().map(|(y, _)| (*y as f64).ln()).sum::<f64>() / lit.len() as f64;
+    let key_stops = (0.18f64.ln() - log_mean) / std::f64::consts::LN_2;
+    let mut peaks: Vec<f32> = lit.iter().map(|(_, m)| *m).collect();
+    let at = ((peaks.len() as f64 * 0.98) as usize).min(peaks.len() - 1);
+    let (_, p98, _) = peaks.select_nth_unstable_by(at, |a, b| a.total_cmp(b));
+    let highlight_stops = -(*p98 as f64).log2();
+    let stops = key_stops.min(highlight_stops).max(key_stops - 2.0);
+    (stops as f32).clamp(-MAX_EXPOSURE_STOPS, MAX_EXPOSURE_STOPS)
+}
+
 impl Default for ToneMap {
     fn default() -> Self {
         ToneMap {

@@ -8,10 +8,12 @@ mod experiment;
 mod farm;
 mod fit;
 mod hdr;
+mod info;
 mod merge;
 mod pls;
 mod progress;
 mod render;
+mod tonemap;
 
 use clap::{Parser, Subcommand};
 use plsr::error::Result;
@@ -48,6 +50,11 @@ pub enum Command {
     /// merge them exactly (see docs/farm.md).
     #[command(subcommand)]
     Farm(farm::FarmCommand),
+    /// Tone-map an OpenEXR image (a render, a merge, an HDR panorama) to an
+    /// 8-bit sRGB PNG, with automatic exposure by default.
+    Tonemap(tonemap::TonemapArgs),
+    /// Print what an OpenEXR file holds: size, channels, header attributes.
+    Info(info::InfoArgs),
     /// Fit the real surfaces' materials (and lights' brightness) to the
     /// scene's photos by differentiable rendering and Adam.
     Fit(fit::FitArgs),
@@ -103,6 +110,8 @@ where
         Command::Composite(a) => composite::run(&a),
         Command::Merge(a) => merge::run(&a),
         Command::Farm(c) => farm::run(c),
+        Command::Tonemap(a) => tonemap::run(&a),
+        Command::Info(a) => info::run(&a),
         Command::Fit(a) => fit::run(&a),
         Command::Compare(a) => compare::run(&a),
         Command::Bench(a) => bench::run(a),

@@ -1,10 +1,10 @@
 //! `plsr merge`: combines the parts of a render (`plsr render --samples` or
 //! `--crop`) into the image one render of their union gives.
 
+use crate::tonemap::Exposure;
 use plsr::atomic_write::{same_file, OutputSet};
 use plsr::error::{Error, Result};
 use plsr::film::part::{merge_parts, Part};
-use plsr::film::{check_exposure_stops, ToneMap};
 use std::path::PathBuf;
 
 /// Arguments of `plsr merge`.
@@ -19,9 +19,11 @@ pub struct MergeArgs {
     /// Also write an 8-bit sRGB PNG here.
     #[arg(long, value_name = "OUT.png")]
     pub png: Option<PathBuf>,
-    /// PNG exposure compensation in stops (+1 doubles brightness).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    pub exposure: f32,
+    /// PNG exposure compensation in stops (+1 doubles brightness), or
+    /// `auto` (middle grey at the image's log-average luminance, lowered
+    /// until at most 2 % of the lit pixels clip).
+    #[arg(long, default_value = "0", allow_hyphen_values = true)]
+    pub exposure: String,
     /// PNG tone mapping: a filmic curve (ACES fit) instead of a plain clamp.
     #[arg(long)]
     pub filmic: bool,
@@ -29,8 +31,7 @@ pub struct MergeArgs {
 
 /// Runs `plsr merge`.
 pub fn run(a: &MergeArgs) -> Result<()> {
-    check_exposure_stops(a.exposure)
-        .map_err(|m| Error::InvalidArgument(format!("--exposure: {m}")))?;
+    let exposure = Exposure::parse(&a.exposure)?;
     crate::render::check_output("-o", &a.output, "exr", "OpenEXR")?;
     if let Some(p) = &a.png {
         crate::render::check_output("--png", p, "png", "PNG")?;
@@ -64,10 +65,7 @@ pub fn run(a: &MergeArgs) -> Result<()> {
     let mut outputs = OutputSet::new();
     film.stage_exr(&mut outputs, &a.output)?;
     if let Some(p) = &a.png {
-        let tone = ToneMap {
-            exposure: a.exposure,
-            filmic: a.filmic,
-        };
+        let tone = exposure.tone_map(&film, a.filmic);
         film.stage_png(&mut outputs, p, tone)?;
     }
     outputs.commit()?;

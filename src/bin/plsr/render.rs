@@ -1,11 +1,11 @@
 //! `plsr render`: a scene file to OpenEXR (and PNG).
 
 use crate::progress::progress_bar;
+use crate::tonemap::Exposure;
 use plsr::atomic_write::{check_extension, same_file, OutputSet};
 use plsr::error::{Error, Result};
 use plsr::film::part::{scene_files_hasher, Part, PartInfo, StableHasher};
 use plsr::film::Tile;
-use plsr::film::{check_exposure_stops, ToneMap};
 use plsr::job::RenderJob;
 use plsr::job::{JobError, MAX_DEPTH, MAX_SPP};
 use plsr::render::{render_window_sums, RenderOptions, DEFAULT_TILE_SIZE, MAX_TILE_SIZE};
@@ -34,6 +34,10 @@ pub struct RenderArgs {
     /// part that `plsr merge` stitches with the others (see docs/farm.md).
     #[arg(long, value_name = "X0,Y0,X1,Y1")]
     pub crop: Option<String>,
+    /// Image size in pixels (overrides camera.resolution; the vertical
+    /// field of view is kept).
+    #[arg(long, value_name = "W,H")]
+    pub resolution: Option<String>,
     /// Render frame N of the scene's camera path ([[camera.path]]); `{frame}`
     /// in -o and --png becomes the frame number, four digits or more.
     #[arg(long, value_name = "N", conflicts_with = "frames")]
@@ -59,9 +63,11 @@ pub struct RenderArgs {
     /// Tile edge in pixels.
     #[arg(long, default_value_t = DEFAULT_TILE_SIZE)]
     pub tile_size: u32,
-    /// PNG exposure compensation in stops (+1 doubles brightness).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    pub exposure: f32,
+    /// PNG exposure compensation in stops (+1 doubles brightness), or
+    /// `auto` (middle grey at the image's log-average luminance, lowered
+    /// until at most 2 % of the lit pixels clip).
+    #[arg(long, default_value = "0", allow_hyphen_values = true)]
+    pub exposure: String,
     /// PNG tone mapping: a filmic curve (ACES fit) instead of a plain clamp.
     #[arg(long)]
     pub filmic: bool,
@@ -99,8 +105,7 @@ pub(crate) fn check_output(flag: &str, path: &Path, extension: &str, format: &st
 /// Runs `plsr render`.
 pub fn run(a: &RenderArgs) -> Result<()> {
     // Options are checked as strictly as scene files, before any work.
-    check_exposure_stops(a.exposure)
-        .map_err(|m| Error::InvalidArgument(format!("--exposure: {m}")))?;
+    let exposure = Exposure::parse(&a.exposure)?;
     if a.tile_size == 0 || a.tile_size > MAX_TILE_SIZE {
         return Err(Error::InvalidArgument(format!(
             "--tile-size {}: must be between 1 and {MAX_TILE_SIZE} pixels",
@@ -152,7 +157,15 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         check_outputs(a, &output, png.as_ref(), &inputs)?;
         outputs_of.push((output, png));
     }
-    let mut scene = Scene::build(contents.description)?;
+    let mut description = contents.description;
+    if let Some(r) = &a.resolution {
+        let (w, h) = parse_resolution(r)?;
+        description.camera = description
+            .camera
+            .with_resolution(w, h)
+            .map_err(|e| Error::InvalidArgument(format!("--resolution {r}: {e}")))?;
+    }
+    let mut scene = Scene::build(description)?;
     let mut job = scene.default_job();
     if let Some(spp) = a.spp {
         if spp == 0 {
@@ -235,11 +248,10 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             &scene,
             &job,
             &options,
-            window,
-            part,
-            output,
-            png.as_ref(),
+            (window, part),
+            (output, png.as_ref()),
             *frame,
+            exposure,
         )?;
     }
     Ok(())
@@ -353,11 +365,10 @@ fn render_one(
     scene: &Scene,
     job: &RenderJob,
     options: &RenderOptions,
-    window: Option<Tile>,
-    part: Option<PartInfo>,
-    output: &Path,
-    png: Option<&PathBuf>,
+    (window, part): (Option<Tile>, Option<PartInfo>),
+    (output, png): (&Path, Option<&PathBuf>),
     frame: Option<u32>,
+    exposure: Exposure,
 ) -> Result<()> {
     let bar = progress_bar(
         a.quiet,
@@ -386,10 +397,7 @@ fn render_one(
         }
     };
     if let Some(p) = png {
-        let tone = ToneMap {
-            exposure: a.exposure,
-            filmic: a.filmic,
-        };
+        let tone = exposure.tone_map(&film, a.filmic);
         film.stage_png(&mut outputs, p, tone)?;
     }
     outputs.commit()?;
@@ -458,6 +466,22 @@ fn parse_samples(s: &str) -> Result<(u32, u32)> {
         return Err(bad(&format!("at most {MAX_SPP} samples")));
     }
     Ok((start, end))
+}
+
+/// `--resolution W,H`: a width and height of 1 to 65 536 pixels.
+fn parse_resolution(s: &str) -> Result<(u32, u32)> {
+    let bad = |why: &str| Error::InvalidArgument(format!("--resolution {s}: {why}"));
+    let (w, h) = s
+        .split_once([',', 'x'])
+        .ok_or_else(|| bad("expected W,H, e.g. 1920,1080"))?;
+    let parse = |x: &str| {
+        x.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|v| (1..=1 << 16).contains(v))
+            .ok_or_else(|| bad(&format!("{x:?} is not a size from 1 to 65536 pixels")))
+    };
+    Ok((parse(w)?, parse(h)?))
 }
 
 /// `--crop X0,Y0,X1,Y1`: a non-empty window inside the `width × height` image.

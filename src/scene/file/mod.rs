@@ -105,9 +105,18 @@ struct ViewSection {
 /// Reads and validates a scene file with its `[photo]`; see [`load`].
 pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
     crate::input::check_input_file(path)?;
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
         file: path.to_path_buf(),
         source,
+    })?;
+    check_scene_format(path, &bytes)?;
+    let text = String::from_utf8(bytes).map_err(|_| {
+        Error::input(
+            path,
+            "",
+            "unsupported scene format: not a text file (plsr reads TOML scene files, \
+             or JSON with the same schema; see docs/scene-format.md)",
+        )
     })?;
     let is_json = path
         .extension()
@@ -190,6 +199,45 @@ pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
         views,
         camera_path,
     })
+}
+
+/// Refuses, with "unsupported scene format", files that are recognisably
+/// another program's scene or a bare mesh (by extension or by their first
+/// bytes), rather than reporting a TOML syntax error in them.
+fn check_scene_format(path: &Path, bytes: &[u8]) -> Result<()> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let start = bytes
+        .strip_prefix(b"\xef\xbb\xbf".as_slice())
+        .unwrap_or(bytes)
+        .trim_ascii_start();
+    let what = if bytes.starts_with(b"glTF") || matches!(ext.as_str(), "gltf" | "glb") {
+        Some("a glTF file")
+    } else if start.starts_with(b"<") || ext == "xml" {
+        Some("XML (a Mitsuba 3 scene?)")
+    } else if matches!(ext.as_str(), "obj" | "ply" | "stl" | "fbx") {
+        Some("a mesh: place it in a scene file's [[shapes]] (type = \"obj\" for OBJ)")
+    } else if matches!(
+        ext.as_str(),
+        "pbrt" | "blend" | "usd" | "usda" | "usdc" | "usdz" | "exr" | "hdr" | "png" | "jpg"
+    ) {
+        Some("not a plsr scene file")
+    } else {
+        None
+    };
+    match what {
+        Some(what) => Err(Error::input(
+            path,
+            "",
+            format!(
+                "unsupported scene format: {what}; plsr reads TOML scene files, or JSON \
+                 with the same schema (see docs/scene-format.md)"
+            ),
+        )),
+        None => Ok(()),
+    }
 }
 
 struct Builder<'a> {

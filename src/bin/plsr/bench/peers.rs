@@ -482,7 +482,14 @@ struct Measured {
     samples: u64,
     rel_mse: f64,
     mean: f64,
+    /// Closest-hit rate for incoherent random rays over the scene's
+    /// geometry, Mrays/s: plsr's Embree (and 0), or Mitsuba's hit-only
+    /// query and its query with the surface interaction.
+    raw_mrays: Option<(f64, f64)>,
 }
+
+/// Random rays of the raw tracing measurement.
+const RAW_RAYS: usize = 2_000_000;
 
 impl Measured {
     fn msamples_per_s(&self) -> f64 {
@@ -590,17 +597,20 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
         }
         let (seconds, film) = best.expect("two renders");
         let samples = film.width as u64 * film.height as u64 * o.spp as u64;
+        let (single, stream) = super::core::random_ray_throughput(&built, RAW_RAYS, o.threads)?;
         let measured = Measured {
             seconds,
             samples,
             rel_mse: rel_mse(&film.color, &reference),
             mean: mean(&film.color),
+            raw_mrays: Some((single.max(stream), 0.0)),
         };
         println!(
-            "  plsr: {:.3} s, {:.3} Msamples/s, relMSE {:.5}",
+            "  plsr: {:.3} s, {:.3} Msamples/s, relMSE {:.5}; random rays {:.2} Mrays/s",
             measured.seconds,
             measured.msamples_per_s(),
-            measured.rel_mse
+            measured.rel_mse,
+            single.max(stream)
         );
         prepared.push((film.width, film.height, reference));
         plsr_results.push(measured);
@@ -616,6 +626,7 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
                     "xml": s.mitsuba,
                     "spp": o.spp,
                     "image": dir.join(format!("{}.mitsuba.f32", s.name)),
+                    "raw_rays": RAW_RAYS,
                 })).collect::<Vec<_>>(),
             });
             let jobs_file = dir.join("mitsuba-jobs.json");
@@ -643,6 +654,9 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
                     samples: *w as u64 * *h as u64 * o.spp as u64,
                     rel_mse: rel_mse(&image, reference),
                     mean: mean(&image),
+                    raw_mrays: r["raw_mrays_preliminary"]
+                        .as_f64()
+                        .zip(r["raw_mrays"].as_f64()),
                 });
             }
             Ok((out, version))
@@ -680,6 +694,21 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
                  Mitsuba's time × relMSE over plsr's (> 1: plsr reaches the same error sooner); \
                  mean ratio: plsr's image mean over Mitsuba's."
             );
+            println!(
+                "\nRaw tracing, {RAW_RAYS} incoherent random rays over each scene's geometry \
+                 (origins uniform in its bounds, directions uniform), closest hit, Mrays/s:\n"
+            );
+            println!("| scene | plsr (Embree, best of rtcIntersect1/1M) | Mitsuba ray_intersect_preliminary | Mitsuba ray_intersect | plsr ÷ Mitsuba preliminary |");
+            println!("| --- | --- | --- | --- | --- |");
+            for ((scene, p), m) in scenes.iter().zip(&plsr_results).zip(m) {
+                if let (Some((plsr_rate, _)), Some((hit, full))) = (p.raw_mrays, m.raw_mrays) {
+                    println!(
+                        "| {} | {plsr_rate:.2} | {hit:.2} | {full:.2} | {:.2}× |",
+                        scene.name,
+                        plsr_rate / hit
+                    );
+                }
+            }
         }
         other => {
             println!("| scene | plsr Msamples/s | plsr relMSE |");

@@ -240,7 +240,8 @@ fn piece(a: &PieceArgs) -> Result<()> {
         ))
     })?;
     let output = plan.part_path(&dir, &piece);
-    if !a.force && DoneCheck::new(&plan, &dir)?.is_done(&plan, &dir, &piece) {
+    // The scene is read for the check only when there is a part to check.
+    if !a.force && output.is_file() && DoneCheck::new(&plan, &dir)?.is_done(&plan, &dir, &piece) {
         if !a.quiet {
             eprintln!(
                 "piece {index} is done already ({}); nothing to render",
@@ -274,6 +275,7 @@ fn piece(a: &PieceArgs) -> Result<()> {
         spp: None,
         samples: Some(format!("{}..{}", piece.samples.start, piece.samples.end)),
         crop: None,
+        resolution: None,
         frame: piece.frame,
         frames: None,
         max_depth: None,
@@ -281,7 +283,7 @@ fn piece(a: &PieceArgs) -> Result<()> {
         seed: None,
         threads: a.threads,
         tile_size: DEFAULT_TILE_SIZE,
-        exposure: 0.0,
+        exposure: "0".into(),
         filmic: false,
         scalar: false,
         quiet: true,
@@ -315,7 +317,7 @@ fn merge(a: &FarmMergeArgs) -> Result<()> {
             parts,
             output,
             png,
-            exposure: 0.0,
+            exposure: "0".into(),
             filmic: false,
         })?;
     }
