@@ -342,3 +342,23 @@ fn other_formats_are_unsupported_not_toml_errors() {
         assert!(!out.exists());
     }
 }
+
+#[test]
+fn disk_segments_are_checked_and_cubes_take_none() {
+    let e = expect_error(
+        &format!("{CAMERA}\n[[shapes]]\ntype = \"disk\"\nsegments = 2\n"),
+        &[],
+    );
+    assert!(
+        e.contains("shapes[0].segments") && e.contains("between 3 and"),
+        "{e}"
+    );
+    let e = expect_error(
+        &format!("{CAMERA}\n[[shapes]]\ntype = \"cube\"\nsegments = 8\n"),
+        &[],
+    );
+    assert!(
+        e.contains("shapes[0]") && e.contains("not used by shapes of type `cube`"),
+        "{e}"
+    );
+}

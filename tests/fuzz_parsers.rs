@@ -631,6 +631,13 @@ fn shape_section(materials: Vec<String>) -> BoxedStrategy<String> {
         ])
         .prop_map(|k| format!("type = \"sphere\"\n{k}")),
         2 => Just("type = \"rectangle\"\n".to_string()),
+        1 => keys(vec![
+            ("segments", mostly(count(3, 64), integer())),
+            ("flip_normals", mostly(boolean(), number())),
+        ])
+        .prop_map(|k| format!("type = \"disk\"\n{k}")),
+        1 => keys(vec![("flip_normals", mostly(boolean(), number()))])
+            .prop_map(|k| format!("type = \"cube\"\n{k}")),
         2 => mostly(word(&["mesh.obj"]), word(&["missing.obj", "notamesh.obj", "folder.obj"]))
             .prop_map(|f| format!("type = \"obj\"\nfile = {f}\n")),
         1 => Just("type = \"teapot\"\n".to_string()),

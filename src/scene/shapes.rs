@@ -4,6 +4,10 @@
 //! - `rectangle`: the square `[-1, 1]²` in the `z = 0` plane, normal `+z`.
 //! - `sphere`: an icosphere of `radius` around `center`, normals outwards
 //!   (`flip_normals = true` turns them inwards, e.g. for an enclosure).
+//! - `disk`: the unit disk in the `z = 0` plane, normal `+z`, as a fan of
+//!   `segments` triangles (Mitsuba's `disk`).
+//! - `cube`: the cube `[-1, 1]³`, normals outwards, 12 triangles (Mitsuba's
+//!   `cube`).
 
 use crate::error::{Error, Result};
 use glam::Vec2;
@@ -23,6 +27,44 @@ pub fn rectangle() -> TriangleSoup {
         Vec3::new(-1.0, 1.0, 0.0),
     ];
     (p, vec![[0, 1, 2], [0, 2, 3]])
+}
+
+/// The unit disk at `z = 0`, facing `+z`: a fan of `segments` triangles
+/// round its centre (vertex 0), with texture coordinates `(x+1)/2, (y+1)/2`.
+pub fn disk(segments: u32) -> (Vec<Vec3>, Vec<[u32; 3]>, Vec<Vec2>) {
+    let mut p = vec![Vec3::ZERO];
+    for i in 0..segments {
+        let phi = std::f32::consts::TAU * i as f32 / segments as f32;
+        p.push(Vec3::new(phi.cos(), phi.sin(), 0.0));
+    }
+    let t = (0..segments)
+        .map(|i| [0, 1 + i, 1 + (i + 1) % segments])
+        .collect();
+    let uv = p
+        .iter()
+        .map(|q| Vec2::new(0.5 * (q.x + 1.0), 0.5 * (q.y + 1.0)))
+        .collect();
+    (p, t, uv)
+}
+
+/// The cube `[-1, 1]³`, facing outwards: four vertices per face (so that
+/// each face has its own texture coordinates, `[0, 1]²`), two triangles each.
+pub fn cube() -> (Vec<Vec3>, Vec<[u32; 3]>, Vec<Vec2>) {
+    let (mut p, mut t, mut uv) = (Vec::new(), Vec::new(), Vec::new());
+    // Each face: its outward normal `n` and two edges `a`, `b` with a × b = n.
+    for n in [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z] {
+        let a = if n.x != 0.0 { Vec3::Y } else { Vec3::X }
+            * if n.x + n.y + n.z > 0.0 { 1.0 } else { -1.0 };
+        let b = n.cross(a);
+        let base = p.len() as u32;
+        for (u, v) in [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)] {
+            p.push(n + (2.0 * u - 1.0) * a + (2.0 * v - 1.0) * b);
+            uv.push(Vec2::new(u, v));
+        }
+        t.push([base, base + 1, base + 2]);
+        t.push([base, base + 2, base + 3]);
+    }
+    (p, t, uv)
 }
 
 /// An icosphere: an icosahedron subdivided `subdivisions` times, projected
@@ -533,6 +575,50 @@ pub fn load_obj(path: &Path, scene_file: &Path, field: &str) -> Result<ObjFile> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn disk_and_cube_have_their_area_and_face_outwards() {
+        let area = |p: &[Vec3], t: &[[u32; 3]]| -> (f32, Vec<Vec3>) {
+            let mut total = 0.0;
+            let mut normals = Vec::new();
+            for tri in t {
+                let [a, b, c] = tri.map(|i| p[i as usize]);
+                let n = (b - a).cross(c - a);
+                total += 0.5 * n.length();
+                normals.push(n.normalize());
+            }
+            (total, normals)
+        };
+        let (p, t, uv) = disk(128);
+        let (a, n) = area(&p, &t);
+        assert!((a - std::f32::consts::PI).abs() < 2e-3, "{a}");
+        assert!(n.iter().all(|n| (*n - Vec3::Z).length() < 1e-5));
+        assert_eq!(uv.len(), p.len());
+        let (p, t, uv) = cube();
+        let (a, n) = area(&p, &t);
+        assert!((a - 24.0).abs() < 1e-4, "{a}");
+        for (tri, n) in t.iter().zip(&n) {
+            let centre = tri.iter().map(|&i| p[i as usize]).sum::<Vec3>() / 3.0;
+            // Outward: the normal is the axis the centroid lies along.
+            assert!(n.dot(centre) > 0.3, "{n} at {centre}");
+            assert!((n.abs().max_element() - 1.0).abs() < 1e-6);
+        }
+        assert!(p.iter().all(|q| q.abs().max_element() == 1.0));
+        assert!(uv.iter().all(|u| u.x >= 0.0 && u.y <= 1.0));
+        // Closed: every edge is shared by exactly two triangles, once each way.
+        let mut edges = std::collections::HashMap::new();
+        let key = |v: Vec3| v.to_array().map(|x| x as i32);
+        for tri in &t {
+            for k in 0..3 {
+                let (a, b) = (key(p[tri[k] as usize]), key(p[tri[(k + 1) % 3] as usize]));
+                *edges.entry((a, b)).or_insert(0) += 1;
+            }
+        }
+        for (&(a, b), &count) in &edges {
+            // Diagonals of faces appear inside a face; their reverse too.
+            assert_eq!(edges.get(&(b, a)), Some(&count), "{a:?}–{b:?}");
+        }
+    }
 
     #[test]
     fn icosphere_is_closed_and_outward() {

@@ -46,6 +46,21 @@ struct RectangleKeys {
     flip_normals: Option<bool>,
 }
 
+/// The keys of a `disk` shape.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DiskKeys {
+    segments: Option<u32>,
+    flip_normals: Option<bool>,
+}
+
+/// The keys of a `cube` shape.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CubeKeys {
+    flip_normals: Option<bool>,
+}
+
 /// The keys of a `sphere` shape.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -56,6 +71,12 @@ struct SphereKeys {
     subdivisions: Option<u32>,
     flip_normals: Option<bool>,
 }
+
+/// Triangles of a `disk` unless `segments` says otherwise: its area is
+/// within 0.04 % of the round disk's.
+const DEFAULT_DISK_SEGMENTS: u32 = 128;
+/// The most triangles a `disk` may have.
+const MAX_DISK_SEGMENTS: u32 = 1 << 20;
 
 /// The keys every shape has (besides `type`).
 const SHAPE_KEYS: [&str; 6] = [
@@ -175,6 +196,8 @@ impl Builder<'_> {
                 key_names::<ObjKeys>(),
                 key_names::<RectangleKeys>(),
                 key_names::<SphereKeys>(),
+                key_names::<DiskKeys>(),
+                key_names::<CubeKeys>(),
             ]
             .concat()
             {
@@ -271,10 +294,31 @@ impl Builder<'_> {
                 flip = keys.flip_normals.unwrap_or(false);
                 self.sphere_mesh(&field, &keys)?
             }
+            "disk" => {
+                let keys: DiskKeys = self.typed_keys(&field, &s.keys, unknown)?;
+                flip = keys.flip_normals.unwrap_or(false);
+                let segments = keys.segments.unwrap_or(DEFAULT_DISK_SEGMENTS);
+                if !(3..=MAX_DISK_SEGMENTS).contains(&segments) {
+                    return Err(self.err(
+                        format!("{field}.segments"),
+                        format!("must be between 3 and {MAX_DISK_SEGMENTS}, got {segments}"),
+                    ));
+                }
+                let (p, t, uv) = shapes::disk(segments);
+                (p, t, Vec::new(), uv)
+            }
+            "cube" => {
+                let keys: CubeKeys = self.typed_keys(&field, &s.keys, unknown)?;
+                flip = keys.flip_normals.unwrap_or(false);
+                let (p, t, uv) = shapes::cube();
+                (p, t, Vec::new(), uv)
+            }
             other => {
                 return Err(self.err(
                     format!("{field}.type"),
-                    format!("unknown shape type `{other}` (known: obj, rectangle, sphere)"),
+                    format!(
+                        "unknown shape type `{other}` (known: obj, rectangle, sphere, disk, cube)"
+                    ),
                 ))
             }
         };
