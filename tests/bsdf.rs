@@ -45,6 +45,7 @@ fn gold() -> Fresnel {
     Fresnel::Conductor {
         eta: Vec3::new(0.143, 0.374, 1.442),
         k: Vec3::new(3.983, 2.385, 1.603),
+        specular_reflectance: Vec3::ONE,
     }
 }
 

@@ -317,3 +317,59 @@ fn documented_material_example_loads_and_renders() {
     .0;
     assert!(film.mean_color().x > 0.0 && film.mean_color().is_finite());
 }
+
+/// Mitsuba's conductor `specular_reflectance`: a tint on the Fresnel term;
+/// `metal = "none"` has reflectance exactly 1, so the tint is the
+/// reflectance.
+#[test]
+fn conductor_specular_reflectance_tints_and_none_reflects_everything() {
+    let Bsdf::CookTorrance(plain) =
+        bsdf_of("type = \"cook_torrance\"\nroughness = 0.4\nmetal = \"Au\"")
+    else {
+        panic!("not cook_torrance")
+    };
+    let tint = Vec3::new(0.9, 0.5, 0.2);
+    let Bsdf::CookTorrance(tinted) = bsdf_of(
+        "type = \"cook_torrance\"\nroughness = 0.4\nmetal = \"Au\"\nspecular_reflectance = [0.9, 0.5, 0.2]",
+    ) else {
+        panic!("not cook_torrance")
+    };
+    let Bsdf::CookTorrance(none) = bsdf_of(
+        "type = \"cook_torrance\"\nroughness = 0.4\nmetal = \"none\"\nspecular_reflectance = [0.9, 0.5, 0.2]",
+    ) else {
+        panic!("not cook_torrance")
+    };
+    for cos in [1.0f32, 0.7, 0.3, 0.05] {
+        let f = plain.fresnel.eval(cos);
+        let g = tinted.fresnel.eval(cos);
+        assert!(
+            ((g - f * tint) / (f * tint)).abs().max_element() < 1e-6,
+            "{f} {g}"
+        );
+        assert!(
+            (none.fresnel.eval(cos) - tint).abs().max_element() < 1e-6,
+            "cos {cos}"
+        );
+    }
+    // And through the whole BSDF: eval scales by the tint.
+    let (wo, wi) = (
+        Vec3::new(0.3, 0.1, 0.95).normalize(),
+        Vec3::new(-0.2, -0.3, 0.9).normalize(),
+    );
+    let (a, b) = (
+        Bsdf::CookTorrance(plain).eval(wo, wi),
+        Bsdf::CookTorrance(tinted).eval(wo, wi),
+    );
+    assert!(((b - a * tint) / (a * tint)).abs().max_element() < 1e-5);
+    for (keys, says) in [
+        (
+            "fresnel = \"schlick\"\nspecular_reflectance = [1, 1, 1]",
+            "materials[0].specular_reflectance: not used",
+        ),
+        ("specular_reflectance = [1.5, 1, 1]", "specular_reflectance"),
+        ("metal = \"pewter\"", "known: Au, Ag, Cu, Al, none"),
+    ] {
+        let e = error_of(&format!("type = \"cook_torrance\"\n{keys}"));
+        assert!(e.contains(says), "{keys}: {e}");
+    }
+}

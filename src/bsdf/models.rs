@@ -206,12 +206,17 @@ pub enum Fresnel {
         /// Index of refraction relative to the outside.
         eta: f32,
     },
-    /// Exact conductor reflectance with complex index `eta + i·k`.
+    /// Exact conductor reflectance with complex index `eta + i·k`, times
+    /// `specular_reflectance` (Mitsuba's conductor parameter: a tint, 1 for
+    /// a plain metal; with `eta = 0, k = 1` the reflectance is exactly 1, so
+    /// the tint alone is the reflectance, Mitsuba's `material = "none"`).
     Conductor {
         /// Real part per RGB channel.
         eta: Vec3,
         /// Imaginary part (absorption) per RGB channel.
         k: Vec3,
+        /// Factor on the reflectance per RGB channel, in [0, 1].
+        specular_reflectance: Vec3,
     },
 }
 
@@ -222,7 +227,11 @@ impl Fresnel {
         match *self {
             Fresnel::Schlick { f0 } => fresnel::schlick(f0, cos_theta),
             Fresnel::Dielectric { eta } => Vec3::splat(fresnel::dielectric(cos_theta, eta)),
-            Fresnel::Conductor { eta, k } => fresnel::conductor(cos_theta, eta, k),
+            Fresnel::Conductor {
+                eta,
+                k,
+                specular_reflectance,
+            } => fresnel::conductor(cos_theta, eta, k) * specular_reflectance,
         }
     }
 }

@@ -70,6 +70,8 @@ pub(super) struct CookTorranceKeys {
     eta: Option<[f32; 3]>,
     #[serde(default, deserialize_with = "crate::input::exact::option")]
     k: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
+    specular_reflectance: Option<[f32; 3]>,
     roughness_map: Option<PathBuf>,
 }
 
@@ -333,11 +335,14 @@ impl Builder<'_> {
                     "dielectric" => Fresnel::Dielectric { eta: ior(1.5)? },
                     "conductor" => {
                         let (eta, k) = match (&m.metal, m.eta, m.k) {
+                            // Reflectance 1 (then specular_reflectance is the
+                            // reflectance): Mitsuba's `material = "none"`.
+                            (Some(name), None, None) if name == "none" => (Vec3::ZERO, Vec3::ONE),
                             (Some(name), None, None) => {
                                 let Some((_, e, k)) = METALS.iter().find(|(n, _, _)| n == name) else {
                                     return Err(self.err(
                                         format!("{field}.metal"),
-                                        format!("unknown metal `{name}` (known: Au, Ag, Cu, Al)"),
+                                        format!("unknown metal `{name}` (known: Au, Ag, Cu, Al, none)"),
                                     ));
                                 };
                                 (Vec3::from(*e), Vec3::from(*k))
@@ -354,7 +359,15 @@ impl Builder<'_> {
                                 ))
                             }
                         };
-                        Fresnel::Conductor { eta, k }
+                        Fresnel::Conductor {
+                            eta,
+                            k,
+                            specular_reflectance: colour(
+                                "specular_reflectance",
+                                m.specular_reflectance,
+                                1.0,
+                            )?,
+                        }
                     }
                     other => {
                         return Err(self.err(
@@ -366,7 +379,7 @@ impl Builder<'_> {
                 let used = match fresnel {
                     Fresnel::Schlick { .. } => &["f0"][..],
                     Fresnel::Dielectric { .. } => &["ior"][..],
-                    Fresnel::Conductor { .. } => &["metal", "eta", "k"][..],
+                    Fresnel::Conductor { .. } => &["metal", "eta", "k", "specular_reflectance"][..],
                 };
                 let given = [
                     ("f0", m.f0.is_some()),
@@ -374,6 +387,7 @@ impl Builder<'_> {
                     ("metal", m.metal.is_some()),
                     ("eta", m.eta.is_some()),
                     ("k", m.k.is_some()),
+                    ("specular_reflectance", m.specular_reflectance.is_some()),
                 ];
                 if let Some((k, _)) = given.iter().find(|(k, g)| *g && !used.contains(k)) {
                     return Err(self.err(format!("{field}.{k}"), "not used by this Fresnel term"));

@@ -222,12 +222,17 @@ fn mitsuba_bsdf(bsdf: &Bsdf) -> std::result::Result<String, String> {
             rgb(p.reflectance)
         )),
         Bsdf::CookTorrance(p) => match p.fresnel {
-            Fresnel::Conductor { eta, k } => twosided(format!(
+            Fresnel::Conductor {
+                eta,
+                k,
+                specular_reflectance,
+            } => twosided(format!(
                 "<bsdf type=\"roughconductor\">{}<rgb name=\"eta\" value=\"{}\"/>\
-                 <rgb name=\"k\" value=\"{}\"/></bsdf>",
+                 <rgb name=\"k\" value=\"{}\"/><rgb name=\"specular_reflectance\" value=\"{}\"/></bsdf>",
                 alpha(&p.microfacet)?,
                 rgb(eta),
-                rgb(k)
+                rgb(k),
+                rgb(specular_reflectance)
             )),
             _ => return Err("a Cook–Torrance BSDF without a conductor Fresnel term".into()),
         },
