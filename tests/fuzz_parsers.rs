@@ -639,7 +639,7 @@ fn shape_section(materials: Vec<String>) -> BoxedStrategy<String> {
         1 => keys(vec![("flip_normals", mostly(boolean(), number()))])
             .prop_map(|k| format!("type = \"cube\"\n{k}")),
         2 => mostly(word(&["mesh.obj"]), word(&["missing.obj", "notamesh.obj", "folder.obj"]))
-            .prop_map(|f| format!("type = \"obj\"\nfile = {f}\n")),
+            .prop_map(|f| format!("type = \"obj\"\nfile = {f}\nsmooth_normals = true\n")),
         1 => Just("type = \"teapot\"\n".to_string()),
     ];
     let material = if materials.is_empty() {

@@ -250,3 +250,68 @@ fn bent_normals_do_not_leak_light_through_a_surface() {
         .fold(0.0f32, |m, c| m.max(c.max_element()));
     assert_eq!(max, 0.0, "light leaked through the floor");
 }
+
+/// `smooth_normals = true` on an OBJ without `vn`: angle-weighted vertex
+/// normals shade a faceted sphere with (nearly) the round sphere's normals.
+#[test]
+fn smooth_normals_are_generated_for_objs_without_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let (p, t) = plsr::scene::shapes::icosphere(Vec3::ZERO, 1.0, 2);
+    let mut obj = String::new();
+    for q in &p {
+        obj += &format!("v {} {} {}\n", q.x, q.y, q.z);
+    }
+    for tri in &t {
+        obj += &format!("f {} {} {}\n", tri[0] + 1, tri[1] + 1, tri[2] + 1);
+    }
+    std::fs::write(dir.path().join("ball.obj"), obj).unwrap();
+    let mean_error = |smooth: bool| -> f32 {
+        let scene_path = dir.path().join("scene.toml");
+        std::fs::write(
+            &scene_path,
+            format!(
+                "[render]\nspp = 4\n[camera]\nposition = [0, 0, 4]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\n\
+                 vfov = 30\nresolution = [40, 40]\n[[shapes]]\ntype = \"obj\"\nfile = \"ball.obj\"\n\
+                 smooth_normals = {smooth}\n"
+            ),
+        )
+        .unwrap();
+        let scene = Scene::load(&scene_path).unwrap();
+        let (film, _) = render(
+            &scene,
+            &scene.default_job(),
+            &RenderOptions::default(),
+            &|_, _| true,
+        )
+        .unwrap();
+        // The round sphere's normal where each pixel centre's ray meets it.
+        let (mut sum, mut n) = (0.0, 0);
+        for y in 0..40 {
+            for x in 0..40 {
+                let ray = scene
+                    .camera()
+                    .generate_ray(
+                        glam::Vec2::new(x as f32 + 0.5, y as f32 + 0.5),
+                        glam::Vec2::ZERO,
+                    )
+                    .unwrap();
+                let (o, d) = (ray.org, ray.dir.normalize());
+                let b = o.dot(d);
+                // Near the rim the faceted and round spheres differ: only
+                // rays that also meet a sphere of radius 0.9.
+                if b * b - (o.length_squared() - 0.81) <= 0.0 {
+                    continue;
+                }
+                let disc = b * b - (o.length_squared() - 1.0);
+                let hit = o + (-b - disc.sqrt()) * d;
+                let normal = film.normal[film.index(x, y)];
+                sum += hit.normalize().angle_between(normal.normalize());
+                n += 1;
+            }
+        }
+        assert!(n > 300);
+        sum / n as f32
+    };
+    let (flat, smooth) = (mean_error(false), mean_error(true));
+    assert!(smooth < 0.4 * flat, "smooth {smooth} rad, flat {flat} rad");
+}

@@ -67,6 +67,40 @@ pub fn cube() -> (Vec<Vec3>, Vec<[u32; 3]>, Vec<Vec2>) {
     (p, t, uv)
 }
 
+/// Angle-weighted vertex normals (Thürmer and Wüthrich 1998): each
+/// triangle adds its unit normal, weighted by its angle at the vertex, to
+/// the vertex. Vertices at the same position share one normal, so a mesh
+/// split along texture seams stays smooth across them. A vertex of only
+/// degenerate triangles gets `+z`.
+pub fn angle_weighted_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
+    let key = |p: Vec3| p.to_array().map(|x| if x == 0.0 { 0 } else { x.to_bits() });
+    let mut slot: HashMap<[u32; 3], usize> = HashMap::new();
+    let index: Vec<usize> = positions
+        .iter()
+        .map(|p| {
+            let n = slot.len();
+            *slot.entry(key(*p)).or_insert(n)
+        })
+        .collect();
+    let mut sums = vec![Vec3::ZERO; slot.len()];
+    for t in triangles {
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        let Some(n) = (b - a).cross(c - a).try_normalize() else {
+            continue;
+        };
+        for (k, (p, q, r)) in [(a, b, c), (b, c, a), (c, a, b)].into_iter().enumerate() {
+            let angle = (q - p).angle_between(r - p);
+            if angle.is_finite() {
+                sums[index[t[k] as usize]] += angle * n;
+            }
+        }
+    }
+    index
+        .iter()
+        .map(|&i| sums[i].try_normalize().unwrap_or(Vec3::Z))
+        .collect()
+}
+
 /// An icosphere: an icosahedron subdivided `subdivisions` times, projected
 /// onto the sphere; outward-facing triangles (20·4^subdivisions of them).
 pub fn icosphere(center: Vec3, radius: f32, subdivisions: u32) -> TriangleSoup {
@@ -618,6 +652,24 @@ mod tests {
             // Diagonals of faces appear inside a face; their reverse too.
             assert_eq!(edges.get(&(b, a)), Some(&count), "{a:?}–{b:?}");
         }
+    }
+
+    #[test]
+    fn angle_weighted_normals_of_a_cube_and_a_sphere() {
+        let (p, t, _) = cube();
+        let n = angle_weighted_normals(&p, &t);
+        for (q, n) in p.iter().zip(&n) {
+            // Every corner: three faces at 90° each.
+            assert!((*n - *q / 3f32.sqrt()).length() < 1e-6, "{q}: {n}");
+        }
+        let (p, t) = icosphere(Vec3::ZERO, 2.0, 3);
+        let n = angle_weighted_normals(&p, &t);
+        let worst = p
+            .iter()
+            .zip(&n)
+            .map(|(q, n)| q.normalize().angle_between(*n))
+            .fold(0.0f32, f32::max);
+        assert!(worst < 0.01, "{worst} rad from radial");
     }
 
     #[test]

@@ -37,6 +37,7 @@ pub(super) struct ShapeSection {
 #[serde(deny_unknown_fields)]
 struct ObjKeys {
     file: Option<PathBuf>,
+    smooth_normals: Option<bool>,
 }
 
 /// The keys of a `rectangle` shape.
@@ -378,9 +379,16 @@ impl Builder<'_> {
         // One material per MTL entry used, shared by the file's objects.
         let mut mtl_index: HashMap<usize, u32> = HashMap::new();
         for o in obj.objects {
+            // Smooth normals for objects the file gives none, computed in
+            // the file's coordinates like the file's own normals.
+            let normals = if o.normals.is_empty() && keys.smooth_normals.unwrap_or(false) {
+                shapes::angle_weighted_normals(&o.positions, &o.triangles)
+            } else {
+                o.normals
+            };
             let (mut p, mut t) = (o.positions, o.triangles);
             transform_mesh(&shape.matrix, &mut p, &mut t);
-            let normals = transform_normals(&shape.matrix, o.normals);
+            let normals = transform_normals(&shape.matrix, normals);
             let mtl = o.material.and_then(|m| obj.materials.get(m));
             let mat = match (shape.material, o.material, mtl) {
                 (Some(m), _, _) => m,
