@@ -993,6 +993,79 @@ fn pls_files_end_in_ok_or_a_clean_error() {
 }
 
 // ---------------------------------------------------------------------
+// PLY meshes.
+// ---------------------------------------------------------------------
+
+/// An ASCII PLY file: vertices with or without normals and texture
+/// coordinates, polygons of 3 to 5 corners, indices mostly in range.
+fn ply_text() -> impl Strategy<Value = String> {
+    (
+        1usize..12,
+        prop::bool::ANY,
+        prop::bool::ANY,
+        prop::collection::vec((3usize..6, prop::collection::vec(0u32..14, 5)), 0..10),
+        prop::collection::vec(-2.0f32..2.0, 40),
+    )
+        .prop_map(|(nv, normals, uvs, faces, numbers)| {
+            let mut s = format!(
+                "ply\nformat ascii 1.0\nelement vertex {nv}\nproperty float x\nproperty float y\nproperty float z\n"
+            );
+            if normals {
+                s += "property float nx\nproperty float ny\nproperty float nz\n";
+            }
+            if uvs {
+                s += "property float u\nproperty float v\n";
+            }
+            s += &format!(
+                "element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+                faces.len()
+            );
+            let per = 3 + 3 * normals as usize + 2 * uvs as usize;
+            for v in 0..nv {
+                let row: Vec<String> = (0..per)
+                    .map(|k| numbers[(v * per + k) % numbers.len()].to_string())
+                    .collect();
+                s += &(row.join(" ") + "\n");
+            }
+            for (n, idx) in &faces {
+                let row: Vec<String> = idx[..*n].iter().map(|i| i.to_string()).collect();
+                s += &format!("{n} {}\n", row.join(" "));
+            }
+            s
+        })
+}
+
+#[test]
+fn ply_files_end_in_a_mesh_or_a_clean_error() {
+    fuzz(
+        "ply_files",
+        3000,
+        0.05,
+        (ply_text(), mutations()),
+        |(text, mutations)| {
+            let bytes = mutate(&text, &mutations);
+            let input = String::from_utf8_lossy(&bytes).into_owned();
+            case(&input, || -> Result<Outcome, TestCaseError> {
+                match plsr::scene::ply::parse_ply(&bytes) {
+                    Err(e) => {
+                        prop_assert!(!e.is_empty());
+                        Ok(Outcome::Refused)
+                    }
+                    Ok(m) => {
+                        let n = m.positions.len();
+                        prop_assert!(m.triangles.iter().flatten().all(|&i| (i as usize) < n));
+                        prop_assert!(m.normals.is_empty() || m.normals.len() == n);
+                        prop_assert!(m.uvs.is_empty() || m.uvs.len() == n);
+                        prop_assert!(m.positions.iter().all(|p| p.is_finite()));
+                        Ok(Outcome::Accepted)
+                    }
+                }
+            })
+        },
+    );
+}
+
+// ---------------------------------------------------------------------
 // OBJ meshes and MTL libraries.
 // ---------------------------------------------------------------------
 

@@ -315,3 +315,74 @@ fn smooth_normals_are_generated_for_objs_without_them() {
     let (flat, smooth) = (mean_error(false), mean_error(true));
     assert!(smooth < 0.4 * flat, "smooth {smooth} rad, flat {flat} rad");
 }
+
+/// A PLY mesh renders exactly as the same triangles from an OBJ, in both
+/// encodings; a broken one is refused naming the shape's `file` and the fault.
+#[test]
+fn ply_meshes_render_as_the_same_obj() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (p, t) = plsr::scene::shapes::icosphere(Vec3::new(0.0, 0.0, 0.0), 1.0, 1);
+    let mut obj = String::new();
+    let mut ascii = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
+         property float z\nelement face {}\nproperty list uchar uint vertex_indices\nend_header\n",
+        p.len(),
+        t.len()
+    );
+    let mut binary = ascii
+        .replace("format ascii", "format binary_little_endian")
+        .into_bytes();
+    for q in &p {
+        obj += &format!("v {} {} {}\n", q.x, q.y, q.z);
+        ascii += &format!("{} {} {}\n", q.x, q.y, q.z);
+        for x in q.to_array() {
+            binary.extend(x.to_le_bytes());
+        }
+    }
+    for tri in &t {
+        obj += &format!("f {} {} {}\n", tri[0] + 1, tri[1] + 1, tri[2] + 1);
+        ascii += &format!("3 {} {} {}\n", tri[0], tri[1], tri[2]);
+        binary.push(3);
+        for i in tri {
+            binary.extend(i.to_le_bytes());
+        }
+    }
+    std::fs::write(d.join("ball.obj"), obj).unwrap();
+    std::fs::write(d.join("ascii.ply"), ascii).unwrap();
+    std::fs::write(d.join("binary.ply"), &binary).unwrap();
+    std::fs::write(d.join("broken.ply"), &binary[..binary.len() - 5]).unwrap();
+    let render_with = |kind: &str, file: &str| -> Result<Film, String> {
+        let scene_path = d.join("scene.toml");
+        std::fs::write(
+            &scene_path,
+            format!(
+                "[render]\nspp = 2\n[camera]\nposition = [0, 0, 4]\nlook_at = [0, 0, 0]\n\
+                 up = [0, 1, 0]\nvfov = 30\nresolution = [24, 24]\n[[shapes]]\ntype = \"{kind}\"\n\
+                 file = \"{file}\"\n[[lights]]\ntype = \"point\"\nposition = [2, 2, 3]\n\
+                 intensity = [20, 20, 20]\n"
+            ),
+        )
+        .unwrap();
+        let scene = Scene::load(&scene_path).map_err(|e| e.to_string())?;
+        Ok(render(
+            &scene,
+            &scene.default_job(),
+            &RenderOptions::default(),
+            &|_, _| true,
+        )
+        .unwrap()
+        .0)
+    };
+    let reference = render_with("obj", "ball.obj").unwrap();
+    assert!(reference.color.iter().any(|c| c.x > 0.0));
+    for file in ["ascii.ply", "binary.ply"] {
+        let film = render_with("ply", file).unwrap();
+        assert!(film.bitwise_eq(&reference), "{file}");
+    }
+    let e = render_with("ply", "broken.ply").unwrap_err();
+    assert!(
+        e.contains("shapes[0].file") && e.contains("broken.ply") && e.contains("truncated"),
+        "{e}"
+    );
+}

@@ -8,6 +8,7 @@
 
 pub mod file;
 pub mod photo;
+pub mod ply;
 pub mod shapes;
 
 use crate::accel::{Accel, Device, SceneOptions};

@@ -47,6 +47,15 @@ struct RectangleKeys {
     flip_normals: Option<bool>,
 }
 
+/// The keys of a `ply` shape.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PlyKeys {
+    file: Option<PathBuf>,
+    smooth_normals: Option<bool>,
+    flip_normals: Option<bool>,
+}
+
 /// The keys of a `disk` shape.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -198,6 +207,7 @@ impl Builder<'_> {
                 key_names::<RectangleKeys>(),
                 key_names::<SphereKeys>(),
                 key_names::<DiskKeys>(),
+                key_names::<PlyKeys>(),
                 key_names::<CubeKeys>(),
             ]
             .concat()
@@ -295,6 +305,33 @@ impl Builder<'_> {
                 flip = keys.flip_normals.unwrap_or(false);
                 self.sphere_mesh(&field, &keys)?
             }
+            "ply" => {
+                let keys: PlyKeys = self.typed_keys(&field, &s.keys, unknown)?;
+                flip = keys.flip_normals.unwrap_or(false);
+                let rel = keys
+                    .file
+                    .as_ref()
+                    .ok_or_else(|| self.err(format!("{field}.file"), "required for a PLY shape"))?;
+                let path = self.base.join(rel);
+                crate::input::check_input_file(&path)
+                    .map_err(|e| self.err(format!("{field}.file"), e.to_string()))?;
+                let ply = crate::scene::ply::read_ply(&path).map_err(|m| {
+                    self.err(format!("{field}.file"), format!("{}: {m}", path.display()))
+                })?;
+                self.read_input(&path);
+                if ply.triangles.is_empty() {
+                    return Err(self.err(
+                        format!("{field}.file"),
+                        format!("{} has no faces", path.display()),
+                    ));
+                }
+                let normals = if ply.normals.is_empty() && keys.smooth_normals.unwrap_or(false) {
+                    shapes::angle_weighted_normals(&ply.positions, &ply.triangles)
+                } else {
+                    ply.normals
+                };
+                (ply.positions, ply.triangles, normals, ply.uvs)
+            }
             "disk" => {
                 let keys: DiskKeys = self.typed_keys(&field, &s.keys, unknown)?;
                 flip = keys.flip_normals.unwrap_or(false);
@@ -318,8 +355,8 @@ impl Builder<'_> {
                 return Err(self.err(
                     format!("{field}.type"),
                     format!(
-                        "unknown shape type `{other}` (known: obj, rectangle, sphere, disk, cube)"
-                    ),
+                    "unknown shape type `{other}` (known: obj, ply, rectangle, sphere, disk, cube)"
+                ),
                 ))
             }
         };

@@ -1,0 +1,422 @@
+//! PLY meshes (Stanford polygon files): ASCII and binary (little- and
+//! big-endian) encodings, as scanners and Mitsuba's `ply` shape produce.
+//!
+//! Read: the `vertex` element's `x y z`, its normals `nx ny nz` and texture
+//! coordinates (`u v`, `s t` or `texture_u texture_v`) when present, and
+//! the `face` element's index list (`vertex_indices` or `vertex_index`),
+//! polygons split into fans. Every other element and property is skipped.
+//! Errors name the file and what is wrong (with the header line).
+
+use glam::{Vec2, Vec3};
+use std::path::Path;
+
+/// A PLY mesh in file coordinates.
+#[derive(Debug, Clone, Default)]
+pub struct PlyMesh {
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Triangles (polygons fan-triangulated).
+    pub triangles: Vec<[u32; 3]>,
+    /// Per-vertex unit normals, or empty.
+    pub normals: Vec<Vec3>,
+    /// Per-vertex texture coordinates, or empty.
+    pub uvs: Vec<Vec2>,
+}
+
+/// The most vertices or faces a file may declare (beyond, the counts are
+/// taken for a corrupt header rather than allocated).
+const MAX_COUNT: u64 = 1 << 31;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    fn parse(s: &str) -> Option<Scalar> {
+        Some(match s {
+            "char" | "int8" => Scalar::I8,
+            "uchar" | "uint8" => Scalar::U8,
+            "short" | "int16" => Scalar::I16,
+            "ushort" | "uint16" => Scalar::U16,
+            "int" | "int32" => Scalar::I32,
+            "uint" | "uint32" => Scalar::U32,
+            "float" | "float32" => Scalar::F32,
+            "double" | "float64" => Scalar::F64,
+            _ => return None,
+        })
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::F64 => 8,
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+enum Property {
+    Scalar(String, Scalar),
+    /// A list: count type, item type.
+    List(String, Scalar, Scalar),
+}
+
+#[derive(Debug, Clone)]
+struct Element {
+    name: String,
+    count: u64,
+    properties: Vec<Property>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Encoding {
+    Ascii,
+    Little,
+    Big,
+}
+
+/// Reads values in the file's encoding.
+struct Reader<'a> {
+    encoding: Encoding,
+    bytes: &'a [u8],
+    at: usize,
+    /// ASCII: the remaining whitespace-separated tokens.
+    tokens: std::str::SplitAsciiWhitespace<'a>,
+}
+
+impl Reader<'_> {
+    fn value(&mut self, t: Scalar) -> Result<f64, String> {
+        if self.encoding == Encoding::Ascii {
+            let tok = self.tokens.next().ok_or("the data ends early")?;
+            return tok
+                .parse::<f64>()
+                .map_err(|_| format!("{tok:?} is not a number"));
+        }
+        let n = t.size();
+        let b = self
+            .bytes
+            .get(self.at..self.at + n)
+            .ok_or("the data ends early (truncated file?)")?;
+        self.at += n;
+        let mut a = [0u8; 8];
+        a[..n].copy_from_slice(b);
+        if self.encoding == Encoding::Big {
+            a[..n].reverse();
+        }
+        Ok(match t {
+            Scalar::I8 => a[0] as i8 as f64,
+            Scalar::U8 => a[0] as f64,
+            Scalar::I16 => i16::from_le_bytes([a[0], a[1]]) as f64,
+            Scalar::U16 => u16::from_le_bytes([a[0], a[1]]) as f64,
+            Scalar::I32 => i32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
+            Scalar::U32 => u32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
+            Scalar::F32 => f32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
+            Scalar::F64 => f64::from_le_bytes(a),
+        })
+    }
+}
+
+/// Reads a PLY file; the error says what is wrong (the caller names the
+/// file).
+pub fn read_ply(path: &Path) -> Result<PlyMesh, String> {
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    parse_ply(&bytes)
+}
+
+/// Parses the bytes of a PLY file.
+pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
+    // The header: ASCII lines up to `end_header`.
+    let mut at = 0;
+    let mut lines = Vec::new();
+    loop {
+        let end = bytes[at..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .ok_or("no `end_header` line: not a PLY file, or a truncated one")?;
+        let line = std::str::from_utf8(&bytes[at..at + end])
+            .map_err(|_| format!("header line {}: not text", lines.len() + 1))?
+            .trim_end_matches('\r')
+            .trim();
+        at += end + 1;
+        if line == "end_header" {
+            break;
+        }
+        lines.push(line.to_string());
+    }
+    if lines.first().map(String::as_str) != Some("ply") {
+        return Err("not a PLY file (the first line is not `ply`)".into());
+    }
+    let mut encoding = None;
+    let mut elements: Vec<Element> = Vec::new();
+    for (i, line) in lines.iter().enumerate().skip(1) {
+        let bad = |why: &str| format!("header line {}: {why}: {line:?}", i + 1);
+        let words: Vec<&str> = line.split_whitespace().collect();
+        match words.as_slice() {
+            ["format", f, "1.0"] => {
+                encoding = Some(match *f {
+                    "ascii" => Encoding::Ascii,
+                    "binary_little_endian" => Encoding::Little,
+                    "binary_big_endian" => Encoding::Big,
+                    _ => return Err(bad("unknown format")),
+                })
+            }
+            ["comment", ..] | ["obj_info", ..] | [] => {}
+            ["element", name, count] => {
+                let count: u64 = count.parse().map_err(|_| bad("bad element count"))?;
+                if count > MAX_COUNT {
+                    return Err(bad("too many items"));
+                }
+                elements.push(Element {
+                    name: name.to_string(),
+                    count,
+                    properties: Vec::new(),
+                });
+            }
+            ["property", "list", c, t, name] => {
+                let (c, t) = (
+                    Scalar::parse(c).ok_or_else(|| bad("unknown type"))?,
+                    Scalar::parse(t).ok_or_else(|| bad("unknown type"))?,
+                );
+                elements
+                    .last_mut()
+                    .ok_or_else(|| bad("a property before any element"))?
+                    .properties
+                    .push(Property::List(name.to_string(), c, t));
+            }
+            ["property", t, name] => {
+                let t = Scalar::parse(t).ok_or_else(|| bad("unknown type"))?;
+                elements
+                    .last_mut()
+                    .ok_or_else(|| bad("a property before any element"))?
+                    .properties
+                    .push(Property::Scalar(name.to_string(), t));
+            }
+            _ => return Err(bad("not understood")),
+        }
+    }
+    let encoding = encoding.ok_or("no `format` line in the header")?;
+    let body = &bytes[at..];
+    let text = if encoding == Encoding::Ascii {
+        std::str::from_utf8(body).map_err(|_| "the ASCII data is not text")?
+    } else {
+        ""
+    };
+    let mut r = Reader {
+        encoding,
+        bytes: body,
+        at: 0,
+        tokens: text.split_ascii_whitespace(),
+    };
+    let mut mesh = PlyMesh::default();
+    for e in &elements {
+        let slot = |n: &str| {
+            e.properties
+                .iter()
+                .position(|p| matches!(p, Property::Scalar(m, _) if m == n))
+        };
+        let is_vertex = e.name == "vertex";
+        let (pos, nrm, uv) = if is_vertex {
+            let pos = [slot("x"), slot("y"), slot("z")];
+            if pos.iter().any(Option::is_none) {
+                return Err("the vertex element has no x, y and z".into());
+            }
+            let nrm = [slot("nx"), slot("ny"), slot("nz")];
+            let uv = [("u", "v"), ("s", "t"), ("texture_u", "texture_v")]
+                .iter()
+                .find_map(|(a, b)| Some([slot(a)?, slot(b)?]));
+            (
+                pos.map(Option::unwrap),
+                nrm.iter()
+                    .all(Option::is_some)
+                    .then(|| nrm.map(Option::unwrap)),
+                uv,
+            )
+        } else {
+            ([0; 3], None, None)
+        };
+        let faces = e.name == "face";
+        let list = e.properties.iter().position(
+            |p| matches!(p, Property::List(n, _, _) if n == "vertex_indices" || n == "vertex_index"),
+        );
+        if faces && list.is_none() {
+            return Err("the face element has no vertex_indices list".into());
+        }
+        let mut values = vec![0.0f64; e.properties.len()];
+        let mut polygon: Vec<u32> = Vec::new();
+        for item in 0..e.count {
+            let err = |m: String| format!("{} {item}: {m}", e.name);
+            for (k, p) in e.properties.iter().enumerate() {
+                match p {
+                    Property::Scalar(_, t) => values[k] = r.value(*t).map_err(err)?,
+                    Property::List(_, c, t) => {
+                        let n = r.value(*c).map_err(err)?;
+                        if !((0.0..=1e6).contains(&n) && n.fract() == 0.0) {
+                            return Err(err(format!("bad list length {n}")));
+                        }
+                        let keep = faces && Some(k) == list;
+                        polygon.clear();
+                        for _ in 0..n as usize {
+                            let v = r.value(*t).map_err(err)?;
+                            if keep {
+                                if !((0.0..u32::MAX as f64).contains(&v) && v.fract() == 0.0) {
+                                    return Err(err(format!("bad vertex index {v}")));
+                                }
+                                polygon.push(v as u32);
+                            }
+                        }
+                        if keep {
+                            for j in 1..polygon.len().saturating_sub(1) {
+                                mesh.triangles
+                                    .push([polygon[0], polygon[j], polygon[j + 1]]);
+                            }
+                        }
+                    }
+                }
+            }
+            if is_vertex {
+                let v = |i: usize| values[i] as f32;
+                mesh.positions
+                    .push(Vec3::new(v(pos[0]), v(pos[1]), v(pos[2])));
+                if let Some(n) = nrm {
+                    mesh.normals.push(Vec3::new(v(n[0]), v(n[1]), v(n[2])));
+                }
+                if let Some([a, b]) = uv {
+                    mesh.uvs.push(Vec2::new(v(a), v(b)));
+                }
+            }
+        }
+    }
+    let n = mesh.positions.len() as u64;
+    if let Some(t) = mesh
+        .triangles
+        .iter()
+        .find(|t| t.iter().any(|&i| i as u64 >= n))
+    {
+        return Err(format!(
+            "a face uses vertex {} of {n}",
+            t.iter().max().unwrap()
+        ));
+    }
+    if mesh.positions.iter().any(|p| !p.is_finite()) {
+        return Err("a vertex position is not a finite number".into());
+    }
+    // Normals: unit length where given, or none at all if any is unusable.
+    if mesh
+        .normals
+        .iter()
+        .any(|n| !n.is_finite() || n.length_squared() == 0.0)
+    {
+        mesh.normals.clear();
+    }
+    for n in &mut mesh.normals {
+        *n = n.normalize();
+    }
+    Ok(mesh)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ASCII: &str = "ply\nformat ascii 1.0\ncomment a quad\nelement vertex 4\n\
+        property float x\nproperty float y\nproperty float z\nproperty float nx\n\
+        property float ny\nproperty float nz\nproperty float u\nproperty float v\n\
+        element face 1\nproperty list uchar int vertex_indices\nend_header\n\
+        0 0 0 0 0 2 0 0\n1 0 0 0 0 1 1 0\n1 1 0 0 0 1 1 1\n0 1 0 0 0 1 0 1\n4 0 1 2 3\n";
+
+    #[test]
+    fn ascii_and_binary_encodings_read_the_same_mesh() {
+        let a = parse_ply(ASCII.as_bytes()).unwrap();
+        assert_eq!(a.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(a.positions[2], Vec3::new(1.0, 1.0, 0.0));
+        assert_eq!(a.normals[0], Vec3::Z);
+        assert_eq!(a.uvs[3], Vec2::new(0.0, 1.0));
+        for big in [false, true] {
+            let header = ASCII
+                .split("end_header\n")
+                .next()
+                .unwrap()
+                .replace(
+                    "format ascii 1.0",
+                    if big {
+                        "format binary_big_endian 1.0"
+                    } else {
+                        "format binary_little_endian 1.0"
+                    },
+                )
+                .replace(
+                    "uchar int vertex_indices",
+                    "uchar int vertex_indices\nelement extra 1\nproperty list uchar double junk",
+                );
+            let mut bytes = format!("{header}end_header\n").into_bytes();
+            let f = |x: f32, out: &mut Vec<u8>| {
+                out.extend(if big {
+                    x.to_be_bytes()
+                } else {
+                    x.to_le_bytes()
+                })
+            };
+            for line in ASCII.split("end_header\n").nth(1).unwrap().lines().take(4) {
+                for x in line.split_whitespace() {
+                    f(x.parse().unwrap(), &mut bytes);
+                }
+            }
+            bytes.push(4);
+            for i in 0..4i32 {
+                bytes.extend(if big {
+                    i.to_be_bytes()
+                } else {
+                    i.to_le_bytes()
+                });
+            }
+            bytes.push(1);
+            bytes.extend(if big {
+                5f64.to_be_bytes()
+            } else {
+                5f64.to_le_bytes()
+            });
+            let b = parse_ply(&bytes).unwrap();
+            assert_eq!(
+                (b.positions.clone(), b.triangles.clone()),
+                (a.positions.clone(), a.triangles.clone())
+            );
+            assert_eq!(
+                (b.normals.clone(), b.uvs.clone()),
+                (a.normals.clone(), a.uvs.clone())
+            );
+        }
+    }
+
+    #[test]
+    fn bad_files_say_what_is_wrong() {
+        for (text, says) in [
+            ("solid cube\n", "no `end_header`"),
+            ("pl\nend_header\n", "not a PLY file"),
+            ("ply\nformat ascii 2.0\nend_header\n", "header line 2: not understood"),
+            ("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n", "no x, y and z"),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0\n",
+                "vertex 0: the data ends early",
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n\
+                 element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n3 0 1 2\n",
+                "a face uses vertex 2 of 1",
+            ),
+            ("ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n\x00\x00", "truncated"),
+        ] {
+            let e = parse_ply(text.as_bytes()).unwrap_err();
+            assert!(e.contains(says), "{text:?}: {e}");
+        }
+    }
+}
