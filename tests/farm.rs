@@ -559,3 +559,88 @@ fn bad_farm_requests_are_refused() {
         "{err}"
     );
 }
+
+#[test]
+fn resume_adds_samples_to_a_part() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("resumed.exr");
+    let o = out.to_str().unwrap();
+    let (ok, err) = plsr(&[
+        "render",
+        SCENE,
+        "-o",
+        o,
+        "--resume",
+        "--spp",
+        "4",
+        "--max-depth",
+        "3",
+    ]);
+    assert!(ok, "{err}");
+    let (ok, err) = plsr(&[
+        "render",
+        SCENE,
+        "-o",
+        o,
+        "--resume",
+        "--spp",
+        "16",
+        "--max-depth",
+        "3",
+    ]);
+    assert!(ok, "{err}");
+    let whole = part(d, "whole.exr", &["--spp", "16"]);
+    let resumed = Film::read_exr(&out).unwrap();
+    assert_eq!(resumed.spp, 16);
+    assert_close("resumed", &Film::read_exr(&whole).unwrap(), &resumed, 1e-6);
+    // Nothing left to do, then a plain render and other settings refused.
+    let (ok, err) = plsr(&[
+        "render",
+        SCENE,
+        "-o",
+        o,
+        "--resume",
+        "--spp",
+        "16",
+        "--max-depth",
+        "3",
+    ]);
+    assert!(ok && err.contains("holds 16 samples already"), "{err}");
+    let w = whole.to_str().unwrap();
+    let (ok, err) = plsr(&[
+        "render",
+        SCENE,
+        "-o",
+        w,
+        "--resume",
+        "--spp",
+        "32",
+        "--max-depth",
+        "3",
+    ]);
+    assert!(
+        !ok && err.contains("whole.exr") && err.contains("not a part"),
+        "{err}"
+    );
+    let (ok, err) = plsr(&[
+        "render",
+        SCENE,
+        "-o",
+        o,
+        "--resume",
+        "--spp",
+        "32",
+        "--max-depth",
+        "4",
+    ]);
+    assert!(
+        !ok && err.contains("resumed.exr") && err.contains("scene hash"),
+        "{err}"
+    );
+    assert_eq!(
+        Film::read_exr(&out).unwrap().spp,
+        16,
+        "the refused resume left it"
+    );
+}

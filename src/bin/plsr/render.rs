@@ -4,7 +4,7 @@ use crate::progress::progress_bar;
 use crate::tonemap::Exposure;
 use plsr::atomic_write::{check_extension, same_file, OutputSet};
 use plsr::error::{Error, Result};
-use plsr::film::part::{scene_files_hasher, Part, PartInfo, StableHasher};
+use plsr::film::part::{merge_parts, scene_files_hasher, Part, PartInfo, StableHasher};
 use plsr::film::Tile;
 use plsr::job::RenderJob;
 use plsr::job::{JobError, MAX_DEPTH, MAX_SPP};
@@ -30,6 +30,13 @@ pub struct RenderArgs {
     /// that `plsr merge` combines with the others (see docs/farm.md).
     #[arg(long, value_name = "START..END")]
     pub samples: Option<String>,
+    /// Add samples to -o instead of starting over: if -o is a part of this
+    /// scene (same files and settings) holding samples 0..N, render samples
+    /// N..SPP (--spp, or the scene's) and write the part of all of them;
+    /// if -o does not exist, render 0..SPP as a part. A render stopped or
+    /// too noisy continues where it ended (see docs/farm.md).
+    #[arg(long, conflicts_with_all = ["samples", "crop"])]
+    pub resume: bool,
     /// Render only the window of columns [X0, X1) and rows [Y0, Y1), as a
     /// part that `plsr merge` stitches with the others (see docs/farm.md).
     #[arg(long, value_name = "X0,Y0,X1,Y1")]
@@ -218,7 +225,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     let base_camera = scene.camera().clone();
     let mut files = vec![a.scene.clone()];
     files.extend(inputs.iter().cloned());
-    let parts = a.samples.is_some() || window.is_some();
+    let parts = a.samples.is_some() || window.is_some() || a.resume;
     let files_hasher = if parts {
         scene_files_hasher(&files)?
     } else {
@@ -231,6 +238,39 @@ pub fn run(a: &RenderArgs) -> Result<()> {
                 .map_err(|e| Error::input(&a.scene, "camera.path", e.to_string()))?;
             scene.set_camera(base_camera.with_pose(pose));
         }
+        // Resuming: the samples the output holds already, and the rest.
+        let mut job = job;
+        let previous = if a.resume && output.exists() {
+            let old = Part::read_exr(output)?;
+            let full = old.info.window
+                == Tile {
+                    x0: 0,
+                    y0: 0,
+                    width,
+                    height,
+                };
+            if old.info.sample_start != 0 || !full || old.info.image != (width, height) {
+                return Err(Error::input(
+                    output,
+                    "",
+                    "--resume continues a part of the whole image holding samples 0..N",
+                ));
+            }
+            let have = old.info.sample_end;
+            if have >= job.spp {
+                eprintln!(
+                    "{} holds {have} samples already (asked for {}): nothing to render",
+                    output.display(),
+                    job.spp
+                );
+                continue;
+            }
+            job.sample_start = have;
+            job.spp -= have;
+            Some(old)
+        } else {
+            None
+        };
         let part = parts.then(|| PartInfo {
             scene_hash: part_hash(files_hasher, &job, *frame),
             image: (width, height),
@@ -248,7 +288,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             &scene,
             &job,
             &options,
-            (window, part),
+            (window, part, previous),
             (output, png.as_ref()),
             *frame,
             exposure,
@@ -365,7 +405,7 @@ fn render_one(
     scene: &Scene,
     job: &RenderJob,
     options: &RenderOptions,
-    (window, part): (Option<Tile>, Option<PartInfo>),
+    (window, part, previous): (Option<Tile>, Option<PartInfo>, Option<Part>),
     (output, png): (&Path, Option<&PathBuf>),
     frame: Option<u32>,
     exposure: Exposure,
@@ -386,9 +426,23 @@ fn render_one(
     let film = match part {
         Some(info) => {
             // A part: the window's sums, exactly, and what merging checks.
-            let part = Part::from_render(info, &sums);
+            let mut part = Part::from_render(info, &sums);
+            if let Some(old) = previous {
+                // Resumed: the old samples and the new ones, as one part.
+                let info = PartInfo {
+                    sample_start: old.info.sample_start,
+                    ..part.info
+                };
+                let new_name = PathBuf::from(format!(
+                    "(samples {}..{} rendered now)",
+                    part.info.sample_start, part.info.sample_end
+                ));
+                let (merged, _) = merge_parts(&[(output.to_path_buf(), old), (new_name, part)])?;
+                part = Part::from_render(info, &merged);
+            }
             part.stage_exr(&mut outputs, output)?;
-            part.sums.develop(job.spp)
+            part.sums
+                .develop(part.info.sample_end - part.info.sample_start)
         }
         None => {
             let film = sums.develop(job.spp);

@@ -286,6 +286,7 @@ fn piece(a: &PieceArgs) -> Result<()> {
         exposure: "0".into(),
         filmic: false,
         scalar: false,
+        resume: false,
         quiet: true,
     })
 }
