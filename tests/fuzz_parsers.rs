@@ -754,7 +754,13 @@ fn environment_section() -> BoxedStrategy<String> {
     ];
     (
         source,
-        keys(vec![("scale", mostly(within(0.1, 2.0), number()))]),
+        keys(vec![
+            ("scale", mostly(within(0.1, 2.0), number())),
+            (
+                "filter",
+                mostly(word(&["nearest", "bilinear"]), word(&["cubic", "1"])),
+            ),
+        ]),
         stray_key(),
     )
         .prop_map(|(source, k, x)| format!("[environment]\n{source}{k}{x}\n"))

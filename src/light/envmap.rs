@@ -8,7 +8,12 @@
 //! (`type = "equirectangular"`) at a pose lights the scene lined up when the
 //! environment is given the camera's `up` and `forward`.
 //!
-//! Radiance is piecewise constant over texels (no filtering), times `scale`.
+//! Radiance is piecewise constant over texels (no filtering), times `scale`,
+//! or with `filter = "bilinear"` interpolated between the four nearest texel
+//! centres (wrapping round in azimuth, clamped at the poles), as Mitsuba's
+//! `envmap` looks it up. Sampling stays by texel either way: the estimators
+//! stay unbiased (a direction the texel density misses is found by BSDF
+//! sampling, which MIS then weighs fully).
 //! Directions are importance-sampled in proportion to luminance × solid
 //! angle of the texel (∝ sin θ), uniformly in `(u, v)` within a texel, so the
 //! solid-angle density is
@@ -50,6 +55,8 @@ pub struct EnvironmentLight {
     column_guide: Vec<u32>,
     /// `∫ luminance(L) dω` (W/m² per unit projected area, luminance).
     integral: f32,
+    /// Bilinear interpolation between texel centres instead of nearest.
+    bilinear: bool,
 }
 
 /// Builds a CDF (with a leading 0) from non-negative weights and returns it
@@ -194,7 +201,37 @@ impl EnvironmentLight {
             row_guide,
             column_guide,
             integral,
+            bilinear: false,
         }
+    }
+
+    /// The same environment looked up bilinearly (`true`) or by nearest
+    /// texel (`false`, the default).
+    pub fn with_bilinear(mut self, bilinear: bool) -> EnvironmentLight {
+        self.bilinear = bilinear;
+        self
+    }
+
+    /// The radiance at image position `uv`, which lies in texel `(x, y)`:
+    /// the texel's, or bilinear between the four nearest texel centres.
+    #[inline]
+    fn radiance_at(&self, uv: Vec2, x: usize, y: usize) -> Vec3 {
+        let (w, h) = (self.width as usize, self.height as usize);
+        if !self.bilinear {
+            return self.texels[y * w + x];
+        }
+        let fx = uv.x * w as f32 - 0.5;
+        let fy = (uv.y * h as f32 - 0.5).clamp(0.0, (h - 1) as f32);
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (tx, ty) = (fx - x0, fy - y0);
+        let x0 = (x0 as i64).rem_euclid(w as i64) as usize;
+        let x1 = (x0 + 1) % w;
+        let y0 = y0 as usize;
+        let y1 = (y0 + 1).min(h - 1);
+        let t = |x: usize, y: usize| self.texels[y * w + x];
+        let top = t(x0, y0) * (1.0 - tx) + t(x1, y0) * tx;
+        let bottom = t(x0, y1) * (1.0 - tx) + t(x1, y1) * tx;
+        top * (1.0 - ty) + bottom * ty
     }
 
     /// A constant environment of radiance `radiance` in every direction.
@@ -220,8 +257,9 @@ impl EnvironmentLight {
     /// Radiance arriving from direction `dir` (any length but zero).
     #[inline]
     pub fn radiance(&self, dir: Vec3) -> Vec3 {
-        let (x, y) = self.texel_at(equirect_uv(dir, &self.frame));
-        self.texels[y * self.width as usize + x]
+        let uv = equirect_uv(dir, &self.frame);
+        let (x, y) = self.texel_at(uv);
+        self.radiance_at(uv, x, y)
     }
 
     /// Samples a direction from `u`: radiance, unit direction and
@@ -267,7 +305,7 @@ impl EnvironmentLight {
         let pdf_uv = p_row * p_col * (self.width * self.height) as f32;
         let pdf = pdf_uv / (2.0 * PI * PI * sin_theta);
         let dir = equirect_direction(Vec2::new(uu, v), &self.frame);
-        Some((self.texels[y * self.width as usize + x], dir, pdf))
+        Some((self.radiance_at(Vec2::new(uu, v), x, y), dir, pdf))
     }
 
     /// [`EnvironmentLight::sample_li`] for many numbers at once, the same
@@ -349,7 +387,7 @@ impl EnvironmentLight {
             } else {
                 self.pdf_at(uv, x, y)
             };
-            (self.texels[y * w + x], pdf)
+            (self.radiance_at(uv, x, y), pdf)
         }));
     }
 

@@ -18,6 +18,8 @@ pub(super) struct EnvironmentSection {
     #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) forward: Option<[f32; 3]>,
     pub(super) scale: Option<f32>,
+    /// `"nearest"` (default) or `"bilinear"`.
+    pub(super) filter: Option<String>,
 }
 
 impl Builder<'_> {
@@ -26,6 +28,19 @@ impl Builder<'_> {
     /// `radiance`; times `scale`.
     pub(super) fn environment(&self, e: &EnvironmentSection) -> Result<EnvironmentLight> {
         let scale = self.finite("environment.scale", e.scale.unwrap_or(1.0))?;
+        let bilinear = match e.filter.as_deref() {
+            None | Some("nearest") => false,
+            Some("bilinear") => true,
+            Some(other) => {
+                return Err(self.err(
+                    "environment.filter",
+                    format!("unknown filter `{other}` (known: nearest, bilinear)"),
+                ))
+            }
+        };
+        if bilinear && e.file.is_none() {
+            return Err(self.err("environment.filter", "only used with an image file"));
+        }
         if scale < 0.0 {
             return Err(self.err(
                 "environment.scale",
@@ -85,6 +100,7 @@ impl Builder<'_> {
                 let path = self.base.join(rel);
                 self.read_input(&path);
                 checked_environment(&path, frame, scale)
+                    .map(|env| env.with_bilinear(bilinear))
                     .map_err(|m| self.err("environment.file", m))
             }
         }
