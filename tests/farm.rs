@@ -518,7 +518,31 @@ fn bad_farm_requests_are_refused() {
         "farm", "slurm", SCENE, "--parts", "2", "--frames", "0..2", "-o", o,
     ]);
     assert!(!ok && err.contains("has no camera path"), "{err}");
-    assert!(!out.join("farm.toml").exists());
+    assert!(!out.exists(), "a refused plan makes no folder");
+    // The plan would replace the scene (a scene named farm.toml, OUTDIR its
+    // folder): refused, the scene untouched.
+    let own = d.join("own");
+    std::fs::create_dir(&own).unwrap();
+    let scene_text = std::fs::read_to_string(SCENE).unwrap().replace(
+        "\"../../assets/",
+        &format!("\"{}/", std::fs::canonicalize("assets").unwrap().display()),
+    );
+    std::fs::write(own.join("farm.toml"), &scene_text).unwrap();
+    let (ok, err) = plsr(&[
+        "farm",
+        "slurm",
+        own.join("farm.toml").to_str().unwrap(),
+        "--parts",
+        "2",
+        "-o",
+        own.to_str().unwrap(),
+    ]);
+    assert!(!ok && err.contains("which the scene reads"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(own.join("farm.toml")).unwrap(),
+        scene_text
+    );
+    assert!(!own.join("render.sbatch").exists());
     // The pods see only the volume: a scene outside it is refused.
     let root = d.join("volume");
     std::fs::create_dir(&root).unwrap();

@@ -130,6 +130,56 @@ fn rectangle_irradiance(
         + signed(x0 - px, y0 - py)
 }
 
+/// Direct light only (2048 spp, depth 1) on a 20 × 20 diffuse floor of
+/// `albedo` at z = 0 under `emitter`, a black emitter of `radiance`, seen by
+/// `camera`.
+fn floor_under_emitter(
+    emitter: (Vec<Vec3>, Vec<[u32; 3]>),
+    radiance: f32,
+    albedo: f32,
+    camera: PinholeCamera,
+    seed: u64,
+) -> Film {
+    let (mut fp, mut ft) = rectangle();
+    transform_mesh(&Mat4::from_scale(Vec3::splat(10.0)), &mut fp, &mut ft);
+    render_scene(SceneDescription {
+        meshes: vec![
+            mesh("floor", (fp, ft), 1, None),
+            mesh(
+                "emitter",
+                emitter,
+                0,
+                Some(Emission {
+                    radiance: Vec3::splat(radiance),
+                    two_sided: false,
+                    cone: None,
+                }),
+            ),
+        ],
+        materials: vec![material("black", 0.0), material("floor", albedo)],
+        point_lights: vec![],
+        camera: camera.into(),
+        film: Default::default(),
+        environment: None,
+        job: RenderJob {
+            spp: 2048,
+            max_depth: 1,
+            seed,
+            ..Default::default()
+        },
+        robust: false,
+    })
+}
+
+/// The mean red value of a film and its standard error (from the variance
+/// layer).
+fn mean_and_stderr(film: &Film) -> (f64, f64) {
+    let n = film.color.len() as f64;
+    let mean = film.color.iter().map(|c| c.x as f64).sum::<f64>() / n;
+    let var = film.variance.iter().map(|v| v.x as f64).sum::<f64>();
+    (mean, var.sqrt() / n)
+}
+
 #[test]
 fn closed_form_irradiance_under_a_rectangular_emitter() {
     let (albedo, radiance, h) = (0.5f32, 3.0f32, 1.0f32);
@@ -142,52 +192,14 @@ fn closed_form_irradiance_under_a_rectangular_emitter() {
         &mut ep,
         &mut et,
     );
-    let (mut fp, mut ft) = rectangle();
-    transform_mesh(&Mat4::from_scale(Vec3::splat(10.0)), &mut fp, &mut ft);
     for (px, py) in [(0.0f32, 0.0f32), (0.4, 0.1), (1.2, -0.7)] {
         // A narrow camera looking down at (px, py) from below the emitter's
         // height, off to the side so it does not shadow the point.
         let target = Vec3::new(px, py, 0.0);
         let eye = target + Vec3::new(0.05, -0.3, 0.6);
         let camera = PinholeCamera::look_at(eye, target, Vec3::Z, 0.5, 5, 5).unwrap();
-        let film = render_scene(SceneDescription {
-            meshes: vec![
-                mesh("floor", (fp.clone(), ft.clone()), 1, None),
-                mesh(
-                    "emitter",
-                    (ep.clone(), et.clone()),
-                    0,
-                    Some(Emission {
-                        radiance: Vec3::splat(radiance),
-                        two_sided: false,
-                        cone: None,
-                    }),
-                ),
-            ],
-            materials: vec![material("black", 0.0), material("floor", albedo)],
-            point_lights: vec![],
-            camera: camera.into(),
-            film: Default::default(),
-            environment: None,
-            job: RenderJob {
-                spp: 2048,
-                max_depth: 1,
-                seed: 9,
-                sample_start: 0,
-                hide_virtual: false,
-                ..Default::default()
-            },
-            robust: false,
-        });
-        let (mean, var) = film
-            .color
-            .iter()
-            .zip(&film.variance)
-            .fold((0.0f64, 0.0f64), |(m, v), (c, s)| {
-                (m + c.x as f64, v + s.x as f64)
-            });
-        let n = film.color.len() as f64;
-        let (mean, stderr) = (mean / n, var.sqrt() / n);
+        let film = floor_under_emitter((ep.clone(), et.clone()), radiance, albedo, camera, 9);
+        let (mean, stderr) = mean_and_stderr(&film);
         let e = rectangle_irradiance(
             px as f64,
             py as f64,
@@ -226,41 +238,11 @@ fn closed_form_irradiance_on_the_axis_of_a_disk_emitter() {
         &mut ep,
         &mut et,
     );
-    let (mut fp, mut ft) = rectangle();
-    transform_mesh(&Mat4::from_scale(Vec3::splat(10.0)), &mut fp, &mut ft);
     let target = Vec3::ZERO;
     let eye = target + Vec3::new(0.02, -0.1, 0.3);
     let camera = PinholeCamera::look_at(eye, target, Vec3::Z, 0.3, 5, 5).unwrap();
-    let film = render_scene(SceneDescription {
-        meshes: vec![
-            mesh("floor", (fp, ft), 1, None),
-            mesh(
-                "disk",
-                (ep, et),
-                0,
-                Some(Emission {
-                    radiance: Vec3::splat(radiance),
-                    two_sided: false,
-                    cone: None,
-                }),
-            ),
-        ],
-        materials: vec![material("black", 0.0), material("floor", albedo)],
-        point_lights: vec![],
-        camera: camera.into(),
-        film: Default::default(),
-        environment: None,
-        job: RenderJob {
-            spp: 2048,
-            max_depth: 1,
-            seed: 3,
-            ..Default::default()
-        },
-        robust: false,
-    });
-    let n = film.color.len() as f64;
-    let mean = film.color.iter().map(|c| c.x as f64).sum::<f64>() / n;
-    let stderr = film.variance.iter().map(|v| v.x as f64).sum::<f64>().sqrt() / n;
+    let film = floor_under_emitter((ep, et), radiance, albedo, camera, 3);
+    let (mean, stderr) = mean_and_stderr(&film);
     let (h, r, l) = (h as f64, r as f64, radiance as f64);
     let e = std::f64::consts::PI * l * r * r / (h * h + r * r);
     let want = albedo as f64 / std::f64::consts::PI * e;

@@ -105,7 +105,7 @@ pub fn run(a: &K8sArgs) -> Result<()> {
         source,
     })?;
     inside(&root, &a.plan.scene, "the scene")?;
-    let (plan, dir, plan_file) = make_plan(&a.plan)?;
+    let (plan, dir, plan_file) = make_plan(&a.plan, &[RENDER_JOB, MERGE_JOB, RUN_SCRIPT])?;
     let in_pod = |p: &Path| -> Result<String> {
         let rel = inside(&root, p, "OUTDIR")?;
         Ok(format!(

@@ -15,6 +15,7 @@ mod slurm;
 
 use crate::render::{parse_frames, RenderArgs};
 use plan::{index_list, relative_path, DoneCheck, FarmPlan, PLAN_FILE};
+use plsr::atomic_write::same_file;
 use plsr::error::{Error, Result};
 use plsr::render::DEFAULT_TILE_SIZE;
 use std::path::{Path, PathBuf};
@@ -112,8 +113,10 @@ pub fn run(c: FarmCommand) -> Result<()> {
 }
 
 /// Makes the output folder and writes the plan of `a` into it; returns the
-/// plan, the folder (absolute) and the plan file.
-pub fn make_plan(a: &PlanArgs) -> Result<(FarmPlan, PathBuf, PathBuf)> {
+/// plan, the folder (absolute) and the plan file. `writes` names the other
+/// files the caller will write into the folder: none of them, nor the plan,
+/// may be the scene or a file it reads.
+pub fn make_plan(a: &PlanArgs, writes: &[&str]) -> Result<(FarmPlan, PathBuf, PathBuf)> {
     let contents = plsr::scene::file::load_contents(&a.scene)?;
     let spp = a.spp.unwrap_or(contents.description.job.spp);
     if spp == 0 {
@@ -146,24 +149,9 @@ pub fn make_plan(a: &PlanArgs) -> Result<(FarmPlan, PathBuf, PathBuf)> {
             Some([*range.start(), *range.end()])
         }
     };
-    std::fs::create_dir_all(&a.output_dir).map_err(|source| Error::Io {
-        file: a.output_dir.clone(),
-        source,
-    })?;
-    let dir = std::fs::canonicalize(&a.output_dir).map_err(|source| Error::Io {
-        file: a.output_dir.clone(),
-        source,
-    })?;
-    let scene_dir = match a.scene.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let scene_name = a
-        .scene
-        .file_name()
-        .ok_or_else(|| Error::InvalidArgument(format!("{}: not a file name", a.scene.display())))?;
-    let plan = FarmPlan {
-        scene: relative_path(&dir, scene_dir)?.join(scene_name),
+    // Checked before the output folder is made.
+    let mut plan = FarmPlan {
+        scene: PathBuf::new(),
         spp,
         parts: a.parts,
         frames,
@@ -178,6 +166,47 @@ pub fn make_plan(a: &PlanArgs) -> Result<(FarmPlan, PathBuf, PathBuf)> {
         };
         Error::InvalidArgument(format!("{flag}: {m}"))
     })?;
+    std::fs::create_dir_all(&a.output_dir).map_err(|source| Error::Io {
+        file: a.output_dir.clone(),
+        source,
+    })?;
+    let dir = std::fs::canonicalize(&a.output_dir).map_err(|source| Error::Io {
+        file: a.output_dir.clone(),
+        source,
+    })?;
+    // No file written into the folder — the plan, the caller's files, the
+    // merged images — may replace the scene or a file it reads.
+    let merged = plan.frame_list().into_iter().flat_map(|f| {
+        let (exr, png) = plan.output_paths(&dir, f);
+        std::iter::once(exr).chain(png)
+    });
+    for out in std::iter::once(PLAN_FILE)
+        .chain(writes.iter().copied())
+        .map(|name| dir.join(name))
+        .chain(merged)
+    {
+        if let Some(input) = std::iter::once(&a.scene)
+            .chain(&contents.inputs)
+            .find(|i| same_file(&out, i))
+        {
+            return Err(Error::Output {
+                file: out,
+                message: format!(
+                    "is {}, which the scene reads: it would be overwritten (choose another -o)",
+                    input.display()
+                ),
+            });
+        }
+    }
+    let scene_dir = match a.scene.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let scene_name = a
+        .scene
+        .file_name()
+        .ok_or_else(|| Error::InvalidArgument(format!("{}: not a file name", a.scene.display())))?;
+    plan.scene = relative_path(&dir, scene_dir)?.join(scene_name);
     let plan_file = dir.join(PLAN_FILE);
     if plan_file.exists() {
         if let Ok(old) = FarmPlan::read(&plan_file) {

@@ -68,7 +68,7 @@ pub fn run(a: &SlurmArgs) -> Result<()> {
             )));
         }
     }
-    let (plan, dir, plan_file) = make_plan(&a.plan)?;
+    let (plan, dir, plan_file) = make_plan(&a.plan, &[RENDER_SCRIPT, MERGE_SCRIPT])?;
     let program = match &a.plsr {
         Some(p) => p.clone(),
         None => this_program()?,
