@@ -293,20 +293,20 @@ fn an_image_larger_than_memory_is_refused_before_allocating() {
 }
 
 /// A file that is not a plsr scene — another program's scene, a mesh, a
-/// binary file — is "unsupported scene format", not a TOML syntax error.
+/// binary file, XML that is not a Mitsuba scene — is "unsupported scene format", not a TOML syntax error.
 #[test]
 fn other_formats_are_unsupported_not_toml_errors() {
     let dir = tempfile::tempdir().unwrap();
     for (name, bytes, says) in [
         (
-            "scene.xml",
-            b"<scene version=\"3.0.0\">\n</scene>\n".to_vec(),
-            "XML (a Mitsuba 3 scene?)",
+            "drawing.xml",
+            b"<svg width=\"10\">\n</svg>\n".to_vec(),
+            "XML whose root element is <svg>",
         ),
         (
-            "mitsuba.toml",
-            b"\n  <?xml version=\"1.0\"?>\n<scene/>".to_vec(),
-            "XML",
+            "drawing.toml",
+            b"\n  <?xml version=\"1.0\"?>\n<svg/>".to_vec(),
+            "not a Mitsuba 3 <scene>",
         ),
         ("model.glb", b"glTF\x02\x00\x00\x00".to_vec(), "a glTF file"),
         (

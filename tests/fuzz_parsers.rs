@@ -1,5 +1,5 @@
 //! Structure-aware fuzzing of every parser a user's file reaches: scene
-//! files (TOML and JSON), PLS files, OBJ meshes with their MTL libraries,
+//! files (TOML, JSON and Mitsuba 3 XML), PLS files, OBJ meshes with their MTL libraries,
 //! and bracket sets for `hdr merge`.
 //!
 //! Each generator builds inputs the way users write them — the real
@@ -879,6 +879,219 @@ fn scene_files_end_in_ok_or_a_clean_error() {
                 prop_assert_eq!(json_outcome, outcome, "TOML and JSON differ: {}", input);
             }
             Ok(outcome)
+        },
+    );
+}
+
+// ---------------------------------------------------------------------
+// Mitsuba 3 XML scenes.
+// ---------------------------------------------------------------------
+
+/// An XML attribute value: mostly sensible, now and then from the edges
+/// (TOML syntax, quotes and markup are escaped by the caller's format).
+fn xml_number(lo: f64, hi: f64) -> BoxedStrategy<String> {
+    prop_oneof![
+        40 => within(lo, hi),
+        1 => number().prop_map(|s| s.replace('"', "")),
+        1 => prop::sample::select(vec!["$spp", "$nowhere", "", "1, 2", "1 2 3"]).prop_map(String::from),
+    ]
+    .boxed()
+}
+
+fn xml_int(lo: i64, hi: i64) -> BoxedStrategy<String> {
+    prop_oneof![
+        20 => count(lo, hi),
+        1 => integer().prop_map(|s| s.replace('"', "")),
+    ]
+    .boxed()
+}
+
+fn xml_triple(lo: f64, hi: f64) -> BoxedStrategy<String> {
+    prop_oneof![
+        8 => (xml_number(lo, hi), xml_number(lo, hi), xml_number(lo, hi))
+            .prop_map(|(a, b, c)| format!("{a}, {b}, {c}")),
+        1 => xml_number(lo, hi),
+    ]
+    .boxed()
+}
+
+fn xml_word(choices: &'static [&'static str]) -> BoxedStrategy<String> {
+    prop_oneof![
+        20 => prop::sample::select(choices).prop_map(String::from),
+        1 => prop::sample::select(vec!["", "bogus", "é"]).prop_map(String::from),
+    ]
+    .boxed()
+}
+
+fn xml_transform() -> BoxedStrategy<String> {
+    let op = prop_oneof![
+        xml_triple(-2.0, 2.0).prop_map(|v| format!("<translate value=\"{v}\"/>")),
+        xml_triple(-2.0, 2.0).prop_map(|v| format!("<scale value=\"{v}\"/>")),
+        (xml_triple(-1.0, 1.0), xml_number(-180.0, 180.0))
+            .prop_map(|(a, d)| format!("<rotate value=\"{a}\" angle=\"{d}\"/>")),
+        prop::collection::vec(xml_number(-2.0, 2.0), 16)
+            .prop_map(|v| format!("<matrix value=\"{}\"/>", v.join(" "))),
+        (xml_triple(-3.0, 3.0), xml_triple(-3.0, 3.0))
+            .prop_map(|(o, t)| format!("<lookat origin=\"{o}\" target=\"{t}\" up=\"0, 1, 0\"/>")),
+    ];
+    prop::collection::vec(op, 0..3)
+        .prop_map(|ops| format!("<transform name=\"to_world\">{}</transform>", ops.join("")))
+        .boxed()
+}
+
+fn xml_bsdf() -> BoxedStrategy<String> {
+    let inner = prop_oneof![
+        xml_triple(0.0, 1.0).prop_map(|c| format!(
+            "<bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"{c}\"/></bsdf>"
+        )),
+        (xml_word(&["Au", "Ag", "Cu", "Al", "none"]), xml_word(&["ggx", "beckmann"]), xml_number(0.0, 1.0))
+            .prop_map(|(m, d, a)| format!(
+                "<bsdf type=\"roughconductor\"><string name=\"material\" value=\"{m}\"/>\
+                 <string name=\"distribution\" value=\"{d}\"/><float name=\"alpha\" value=\"{a}\"/></bsdf>"
+            )),
+        xml_number(1.0, 2.0).prop_map(|i| format!(
+            "<bsdf type=\"dielectric\"><float name=\"int_ior\" value=\"{i}\"/></bsdf>"
+        )),
+        (xml_word(&["bk7", "water", "air", "diamond"]), xml_number(0.0, 1.0)).prop_map(|(i, a)| format!(
+            "<bsdf type=\"roughdielectric\"><string name=\"int_ior\" value=\"{i}\"/>\
+             <float name=\"alpha\" value=\"{a}\"/></bsdf>"
+        )),
+        (xml_triple(0.0, 1.0), xml_number(0.0, 1.0), xml_number(0.0, 1.0), xml_number(0.0, 1.0))
+            .prop_map(|(c, r, m, sh)| format!(
+                "<bsdf type=\"principled\"><rgb name=\"base_color\" value=\"{c}\"/>\
+                 <float name=\"roughness\" value=\"{r}\"/><float name=\"metallic\" value=\"{m}\"/>\
+                 <float name=\"sheen\" value=\"{sh}\"/></bsdf>"
+            )),
+        Just("<bsdf type=\"plastic\"/>".to_string()),
+        Just("<bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">\
+              <string name=\"filename\" value=\"tex.png\"/></texture></bsdf>".to_string()),
+    ];
+    (inner, any::<bool>())
+        .prop_map(|(b, two)| {
+            if two {
+                format!("<bsdf type=\"twosided\">{b}</bsdf>")
+            } else {
+                b
+            }
+        })
+        .boxed()
+}
+
+fn xml_shape() -> BoxedStrategy<String> {
+    let kind = prop_oneof![
+        4 => xml_word(&["rectangle", "sphere", "disk", "cube"]).prop_map(|k| format!("<shape type=\"{k}\">")),
+        1 => xml_word(&["mesh.obj", "notamesh.obj", "folder.obj", "missing.obj"]).prop_map(|f| format!(
+            "<shape type=\"obj\"><string name=\"filename\" value=\"{f}\"/>"
+        )),
+        1 => Just("<shape type=\"ply\"><string name=\"filename\" value=\"mesh.obj\"/>".to_string()),
+    ];
+    let emitter = prop::option::weighted(
+        0.3,
+        xml_triple(0.0, 20.0).prop_map(|r| {
+            format!("<emitter type=\"area\"><rgb name=\"radiance\" value=\"{r}\"/></emitter>")
+        }),
+    );
+    (
+        kind,
+        xml_transform(),
+        prop::option::weighted(0.8, xml_bsdf()),
+        emitter,
+    )
+        .prop_map(|(k, t, b, e)| {
+            format!(
+                "{k}{t}{}{}</shape>",
+                b.unwrap_or_default(),
+                e.unwrap_or_default()
+            )
+        })
+        .boxed()
+}
+
+fn xml_emitter() -> BoxedStrategy<String> {
+    prop_oneof![
+        (xml_triple(-3.0, 3.0), xml_triple(0.0, 10.0)).prop_map(|(p, i)| format!(
+            "<emitter type=\"point\"><point name=\"position\" value=\"{p}\"/>\
+             <rgb name=\"intensity\" value=\"{i}\"/></emitter>"
+        )),
+        xml_triple(0.0, 1.0).prop_map(|r| format!(
+            "<emitter type=\"constant\"><rgb name=\"radiance\" value=\"{r}\"/></emitter>"
+        )),
+        (xml_transform(), xml_number(0.0, 2.0)).prop_map(|(t, s)| format!(
+            "<emitter type=\"envmap\"><string name=\"filename\" value=\"sky.exr\"/>{t}\
+             <float name=\"scale\" value=\"{s}\"/></emitter>"
+        )),
+        Just("<emitter type=\"spot\"/>".to_string()),
+    ]
+    .boxed()
+}
+
+fn xml_sensor() -> BoxedStrategy<String> {
+    (
+        xml_word(&["perspective", "thinlens"]),
+        xml_number(1.0, 120.0),
+        xml_word(&["x", "y", "diagonal", "smaller", "larger"]),
+        xml_transform(),
+        (xml_int(1, 12), xml_int(1, 12)),
+        xml_word(&["box", "gaussian", "tent"]),
+        xml_int(1, 4),
+    )
+        .prop_map(|(k, fov, axis, t, (w, h), filter, spp)| {
+            format!(
+                "<sensor type=\"{k}\"><float name=\"fov\" value=\"{fov}\"/>\
+                 <string name=\"fov_axis\" value=\"{axis}\"/>{t}\
+                 <film type=\"hdrfilm\"><integer name=\"width\" value=\"{w}\"/>\
+                 <integer name=\"height\" value=\"{h}\"/><rfilter type=\"{filter}\"/></film>\
+                 <sampler type=\"independent\"><integer name=\"sample_count\" value=\"{spp}\"/>\
+                 </sampler></sensor>"
+            )
+        })
+        .boxed()
+}
+
+/// A Mitsuba 3 scene from the subset plsr imports, with now and then what
+/// it does not.
+fn mitsuba_text() -> impl Strategy<Value = String> {
+    (
+        prop::option::weighted(0.5, xml_int(1, 4)),
+        prop::option::weighted(0.7, xml_int(-1, 8).prop_map(|d| if d == "0" || d == "1" { "2".into() } else { d })),
+        prop::option::weighted(0.9, xml_sensor()),
+        prop::collection::vec(xml_shape(), 0..4),
+        prop::collection::vec(xml_emitter(), 0..3),
+    )
+        .prop_map(|(spp, depth, sensor, shapes, emitters)| {
+            let mut s = String::from("<?xml version=\"1.0\"?>\n<scene version=\"3.0.0\">\n");
+            if let Some(spp) = spp {
+                s.push_str(&format!("<default name=\"spp\" value=\"{spp}\"/>\n"));
+            }
+            if let Some(d) = depth {
+                s.push_str(&format!(
+                    "<integrator type=\"path\"><integer name=\"max_depth\" value=\"{d}\"/></integrator>\n"
+                ));
+            }
+            for part in sensor.into_iter().chain(shapes).chain(emitters) {
+                s.push_str(&part);
+                s.push('\n');
+            }
+            s.push_str("</scene>\n");
+            s
+        })
+}
+
+/// Mitsuba 3 XML scenes: translated and built, or refused cleanly.
+#[test]
+fn mitsuba_scenes_end_in_ok_or_a_clean_error() {
+    fuzz(
+        "mitsuba_scenes",
+        1500,
+        0.05,
+        (mitsuba_text(), mutations()),
+        |(text, mutations)| {
+            let dir = scene_fixtures();
+            let bytes = mutate(&text, &mutations);
+            let input = String::from_utf8_lossy(&bytes).into_owned();
+            case(&input, || {
+                check_scene(dir.path(), "scene.xml", &bytes, &input)
+            })
         },
     );
 }

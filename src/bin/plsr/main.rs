@@ -8,6 +8,7 @@ mod experiment;
 mod farm;
 mod fit;
 mod hdr;
+mod import;
 mod info;
 mod merge;
 mod pls;
@@ -55,6 +56,9 @@ pub enum Command {
     Tonemap(tonemap::TonemapArgs),
     /// Print what an OpenEXR file holds: size, channels, header attributes.
     Info(info::InfoArgs),
+    /// Translate a Mitsuba 3 XML scene into a plsr scene file (TOML); `plsr
+    /// render` also reads such XML directly (see docs/scene-format.md).
+    Import(import::ImportArgs),
     /// Fit the real surfaces' materials (and lights' brightness) to the
     /// scene's photos by differentiable rendering and Adam.
     Fit(fit::FitArgs),
@@ -112,6 +116,7 @@ where
         Command::Farm(c) => farm::run(c),
         Command::Tonemap(a) => tonemap::run(&a),
         Command::Info(a) => info::run(&a),
+        Command::Import(a) => import::run(&a),
         Command::Fit(a) => fit::run(&a),
         Command::Compare(a) => compare::run(&a),
         Command::Bench(a) => bench::run(a),

@@ -120,6 +120,9 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         )));
     }
     let contents = plsr::scene::file::load_contents(&a.scene)?;
+    for n in &contents.notes {
+        eprintln!("note: {n}");
+    }
     let inputs = contents.inputs;
     // The frames asked for, checked against the scene's camera path.
     let frames: Vec<Option<u32>> = match (a.frame, &a.frames, &contents.camera_path) {

@@ -92,6 +92,9 @@ pub struct SceneFileContents {
     pub views: Vec<crate::scene::photo::ViewSpec>,
     /// The camera's path (`[[camera.path]]`), for animations.
     pub camera_path: Option<crate::camera_path::CameraPath>,
+    /// What a translation from another format approximated (one line per
+    /// approximation, naming the element); empty for plsr's own files.
+    pub notes: Vec<String>,
 }
 
 /// `[[views]]`: a photo of the scene and the camera that took it.
@@ -103,6 +106,8 @@ struct ViewSection {
 }
 
 /// Reads and validates a scene file with its `[photo]`; see [`load`].
+/// A Mitsuba 3 XML file (by its `.xml` name or its leading `<`) is first
+/// translated into a plsr scene ([`crate::scene::mitsuba`]).
 pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
     crate::input::check_input_file(path)?;
     let bytes = std::fs::read(path).map_err(|source| Error::Io {
@@ -115,29 +120,59 @@ pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
             path,
             "",
             "unsupported scene format: not a text file (plsr reads TOML scene files, \
-             or JSON with the same schema; see docs/scene-format.md)",
+             JSON with the same schema, or Mitsuba 3 XML; see docs/scene-format.md)",
         )
     })?;
+    if crate::scene::mitsuba::looks_like_xml(path, text.as_bytes()) {
+        let translation = crate::scene::mitsuba::translate(path, &text)?;
+        // What the builder finds wrong is in the translation, not the XML.
+        let mut contents = from_text(path, &translation.toml, false).map_err(|e| match e {
+            Error::Input {
+                file,
+                field,
+                message,
+            } => Error::Input {
+                file,
+                field: if field.is_empty() {
+                    "(translated scene)".into()
+                } else {
+                    format!("(translated scene) {field}")
+                },
+                message: format!(
+                    "{message} (the Mitsuba scene translated into plsr's format, \
+                     which `plsr import` writes out, has this fault)"
+                ),
+            },
+            other => other,
+        })?;
+        contents.notes = translation.notes;
+        return Ok(contents);
+    }
     let is_json = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    from_text(path, &text, is_json)
+}
+
+/// [`load_contents`] of a scene file's text (TOML, or JSON if `is_json`).
+fn from_text(path: &Path, text: &str, is_json: bool) -> Result<SceneFileContents> {
     let parsed: SceneFile = if is_json {
         // Errors name the field, as for TOML.
-        let mut json = serde_json::Deserializer::from_str(&text);
+        let mut json = serde_json::Deserializer::from_str(text);
         serde_path_to_error::deserialize(&mut json).map_err(|e| {
             let field = e.path().to_string();
             let field = if field == "." { String::new() } else { field };
             Error::input(path, field, e.into_inner().to_string())
         })?
     } else {
-        toml::from_str(&text).map_err(|e| {
+        toml::from_str(text).map_err(|e| {
             let (field, at) = e
                 .span()
                 .map(|s| {
                     let line = text[..s.start].matches('\n').count() + 1;
                     let col = s.start - text[..s.start].rfind('\n').map_or(0, |i| i + 1) + 1;
                     (
-                        field_at(&text, s.start),
+                        field_at(text, s.start),
                         format!("line {line}, column {col}: "),
                     )
                 })
@@ -158,7 +193,7 @@ pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
     let builder = Builder {
         file: path,
         base,
-        toml: (!is_json).then_some(text.as_str()),
+        toml: (!is_json).then_some(text),
         inputs: RefCell::new(Vec::new()),
     };
     let photo = match &parsed.photo {
@@ -198,6 +233,7 @@ pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
         photo,
         views,
         camera_path,
+        notes: Vec::new(),
     })
 }
 
@@ -209,14 +245,8 @@ fn check_scene_format(path: &Path, bytes: &[u8]) -> Result<()> {
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    let start = bytes
-        .strip_prefix(b"\xef\xbb\xbf".as_slice())
-        .unwrap_or(bytes)
-        .trim_ascii_start();
     let what = if bytes.starts_with(b"glTF") || matches!(ext.as_str(), "gltf" | "glb") {
         Some("a glTF file")
-    } else if start.starts_with(b"<") || ext == "xml" {
-        Some("XML (a Mitsuba 3 scene?)")
     } else if matches!(ext.as_str(), "obj" | "ply" | "stl" | "fbx") {
         Some("a mesh: place it in a scene file's [[shapes]] (type = \"obj\" for OBJ)")
     } else if matches!(
@@ -232,8 +262,8 @@ fn check_scene_format(path: &Path, bytes: &[u8]) -> Result<()> {
             path,
             "",
             format!(
-                "unsupported scene format: {what}; plsr reads TOML scene files, or JSON \
-                 with the same schema (see docs/scene-format.md)"
+                "unsupported scene format: {what}; plsr reads TOML scene files, JSON \
+                 with the same schema, or Mitsuba 3 XML (see docs/scene-format.md)"
             ),
         )),
         None => Ok(()),
