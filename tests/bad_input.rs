@@ -308,12 +308,6 @@ fn other_formats_are_unsupported_not_toml_errors() {
             b"\n  <?xml version=\"1.0\"?>\n<svg/>".to_vec(),
             "not a Mitsuba 3 <scene>",
         ),
-        ("model.glb", b"glTF\x02\x00\x00\x00".to_vec(), "a glTF file"),
-        (
-            "model.gltf",
-            b"{\"asset\": {\"version\": \"2.0\"}}".to_vec(),
-            "a glTF file",
-        ),
         ("bunny.obj", b"v 0 0 0\n".to_vec(), "a mesh"),
         (
             "noise.toml",

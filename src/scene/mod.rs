@@ -7,6 +7,7 @@
 //! `i` in Embree is `meshes[i]`, so a hit names its mesh directly.
 
 pub mod file;
+pub mod gltf_scene;
 pub mod mitsuba;
 pub mod photo;
 pub mod ply;

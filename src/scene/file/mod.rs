@@ -114,7 +114,15 @@ pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
         file: path.to_path_buf(),
         source,
     })?;
-    check_scene_format(path, &bytes)?;
+    if crate::scene::gltf_scene::looks_like_gltf(path, &bytes) {
+        let wrapper = crate::scene::gltf_scene::scene_toml(path)?;
+        let mut contents = from_text(path, &wrapper.toml, false)?;
+        let mut notes = wrapper.notes;
+        notes.append(&mut contents.notes);
+        contents.notes = notes;
+        return Ok(contents);
+    }
+    check_scene_format(path)?;
     let text = String::from_utf8(bytes).map_err(|_| {
         Error::input(
             path,
@@ -145,7 +153,9 @@ pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
             },
             other => other,
         })?;
-        contents.notes = translation.notes;
+        let mut notes = translation.notes;
+        notes.append(&mut contents.notes);
+        contents.notes = notes;
         return Ok(contents);
     }
     let is_json = path
@@ -195,6 +205,7 @@ fn from_text(path: &Path, text: &str, is_json: bool) -> Result<SceneFileContents
         base,
         toml: (!is_json).then_some(text),
         inputs: RefCell::new(Vec::new()),
+        notes: RefCell::new(Vec::new()),
     };
     let photo = match &parsed.photo {
         Some(p) => Some(builder.photo(p)?),
@@ -233,22 +244,20 @@ fn from_text(path: &Path, text: &str, is_json: bool) -> Result<SceneFileContents
         photo,
         views,
         camera_path,
-        notes: Vec::new(),
+        notes: builder.notes.into_inner(),
     })
 }
 
 /// Refuses, with "unsupported scene format", files that are recognisably
-/// another program's scene or a bare mesh (by extension or by their first
-/// bytes), rather than reporting a TOML syntax error in them.
-fn check_scene_format(path: &Path, bytes: &[u8]) -> Result<()> {
+/// another program's scene or a bare mesh (by extension), rather than
+/// reporting a TOML syntax error in them.
+fn check_scene_format(path: &Path) -> Result<()> {
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    let what = if bytes.starts_with(b"glTF") || matches!(ext.as_str(), "gltf" | "glb") {
-        Some("a glTF file")
-    } else if matches!(ext.as_str(), "obj" | "ply" | "stl" | "fbx") {
-        Some("a mesh: place it in a scene file's [[shapes]] (type = \"obj\" for OBJ)")
+    let what = if matches!(ext.as_str(), "obj" | "ply" | "stl" | "fbx") {
+        Some("a mesh: place it in a scene file's [[shapes]] (type = \"obj\", \"ply\" or \"gltf\")")
     } else if matches!(
         ext.as_str(),
         "pbrt" | "blend" | "usd" | "usda" | "usdc" | "usdz" | "exr" | "hdr" | "png" | "jpg"
@@ -277,9 +286,20 @@ struct Builder<'a> {
     toml: Option<&'a str>,
     /// The files read so far, besides the scene file.
     inputs: RefCell<Vec<PathBuf>>,
+    /// What was approximated on the way (an imported file's unsupported
+    /// features), for [`SceneFileContents::notes`].
+    notes: RefCell<Vec<String>>,
 }
 
 impl Builder<'_> {
+    /// Records something plsr approximated or left out.
+    fn note(&self, note: String) {
+        let mut notes = self.notes.borrow_mut();
+        if !notes.contains(&note) {
+            notes.push(note);
+        }
+    }
+
     /// Records that the scene read `path`.
     fn read_input(&self, path: &Path) {
         self.inputs.borrow_mut().push(path.to_path_buf());

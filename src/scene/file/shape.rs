@@ -40,6 +40,14 @@ struct ObjKeys {
     smooth_normals: Option<bool>,
 }
 
+/// The keys of a `gltf` shape.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GltfKeys {
+    file: Option<PathBuf>,
+    smooth_normals: Option<bool>,
+}
+
 /// The keys of a `rectangle` shape.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -209,6 +217,7 @@ impl Builder<'_> {
                 key_names::<DiskKeys>(),
                 key_names::<PlyKeys>(),
                 key_names::<CubeKeys>(),
+                key_names::<GltfKeys>(),
             ]
             .concat()
             {
@@ -251,7 +260,7 @@ impl Builder<'_> {
             }),
             None => {
                 // On OBJ shapes, two_sided also applies to MTL `Ke` emission.
-                if s.two_sided.is_some() && s.kind != "obj" {
+                if s.two_sided.is_some() && s.kind != "obj" && s.kind != "gltf" {
                     return Err(self.err(
                         format!("{field}.two_sided"),
                         "only used together with `emission`",
@@ -288,6 +297,20 @@ impl Builder<'_> {
                     is_virtual,
                 };
                 return self.obj_meshes(&shape, &keys, materials, meshes);
+            }
+            "gltf" => {
+                let keys: GltfKeys = self.typed_keys(&field, &s.keys, unknown)?;
+                let shape = Common {
+                    field: &field,
+                    matrix,
+                    material,
+                    emission,
+                    two_sided: s.two_sided.unwrap_or(false),
+                    name: &shape_name,
+                    object_id,
+                    is_virtual,
+                };
+                return self.gltf_meshes(&shape, &keys, materials, meshes);
             }
             "rectangle" => {
                 let keys: RectangleKeys = self.typed_keys(&field, &s.keys, unknown)?;
@@ -355,7 +378,7 @@ impl Builder<'_> {
                 return Err(self.err(
                     format!("{field}.type"),
                     format!(
-                    "unknown shape type `{other}` (known: obj, ply, rectangle, sphere, disk, cube)"
+                    "unknown shape type `{other}` (known: obj, ply, gltf, rectangle, sphere, disk, cube)"
                 ),
                 ))
             }
@@ -461,6 +484,119 @@ impl Builder<'_> {
                 uvs: o.uvs,
                 material: mat,
                 emission: shape.emission.or(mtl_emission),
+                object_id: shape.object_id,
+                pls: None,
+                is_virtual: shape.is_virtual,
+            });
+        }
+        Ok(())
+    }
+
+    /// The meshes of a `gltf` shape: one per triangle primitive of the
+    /// file's default scene (node transforms, then the shape's), with the
+    /// shape's material or the file's own (as `principled`), and the
+    /// shape's emission or the file's emissive factors.
+    fn gltf_meshes(
+        &self,
+        shape: &Common,
+        keys: &GltfKeys,
+        materials: &mut Vec<Material>,
+        meshes: &mut Vec<Mesh>,
+    ) -> Result<()> {
+        let field = shape.field;
+        let rel = keys
+            .file
+            .as_ref()
+            .ok_or_else(|| self.err(format!("{field}.file"), "required for a glTF shape"))?;
+        let path = self.base.join(rel);
+        crate::input::check_input_file(&path)
+            .map_err(|e| self.err(format!("{field}.file"), e.to_string()))?;
+        let gltf = crate::scene::gltf_scene::read_gltf(&path)
+            .map_err(|m| self.err(format!("{field}.file"), format!("{}: {m}", path.display())))?;
+        self.read_input(&path);
+        for f in &gltf.files {
+            self.read_input(f);
+        }
+        for n in &gltf.notes {
+            self.note(format!("{field} ({}): {n}", rel.display()));
+        }
+        if gltf.objects.is_empty() {
+            return Err(self.err(
+                format!("{field}.file"),
+                format!("{}: its default scene has no triangles", path.display()),
+            ));
+        }
+        let mut index: HashMap<Option<usize>, u32> = HashMap::new();
+        for o in gltf.objects {
+            let mat = match shape.material {
+                Some(m) => m,
+                None => match index.get(&o.material) {
+                    Some(&m) => m,
+                    None => {
+                        let material = match o.material {
+                            Some(i) => {
+                                let mut m = gltf.materials[i].clone();
+                                m.name = format!("{}:{}", rel.display(), m.name);
+                                m
+                            }
+                            // glTF's default material: white, metallic 1,
+                            // roughness 1.
+                            None => Material::new(
+                                format!("{}:(default)", rel.display()),
+                                Bsdf::Principled(crate::bsdf::PrincipledParams {
+                                    base_color: Vec3::ONE,
+                                    roughness: 1.0,
+                                    metallic: 1.0,
+                                    anisotropic: 0.0,
+                                    specular: 0.5,
+                                    spec_tint: 0.0,
+                                    energy_conserving: false,
+                                }),
+                            ),
+                        };
+                        materials.push(material);
+                        let m = (materials.len() - 1) as u32;
+                        index.insert(o.material, m);
+                        m
+                    }
+                },
+            };
+            let normals = if o.normals.is_empty() && keys.smooth_normals.unwrap_or(false) {
+                shapes::angle_weighted_normals(&o.positions, &o.triangles)
+            } else {
+                o.normals
+            };
+            let (mut p, mut t) = (o.positions, o.triangles);
+            transform_mesh(&shape.matrix, &mut p, &mut t);
+            let normals = transform_normals(&shape.matrix, normals);
+            let file_emission = o
+                .material
+                .and_then(|m| gltf.emission.get(m).copied())
+                .filter(|e| e.max_element() > 0.0)
+                .map(|radiance| Emission {
+                    radiance,
+                    two_sided: shape.two_sided,
+                    cone: None,
+                });
+            let emission = shape.emission.or(file_emission);
+            if shape.is_virtual && emission.is_some() {
+                return Err(self.err(
+                    format!("{field}.file"),
+                    format!(
+                        "{}: `{}` emits, and a virtual object cannot emit",
+                        path.display(),
+                        o.name
+                    ),
+                ));
+            }
+            meshes.push(Mesh {
+                name: format!("{}/{}", shape.name, o.name),
+                positions: p,
+                triangles: t,
+                normals,
+                uvs: o.uvs,
+                material: mat,
+                emission,
                 object_id: shape.object_id,
                 pls: None,
                 is_virtual: shape.is_virtual,

@@ -1,0 +1,561 @@
+//! glTF 2.0 files (`.gltf` with its buffers and images, or `.glb`): the
+//! meshes of the default scene with their node transforms, normals and
+//! texture coordinates, the metallic-roughness materials as plsr's
+//! `principled` BSDF (base colour, metallic and roughness, factors and
+//! textures), emission, cameras and punctual point lights.
+//!
+//! A scene file places a glTF like an OBJ (`type = "gltf"`), and
+//! `plsr render model.glb` renders one directly (see
+//! [`crate::scene::file`]). What plsr does not model is listed in
+//! [`GltfScene::notes`]: normal, occlusion and emissive textures, alpha
+//! blending and masking, spot and directional lights, orthographic cameras.
+//!
+//! Conventions: glTF is y-up, metres, right-handed, as plsr's scenes
+//! usually are; texture coordinates have `v` pointing down the image, so
+//! plsr's `v` is `1 − v`. glTF's perceptual roughness is plsr's
+//! `roughness` (`α = roughness²`) and its dielectric reflectance at normal
+//! incidence, 0.04, is plsr's default `specular` (0.5, `η = 1.5`).
+
+use crate::bsdf::{Bsdf, PrincipledParams};
+use crate::material::{Material, MaterialTextures};
+use crate::texture::{srgb_to_linear, ImageTexture};
+use glam::{Mat4, Vec2, Vec3};
+use std::path::Path;
+use std::sync::Arc;
+
+/// The luminous efficacy plsr assumes to turn glTF's photometric light
+/// intensities (candela) into radiant ones (W/sr): 683 lm/W.
+pub const LUMENS_PER_WATT: f32 = 683.0;
+
+/// One triangle primitive of the default scene, in world coordinates (its
+/// nodes' transforms applied).
+#[derive(Debug, Clone)]
+pub struct GltfObject {
+    /// The mesh's name (or `mesh N`) and the primitive's index.
+    pub name: String,
+    /// Vertex positions (metres).
+    pub positions: Vec<Vec3>,
+    /// Counter-clockwise triangles.
+    pub triangles: Vec<[u32; 3]>,
+    /// Unit vertex normals, or empty.
+    pub normals: Vec<Vec3>,
+    /// Texture coordinates (plsr's convention: `v` up), or empty.
+    pub uvs: Vec<Vec2>,
+    /// Index into [`GltfScene::materials`], or `None` for glTF's default
+    /// material (white, metallic 1, roughness 1).
+    pub material: Option<usize>,
+}
+
+/// A glTF camera, posed in the world.
+#[derive(Debug, Clone, Copy)]
+pub struct GltfCamera {
+    /// Centre of projection.
+    pub position: Vec3,
+    /// Unit viewing direction.
+    pub forward: Vec3,
+    /// Unit up direction.
+    pub up: Vec3,
+    /// Vertical field of view, degrees.
+    pub vfov_deg: f32,
+    /// Width over height, if the file gives it.
+    pub aspect: Option<f32>,
+}
+
+/// A punctual point light (KHR_lights_punctual).
+#[derive(Debug, Clone, Copy)]
+pub struct GltfPointLight {
+    /// Position (metres).
+    pub position: Vec3,
+    /// Radiant intensity, W/sr per channel (candela ÷ [`LUMENS_PER_WATT`]).
+    pub intensity: Vec3,
+}
+
+/// Everything plsr takes from a glTF file.
+#[derive(Debug, Clone)]
+pub struct GltfScene {
+    /// Triangle primitives, in world coordinates.
+    pub objects: Vec<GltfObject>,
+    /// Materials, by glTF index.
+    pub materials: Vec<Material>,
+    /// Emitted radiance of each material (W/(m²·sr)), zero if none.
+    pub emission: Vec<Vec3>,
+    /// Cameras of the default scene.
+    pub cameras: Vec<GltfCamera>,
+    /// Point lights of the default scene.
+    pub point_lights: Vec<GltfPointLight>,
+    /// What plsr leaves out, one line each.
+    pub notes: Vec<String>,
+    /// The other files the glTF file read (buffers, images).
+    pub files: Vec<std::path::PathBuf>,
+}
+
+impl GltfScene {
+    /// The bounds of every object: (min, max), or `None` without objects.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let mut points = self.objects.iter().flat_map(|o| o.positions.iter());
+        let first = *points.next()?;
+        Some(points.fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))))
+    }
+}
+
+/// An image's decoded RGBA texels, shared by the textures made from it.
+type Texels = Arc<Vec<[f32; 4]>>;
+
+/// Reads a glTF file (`.gltf` or `.glb`) and everything it references. The
+/// error message says what is wrong; callers put the file and field in
+/// front.
+pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, String> {
+    let (doc, buffers, images) =
+        gltf::import(path).map_err(|e| format!("not a readable glTF 2.0 file: {e}"))?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let mut files = Vec::new();
+    let mut external = |uri: &str| {
+        if !uri.starts_with("data:") {
+            files.push(base.join(uri));
+        }
+    };
+    for b in doc.buffers() {
+        if let gltf::buffer::Source::Uri(uri) = b.source() {
+            external(uri);
+        }
+    }
+    for i in doc.images() {
+        if let gltf::image::Source::Uri { uri, .. } = i.source() {
+            external(uri);
+        }
+    }
+    let mut notes = Vec::new();
+    let mut note = |n: String| {
+        if !notes.contains(&n) {
+            notes.push(n);
+        }
+    };
+
+    // Materials: the metallic-roughness model as principled.
+    let mut textures: Vec<Option<Texels>> = vec![None; images.len()];
+    let mut texels = |index: usize| -> std::result::Result<(u32, u32, Texels), String> {
+        let image = images
+            .get(index)
+            .ok_or_else(|| format!("image {index} does not exist"))?;
+        if textures[index].is_none() {
+            textures[index] = Some(Arc::new(decode(image)?));
+        }
+        Ok((image.width, image.height, textures[index].clone().unwrap()))
+    };
+    let mut materials = Vec::new();
+    let mut emission = Vec::new();
+    for (i, m) in doc.materials().enumerate() {
+        let name = m
+            .name()
+            .map_or_else(|| format!("material {i}"), String::from);
+        let pbr = m.pbr_metallic_roughness();
+        let [r, g, b, _] = pbr.base_color_factor();
+        let factor = Vec3::new(r, g, b);
+        let params = PrincipledParams {
+            base_color: factor.clamp(Vec3::ZERO, Vec3::ONE),
+            roughness: pbr.roughness_factor().clamp(0.0, 1.0),
+            metallic: pbr.metallic_factor().clamp(0.0, 1.0),
+            anisotropic: 0.0,
+            specular: 0.5,
+            spec_tint: 0.0,
+            energy_conserving: false,
+        };
+        let mut t = MaterialTextures::default();
+        let mut uses_second_uv = false;
+        if let Some(info) = pbr.base_color_texture() {
+            uses_second_uv |= info.tex_coord() != 0;
+            let (w, h, px) = texels(info.texture().source().index())?;
+            t.base_color = Some(Arc::new(texture(w, h, &px, |p| {
+                let c = Vec3::new(
+                    srgb_to_linear(p[0]),
+                    srgb_to_linear(p[1]),
+                    srgb_to_linear(p[2]),
+                );
+                (c * factor).clamp(Vec3::ZERO, Vec3::ONE)
+            })));
+        }
+        if let Some(info) = pbr.metallic_roughness_texture() {
+            uses_second_uv |= info.tex_coord() != 0;
+            let (w, h, px) = texels(info.texture().source().index())?;
+            // Roughness in green, metallic in blue, each times its factor.
+            let rf = params.roughness;
+            let mf = params.metallic;
+            t.roughness = Some(Arc::new(texture(w, h, &px, |p| {
+                Vec3::splat((p[1] * rf).clamp(0.0, 1.0))
+            })));
+            t.metallic = Some(Arc::new(texture(w, h, &px, |p| {
+                Vec3::splat((p[2] * mf).clamp(0.0, 1.0))
+            })));
+        }
+        if uses_second_uv {
+            note(format!(
+                "material `{name}`: textures on a second UV set are looked up with the first"
+            ));
+        }
+        if m.normal_texture().is_some() {
+            note(format!(
+                "material `{name}`: its normal texture is not used (plsr has no normal maps)"
+            ));
+        }
+        if m.occlusion_texture().is_some() {
+            note(format!("material `{name}`: its occlusion texture is not used (light transport computes occlusion)"));
+        }
+        if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
+            note(format!(
+                "material `{name}`: alpha {:?} is rendered opaque",
+                m.alpha_mode()
+            ));
+        }
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        let e = Vec3::from_array(m.emissive_factor()) * strength;
+        if m.emissive_texture().is_some() {
+            note(format!(
+                "material `{name}`: its emissive texture is not used; the emissive factor is"
+            ));
+        }
+        if !e.is_finite() || e.min_element() < 0.0 {
+            return Err(format!(
+                "material `{name}`: emissive factor {e} is not finite and non-negative"
+            ));
+        }
+        emission.push(e);
+        materials.push(Material {
+            name,
+            bsdf: Bsdf::Principled(params),
+            textures: t,
+        });
+    }
+
+    // The default scene's nodes, with their transforms.
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or("the file has no scene")?;
+    let mut objects = Vec::new();
+    let mut cameras = Vec::new();
+    let mut point_lights = Vec::new();
+    // Depth first, in file order: the stack holds nodes in reverse.
+    let mut stack: Vec<(gltf::Node, Mat4, usize)> =
+        scene.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+    stack.reverse();
+    while let Some((node, parent, depth)) = stack.pop() {
+        if depth > 256 {
+            return Err("nodes nest deeper than 256 levels (a cycle?)".into());
+        }
+        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+        let m = parent * local;
+        if !m.is_finite() {
+            return Err(format!(
+                "node {}: its transform is not finite",
+                node.index()
+            ));
+        }
+        if let Some(mesh) = node.mesh() {
+            let mesh_name = mesh
+                .name()
+                .map_or_else(|| format!("mesh {}", mesh.index()), String::from);
+            for prim in mesh.primitives() {
+                let name = format!("{mesh_name}/{}", prim.index());
+                if prim.mode() != gltf::mesh::Mode::Triangles {
+                    note(format!(
+                        "`{name}`: {:?} primitives are skipped (plsr renders triangles)",
+                        prim.mode()
+                    ));
+                    continue;
+                }
+                let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+                let positions: Vec<Vec3> = reader
+                    .read_positions()
+                    .ok_or_else(|| format!("`{name}` has no POSITION attribute"))?
+                    .map(Vec3::from_array)
+                    .collect();
+                let n = positions.len();
+                let indices: Vec<u32> = match reader.read_indices() {
+                    Some(i) => i.into_u32().collect(),
+                    None => (0..n as u32).collect(),
+                };
+                if !indices.len().is_multiple_of(3) {
+                    return Err(format!(
+                        "`{name}`: {} indices is not a whole number of triangles",
+                        indices.len()
+                    ));
+                }
+                if let Some(bad) = indices.iter().find(|&&i| i as usize >= n) {
+                    return Err(format!("`{name}`: index {bad} is past its {n} vertices"));
+                }
+                let mut triangles: Vec<[u32; 3]> = indices
+                    .chunks_exact(3)
+                    .map(|t| [t[0], t[1], t[2]])
+                    .collect();
+                let mut normals: Vec<Vec3> = reader
+                    .read_normals()
+                    .map(|it| it.map(Vec3::from_array).collect())
+                    .unwrap_or_default();
+                let uvs: Vec<Vec2> = reader
+                    .read_tex_coords(0)
+                    .map(|t| t.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).collect())
+                    .unwrap_or_default();
+                if (!normals.is_empty() && normals.len() != n)
+                    || (!uvs.is_empty() && uvs.len() != n)
+                {
+                    return Err(format!("`{name}`: attributes of different lengths"));
+                }
+                if positions.iter().any(|p| !p.is_finite())
+                    || normals.iter().any(|v| !v.is_finite())
+                    || uvs.iter().any(|v| !v.is_finite())
+                {
+                    return Err(format!("`{name}` has non-finite vertex data"));
+                }
+                if triangles.is_empty() {
+                    continue;
+                }
+                let world: Vec<Vec3> = positions.iter().map(|p| m.transform_point3(*p)).collect();
+                if m.determinant() < 0.0 {
+                    // A mirroring transform turns the winding round.
+                    for t in &mut triangles {
+                        t.swap(1, 2);
+                    }
+                }
+                let nm = glam::Mat3::from_mat4(m).inverse().transpose();
+                for v in &mut normals {
+                    *v = (nm * *v).normalize_or_zero();
+                }
+                objects.push(GltfObject {
+                    name,
+                    positions: world,
+                    triangles,
+                    normals,
+                    uvs,
+                    material: prim.material().index(),
+                });
+            }
+        }
+        if let Some(camera) = node.camera() {
+            match camera.projection() {
+                gltf::camera::Projection::Perspective(p) => {
+                    let forward = m.transform_vector3(-Vec3::Z).normalize_or_zero();
+                    let up = m.transform_vector3(Vec3::Y).normalize_or_zero();
+                    let vfov_deg = p.yfov().to_degrees();
+                    if forward == Vec3::ZERO
+                        || up == Vec3::ZERO
+                        || !(vfov_deg > 0.0 && vfov_deg < 180.0)
+                    {
+                        return Err(format!(
+                            "camera {}: degenerate pose or field of view",
+                            camera.index()
+                        ));
+                    }
+                    cameras.push(GltfCamera {
+                        position: m.transform_point3(Vec3::ZERO),
+                        forward,
+                        up,
+                        vfov_deg,
+                        aspect: p.aspect_ratio().filter(|a| a.is_finite() && *a > 0.0),
+                    });
+                }
+                gltf::camera::Projection::Orthographic(_) => {
+                    note(format!(
+                        "camera {}: orthographic cameras are skipped",
+                        camera.index()
+                    ));
+                }
+            }
+        }
+        if let Some(light) = node.light() {
+            let colour = Vec3::from_array(light.color()) * light.intensity() / LUMENS_PER_WATT;
+            match light.kind() {
+                gltf::khr_lights_punctual::Kind::Point => {
+                    if !colour.is_finite() || colour.min_element() < 0.0 {
+                        return Err(format!(
+                            "light {}: intensity is not finite and non-negative",
+                            light.index()
+                        ));
+                    }
+                    point_lights.push(GltfPointLight {
+                        position: m.transform_point3(Vec3::ZERO),
+                        intensity: colour,
+                    });
+                }
+                other => note(format!(
+                    "light {}: {} lights are skipped (plsr imports point lights)",
+                    light.index(),
+                    match other {
+                        gltf::khr_lights_punctual::Kind::Directional => "directional",
+                        _ => "spot",
+                    }
+                )),
+            }
+        }
+        let children: Vec<_> = node.children().collect();
+        for child in children.into_iter().rev() {
+            stack.push((child, m, depth + 1));
+        }
+    }
+    Ok(GltfScene {
+        objects,
+        materials,
+        emission,
+        cameras,
+        point_lights,
+        notes,
+        files,
+    })
+}
+
+/// An image's texels as RGBA in `[0, 1]` (not yet decoded from sRGB).
+fn decode(image: &gltf::image::Data) -> std::result::Result<Vec<[f32; 4]>, String> {
+    use gltf::image::Format::*;
+    let (channels, bytes) = match image.format {
+        R8 => (1, 1),
+        R8G8 => (2, 1),
+        R8G8B8 => (3, 1),
+        R8G8B8A8 => (4, 1),
+        R16 => (1, 2),
+        R16G16 => (2, 2),
+        R16G16B16 => (3, 2),
+        R16G16B16A16 => (4, 2),
+        R32G32B32FLOAT => (3, 4),
+        R32G32B32A32FLOAT => (4, 4),
+    };
+    let n = image.width as usize * image.height as usize;
+    if n == 0 || image.pixels.len() != n * channels * bytes {
+        return Err(format!(
+            "an image of {}×{} has {} bytes of pixels",
+            image.width,
+            image.height,
+            image.pixels.len()
+        ));
+    }
+    let value = |k: usize| -> f32 {
+        let at = k * bytes;
+        match bytes {
+            1 => image.pixels[at] as f32 / 255.0,
+            2 => u16::from_le_bytes([image.pixels[at], image.pixels[at + 1]]) as f32 / 65535.0,
+            _ => f32::from_le_bytes(image.pixels[at..at + 4].try_into().expect("4 bytes")),
+        }
+    };
+    Ok((0..n)
+        .map(|i| {
+            let base = i * channels;
+            let get = |c: usize| {
+                if c < channels {
+                    value(base + c)
+                } else if c == 3 {
+                    1.0
+                } else {
+                    value(base)
+                }
+            };
+            [get(0), get(1), get(2), get(3)]
+        })
+        .collect())
+}
+
+/// A texture from RGBA texels through `f`.
+fn texture(w: u32, h: u32, px: &[[f32; 4]], f: impl Fn(&[f32; 4]) -> Vec3) -> ImageTexture {
+    ImageTexture::from_texels(
+        w,
+        h,
+        px.iter()
+            .map(|p| {
+                let v = f(p);
+                if v.is_finite() {
+                    v
+                } else {
+                    Vec3::ZERO
+                }
+            })
+            .collect(),
+    )
+}
+
+/// Whether `path` names a glTF file (`.gltf`, `.glb`, or binary glTF's
+/// magic bytes).
+pub fn looks_like_gltf(path: &Path, bytes: &[u8]) -> bool {
+    bytes.starts_with(b"glTF")
+        || path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
+}
+
+/// A plsr scene that renders a glTF file as it is: the file as a `gltf`
+/// shape, its first camera (or one framing its bounds), its point lights,
+/// and a white sky if it has no light of its own.
+#[derive(Debug, Clone)]
+pub struct GltfWrapper {
+    /// The scene, as TOML.
+    pub toml: String,
+    /// What was approximated.
+    pub notes: Vec<String>,
+}
+
+/// Image width of a directly rendered glTF (its height follows the
+/// camera's aspect ratio, 4:3 if it gives none).
+pub const DIRECT_WIDTH: u32 = 960;
+
+/// The scene [`GltfWrapper`] of the glTF file `path`.
+pub fn scene_toml(path: &Path) -> crate::error::Result<GltfWrapper> {
+    crate::input::check_input_file(path)?;
+    let scene = read_gltf(path).map_err(|m| crate::error::Error::input(path, "", m))?;
+    let mut notes = Vec::new();
+    let file = path
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let (lo, hi) = scene.bounds().ok_or_else(|| {
+        crate::error::Error::input(path, "", "the default scene has no triangles")
+    })?;
+    let fmt = |v: Vec3| format!("[{}, {}, {}]", v.x, v.y, v.z);
+    let (position, look_at, up, vfov, aspect) = match scene.cameras.first() {
+        Some(c) => (
+            c.position,
+            c.position + c.forward,
+            c.up,
+            c.vfov_deg,
+            c.aspect,
+        ),
+        None => {
+            // Frame the bounding sphere from the front (+z), a little above.
+            let centre = 0.5 * (lo + hi);
+            let radius = (0.5 * (hi - lo).length()).max(1e-3);
+            let vfov = 40.0f32;
+            let distance = radius / (0.5 * vfov).to_radians().sin();
+            let dir = Vec3::new(0.0, 0.25, 1.0).normalize();
+            notes.push(format!(
+                "{file} has no camera: one frames it from +z (vfov {vfov}°, {distance:.3} m from its centre)"
+            ));
+            (centre + distance * dir, centre, Vec3::Y, vfov, None)
+        }
+    };
+    let aspect = aspect.unwrap_or(4.0 / 3.0);
+    let height = ((DIRECT_WIDTH as f32 / aspect).round() as u32).clamp(1, 65536);
+    let mut toml = format!(
+        "# {file} rendered as it is (glTF 2.0).\n\n[camera]\nposition = {}\nlook_at = {}\nup = {}\nvfov = {vfov}\nresolution = [{DIRECT_WIDTH}, {height}]\n",
+        fmt(position),
+        fmt(look_at),
+        fmt(up)
+    );
+    let emits = scene.objects.iter().any(|o| {
+        o.material
+            .and_then(|m| scene.emission.get(m))
+            .is_some_and(|e| e.max_element() > 0.0)
+    });
+    if scene.point_lights.is_empty() && !emits {
+        notes.push(format!(
+            "{file} has no lights: a uniform white sky (radiance 1) lights it"
+        ));
+        toml.push_str("\n[environment]\nradiance = [1, 1, 1]\n");
+    }
+    toml.push_str(&format!(
+        "\n[[shapes]]\ntype = \"gltf\"\nfile = {}\n",
+        toml::Value::String(file.clone())
+    ));
+    for l in &scene.point_lights {
+        toml.push_str(&format!(
+            "\n[[lights]]\ntype = \"point\"\nposition = {}\nintensity = {}\n",
+            fmt(l.position),
+            fmt(l.intensity)
+        ));
+    }
+    Ok(GltfWrapper { toml, notes })
+}
