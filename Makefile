@@ -11,7 +11,7 @@ DEB_BENCH_PACKAGES := embree-tools
 DEMO_SCENE := assets/scenes/pls-room/pls-room.toml
 OUT := out
 
-.PHONY: demo test paper fuzz deps bench-deps bench build fmt clippy install-deps-if-missing header install
+.PHONY: demo test paper fuzz deps bench-deps bench build fmt clippy install-deps-if-missing header install uninstall
 
 demo: deps
 	$(CARGO) build --release
@@ -65,18 +65,31 @@ clippy:
 header:
 	PLSR_WRITE_HEADER=1 $(CARGO) test --test capi_header
 
-# Installs the C ABI: libplsr.so (without debug info), libplsr.a, plsr.h, plsr.hpp, plsr.pc and a
-# CMake package file under PREFIX (default /usr/local).
+# Installs the C ABI and the program (README, "From C and C++"):
+# libplsr.so.X.Y.Z (stripped; soname libplsr.so.X, debug info in
+# LIBDIR/.debug/), libplsr.a, plsr.h, plsr.hpp, plsr.pc, the CMake package
+# (plsrConfig.cmake, plsrConfigVersion.cmake) and the `plsr` program.
+#   make install PREFIX=$HOME/.local
+#   make install PREFIX=/usr LIBDIR=/usr/lib/$(gcc -print-multiarch)   (Debian's multiarch folder)
+#   make install DESTDIR=/tmp/stage PREFIX=/usr                           (staged, for packaging)
+# `make uninstall` with the same PREFIX, LIBDIR and DESTDIR removes what it
+# installed (listed in LIBDIR/plsr/install-manifest.txt) and the folders it made.
 PREFIX ?= /usr/local
+LIBDIR ?= $(PREFIX)/lib
+BINDIR ?= $(PREFIX)/bin
+INCLUDEDIR ?= $(PREFIX)/include
+DESTDIR ?=
 CARGO_TARGET_DIR ?= target
 VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' Cargo.toml | head -1)
+# The oldest version whose C ABI this one keeps (0.2.0 last changed a struct,
+# plsr_principled); find_package(plsr X.Y) accepts requests from it up to VERSION.
+ABI_SINCE := 0.2.0
+INSTALL_ENV = PREFIX="$(PREFIX)" LIBDIR="$(LIBDIR)" BINDIR="$(BINDIR)" INCLUDEDIR="$(INCLUDEDIR)" \
+	DESTDIR="$(DESTDIR)" VERSION="$(VERSION)" ABI_SINCE="$(ABI_SINCE)" \
+	TARGET="$(CARGO_TARGET_DIR)/release"
 install: deps
-	CARGO_TARGET_DIR=$(CARGO_TARGET_DIR) $(CARGO) build --release --lib
-	install -d $(DESTDIR)$(PREFIX)/lib/pkgconfig $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/lib/cmake/plsr
-	install -m 755 $(CARGO_TARGET_DIR)/release/libplsr.so $(DESTDIR)$(PREFIX)/lib/
-	strip --strip-debug $(DESTDIR)$(PREFIX)/lib/libplsr.so
-	install -m 644 $(CARGO_TARGET_DIR)/release/libplsr.a $(DESTDIR)$(PREFIX)/lib/
-	install -m 644 include/plsr.h include/plsr.hpp $(DESTDIR)$(PREFIX)/include/
-	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(VERSION)|' plsr.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/plsr.pc
-	sed -e 's|@VERSION@|$(VERSION)|' plsrConfig.cmake.in > $(DESTDIR)$(PREFIX)/lib/cmake/plsr/plsrConfig.cmake
-	@echo "installed plsr $(VERSION) under $(DESTDIR)$(PREFIX)"
+	CARGO_TARGET_DIR=$(CARGO_TARGET_DIR) $(CARGO) build --release -p plsr --lib --bin plsr
+	$(INSTALL_ENV) bash scripts/install.sh install
+
+uninstall:
+	$(INSTALL_ENV) bash scripts/install.sh uninstall

@@ -8,6 +8,10 @@
 //! the shim and opens it with `dlopen` the first time an image is read or
 //! written, so the commands that never touch an image (`plsr --version`,
 //! most renders) do not pay for loading OpenImageIO's ~260 libraries.
+//!
+//! It also gives the C ABI's shared library its soname,
+//! `libplsr.so.MAJOR` (the crate's major version): hosts record that name,
+//! and `make install` links it to the real file `libplsr.so.X.Y.Z`.
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -15,6 +19,15 @@ fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-changed=shim/oiio_shim.cpp");
     println!("cargo:rerun-if-changed=shim/oiio_shim.h");
+
+    // The soname of libplsr.so (the cdylib only; the program and the rlib
+    // are not shared libraries). A host linked against this build records
+    // `libplsr.so.MAJOR` and loads any later build of the same major
+    // version: the C ABI only grows within one (docs: README, "From C and
+    // C++").
+    let major =
+        std::env::var("CARGO_PKG_VERSION_MAJOR").expect("cargo sets CARGO_PKG_VERSION_MAJOR");
+    println!("cargo:rustc-cdylib-link-arg=-Wl,-soname,libplsr.so.{major}");
 
     let oiio = match pkg_config::Config::new()
         .atleast_version("2.2")

@@ -4,7 +4,9 @@
 //!   it, and its image equals the Rust API's render bit for bit;
 //! - the C++ host runs clean under valgrind (no leaks, no invalid reads);
 //! - two threads render two scenes through the API at the same time;
-//! - `make install` installs what a pkg-config or CMake host needs.
+//! - `make install` installs what a pkg-config or CMake host needs (the
+//!   README's minimal host is built both ways, shared and static, against
+//!   an installed prefix), and `make uninstall` removes it again.
 //!
 //! The shared library is built once, by a nested `cargo build --release
 //! --lib` into `target/capi` (a separate target directory, since the outer
@@ -39,6 +41,18 @@ fn library() -> &'static Path {
         assert!(status.success(), "building libplsr failed");
         let dir = capi_target().join("release");
         assert!(dir.join("libplsr.so").is_file() && dir.join("libplsr.a").is_file());
+        // Cargo writes libplsr.so alone, but a host linked against it asks
+        // for its soname (build.rs), which `make install` links to the
+        // library; here a link beside cargo's file stands in for it.
+        let soname = dir.join(format!("libplsr.so.{}", env!("CARGO_PKG_VERSION_MAJOR")));
+        if let Err(e) = std::os::unix::fs::symlink("libplsr.so", &soname) {
+            assert_eq!(
+                e.kind(),
+                std::io::ErrorKind::AlreadyExists,
+                "linking {}: {e}",
+                soname.display()
+            );
+        }
         dir
     })
 }
@@ -309,32 +323,244 @@ fn two_threads_render_two_scenes_at_once() {
     assert_eq!(alone, together);
 }
 
+/// Fails, rather than skips, when a tool the packaging tests need is
+/// missing: all of them are in the Makefile's DEB_PACKAGES.
+fn require(tool: &str, package: &str) {
+    let found = Command::new(tool)
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    assert!(
+        found,
+        "this test needs `{tool}`, which is not installed: `make deps` installs it \
+         (Debian package {package}, listed in the Makefile's DEB_PACKAGES)"
+    );
+}
+
+/// Runs `make TARGET VAR=VALUE…` in the repository, reusing the library
+/// built by `library()`.
+fn make(target: &str, vars: &[(&str, &Path)]) {
+    library(); // builds target/capi/release, which `make install` reuses
+    let mut cmd = Command::new("make");
+    cmd.arg("-C").arg(root()).arg(target);
+    for (name, value) in vars {
+        cmd.arg(format!("{name}={}", value.display()));
+    }
+    cmd.arg(format!("CARGO_TARGET_DIR={}", capi_target().display()));
+    run(&mut cmd);
+}
+
+fn text_of(out: std::process::Output) -> String {
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// Every file, link and folder under `dir`, relative to it.
+fn entries(dir: &Path) -> Vec<String> {
+    let mut found = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            found.push(p.strip_prefix(dir).unwrap().display().to_string());
+            if p.is_dir() && !p.is_symlink() {
+                stack.push(p);
+            }
+        }
+    }
+    found.sort();
+    found
+}
+
+/// The README's section "## From C and C++".
+fn readme_c_section() -> String {
+    let text = std::fs::read_to_string(root().join("README.md")).unwrap();
+    let start = text
+        .find("\n## From C and C++\n")
+        .expect("README.md has a section \"## From C and C++\"")
+        + 1;
+    let rest = &text[start..];
+    let end = rest[3..].find("\n## ").map_or(rest.len(), |i| i + 4);
+    rest[..end].to_string()
+}
+
+/// The contents of the code blocks fenced as ```LANG in `text`.
+fn code_blocks(text: &str, lang: &str) -> Vec<String> {
+    let fence = format!("```{lang}");
+    let mut blocks = Vec::new();
+    let mut lines = text.lines();
+    while let Some(line) = lines.next() {
+        if line == fence {
+            let mut block = String::new();
+            for l in lines.by_ref().take_while(|l| *l != "```") {
+                block.push_str(l);
+                block.push('\n');
+            }
+            blocks.push(block);
+        }
+    }
+    blocks
+}
+
+#[test]
+fn readme_shows_the_minimal_host_as_it_is() {
+    let section = readme_c_section();
+    for (lang, file) in [
+        ("cpp", "examples/minimal/minimal.cpp"),
+        ("cmake", "examples/minimal/CMakeLists.txt"),
+    ] {
+        let want = std::fs::read_to_string(root().join(file)).unwrap();
+        assert_eq!(
+            code_blocks(&section, lang),
+            vec![want],
+            "README.md's \"From C and C++\" must show {file} as it is, in one ```{lang} block"
+        );
+    }
+    assert_eq!(
+        code_blocks(&section, "sh")
+            .iter()
+            .filter(|b| b.contains("pkg-config --static"))
+            .count(),
+        1,
+        "README.md's \"From C and C++\" has one ```sh block with the pkg-config builds"
+    );
+}
+
+/// A small scene for the installed hosts: the Cornell box at 64×64, 4 spp.
+fn small_scene(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(root().join("tests/data/cornell-64.toml")).unwrap();
+    let text = text.replace("spp = 64", "spp = 4").replace(
+        "file = \"../../assets",
+        &format!("file = \"{}/assets", root().display()),
+    );
+    let path = dir.join("cornell.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// Runs a host built against the installed library on the small scene;
+/// returns the EXR it wrote.
+fn run_host(host: &Path, scene: &Path, out: &Path) -> Vec<u8> {
+    let said = text_of(run(Command::new(host).arg(scene).arg(out)));
+    assert!(
+        said.contains(&format!("plsr {}: 64x64", env!("CARGO_PKG_VERSION"))),
+        "{}: {said}",
+        host.display()
+    );
+    std::fs::read(out).unwrap()
+}
+
+fn dynamic_section(elf: &Path) -> String {
+    text_of(run(Command::new("readelf").arg("-d").arg(elf)))
+}
+
+/// Configures a CMake project that asks for `find_package(plsr REQUEST)`
+/// from the package in `plsr_dir`, with no compiler; returns the output,
+/// or the error when CMake refuses.
+fn cmake_find_plsr(work: &Path, plsr_dir: &Path, request: &str) -> Result<String, String> {
+    let src = work.join(format!("find-{request}"));
+    std::fs::create_dir_all(&src).unwrap();
+    std::fs::write(
+        src.join("CMakeLists.txt"),
+        format!(
+            "cmake_minimum_required(VERSION 3.16)\nproject(find_plsr NONE)\n\
+             find_package(plsr {request} REQUIRED)\n\
+             get_target_property(lib plsr::plsr IMPORTED_LOCATION)\n\
+             get_target_property(inc plsr::plsr INTERFACE_INCLUDE_DIRECTORIES)\n\
+             message(STATUS \"plsr ${{plsr_VERSION}}: ${{lib}} ${{inc}}\")\n"
+        ),
+    )
+    .unwrap();
+    let out = Command::new("cmake")
+        .arg("-S")
+        .arg(&src)
+        .arg("-B")
+        .arg(src.join("build"))
+        .arg(format!("-Dplsr_DIR={}", plsr_dir.display()))
+        .output()
+        .unwrap();
+    if out.status.success() {
+        Ok(text_of(out))
+    } else {
+        Err(String::from_utf8_lossy(&out.stderr).into_owned())
+    }
+}
+
 #[test]
 fn make_install_serves_pkg_config_and_cmake_hosts() {
-    library(); // builds target/capi/release, which `make install` reuses
-    let prefix = tempfile::tempdir().unwrap();
-    run(Command::new("make")
-        .arg("-C")
-        .arg(root())
-        .arg("install")
-        .arg(format!("PREFIX={}", prefix.path().display()))
-        .arg(format!("CARGO_TARGET_DIR={}", capi_target().display())));
-    let p = prefix.path();
-    for f in [
-        "lib/libplsr.so",
-        "lib/libplsr.a",
-        "include/plsr.h",
-        "include/plsr.hpp",
-        "lib/pkgconfig/plsr.pc",
-        "lib/cmake/plsr/plsrConfig.cmake",
+    for (tool, package) in [
+        ("cmake", "cmake"),
+        ("pkg-config", "pkg-config"),
+        ("readelf", "binutils"),
+        ("g++", "g++"),
     ] {
+        require(tool, package);
+    }
+    let version = env!("CARGO_PKG_VERSION");
+    let soname = format!("libplsr.so.{}", env!("CARGO_PKG_VERSION_MAJOR"));
+    let real = format!("libplsr.so.{version}");
+    // Debian's multiarch library folder, the harder case for the package
+    // files (the default, PREFIX/lib, is in the next test).
+    let multiarch = text_of(run(Command::new("gcc").arg("-print-multiarch")));
+    let prefix_dir = tempfile::tempdir().unwrap();
+    let p = prefix_dir.path();
+    let libdir = p.join("lib").join(multiarch.trim());
+    make("install", &[("PREFIX", p), ("LIBDIR", &libdir)]);
+
+    for f in [
+        real.as_str(),
+        "libplsr.a",
+        "pkgconfig/plsr.pc",
+        "cmake/plsr/plsrConfig.cmake",
+        "cmake/plsr/plsrConfigVersion.cmake",
+        "plsr/install-manifest.txt",
+    ] {
+        assert!(libdir.join(f).is_file(), "{f} not installed in LIBDIR");
+    }
+    for f in ["include/plsr.h", "include/plsr.hpp", "bin/plsr"] {
         assert!(p.join(f).is_file(), "{f} not installed");
     }
+    // The soname and the links to the real file.
+    let so = libdir.join(&real);
+    assert!(
+        dynamic_section(&so).contains(&format!("Library soname: [{soname}]")),
+        "{real} lacks the soname {soname}"
+    );
+    assert_eq!(
+        std::fs::read_link(libdir.join(&soname)).unwrap(),
+        Path::new(&real)
+    );
+    assert_eq!(
+        std::fs::read_link(libdir.join("libplsr.so")).unwrap(),
+        Path::new(&soname)
+    );
+    // Stripped, with the debug info (and the symbol table) in a file of its
+    // own that the library names.
+    let sections = text_of(run(Command::new("readelf").arg("-S").arg(&so)));
+    for absent in [".debug_info", ".symtab"] {
+        assert!(
+            !sections.contains(absent),
+            "the installed {real} has {absent}"
+        );
+    }
+    assert!(
+        sections.contains(".gnu_debuglink"),
+        "{real} names no debug file"
+    );
+    let debug = libdir.join(".debug").join(format!("{real}.debug"));
+    let debug_sections = text_of(run(Command::new("readelf").arg("-S").arg(&debug)));
+    assert!(
+        debug_sections.contains(".debug_info"),
+        "{}",
+        debug.display()
+    );
     // The library is only the library: none of the program's crates (clap,
-    // indicatif) is linked into it, and the installed copy has no debug info.
-    let so = p.join("lib/libplsr.so");
-    let symbols = run(Command::new("nm").arg(&so)).stdout;
-    let symbols = String::from_utf8_lossy(&symbols);
+    // indicatif) is linked into it.
+    let exported = text_of(run(Command::new("nm").arg("-D").arg(&so)));
+    assert!(
+        exported.contains("plsr_render"),
+        "{real} exports no plsr_render"
+    );
+    let symbols = text_of(run(Command::new("nm").arg(&debug)));
     assert!(symbols.contains("plsr_render"), "nm lists no plsr symbols");
     for program_crate in ["clap", "indicatif"] {
         assert!(
@@ -342,38 +568,222 @@ fn make_install_serves_pkg_config_and_cmake_hosts() {
             "libplsr.so carries {program_crate} symbols"
         );
     }
-    let sections = run(Command::new("readelf").arg("-S").arg(&so)).stdout;
-    assert!(
-        !String::from_utf8_lossy(&sections).contains(".debug_info"),
-        "the installed libplsr.so has debug info"
+
+    // The program runs from the prefix, stripped, with its debug info beside.
+    let plsr = p.join("bin/plsr");
+    assert!(p.join("bin/.debug/plsr.debug").is_file());
+    let said = text_of(run(Command::new(&plsr).arg("--version")));
+    assert!(said.contains(version), "plsr --version: {said}");
+    let work = tempfile::tempdir().unwrap();
+    let w = work.path();
+    let scene = small_scene(w);
+    run(Command::new(&plsr)
+        .arg("render")
+        .arg(&scene)
+        .arg("-o")
+        .arg(w.join("program.exr")));
+    assert!(w.join("program.exr").is_file());
+
+    // pkg-config follows LIBDIR.
+    let pkg_config_path = libdir.join("pkgconfig");
+    let pkg_config = |args: &[&str]| {
+        text_of(run(Command::new("pkg-config")
+            .args(args)
+            .arg("plsr")
+            .env("PKG_CONFIG_PATH", &pkg_config_path)))
+    };
+    assert_eq!(pkg_config(&["--modversion"]).trim(), version);
+    assert_eq!(
+        pkg_config(&["--variable=libdir"]).trim(),
+        libdir.display().to_string()
     );
-    // A pkg-config host builds and runs against the installed files.
-    let build = tempfile::tempdir().unwrap();
-    run(Command::new("make")
-        .arg("-C")
-        .arg(root().join("examples/cpp"))
-        .arg("USE_PKG_CONFIG=1")
-        .arg(format!("BUILD_DIR={}", build.path().display()))
-        .env("PKG_CONFIG_PATH", p.join("lib/pkgconfig")));
-    run(Command::new(build.path().join("host"))
-        .arg(build.path().join("out"))
-        .arg("1"));
-    // And a CMake host, through the installed package file.
-    if Command::new("cmake").arg("--version").output().is_err() {
-        eprintln!("cmake is not installed: CMake host skipped (apt-get install cmake)");
-        return;
-    }
-    let cmake_build = build.path().join("cmake");
+
+    // The README's minimal host, built by the README's pkg-config lines:
+    // shared (with an rpath) and static.
+    let section = readme_c_section();
+    let lines = code_blocks(&section, "sh")
+        .into_iter()
+        .find(|b| b.contains("pkg-config --static"))
+        .expect("README shows the pkg-config builds");
+    let build = w.join("pkg-config");
+    std::fs::create_dir(&build).unwrap();
+    std::fs::copy(
+        root().join("examples/minimal/minimal.cpp"),
+        build.join("minimal.cpp"),
+    )
+    .unwrap();
+    run(Command::new("bash")
+        .arg("-euc")
+        .arg(&lines)
+        .current_dir(&build)
+        .env("PKG_CONFIG_PATH", &pkg_config_path));
+    let shared = build.join("minimal");
+    let dynamic = dynamic_section(&shared);
+    assert!(
+        dynamic.contains(&format!("Shared library: [{soname}]")),
+        "the shared host does not record {soname}:\n{dynamic}"
+    );
+    assert!(
+        dynamic.contains(&libdir.display().to_string()),
+        "the shared host has no rpath to LIBDIR:\n{dynamic}"
+    );
+    let image = run_host(&shared, &scene, &w.join("shared.exr"));
+    let fully_static = build.join("minimal-static");
+    let dynamic = dynamic_section(&fully_static);
+    assert!(
+        !dynamic.contains("libplsr"),
+        "the static host still needs libplsr:\n{dynamic}"
+    );
+    assert_eq!(
+        run_host(&fully_static, &scene, &w.join("static.exr")),
+        image,
+        "the static host's image differs from the shared host's"
+    );
+
+    // The same host through CMake's find_package(plsr 0.2), run from its
+    // build folder (CMake's build rpath) and after `cmake --install` (the
+    // link path kept as rpath).
+    let cmake_build = w.join("cmake");
     run(Command::new("cmake")
         .arg("-S")
-        .arg(root().join("examples/cpp"))
+        .arg(root().join("examples/minimal"))
         .arg("-B")
         .arg(&cmake_build)
         .arg(format!("-DCMAKE_PREFIX_PATH={}", p.display())));
     run(Command::new("cmake").arg("--build").arg(&cmake_build));
-    run(Command::new(cmake_build.join("host"))
-        .arg(build.path().join("out-cmake"))
+    assert_eq!(
+        run_host(&cmake_build.join("minimal"), &scene, &w.join("cmake.exr")),
+        image
+    );
+    let host_prefix = w.join("host-prefix");
+    run(Command::new("cmake")
+        .arg("--install")
+        .arg(&cmake_build)
+        .arg("--prefix")
+        .arg(&host_prefix));
+    assert_eq!(
+        run_host(
+            &host_prefix.join("bin/minimal"),
+            &scene,
+            &w.join("cmake-installed.exr")
+        ),
+        image
+    );
+    // plsr::plsr_static links the archive and what it needs.
+    let static_src = w.join("cmake-static");
+    std::fs::create_dir(&static_src).unwrap();
+    std::fs::write(
+        static_src.join("CMakeLists.txt"),
+        format!(
+            "cmake_minimum_required(VERSION 3.16)\nproject(minimal_static CXX)\n\
+             set(CMAKE_CXX_STANDARD 17)\nfind_package(plsr 0.2 REQUIRED)\n\
+             add_executable(minimal_static {}/examples/minimal/minimal.cpp)\n\
+             target_link_libraries(minimal_static PRIVATE plsr::plsr_static)\n",
+            root().display()
+        ),
+    )
+    .unwrap();
+    run(Command::new("cmake")
+        .arg("-S")
+        .arg(&static_src)
+        .arg("-B")
+        .arg(static_src.join("build"))
+        .arg(format!("-DCMAKE_PREFIX_PATH={}", p.display())));
+    run(Command::new("cmake")
+        .arg("--build")
+        .arg(static_src.join("build")));
+    let cmake_static = static_src.join("build/minimal_static");
+    assert!(!dynamic_section(&cmake_static).contains("libplsr"));
+    assert_eq!(
+        run_host(&cmake_static, &scene, &w.join("cmake-static.exr")),
+        image
+    );
+    // The version file: 0.2 (the oldest compatible C ABI) up to this
+    // version, of the same major version.
+    let plsr_dir = libdir.join("cmake/plsr");
+    let found = cmake_find_plsr(w, &plsr_dir, "0.2").unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        found.contains(&format!(
+            "plsr {version}: {} {}",
+            so.display(),
+            p.join("include").display()
+        )),
+        "{found}"
+    );
+    for refused in ["1.0", "0.1", "0.6"] {
+        let err = cmake_find_plsr(w, &plsr_dir, refused)
+            .map(|out| panic!("find_package(plsr {refused}) accepted {version}:\n{out}"))
+            .unwrap_err();
+        assert!(
+            err.contains(&format!("version: {version}")),
+            "find_package(plsr {refused}): {err}"
+        );
+    }
+
+    // The examples/cpp host's pkg-config mode.
+    run(Command::new("make")
+        .arg("-C")
+        .arg(root().join("examples/cpp"))
+        .arg("USE_PKG_CONFIG=1")
+        .arg(format!("BUILD_DIR={}", build.display()))
+        .env("PKG_CONFIG_PATH", &pkg_config_path));
+    run(Command::new(build.join("host"))
+        .arg(build.join("out"))
         .arg("1"));
+
+    // make uninstall leaves the prefix as it found it: empty.
+    make("uninstall", &[("PREFIX", p), ("LIBDIR", &libdir)]);
+    let left = entries(p);
+    assert!(left.is_empty(), "make uninstall left {left:?}");
+}
+
+#[test]
+fn make_install_stages_into_destdir_and_uninstalls_from_it() {
+    require("cmake", "cmake");
+    let version = env!("CARGO_PKG_VERSION");
+    let stage_dir = tempfile::tempdir().unwrap();
+    let stage = stage_dir.path();
+    let prefix = Path::new("/opt/plsr-test");
+    let vars = [("DESTDIR", stage), ("PREFIX", prefix)];
+    // Twice: the second install replaces the first, and still knows which
+    // folders were made for plsr.
+    make("install", &vars);
+    make("install", &vars);
+    let staged = stage.join("opt/plsr-test");
+    let libdir = staged.join("lib"); // the default LIBDIR
+    assert!(libdir.join(format!("libplsr.so.{version}")).is_file());
+    assert!(staged.join("bin/plsr").is_file());
+    // The files speak of the installed system's paths, not the stage's.
+    let pc = std::fs::read_to_string(libdir.join("pkgconfig/plsr.pc")).unwrap();
+    for line in [
+        "prefix=/opt/plsr-test",
+        "libdir=${prefix}/lib",
+        "includedir=${prefix}/include",
+    ] {
+        assert!(pc.lines().any(|l| l == line), "plsr.pc lacks {line}:\n{pc}");
+    }
+    let manifest = std::fs::read_to_string(libdir.join("plsr/install-manifest.txt")).unwrap();
+    assert!(
+        manifest.lines().all(|l| l[2..].starts_with("/opt")),
+        "{manifest}"
+    );
+    assert!(manifest.contains("d /opt\n"), "{manifest}");
+    // The CMake package finds its files relative to itself, wherever the
+    // tree is (here: still in the stage).
+    let work = tempfile::tempdir().unwrap();
+    let found = cmake_find_plsr(work.path(), &libdir.join("cmake/plsr"), "0.2")
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        found.contains(&format!(
+            "plsr {version}: {}/libplsr.so.{version} {}",
+            libdir.display(),
+            staged.join("include").display()
+        )),
+        "{found}"
+    );
+    make("uninstall", &vars);
+    let left = entries(stage);
+    assert!(left.is_empty(), "make uninstall left {left:?}");
 }
 
 extern "C" fn count_progress(user: *mut std::ffi::c_void, done: u32, total: u32) -> bool {
