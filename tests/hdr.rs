@@ -663,3 +663,178 @@ intensity = [10, 10, 10]
     ]);
     assert!(compare.contains(oiio), "{compare}");
 }
+
+// ---- Absolute units -------------------------------------------------------
+
+/// The true mean luminance (Rec. 709) of a window of the synthetic scene.
+fn true_luminance(sc: &SyntheticScene, [x0, y0, x1, y1]: [usize; 4]) -> f64 {
+    let mut sum = 0f64;
+    for y in y0..y1 {
+        for x in x0..x1 {
+            assert_eq!(sc.kind(x, y), PixelKind::Gradient, "window pixel {x},{y}");
+            let r = sc.radiance(x, y);
+            sum += 0.2126 * r[0] as f64 + 0.7152 * r[1] as f64 + 0.0722 * r[2] as f64;
+        }
+    }
+    sum / ((x1 - x0) * (y1 - y0)) as f64
+}
+
+/// A window of known luminance brings a merge whose relative units are far
+/// off (the filmic camera's Debevec curve is anchored at pixel 0.5) to the
+/// true radiance; the header says so.
+#[test]
+fn a_known_window_calibrates_to_absolute_radiance() {
+    use plsr::hdr::merge::Calibration;
+    let dir = tempfile::tempdir().unwrap();
+    let camera = CameraModel::default();
+    let files = brackets(dir.path(), &camera, &BracketOptions::default());
+    let plain = dir.path().join("plain.exr");
+    run_merge(&files, &plain, &with(ResponseMethod::Debevec));
+    let before = synth::accuracy(&plain, &scene(), &camera, &PAPER_EXPOSURES).unwrap();
+    let window = [28, 4, 36, 12];
+    let calibrated = dir.path().join("calibrated.exr");
+    let s = run_merge(
+        &files,
+        &calibrated,
+        &MergeOptions {
+            calibration: Calibration::Region {
+                window,
+                luminance: true_luminance(&scene(), window),
+                source: "test window".into(),
+            },
+            ..with(ResponseMethod::Debevec)
+        },
+    );
+    let after = synth::accuracy(&calibrated, &scene(), &camera, &PAPER_EXPOSURES).unwrap();
+    eprintln!("relative {before:?}\ncalibrated {after:?}");
+    assert!(
+        (before.scale - 1.0).abs() > 0.5,
+        "relative units happen to be right: {before:?}"
+    );
+    assert!((after.scale - 1.0).abs() < 0.03, "{after:?}");
+    // Calibration scales; it does not change the merge's shape.
+    assert!((after.log_rmse - before.log_rmse).abs() < 1e-4);
+    let (scale, source) = s.calibration.unwrap();
+    let r = ImageReader::open(&calibrated).unwrap();
+    assert!((r.float_attribute("plsr:radiance_scale").unwrap() / scale - 1.0).abs() < 1e-6);
+    assert_eq!(r.string_attribute("plsr:calibration").unwrap(), source);
+    assert!(r
+        .string_attribute("plsr:units")
+        .unwrap()
+        .starts_with("absolute"));
+}
+
+/// EXIF calibration: a linear camera whose pixel value is L·t at f/8, ISO
+/// 100 follows `L = K·N²·v/(t·S)/683` with K = 683·100/64; the merge then
+/// reads the true radiance. The first image's f-number enters squared.
+#[test]
+fn exif_calibration_follows_the_exposure_triangle() {
+    use plsr::hdr::merge::Calibration;
+    let dir = tempfile::tempdir().unwrap();
+    let camera = CameraModel {
+        filmic: None,
+        black: 0.0,
+        ..CameraModel::default()
+    };
+    let k = 683.0 * 100.0 / 64.0;
+    // JPEG: OpenImageIO 2.4 writes no ISO into TIFF's EXIF (and garbles
+    // some JPEG exposure times, so they are given).
+    let jpeg = BracketOptions {
+        extension: "jpg".into(),
+        ..Default::default()
+    };
+    let files = brackets(dir.path(), &camera, &jpeg);
+    let out = dir.path().join("exif.exr");
+    let options = MergeOptions {
+        calibration: Calibration::Exif { constant: k },
+        exposures: Some(PAPER_EXPOSURES.to_vec()),
+        ..with(ResponseMethod::Linear)
+    };
+    run_merge(&files, &out, &options);
+    let a = synth::accuracy(&out, &scene(), &camera, &PAPER_EXPOSURES).unwrap();
+    assert!((a.scale - 1.0).abs() < 0.02, "{a:?}");
+    // The same scene photographed at f/4 and ISO 400 throughout (the
+    // simulation keeps the exposures): the triangle says 16 × brighter...
+    let dir2 = tempfile::tempdir().unwrap();
+    let files = brackets(
+        dir2.path(),
+        &camera,
+        &BracketOptions {
+            f_numbers: vec![4.0; 10],
+            isos: vec![400.0; 10],
+            ..jpeg.clone()
+        },
+    );
+    run_merge(&files, &out, &options);
+    let b = synth::accuracy(&out, &scene(), &camera, &PAPER_EXPOSURES).unwrap();
+    // ... N² / S: (4² / 400) / (8² / 100) = 1/16.
+    assert!((b.scale * 16.0 - 1.0).abs() < 0.02, "{b:?}");
+    // Without ISO in the metadata, EXIF calibration is refused clearly.
+    let dir3 = tempfile::tempdir().unwrap();
+    let files = brackets(
+        dir3.path(),
+        &camera,
+        &BracketOptions {
+            exif: false,
+            ..Default::default()
+        },
+    );
+    let e = merge(&files, &out, &options, &|_, _, _| {})
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("bracket_00") && e.contains("f-number"), "{e}");
+}
+
+/// The command line: a grey card under a measured illuminance, reported and
+/// written to the header; bad windows are refused.
+#[test]
+fn grey_card_calibration_from_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let camera = CameraModel::default();
+    let files = brackets(dir.path(), &camera, &BracketOptions::default());
+    let window = [28, 4, 36, 12];
+    // The illuminance under which an 18 % card has the window's luminance.
+    let lux = true_luminance(&scene(), window) * 683.0 * std::f64::consts::PI / 0.18;
+    let out = dir.path().join("card.exr");
+    let mut args: Vec<std::ffi::OsString> = vec!["hdr".into(), "merge".into()];
+    args.extend(files.iter().map(|f| f.clone().into_os_string()));
+    args.extend(["-o".into(), out.clone().into_os_string(), "--quiet".into()]);
+    let mut good = args.clone();
+    good.extend([
+        "--grey-card".into(),
+        "28,4,36,12".into(),
+        "--illuminance".into(),
+        format!("{lux}").into(),
+    ]);
+    let refs: Vec<&std::ffi::OsStr> = good.iter().map(|a| a.as_os_str()).collect();
+    let o = plsr(&refs);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("absolute radiance") && err.contains("grey card"),
+        "{err}"
+    );
+    let a = synth::accuracy(&out, &scene(), &camera, &PAPER_EXPOSURES).unwrap();
+    assert!((a.scale - 1.0).abs() < 0.03, "{a:?}");
+    std::fs::remove_file(&out).unwrap();
+    for (extra, wanted) in [
+        (vec!["--grey-card", "28,4,36"], "X0,Y0,X1,Y1"),
+        (
+            vec!["--grey-card", "28,4,36,99", "--illuminance", "100"],
+            "Y1 ≤ 32",
+        ),
+        (vec!["--known-luminance", "1,1,5,5=-3"], "must be positive"),
+        (vec!["--grey-card", "1,1,5,5"], "--illuminance"),
+    ] {
+        let mut bad = args.clone();
+        bad.extend(extra.iter().map(std::ffi::OsString::from));
+        let refs: Vec<&std::ffi::OsStr> = bad.iter().map(|a| a.as_os_str()).collect();
+        let o = plsr(&refs);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && err.contains(wanted),
+            "{extra:?}: {err}"
+        );
+        assert!(!out.exists(), "{extra:?} left an output");
+    }
+}

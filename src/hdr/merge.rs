@@ -66,6 +66,49 @@ pub struct MergeOptions {
     /// data is noisy in its low mantissa bits: ZIP saves about 17 % of the
     /// size for about three times the merge time).
     pub compression: Option<String>,
+    /// How the output is brought to absolute units, if at all.
+    pub calibration: Calibration,
+}
+
+/// Reflected-light calibration constant of [`Calibration::Exif`] by
+/// default, in cd/m²: ISO 12232's saturation-based speed, `78 / q` with the
+/// usual lens factor `q = 0.65`. A linear pixel value `v` (1 at clipping)
+/// in a photo taken at `t` seconds, f-number `N` and ISO `S` then sees a
+/// luminance `L = K · N² · v / (t · S)`.
+pub const DEFAULT_CALIBRATION_CONSTANT: f64 = 78.0 / 0.65;
+
+/// Luminous efficacy plsr assumes between photometric and radiometric
+/// units: 683 lm/W, so a luminance of 683 cd/m² is a radiance of 1
+/// W/(m²·sr) in plsr's units.
+pub const LUMENS_PER_WATT: f64 = 683.0;
+
+/// How a merged panorama is brought to absolute radiance, W/(m²·sr) (plsr's
+/// units, luminance-weighted with Rec. 709 weights).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum Calibration {
+    /// Relative units: exposure per second at the first image's aperture
+    /// and ISO.
+    #[default]
+    Relative,
+    /// From the first image's EXIF exposure time, f-number and ISO, with
+    /// the reflected-light constant `constant` (cd/m²; see
+    /// [`DEFAULT_CALIBRATION_CONSTANT`]).
+    Exif {
+        /// `K` of `L = K · N² · v / (t · S)`, cd/m².
+        constant: f64,
+    },
+    /// So that the mean luminance of a window of the panorama is a known
+    /// value (a grey card under a measured illuminance, a surface measured
+    /// with a luminance meter).
+    Region {
+        /// Window `x0, y0, x1, y1` in pixels (`x1`, `y1` exclusive).
+        window: [usize; 4],
+        /// Its mean luminance, W/(m²·sr).
+        luminance: f64,
+        /// Where the value comes from, for the header (`grey card 18 % under
+        /// 500 lx`).
+        source: String,
+    },
 }
 
 impl Default for MergeOptions {
@@ -80,6 +123,7 @@ impl Default for MergeOptions {
             curve_csv: None,
             threads: None,
             compression: None,
+            calibration: Calibration::Relative,
         }
     }
 }
@@ -128,6 +172,9 @@ pub struct MergeSummary {
     /// What the user should know but did not stop the merge (brackets of
     /// equal exposure), one sentence each.
     pub warnings: Vec<String>,
+    /// The factor applied to reach absolute units and where it came from
+    /// (`None`: relative units).
+    pub calibration: Option<(f64, String)>,
 }
 
 /// The largest finite half float: what `--half` stores values above it as.
@@ -858,9 +905,31 @@ fn run<T: Px>(
         b.reader = ImageReader::open(&b.info.path)?;
     }
     let lk = Lookup::new::<T>(curve.clone(), ch_out);
+    // Absolute units: every merged value times `scale`, which is every
+    // relative exposure divided by it.
+    let calibration = match &options.calibration {
+        Calibration::Relative => None,
+        Calibration::Exif { constant } => Some(exif_scale(brackets, *constant)?),
+        Calibration::Region {
+            window,
+            luminance,
+            source,
+        } => {
+            let mean = region_luminance::<T>(brackets, &lk, *window, w, h, ch_in, ch_out, options)?;
+            if !(mean.is_finite() && mean > 0.0) {
+                return Err(Error::InvalidArgument(format!(
+                    "calibration: the window {},{},{},{} merges to luminance {mean}: it must \
+                     be lit and unclipped in some bracket",
+                    window[0], window[1], window[2], window[3]
+                )));
+            }
+            Some((*luminance / mean, source.clone()))
+        }
+    };
+    let scale = calibration.as_ref().map_or(1.0, |c| c.0);
     let k: Vec<f32> = brackets
         .iter()
-        .map(|b| b.info.relative_exposure as f32)
+        .map(|b| (b.info.relative_exposure / scale) as f32)
         .collect();
     let ln_k: Vec<f32> = k.iter().map(|v| v.ln()).collect();
     let shifts: Vec<(i32, i32)> = brackets.iter().map(|b| b.info.shift).collect();
@@ -868,7 +937,7 @@ fn run<T: Px>(
     let robertson = options.response == ResponseMethod::Robertson;
     let fast = T::TABLE.then(|| Tables::new(&lk, &k, &ln_k, robertson));
 
-    let attrs = header(brackets, &curve, options);
+    let attrs = header(brackets, &curve, options, calibration.as_ref());
     let stored = if options.half {
         PixelType::Half
     } else {
@@ -1012,6 +1081,7 @@ fn run<T: Px>(
         saturated_values: stats.0,
         dark_values: stats.1,
         seconds: start.elapsed().as_secs_f64(),
+        calibration,
         warnings: if clamped > 0 {
             vec![format!(
                 "{clamped} value(s) above {HALF_MAX}, the largest half float, were stored as {HALF_MAX}: \
@@ -1023,8 +1093,110 @@ fn run<T: Px>(
     })
 }
 
+/// The factor from relative to absolute units given by the first
+/// bracket's exposure triangle: `K · N² / (S · 683)` (relative values are
+/// exposures per second at the first image's f-number `N` and ISO `S`).
+fn exif_scale(brackets: &[Input], constant: f64) -> Result<(f64, String)> {
+    let first = &brackets[0].info;
+    let (Some(n), Some(iso)) = (first.f_number, first.iso) else {
+        return Err(Error::input(
+            &first.path,
+            "",
+            "EXIF calibration needs the f-number (FNumber) and ISO (ISOSpeedRatings) in the \
+             first image's metadata; calibrate from a known window instead \
+             (--known-luminance, --grey-card)",
+        ));
+    };
+    if !(constant.is_finite() && constant > 0.0) {
+        return Err(Error::InvalidArgument(format!(
+            "--calibration-constant {constant}: must be positive"
+        )));
+    }
+    let scale = constant * n * n / (iso * LUMENS_PER_WATT);
+    Ok((
+        scale,
+        format!(
+            "EXIF: f/{n}, ISO {iso} of the first image, K = {constant} cd/m^2 \
+             (L = K N^2 v / (t S)), 683 lm/W"
+        ),
+    ))
+}
+
+/// The mean luminance (Rec. 709 weights; the one channel of a grey image)
+/// of a window of the merged image in relative units, merged from the
+/// window's rows of every bracket with their alignment shifts.
+#[allow(clippy::too_many_arguments)]
+fn region_luminance<T: Px>(
+    brackets: &[Input],
+    lk: &Lookup,
+    window: [usize; 4],
+    w: usize,
+    h: usize,
+    ch_in: usize,
+    ch_out: usize,
+    options: &MergeOptions,
+) -> Result<f64> {
+    let [x0, y0, x1, y1] = window;
+    if !(x0 < x1 && y0 < y1 && x1 <= w && y1 <= h) {
+        return Err(Error::InvalidArgument(format!(
+            "calibration window {x0},{y0},{x1},{y1}: must be X0,Y0,X1,Y1 with X0 < X1 ≤ {w} \
+             and Y0 < Y1 ≤ {h} (the images' size)"
+        )));
+    }
+    let k: Vec<f32> = brackets
+        .iter()
+        .map(|b| b.info.relative_exposure as f32)
+        .collect();
+    let ln_k: Vec<f32> = k.iter().map(|v| v.ln()).collect();
+    let robertson = options.response == ResponseMethod::Robertson;
+    // Each bracket's rows that the window's rows come from.
+    let mut rows: Vec<BandRows<T>> = Vec::with_capacity(brackets.len());
+    for b in brackets {
+        let dy = b.info.shift.1 as i64;
+        let s0 = (y0 as i64 - dy).clamp(0, h as i64 - 1) as usize;
+        let s1 = (y1 as i64 - 1 - dy).clamp(0, h as i64 - 1) as usize + 1;
+        let mut data = vec![T::default(); (s1 - s0) * w * ch_in];
+        ImageReader::open(&b.info.path)?.read_rows(s0, s1, &mut data)?;
+        rows.push(BandRows {
+            first_row: s0,
+            data,
+        });
+    }
+    let weights: &[f64] = if ch_out == 3 {
+        &[0.2126, 0.7152, 0.0722]
+    } else {
+        &[1.0]
+    };
+    let mut sum = 0f64;
+    let mut stats = (0u64, 0u64);
+    for y in y0..y1 {
+        let src: Vec<std::borrow::Cow<[T]>> = rows
+            .iter()
+            .zip(brackets)
+            .map(|(br, b)| {
+                let sy = (y as i64 - b.info.shift.1 as i64).clamp(0, h as i64 - 1) as usize;
+                let off = (sy - br.first_row) * w * ch_in;
+                shift_row(&br.data[off..off + w * ch_in], b.info.shift.0, w, ch_in)
+            })
+            .collect();
+        let src: Vec<&[T]> = src.iter().map(|r| r.as_ref()).collect();
+        for x in x0..x1 {
+            for (c, wt) in weights.iter().enumerate() {
+                let v = merge_value(lk, &src, ch_in, x, c, &ln_k, &k, robertson, &mut stats);
+                sum += wt * v as f64;
+            }
+        }
+    }
+    Ok(sum / ((x1 - x0) * (y1 - y0)) as f64)
+}
+
 /// The header attributes of the merged image.
-fn header(brackets: &[Input], curve: &ResponseCurve, options: &MergeOptions) -> Vec<Attribute> {
+fn header(
+    brackets: &[Input],
+    curve: &ResponseCurve,
+    options: &MergeOptions,
+    calibration: Option<&(f64, String)>,
+) -> Vec<Attribute> {
     let join = |f: &dyn Fn(&BracketInfo) -> String| {
         brackets
             .iter()
@@ -1064,7 +1236,10 @@ fn header(brackets: &[Input], curve: &ResponseCurve, options: &MergeOptions) -> 
         ),
         (
             "plsr:units".into(),
-            s("relative radiance: linear exposure per second at the first image's aperture and ISO; pixel level 0.5 of the curve's domain maps to exposure 0.5".into()),
+            s(match calibration {
+                None => "relative radiance: linear exposure per second at the first image's aperture and ISO; pixel level 0.5 of the curve's domain maps to exposure 0.5".into(),
+                Some(_) => "absolute radiance, W/(m^2 sr) per linear Rec. 709 channel (683 cd/m^2 of luminance = 1)".into(),
+            }),
         ),
         ("plsr:response_curve".into(), s(curve.to_header_string())),
     ];
@@ -1079,6 +1254,13 @@ fn header(brackets: &[Input], curve: &ResponseCurve, options: &MergeOptions) -> 
             "plsr:iso".into(),
             s(join(&|b| format!("{}", b.iso.unwrap_or(0.0)))),
         ));
+    }
+    if let Some((scale, source)) = calibration {
+        a.push((
+            "plsr:radiance_scale".into(),
+            AttrValue::Float(*scale as f32),
+        ));
+        a.push(("plsr:calibration".into(), s(source.clone())));
     }
     if options.align {
         a.push((

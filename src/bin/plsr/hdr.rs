@@ -3,7 +3,7 @@
 use crate::progress::progress_bar;
 use clap::Subcommand;
 use plsr::error::{Error, Result};
-use plsr::hdr::merge::{merge, parse_exposures, MergeOptions};
+use plsr::hdr::merge::{merge, parse_exposures, Calibration, MergeOptions};
 use plsr::hdr::response::ResponseMethod;
 use std::cell::RefCell;
 use std::path::PathBuf;
@@ -108,6 +108,116 @@ pub struct HdrMergeArgs {
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
+    /// Absolute units from the first image's EXIF exposure time, f-number
+    /// and ISO: luminance L = K·N²·v/(t·S) cd/m² (v the linear pixel value,
+    /// 1 at clipping), then 683 cd/m² = radiance 1.
+    #[arg(long, conflicts_with_all = ["known_luminance", "known_radiance", "grey_card"])]
+    pub exif_calibration: bool,
+    /// K of --exif-calibration, in cd/m² (ISO 12232: 78/0.65 = 120).
+    #[arg(long, requires = "exif_calibration", default_value_t = plsr::hdr::merge::DEFAULT_CALIBRATION_CONSTANT)]
+    pub calibration_constant: f64,
+    /// Absolute units from a window of known mean luminance in cd/m²
+    /// (measured with a luminance meter): X0,Y0,X1,Y1=CD.
+    #[arg(long, value_name = "X0,Y0,X1,Y1=CD", conflicts_with_all = ["known_radiance", "grey_card"])]
+    pub known_luminance: Option<String>,
+    /// Absolute units from a window of known mean radiance in plsr's units,
+    /// W/(m²·sr) (luminance-weighted): X0,Y0,X1,Y1=L.
+    #[arg(long, value_name = "X0,Y0,X1,Y1=L", conflicts_with = "grey_card")]
+    pub known_radiance: Option<String>,
+    /// Absolute units from a grey card in this window, lit by the
+    /// --illuminance measured at the card: its luminance is ρ·E/π.
+    #[arg(long, value_name = "X0,Y0,X1,Y1", requires = "illuminance")]
+    pub grey_card: Option<String>,
+    /// Illuminance at the grey card, in lux (a light meter's reading).
+    #[arg(long, value_name = "LUX", requires = "grey_card")]
+    pub illuminance: Option<f64>,
+    /// The grey card's reflectance.
+    #[arg(long, default_value_t = 0.18, requires = "grey_card")]
+    pub card_reflectance: f64,
+}
+
+/// The window and value of `X0,Y0,X1,Y1=VALUE` (`with_value`) or
+/// `X0,Y0,X1,Y1`.
+fn calibration_window(flag: &str, s: &str, with_value: bool) -> Result<([usize; 4], f64)> {
+    let bad = || {
+        Error::InvalidArgument(format!(
+            "{flag} `{s}`: expected {}",
+            if with_value {
+                "X0,Y0,X1,Y1=VALUE (pixels, then a positive number)"
+            } else {
+                "X0,Y0,X1,Y1 (pixels)"
+            }
+        ))
+    };
+    let (window, value) = match s.split_once('=') {
+        Some((w, v)) if with_value => (w, v.trim().parse::<f64>().map_err(|_| bad())?),
+        None if !with_value => (s, 1.0),
+        _ => return Err(bad()),
+    };
+    let v: Vec<usize> = window
+        .split(',')
+        .map(|x| x.trim().parse::<usize>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| bad())?;
+    let [x0, y0, x1, y1] = v[..] else {
+        return Err(bad());
+    };
+    if !(value.is_finite() && value > 0.0) {
+        return Err(Error::InvalidArgument(format!(
+            "{flag} `{s}`: the value must be positive"
+        )));
+    }
+    Ok(([x0, y0, x1, y1], value))
+}
+
+/// The calibration `plsr hdr merge`'s options ask for.
+fn calibration(a: &HdrMergeArgs) -> Result<Calibration> {
+    use plsr::hdr::merge::LUMENS_PER_WATT;
+    if a.exif_calibration {
+        return Ok(Calibration::Exif {
+            constant: a.calibration_constant,
+        });
+    }
+    if let Some(s) = &a.known_luminance {
+        let (window, cd) = calibration_window("--known-luminance", s, true)?;
+        return Ok(Calibration::Region {
+            window,
+            luminance: cd / LUMENS_PER_WATT,
+            source: format!("known luminance {cd} cd/m^2 over {s}, 683 lm/W"),
+        });
+    }
+    if let Some(s) = &a.known_radiance {
+        let (window, l) = calibration_window("--known-radiance", s, true)?;
+        return Ok(Calibration::Region {
+            window,
+            luminance: l,
+            source: format!("known radiance {l} W/(m^2 sr) over {s}"),
+        });
+    }
+    if let Some(s) = &a.grey_card {
+        let (window, _) = calibration_window("--grey-card", s, false)?;
+        let e = a.illuminance.unwrap_or(0.0);
+        let rho = a.card_reflectance;
+        if !(e.is_finite() && e > 0.0) {
+            return Err(Error::InvalidArgument(format!(
+                "--illuminance {e}: must be a positive number of lux"
+            )));
+        }
+        if !(rho > 0.0 && rho <= 1.0) {
+            return Err(Error::InvalidArgument(format!(
+                "--card-reflectance {rho}: must be in (0, 1]"
+            )));
+        }
+        let cd = rho * e / std::f64::consts::PI;
+        return Ok(Calibration::Region {
+            window,
+            luminance: cd / LUMENS_PER_WATT,
+            source: format!(
+                "grey card of reflectance {rho} over {s} under {e} lx: {cd:.4} cd/m^2, 683 lm/W"
+            ),
+        });
+    }
+    Ok(Calibration::Relative)
 }
 
 /// Runs one `plsr hdr` subcommand.
@@ -227,6 +337,7 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
         curve_csv: a.curve.clone(),
         threads: a.threads,
         compression: a.compression.clone(),
+        calibration: calibration(a)?,
     };
     let bar = progress_bar(
         a.quiet,
@@ -281,6 +392,14 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
             "  alignment shifts (dx,dy, shortest exposure first): {}",
             shifts.join(" ")
         );
+    }
+    match &s.calibration {
+        Some((scale, source)) => eprintln!(
+            "  absolute radiance, W/(m²·sr): relative values × {scale:.6e} ({source})"
+        ),
+        None => eprintln!(
+            "  relative radiance (calibrate with --exif-calibration, --grey-card or --known-luminance)"
+        ),
     }
     if let Some(c) = &a.curve {
         eprintln!(
