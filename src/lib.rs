@@ -56,6 +56,7 @@ pub mod render;
 pub mod rng;
 pub mod sampler;
 pub mod scene;
+pub mod text;
 pub mod texture;
 pub mod threads;
 pub mod warp;

@@ -323,8 +323,10 @@ impl ResponseCurve {
     }
 
     fn plot(&self, width: u32, height: u32) -> image::RgbImage {
+        use crate::text::{draw_text, draw_text_up, text_width, GLYPH_HEIGHT};
         let mut img = image::RgbImage::from_pixel(width, height, image::Rgb([255, 255, 255]));
-        let (l, r, t, b) = (40i32, width as i32 - 12, 12i32, height as i32 - 30);
+        // Room for the title above, tick labels and axis titles left and below.
+        let (l, r, t, b) = (62i32, width as i32 - 14, 34i32, height as i32 - 44);
         // y range: log10 of the positive exposures, whole decades.
         let logs = self
             .inverse
@@ -345,19 +347,39 @@ impl ResponseCurve {
         let py = |y: f32| b as f32 - (y - lo) / (hi - lo) * (b - t) as f32;
         let grey = image::Rgb([200, 200, 200]);
         let black = image::Rgb([0, 0, 0]);
-        // Grid and ticks.
+        let gh = GLYPH_HEIGHT as i32;
+        // Grid, ticks and their labels: pixel value along x, every tenth
+        // (labelled every fifth); exposure along y, every decade.
         for k in 0..=10 {
             let x = px(k as f32 / 10.0) as i32;
             line(&mut img, x, t, x, b, grey);
             line(&mut img, x, b, x, b + 6, black);
+            if k % 2 == 0 {
+                let label = format!("{:.1}", k as f32 / 10.0);
+                let lw = text_width(&label, 1) as i32;
+                draw_text(&mut img, x - lw / 2, b + 9, &label, 1, black);
+            }
         }
         let mut d = lo;
         while d <= hi + 1e-3 {
             let y = py(d) as i32;
             line(&mut img, l, y, r, y, grey);
             line(&mut img, l - 6, y, l, y, black);
+            let label = format!("1e{}", d.round() as i32);
+            let lw = text_width(&label, 1) as i32;
+            draw_text(&mut img, l - 9 - lw, y - gh / 2, &label, 1, black);
             d += 1.0;
         }
+        // Title and axis titles.
+        let title = format!("camera response ({})", self.method);
+        let tw = text_width(&title, 2) as i32;
+        draw_text(&mut img, (l + r - tw) / 2, 8, &title, 2, black);
+        let xt = "pixel value (0 black, 1 white)";
+        let xw = text_width(xt, 1) as i32;
+        draw_text(&mut img, (l + r - xw) / 2, b + 24, xt, 1, black);
+        let yt = "relative exposure (log scale)";
+        let yw = text_width(yt, 1) as i32;
+        draw_text_up(&mut img, 6, (t + b + yw) / 2, yt, 1, black);
         // Axes.
         line(&mut img, l, b, r, b, black);
         line(&mut img, l, t, l, b, black);
@@ -369,6 +391,27 @@ impl ResponseCurve {
                 image::Rgb([30, 60, 220]),
             ],
         };
+        // Legend, top left inside the plot: a swatch and the channel.
+        let names: &[&str] = if self.channels() == 1 {
+            &["grey"]
+        } else {
+            &["R", "G", "B"]
+        };
+        for (c, name) in names.iter().enumerate().take(self.channels()) {
+            let y = t + 8 + c as i32 * (gh + 5);
+            let colour = colours[c % colours.len()];
+            for dy in 0..3 {
+                line(
+                    &mut img,
+                    l + 8,
+                    y + gh / 2 - 1 + dy,
+                    l + 26,
+                    y + gh / 2 - 1 + dy,
+                    colour,
+                );
+            }
+            draw_text(&mut img, l + 32, y, name, 1, black);
+        }
         let n = self.levels();
         for (c, curve) in self.inverse.iter().enumerate() {
             let colour = colours[c % colours.len()];
@@ -751,6 +794,35 @@ fn fill_gaps(c: &mut [f64]) {
 
 #[cfg(test)]
 mod tests {
+
+    /// The plot has a title, tick labels on both axes, axis titles and a
+    /// legend with each channel's colour.
+    #[test]
+    fn the_curve_plot_is_labelled() {
+        let (w, h) = (640u32, 480u32);
+        let img = ResponseCurve::srgb(256, 3).plot(w, h);
+        let (l, r, t, b) = (62u32, w - 14, 34u32, h - 44);
+        let dark = |x0: u32, y0: u32, x1: u32, y1: u32| {
+            (y0..y1)
+                .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+                .filter(|&(x, y)| img.get_pixel(x, y).0 == [0, 0, 0])
+                .count()
+        };
+        assert!(dark(l, 0, r, t - 4) > 100, "no title");
+        assert!(dark(l - 10, b + 9, r + 10, b + 17) > 60, "no x tick labels");
+        assert!(dark(l, b + 24, r, b + 32) > 60, "no x axis title");
+        assert!(dark(0, t, 14, b) > 60, "no y axis title");
+        assert!(dark(14, t - 4, l - 8, b + 4) > 20, "no y tick labels");
+        for (c, colour) in [[220u8, 30, 30], [30, 160, 30], [30, 60, 220]]
+            .iter()
+            .enumerate()
+        {
+            let y = t + 8 + c as u32 * 12 + 3;
+            assert_eq!(img.get_pixel(l + 15, y).0, *colour, "legend swatch {c}");
+        }
+        assert!(dark(l + 32, t + 8, l + 40, t + 44) > 30, "no legend names");
+    }
+
     use super::*;
 
     /// Samples of a known curve f(x) = x^(1/2.2) on 8 bits, noiseless.

@@ -98,9 +98,6 @@ impl GltfScene {
     }
 }
 
-/// An image's decoded RGBA texels, shared by the textures made from it.
-type Texels = Arc<Vec<[f32; 4]>>;
-
 /// Reads a glTF file (`.gltf` or `.glb`) and everything it references. The
 /// error message says what is wrong; callers put the file and field in
 /// front.
@@ -132,8 +129,9 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, String> {
     };
 
     // Materials: the metallic-roughness model as principled.
-    let mut textures: Vec<Option<Texels>> = vec![None; images.len()];
-    let mut texels = |index: usize| -> std::result::Result<(u32, u32, Texels), String> {
+    let mut textures: Vec<Option<Arc<Vec<[f32; 4]>>>> = vec![None; images.len()];
+    #[allow(clippy::type_complexity)]
+    let mut texels = |index: usize| -> std::result::Result<(u32, u32, Arc<Vec<[f32; 4]>>), String> {
         let image = images
             .get(index)
             .ok_or_else(|| format!("image {index} does not exist"))?;
