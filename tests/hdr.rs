@@ -2,11 +2,13 @@
 //! response recovery, EXIF, clipped pixels, bad input through the CLI, and
 //! OpenImageIO errors.
 
+use plsr::hdr::align;
 use plsr::hdr::merge::{merge, MergeOptions, MergeSummary};
 use plsr::hdr::oiio::{self, AttrValue, ImageReader, PixelType};
 use plsr::hdr::response::ResponseMethod;
 use plsr::hdr::synth::{
-    self, BracketOptions, CameraModel, PixelKind, SyntheticScene, PAPER_EXPOSURES,
+    self, BracketOptions, CameraModel, DarkRoom, PixelKind, RadianceImage, SyntheticScene,
+    PAPER_EXPOSURES,
 };
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -357,6 +359,147 @@ fn alignment_recovers_camera_shake() {
         a.log_rmse < 0.5 * b.log_rmse,
         "aligned {a:?}, unaligned {b:?}"
     );
+}
+
+/// Writes the paper's ten brackets of `scene` (8-bit, default camera) with
+/// the given camera shake into `dir`, and merges them with and without
+/// `--align`: the shifts found and the accuracy of both merges.
+fn aligned_and_plain<S: RadianceImage + ?Sized>(
+    scene: &S,
+    shifts: &[(i32, i32)],
+    dir: &Path,
+) -> (Vec<(i32, i32)>, synth::Accuracy, synth::Accuracy) {
+    let camera = CameraModel::default();
+    let files = synth::write_brackets(
+        scene,
+        &camera,
+        &PAPER_EXPOSURES,
+        dir,
+        &BracketOptions {
+            shifts: shifts.to_vec(),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let aligned = dir.join("aligned.exr");
+    let s = run_merge(
+        &files,
+        &aligned,
+        &MergeOptions {
+            align: true,
+            ..with(ResponseMethod::Debevec)
+        },
+    );
+    let plain = dir.join("plain.exr");
+    run_merge(&files, &plain, &with(ResponseMethod::Debevec));
+    let a = synth::accuracy(&aligned, scene, &camera, &PAPER_EXPOSURES).unwrap();
+    let b = synth::accuracy(&plain, scene, &camera, &PAPER_EXPOSURES).unwrap();
+    (s.brackets.iter().map(|b| b.shift).collect(), a, b)
+}
+
+/// Fraction of the pixels of each bracket that are black (grey ≤ 4).
+fn black_fractions(dir: &Path) -> Vec<f64> {
+    (0..PAPER_EXPOSURES.len())
+        .map(|i| {
+            let path = dir.join(format!("bracket_{i:02}.tif"));
+            let g = align::read_grey(&mut ImageReader::open(&path).unwrap()).unwrap();
+            g.data.iter().filter(|&&v| v <= 4).count() as f64 / g.data.len() as f64
+        })
+        .collect()
+}
+
+/// Camera shake at every exposure, the middle one included; neighbours
+/// differ by up to 6 pixels.
+const SHAKE: [(i32, i32); 10] = [
+    (3, -2),
+    (-2, 3),
+    (1, 1),
+    (-3, -1),
+    (2, 2),
+    (-1, 2),
+    (-3, -3),
+    (3, 1),
+    (-2, -2),
+    (2, -3),
+];
+
+/// What alignment to the middle bracket must find for [`SHAKE`]: each
+/// bracket's shake undone, relative to the middle one's.
+fn undo(shake: &[(i32, i32)]) -> Vec<(i32, i32)> {
+    let mid = shake[shake.len() / 2];
+    shake.iter().map(|s| (mid.0 - s.0, mid.1 - s.1)).collect()
+}
+
+#[test]
+fn alignment_keeps_a_tripod_stack_still() {
+    // A dark room: without its window, the four shortest exposures are
+    // black and noise (and the longest clipped near the glow); with it,
+    // only the window shows in the shortest ones. Nothing moved, so every
+    // shift is (0, 0) and the aligned merge is the plain one.
+    for (name, room) in [
+        ("windowless", DarkRoom::windowless(256, 128)),
+        ("window", DarkRoom::new(256, 128)),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let (found, a, b) = aligned_and_plain(&room, &[], dir.path());
+        let black = black_fractions(dir.path());
+        eprintln!("{name}: found {found:?}\nblack {black:?}\naligned {a:?}\nunaligned {b:?}");
+        if name == "windowless" {
+            assert!(black[..4].iter().all(|&f| f > 0.9), "{black:?}");
+        } else {
+            assert!(black[0] > 0.6, "{black:?}");
+        }
+        assert!(found.iter().all(|&s| s == (0, 0)), "{name}: {found:?}");
+        assert_eq!(a, b, "{name}");
+    }
+}
+
+#[test]
+fn alignment_recovers_shifts_at_every_exposure() {
+    // Known shake of every bracket, the darkest, the brightest and the
+    // middle one included: found exactly, relative to the middle one, in a
+    // textured scene and in the dark room with a window (the shortest
+    // exposures show only the window, the longest clip around it).
+    let textured = SyntheticScene::textured(256, 128);
+    let room = DarkRoom::new(256, 128);
+    let scenes: [(&str, &dyn RadianceImage); 2] = [("textured", &textured), ("room", &room)];
+    for (name, scene) in scenes {
+        let dir = tempfile::tempdir().unwrap();
+        let (found, _, _) = aligned_and_plain(scene, &SHAKE, dir.path());
+        eprintln!("{name}: shake {SHAKE:?}\nfound {found:?}");
+        assert_eq!(found, undo(&SHAKE), "{name}");
+    }
+    // With the middle bracket still (the merge is then in the truth's
+    // frame), alignment brings the room's merge back to a tripod's accuracy.
+    let mut shake = SHAKE;
+    shake[5] = (0, 0);
+    let dir = tempfile::tempdir().unwrap();
+    let (found, a, b) = aligned_and_plain(&room, &shake, dir.path());
+    let tripod = tempfile::tempdir().unwrap();
+    let (_, t, _) = aligned_and_plain(&room, &[], tripod.path());
+    eprintln!("room: found {found:?}\naligned {a:?}\nunaligned {b:?}\ntripod {t:?}");
+    assert_eq!(found, undo(&shake));
+    assert!(a.log_rmse < 1.2 * t.log_rmse, "aligned {a:?}, tripod {t:?}");
+    assert!(
+        b.log_rmse > 5.0 * a.log_rmse,
+        "aligned {a:?}, unaligned {b:?}"
+    );
+}
+
+#[test]
+fn alignment_leaves_black_brackets_where_their_neighbour_is() {
+    // The windowless room shaken: the brackets with detail are aligned
+    // exactly; the nearly black ones cannot be, and each keeps its brighter
+    // neighbour's shift rather than a guess.
+    let dir = tempfile::tempdir().unwrap();
+    let room = DarkRoom::windowless(256, 128);
+    let (found, _, _) = aligned_and_plain(&room, &SHAKE, dir.path());
+    let black = black_fractions(dir.path());
+    eprintln!("found {found:?}\nblack {black:?}");
+    assert!(black[..3].iter().all(|&f| f > 0.98), "{black:?}");
+    assert!(black[4..].iter().all(|&f| f < 0.7), "{black:?}");
+    assert_eq!(found[4..], undo(&SHAKE)[4..]);
+    assert!(found[..3].iter().all(|&s| s == found[3]), "{found:?}");
 }
 
 // ---- The command-line program -------------------------------------------
@@ -836,5 +979,49 @@ fn grey_card_calibration_from_the_command_line() {
             "{extra:?}: {err}"
         );
         assert!(!out.exists(), "{extra:?} left an output");
+    }
+}
+
+/// Not a test: prints the shifts found and the accuracy of aligned and
+/// plain merges for three scenes (`cargo test --test hdr align_report --
+/// --ignored --nocapture`; set `PLSR_ALIGN_REPORT_DIR` to keep the stacks).
+#[test]
+#[ignore]
+fn align_report() {
+    let textured = SyntheticScene::textured(256, 128);
+    let room = DarkRoom::new(256, 128);
+    let windowless = DarkRoom::windowless(256, 128);
+    let scenes: [(&str, &dyn RadianceImage); 3] = [
+        ("textured", &textured),
+        ("room", &room),
+        ("windowless", &windowless),
+    ];
+    let mut still = SHAKE;
+    still[5] = (0, 0);
+    let ln2 = std::f64::consts::LN_2;
+    for (name, scene) in scenes {
+        for (cfg, sh) in [("tripod", &[][..]), ("shake", &still[..])] {
+            let dir = tempfile::tempdir().unwrap();
+            let (found, a, b) = aligned_and_plain(scene, sh, dir.path());
+            // PLSR_ALIGN_REPORT_DIR keeps the stacks, e.g. for OpenCV.
+            if let Some(keep) = std::env::var_os("PLSR_ALIGN_REPORT_DIR") {
+                let keep = Path::new(&keep).join(format!("{name}-{cfg}"));
+                std::fs::create_dir_all(&keep).unwrap();
+                for e in std::fs::read_dir(dir.path()).unwrap() {
+                    let p = e.unwrap().path();
+                    std::fs::copy(&p, keep.join(p.file_name().unwrap())).unwrap();
+                }
+            }
+            let want = if sh.is_empty() {
+                vec![(0, 0); 10]
+            } else {
+                undo(sh)
+            };
+            println!(
+                "{name} {cfg}: log2 RMSE aligned {:.3} unaligned {:.3}\n  want  {want:?}\n  found {found:?}",
+                a.log_rmse / ln2,
+                b.log_rmse / ln2
+            );
+        }
     }
 }

@@ -142,7 +142,8 @@ pub struct BracketInfo {
     /// Relative exposure `t · (N₀/N)² · (ISO/ISO₀)` (seconds at the first
     /// image's aperture and ISO).
     pub relative_exposure: f64,
-    /// Translation applied, in pixels (see [`align::mtb_shift`]).
+    /// Translation applied, in pixels (see [`align::mtb_shift`] and
+    /// [`align::stack_shifts`]).
     pub shift: (i32, i32),
 }
 
@@ -863,19 +864,21 @@ fn run<T: Px>(
     let ch_out = if ch_in >= 3 { 3 } else { 1 };
     let n = brackets.len();
 
-    // Alignment, relative to the middle exposure.
+    // Alignment, relative to the middle exposure, each bracket to its
+    // neighbour towards it (brackets are sorted by exposure).
     if options.align {
-        let mid = n / 2;
         let levels = align::default_levels(w, h);
         progress("aligning", 0, n as u64);
-        // Separate readers, so the merge's readers stay at row 0.
-        let reference = align::read_grey(&mut ImageReader::open(&brackets[mid].info.path)?)?;
-        for (b, bracket) in brackets.iter_mut().enumerate() {
-            if b != mid {
-                let g = align::read_grey(&mut ImageReader::open(&bracket.info.path)?)?;
-                bracket.info.shift = align::mtb_shift(&reference, &g, levels);
-            }
-            progress("aligning", b as u64 + 1, n as u64);
+        let mut done = 0;
+        let shifts = align::stack_shifts(n, levels, Some(pool), |b| {
+            // Separate readers, so the merge's readers stay at row 0.
+            let g = align::read_grey(&mut ImageReader::open(&brackets[b].info.path)?)?;
+            done += 1;
+            progress("aligning", done, n as u64);
+            Ok(g)
+        })?;
+        for (bracket, shift) in brackets.iter_mut().zip(shifts) {
+            bracket.info.shift = shift;
         }
     }
 

@@ -246,6 +246,120 @@ impl RadianceImage for SyntheticScene {
     }
 }
 
+/// A dark interior, the hard case for alignment: textured walls, floor, a
+/// picture and a sofa at about 2·10⁻⁴ to 3·10⁻³ (black or noise in the
+/// shorter exposures, never clipped), brightened around a window by up to
+/// 60× (clipped in the longest exposures). With `window`, the window shows
+/// a dark cross frame against a sky of 10 to 40 and trees of 1 to 6
+/// (clipped in all but the shortest exposures); without it, the wall goes
+/// on and the room is lit only by a faint glow (4× at most), so that in the
+/// paper's exposures the four shortest are almost all black and noise.
+/// Every region has edges in both directions. No sun or dark discs.
+#[derive(Debug, Clone, Copy)]
+pub struct DarkRoom {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// Whether the bright window is there.
+    pub window: bool,
+}
+
+impl DarkRoom {
+    /// The room with its window, at the given size.
+    pub fn new(width: usize, height: usize) -> DarkRoom {
+        DarkRoom {
+            width,
+            height,
+            window: true,
+        }
+    }
+
+    /// The room without its window: dark everywhere.
+    pub fn windowless(width: usize, height: usize) -> DarkRoom {
+        DarkRoom {
+            window: false,
+            ..DarkRoom::new(width, height)
+        }
+    }
+}
+
+impl RadianceImage for DarkRoom {
+    fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
+    fn radiance(&self, x: usize, y: usize) -> [f32; 3] {
+        let u = (x as f32 + 0.5) / self.width as f32;
+        let v = (y as f32 + 0.5) / self.height as f32;
+        let aspect = self.width as f32 / self.height as f32;
+        let square = |t: f32| if t.sin() >= 0.0 { 1.0 } else { -1.0 };
+        let (u0, u1, v0, v1) = (0.58, 0.86, 0.16, 0.62);
+        let (l, tint) = if self.window && (u0..u1).contains(&u) && (v0..v1).contains(&v) {
+            let fu = (u - u0) / (u1 - u0);
+            let fv = (v - v0) / (v1 - v0);
+            let bar = |f: f32, at: f32| (f - at).abs() < 0.035;
+            if bar(fu, 0.5)
+                || bar(fv, 0.42)
+                || !(0.04..=0.96).contains(&fu)
+                || !(0.05..=0.95).contains(&fv)
+            {
+                // The frame, lit a little from outside.
+                (0.06 * (1.0 + 0.3 * fv), [1.0, 0.9, 0.8])
+            } else if fv < 0.6 + 0.08 * (2.0 * PI * 3.0 * fu).sin() {
+                // Sky with clouds.
+                let clouds = 0.5
+                    + 0.5 * (2.0 * PI * (2.5 * fu + 0.7 * fv)).sin() * (2.0 * PI * 3.5 * fv).cos();
+                (10.0 + 30.0 * fv * clouds, [0.8, 0.9, 1.1])
+            } else {
+                // Trees.
+                let leaves = 1.0 + 0.5 * square(2.0 * PI * 9.0 * fu) * square(2.0 * PI * 7.0 * fv);
+                (1.2 + 3.0 * (1.0 - fv) * leaves, [0.6, 1.0, 0.5])
+            }
+        } else {
+            // Light around the window (or a faint glow), falling off.
+            let (du, dv) = ((u - 0.72) * aspect, v - 0.39);
+            let (base, glow, spread) = if self.window {
+                (0.003, 60.0, 0.08)
+            } else {
+                (0.002, 3.0, 0.02)
+            };
+            let spill = 1.0 + glow * (-(du * du + dv * dv) / spread).exp();
+            let (l, tint) = if (0.08..0.42).contains(&u) && (0.55..0.82).contains(&v) {
+                // A dark sofa with cushions.
+                let c = if ((u - 0.08) / 0.085) as i32 % 2 == 0 {
+                    1.0
+                } else {
+                    0.6
+                };
+                (0.067 * c, [0.9, 0.6, 0.5])
+            } else if v > 0.8 {
+                // Floor boards.
+                let board = 1.0 + 0.35 * square(2.0 * PI * 11.0 * v * v);
+                let joint = if (u * 7.0 + 0.5 * ((v * 20.0) as i32 % 2) as f32).fract() < 0.04 {
+                    0.4
+                } else {
+                    1.0
+                };
+                (0.4 * board * joint, [1.0, 0.8, 0.6])
+            } else if (0.14..0.34).contains(&u) && (0.14..0.42).contains(&v) {
+                // A picture on the wall.
+                let p = 1.0
+                    + 0.6 * (2.0 * PI * 4.0 * u).sin() * (2.0 * PI * 6.0 * v).cos()
+                    + 0.3 * square(2.0 * PI * 15.0 * (u + v));
+                (0.67 * p.max(0.1), [1.0, 0.8, 0.9])
+            } else {
+                // Striped wallpaper.
+                let stripes = 1.0
+                    + 0.4 * square(2.0 * PI * 16.0 * u) * (0.6 + 0.4 * (2.0 * PI * 5.0 * v).cos());
+                (stripes, [0.95, 0.9, 0.8])
+            };
+            (base * l * spill, tint)
+        };
+        [l * tint[0], l * tint[1], l * tint[2]]
+    }
+}
+
 /// Options for [`write_brackets`].
 #[derive(Debug, Clone)]
 pub struct BracketOptions {
@@ -389,21 +503,22 @@ pub fn recoverable(camera: &CameraModel, l: f32, times: &[f64]) -> bool {
 /// Compares the image at `path` (read through OpenImageIO, streamed by
 /// rows; first three channels) with the scene's truth over the pixels
 /// recoverable with `times` (see [`recoverable`]).
-pub fn accuracy(
+pub fn accuracy<S: RadianceImage + ?Sized>(
     path: &Path,
-    scene: &SyntheticScene,
+    scene: &S,
     camera: &CameraModel,
     times: &[f64],
 ) -> Result<Accuracy> {
     let mut r = ImageReader::open(path)?;
     let info = r.info().clone();
-    if info.width != scene.width || info.height != scene.height || info.channels < 3 {
+    let (width, height) = scene.size();
+    if info.width != width || info.height != height || info.channels < 3 {
         return Err(Error::input(
             path,
             "",
             format!(
                 "expected {}×{} RGB, found {}×{}×{}",
-                scene.width, scene.height, info.width, info.height, info.channels
+                width, height, info.width, info.height, info.channels
             ),
         ));
     }
