@@ -12,7 +12,9 @@
 use crate::camera::{Camera, EquirectCamera, Pose};
 use crate::error::{Error, Result};
 pub use crate::hdr::synth::PAPER_EXPOSURES;
-use crate::hdr::synth::{write_brackets, BracketOptions, CameraModel};
+use crate::hdr::synth::{
+    auto_exposures, write_brackets, BracketOptions, CameraModel, ExposurePlan,
+};
 use crate::render::{render, RenderOptions};
 use crate::scene::{file, Scene};
 use glam::Vec3;
@@ -32,8 +34,9 @@ pub struct CaptureOptions {
     pub size: (u32, u32),
     /// Samples per pixel (`None`: the scene's).
     pub spp: Option<u32>,
-    /// Exposure times in seconds.
-    pub exposures: Vec<f64>,
+    /// Exposure times in seconds; `None`: chosen from the rendered
+    /// panorama's dynamic range ([`auto_exposures`]).
+    pub exposures: Option<Vec<f64>>,
     /// The simulated camera.
     pub camera: CameraModel,
     /// Photo format by extension: `jpg`, `png` or `tif`.
@@ -42,31 +45,38 @@ pub struct CaptureOptions {
     pub threads: Option<usize>,
 }
 
+/// What [`capture`] wrote.
+#[derive(Debug, Clone)]
+pub struct Captured {
+    /// The bracket photos, shortest exposure first.
+    pub paths: Vec<PathBuf>,
+    /// Their exposure times in seconds.
+    pub exposures: Vec<f64>,
+    /// How the times were chosen, when they were chosen automatically.
+    pub plan: Option<ExposurePlan>,
+}
+
 /// Renders the panorama at `options.at` and writes the brackets and
 /// `truth.exr` into the new folder `out` (which must not exist, or be
 /// empty). Everything is written to a temporary sibling folder first and
 /// renamed at the end, so a failure leaves nothing behind. `progress`
 /// receives the render's `(tiles done, tiles)`; returning `false` cancels.
-/// Returns the bracket paths.
 pub fn capture(
     scene_path: &Path,
     out: &Path,
     options: &CaptureOptions,
     progress: &(dyn Fn(usize, usize) -> bool + Sync),
-) -> Result<Vec<PathBuf>> {
+) -> Result<Captured> {
     let invalid = |m: String| Error::InvalidArgument(m);
     if !options.at.is_finite() {
         return Err(invalid("--at must be three finite numbers".into()));
     }
-    if options.exposures.len() < 2
-        || options
-            .exposures
-            .iter()
-            .any(|t| !(t.is_finite() && *t > 0.0))
-    {
-        return Err(invalid(
-            "at least two positive exposure times are needed".into(),
-        ));
+    if let Some(times) = &options.exposures {
+        if times.len() < 2 || times.iter().any(|t| !(t.is_finite() && *t > 0.0)) {
+            return Err(invalid(
+                "at least two positive exposure times are needed".into(),
+            ));
+        }
     }
     if !["jpg", "jpeg", "png", "tif", "tiff"].contains(&options.format.as_str()) {
         return Err(invalid(format!(
@@ -108,6 +118,18 @@ pub fn capture(
         },
         progress,
     )?;
+    let (exposures, plan) = match &options.exposures {
+        Some(times) => (times.clone(), None),
+        None => {
+            let plan = auto_exposures(&film, &options.camera).map_err(|m| {
+                invalid(format!(
+                    "cannot choose exposures for the panorama at {}: {m}; give --exposures",
+                    options.at
+                ))
+            })?;
+            (plan.times.clone(), Some(plan))
+        }
+    };
 
     // Staged as a hidden folder next to `out`, removed on failure or
     // signal, swept if a killed run left it.
@@ -129,7 +151,7 @@ pub fn capture(
         write_brackets(
             &film,
             &options.camera,
-            &options.exposures,
+            &exposures,
             &staging,
             &bracket_options,
         )
@@ -146,10 +168,14 @@ pub fn capture(
     }
     crate::atomic_write::forget_partial(&staging);
     let staged = placed?;
-    Ok(staged
-        .iter()
-        .map(|p| out.join(p.file_name().expect("bracket files have names")))
-        .collect())
+    Ok(Captured {
+        paths: staged
+            .iter()
+            .map(|p| out.join(p.file_name().expect("bracket files have names")))
+            .collect(),
+        exposures,
+        plan,
+    })
 }
 
 /// A rendered image (its colour), e.g. a 360° panorama of a scene.

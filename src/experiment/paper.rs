@@ -468,7 +468,8 @@ fn run_in(
             forward: Some(forward),
             size: settings.panorama_size,
             spp: Some(settings.panorama_spp),
-            exposures: PAPER_EXPOSURES.to_vec(),
+            // The paper's ten, as its capture used.
+            exposures: Some(PAPER_EXPOSURES.to_vec()),
             camera: CameraModel {
                 seed: 7,
                 ..CameraModel::default()
@@ -477,7 +478,8 @@ fn run_in(
             threads: options.threads,
         },
         &no_progress,
-    )?;
+    )?
+    .paths;
     let panorama = panorama_dir.join("panorama.exr");
     let curve = panorama_dir.join("curve.csv");
     merge(

@@ -360,6 +360,101 @@ impl RadianceImage for DarkRoom {
     }
 }
 
+/// Exposure times chosen from an image's dynamic range by
+/// [`auto_exposures`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExposurePlan {
+    /// Exposure times in seconds, shortest first.
+    pub times: Vec<f64>,
+    /// The radiance the shortest exposure keeps below clipping: the largest
+    /// channel, ignoring the brightest [`AUTO_IGNORED_BRIGHT`] of the pixels
+    /// (relative units, as the image's).
+    pub brightest: f32,
+    /// The radiance the longest exposure puts at mid-range: the largest
+    /// channel at the [`AUTO_DARK_QUANTILE`] of the pixels that are not
+    /// black.
+    pub darkest: f32,
+    /// Stops between neighbouring exposures.
+    pub step_stops: f64,
+}
+
+/// Fraction of the pixels [`auto_exposures`] lets clip (path-tracing
+/// fireflies, specks): 10⁻⁵, five pixels of a 1024×512 panorama.
+pub const AUTO_IGNORED_BRIGHT: f64 = 1e-5;
+/// Quantile of the non-black pixels that [`auto_exposures`] exposes to
+/// mid-range in its longest exposure.
+pub const AUTO_DARK_QUANTILE: f64 = 0.01;
+/// Largest step between neighbouring exposures of [`auto_exposures`], in
+/// stops (unless [`AUTO_MAX_BRACKETS`] forces a larger one).
+pub const AUTO_MAX_STEP_STOPS: f64 = 2.0;
+/// Most exposures [`auto_exposures`] chooses.
+pub const AUTO_MAX_BRACKETS: usize = 16;
+/// Fewest exposures [`auto_exposures`] chooses (a response curve needs
+/// several).
+pub const AUTO_MIN_BRACKETS: usize = 3;
+/// Normalised pixel value of the brightest radiance in the shortest
+/// exposure (a margin below clipping for noise).
+pub const AUTO_HIGH_VALUE: f32 = 0.95;
+/// Normalised pixel value of the darkest radiance in the longest exposure.
+pub const AUTO_LOW_VALUE: f32 = 0.5;
+
+/// Exposure times that record `image` through `camera` from its brightest
+/// to its darkest parts: the shortest puts the brightest radiance at
+/// [`AUTO_HIGH_VALUE`] (just below clipping, which is at radiance × time =
+/// 1 through the response), the longest puts the darkest at
+/// [`AUTO_LOW_VALUE`], and the times between are evenly spaced in stops,
+/// at most [`AUTO_MAX_STEP_STOPS`] apart, [`AUTO_MIN_BRACKETS`] to
+/// [`AUTO_MAX_BRACKETS`] of them. A narrow range is widened evenly on
+/// both sides to the smallest stack. Pixels that are black (0), not
+/// finite, or among the brightest [`AUTO_IGNORED_BRIGHT`] are ignored. An
+/// error names the fault when no pixel has light.
+pub fn auto_exposures<S: RadianceImage + ?Sized>(
+    image: &S,
+    camera: &CameraModel,
+) -> std::result::Result<ExposurePlan, String> {
+    let (w, h) = image.size();
+    let mut peaks: Vec<f32> = (0..h)
+        .into_par_iter()
+        .flat_map_iter(|y| {
+            (0..w).map(move |x| {
+                let c = image.radiance(x, y);
+                c[0].max(c[1]).max(c[2])
+            })
+        })
+        .filter(|m| m.is_finite() && *m > 0.0)
+        .collect();
+    let n = peaks.len();
+    if n == 0 {
+        return Err("the image has no light (every pixel is black): nothing to expose for".into());
+    }
+    let bright_rank = n - 1 - ((n as f64 * AUTO_IGNORED_BRIGHT) as usize).min(n - 1);
+    let (_, &mut brightest, _) = peaks.select_nth_unstable_by(bright_rank, f32::total_cmp);
+    let dark_rank = ((n as f64 * AUTO_DARK_QUANTILE) as usize).min(bright_rank);
+    let (_, &mut darkest, _) =
+        peaks[..=bright_rank].select_nth_unstable_by(dark_rank, f32::total_cmp);
+    let shortest = camera.inverse_response(AUTO_HIGH_VALUE) as f64 / brightest as f64;
+    let longest = camera.inverse_response(AUTO_LOW_VALUE) as f64 / darkest as f64;
+    // Span in stops, widened evenly to the smallest stack.
+    let min_span = (AUTO_MIN_BRACKETS - 1) as f64 * AUTO_MAX_STEP_STOPS;
+    let mut span = (longest / shortest).log2();
+    let mut first = shortest;
+    if span < min_span {
+        first = shortest / 2f64.powf(0.5 * (min_span - span));
+        span = min_span;
+    }
+    let count = ((span / AUTO_MAX_STEP_STOPS - 1e-9).ceil() as usize + 1)
+        .clamp(AUTO_MIN_BRACKETS, AUTO_MAX_BRACKETS);
+    let step = span / (count - 1) as f64;
+    Ok(ExposurePlan {
+        times: (0..count)
+            .map(|i| first * 2f64.powf(step * i as f64))
+            .collect(),
+        brightest,
+        darkest,
+        step_stops: step,
+    })
+}
+
 /// Options for [`write_brackets`].
 #[derive(Debug, Clone)]
 pub struct BracketOptions {
@@ -573,4 +668,94 @@ pub fn accuracy<S: RadianceImage + ?Sized>(
         count: n,
         bad_values: bad,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An image given by a function of the pixel.
+    struct Image<F: Fn(usize, usize) -> f32 + Sync>(usize, usize, F);
+
+    impl<F: Fn(usize, usize) -> f32 + Sync> RadianceImage for Image<F> {
+        fn size(&self) -> (usize, usize) {
+            (self.0, self.1)
+        }
+        fn radiance(&self, x: usize, y: usize) -> [f32; 3] {
+            let l = (self.2)(x, y);
+            [l, 0.5 * l, 0.25 * l]
+        }
+    }
+
+    #[test]
+    fn auto_exposures_cover_the_scene_from_its_suns_to_its_shadows() {
+        let scene = SyntheticScene::textured(256, 128);
+        let camera = CameraModel::default();
+        let plan = auto_exposures(&scene, &camera).unwrap();
+        let t = &plan.times;
+        // The suns (0.2 % of the pixels, far above 10⁻⁵) are the brightest.
+        assert_eq!(plan.brightest, SUN_RADIANCE);
+        // Nothing clips in the shortest exposure: the brightest pixel lands
+        // at AUTO_HIGH_VALUE.
+        let v = camera.response(plan.brightest * t[0] as f32);
+        assert!((v - AUTO_HIGH_VALUE).abs() < 1e-4, "{v}");
+        // The darkest lands at mid-range in the longest.
+        let v = camera.response(plan.darkest * *t.last().unwrap() as f32);
+        assert!((v - AUTO_LOW_VALUE).abs() < 1e-4, "{v}");
+        // Evenly spaced, at most two stops apart.
+        assert!((AUTO_MIN_BRACKETS..=AUTO_MAX_BRACKETS).contains(&t.len()));
+        for pair in t.windows(2) {
+            let stops = (pair[1] / pair[0]).log2();
+            assert!((stops - plan.step_stops).abs() < 1e-9);
+            assert!(stops <= AUTO_MAX_STEP_STOPS + 1e-9, "{stops}");
+        }
+        // Every channel of 98 % of the pixels is recorded well inside the
+        // camera's range by some exposure; with the paper's times, whose
+        // shortest clips at radiance 30, the suns are not.
+        let recorded = |times: &[f64]| {
+            let mut ok = 0;
+            for y in 0..scene.height {
+                for x in 0..scene.width {
+                    let c = scene.radiance(x, y);
+                    ok += c.iter().all(|&l| recoverable(&camera, l, times)) as usize;
+                }
+            }
+            ok as f64 / (scene.width * scene.height) as f64
+        };
+        assert!(recorded(t) > 0.98, "{}", recorded(t));
+        assert!(!recoverable(&camera, SUN_RADIANCE, &PAPER_EXPOSURES));
+        assert!(recoverable(&camera, SUN_RADIANCE, t));
+    }
+
+    #[test]
+    fn auto_exposures_ignore_specks_and_widen_narrow_ranges() {
+        let camera = CameraModel::linear();
+        // Flat grey: the smallest stack, two stops apart, centred on it.
+        let flat = Image(64, 32, |_, _| 0.3);
+        let plan = auto_exposures(&flat, &camera).unwrap();
+        assert_eq!(plan.times.len(), AUTO_MIN_BRACKETS);
+        assert!((plan.step_stops - AUTO_MAX_STEP_STOPS).abs() < 1e-9);
+        let (lo, hi): (f64, f64) = (0.95 / 0.3, 0.5 / 0.3);
+        let centre = (plan.times[0] * plan.times[2]).sqrt();
+        assert!((centre / (lo * hi).sqrt() - 1.0).abs() < 1e-6);
+        // One firefly in 10⁶ pixels does not set the shortest exposure.
+        let speck = Image(1000, 1000, |x, y| {
+            if (x, y) == (5, 7) {
+                1e6
+            } else {
+                1.0 + (x % 7) as f32
+            }
+        });
+        let plan = auto_exposures(&speck, &camera).unwrap();
+        assert_eq!(plan.brightest, 7.0);
+        // Forty decades: capped at the most brackets, with larger steps.
+        let huge = Image(100, 100, |x, _| 10f32.powf(-18.0 + 0.36 * x as f32));
+        let plan = auto_exposures(&huge, &camera).unwrap();
+        assert_eq!(plan.times.len(), AUTO_MAX_BRACKETS);
+        assert!(plan.step_stops > AUTO_MAX_STEP_STOPS);
+        // Black (and not-finite) pixels only: an error.
+        let black = Image(8, 8, |x, _| if x == 0 { f32::NAN } else { 0.0 });
+        let e = auto_exposures(&black, &camera).unwrap_err();
+        assert!(e.contains("no light"), "{e}");
+    }
 }

@@ -48,9 +48,12 @@ pub struct HdrCaptureArgs {
     /// Samples per pixel (default: the scene's).
     #[arg(long)]
     pub spp: Option<u32>,
-    /// Exposure times, seconds (default: the paper's 1/30 … 15 s).
-    #[arg(long, value_name = "1/30,1/15,…")]
-    pub exposures: Option<String>,
+    /// Exposure times in seconds (`1/30,1/15,…`), `paper` (the paper's ten,
+    /// 1/30 s to 15 s) or `auto` (default: from the panorama's dynamic
+    /// range, brightest light unclipped to darkest 1 % at mid-range, at
+    /// most two stops apart).
+    #[arg(long, value_name = "auto|paper|T1,T2,…", default_value = "auto")]
+    pub exposures: String,
     /// Camera response: `filmic` (an 8-bit camera's curve) or `linear` (raw).
     #[arg(long, default_value = "filmic")]
     pub response: String,
@@ -253,11 +256,12 @@ fn capture_command(a: &HdrCaptureArgs) -> Result<()> {
         .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
         .filter(|&(w, h)| w > 0 && h > 0 && w <= 1 << 15 && h <= 1 << 15)
         .ok_or_else(|| Error::InvalidArgument(format!("--size: expected WxH, got `{}`", a.size)))?;
-    let exposures = match &a.exposures {
-        Some(s) => {
-            parse_exposures(s).map_err(|m| Error::InvalidArgument(format!("--exposures: {m}")))?
-        }
-        None => PAPER_EXPOSURES.to_vec(),
+    let exposures = match a.exposures.trim() {
+        "auto" => None,
+        "paper" => Some(PAPER_EXPOSURES.to_vec()),
+        s => Some(
+            parse_exposures(s).map_err(|m| Error::InvalidArgument(format!("--exposures: {m}")))?,
+        ),
     };
     let mut camera = match a.response.as_str() {
         "filmic" => CameraModel::default(),
@@ -296,17 +300,41 @@ fn capture_command(a: &HdrCaptureArgs) -> Result<()> {
         bar.set_position(done as u64);
         true
     };
-    let paths = capture(&a.scene, &a.output, &options, &progress)?;
+    let captured = capture(&a.scene, &a.output, &options, &progress)?;
     bar.finish_and_clear();
     println!(
         "plsr hdr capture: {} brackets of a {}×{} panorama at {} in {} (truth.exr beside them)",
-        paths.len(),
+        captured.paths.len(),
         size.0,
         size.1,
         a.at,
         a.output.display()
     );
+    let times: Vec<String> = captured.exposures.iter().map(|&t| seconds(t)).collect();
+    match &captured.plan {
+        Some(plan) => println!(
+            "  exposures from the panorama's dynamic range (radiance {:.3e} to {:.3e}, {:.1} stops apart): {} s",
+            plan.darkest,
+            plan.brightest,
+            plan.step_stops,
+            times.join(", ")
+        ),
+        None => println!("  exposures: {} s", times.join(", ")),
+    }
     Ok(())
+}
+
+/// An exposure time as a photographer writes it: `1/250` below a tenth
+/// of a second (rounded), `0.25` or `2.5` above.
+fn seconds(t: f64) -> String {
+    if t < 0.1 {
+        format!("1/{:.0}", 1.0 / t)
+    } else {
+        format!("{:.3}", t)
+            .trim_end_matches('0')
+            .trim_end_matches('.')
+            .to_string()
+    }
 }
 
 fn merge_command(a: &HdrMergeArgs) -> Result<()> {
