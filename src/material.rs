@@ -9,6 +9,14 @@
 //! | `base_color` (sRGB) | the albedo / base colour | `diffuse` (reflectance), `blinn_phong` (diffuse), `principled` (base_color) |
 //! | `roughness` (linear, red channel) | roughness (α = r²) | `principled`, `cook_torrance` |
 //! | `metallic` (linear, red channel) | metallic | `principled` |
+//! | `normal` (linear, tangent space) | the shading normal | all |
+//!
+//! A normal map holds tangent-space normals (OpenGL and glTF convention:
+//! red +x along increasing u, green +y along increasing v, blue +z along
+//! the surface normal), decoded when loaded (`2c − 1`, x and y times the
+//! map's scale; see [`decode_normal`]). Where a mesh has texture
+//! coordinates, the integrators tilt the shading normal by it
+//! (`SurfacePoint` in `integrator/mod.rs`); elsewhere it is ignored.
 
 use crate::bsdf::{microfacet::alpha_from_roughness, Bsdf, Microfacet};
 use crate::texture::ImageTexture;
@@ -24,12 +32,26 @@ pub struct MaterialTextures {
     pub roughness: Option<Arc<ImageTexture>>,
     /// Metallic in `[0, 1]` (red channel).
     pub metallic: Option<Arc<ImageTexture>>,
+    /// Tangent-space normals, decoded (see [`decode_normal`]).
+    pub normal: Option<Arc<ImageTexture>>,
+}
+
+/// A normal map's texel decoded to a tangent-space direction: `2c − 1`,
+/// with x and y times `scale` (glTF's `normalTexture.scale`; 1 for none).
+/// Not normalised (the integrators normalise after filtering).
+#[inline]
+pub fn decode_normal(c: glam::Vec3, scale: f32) -> glam::Vec3 {
+    let v = 2.0 * c - glam::Vec3::ONE;
+    glam::Vec3::new(v.x * scale, v.y * scale, v.z)
 }
 
 impl MaterialTextures {
     /// Whether no parameter is textured.
     pub fn is_empty(&self) -> bool {
-        self.base_color.is_none() && self.roughness.is_none() && self.metallic.is_none()
+        self.base_color.is_none()
+            && self.roughness.is_none()
+            && self.metallic.is_none()
+            && self.normal.is_none()
     }
 }
 

@@ -96,6 +96,15 @@ impl ImageTexture {
         })
     }
 
+    /// The texture with every texel replaced by `f(texel)` (decoding data
+    /// maps such as normal maps).
+    pub fn map(mut self, f: impl Fn(Vec3) -> Vec3) -> ImageTexture {
+        for t in &mut self.texels {
+            *t = f(*t);
+        }
+        self
+    }
+
     /// The largest value of any channel (for range checks of parameters).
     pub fn max_value(&self) -> f32 {
         self.texels

@@ -553,7 +553,9 @@ fn material_section(name: String) -> BoxedStrategy<String> {
     let kind = prop_oneof![
         keys(vec![
             ("reflectance", mostly(good_colour(), colour())),
-            ("base_color_map", map())
+            ("base_color_map", map()),
+            ("normal_map", map()),
+            ("normal_scale", mostly(within(0.0, 2.0), number())),
         ])
         .prop_map(|k| format!("type = \"diffuse\"\n{k}")),
         keys(vec![

@@ -89,9 +89,10 @@ fn quad_json(uri: Option<&str>, material: &str) -> String {
     )
 }
 
-/// A material with a base-colour texture (`tex.png`) only.
-const TEXTURED: &str = r#""materials": [{"name": "paint", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.25, "roughnessFactor": 0.5}}],
-  "textures": [{"source": 0}], "images": [{"uri": "tex.png"}]"#;
+/// A material with a base-colour texture (`tex.png`) and a normal texture
+/// (`nrm.png`, scale 0.6).
+const TEXTURED: &str = r#""materials": [{"name": "paint", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.25, "roughnessFactor": 0.5}, "normalTexture": {"index": 1, "scale": 0.6}}],
+  "textures": [{"source": 0}, {"source": 1}], "images": [{"uri": "tex.png"}, {"uri": "nrm.png"}]"#;
 
 /// A material with a metallic-roughness texture (`mr.png`), factors, a
 /// normal texture and emission.
@@ -110,6 +111,15 @@ fn write_quad(dir: &Path, material: &str) {
     write_png(
         &dir.join("tex.png"),
         [[200, 30, 30], [30, 200, 30], [30, 30, 200], [250, 250, 250]],
+    );
+    write_png(
+        &dir.join("nrm.png"),
+        [
+            [128, 128, 255],
+            [200, 100, 230],
+            [60, 180, 220],
+            [150, 40, 200],
+        ],
     );
     write_png(
         &dir.join("mr.png"),
@@ -178,7 +188,8 @@ fn a_gltf_quad_renders_as_the_plsr_rectangle() {
         &twin,
         format!(
             "{SCENE_HEAD}\n[[materials]]\nname = \"paint\"\ntype = \"principled\"\n\
-             base_color_map = \"tex.png\"\nmetallic = 0.25\nroughness = 0.5\n\n\
+             base_color_map = \"tex.png\"\nmetallic = 0.25\nroughness = 0.5\n\
+             normal_map = \"nrm.png\"\nnormal_scale = 0.6\n\n\
              [[shapes]]\ntype = \"rectangle\"\nmaterial = \"paint\"\n\
              transform.matrix = [[2, 0, 0, 0], [0, 2, 0, 0.5], [0, 0, 2, -0.5], [0, 0, 0, 1]]\n"
         ),
@@ -218,8 +229,14 @@ fn gltf_contents_are_read_as_gltf_defines_them() {
     assert!((mt.eval(at(0.25, 0.25)).x - 0.5 * 64.0 / 255.0).abs() < 1e-6);
     assert_eq!(m.bsdf.albedo(), Vec3::new(0.5, 0.25, 1.0));
     assert_eq!(g.emission[0], Vec3::new(1.0, 2.0, 3.0));
+    // The normal texture, decoded: 2c − 1 (scale 1).
+    let n = m.textures.normal.as_ref().unwrap();
+    assert_eq!(n.eval(at(0.25, 0.75)), Vec3::new(-1.0, 1.0, -1.0));
     assert!(
-        g.notes.iter().any(|n| n.contains("normal texture")),
+        (n.eval(at(0.75, 0.75)) - Vec3::new(-1.0, 2.0 * 128.0 / 255.0 - 1.0, 1.0)).length() < 1e-6
+    );
+    assert!(
+        !g.notes.iter().any(|n| n.contains("normal")),
         "{:?}",
         g.notes
     );

@@ -386,3 +386,160 @@ fn ply_meshes_render_as_the_same_obj() {
         "{e}"
     );
 }
+
+/// Writes a 2×2 PNG of one colour (8-bit levels).
+fn write_flat_png(path: &Path, rgb: [u8; 3]) {
+    image::RgbImage::from_pixel(2, 2, image::Rgb(rgb))
+        .save(path)
+        .unwrap();
+}
+
+/// A normal map's 8-bit texel decoded as plsr decodes it (2c − 1, x and y
+/// times `scale`), in the quad's frame: u along +x, v along +y, the normal
+/// along +z.
+fn decoded(rgb: [u8; 3], scale: f32) -> Vec3 {
+    let c = |k: u8| 2.0 * (k as f32 / 255.0) - 1.0;
+    Vec3::new(scale * c(rgb[0]), scale * c(rgb[1]), c(rgb[2])).normalize()
+}
+
+/// The untextured quad (OBJ with texture coordinates, no normals) with a
+/// diffuse material of reflectance 0.8 and the normal map `rgb`, lit by a
+/// point light of intensity 1 at `light`, seen from above.
+fn normal_mapped_quad(dir: &Path, rgb: [u8; 3], extra: &str, light: Vec3) -> String {
+    write_flat_png(&dir.join("normals.png"), rgb);
+    std::fs::write(dir.join("quad.obj"), quad_obj(None, None)).unwrap();
+    format!(
+        "[render]\nspp = 4\n{TOP_CAMERA}\n\
+         [[materials]]\nname = \"bumpy\"\ntype = \"diffuse\"\nreflectance = [0.8, 0.8, 0.8]\n\
+         normal_map = \"normals.png\"\n{extra}\n\
+         [[shapes]]\ntype = \"obj\"\nfile = \"quad.obj\"\nmaterial = \"bumpy\"\n\n\
+         [[lights]]\ntype = \"point\"\nposition = [{}, {}, {}]\nintensity = [1, 1, 1]\n",
+        light.x, light.y, light.z
+    )
+}
+
+#[test]
+fn normal_maps_tilt_the_shading_normal_in_the_tangent_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    // Tilted along +u (red): the normal layer holds the decoded direction,
+    // and Lambert under a light straight above gives ρ/π · I cos θs / r².
+    let red = [166, 128, 255];
+    let film = render_in(
+        dir.path(),
+        &normal_mapped_quad(dir.path(), red, "", Vec3::new(0.0, 0.0, 3.0)),
+    );
+    let n = film.normal[film.index(8, 8)];
+    let want_n = decoded(red, 1.0);
+    assert!(
+        (n - want_n).length() < 1e-4,
+        "normal layer {n}, map {want_n}"
+    );
+    let want = 0.8 / std::f32::consts::PI * want_n.z / 9.0;
+    let got = film.color[film.index(8, 8)].x;
+    assert!(
+        (got - want).abs() < 0.02 * want,
+        "radiance {got}, expected {want}"
+    );
+
+    // Green tilts along +v (+y here, glTF's and OpenGL's "up"): towards a
+    // light off to +y the quad's centre brightens, away from it darkens, each
+    // as cos θ between the tilted normal and the light says; normal_scale
+    // scales the tilt.
+    let light = Vec3::new(0.0, 2.0, 3.0);
+    // Pixel (8, 8)'s centre on the quad (image x is +x, rows go −y).
+    let to_light = light - Vec3::new(0.0625, -0.0625, 0.0);
+    let l = to_light.normalize();
+    for (rgb, scale) in [
+        ([128, 220, 255], 1.0),
+        ([128, 36, 255], 1.0),
+        ([128, 220, 255], 0.5),
+    ] {
+        let extra = format!("normal_scale = {scale}");
+        let film = render_in(
+            dir.path(),
+            &normal_mapped_quad(dir.path(), rgb, &extra, light),
+        );
+        let n = decoded(rgb, scale);
+        let want = 0.8 / std::f32::consts::PI * n.dot(l) / to_light.length_squared();
+        let got = film.color[film.index(8, 8)].x;
+        assert!(
+            (got - want).abs() < 0.02 * want,
+            "{rgb:?} × {scale}: radiance {got}, expected {want} (normal {n})"
+        );
+    }
+    let flat = 0.8 / std::f32::consts::PI * l.z / to_light.length_squared();
+    assert!(decoded([128, 220, 255], 1.0).dot(l) > 1.05 * l.z);
+    assert!(decoded([128, 36, 255], 1.0).dot(l) < 0.9 * l.z);
+
+    // Scale 0: exactly the flat quad.
+    let film = render_in(
+        dir.path(),
+        &normal_mapped_quad(dir.path(), [200, 30, 180], "normal_scale = 0", light),
+    );
+    let got = film.color[film.index(8, 8)].x;
+    assert!((got - flat).abs() < 0.02 * flat, "{got} vs {flat}");
+    assert!((film.normal[film.index(8, 8)] - Vec3::Z).length() < 1e-6);
+}
+
+#[test]
+fn a_constant_normal_map_equals_the_same_vertex_normal() {
+    // A normal map of one tilted normal on a flat quad is the quad with that
+    // vertex normal: the same image, to rounding.
+    let dir = tempfile::tempdir().unwrap();
+    let rgb = [90, 170, 230];
+    let light = Vec3::new(0.5, -0.5, 3.0);
+    let mapped = render_in(dir.path(), &normal_mapped_quad(dir.path(), rgb, "", light));
+    std::fs::write(
+        dir.path().join("quad.obj"),
+        quad_obj(None, Some(decoded(rgb, 1.0))),
+    )
+    .unwrap();
+    let scene = format!(
+        "[render]\nspp = 4\n{TOP_CAMERA}\n\
+         [[materials]]\nname = \"plain\"\ntype = \"diffuse\"\nreflectance = [0.8, 0.8, 0.8]\n\n\
+         [[shapes]]\ntype = \"obj\"\nfile = \"quad.obj\"\nmaterial = \"plain\"\n\n\
+         [[lights]]\ntype = \"point\"\nposition = [{}, {}, {}]\nintensity = [1, 1, 1]\n",
+        light.x, light.y, light.z
+    );
+    let vertex = render_in(dir.path(), &scene);
+    for (a, b) in mapped.color.iter().zip(&vertex.color) {
+        assert!(
+            (*a - *b).abs().max_element() <= 1e-5 * b.max_element().max(1e-3),
+            "{a} vs {b}"
+        );
+    }
+    let lit = vertex.color.iter().filter(|c| c.x > 0.0).count();
+    assert!(lit > 200, "{lit} lit pixels");
+}
+
+#[test]
+fn bad_normal_map_keys_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = normal_mapped_quad(dir.path(), [128, 128, 255], "", Vec3::new(0.0, 0.0, 3.0));
+    for (from, to, wanted) in [
+        (
+            "normal_map = \"normals.png\"\n",
+            "normal_scale = 2\n",
+            "materials[0].normal_scale: only used with a normal_map",
+        ),
+        (
+            "normal_map = \"normals.png\"\n",
+            "normal_map = \"normals.png\"\nnormal_scale = 11\n",
+            "materials[0].normal_scale: must be in [0, 10], got 11",
+        ),
+        (
+            "normal_map = \"normals.png\"\n",
+            "normal_map = \"missing.png\"\n",
+            "materials[0].normal_map",
+        ),
+    ] {
+        let text = base.replace(from, to);
+        let path = dir.path().join("bad.toml");
+        std::fs::write(&path, &text).unwrap();
+        let err = match Scene::load(&path) {
+            Ok(_) => panic!("{to:?} was accepted"),
+            Err(e) => e.to_string(),
+        };
+        assert!(err.contains(wanted) && err.contains("bad.toml"), "{err}");
+    }
+}

@@ -546,7 +546,8 @@ fn every_material_kind_is_bit_identical() {
     // coordinates), a smooth glass sphere (no light sample; refraction
     // raises η², which the roulette of the Lambert lanes behind it then
     // uses), a rough glass sphere, and the principled BSDF in both modes,
-    // one textured; smooth spheres (vertex normals), lit by an environment
+    // one textured, and normal-mapped Lambert and metal; smooth spheres
+    // (vertex normals), lit by an environment
     // map through the open side, an area light and a point light; roulette
     // from depth 2 so that it spins on glass-filtered paths.
     let dir = tempfile::tempdir().unwrap();
@@ -581,6 +582,15 @@ fn every_material_kind_is_bit_identical() {
         ("painted", &format!(
             "type = \"principled\"\nbase_color_map = \"{texture}\"\nmetallic = 0.3\n\
              roughness = 0.3\nenergy_conserving = true"
+        )),
+        // Normal maps: on a Lambert material (a vectorised lane with a
+        // shading normal from the map) and on a metal.
+        ("bumpy", &format!(
+            "type = \"diffuse\"\nreflectance = [0.7, 0.6, 0.5]\nnormal_map = \"{texture}\"\n\
+             normal_scale = 0.8"
+        )),
+        ("bumpy_gold", &format!(
+            "type = \"cook_torrance\"\nmetal = \"Au\"\nroughness = 0.3\nnormal_map = \"{texture}\""
         )),
     ];
     let mut text = String::from(
@@ -620,6 +630,28 @@ fn every_material_kind_is_bit_identical() {
     }
     let scene = scene_from("materials", &text);
     assert_identical("every material kind", &scene);
+}
+
+#[test]
+fn normal_maps_alone_are_bit_identical() {
+    // Normal-mapped Lambert rectangles and no mesh with vertex normals: the
+    // kernel must look up shading normals for the map alone.
+    let dir = tempfile::tempdir().unwrap();
+    let texture = random_texture(dir.path(), 5, 7, 4);
+    let texture = texture.display().to_string().replace('\\', "/");
+    let scene = scene_from(
+        "normal maps",
+        &format!(
+            "[render]\nspp = 3\nmax_depth = 4\nseed = 5\n\n\
+             [camera]\nposition = [278, 273, -800]\nlook_at = [278, 273, 0]\nup = [0, 1, 0]\n\
+             vfov = 37\nresolution = [35, 31]\n\n[[shapes]]\ntype = \"obj\"\nfile = \"OBJ\"\n\n\
+             [[materials]]\nname = \"bumpy\"\ntype = \"diffuse\"\nnormal_map = \"{texture}\"\n\n\
+             [[shapes]]\ntype = \"rectangle\"\nmaterial = \"bumpy\"\n\
+             transform = {{ scale = 150, rotate = {{ axis = [0, 1, 0], angle = 20 }}, translate = [278, 250, 300] }}\n\n\
+             [[lights]]\ntype = \"point\"\nposition = [278, 400, 50]\nintensity = [90000, 90000, 90000]\n"
+        ),
+    );
+    assert_identical("normal maps", &scene);
 }
 
 #[test]

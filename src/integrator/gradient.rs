@@ -434,7 +434,7 @@ fn step(
     let ng = hit.ng.normalize_or_zero();
     let facing = if ng.dot(wo) >= 0.0 { ng } else { -ng };
     let material = &scene.materials()[mesh.material as usize];
-    let surface = SurfacePoint::new(mesh, &hit, !material.textures.is_empty());
+    let surface = SurfacePoint::new(mesh, &hit, material);
     let textured;
     let bsdf = if material.textures.is_empty() {
         &material.bsdf

@@ -277,21 +277,27 @@ pub(crate) fn sides_agree(wo: Vec3, wi: Vec3, ng: Vec3, wo_local: Vec3, wi_local
 }
 
 /// What a hit knows of its surface beyond the geometric normal: texture
-/// coordinates and the interpolated shading normal.
+/// coordinates and the shading normal.
 struct SurfacePoint {
     /// Texture coordinates (zero where the mesh has none or none are needed).
     uv: Vec2,
-    /// Interpolated unit shading normal, if the mesh has vertex normals.
+    /// Unit shading normal: interpolated where the mesh has vertex normals,
+    /// tilted by the material's normal map where it has one and the mesh
+    /// has texture coordinates.
     normal: Option<Vec3>,
 }
 
 impl SurfacePoint {
     /// Interpolates the mesh's vertex attributes at the hit (Embree's
     /// barycentrics: `p = (1 − u − v)·p0 + u·p1 + v·p2`); `uv` only when
-    /// `need_uv`.
+    /// `material` is textured; then applies its normal map.
     #[inline]
-    fn new(mesh: &crate::scene::Mesh, hit: &crate::accel::Hit, need_uv: bool) -> SurfacePoint {
-        let has_uv = need_uv && !mesh.uvs.is_empty();
+    fn new(
+        mesh: &crate::scene::Mesh,
+        hit: &crate::accel::Hit,
+        material: &crate::scene::Material,
+    ) -> SurfacePoint {
+        let has_uv = !material.textures.is_empty() && !mesh.uvs.is_empty();
         if !has_uv && mesh.normals.is_empty() {
             return SurfacePoint {
                 uv: Vec2::ZERO,
@@ -311,7 +317,46 @@ impl SurfacePoint {
         } else {
             (mesh.normals[i0] * b0 + mesh.normals[i1] * b1 + mesh.normals[i2] * b2).try_normalize()
         };
+        let normal = match &material.textures.normal {
+            Some(map) if has_uv => Self::normal_mapped(mesh, [i0, i1, i2], uv, normal, map),
+            _ => normal,
+        };
         SurfacePoint { uv, normal }
+    }
+
+    /// The shading normal tilted by a normal map at `uv`: the map's
+    /// tangent-space direction in the frame of the triangle's ∂p/∂u and
+    /// ∂p/∂v (Gram–Schmidt against the normal, so mirrored texture
+    /// coordinates mirror the tilt) and the interpolated normal `normal`
+    /// (the triangle's own, by its winding, where there is none). Tangents
+    /// are per triangle. The untilted normal where the triangle's texture
+    /// coordinates are degenerate.
+    #[cold]
+    fn normal_mapped(
+        mesh: &crate::scene::Mesh,
+        [i0, i1, i2]: [usize; 3],
+        uv: Vec2,
+        normal: Option<Vec3>,
+        map: &crate::texture::ImageTexture,
+    ) -> Option<Vec3> {
+        let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
+        let (dp1, dp2) = (p1 - p0, p2 - p0);
+        let (d1, d2) = (mesh.uvs[i1] - mesh.uvs[i0], mesh.uvs[i2] - mesh.uvs[i0]);
+        let det = d1.x * d2.y - d1.y * d2.x;
+        let n = normal.or_else(|| dp1.cross(dp2).try_normalize())?;
+        if det.abs() <= 1e-20 {
+            return Some(n);
+        }
+        let dpdu = (dp1 * d2.y - dp2 * d1.y) / det;
+        let dpdv = (dp2 * d1.x - dp1 * d2.x) / det;
+        let Some(t) = (dpdu - n * n.dot(dpdu)).try_normalize() else {
+            return Some(n);
+        };
+        let Some(b) = (dpdv - n * n.dot(dpdv) - t * t.dot(dpdv)).try_normalize() else {
+            return Some(n);
+        };
+        let m = map.eval(uv);
+        (t * m.x + b * m.y + n * m.z).try_normalize().or(Some(n))
     }
 
     /// The normal of the shading frame: the interpolated normal turned to the
@@ -649,7 +694,7 @@ fn shade(
     };
     let mesh = &scene.meshes()[hit.geom_id as usize];
     let material = &scene.materials()[mesh.material as usize];
-    let surface = SurfacePoint::new(mesh, &hit, !material.textures.is_empty());
+    let surface = SurfacePoint::new(mesh, &hit, material);
     let at = SurfaceHit::new(scene, &ray, &hit, surface);
 
     if path.depth == 0 {

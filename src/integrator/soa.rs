@@ -83,8 +83,9 @@ pub struct SoaScene {
     /// into a photograph; counted in the compositing matte), with one extra
     /// `false`.
     is_virtual: Vec<bool>,
-    /// Whether each geometry (by Embree id) has vertex normals (shading
-    /// normals), with one extra `false`.
+    /// Whether each geometry (by Embree id) has shading normals (vertex
+    /// normals, or a normal-mapped material and texture coordinates), with
+    /// one extra `false`.
     smooth: Vec<bool>,
     /// Whether any geometry has (then each lane's interpolated normal is
     /// looked up by `lane_surfaces` into `SoaLanes::ns`).
@@ -115,9 +116,11 @@ impl SoaScene {
         let mut smooth = Vec::new();
         let mut is_virtual = Vec::new();
         for (g, mesh) in scene.meshes().iter().enumerate() {
-            smooth.push(!mesh.normals.is_empty());
-            is_virtual.push(mesh.is_virtual);
             let material = &scene.materials()[mesh.material as usize];
+            // Shading normals: interpolated, or from a normal map.
+            let mapped = material.textures.normal.is_some() && !mesh.uvs.is_empty();
+            smooth.push(!mesh.normals.is_empty() || mapped);
+            is_virtual.push(mesh.is_virtual);
             // Lambert's albedo is its reflectance; for the other models it
             // is what the albedo layer records.
             let a = material.bsdf.albedo();
@@ -889,9 +892,9 @@ fn lane_surfaces(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
         if kernel.textured[g] || kernel.smooth[g] {
             if let Some(hit) = lanes.rays.hit(i) {
                 let mesh = &meshes[g];
-                let surface = super::SurfacePoint::new(mesh, &hit, kernel.textured[g]);
+                let material = &scene.materials()[mesh.material as usize];
+                let surface = super::SurfacePoint::new(mesh, &hit, material);
                 if kernel.textured[g] {
-                    let material = &scene.materials()[mesh.material as usize];
                     albedo = material.bsdf_at(surface.uv).albedo();
                 }
                 (ns, uv) = (surface.normal, surface.uv);

@@ -17,7 +17,7 @@
 //! incidence, 0.04, is plsr's default `specular` (0.5, `η = 1.5`).
 
 use crate::bsdf::{Bsdf, PrincipledParams};
-use crate::material::{Material, MaterialTextures};
+use crate::material::{decode_normal, Material, MaterialTextures};
 use crate::texture::{srgb_to_linear, ImageTexture};
 use glam::{Mat4, Vec2, Vec3};
 use std::path::Path;
@@ -185,14 +185,22 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, String> {
                 Vec3::splat((p[2] * mf).clamp(0.0, 1.0))
             })));
         }
+        if let Some(info) = m.normal_texture() {
+            uses_second_uv |= info.tex_coord() != 0;
+            let (w, h, px) = texels(info.texture().source().index())?;
+            let scale = info.scale();
+            if !(scale.is_finite() && scale.abs() <= 10.0) {
+                return Err(format!(
+                    "material `{name}`: normal texture scale {scale} is not in [-10, 10]"
+                ));
+            }
+            t.normal = Some(Arc::new(texture(w, h, &px, |p| {
+                decode_normal(Vec3::new(p[0], p[1], p[2]), scale)
+            })));
+        }
         if uses_second_uv {
             note(format!(
                 "material `{name}`: textures on a second UV set are looked up with the first"
-            ));
-        }
-        if m.normal_texture().is_some() {
-            note(format!(
-                "material `{name}`: its normal texture is not used (plsr has no normal maps)"
             ));
         }
         if m.occlusion_texture().is_some() {

@@ -9,6 +9,7 @@ use crate::bsdf::{
     Microfacet, PrincipledParams,
 };
 use crate::error::Result;
+use crate::material::decode_normal;
 use crate::scene::shapes::{self};
 use crate::scene::{Material, MaterialTextures};
 use crate::texture::{self, Encoding, ImageTexture};
@@ -38,6 +39,8 @@ pub(super) struct DiffuseKeys {
     #[serde(default, deserialize_with = "crate::input::exact::option")]
     reflectance: Option<[f32; 3]>,
     base_color_map: Option<PathBuf>,
+    normal_map: Option<PathBuf>,
+    normal_scale: Option<f32>,
 }
 
 /// The keys of a `blinn_phong` material.
@@ -50,6 +53,8 @@ pub(super) struct BlinnPhongKeys {
     specular: Option<[f32; 3]>,
     exponent: Option<f32>,
     base_color_map: Option<PathBuf>,
+    normal_map: Option<PathBuf>,
+    normal_scale: Option<f32>,
 }
 
 /// The keys of a `cook_torrance` material.
@@ -73,6 +78,8 @@ pub(super) struct CookTorranceKeys {
     #[serde(default, deserialize_with = "crate::input::exact::option")]
     specular_reflectance: Option<[f32; 3]>,
     roughness_map: Option<PathBuf>,
+    normal_map: Option<PathBuf>,
+    normal_scale: Option<f32>,
 }
 
 /// The keys of a `dielectric` material.
@@ -85,6 +92,8 @@ pub(super) struct DielectricKeys {
     alpha: Option<f32>,
     alpha_u: Option<f32>,
     alpha_v: Option<f32>,
+    normal_map: Option<PathBuf>,
+    normal_scale: Option<f32>,
 }
 
 /// The keys of a `principled` material.
@@ -102,6 +111,8 @@ pub(super) struct PrincipledKeys {
     base_color_map: Option<PathBuf>,
     roughness_map: Option<PathBuf>,
     metallic_map: Option<PathBuf>,
+    normal_map: Option<PathBuf>,
+    normal_scale: Option<f32>,
 }
 
 /// A material's keys, by its type (the `type` key is the tag).
@@ -146,6 +157,8 @@ struct TextureKeys<'a> {
     base_color_map: Option<&'a PathBuf>,
     roughness_map: Option<&'a PathBuf>,
     metallic_map: Option<&'a PathBuf>,
+    normal_map: Option<&'a PathBuf>,
+    normal_scale: Option<f32>,
 }
 
 impl MaterialKeys {
@@ -153,21 +166,33 @@ impl MaterialKeys {
         match self {
             MaterialKeys::Diffuse(k) => TextureKeys {
                 base_color_map: k.base_color_map.as_ref(),
+                normal_map: k.normal_map.as_ref(),
+                normal_scale: k.normal_scale,
                 ..Default::default()
             },
             MaterialKeys::BlinnPhong(k) => TextureKeys {
                 base_color_map: k.base_color_map.as_ref(),
+                normal_map: k.normal_map.as_ref(),
+                normal_scale: k.normal_scale,
                 ..Default::default()
             },
             MaterialKeys::CookTorrance(k) => TextureKeys {
                 roughness_map: k.roughness_map.as_ref(),
+                normal_map: k.normal_map.as_ref(),
+                normal_scale: k.normal_scale,
                 ..Default::default()
             },
-            MaterialKeys::Dielectric(_) => TextureKeys::default(),
+            MaterialKeys::Dielectric(k) => TextureKeys {
+                normal_map: k.normal_map.as_ref(),
+                normal_scale: k.normal_scale,
+                ..Default::default()
+            },
             MaterialKeys::Principled(k) => TextureKeys {
                 base_color_map: k.base_color_map.as_ref(),
                 roughness_map: k.roughness_map.as_ref(),
                 metallic_map: k.metallic_map.as_ref(),
+                normal_map: k.normal_map.as_ref(),
+                normal_scale: k.normal_scale,
             },
         }
     }
@@ -430,20 +455,47 @@ impl Builder<'_> {
     }
 
     /// Loads the textures a material names (`*_map`, relative to the scene
-    /// file); data maps must hold values in `[0, 1]`.
+    /// file); data maps must hold values in `[0, 1]`. A normal map is
+    /// decoded with `normal_scale` (default 1, in [0, 10]).
     pub(super) fn material_textures(
         &self,
         field: &str,
         keys: &MaterialKeys,
     ) -> Result<MaterialTextures> {
         let m = keys.textures();
-        self.textures(
+        let mut textures = self.textures(
             field,
             m.base_color_map.map(|p| self.base.join(p)),
             m.roughness_map.map(|p| self.base.join(p)),
             m.metallic_map.map(|p| self.base.join(p)),
             ["base_color_map", "roughness_map", "metallic_map"],
-        )
+        )?;
+        if m.normal_scale.is_some() && m.normal_map.is_none() {
+            return Err(self.err(
+                format!("{field}.normal_scale"),
+                "only used with a normal_map",
+            ));
+        }
+        let scale = self.finite(
+            &format!("{field}.normal_scale"),
+            m.normal_scale.unwrap_or(1.0),
+        )?;
+        if !(0.0..=10.0).contains(&scale) {
+            return Err(self.err(
+                format!("{field}.normal_scale"),
+                format!("must be in [0, 10], got {scale}"),
+            ));
+        }
+        if let Some(path) = m.normal_map.map(|p| self.base.join(p)) {
+            let f = format!("{field}.normal_map");
+            let t = texture::load_for(self.file, &f, &path, Encoding::Linear)?;
+            self.read_input(&path);
+            if t.max_value() > 1.0 {
+                return Err(self.err(f, format!("{}: values must be in [0, 1]", path.display())));
+            }
+            textures.normal = Some(Arc::new(t.map(|c| decode_normal(c, scale))));
+        }
+        Ok(textures)
     }
 
     /// Loads base colour (sRGB), roughness and metallic (linear) textures;
@@ -475,6 +527,7 @@ impl Builder<'_> {
             base_color: load(base_color, keys[0], Encoding::Srgb)?,
             roughness: load(roughness, keys[1], Encoding::Linear)?,
             metallic: load(metallic, keys[2], Encoding::Linear)?,
+            normal: None,
         })
     }
 
