@@ -348,3 +348,130 @@ fn bad_gltf_files_are_refused_clearly() {
         "{e}"
     );
 }
+
+/// A quad `[-1, 1]²` at z = 0 as glTF, with texture coordinates as plsr's
+/// rectangle has them, normals +z when `normals`, tangents `(0, 1, 0, w)`
+/// (along world +y) when `w` is given, and a material whose normal texture
+/// is `nrm.png`.
+fn tangent_quad_json(normals: bool, w: Option<f32>) -> (String, Vec<u8>) {
+    let mut b = quad_buffer(); // positions 0..48, uvs 48..80, indices 80..92
+    let mut attributes = String::from(r#""POSITION": 0, "TEXCOORD_0": 1"#);
+    let mut views = String::new();
+    let mut accessors = String::new();
+    if normals {
+        let at = b.len();
+        for _ in 0..4 {
+            for x in [0f32, 0.0, 1.0] {
+                b.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        attributes += r#", "NORMAL": 3"#;
+        views += &format!(r#", {{"buffer": 0, "byteOffset": {at}, "byteLength": 48}}"#);
+        accessors += r#", {"bufferView": 3, "componentType": 5126, "count": 4, "type": "VEC3"}"#;
+    }
+    if let Some(w) = w {
+        let at = b.len();
+        for _ in 0..4 {
+            for x in [0f32, 1.0, 0.0, w] {
+                b.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        let view = if normals { 4 } else { 3 };
+        attributes += &format!(r#", "TANGENT": {view}"#);
+        views += &format!(r#", {{"buffer": 0, "byteOffset": {at}, "byteLength": 64}}"#);
+        accessors += &format!(
+            r#", {{"bufferView": {view}, "componentType": 5126, "count": 4, "type": "VEC4"}}"#
+        );
+    }
+    let json = format!(
+        r#"{{
+  "asset": {{"version": "2.0"}},
+  "scene": 0,
+  "scenes": [{{"nodes": [0]}}],
+  "nodes": [{{"mesh": 0}}],
+  "meshes": [{{"primitives": [{{"attributes": {{{attributes}}}, "indices": 2, "material": 0}}]}}],
+  "materials": [{{"name": "bumpy", "pbrMetallicRoughness": {{"metallicFactor": 0}}, "normalTexture": {{"index": 0}}}}],
+  "textures": [{{"source": 0}}], "images": [{{"uri": "nrm.png"}}],
+  "buffers": [{{"byteLength": {len}, "uri": "quad.bin"}}],
+  "bufferViews": [
+    {{"buffer": 0, "byteOffset": 0, "byteLength": 48}},
+    {{"buffer": 0, "byteOffset": 48, "byteLength": 32}},
+    {{"buffer": 0, "byteOffset": 80, "byteLength": 12}}{views}
+  ],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"}},
+    {{"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}}{accessors}
+  ]
+}}"#,
+        len = b.len()
+    );
+    (json, b)
+}
+
+#[test]
+fn gltf_tangents_orient_the_normal_map() {
+    // A flat normal texture tilted along its x (red) and y (green). The
+    // normal layer, seen from above, shows the frame the map was applied in.
+    let dir = tempfile::tempdir().unwrap();
+    let rgb = [166u8, 200, 255];
+    image::RgbImage::from_pixel(2, 2, image::Rgb(rgb))
+        .save(dir.path().join("nrm.png"))
+        .unwrap();
+    let c = |k: u8| 2.0 * (k as f32 / 255.0) - 1.0;
+    let (x, y, z) = (c(rgb[0]), c(rgb[1]), c(rgb[2]));
+    let frame = |t: Vec3, b: Vec3| (t * x + b * y + Vec3::Z * z).normalize();
+    let normal_at_centre = |normals: bool, w: Option<f32>, transform: &str| {
+        let (json, bin) = tangent_quad_json(normals, w);
+        std::fs::write(dir.path().join("quad.gltf"), json).unwrap();
+        std::fs::write(dir.path().join("quad.bin"), bin).unwrap();
+        let scene = dir.path().join("scene.toml");
+        std::fs::write(
+            &scene,
+            format!(
+                "[render]\nspp = 1\n[camera]\nposition = [0, 0, 2]\nlook_at = [0, 0, 0]\n\
+                 up = [0, 1, 0]\nvfov = 53.130102\nresolution = [16, 16]\n\n\
+                 [environment]\nradiance = [1, 1, 1]\n\n\
+                 [[shapes]]\ntype = \"gltf\"\nfile = \"quad.gltf\"\n{transform}\n"
+            ),
+        )
+        .unwrap();
+        let film = render_file(&scene);
+        film.normal[film.index(8, 8)]
+    };
+    let close = |a: Vec3, b: Vec3, what: &str| {
+        assert!((a - b).length() < 1e-4, "{what}: normal {a}, expected {b}");
+    };
+    // Without tangents: the frame of the texture coordinates, u along +x
+    // and v along +y.
+    close(
+        normal_at_centre(true, None, ""),
+        frame(Vec3::X, Vec3::Y),
+        "no tangents",
+    );
+    // Tangents along +y: the bitangent is w·(n × t), −x for w = 1 and +x
+    // for w = −1.
+    close(
+        normal_at_centre(true, Some(1.0), ""),
+        frame(Vec3::Y, -Vec3::X),
+        "w = 1",
+    );
+    close(
+        normal_at_centre(true, Some(-1.0), ""),
+        frame(Vec3::Y, Vec3::X),
+        "w = -1",
+    );
+    // A mirroring transform (x → −x) carries the frame with it: the tangent
+    // stays +y, the bitangent −x becomes +x.
+    close(
+        normal_at_centre(true, Some(1.0), "transform = { scale = [-1, 1, 1] }"),
+        frame(Vec3::Y, Vec3::X),
+        "mirrored",
+    );
+    // Tangents without normals are ignored, as glTF says.
+    close(
+        normal_at_centre(false, Some(1.0), ""),
+        frame(Vec3::X, Vec3::Y),
+        "no normals",
+    );
+}

@@ -318,32 +318,46 @@ impl SurfacePoint {
             (mesh.normals[i0] * b0 + mesh.normals[i1] * b1 + mesh.normals[i2] * b2).try_normalize()
         };
         let normal = match &material.textures.normal {
-            Some(map) if has_uv => Self::normal_mapped(mesh, [i0, i1, i2], uv, normal, map),
+            Some(map) if has_uv => {
+                Self::normal_mapped(mesh, [i0, i1, i2], [b0, b1, b2], uv, normal, map)
+            }
             _ => normal,
         };
         SurfacePoint { uv, normal }
     }
 
     /// The shading normal tilted by a normal map at `uv`: the map's
-    /// tangent-space direction in the frame of the triangle's ∂p/∂u and
-    /// ∂p/∂v (Gram–Schmidt against the normal, so mirrored texture
-    /// coordinates mirror the tilt) and the interpolated normal `normal`
-    /// (the triangle's own, by its winding, where there is none). Tangents
-    /// are per triangle. The untilted normal where the triangle's texture
-    /// coordinates are degenerate.
+    /// tangent-space direction in a frame around the interpolated normal
+    /// `normal` (the triangle's own, by its winding, where there is none).
+    /// Where the mesh has tangents (glTF's `TANGENT`), the frame is the
+    /// interpolated tangent, made orthogonal to the normal, and the
+    /// bitangent `w·(n × t)`; otherwise the triangle's ∂p/∂u and ∂p/∂v
+    /// (Gram–Schmidt against the normal, so mirrored texture coordinates
+    /// mirror the tilt). The untilted normal where the frame is degenerate.
     #[cold]
     fn normal_mapped(
         mesh: &crate::scene::Mesh,
         [i0, i1, i2]: [usize; 3],
+        [b0, b1, b2]: [f32; 3],
         uv: Vec2,
         normal: Option<Vec3>,
         map: &crate::texture::ImageTexture,
     ) -> Option<Vec3> {
         let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
         let (dp1, dp2) = (p1 - p0, p2 - p0);
+        let n = normal.or_else(|| dp1.cross(dp2).try_normalize())?;
+        if !mesh.tangents.is_empty() {
+            let (t0, t1, t2) = (mesh.tangents[i0], mesh.tangents[i1], mesh.tangents[i2]);
+            let t = t0.truncate() * b0 + t1.truncate() * b1 + t2.truncate() * b2;
+            let Some(t) = (t - n * n.dot(t)).try_normalize() else {
+                return Some(n);
+            };
+            let b = n.cross(t) * if t0.w < 0.0 { -1.0 } else { 1.0 };
+            let m = map.eval(uv);
+            return (t * m.x + b * m.y + n * m.z).try_normalize().or(Some(n));
+        }
         let (d1, d2) = (mesh.uvs[i1] - mesh.uvs[i0], mesh.uvs[i2] - mesh.uvs[i0]);
         let det = d1.x * d2.y - d1.y * d2.x;
-        let n = normal.or_else(|| dp1.cross(dp2).try_normalize())?;
         if det.abs() <= 1e-20 {
             return Some(n);
         }

@@ -41,6 +41,9 @@ pub struct GltfObject {
     pub normals: Vec<Vec3>,
     /// Texture coordinates (plsr's convention: `v` up), or empty.
     pub uvs: Vec<Vec2>,
+    /// Unit tangents with the bitangent's sign in `w` (glTF's `TANGENT`),
+    /// or empty.
+    pub tangents: Vec<glam::Vec4>,
     /// Index into [`GltfScene::materials`], or `None` for glTF's default
     /// material (white, metallic 1, roughness 1).
     pub material: Option<usize>,
@@ -301,14 +304,24 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, String> {
                     .read_tex_coords(0)
                     .map(|t| t.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).collect())
                     .unwrap_or_default();
+                // Without normals, glTF's tangents are ignored (its rule).
+                let mut tangents: Vec<glam::Vec4> = match normals.is_empty() {
+                    true => Vec::new(),
+                    false => reader
+                        .read_tangents()
+                        .map(|it| it.map(glam::Vec4::from_array).collect())
+                        .unwrap_or_default(),
+                };
                 if (!normals.is_empty() && normals.len() != n)
                     || (!uvs.is_empty() && uvs.len() != n)
+                    || (!tangents.is_empty() && tangents.len() != n)
                 {
                     return Err(format!("`{name}`: attributes of different lengths"));
                 }
                 if positions.iter().any(|p| !p.is_finite())
                     || normals.iter().any(|v| !v.is_finite())
                     || uvs.iter().any(|v| !v.is_finite())
+                    || tangents.iter().any(|v| !v.is_finite())
                 {
                     return Err(format!("`{name}` has non-finite vertex data"));
                 }
@@ -326,12 +339,14 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, String> {
                 for v in &mut normals {
                     *v = (nm * *v).normalize_or_zero();
                 }
+                tangents = transform_tangents(&m, tangents);
                 objects.push(GltfObject {
                     name,
                     positions: world,
                     triangles,
                     normals,
                     uvs,
+                    tangents,
                     material: prim.material().index(),
                 });
             }
@@ -458,6 +473,23 @@ fn decode(image: &gltf::image::Data) -> std::result::Result<Vec<[f32; 4]>, Strin
 }
 
 /// A texture from RGBA texels through `f`.
+/// Tangents (with the bitangent's sign in `w`) under the transform `m`: the
+/// direction by its linear part, renormalised; the sign turned round by a
+/// mirroring transform, so that the bitangent `w·(n × t)` of the
+/// transformed normal and tangent is the transformed bitangent.
+pub fn transform_tangents(m: &glam::Mat4, tangents: Vec<glam::Vec4>) -> Vec<glam::Vec4> {
+    let l = glam::Mat3::from_mat4(*m);
+    let mirror = if l.determinant() < 0.0 { -1.0 } else { 1.0 };
+    tangents
+        .into_iter()
+        .map(|t| {
+            let d = (l * t.truncate()).normalize_or_zero();
+            let w = if t.w < 0.0 { -mirror } else { mirror };
+            d.extend(w)
+        })
+        .collect()
+}
+
 fn texture(w: u32, h: u32, px: &[[f32; 4]], f: impl Fn(&[f32; 4]) -> Vec3) -> ImageTexture {
     ImageTexture::from_texels(
         w,

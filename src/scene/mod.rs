@@ -55,6 +55,11 @@ pub struct Mesh {
     pub normals: Vec<Vec3>,
     /// Per-vertex texture coordinates, or empty.
     pub uvs: Vec<Vec2>,
+    /// Per-vertex unit tangents (world space, along increasing `u`) with the
+    /// bitangent's sign in `w` (glTF's `TANGENT`: bitangent =
+    /// `w·(normal × tangent)`), or empty: normal maps then take their frame
+    /// from the texture coordinates. Only normal maps use them.
+    pub tangents: Vec<glam::Vec4>,
     /// Index into the scene's materials.
     pub material: u32,
     /// Emission, when the mesh is an area light.
@@ -171,6 +176,7 @@ impl Mesh {
             triangles,
             normals: Vec::new(),
             uvs: Vec::new(),
+            tangents: Vec::new(),
             material,
             emission: None,
             object_id,
@@ -210,7 +216,11 @@ impl Mesh {
                 vertices: n,
             });
         }
-        for (attribute, given) in [("normals", self.normals.len()), ("uvs", self.uvs.len())] {
+        for (attribute, given) in [
+            ("normals", self.normals.len()),
+            ("uvs", self.uvs.len()),
+            ("tangents", self.tangents.len()),
+        ] {
             if given != 0 && given != n {
                 return Err(MeshError::AttributeCount {
                     attribute,
@@ -242,6 +252,7 @@ pub fn pls_mesh(light: &Pls, mode: BrightnessMode, nf: u32, material: u32, name:
         triangles: mesh.triangles,
         normals: Vec::new(),
         uvs: Vec::new(),
+        tangents: Vec::new(),
         material,
         emission: Some(Emission {
             radiance,
