@@ -174,3 +174,158 @@ fn render_takes_auto_exposure_and_info_lists_an_exr() {
         "{err}"
     );
 }
+
+/// The test Cornell box in `dir` (its mesh by absolute path) with `extra`
+/// appended, e.g. a `[film]` table.
+fn cornell_with(dir: &Path, name: &str, extra: &str) -> std::path::PathBuf {
+    let text = std::fs::read_to_string("tests/data/cornell-64.toml").unwrap();
+    let assets = std::fs::canonicalize("assets").unwrap();
+    let text = text.replace(
+        "\"../../assets/",
+        &format!("\"{}/", assets.to_str().unwrap()),
+    );
+    let path = dir.join(name);
+    std::fs::write(&path, format!("{text}\n{extra}\n")).unwrap();
+    path
+}
+
+/// The stops `render`/`merge` report for each PNG they write.
+fn reported_stops(stderr: &str) -> Vec<f32> {
+    stderr
+        .lines()
+        .filter_map(|l| {
+            let (_, rest) = l.rsplit_once(".png (")?;
+            rest.strip_suffix(" stops)")?.parse().ok()
+        })
+        .collect()
+}
+
+#[test]
+fn default_png_exposure_is_the_scenes_or_auto() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let render = |scene: &Path, name: &str, exposure: Option<&str>| {
+        let exr = d.join(format!("{name}.exr"));
+        let png = d.join(format!("{name}.png"));
+        let mut args = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            exr.to_str().unwrap(),
+            "--png",
+            png.to_str().unwrap(),
+            "--spp",
+            "4",
+            "-q",
+        ];
+        if let Some(e) = exposure {
+            args.extend(["--exposure", e]);
+        }
+        let (ok, _, err) = plsr(&args);
+        assert!(ok, "{err}");
+        let stops = reported_stops(&err);
+        assert_eq!(stops.len(), 1, "{err}");
+        (std::fs::read(&png).unwrap(), exr, stops[0])
+    };
+    // No exposure stated: the default is auto, not 0 stops.
+    let plain = cornell_with(d, "plain.toml", "");
+    let (default_png, exr, stops) = render(&plain, "default", None);
+    let (auto_png, _, _) = render(&plain, "auto", Some("auto"));
+    let (zero_png, _, _) = render(&plain, "zero", Some("0"));
+    assert_eq!(default_png, auto_png);
+    assert_ne!(default_png, zero_png);
+    let film = Film::read_exr(&exr).unwrap();
+    assert!(
+        (stops - auto_exposure_stops(&film.color)).abs() < 0.006,
+        "{stops}"
+    );
+    let (mean, clipped) = png_stats(&d.join("default.png"));
+    assert!((40.0..200.0).contains(&mean), "{mean}");
+    assert!(clipped <= 0.03, "{clipped}");
+    // A scene that states its exposure gets it, as it asked: here 9 stops
+    // up, white, unless --exposure says otherwise.
+    let bright = cornell_with(d, "bright.toml", "[film]\nexposure_ev = 9");
+    let (stated_png, _, stops) = render(&bright, "stated", None);
+    let (stated_zero, _, _) = render(&bright, "stated-zero", Some("0"));
+    assert_eq!(stops, 0.0);
+    assert_eq!(stated_png, stated_zero);
+    assert!(png_stats(&d.join("stated.png")).0 > 200.0);
+    let (_, _, stops) = render(&bright, "stated-auto", Some("auto"));
+    assert!(stops < -7.0, "{stops}");
+    // So does a camera's shutter, ISO and f-number.
+    let camera = cornell_with(
+        d,
+        "camera.toml",
+        "[film]\nshutter = 0.01\niso = 100\nf_number = 2",
+    );
+    assert_eq!(render(&camera, "camera", None).2, 0.0);
+
+    // merge --png: the same default, from the parts' film settings.
+    let part = d.join("part.exr");
+    let (ok, _, err) = plsr(&[
+        "render",
+        plain.to_str().unwrap(),
+        "-o",
+        part.to_str().unwrap(),
+        "--samples",
+        "0..4",
+        "-q",
+    ]);
+    assert!(ok, "{err}");
+    let merged_png = d.join("merged.png");
+    let (ok, _, err) = plsr(&[
+        "merge",
+        part.to_str().unwrap(),
+        "-o",
+        d.join("merged.exr").to_str().unwrap(),
+        "--png",
+        merged_png.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert_eq!(std::fs::read(&merged_png).unwrap(), default_png);
+}
+
+#[test]
+fn a_sequence_keeps_the_first_frames_exposure() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // The camera moves from the box's opening to a close view of a wall.
+    let scene = cornell_with(d, "anim.toml", "");
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let start = text.find("[camera]").unwrap();
+    let end = start + text[start..].find("\n\n").unwrap();
+    let path_camera = "[camera]\nup = [0, 1, 0]\nvfov = 37\nresolution = [64, 64]\n\
+        [[camera.path]]\nframe = 0\nposition = [278, 273, -800]\nlook_at = [278, 273, 0]\n\
+        [[camera.path]]\nframe = 3\nposition = [450, 150, 100]\nlook_at = [0, 100, 300]";
+    let text = format!("{}{path_camera}{}", &text[..start], &text[end..]);
+    std::fs::write(&scene, text).unwrap();
+    let exr = d.join("f-{frame}.exr");
+    let png = d.join("f-{frame}.png");
+    let (ok, _, err) = plsr(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+        "--png",
+        png.to_str().unwrap(),
+        "--frames",
+        "0..=3",
+        "--spp",
+        "2",
+        "-q",
+    ]);
+    assert!(ok, "{err}");
+    let stops = reported_stops(&err);
+    assert_eq!(stops.len(), 4, "{err}");
+    assert!(stops.iter().all(|&s| s == stops[0]), "{stops:?}");
+    // Each frame's own auto exposure differs: without keeping the first
+    // frame's, the sequence would flicker.
+    let own: Vec<f32> = (0..=3)
+        .map(|f| {
+            let film = Film::read_exr(&d.join(format!("f-{f:04}.exr"))).unwrap();
+            auto_exposure_stops(&film.color)
+        })
+        .collect();
+    assert!((own[0] - stops[0]).abs() < 0.006, "{own:?} {stops:?}");
+    assert!((own[3] - own[0]).abs() > 0.1, "{own:?}");
+}

@@ -1,7 +1,7 @@
 //! `plsr merge`: combines the parts of a render (`plsr render --samples` or
 //! `--crop`) into the image one render of their union gives.
 
-use crate::tonemap::Exposure;
+use crate::tonemap::{Exposure, SequenceExposure};
 use plsr::atomic_write::{same_file, OutputSet};
 use plsr::error::{Error, Result};
 use plsr::film::part::{merge_parts, Part};
@@ -21,9 +21,10 @@ pub struct MergeArgs {
     pub png: Option<PathBuf>,
     /// PNG exposure compensation in stops (+1 doubles brightness), or
     /// `auto` (middle grey at the image's log-average luminance, lowered
-    /// until at most 2 % of the lit pixels clip).
-    #[arg(long, default_value = "0", allow_hyphen_values = true)]
-    pub exposure: String,
+    /// until at most 2 % of the lit pixels clip). Default: the scene's
+    /// exposure where its `[film]` states one, otherwise `auto`.
+    #[arg(long, allow_hyphen_values = true)]
+    pub exposure: Option<String>,
     /// PNG tone mapping: a filmic curve (ACES fit) instead of a plain clamp.
     #[arg(long)]
     pub filmic: bool,
@@ -31,7 +32,13 @@ pub struct MergeArgs {
 
 /// Runs `plsr merge`.
 pub fn run(a: &MergeArgs) -> Result<()> {
-    let exposure = Exposure::parse(&a.exposure)?;
+    let mut exposure = SequenceExposure::new(Exposure::parse_optional(a.exposure.as_deref())?);
+    run_in_sequence(a, &mut exposure)
+}
+
+/// Runs `plsr merge` as one image of a sequence (a frame of a camera path
+/// that `plsr farm merge` merges), whose PNG exposure `exposure` keeps.
+pub fn run_in_sequence(a: &MergeArgs, exposure: &mut SequenceExposure) -> Result<()> {
     crate::render::check_output("-o", &a.output, "exr", "OpenEXR")?;
     if let Some(p) = &a.png {
         crate::render::check_output("--png", p, "png", "PNG")?;
@@ -64,13 +71,15 @@ pub fn run(a: &MergeArgs) -> Result<()> {
     let film = sums.develop(spp);
     let mut outputs = OutputSet::new();
     film.stage_exr(&mut outputs, &a.output)?;
+    let mut png_note = String::new();
     if let Some(p) = &a.png {
         let tone = exposure.tone_map(&film, a.filmic);
         film.stage_png(&mut outputs, p, tone)?;
+        png_note = format!(", {} ({:+.2} stops)", p.display(), tone.exposure);
     }
     outputs.commit()?;
     eprintln!(
-        "merged {} parts into {}×{} at {} spp → {}",
+        "merged {} parts into {}×{} at {} spp → {}{png_note}",
         parts.len(),
         film.width,
         film.height,

@@ -1,7 +1,7 @@
 //! `plsr render`: a scene file to OpenEXR (and PNG).
 
 use crate::progress::progress_bar;
-use crate::tonemap::Exposure;
+use crate::tonemap::{Exposure, SequenceExposure};
 use plsr::atomic_write::{check_extension, same_file, OutputSet};
 use plsr::error::{Error, Result};
 use plsr::film::part::{merge_parts, scene_files_hasher, Part, PartInfo, StableHasher};
@@ -72,9 +72,12 @@ pub struct RenderArgs {
     pub tile_size: u32,
     /// PNG exposure compensation in stops (+1 doubles brightness), or
     /// `auto` (middle grey at the image's log-average luminance, lowered
-    /// until at most 2 % of the lit pixels clip).
-    #[arg(long, default_value = "0", allow_hyphen_values = true)]
-    pub exposure: String,
+    /// until at most 2 % of the lit pixels clip). Default: the scene's
+    /// exposure where its `[film]` states one (`exposure_ev` or a camera's
+    /// shutter, ISO and f-number), otherwise `auto`. With several frames the
+    /// first frame's choice is kept for all.
+    #[arg(long, allow_hyphen_values = true)]
+    pub exposure: Option<String>,
     /// PNG tone mapping: a filmic curve (ACES fit) instead of a plain clamp.
     #[arg(long)]
     pub filmic: bool,
@@ -112,7 +115,7 @@ pub(crate) fn check_output(flag: &str, path: &Path, extension: &str, format: &st
 /// Runs `plsr render`.
 pub fn run(a: &RenderArgs) -> Result<()> {
     // Options are checked as strictly as scene files, before any work.
-    let exposure = Exposure::parse(&a.exposure)?;
+    let mut exposure = SequenceExposure::new(Exposure::parse_optional(a.exposure.as_deref())?);
     if a.tile_size == 0 || a.tile_size > MAX_TILE_SIZE {
         return Err(Error::InvalidArgument(format!(
             "--tile-size {}: must be between 1 and {MAX_TILE_SIZE} pixels",
@@ -294,7 +297,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             (window, part, previous),
             (output, png.as_ref()),
             *frame,
-            exposure,
+            &mut exposure,
         )?;
     }
     Ok(())
@@ -411,7 +414,7 @@ fn render_one(
     (window, part, previous): (Option<Tile>, Option<PartInfo>, Option<Part>),
     (output, png): (&Path, Option<&PathBuf>),
     frame: Option<u32>,
-    exposure: Exposure,
+    exposure: &mut SequenceExposure,
 ) -> Result<()> {
     let bar = progress_bar(
         a.quiet,
@@ -453,9 +456,11 @@ fn render_one(
             film
         }
     };
+    let mut png_note = String::new();
     if let Some(p) = png {
         let tone = exposure.tone_map(&film, a.filmic);
         film.stage_png(&mut outputs, p, tone)?;
+        png_note = format!(", {} ({:+.2} stops)", p.display(), tone.exposure);
     }
     outputs.commit()?;
     eprintln!(
@@ -473,8 +478,7 @@ fn render_one(
             .map(|isa| format!(", vectorised ({})", isa.name()))
             .unwrap_or_default(),
         output.display(),
-        png.map(|p| format!(", {}", p.display()))
-            .unwrap_or_default()
+        png_note
     );
     Ok(())
 }

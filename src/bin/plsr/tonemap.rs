@@ -5,7 +5,7 @@
 use crate::render::check_output;
 use plsr::atomic_write::{same_file, OutputSet};
 use plsr::error::{Error, Result};
-use plsr::film::{auto_exposure_stops, check_exposure_stops, Film, ToneMap};
+use plsr::film::{auto_exposure_stops, check_exposure_stops, Film, FilmSettings, ToneMap};
 use std::path::PathBuf;
 
 /// Arguments of `plsr tonemap`.
@@ -52,6 +52,26 @@ impl Exposure {
             .map_err(|m| Error::InvalidArgument(format!("--exposure: {m}")))
     }
 
+    /// What `render --png` and `merge --png` use without `--exposure`: the
+    /// scene's own exposure where its `[film]` states one (a nonzero
+    /// `exposure_ev` or a camera's shutter, ISO and f-number, already in
+    /// the image's values, so no further stops), otherwise [`Exposure::Auto`],
+    /// so that a scene without a stated exposure gives a PNG that is neither
+    /// blown out nor black.
+    pub fn scene_default(settings: &FilmSettings) -> Exposure {
+        if settings.exposure_ev != 0.0 || settings.camera_exposure.is_some() {
+            Exposure::Stops(0.0)
+        } else {
+            Exposure::Auto
+        }
+    }
+
+    /// Reads an optional `--exposure`: `None` is [`Exposure::scene_default`],
+    /// decided once the image is there.
+    pub fn parse_optional(s: Option<&str>) -> Result<Option<Exposure>> {
+        s.map(Exposure::parse).transpose()
+    }
+
     /// The tone mapping of `film` with this exposure.
     pub fn tone_map(self, film: &Film, filmic: bool) -> ToneMap {
         ToneMap {
@@ -61,6 +81,38 @@ impl Exposure {
             },
             filmic,
         }
+    }
+}
+
+/// The exposure of a sequence of PNGs (frames of a camera path): chosen for
+/// the first image, as asked or by default, and then kept, so that a
+/// sequence with `auto` exposure does not flicker.
+#[derive(Debug, Clone, Copy)]
+pub struct SequenceExposure {
+    asked: Option<Exposure>,
+    chosen: Option<f32>,
+}
+
+impl SequenceExposure {
+    /// `asked` is the `--exposure` given, or `None` for the scene's default.
+    pub fn new(asked: Option<Exposure>) -> SequenceExposure {
+        SequenceExposure {
+            asked,
+            chosen: None,
+        }
+    }
+
+    /// The tone mapping of the next image of the sequence, `film`.
+    pub fn tone_map(&mut self, film: &Film, filmic: bool) -> ToneMap {
+        let exposure = match self.chosen {
+            Some(stops) => Exposure::Stops(stops),
+            None => self
+                .asked
+                .unwrap_or_else(|| Exposure::scene_default(&film.settings)),
+        };
+        let tone = exposure.tone_map(film, filmic);
+        self.chosen = Some(tone.exposure);
+        tone
     }
 }
 

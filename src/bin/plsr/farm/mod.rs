@@ -312,7 +312,7 @@ fn piece(a: &PieceArgs) -> Result<()> {
         seed: None,
         threads: a.threads,
         tile_size: DEFAULT_TILE_SIZE,
-        exposure: "0".into(),
+        exposure: None,
         filmic: false,
         scalar: false,
         resume: false,
@@ -336,6 +336,8 @@ fn merge(a: &FarmMergeArgs) -> Result<()> {
             file.display()
         )));
     }
+    // One exposure for every frame's PNG, chosen on the first.
+    let mut exposure = crate::tonemap::SequenceExposure::new(None);
     for frame in plan.frame_list() {
         let parts = plan
             .pieces()
@@ -343,13 +345,16 @@ fn merge(a: &FarmMergeArgs) -> Result<()> {
             .map(|p| plan.part_path(&dir, &p))
             .collect();
         let (output, png) = plan.output_paths(&dir, frame);
-        crate::merge::run(&crate::merge::MergeArgs {
-            parts,
-            output,
-            png,
-            exposure: "0".into(),
-            filmic: false,
-        })?;
+        crate::merge::run_in_sequence(
+            &crate::merge::MergeArgs {
+                parts,
+                output,
+                png,
+                exposure: None,
+                filmic: false,
+            },
+            &mut exposure,
+        )?;
     }
     Ok(())
 }
