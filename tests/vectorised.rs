@@ -633,6 +633,48 @@ fn every_material_kind_is_bit_identical() {
 }
 
 #[test]
+fn rough_conductors_are_bit_identical() {
+    // Isotropic GGX conductors are shaded in a vectorised loop of their own:
+    // a box of tinted "none" metal (its reflectance the tint alone), so
+    // that whole chunks hold no Lambert lane; gold nearly a mirror and
+    // rough copper, smooth (vertex normals) and faceted; a Beckmann
+    // aluminium sphere that stays on the general integrator's code beside
+    // them, and a Lambert panel; lit by a point light, an area light and a
+    // constant sky, with roulette from depth 2.
+    let dir = tempfile::tempdir().unwrap();
+    let smooth = dir.path().join("gold.obj");
+    std::fs::write(&smooth, smooth_sphere_obj([170.0, 120.0, 200.0], 80.0)).unwrap();
+    let smooth = smooth.display().to_string().replace('\\', "/");
+    let scene = scene_from(
+        "conductors",
+        &format!(
+            "[render]\nspp = 3\nmax_depth = 6\nrr_depth = 2\nseed = 3\n\n\
+             [camera]\nposition = [278, 273, -600]\nlook_at = [278, 273, 0]\nup = [0, 1, 0]\n\
+             vfov = 50\nresolution = [37, 29]\n\n\
+             [environment]\nradiance = [0.3, 0.4, 0.6]\n\n\
+             [[materials]]\nname = \"tinted\"\ntype = \"cook_torrance\"\nmetal = \"none\"\n\
+             specular_reflectance = [0.9, 0.5, 0.2]\nroughness = 0.35\n\n\
+             [[materials]]\nname = \"gold\"\ntype = \"cook_torrance\"\nmetal = \"Au\"\nalpha = 0.02\n\n\
+             [[materials]]\nname = \"copper\"\ntype = \"cook_torrance\"\nmetal = \"Cu\"\nroughness = 0.7\n\n\
+             [[materials]]\nname = \"aluminium\"\ntype = \"cook_torrance\"\nmetal = \"Al\"\n\
+             distribution = \"beckmann\"\nroughness = 0.3\n\n\
+             [[shapes]]\ntype = \"obj\"\nfile = \"OBJ\"\nmaterial = \"tinted\"\n\n\
+             [[shapes]]\ntype = \"obj\"\nfile = \"{smooth}\"\nmaterial = \"gold\"\n\n\
+             [[shapes]]\ntype = \"sphere\"\ncenter = [390, 120, 250]\nradius = 80\n\
+             subdivisions = 2\nmaterial = \"copper\"\n\n\
+             [[shapes]]\ntype = \"sphere\"\ncenter = [280, 330, 300]\nradius = 60\n\
+             subdivisions = 2\nmaterial = \"aluminium\"\n\n\
+             [[shapes]]\ntype = \"rectangle\"\n\
+             transform = {{ scale = 60, translate = [400, 380, 420] }}\n\n\
+             [[shapes]]\ntype = \"rectangle\"\nemission = [5, 5, 5]\n\
+             transform = {{ scale = 40, rotate = {{ axis = [1, 0, 0], angle = 90 }}, translate = [150, 500, 150] }}\n\n\
+             [[lights]]\ntype = \"point\"\nposition = [278, 450, -100]\nintensity = [60000, 60000, 60000]\n"
+        ),
+    );
+    assert_identical("rough conductors", &scene);
+}
+
+#[test]
 fn normal_maps_alone_are_bit_identical() {
     // Normal-mapped Lambert rectangles and no mesh with vertex normals: the
     // kernel must look up shading normals for the map alone.

@@ -66,21 +66,26 @@ struct Complex {
 }
 
 impl Complex {
+    #[inline(always)]
     fn new(re: f32, im: f32) -> Complex {
         Complex { re, im }
     }
+    #[inline(always)]
     fn add(self, o: Complex) -> Complex {
         Complex::new(self.re + o.re, self.im + o.im)
     }
+    #[inline(always)]
     fn sub(self, o: Complex) -> Complex {
         Complex::new(self.re - o.re, self.im - o.im)
     }
+    #[inline(always)]
     fn mul(self, o: Complex) -> Complex {
         Complex::new(
             self.re * o.re - self.im * o.im,
             self.re * o.im + self.im * o.re,
         )
     }
+    #[inline(always)]
     fn div(self, o: Complex) -> Complex {
         let d = o.re * o.re + o.im * o.im;
         Complex::new(
@@ -88,10 +93,12 @@ impl Complex {
             (self.im * o.re - self.re * o.im) / d,
         )
     }
+    #[inline(always)]
     fn norm(self) -> f32 {
         self.re * self.re + self.im * self.im
     }
     /// Principal square root.
+    #[inline(always)]
     fn sqrt(self) -> Complex {
         let n = self.norm().sqrt();
         if n == 0.0 {
@@ -109,6 +116,7 @@ impl Complex {
 
 /// Exact Fresnel reflectance of one channel of a conductor with complex
 /// index of refraction `eta + i·k` (relative to the outside medium).
+#[inline(always)]
 fn conductor_channel(cos_theta_i: f32, eta: f32, k: f32) -> f32 {
     let cos_i = cos_theta_i.clamp(0.0, 1.0);
     let eta = Complex::new(eta, k);
@@ -122,7 +130,7 @@ fn conductor_channel(cos_theta_i: f32, eta: f32, k: f32) -> f32 {
 }
 
 /// Exact Fresnel reflectance of a conductor, per RGB channel.
-#[inline]
+#[inline(always)]
 pub fn conductor(cos_theta_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
     Vec3::new(
         conductor_channel(cos_theta_i, eta.x, k.x),
@@ -155,7 +163,7 @@ pub fn refract(wi: Vec3, n: Vec3, eta: f32) -> Option<(Vec3, f32)> {
 }
 
 /// Mirror reflection of `wo` about `n`.
-#[inline]
+#[inline(always)]
 pub fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
     -wo + 2.0 * wo.dot(n) * n
 }

@@ -86,7 +86,7 @@ impl Microfacet {
     }
 
     /// The normal distribution `D(h)` (1/sr), 0 below the horizon.
-    #[inline]
+    #[inline(always)]
     pub fn d(&self, h: Vec3) -> f32 {
         if h.z <= 0.0 {
             return 0.0;
@@ -106,7 +106,7 @@ impl Microfacet {
     }
 
     /// Smith's `Λ(w)`, the ratio of hidden to visible projected microfacet area.
-    #[inline]
+    #[inline(always)]
     pub fn lambda(&self, w: Vec3) -> f32 {
         let cos2 = w.z * w.z;
         if cos2 == 0.0 {
@@ -131,7 +131,7 @@ impl Microfacet {
     }
 
     /// Smith masking of microfacet `h` seen from `w`: 0 if `w` sees its back.
-    #[inline]
+    #[inline(always)]
     pub fn g1(&self, w: Vec3, h: Vec3) -> f32 {
         if w.dot(h) * w.z <= 0.0 {
             return 0.0;
@@ -140,14 +140,14 @@ impl Microfacet {
     }
 
     /// Separable masking-shadowing `G1(wo, h)·G1(wi, h)`.
-    #[inline]
+    #[inline(always)]
     pub fn g(&self, wo: Vec3, wi: Vec3, h: Vec3) -> f32 {
         self.g1(wo, h) * self.g1(wi, h)
     }
 
     /// Draws a microfacet normal (upper hemisphere) for `wo` from `u`.
     /// `wo` may lie below the surface (inside a dielectric); it is mirrored.
-    #[inline]
+    #[inline(always)]
     pub fn sample_h(&self, wo: Vec3, u: Vec2) -> Vec3 {
         match self.kind {
             Distribution::Ggx => self.sample_visible_ggx(if wo.z < 0.0 { -wo } else { wo }, u),
@@ -156,7 +156,7 @@ impl Microfacet {
     }
 
     /// Density (solid angle, over `h`) of [`Microfacet::sample_h`].
-    #[inline]
+    #[inline(always)]
     pub fn pdf_h(&self, wo: Vec3, h: Vec3) -> f32 {
         match self.kind {
             Distribution::Ggx => {
@@ -171,6 +171,7 @@ impl Microfacet {
     }
 
     /// Heitz 2018, "Sampling the GGX distribution of visible normals".
+    #[inline(always)]
     fn sample_visible_ggx(&self, wo: Vec3, u: Vec2) -> Vec3 {
         let (ax, ay) = (self.alpha_x, self.alpha_y);
         // Stretch the view direction to the hemisphere configuration.

@@ -179,7 +179,7 @@ impl BlinnPhongParams {
 
 /// Builds a non-delta sample from its value and density, or `None` where the
 /// density vanishes (the direction cannot be produced).
-#[inline]
+#[inline(always)]
 fn finish_sample(wi: Vec3, f: Vec3, pdf: f32) -> Option<BsdfSample> {
     if pdf.is_nan() || pdf <= 0.0 || !wi.is_finite() {
         return None;
@@ -222,7 +222,7 @@ pub enum Fresnel {
 
 impl Fresnel {
     /// Reflectance for the cosine between the direction and the microfacet normal.
-    #[inline]
+    #[inline(always)]
     pub fn eval(&self, cos_theta: f32) -> Vec3 {
         match *self {
             Fresnel::Schlick { f0 } => fresnel::schlick(f0, cos_theta),
@@ -248,8 +248,8 @@ pub struct CookTorranceParams {
 }
 
 impl CookTorranceParams {
-    #[inline]
-    pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+    #[inline(always)]
+    pub(crate) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if !both_above(wo, wi) {
             return Vec3::ZERO;
         }
@@ -258,8 +258,8 @@ impl CookTorranceParams {
         self.fresnel.eval(wo.dot(h)) * (m.d(h) * m.g(wo, wi, h) / (4.0 * wo.z * wi.z))
     }
 
-    #[inline]
-    pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+    #[inline(always)]
+    pub(crate) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if !both_above(wo, wi) {
             return 0.0;
         }
@@ -267,8 +267,8 @@ impl CookTorranceParams {
         self.microfacet.pdf_h(wo, h) / (4.0 * wo.dot(h))
     }
 
-    #[inline]
-    pub(super) fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
+    #[inline(always)]
+    pub(crate) fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }

@@ -1,5 +1,7 @@
 //! The vectorised wavefront that renders every scene. Lambert surfaces
-//! (their colour textured or not, with or without vertex normals) are shaded
+//! (their colour textured or not, with or without vertex normals), and rough
+//! conductors (isotropic GGX Cook–Torrance with a conductor's Fresnel term,
+//! in a second loop with their BSDF: [`LaneBsdf`]), are shaded
 //! in a branch-free loop over structure-of-arrays lanes, lit by point
 //! lights, emissive meshes (area lights), parametric lights (emitting
 //! triangles with a cone, picked only where their cone reaches) and an
@@ -8,7 +10,8 @@
 //! lanes at once, with the batched lookups the general integrator uses);
 //! virtual objects (compositing) included: the job's ray mask on every
 //! ray, and their coverage counted in the matte. Lanes whose material is
-//! another model (Blinn–Phong, Cook–Torrance, dielectrics, principled)
+//! another model (Blinn–Phong, other Cook–Torrance surfaces, dielectrics,
+//! principled)
 //! scatter one by one through the general integrator's own code
 //! ([`scatter`]) inside the same wavefront, after the vectorised loop, with
 //! the light the kernel picked for them and the environment sample it took;
@@ -43,7 +46,10 @@ use super::{
     SurfaceHit, Tile,
 };
 use crate::accel::{gather_lanes, Hit, Ray, RayBatch, INVALID_ID};
-use crate::bsdf::{lambert_eval, lambert_pdf, lambert_sample, Bsdf};
+use crate::bsdf::{
+    lambert_eval, lambert_pdf, lambert_sample, Bsdf, CookTorranceParams, Distribution, Fresnel,
+    Microfacet,
+};
 use crate::camera::{Camera, PinholeCamera};
 use crate::filter::PixelFilter;
 use crate::job::RenderJob;
@@ -76,6 +82,13 @@ pub struct SoaScene {
     general: Vec<bool>,
     /// Whether any geometry's is.
     any_general: bool,
+    /// Each geometry's rough conductor (isotropic GGX Cook–Torrance with a
+    /// conductor's Fresnel term, its roughness not textured), which the
+    /// kernel shades in a vectorised loop of its own; `None` for other
+    /// materials, with one extra `None`.
+    conductor: Vec<Option<ConductorIn>>,
+    /// Whether any geometry's material is such a conductor.
+    any_conductor: bool,
     /// Whether each geometry's material transmits light (its normal layer
     /// records the geometric normal), with one extra `false`.
     transmits: Vec<bool>,
@@ -115,6 +128,7 @@ impl SoaScene {
         let mut transmits = Vec::new();
         let mut smooth = Vec::new();
         let mut is_virtual = Vec::new();
+        let mut conductor = Vec::new();
         for (g, mesh) in scene.meshes().iter().enumerate() {
             let material = &scene.materials()[mesh.material as usize];
             // Shading normals: interpolated, or from a normal map.
@@ -127,7 +141,9 @@ impl SoaScene {
             for (c, albedo) in albedo.iter_mut().enumerate() {
                 albedo.push(a[c]);
             }
-            general.push(!matches!(material.bsdf, Bsdf::Diffuse(_)));
+            let c = ConductorIn::of(material);
+            conductor.push(c);
+            general.push(!matches!(material.bsdf, Bsdf::Diffuse(_)) && c.is_none());
             transmits.push(material.bsdf.transmits());
             emissive.push(scene.light_index(g as u32, 0).is_some());
             textured.push(!material.textures.is_empty());
@@ -138,6 +154,7 @@ impl SoaScene {
         emissive.push(false);
         textured.push(false);
         general.push(false);
+        conductor.push(None);
         transmits.push(false);
         smooth.push(false);
         is_virtual.push(false);
@@ -162,6 +179,8 @@ impl SoaScene {
             textured,
             any_general: general.contains(&true),
             general,
+            any_conductor: conductor.iter().any(Option::is_some),
+            conductor,
             transmits,
             any_smooth: smooth.contains(&true),
             smooth,
@@ -171,6 +190,119 @@ impl SoaScene {
             environment: scene.environment_index(),
             triangle_lights: lights.lights.iter().any(triangle),
             cones: lights.lights.iter().any(cone),
+        }
+    }
+}
+
+/// A rough conductor's parameters as a lane takes them: an isotropic GGX
+/// Cook–Torrance BSDF with a conductor's Fresnel term.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct ConductorIn {
+    /// GGX roughness (the same along both tangents).
+    alpha: f32,
+    /// Complex index of refraction, real part, per RGB channel.
+    eta: Vec3,
+    /// Its imaginary part.
+    k: Vec3,
+    /// Mitsuba's `specular_reflectance` tint.
+    tint: Vec3,
+}
+
+impl ConductorIn {
+    /// The material's parameters where the kernel shades it as a rough
+    /// conductor: isotropic GGX with a conductor Fresnel term and an
+    /// untextured roughness (its other textures do not change the BSDF).
+    fn of(material: &crate::material::Material) -> Option<ConductorIn> {
+        let Bsdf::CookTorrance(p) = material.bsdf else {
+            return None;
+        };
+        let m = p.microfacet;
+        let Fresnel::Conductor {
+            eta,
+            k,
+            specular_reflectance,
+        } = p.fresnel
+        else {
+            return None;
+        };
+        let isotropic = m.kind == Distribution::Ggx && m.alpha_x == m.alpha_y;
+        (isotropic && material.textures.roughness.is_none()).then_some(ConductorIn {
+            alpha: m.alpha_x,
+            eta,
+            k,
+            tint: specular_reflectance,
+        })
+    }
+
+    /// The BSDF's parameters, exactly as the general integrator holds them
+    /// (the kinds of distribution and Fresnel term known to the compiler,
+    /// so the lane loop has no branch on them).
+    #[inline(always)]
+    fn params(&self) -> CookTorranceParams {
+        CookTorranceParams {
+            microfacet: Microfacet {
+                kind: Distribution::Ggx,
+                alpha_x: self.alpha,
+                alpha_y: self.alpha,
+            },
+            fresnel: Fresnel::Conductor {
+                eta: self.eta,
+                k: self.k,
+                specular_reflectance: self.tint,
+            },
+        }
+    }
+}
+
+/// The BSDF of a lane in [`shade_lane`]: the same evaluation, density and
+/// sampling as the general integrator's [`Bsdf`] for that model.
+trait LaneBsdf: Copy {
+    /// `f(wo, wi)` (1/sr), local frame, without the cosine.
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3;
+    /// Solid-angle density of [`LaneBsdf::sample`] drawing `wi`.
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
+    /// A direction for `wo` from `u`: (drawn, `wi` in the local frame, its
+    /// density, the throughput factor `f·|cos θi|/pdf`).
+    fn sample(&self, wo: Vec3, u: Vec2) -> (bool, Vec3, f32, Vec3);
+}
+
+/// A Lambert surface's lane BSDF: its albedo.
+#[derive(Clone, Copy)]
+struct LambertLane(Vec3);
+
+impl LaneBsdf for LambertLane {
+    #[inline(always)]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        lambert_eval(self.0, wo, wi)
+    }
+    #[inline(always)]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        lambert_pdf(wo, wi)
+    }
+    #[inline(always)]
+    fn sample(&self, wo: Vec3, u: Vec2) -> (bool, Vec3, f32, Vec3) {
+        // Cosine-weighted: the factor is the albedo itself.
+        let (sampled, wi, pdf) = lambert_sample(wo, u);
+        (sampled, wi, pdf, self.0)
+    }
+}
+
+impl LaneBsdf for ConductorIn {
+    #[inline(always)]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.params().eval(wo, wi)
+    }
+    #[inline(always)]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.params().pdf(wo, wi)
+    }
+    #[inline(always)]
+    fn sample(&self, wo: Vec3, u: Vec2) -> (bool, Vec3, f32, Vec3) {
+        // [`Bsdf::sample`] of a Cook–Torrance surface (one lobe: no lobe
+        // number).
+        match self.params().sample(wo, u) {
+            Some(s) => (true, s.wi, s.pdf, s.weight),
+            None => (false, Vec3::Z, 0.0, Vec3::ZERO),
         }
     }
 }
@@ -1267,7 +1399,6 @@ struct LaneIn {
     /// (`smooth`).
     ns: Vec3,
     smooth: bool,
-    albedo: Vec3,
     beta: Vec3,
     eta_scale: f32,
     rng: u64,
@@ -1308,8 +1439,15 @@ struct LaneOut {
 /// branch-free helpers as the general integrator (ray offsets, the lights'
 /// samples, Lambert, MIS), in the same order, with the same random numbers.
 #[inline(always)]
-fn shade_lane<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const SMOOTH: bool>(
+fn shade_lane<
+    B: LaneBsdf,
+    const TRIANGLES: bool,
+    const CONES: bool,
+    const ENV: bool,
+    const SMOOTH: bool,
+>(
     l: LaneIn,
+    bsdf: B,
     u: Uniform,
 ) -> LaneOut {
     let mut rng = l.rng;
@@ -1366,8 +1504,8 @@ fn shade_lane<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const S
     };
     let wi_local = frame.to_local(ls.wi);
     let leaks = smooth && !sides_agree(wo, ls.wi, ng, wo_local, wi_local);
-    let f = lambert_eval(l.albedo, wo_local, wi_local);
-    let bsdf_pdf = lambert_pdf(wo_local, wi_local);
+    let f = bsdf.eval(wo_local, wi_local);
+    let bsdf_pdf = bsdf.pdf(wo_local, wi_local);
     let (f, bsdf_pdf) = if leaks {
         (Vec3::ZERO, 0.0)
     } else {
@@ -1385,11 +1523,11 @@ fn shade_lane<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const S
     let shadow = l.hit && light.picked && valid && f != Vec3::ZERO && shadow_tfar > 0.0;
     let pending = l.beta * f * ls.radiance * (weight / light_pdf);
 
-    let (sampled, local, pdf) = lambert_sample(wo_local, direction);
+    let (sampled, local, pdf, factor) = bsdf.sample(wo_local, direction);
     let next_dir = frame.to_world(local);
     // Where the guard rejects the direction, the path ends.
     let sampled = sampled && (!smooth || sides_agree(wo, next_dir, ng, wo_local, local));
-    let mut beta = l.beta * l.albedo;
+    let mut beta = l.beta * factor;
 
     // Russian roulette draws a number only where it spins: drawn from a
     // copy of the state, kept where it spins.
@@ -1646,74 +1784,97 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
                 prev_point[c] = load(&lanes.prev_point[c], start);
             }
         }
+        // Each lane's input to `shade_lane` (the state loaded above, before
+        // any loop below changed it).
+        let lane_in = |k: usize| LaneIn {
+            org: Vec3::new(ox[k], oy[k], oz[k]),
+            dir: Vec3::new(dx[k], dy[k], dz[k]),
+            t: t[k],
+            ng: Vec3::new(nx[k], ny[k], nz[k]),
+            hit: geom[k] != INVALID_ID,
+            ns: Vec3::new(ns[0][k], ns[1][k], ns[2][k]),
+            smooth: ns_valid[k],
+            beta: Vec3::new(br[k], bg[k], bb[k]),
+            eta_scale: eta_scale[k],
+            rng: rng_in[k],
+            inc: inc[k],
+            light: lights.lane(k),
+            env_valid: env_valid[k],
+            env_wi: Vec3::new(env_wi[0][k], env_wi[1][k], env_wi[2][k]),
+            env_radiance: Vec3::new(env_radiance[0][k], env_radiance[1][k], env_radiance[2][k]),
+            env_pdf: env_pdf[k],
+        };
+        // Lane `k`'s results into the chunk's outputs.
+        let mut put = |k: usize, hit: bool, out: LaneOut| {
+            // A lane without a hit keeps its state: its path has ended.
+            if hit {
+                rng[k] = out.rng;
+                for c in 0..3 {
+                    beta[c][k] = out.beta[c];
+                }
+            }
+            // Only emission found later needs them (for its MIS weight).
+            if (TRIANGLES || ENV) && hit {
+                prev_pdf[k] = out.pdf;
+                for c in 0..3 {
+                    prev_point[c][k] = out.point[c];
+                }
+            }
+            for c in 0..3 {
+                pending[c][k] = out.pending[c];
+                shadow_ray[c][k] = out.shadow_org[c];
+                shadow_ray[3 + c][k] = out.shadow_dir[c];
+                next[c][k] = out.next_org[c];
+                next[3 + c][k] = out.next_dir[c];
+            }
+            shadow_tfar[k] = if out.shadow {
+                out.shadow_tfar
+            } else {
+                f32::NEG_INFINITY
+            };
+            next_tfar[k] = if out.alive {
+                f32::INFINITY
+            } else {
+                f32::NEG_INFINITY
+            };
+        };
         // Lanes of other materials get their results below; a chunk
         // without a Lambert lane skips the loop (its lanes without a hit
         // keep the initial values: no ray, no shadow ray, state unchanged).
-        let lambert = !kernel.any_general
+        let lambert = (!kernel.any_general && !kernel.any_conductor)
             || (0..W).any(|k| {
                 let g = (geom[k] as usize).min(last);
-                geom[k] != INVALID_ID && !kernel.general[g]
+                geom[k] != INVALID_ID && !kernel.general[g] && kernel.conductor[g].is_none()
             });
         if lambert {
             for k in 0..W {
-                let hit = geom[k] != INVALID_ID;
-                let out = shade_lane::<TRIANGLES, CONES, ENV, SMOOTH>(
-                    LaneIn {
-                        org: Vec3::new(ox[k], oy[k], oz[k]),
-                        dir: Vec3::new(dx[k], dy[k], dz[k]),
-                        t: t[k],
-                        ng: Vec3::new(nx[k], ny[k], nz[k]),
-                        hit,
-                        ns: Vec3::new(ns[0][k], ns[1][k], ns[2][k]),
-                        smooth: ns_valid[k],
-                        albedo: Vec3::new(ar[k], ag[k], ab[k]),
-                        beta: Vec3::new(br[k], bg[k], bb[k]),
-                        eta_scale: eta_scale[k],
-                        rng: rng[k],
-                        inc: inc[k],
-                        light: lights.lane(k),
-                        env_valid: env_valid[k],
-                        env_wi: Vec3::new(env_wi[0][k], env_wi[1][k], env_wi[2][k]),
-                        env_radiance: Vec3::new(
-                            env_radiance[0][k],
-                            env_radiance[1][k],
-                            env_radiance[2][k],
-                        ),
-                        env_pdf: env_pdf[k],
-                    },
-                    u,
-                );
-                // A lane without a hit keeps its state: its path has ended.
-                if hit {
-                    rng[k] = out.rng;
-                    for c in 0..3 {
-                        beta[c][k] = out.beta[c];
+                let l = lane_in(k);
+                let bsdf = LambertLane(Vec3::new(ar[k], ag[k], ab[k]));
+                let out = shade_lane::<_, TRIANGLES, CONES, ENV, SMOOTH>(l, bsdf, u);
+                put(k, l.hit, out);
+            }
+        }
+        // Rough conductors: the same loop with their BSDF, its results
+        // kept for their lanes only.
+        if kernel.any_conductor {
+            let mut conductor = [None; W];
+            for k in 0..W {
+                conductor[k] = kernel.conductor[(geom[k] as usize).min(last)];
+            }
+            if conductor.iter().any(Option::is_some) {
+                for k in 0..W {
+                    let l = lane_in(k);
+                    let bsdf = conductor[k].unwrap_or(ConductorIn {
+                        alpha: 1.0,
+                        eta: Vec3::ONE,
+                        k: Vec3::ZERO,
+                        tint: Vec3::ONE,
+                    });
+                    let out = shade_lane::<_, TRIANGLES, CONES, ENV, SMOOTH>(l, bsdf, u);
+                    if conductor[k].is_some() {
+                        put(k, l.hit, out);
                     }
                 }
-                // Only emission found later needs them (for its MIS weight).
-                if (TRIANGLES || ENV) && hit {
-                    prev_pdf[k] = out.pdf;
-                    for c in 0..3 {
-                        prev_point[c][k] = out.point[c];
-                    }
-                }
-                for c in 0..3 {
-                    pending[c][k] = out.pending[c];
-                    shadow_ray[c][k] = out.shadow_org[c];
-                    shadow_ray[3 + c][k] = out.shadow_dir[c];
-                    next[c][k] = out.next_org[c];
-                    next[3 + c][k] = out.next_dir[c];
-                }
-                shadow_tfar[k] = if out.shadow {
-                    out.shadow_tfar
-                } else {
-                    f32::NEG_INFINITY
-                };
-                next_tfar[k] = if out.alive {
-                    f32::INFINITY
-                } else {
-                    f32::NEG_INFINITY
-                };
             }
         }
 

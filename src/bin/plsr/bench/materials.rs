@@ -10,12 +10,15 @@ use std::path::Path;
 /// materials and again with every material replaced by a principled BSDF of
 /// the same base colour (roughness 0.5, specular 0.5), in Mitsuba's mode and
 /// in the energy-conserving mode, each with the general integrator and with
-/// the vectorised kernel, interleaved in the same run: the ratios to the
+/// the vectorised kernel, and with every material a rough gold (isotropic
+/// GGX, α 0.2, gold's complex index), interleaved in the same run: the ratios to the
 /// all-diffuse scene say what the richer BSDF costs, the kernel's ratio to
 /// the general integrator what the wavefront gains. Returns each scene's
 /// `(general, vectorised)` Msamples/s.
-pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 3]> {
-    use plsr::bsdf::{Bsdf, PrincipledParams};
+pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 4]> {
+    use plsr::bsdf::{
+        Bsdf, CookTorranceParams, Distribution, Fresnel, Microfacet, PrincipledParams, METALS,
+    };
     let path = Path::new("assets/scenes/cornell/cornell.toml");
     let mut diffuse = plsr::scene::file::load(path)?;
     diffuse.job.spp = 32;
@@ -39,6 +42,21 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 3]> {
         }
         scene
     };
+    let gold = {
+        let mut scene = diffuse.clone();
+        let (_, eta, k) = METALS[0];
+        for m in &mut scene.materials {
+            m.bsdf = Bsdf::CookTorrance(CookTorranceParams {
+                microfacet: Microfacet::isotropic(Distribution::Ggx, 0.2),
+                fresnel: Fresnel::Conductor {
+                    eta: eta.into(),
+                    k: k.into(),
+                    specular_reflectance: glam::Vec3::ONE,
+                },
+            });
+        }
+        scene
+    };
     let options = |vectorised: bool| RenderOptions {
         threads,
         vectorised,
@@ -54,10 +72,11 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 3]> {
             "all principled, energy-conserving",
             Scene::build(principled(true))?,
         ),
+        ("all rough gold (GGX α 0.2)", Scene::build(gold)?),
     ];
     // Interleaved runs, best of three each, so drift hits all alike.
-    let mut best = [(0.0f64, 0.0f64); 3];
-    let mut same = [true; 3];
+    let mut best = [(0.0f64, 0.0f64); 4];
+    let mut same = [true; 4];
     for _ in 0..3 {
         for (k, (_, scene)) in scenes.iter().enumerate() {
             let (general, stats): (Film, RenderStats) =
