@@ -118,7 +118,7 @@ pub fn white_balance_matrix(t: f32) -> Mat3 {
 }
 
 /// Luminance `Y` of a linear Rec.709 RGB colour (same units as the colour).
-#[inline]
+#[inline(always)]
 pub fn luminance(c: glam::Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }

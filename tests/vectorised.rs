@@ -675,6 +675,90 @@ fn rough_conductors_are_bit_identical() {
 }
 
 #[test]
+fn principled_surfaces_are_bit_identical() {
+    // The principled BSDF in Mitsuba's mode, isotropic, is shaded in a
+    // vectorised loop of its own: a box of it (chunks with no Lambert lane),
+    // spheres from dielectric to metal with and without specular tint,
+    // smooth and faceted, one with a base-colour map (the lane's albedo),
+    // and beside them the modes that stay on the general integrator's code
+    // (anisotropic, energy-conserving, a roughness map); lit by a point
+    // light, an area light and a constant sky, with roulette from depth 2.
+    let dir = tempfile::tempdir().unwrap();
+    let texture = random_texture(dir.path(), 4, 5, 3);
+    let texture = texture.display().to_string().replace('\\', "/");
+    let materials = [
+        (
+            "box",
+            "base_color = [0.7, 0.6, 0.5]\nroughness = 0.6".to_string(),
+        ),
+        (
+            "dielectric",
+            "base_color = [0.1, 0.3, 0.8]\nroughness = 0.3\nspecular = 0.8".into(),
+        ),
+        (
+            "tinted",
+            "base_color = [0.8, 0.3, 0.1]\nroughness = 0.2\nmetallic = 0.5\nspec_tint = 0.7".into(),
+        ),
+        (
+            "metal",
+            "base_color = [0.9, 0.7, 0.3]\nroughness = 0.05\nmetallic = 1".into(),
+        ),
+        (
+            "mapped",
+            format!("base_color_map = \"{texture}\"\nroughness = 0.45\nspec_tint = 1"),
+        ),
+        (
+            "anisotropic",
+            "base_color = [0.5, 0.5, 0.5]\nroughness = 0.4\nanisotropic = 0.6".into(),
+        ),
+        (
+            "conserving",
+            "base_color = [0.5, 0.6, 0.5]\nroughness = 0.4\nenergy_conserving = true".into(),
+        ),
+        (
+            "rough_map",
+            format!("base_color = [0.6, 0.5, 0.5]\nroughness_map = \"{texture}\""),
+        ),
+    ];
+    let mut text = String::from(
+        "[render]\nspp = 3\nmax_depth = 6\nrr_depth = 2\nseed = 8\n\n\
+         [camera]\nposition = [278, 273, -600]\nlook_at = [278, 273, 0]\nup = [0, 1, 0]\n\
+         vfov = 50\nresolution = [37, 29]\n\n\
+         [environment]\nradiance = [0.3, 0.4, 0.6]\n\n\
+         [[shapes]]\ntype = \"obj\"\nfile = \"OBJ\"\nmaterial = \"box\"\n\n\
+         [[shapes]]\ntype = \"rectangle\"\nemission = [5, 5, 5]\n\
+         transform = { scale = 40, rotate = { axis = [1, 0, 0], angle = 90 }, translate = [150, 500, 150] }\n\n\
+         [[lights]]\ntype = \"point\"\nposition = [278, 450, -100]\nintensity = [60000, 60000, 60000]\n\n",
+    );
+    for (i, (name, body)) in materials.iter().enumerate() {
+        text += &format!("[[materials]]\nname = \"{name}\"\ntype = \"principled\"\n{body}\n\n");
+        if i == 0 {
+            continue;
+        }
+        let (x, y, z) = (
+            110.0 + 110.0 * (i % 4) as f32,
+            90.0 + 150.0 * (i / 4) as f32,
+            150.0 + 60.0 * (i % 2) as f32,
+        );
+        if i % 2 == 0 {
+            let sphere = dir.path().join(format!("{name}.obj"));
+            std::fs::write(&sphere, smooth_sphere_obj([x, y, z], 55.0)).unwrap();
+            let sphere = sphere.display().to_string().replace('\\', "/");
+            text += &format!(
+                "[[shapes]]\ntype = \"obj\"\nfile = \"{sphere}\"\nmaterial = \"{name}\"\n\n"
+            );
+        } else {
+            text += &format!(
+                "[[shapes]]\ntype = \"sphere\"\ncenter = [{x}, {y}, {z}]\nradius = 55\n\
+                 subdivisions = 2\nmaterial = \"{name}\"\n\n"
+            );
+        }
+    }
+    let scene = scene_from("principled", &text);
+    assert_identical("principled surfaces", &scene);
+}
+
+#[test]
 fn normal_maps_alone_are_bit_identical() {
     // Normal-mapped Lambert rectangles and no mesh with vertex normals: the
     // kernel must look up shading normals for the map alone.

@@ -43,6 +43,7 @@ const SQRT_ALPHA_MAX: f32 = 1.8;
 const SAMPLES_PER_SIDE: usize = 24;
 
 /// `η` from principled's `specular` (Mitsuba's mapping).
+#[inline(always)]
 pub fn eta_from_specular(specular: f32) -> f32 {
     2.0 / (1.0 - (0.08 * specular).sqrt()) - 1.0
 }

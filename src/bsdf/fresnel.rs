@@ -13,7 +13,7 @@
 use glam::Vec3;
 
 /// Schlick's weight `(1 − cos θ)⁵`.
-#[inline]
+#[inline(always)]
 pub fn schlick_weight(cos_theta: f32) -> f32 {
     let m = (1.0 - cos_theta).clamp(0.0, 1.0);
     let m2 = m * m;
@@ -21,13 +21,13 @@ pub fn schlick_weight(cos_theta: f32) -> f32 {
 }
 
 /// Schlick's approximation `F = f0 + (1 − f0)(1 − cos θ)⁵`.
-#[inline]
+#[inline(always)]
 pub fn schlick(f0: Vec3, cos_theta: f32) -> Vec3 {
     f0 + (Vec3::ONE - f0) * schlick_weight(cos_theta)
 }
 
 /// Normal-incidence reflectance `((η − 1)/(η + 1))²` of a dielectric.
-#[inline]
+#[inline(always)]
 pub fn dielectric_f0(eta: f32) -> f32 {
     let r = (eta - 1.0) / (eta + 1.0);
     r * r
@@ -39,7 +39,7 @@ pub fn dielectric_f0(eta: f32) -> f32 {
 /// outside (the side the normal points to), negative inside, where the
 /// relative index `eta` (inside / outside) is inverted. Total internal
 /// reflection gives 1.
-#[inline]
+#[inline(always)]
 pub fn dielectric(cos_theta_i: f32, eta: f32) -> f32 {
     let mut cos_i = cos_theta_i.clamp(-1.0, 1.0);
     let mut eta = eta;

@@ -500,11 +500,13 @@ impl PrincipledParams {
     }
 
     /// Index of refraction implied by `specular` (Mitsuba's mapping).
+    #[inline(always)]
     pub fn eta(&self) -> f32 {
         albedo::eta_from_specular(self.specular)
     }
 
     /// The specular lobe's GGX distribution (Mitsuba's anisotropy mapping).
+    #[inline(always)]
     pub fn microfacet(&self) -> Microfacet {
         let r2 = self.roughness * self.roughness;
         if self.anisotropic == 0.0 {
@@ -526,13 +528,13 @@ impl PrincipledParams {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn diffuse_probability(&self) -> f32 {
         0.5 * (1.0 - self.metallic)
     }
 
     /// The base colour's hue at unit luminance (what `spec_tint` blends in).
-    #[inline]
+    #[inline(always)]
     fn tint(&self) -> Vec3 {
         let lum = luminance(self.base_color);
         if lum > 0.0 {
@@ -542,7 +544,7 @@ impl PrincipledParams {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     pub(super) fn fresnel(&self, cos_theta: f32, eta: f32) -> Vec3 {
         // metallic·Schlick(base) + (1 − metallic)·[(1 − t)·F_dielectric(η)
         // + t·Schlick(tint·f0(η))]; the terms with zero weight are skipped
@@ -562,8 +564,8 @@ impl PrincipledParams {
         f
     }
 
-    #[inline]
-    pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+    #[inline(always)]
+    pub(crate) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if !both_above(wo, wi) {
             return Vec3::ZERO;
         }
@@ -576,7 +578,7 @@ impl PrincipledParams {
     }
 
     /// The diffuse lobe: Burley's, or the energy-conserving coupled one.
-    #[inline]
+    #[inline(always)]
     fn diffuse(&self, wo: Vec3, wi: Vec3, cos_d: f32, m: &Microfacet) -> Vec3 {
         let weight = FRAC_1_PI * (1.0 - self.metallic);
         if self.energy_conserving {
@@ -647,8 +649,8 @@ impl PrincipledParams {
         e.min(Vec3::splat(0.999))
     }
 
-    #[inline]
-    pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+    #[inline(always)]
+    pub(crate) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if !both_above(wo, wi) {
             return 0.0;
         }
@@ -658,8 +660,8 @@ impl PrincipledParams {
         pd * cosine_hemisphere_pdf(wi.z) + (1.0 - pd) * spec
     }
 
-    #[inline]
-    pub(super) fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+    #[inline(always)]
+    pub(crate) fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }
@@ -679,14 +681,14 @@ impl PrincipledParams {
     /// `eval` and `pdf` together, sharing the half vector, the
     /// distribution, `D(h)` and the masking terms (what a light sample and
     /// a BSDF sample both need).
-    #[inline]
-    pub(super) fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+    #[inline(always)]
+    pub(crate) fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         self.eval_pdf_with(&self.microfacet(), wo, wi)
     }
 
     /// [`PrincipledParams::eval_pdf`] with the distribution `m` (=
     /// `self.microfacet()`) already built.
-    #[inline]
+    #[inline(always)]
     fn eval_pdf_with(&self, m: &Microfacet, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         if !both_above(wo, wi) {
             return (Vec3::ZERO, 0.0);

@@ -1,7 +1,9 @@
 //! The vectorised wavefront that renders every scene. Lambert surfaces
-//! (their colour textured or not, with or without vertex normals), and rough
-//! conductors (isotropic GGX Cook–Torrance with a conductor's Fresnel term,
-//! in a second loop with their BSDF: [`LaneBsdf`]), are shaded
+//! (their colour textured or not, with or without vertex normals), rough
+//! conductors (isotropic GGX Cook–Torrance with a conductor's Fresnel term)
+//! and principled surfaces (Mitsuba's mode, isotropic; the base colour may
+//! be textured), each kind in a loop of its own with its BSDF
+//! ([`LaneBsdf`]), are shaded
 //! in a branch-free loop over structure-of-arrays lanes, lit by point
 //! lights, emissive meshes (area lights), parametric lights (emitting
 //! triangles with a cone, picked only where their cone reaches) and an
@@ -11,7 +13,7 @@
 //! virtual objects (compositing) included: the job's ray mask on every
 //! ray, and their coverage counted in the matte. Lanes whose material is
 //! another model (Blinn–Phong, other Cook–Torrance surfaces, dielectrics,
-//! principled)
+//! anisotropic or energy-conserving principled, roughness or metallic maps)
 //! scatter one by one through the general integrator's own code
 //! ([`scatter`]) inside the same wavefront, after the vectorised loop, with
 //! the light the kernel picked for them and the environment sample it took;
@@ -48,7 +50,7 @@ use super::{
 use crate::accel::{gather_lanes, Hit, Ray, RayBatch, INVALID_ID};
 use crate::bsdf::{
     lambert_eval, lambert_pdf, lambert_sample, Bsdf, CookTorranceParams, Distribution, Fresnel,
-    Microfacet,
+    Microfacet, PrincipledParams,
 };
 use crate::camera::{Camera, PinholeCamera};
 use crate::filter::PixelFilter;
@@ -89,6 +91,12 @@ pub struct SoaScene {
     conductor: Vec<Option<ConductorIn>>,
     /// Whether any geometry's material is such a conductor.
     any_conductor: bool,
+    /// Each geometry's principled surface where the kernel shades it in a
+    /// vectorised loop of its own (see [`PrincipledIn::of`]), with one
+    /// extra `None`.
+    principled: Vec<Option<PrincipledIn>>,
+    /// Whether any geometry's is.
+    any_principled: bool,
     /// Whether each geometry's material transmits light (its normal layer
     /// records the geometric normal), with one extra `false`.
     transmits: Vec<bool>,
@@ -129,6 +137,7 @@ impl SoaScene {
         let mut smooth = Vec::new();
         let mut is_virtual = Vec::new();
         let mut conductor = Vec::new();
+        let mut principled = Vec::new();
         for (g, mesh) in scene.meshes().iter().enumerate() {
             let material = &scene.materials()[mesh.material as usize];
             // Shading normals: interpolated, or from a normal map.
@@ -142,8 +151,10 @@ impl SoaScene {
                 albedo.push(a[c]);
             }
             let c = ConductorIn::of(material);
+            let p = PrincipledIn::of(material);
             conductor.push(c);
-            general.push(!matches!(material.bsdf, Bsdf::Diffuse(_)) && c.is_none());
+            principled.push(p);
+            general.push(!matches!(material.bsdf, Bsdf::Diffuse(_)) && c.is_none() && p.is_none());
             transmits.push(material.bsdf.transmits());
             emissive.push(scene.light_index(g as u32, 0).is_some());
             textured.push(!material.textures.is_empty());
@@ -155,6 +166,7 @@ impl SoaScene {
         textured.push(false);
         general.push(false);
         conductor.push(None);
+        principled.push(None);
         transmits.push(false);
         smooth.push(false);
         is_virtual.push(false);
@@ -181,6 +193,8 @@ impl SoaScene {
             general,
             any_conductor: conductor.iter().any(Option::is_some),
             conductor,
+            any_principled: principled.iter().any(Option::is_some),
+            principled,
             transmits,
             any_smooth: smooth.contains(&true),
             smooth,
@@ -261,9 +275,16 @@ trait LaneBsdf: Copy {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3;
     /// Solid-angle density of [`LaneBsdf::sample`] drawing `wi`.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
-    /// A direction for `wo` from `u`: (drawn, `wi` in the local frame, its
-    /// density, the throughput factor `f·|cos θi|/pdf`).
-    fn sample(&self, wo: Vec3, u: Vec2) -> (bool, Vec3, f32, Vec3);
+    /// `(eval, pdf)` together, as [`Bsdf::eval_pdf`] computes them (for a
+    /// light sample from a light that is not a delta light).
+    #[inline(always)]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        (self.eval(wo, wi), self.pdf(wo, wi))
+    }
+    /// A direction for `wo`, `uc` picking the lobe and `u` the direction in
+    /// it: (drawn, `wi` in the local frame, its density, the throughput
+    /// factor `f·|cos θi|/pdf`).
+    fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3);
 }
 
 /// A Lambert surface's lane BSDF: its albedo.
@@ -280,7 +301,7 @@ impl LaneBsdf for LambertLane {
         lambert_pdf(wo, wi)
     }
     #[inline(always)]
-    fn sample(&self, wo: Vec3, u: Vec2) -> (bool, Vec3, f32, Vec3) {
+    fn sample(&self, wo: Vec3, _uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
         // Cosine-weighted: the factor is the albedo itself.
         let (sampled, wi, pdf) = lambert_sample(wo, u);
         (sampled, wi, pdf, self.0)
@@ -297,10 +318,89 @@ impl LaneBsdf for ConductorIn {
         self.params().pdf(wo, wi)
     }
     #[inline(always)]
-    fn sample(&self, wo: Vec3, u: Vec2) -> (bool, Vec3, f32, Vec3) {
+    fn sample(&self, wo: Vec3, _uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
         // [`Bsdf::sample`] of a Cook–Torrance surface (one lobe: no lobe
         // number).
         match self.params().sample(wo, u) {
+            Some(s) => (true, s.wi, s.pdf, s.weight),
+            None => (false, Vec3::Z, 0.0, Vec3::ZERO),
+        }
+    }
+}
+
+/// A principled surface's parameters as a lane takes them (its base colour
+/// is the lane's albedo, looked up as a Lambert surface's colour is): the
+/// isotropic principled BSDF in Mitsuba's mode.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PrincipledIn {
+    /// Metallic blend in [0, 1].
+    metallic: f32,
+    /// Roughness in [0, 1].
+    roughness: f32,
+    /// Specular in [0, 1] (sets η).
+    specular: f32,
+    /// Specular tint in [0, 1].
+    spec_tint: f32,
+}
+
+impl PrincipledIn {
+    /// The material's parameters where the kernel shades it: principled in
+    /// Mitsuba's mode (not energy-conserving), isotropic, its roughness and
+    /// metallic not textured (a base colour map is: it is the lane's albedo).
+    fn of(material: &crate::material::Material) -> Option<PrincipledIn> {
+        let Bsdf::Principled(p) = material.bsdf else {
+            return None;
+        };
+        let t = &material.textures;
+        let plain = !p.energy_conserving && p.anisotropic == 0.0;
+        (plain && t.roughness.is_none() && t.metallic.is_none()).then_some(PrincipledIn {
+            metallic: p.metallic,
+            roughness: p.roughness,
+            specular: p.specular,
+            spec_tint: p.spec_tint,
+        })
+    }
+}
+
+/// A principled lane: its parameters and base colour.
+#[derive(Clone, Copy)]
+struct PrincipledLane(PrincipledIn, Vec3);
+
+impl PrincipledLane {
+    /// The parameters exactly as the general integrator holds them (the
+    /// mode and the anisotropy known to the compiler, so the lane loop has
+    /// no branch on them).
+    #[inline(always)]
+    fn params(&self) -> PrincipledParams {
+        let p = self.0;
+        PrincipledParams {
+            base_color: self.1,
+            roughness: p.roughness,
+            metallic: p.metallic,
+            anisotropic: 0.0,
+            specular: p.specular,
+            spec_tint: p.spec_tint,
+            energy_conserving: false,
+        }
+    }
+}
+
+impl LaneBsdf for PrincipledLane {
+    #[inline(always)]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.params().eval(wo, wi)
+    }
+    #[inline(always)]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.params().pdf(wo, wi)
+    }
+    #[inline(always)]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        self.params().eval_pdf(wo, wi)
+    }
+    #[inline(always)]
+    fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
+        match self.params().sample(wo, uc, u) {
             Some(s) => (true, s.wi, s.pdf, s.weight),
             None => (false, Vec3::Z, 0.0, Vec3::ZERO),
         }
@@ -1481,7 +1581,7 @@ fn shade_lane<
     if light.picked {
         rng = rng_point;
     }
-    let _lobe = PathSampler::step_f32(&mut rng, l.inc);
+    let lobe = PathSampler::step_f32(&mut rng, l.inc);
     let direction = PathSampler::step_2d(&mut rng, l.inc);
 
     // Every kind's sample, computed for every lane and selected (the
@@ -1504,8 +1604,15 @@ fn shade_lane<
     };
     let wi_local = frame.to_local(ls.wi);
     let leaks = smooth && !sides_agree(wo, ls.wi, ng, wo_local, wi_local);
-    let f = bsdf.eval(wo_local, wi_local);
-    let bsdf_pdf = bsdf.pdf(wo_local, wi_local);
+    // A delta light (a point light) needs no MIS weight: the general
+    // integrator evaluates the BSDF alone there, and `eval_pdf` elsewhere.
+    let delta_light = !((TRIANGLES && light.triangle) || (ENV && light.environment));
+    let (f, bsdf_pdf) = bsdf.eval_pdf(wo_local, wi_local);
+    let f = if delta_light {
+        bsdf.eval(wo_local, wi_local)
+    } else {
+        f
+    };
     let (f, bsdf_pdf) = if leaks {
         (Vec3::ZERO, 0.0)
     } else {
@@ -1523,7 +1630,7 @@ fn shade_lane<
     let shadow = l.hit && light.picked && valid && f != Vec3::ZERO && shadow_tfar > 0.0;
     let pending = l.beta * f * ls.radiance * (weight / light_pdf);
 
-    let (sampled, local, pdf, factor) = bsdf.sample(wo_local, direction);
+    let (sampled, local, pdf, factor) = bsdf.sample(wo_local, lobe, direction);
     let next_dir = frame.to_world(local);
     // Where the guard rejects the direction, the path ends.
     let sampled = sampled && (!smooth || sides_agree(wo, next_dir, ng, wo_local, local));
@@ -1841,10 +1948,13 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
         // Lanes of other materials get their results below; a chunk
         // without a Lambert lane skips the loop (its lanes without a hit
         // keep the initial values: no ray, no shadow ray, state unchanged).
-        let lambert = (!kernel.any_general && !kernel.any_conductor)
+        let lambert = (!kernel.any_general && !kernel.any_conductor && !kernel.any_principled)
             || (0..W).any(|k| {
                 let g = (geom[k] as usize).min(last);
-                geom[k] != INVALID_ID && !kernel.general[g] && kernel.conductor[g].is_none()
+                geom[k] != INVALID_ID
+                    && !kernel.general[g]
+                    && kernel.conductor[g].is_none()
+                    && kernel.principled[g].is_none()
             });
         if lambert {
             for k in 0..W {
@@ -1854,8 +1964,8 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
                 put(k, l.hit, out);
             }
         }
-        // Rough conductors: the same loop with their BSDF, its results
-        // kept for their lanes only.
+        // Rough conductors, then principled surfaces: the same loop with
+        // their BSDF, its results kept for their lanes only.
         if kernel.any_conductor {
             let mut conductor = [None; W];
             for k in 0..W {
@@ -1872,6 +1982,28 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
                     });
                     let out = shade_lane::<_, TRIANGLES, CONES, ENV, SMOOTH>(l, bsdf, u);
                     if conductor[k].is_some() {
+                        put(k, l.hit, out);
+                    }
+                }
+            }
+        }
+        if kernel.any_principled {
+            let mut principled = [None; W];
+            for k in 0..W {
+                principled[k] = kernel.principled[(geom[k] as usize).min(last)];
+            }
+            if principled.iter().any(Option::is_some) {
+                for k in 0..W {
+                    let l = lane_in(k);
+                    let params = principled[k].unwrap_or(PrincipledIn {
+                        metallic: 0.0,
+                        roughness: 0.5,
+                        specular: 0.5,
+                        spec_tint: 0.0,
+                    });
+                    let bsdf = PrincipledLane(params, Vec3::new(ar[k], ag[k], ab[k]));
+                    let out = shade_lane::<_, TRIANGLES, CONES, ENV, SMOOTH>(l, bsdf, u);
+                    if principled[k].is_some() {
                         put(k, l.hit, out);
                     }
                 }
