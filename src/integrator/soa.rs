@@ -79,7 +79,8 @@ pub struct SoaScene {
     /// `lane_surfaces` into `SoaLanes::albedo`).
     any_textured: bool,
     /// Whether each geometry's material is one the kernel does not shade in
-    /// its vectorised loop (anything but Lambert): such lanes scatter
+    /// its vectorised loops (anything but Lambert, the rough conductors of
+    /// `conductor` and the principled surfaces of `principled`): such lanes scatter
     /// through the general integrator's [`scatter`], with one extra `false`.
     general: Vec<bool>,
     /// Whether any geometry's is.
@@ -1533,11 +1534,13 @@ struct LaneOut {
     rng: u64,
 }
 
-/// One bounce of one path: the general integrator's `shade` for a Lambert
-/// surface and a point or area light, written without branches (every `if`
-/// is a select) so that a loop over lanes vectorises. It calls the same
-/// branch-free helpers as the general integrator (ray offsets, the lights'
-/// samples, Lambert, MIS), in the same order, with the same random numbers.
+/// One bounce of one path: the general integrator's `shade` for a surface
+/// whose BSDF the lane holds (`B`: Lambert, a rough conductor, principled)
+/// and a point, area, parametric or environment light, written without
+/// branches (every `if` is a select) so that a loop over lanes vectorises.
+/// It calls the same branch-free helpers as the general integrator (ray
+/// offsets, the lights' samples, the BSDF's own code, MIS), in the same
+/// order, with the same random numbers.
 #[inline(always)]
 fn shade_lane<
     B: LaneBsdf,
@@ -1571,7 +1574,8 @@ fn shade_lane<
     // The numbers of one bounce, in the general integrator's order: two
     // pick the light (`pick_lights` drew the pick from them already, or
     // there is one light), two place the sample on it (unused by a point
-    // light), one picks the BSDF's lobe (Lambert has one), two the direction.
+    // light), one picks the BSDF's lobe (principled's diffuse or specular),
+    // two the direction.
     // Where no light was picked, the general integrator draws no numbers
     // for a light sample: drawn on a copy, kept where a light was picked.
     let light = l.light;
@@ -1641,7 +1645,8 @@ fn shade_lane<
     let rr_beta = beta * l.eta_scale;
     let spin = roulette_spins(rr_beta, u.roulette);
     let mut rng_rr = rng;
-    // Lambert never refracts, but the path may have (η² of its refractions).
+    // These BSDFs never refract, but the path may have (η² of its
+    // refractions).
     let (survives, beta_rr) = roulette(beta, rr_beta, PathSampler::step_f32(&mut rng_rr, l.inc));
     if spin {
         rng = rng_rr;
