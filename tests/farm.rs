@@ -206,20 +206,9 @@ fn bad_sets_of_parts_are_refused_naming_the_file() {
     }
 }
 
-/// The test scene in `dir` (its mesh by absolute path) with `camera` in
-/// place of its `[camera]` table.
+/// The test scene in `dir` with `camera` in place of its `[camera]` table.
 fn scene_with_camera(dir: &Path, camera: &str) -> PathBuf {
-    let text = std::fs::read_to_string(SCENE).unwrap();
-    let assets = std::fs::canonicalize("assets").unwrap();
-    let start = text.find("[camera]").unwrap();
-    let end = start + text[start..].find("\n\n").unwrap();
-    let text = format!("{}{camera}{}", &text[..start], &text[end..]).replace(
-        "\"../../assets/",
-        &format!("\"{}/", assets.to_str().unwrap()),
-    );
-    let path = dir.join("scene.toml");
-    std::fs::write(&path, text).unwrap();
-    path
+    common::scenes::cornell_64(dir, "scene.toml", Some(camera), "")
 }
 
 /// A camera at `position` (x, z) looking into the box.

@@ -2,6 +2,9 @@
 //! makes neither a dim nor a bright image black or blown out, and `info`
 //! lists what an EXR holds.
 
+mod common;
+
+use common::scenes::cornell_64;
 use glam::Vec3;
 use plsr::film::{auto_exposure_stops, Film};
 use std::path::Path;
@@ -175,20 +178,6 @@ fn render_takes_auto_exposure_and_info_lists_an_exr() {
     );
 }
 
-/// The test Cornell box in `dir` (its mesh by absolute path) with `extra`
-/// appended, e.g. a `[film]` table.
-fn cornell_with(dir: &Path, name: &str, extra: &str) -> std::path::PathBuf {
-    let text = std::fs::read_to_string("tests/data/cornell-64.toml").unwrap();
-    let assets = std::fs::canonicalize("assets").unwrap();
-    let text = text.replace(
-        "\"../../assets/",
-        &format!("\"{}/", assets.to_str().unwrap()),
-    );
-    let path = dir.join(name);
-    std::fs::write(&path, format!("{text}\n{extra}\n")).unwrap();
-    path
-}
-
 /// The stops `render`/`merge` report for each PNG they write.
 fn reported_stops(stderr: &str) -> Vec<f32> {
     stderr
@@ -228,7 +217,7 @@ fn default_png_exposure_is_the_scenes_or_auto() {
         (std::fs::read(&png).unwrap(), exr, stops[0])
     };
     // No exposure stated: the default is auto, not 0 stops.
-    let plain = cornell_with(d, "plain.toml", "");
+    let plain = cornell_64(d, "plain.toml", None, "");
     let (default_png, exr, stops) = render(&plain, "default", None);
     let (auto_png, _, _) = render(&plain, "auto", Some("auto"));
     let (zero_png, _, _) = render(&plain, "zero", Some("0"));
@@ -244,7 +233,7 @@ fn default_png_exposure_is_the_scenes_or_auto() {
     assert!(clipped <= 0.03, "{clipped}");
     // A scene that states its exposure gets it, as it asked: here 9 stops
     // up, white, unless --exposure says otherwise.
-    let bright = cornell_with(d, "bright.toml", "[film]\nexposure_ev = 9");
+    let bright = cornell_64(d, "bright.toml", None, "\n[film]\nexposure_ev = 9\n");
     let (stated_png, _, stops) = render(&bright, "stated", None);
     let (stated_zero, _, _) = render(&bright, "stated-zero", Some("0"));
     assert_eq!(stops, 0.0);
@@ -253,10 +242,11 @@ fn default_png_exposure_is_the_scenes_or_auto() {
     let (_, _, stops) = render(&bright, "stated-auto", Some("auto"));
     assert!(stops < -7.0, "{stops}");
     // So does a camera's shutter, ISO and f-number.
-    let camera = cornell_with(
+    let camera = cornell_64(
         d,
         "camera.toml",
-        "[film]\nshutter = 0.01\niso = 100\nf_number = 2",
+        None,
+        "\n[film]\nshutter = 0.01\niso = 100\nf_number = 2\n",
     );
     assert_eq!(render(&camera, "camera", None).2, 0.0);
 
@@ -290,15 +280,10 @@ fn a_sequence_keeps_the_first_frames_exposure() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     // The camera moves from the box's opening to a close view of a wall.
-    let scene = cornell_with(d, "anim.toml", "");
-    let text = std::fs::read_to_string(&scene).unwrap();
-    let start = text.find("[camera]").unwrap();
-    let end = start + text[start..].find("\n\n").unwrap();
     let path_camera = "[camera]\nup = [0, 1, 0]\nvfov = 37\nresolution = [64, 64]\n\
         [[camera.path]]\nframe = 0\nposition = [278, 273, -800]\nlook_at = [278, 273, 0]\n\
         [[camera.path]]\nframe = 3\nposition = [450, 150, 100]\nlook_at = [0, 100, 300]";
-    let text = format!("{}{path_camera}{}", &text[..start], &text[end..]);
-    std::fs::write(&scene, text).unwrap();
+    let scene = cornell_64(d, "anim.toml", Some(path_camera), "");
     let exr = d.join("f-{frame}.exr");
     let png = d.join("f-{frame}.png");
     let (ok, _, err) = plsr(&[

@@ -537,6 +537,28 @@ fn smooth_sphere_obj(center: [f32; 3], radius: f32) -> String {
     obj
 }
 
+/// The `[[shapes]]` entry of sphere `i` of a row of material samples (four
+/// to a row), radius `radius`, in material `name`: every other one a smooth
+/// OBJ sphere (vertex normals, written into `dir`), the rest faceted.
+fn material_sphere(dir: &Path, i: usize, name: &str, radius: f32) -> String {
+    let (x, y, z) = (
+        110.0 + 110.0 * (i % 4) as f32,
+        90.0 + 150.0 * (i / 4) as f32,
+        150.0 + 60.0 * (i % 2) as f32,
+    );
+    if i % 2 == 0 {
+        let sphere = dir.join(format!("{name}.obj"));
+        std::fs::write(&sphere, smooth_sphere_obj([x, y, z], radius)).unwrap();
+        let sphere = sphere.display().to_string().replace('\\', "/");
+        format!("[[shapes]]\ntype = \"obj\"\nfile = \"{sphere}\"\nmaterial = \"{name}\"\n\n")
+    } else {
+        format!(
+            "[[shapes]]\ntype = \"sphere\"\ncenter = [{x}, {y}, {z}]\nradius = {radius}\n\
+             subdivisions = 2\nmaterial = \"{name}\"\n\n"
+        )
+    }
+}
+
 #[test]
 fn every_material_kind_is_bit_identical() {
     // Every scattering model beside Lambert walls (the lanes that scatter
@@ -608,25 +630,7 @@ fn every_material_kind_is_bit_identical() {
         if *name == "brushed" {
             continue;
         }
-        let (x, y, z) = (
-            110.0 + 110.0 * (i % 4) as f32,
-            90.0 + 150.0 * (i / 4) as f32,
-            150.0 + 60.0 * (i % 2) as f32,
-        );
-        // Every other sphere smooth (vertex normals), the rest faceted.
-        if i % 2 == 0 {
-            let sphere = dir.path().join(format!("{name}.obj"));
-            std::fs::write(&sphere, smooth_sphere_obj([x, y, z], 60.0)).unwrap();
-            let sphere = sphere.display().to_string().replace('\\', "/");
-            text += &format!(
-                "[[shapes]]\ntype = \"obj\"\nfile = \"{sphere}\"\nmaterial = \"{name}\"\n\n"
-            );
-        } else {
-            text += &format!(
-                "[[shapes]]\ntype = \"sphere\"\ncenter = [{x}, {y}, {z}]\nradius = 60\n\
-                 subdivisions = 2\nmaterial = \"{name}\"\n\n"
-            );
-        }
+        text += &material_sphere(dir.path(), i, name, 60.0);
     }
     let scene = scene_from("materials", &text);
     assert_identical("every material kind", &scene);
@@ -735,24 +739,7 @@ fn principled_surfaces_are_bit_identical() {
         if i == 0 {
             continue;
         }
-        let (x, y, z) = (
-            110.0 + 110.0 * (i % 4) as f32,
-            90.0 + 150.0 * (i / 4) as f32,
-            150.0 + 60.0 * (i % 2) as f32,
-        );
-        if i % 2 == 0 {
-            let sphere = dir.path().join(format!("{name}.obj"));
-            std::fs::write(&sphere, smooth_sphere_obj([x, y, z], 55.0)).unwrap();
-            let sphere = sphere.display().to_string().replace('\\', "/");
-            text += &format!(
-                "[[shapes]]\ntype = \"obj\"\nfile = \"{sphere}\"\nmaterial = \"{name}\"\n\n"
-            );
-        } else {
-            text += &format!(
-                "[[shapes]]\ntype = \"sphere\"\ncenter = [{x}, {y}, {z}]\nradius = 55\n\
-                 subdivisions = 2\nmaterial = \"{name}\"\n\n"
-            );
-        }
+        text += &material_sphere(dir.path(), i, name, 55.0);
     }
     let scene = scene_from("principled", &text);
     assert_identical("principled surfaces", &scene);

@@ -85,6 +85,11 @@ pub struct SoaScene {
     general: Vec<bool>,
     /// Whether any geometry's is.
     any_general: bool,
+    /// Whether each geometry's material is Lambert (shaded in the first
+    /// vectorised loop), with one extra `false`.
+    lambert: Vec<bool>,
+    /// Whether every geometry's is.
+    all_lambert: bool,
     /// Each geometry's rough conductor (isotropic GGX Cook–Torrance with a
     /// conductor's Fresnel term, its roughness not textured), which the
     /// kernel shades in a vectorised loop of its own; `None` for other
@@ -139,6 +144,7 @@ impl SoaScene {
         let mut is_virtual = Vec::new();
         let mut conductor = Vec::new();
         let mut principled = Vec::new();
+        let mut lambert = Vec::new();
         for (g, mesh) in scene.meshes().iter().enumerate() {
             let material = &scene.materials()[mesh.material as usize];
             // Shading normals: interpolated, or from a normal map.
@@ -153,9 +159,11 @@ impl SoaScene {
             }
             let c = ConductorIn::of(material);
             let p = PrincipledIn::of(material);
+            let l = matches!(material.bsdf, Bsdf::Diffuse(_));
             conductor.push(c);
             principled.push(p);
-            general.push(!matches!(material.bsdf, Bsdf::Diffuse(_)) && c.is_none() && p.is_none());
+            lambert.push(l);
+            general.push(!l && c.is_none() && p.is_none());
             transmits.push(material.bsdf.transmits());
             emissive.push(scene.light_index(g as u32, 0).is_some());
             textured.push(!material.textures.is_empty());
@@ -166,8 +174,10 @@ impl SoaScene {
         emissive.push(false);
         textured.push(false);
         general.push(false);
+        let all_lambert = lambert.iter().all(|&l| l);
         conductor.push(None);
         principled.push(None);
+        lambert.push(false);
         transmits.push(false);
         smooth.push(false);
         is_virtual.push(false);
@@ -196,6 +206,8 @@ impl SoaScene {
             conductor,
             any_principled: principled.iter().any(Option::is_some),
             principled,
+            lambert,
+            all_lambert,
             transmits,
             any_smooth: smooth.contains(&true),
             smooth,
@@ -224,6 +236,15 @@ struct ConductorIn {
 }
 
 impl ConductorIn {
+    /// Parameters for lanes that are not conductors: they run through the
+    /// conductors' loop with these, and their results are discarded.
+    const IDLE: ConductorIn = ConductorIn {
+        alpha: 1.0,
+        eta: Vec3::ONE,
+        k: Vec3::ZERO,
+        tint: Vec3::ONE,
+    };
+
     /// The material's parameters where the kernel shades it as a rough
     /// conductor: isotropic GGX with a conductor Fresnel term and an
     /// untextured roughness (its other textures do not change the BSDF).
@@ -345,6 +366,15 @@ struct PrincipledIn {
 }
 
 impl PrincipledIn {
+    /// Parameters for lanes that are not principled surfaces (see
+    /// [`ConductorIn::IDLE`]).
+    const IDLE: PrincipledIn = PrincipledIn {
+        metallic: 0.0,
+        roughness: 0.5,
+        specular: 0.5,
+        spec_tint: 0.0,
+    };
+
     /// The material's parameters where the kernel shades it: principled in
     /// Mitsuba's mode (not energy-conserving), isotropic, its roughness and
     /// metallic not textured (a base colour map is: it is the lane's albedo).
@@ -1758,6 +1788,36 @@ fn store<T: Copy>(dst: &mut [T], start: usize, src: &[T; W]) {
     dst[start..start + m].copy_from_slice(&src[..m]);
 }
 
+/// One bounce of the lanes of a chunk whose material is of one kind `B`
+/// (`Some` in `bsdfs`), through [`shade_lane`]; the chunk's other lanes go
+/// through the same loop with `idle` (so that it has no branch) and their
+/// results are discarded. A chunk with no such lane is skipped.
+#[inline(always)]
+fn shade_kind<
+    B: LaneBsdf,
+    const TRIANGLES: bool,
+    const CONES: bool,
+    const ENV: bool,
+    const SMOOTH: bool,
+>(
+    bsdfs: &[Option<B>; W],
+    idle: B,
+    lane_in: &impl Fn(usize) -> LaneIn,
+    put: &mut impl FnMut(usize, bool, LaneOut),
+    u: Uniform,
+) {
+    if bsdfs.iter().all(Option::is_none) {
+        return;
+    }
+    for k in 0..W {
+        let l = lane_in(k);
+        let out = shade_lane::<B, TRIANGLES, CONES, ENV, SMOOTH>(l, bsdfs[k].unwrap_or(idle), u);
+        if bsdfs[k].is_some() {
+            put(k, l.hit, out);
+        }
+    }
+}
+
 /// One bounce of every lane: reads the hits in `lanes.rays`, writes the
 /// shadow rays to `lanes.shadow` and the next rays back to `lanes.rays`. Lanes
 /// go through [`shade_lane`] in chunks of [`W`] copied into local arrays:
@@ -1953,14 +2013,8 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
         // Lanes of other materials get their results below; a chunk
         // without a Lambert lane skips the loop (its lanes without a hit
         // keep the initial values: no ray, no shadow ray, state unchanged).
-        let lambert = (!kernel.any_general && !kernel.any_conductor && !kernel.any_principled)
-            || (0..W).any(|k| {
-                let g = (geom[k] as usize).min(last);
-                geom[k] != INVALID_ID
-                    && !kernel.general[g]
-                    && kernel.conductor[g].is_none()
-                    && kernel.principled[g].is_none()
-            });
+        let lambert =
+            kernel.all_lambert || (0..W).any(|k| kernel.lambert[(geom[k] as usize).min(last)]);
         if lambert {
             for k in 0..W {
                 let l = lane_in(k);
@@ -1972,47 +2026,28 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
         // Rough conductors, then principled surfaces: the same loop with
         // their BSDF, its results kept for their lanes only.
         if kernel.any_conductor {
-            let mut conductor = [None; W];
-            for k in 0..W {
-                conductor[k] = kernel.conductor[(geom[k] as usize).min(last)];
-            }
-            if conductor.iter().any(Option::is_some) {
-                for k in 0..W {
-                    let l = lane_in(k);
-                    let bsdf = conductor[k].unwrap_or(ConductorIn {
-                        alpha: 1.0,
-                        eta: Vec3::ONE,
-                        k: Vec3::ZERO,
-                        tint: Vec3::ONE,
-                    });
-                    let out = shade_lane::<_, TRIANGLES, CONES, ENV, SMOOTH>(l, bsdf, u);
-                    if conductor[k].is_some() {
-                        put(k, l.hit, out);
-                    }
-                }
-            }
+            let conductor = std::array::from_fn(|k| kernel.conductor[(geom[k] as usize).min(last)]);
+            shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+                &conductor,
+                ConductorIn::IDLE,
+                &lane_in,
+                &mut put,
+                u,
+            );
         }
         if kernel.any_principled {
-            let mut principled = [None; W];
-            for k in 0..W {
-                principled[k] = kernel.principled[(geom[k] as usize).min(last)];
-            }
-            if principled.iter().any(Option::is_some) {
-                for k in 0..W {
-                    let l = lane_in(k);
-                    let params = principled[k].unwrap_or(PrincipledIn {
-                        metallic: 0.0,
-                        roughness: 0.5,
-                        specular: 0.5,
-                        spec_tint: 0.0,
-                    });
-                    let bsdf = PrincipledLane(params, Vec3::new(ar[k], ag[k], ab[k]));
-                    let out = shade_lane::<_, TRIANGLES, CONES, ENV, SMOOTH>(l, bsdf, u);
-                    if principled[k].is_some() {
-                        put(k, l.hit, out);
-                    }
-                }
-            }
+            let principled = std::array::from_fn(|k| {
+                let colour = Vec3::new(ar[k], ag[k], ab[k]);
+                kernel.principled[(geom[k] as usize).min(last)].map(|p| PrincipledLane(p, colour))
+            });
+            let idle = PrincipledLane(PrincipledIn::IDLE, Vec3::splat(0.5));
+            shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+                &principled,
+                idle,
+                &lane_in,
+                &mut put,
+                u,
+            );
         }
 
         // The lanes whose material the loop above does not shade (it

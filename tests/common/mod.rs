@@ -5,6 +5,7 @@
 
 pub mod chi2;
 pub mod films;
+pub mod scenes;
 
 /// A small valid scene (8×8 pixels, 1 spp, an emitting sphere) for the
 /// command-line tests.
