@@ -546,7 +546,7 @@ fn material_sphere(dir: &Path, i: usize, name: &str, radius: f32) -> String {
         90.0 + 150.0 * (i / 4) as f32,
         150.0 + 60.0 * (i % 2) as f32,
     );
-    if i % 2 == 0 {
+    if i.is_multiple_of(2) {
         let sphere = dir.join(format!("{name}.obj"));
         std::fs::write(&sphere, smooth_sphere_obj([x, y, z], radius)).unwrap();
         let sphere = sphere.display().to_string().replace('\\', "/");
