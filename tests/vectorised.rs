@@ -679,6 +679,55 @@ fn rough_conductors_are_bit_identical() {
 }
 
 #[test]
+fn rough_dielectrics_are_bit_identical() {
+    // Isotropic GGX dielectrics are shaded in a vectorised loop of their
+    // own, which refracts: the outside is the geometric normal's side, each
+    // ray leaves on the side it goes, and the path's η² reaches Russian
+    // roulette. A box of rough glass (chunks with no Lambert lane), a
+    // frosted sphere with vertex normals, a rough sphere of η < 1 (total
+    // internal reflection from outside), and beside them the dielectrics
+    // that stay on the general integrator's code (smooth, Beckmann,
+    // anisotropic) and a Lambert panel; lit by a point light, an area light
+    // and a constant sky, with roulette from depth 2.
+    let dir = tempfile::tempdir().unwrap();
+    let smooth = dir.path().join("frosted.obj");
+    std::fs::write(&smooth, smooth_sphere_obj([170.0, 120.0, 200.0], 80.0)).unwrap();
+    let smooth = smooth.display().to_string().replace('\\', "/");
+    let scene = scene_from(
+        "dielectrics",
+        &format!(
+            "[render]\nspp = 3\nmax_depth = 8\nrr_depth = 2\nseed = 5\n\n\
+             [camera]\nposition = [278, 273, -600]\nlook_at = [278, 273, 0]\nup = [0, 1, 0]\n\
+             vfov = 50\nresolution = [37, 29]\n\n\
+             [environment]\nradiance = [0.3, 0.4, 0.6]\n\n\
+             [[materials]]\nname = \"box\"\ntype = \"dielectric\"\nior = 1.33\nroughness = 0.5\n\n\
+             [[materials]]\nname = \"frosted\"\ntype = \"dielectric\"\nior = 1.5\nalpha = 0.05\n\n\
+             [[materials]]\nname = \"bubble\"\ntype = \"dielectric\"\nior = 0.75\nroughness = 0.3\n\n\
+             [[materials]]\nname = \"smooth\"\ntype = \"dielectric\"\nior = 1.5\n\n\
+             [[materials]]\nname = \"beckmann\"\ntype = \"dielectric\"\ndistribution = \"beckmann\"\n\
+             roughness = 0.3\n\n\
+             [[materials]]\nname = \"brushed\"\ntype = \"dielectric\"\nalpha_u = 0.05\nalpha_v = 0.3\n\n\
+             [[shapes]]\ntype = \"obj\"\nfile = \"OBJ\"\nmaterial = \"box\"\n\n\
+             [[shapes]]\ntype = \"obj\"\nfile = \"{smooth}\"\nmaterial = \"frosted\"\n\n\
+             [[shapes]]\ntype = \"sphere\"\ncenter = [390, 120, 250]\nradius = 80\n\
+             subdivisions = 2\nmaterial = \"bubble\"\n\n\
+             [[shapes]]\ntype = \"sphere\"\ncenter = [280, 330, 300]\nradius = 60\n\
+             subdivisions = 2\nmaterial = \"smooth\"\n\n\
+             [[shapes]]\ntype = \"sphere\"\ncenter = [420, 360, 200]\nradius = 40\n\
+             subdivisions = 2\nmaterial = \"beckmann\"\n\n\
+             [[shapes]]\ntype = \"sphere\"\ncenter = [130, 380, 260]\nradius = 40\n\
+             subdivisions = 2\nmaterial = \"brushed\"\n\n\
+             [[shapes]]\ntype = \"rectangle\"\n\
+             transform = {{ scale = 60, translate = [400, 380, 420] }}\n\n\
+             [[shapes]]\ntype = \"rectangle\"\nemission = [5, 5, 5]\n\
+             transform = {{ scale = 40, rotate = {{ axis = [1, 0, 0], angle = 90 }}, translate = [150, 500, 150] }}\n\n\
+             [[lights]]\ntype = \"point\"\nposition = [278, 450, -100]\nintensity = [60000, 60000, 60000]\n"
+        ),
+    );
+    assert_identical("rough dielectrics", &scene);
+}
+
+#[test]
 fn principled_surfaces_are_bit_identical() {
     // The principled BSDF in Mitsuba's mode, isotropic, is shaded in a
     // vectorised loop of its own: a box of it (chunks with no Lambert lane),

@@ -144,7 +144,7 @@ pub fn conductor(cos_theta_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
 /// outside). Returns the refracted direction (pointing away on the other side)
 /// and the relative index `η_t/η_i` it crossed, or `None` on total internal
 /// reflection.
-#[inline]
+#[inline(always)]
 pub fn refract(wi: Vec3, n: Vec3, eta: f32) -> Option<(Vec3, f32)> {
     let mut cos_i = n.dot(wi);
     let (mut eta, mut n) = (eta, n);

@@ -157,7 +157,7 @@ impl Bsdf {
     /// in, `1/η` coming out), 1 for a reflection or a BSDF that does not
     /// transmit. A refraction scales radiance by `1/η²`; the path tracer's
     /// Russian roulette multiplies it back (see `integrator`).
-    #[inline]
+    #[inline(always)]
     pub fn eta_scale(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self {
             Bsdf::Dielectric(p) if wo.z * wi.z < 0.0 => {

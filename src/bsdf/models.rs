@@ -300,7 +300,7 @@ pub struct DielectricParams {
 impl DielectricParams {
     /// `(half vector facing +z, relative index η' across, reflection?)` for a
     /// pair of directions, or `None` for a degenerate configuration.
-    #[inline]
+    #[inline(always)]
     fn half_vector(&self, wo: Vec3, wi: Vec3) -> Option<(Vec3, f32, bool)> {
         let (cos_o, cos_i) = (wo.z, wi.z);
         if cos_o == 0.0 || cos_i == 0.0 {
@@ -327,8 +327,8 @@ impl DielectricParams {
         Some((h, etap, reflect))
     }
 
-    #[inline]
-    pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+    #[inline(always)]
+    pub(crate) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         let Some(m) = &self.microfacet else {
             return Vec3::ZERO;
         };
@@ -346,8 +346,8 @@ impl DielectricParams {
         Vec3::splat(v)
     }
 
-    #[inline]
-    pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+    #[inline(always)]
+    pub(crate) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let Some(m) = &self.microfacet else {
             return 0.0;
         };
@@ -363,8 +363,8 @@ impl DielectricParams {
         }
     }
 
-    #[inline]
-    pub(super) fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+    #[inline(always)]
+    pub(crate) fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z == 0.0 {
             return None;
         }

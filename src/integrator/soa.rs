@@ -41,7 +41,7 @@
 // Lane loops index a dozen arrays by lane; iterator chains would hide that.
 #![allow(clippy::needless_range_loop)]
 
-use super::spawn::{ray_epsilon, shadow_segment};
+use super::spawn::{ray_epsilon, shadow_segment, spawn_origin};
 use super::{
     camera_sample, emission_weight, environment_weight, roulette, roulette_spins, scatter,
     shading_normal_towards, sides_agree, Bounce, PixelSums, PrevVertex, RayStats, Scattered,
@@ -49,8 +49,8 @@ use super::{
 };
 use crate::accel::{gather_lanes, Hit, Ray, RayBatch, INVALID_ID};
 use crate::bsdf::{
-    lambert_eval, lambert_pdf, lambert_sample, Bsdf, CookTorranceParams, Distribution, Fresnel,
-    Microfacet, PrincipledParams,
+    lambert_eval, lambert_pdf, lambert_sample, Bsdf, CookTorranceParams, DielectricParams,
+    Distribution, Fresnel, Microfacet, PrincipledParams,
 };
 use crate::camera::{Camera, PinholeCamera};
 use crate::filter::PixelFilter;
@@ -80,7 +80,8 @@ pub struct SoaScene {
     any_textured: bool,
     /// Whether each geometry's material is one the kernel does not shade in
     /// its vectorised loops (anything but Lambert, the rough conductors of
-    /// `conductor` and the principled surfaces of `principled`): such lanes scatter
+    /// `conductor`, the principled surfaces of `principled` and the rough
+    /// dielectrics of `dielectric`): such lanes scatter
     /// through the general integrator's [`scatter`], with one extra `false`.
     general: Vec<bool>,
     /// Whether any geometry's is.
@@ -103,9 +104,17 @@ pub struct SoaScene {
     principled: Vec<Option<PrincipledIn>>,
     /// Whether any geometry's is.
     any_principled: bool,
+    /// Each geometry's rough dielectric where the kernel shades it in a
+    /// vectorised loop of its own (see [`DielectricIn::of`]), with one
+    /// extra `None`.
+    dielectric: Vec<Option<DielectricIn>>,
+    /// Whether any geometry's is.
+    any_dielectric: bool,
     /// Whether each geometry's material transmits light (its normal layer
     /// records the geometric normal), with one extra `false`.
     transmits: Vec<bool>,
+    /// Whether any geometry's does.
+    any_transmits: bool,
     /// Whether each geometry (by Embree id) is a virtual object (inserted
     /// into a photograph; counted in the compositing matte), with one extra
     /// `false`.
@@ -144,6 +153,7 @@ impl SoaScene {
         let mut is_virtual = Vec::new();
         let mut conductor = Vec::new();
         let mut principled = Vec::new();
+        let mut dielectric = Vec::new();
         let mut lambert = Vec::new();
         for (g, mesh) in scene.meshes().iter().enumerate() {
             let material = &scene.materials()[mesh.material as usize];
@@ -159,11 +169,13 @@ impl SoaScene {
             }
             let c = ConductorIn::of(material);
             let p = PrincipledIn::of(material);
+            let d = DielectricIn::of(material);
             let l = matches!(material.bsdf, Bsdf::Diffuse(_));
             conductor.push(c);
             principled.push(p);
+            dielectric.push(d);
             lambert.push(l);
-            general.push(!l && c.is_none() && p.is_none());
+            general.push(!l && c.is_none() && p.is_none() && d.is_none());
             transmits.push(material.bsdf.transmits());
             emissive.push(scene.light_index(g as u32, 0).is_some());
             textured.push(!material.textures.is_empty());
@@ -177,6 +189,7 @@ impl SoaScene {
         let all_lambert = lambert.iter().all(|&l| l);
         conductor.push(None);
         principled.push(None);
+        dielectric.push(None);
         lambert.push(false);
         transmits.push(false);
         smooth.push(false);
@@ -206,8 +219,11 @@ impl SoaScene {
             conductor,
             any_principled: principled.iter().any(Option::is_some),
             principled,
+            any_dielectric: dielectric.iter().any(Option::is_some),
+            dielectric,
             lambert,
             all_lambert,
+            any_transmits: transmits.contains(&true),
             transmits,
             any_smooth: smooth.contains(&true),
             smooth,
@@ -293,6 +309,15 @@ impl ConductorIn {
 /// The BSDF of a lane in [`shade_lane`]: the same evaluation, density and
 /// sampling as the general integrator's [`Bsdf`] for that model.
 trait LaneBsdf: Copy {
+    /// Whether light passes through the surface ([`Bsdf::transmits`]): the
+    /// lane then keeps the geometric normal as the outside, and offsets each
+    /// ray's origin to the side it leaves on.
+    const TRANSMITS: bool = false;
+    /// `η²` of a scattering from `wo` to `wi` ([`Bsdf::eta_scale`]).
+    #[inline(always)]
+    fn eta_scale(&self, _wo: Vec3, _wi: Vec3) -> f32 {
+        1.0
+    }
     /// `f(wo, wi)` (1/sr), local frame, without the cosine.
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3;
     /// Solid-angle density of [`LaneBsdf::sample`] drawing `wi`.
@@ -428,6 +453,80 @@ impl LaneBsdf for PrincipledLane {
     #[inline(always)]
     fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         self.params().eval_pdf(wo, wi)
+    }
+    #[inline(always)]
+    fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
+        match self.params().sample(wo, uc, u) {
+            Some(s) => (true, s.wi, s.pdf, s.weight),
+            None => (false, Vec3::Z, 0.0, Vec3::ZERO),
+        }
+    }
+}
+
+/// A rough dielectric's parameters as a lane takes them: isotropic GGX
+/// microfacet reflection and transmission (Walter et al. 2007). A smooth
+/// dielectric (only delta lobes: no light sample, other random numbers)
+/// and anisotropic or Beckmann ones scatter through the general code.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct DielectricIn {
+    /// Relative index of refraction, inside over outside.
+    eta: f32,
+    /// GGX roughness (the same along both tangents).
+    alpha: f32,
+}
+
+impl DielectricIn {
+    /// Parameters for lanes that are not dielectrics (see
+    /// [`ConductorIn::IDLE`]).
+    const IDLE: DielectricIn = DielectricIn {
+        eta: 1.5,
+        alpha: 0.5,
+    };
+
+    /// The material's parameters where the kernel shades it: a dielectric
+    /// with an isotropic GGX roughness (no texture changes a dielectric).
+    fn of(material: &crate::material::Material) -> Option<DielectricIn> {
+        let Bsdf::Dielectric(DielectricParams {
+            eta,
+            microfacet: Some(m),
+        }) = material.bsdf
+        else {
+            return None;
+        };
+        (m.kind == Distribution::Ggx && m.alpha_x == m.alpha_y).then_some(DielectricIn {
+            eta,
+            alpha: m.alpha_x,
+        })
+    }
+
+    /// The parameters exactly as the general integrator holds them (the
+    /// distribution known to the compiler).
+    #[inline(always)]
+    fn params(&self) -> DielectricParams {
+        DielectricParams {
+            eta: self.eta,
+            microfacet: Some(Microfacet {
+                kind: Distribution::Ggx,
+                alpha_x: self.alpha,
+                alpha_y: self.alpha,
+            }),
+        }
+    }
+}
+
+impl LaneBsdf for DielectricIn {
+    const TRANSMITS: bool = true;
+    #[inline(always)]
+    fn eta_scale(&self, wo: Vec3, wi: Vec3) -> f32 {
+        Bsdf::Dielectric(self.params()).eta_scale(wo, wi)
+    }
+    #[inline(always)]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.params().eval(wo, wi)
+    }
+    #[inline(always)]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.params().pdf(wo, wi)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
@@ -1206,7 +1305,7 @@ fn camera_vertex_layers(pass: &Pass, lanes: &SoaLanes, pixels: &mut [PixelSums])
             }
         }
         let mut transmits = [false; W];
-        if pass.kernel.any_general {
+        if pass.kernel.any_transmits {
             for k in 0..W {
                 transmits[k] = pass.kernel.transmits[(geom[k] as usize).min(last)];
             }
@@ -1562,10 +1661,13 @@ struct LaneOut {
     pdf: f32,
     point: Vec3,
     rng: u64,
+    /// The path's η² after this bounce (see [`LaneBsdf::eta_scale`]).
+    eta_scale: f32,
 }
 
 /// One bounce of one path: the general integrator's `shade` for a surface
-/// whose BSDF the lane holds (`B`: Lambert, a rough conductor, principled)
+/// whose BSDF the lane holds (`B`: Lambert, a rough conductor, principled,
+/// a rough dielectric)
 /// and a point, area, parametric or environment light, written without
 /// branches (every `if` is a select) so that a loop over lanes vectorises.
 /// It calls the same branch-free helpers as the general integrator (ray
@@ -1587,7 +1689,13 @@ fn shade_lane<
     let p = l.org + l.t * l.dir;
     let wo = -l.dir;
     let ng = l.ng.normalize_or_zero();
-    let n = if ng.dot(wo) >= 0.0 { ng } else { -ng };
+    // Opaque surfaces are two-sided: shaded in the frame facing the viewer.
+    // A transmissive one keeps the geometric normal as its outside.
+    let n = if B::TRANSMITS || ng.dot(wo) >= 0.0 {
+        ng
+    } else {
+        -ng
+    };
     // A shading normal bends the frame; directions on different sides for
     // it and for the geometric normal are rejected (the light-leak guard).
     let smooth = SMOOTH && l.smooth;
@@ -1599,7 +1707,15 @@ fn shade_lane<
     let frame = Frame::from_normal(shading_n);
     let wo_local = frame.to_local(wo);
     let eps = ray_epsilon(p);
-    let origin = p + n * eps;
+    // Reflected rays leave on the side of `n`; a transmissive BSDF's leave
+    // on the side of their direction.
+    let origin_for = |dir: Vec3| {
+        if B::TRANSMITS {
+            spawn_origin(p, n, eps, dir)
+        } else {
+            p + n * eps
+        }
+    };
 
     // The numbers of one bounce, in the general integrator's order: two
     // pick the light (`pick_lights` drew the pick from them already, or
@@ -1660,7 +1776,8 @@ fn shade_lane<
     } else {
         1.0
     };
-    let (shadow_dir, shadow_tfar) = shadow_segment(origin, p, ls.wi, ls.dist);
+    let shadow_org = origin_for(ls.wi);
+    let (shadow_dir, shadow_tfar) = shadow_segment(shadow_org, p, ls.wi, ls.dist);
     let shadow = l.hit && light.picked && valid && f != Vec3::ZERO && shadow_tfar > 0.0;
     let pending = l.beta * f * ls.radiance * (weight / light_pdf);
 
@@ -1669,14 +1786,19 @@ fn shade_lane<
     // Where the guard rejects the direction, the path ends.
     let sampled = sampled && (!smooth || sides_agree(wo, next_dir, ng, wo_local, local));
     let mut beta = l.beta * factor;
+    // The path's η² of its refractions, this one's included (as the
+    // general integrator keeps it, only for a sampled direction).
+    let eta_scale = if B::TRANSMITS && sampled {
+        l.eta_scale * bsdf.eta_scale(wo_local, local)
+    } else {
+        l.eta_scale
+    };
 
     // Russian roulette draws a number only where it spins: drawn from a
     // copy of the state, kept where it spins.
-    let rr_beta = beta * l.eta_scale;
+    let rr_beta = beta * eta_scale;
     let spin = roulette_spins(rr_beta, u.roulette);
     let mut rng_rr = rng;
-    // These BSDFs never refract, but the path may have (η² of its
-    // refractions).
     let (survives, beta_rr) = roulette(beta, rr_beta, PathSampler::step_f32(&mut rng_rr, l.inc));
     if spin {
         rng = rng_rr;
@@ -1686,10 +1808,10 @@ fn shade_lane<
     let alive = l.hit && u.continue_paths && sampled && survived && beta != Vec3::ZERO;
     LaneOut {
         alive,
-        next_org: origin,
+        next_org: origin_for(next_dir),
         next_dir,
         shadow,
-        shadow_org: origin,
+        shadow_org,
         shadow_dir,
         shadow_tfar,
         pending,
@@ -1697,6 +1819,7 @@ fn shade_lane<
         pdf,
         point: p,
         rng,
+        eta_scale,
     }
 }
 
@@ -1924,7 +2047,8 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
         let rng_in = load(&lanes.rng_state, start);
         let mut rng = rng_in;
         let inc = load(&lanes.rng_inc, start);
-        let mut eta_scale = load(&lanes.eta_scale, start);
+        let eta_scale_in = load(&lanes.eta_scale, start);
+        let mut eta_scale = eta_scale_in;
         let (mut ns, mut ns_valid) = ([[0.0f32; W]; 3], [false; W]);
         if SMOOTH {
             ns_valid = load(&lanes.ns_valid, start);
@@ -1967,7 +2091,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
             ns: Vec3::new(ns[0][k], ns[1][k], ns[2][k]),
             smooth: ns_valid[k],
             beta: Vec3::new(br[k], bg[k], bb[k]),
-            eta_scale: eta_scale[k],
+            eta_scale: eta_scale_in[k],
             rng: rng_in[k],
             inc: inc[k],
             light: lights.lane(k),
@@ -1981,6 +2105,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
             // A lane without a hit keeps its state: its path has ended.
             if hit {
                 rng[k] = out.rng;
+                eta_scale[k] = out.eta_scale;
                 for c in 0..3 {
                     beta[c][k] = out.beta[c];
                 }
@@ -2044,6 +2169,17 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
             shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
                 &principled,
                 idle,
+                &lane_in,
+                &mut put,
+                u,
+            );
+        }
+        if kernel.any_dielectric {
+            let dielectric =
+                std::array::from_fn(|k| kernel.dielectric[(geom[k] as usize).min(last)]);
+            shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+                &dielectric,
+                DielectricIn::IDLE,
                 &lane_in,
                 &mut put,
                 u,

@@ -11,13 +11,16 @@ use std::path::Path;
 /// the same base colour (roughness 0.5, specular 0.5), in Mitsuba's mode and
 /// in the energy-conserving mode, each with the general integrator and with
 /// the vectorised kernel, and with every material a rough gold (isotropic
-/// GGX, α 0.2, gold's complex index), interleaved in the same run: the ratios to the
+/// GGX, α 0.2, gold's complex index) and every material a rough glass
+/// (isotropic GGX, α 0.2, η 1.5: the light sits inside a box of glass
+/// walls), interleaved in the same run: the ratios to the
 /// all-diffuse scene say what the richer BSDF costs, the kernel's ratio to
 /// the general integrator what the wavefront gains. Returns each scene's
 /// `(general, vectorised)` Msamples/s.
-pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 4]> {
+pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 5]> {
     use plsr::bsdf::{
-        Bsdf, CookTorranceParams, Distribution, Fresnel, Microfacet, PrincipledParams, METALS,
+        Bsdf, CookTorranceParams, DielectricParams, Distribution, Fresnel, Microfacet,
+        PrincipledParams, METALS,
     };
     let path = Path::new("assets/scenes/cornell/cornell.toml");
     let mut diffuse = plsr::scene::file::load(path)?;
@@ -57,6 +60,16 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 4]> {
         }
         scene
     };
+    let glass = {
+        let mut scene = diffuse.clone();
+        for m in &mut scene.materials {
+            m.bsdf = Bsdf::Dielectric(DielectricParams {
+                eta: 1.5,
+                microfacet: Some(Microfacet::isotropic(Distribution::Ggx, 0.2)),
+            });
+        }
+        scene
+    };
     let options = |vectorised: bool| RenderOptions {
         threads,
         vectorised,
@@ -73,10 +86,11 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 4]> {
             Scene::build(principled(true))?,
         ),
         ("all rough gold (GGX α 0.2)", Scene::build(gold)?),
+        ("all rough glass (GGX α 0.2, η 1.5)", Scene::build(glass)?),
     ];
     // Interleaved runs, best of three each, so drift hits all alike.
-    let mut best = [(0.0f64, 0.0f64); 4];
-    let mut same = [true; 4];
+    let mut best = [(0.0f64, 0.0f64); 5];
+    let mut same = [true; 5];
     for _ in 0..3 {
         for (k, (_, scene)) in scenes.iter().enumerate() {
             let (general, stats): (Film, RenderStats) =
