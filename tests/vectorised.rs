@@ -636,6 +636,23 @@ fn every_material_kind_is_bit_identical() {
     assert_identical("every material kind", &scene);
 }
 
+/// The frame of the material tests: 37×29 pixels at 3 spp with roulette
+/// from depth 2, the Cornell box's walls in material `box_material`, a
+/// constant sky, an area light and a point light; the test adds its
+/// materials and further shapes.
+fn lit_box(box_material: &str, max_depth: u32, seed: u32) -> String {
+    format!(
+        "[render]\nspp = 3\nmax_depth = {max_depth}\nrr_depth = 2\nseed = {seed}\n\n\
+         [camera]\nposition = [278, 273, -600]\nlook_at = [278, 273, 0]\nup = [0, 1, 0]\n\
+         vfov = 50\nresolution = [37, 29]\n\n\
+         [environment]\nradiance = [0.3, 0.4, 0.6]\n\n\
+         [[shapes]]\ntype = \"obj\"\nfile = \"OBJ\"\nmaterial = \"{box_material}\"\n\n\
+         [[shapes]]\ntype = \"rectangle\"\nemission = [5, 5, 5]\n\
+         transform = {{ scale = 40, rotate = {{ axis = [1, 0, 0], angle = 90 }}, translate = [150, 500, 150] }}\n\n\
+         [[lights]]\ntype = \"point\"\nposition = [278, 450, -100]\nintensity = [60000, 60000, 60000]\n\n"
+    )
+}
+
 #[test]
 fn rough_conductors_are_bit_identical() {
     // Isotropic GGX conductors are shaded in a vectorised loop of their own:
@@ -652,27 +669,20 @@ fn rough_conductors_are_bit_identical() {
     let scene = scene_from(
         "conductors",
         &format!(
-            "[render]\nspp = 3\nmax_depth = 6\nrr_depth = 2\nseed = 3\n\n\
-             [camera]\nposition = [278, 273, -600]\nlook_at = [278, 273, 0]\nup = [0, 1, 0]\n\
-             vfov = 50\nresolution = [37, 29]\n\n\
-             [environment]\nradiance = [0.3, 0.4, 0.6]\n\n\
-             [[materials]]\nname = \"tinted\"\ntype = \"cook_torrance\"\nmetal = \"none\"\n\
+            "{}[[materials]]\nname = \"tinted\"\ntype = \"cook_torrance\"\nmetal = \"none\"\n\
              specular_reflectance = [0.9, 0.5, 0.2]\nroughness = 0.35\n\n\
              [[materials]]\nname = \"gold\"\ntype = \"cook_torrance\"\nmetal = \"Au\"\nalpha = 0.02\n\n\
              [[materials]]\nname = \"copper\"\ntype = \"cook_torrance\"\nmetal = \"Cu\"\nroughness = 0.7\n\n\
              [[materials]]\nname = \"aluminium\"\ntype = \"cook_torrance\"\nmetal = \"Al\"\n\
              distribution = \"beckmann\"\nroughness = 0.3\n\n\
-             [[shapes]]\ntype = \"obj\"\nfile = \"OBJ\"\nmaterial = \"tinted\"\n\n\
              [[shapes]]\ntype = \"obj\"\nfile = \"{smooth}\"\nmaterial = \"gold\"\n\n\
              [[shapes]]\ntype = \"sphere\"\ncenter = [390, 120, 250]\nradius = 80\n\
              subdivisions = 2\nmaterial = \"copper\"\n\n\
              [[shapes]]\ntype = \"sphere\"\ncenter = [280, 330, 300]\nradius = 60\n\
              subdivisions = 2\nmaterial = \"aluminium\"\n\n\
              [[shapes]]\ntype = \"rectangle\"\n\
-             transform = {{ scale = 60, translate = [400, 380, 420] }}\n\n\
-             [[shapes]]\ntype = \"rectangle\"\nemission = [5, 5, 5]\n\
-             transform = {{ scale = 40, rotate = {{ axis = [1, 0, 0], angle = 90 }}, translate = [150, 500, 150] }}\n\n\
-             [[lights]]\ntype = \"point\"\nposition = [278, 450, -100]\nintensity = [60000, 60000, 60000]\n"
+             transform = {{ scale = 60, translate = [400, 380, 420] }}\n",
+            lit_box("tinted", 6, 3)
         ),
     );
     assert_identical("rough conductors", &scene);
@@ -696,18 +706,13 @@ fn rough_dielectrics_are_bit_identical() {
     let scene = scene_from(
         "dielectrics",
         &format!(
-            "[render]\nspp = 3\nmax_depth = 8\nrr_depth = 2\nseed = 5\n\n\
-             [camera]\nposition = [278, 273, -600]\nlook_at = [278, 273, 0]\nup = [0, 1, 0]\n\
-             vfov = 50\nresolution = [37, 29]\n\n\
-             [environment]\nradiance = [0.3, 0.4, 0.6]\n\n\
-             [[materials]]\nname = \"box\"\ntype = \"dielectric\"\nior = 1.33\nroughness = 0.5\n\n\
+            "{}[[materials]]\nname = \"box\"\ntype = \"dielectric\"\nior = 1.33\nroughness = 0.5\n\n\
              [[materials]]\nname = \"frosted\"\ntype = \"dielectric\"\nior = 1.5\nalpha = 0.05\n\n\
              [[materials]]\nname = \"bubble\"\ntype = \"dielectric\"\nior = 0.75\nroughness = 0.3\n\n\
              [[materials]]\nname = \"smooth\"\ntype = \"dielectric\"\nior = 1.5\n\n\
              [[materials]]\nname = \"beckmann\"\ntype = \"dielectric\"\ndistribution = \"beckmann\"\n\
              roughness = 0.3\n\n\
              [[materials]]\nname = \"brushed\"\ntype = \"dielectric\"\nalpha_u = 0.05\nalpha_v = 0.3\n\n\
-             [[shapes]]\ntype = \"obj\"\nfile = \"OBJ\"\nmaterial = \"box\"\n\n\
              [[shapes]]\ntype = \"obj\"\nfile = \"{smooth}\"\nmaterial = \"frosted\"\n\n\
              [[shapes]]\ntype = \"sphere\"\ncenter = [390, 120, 250]\nradius = 80\n\
              subdivisions = 2\nmaterial = \"bubble\"\n\n\
@@ -718,10 +723,8 @@ fn rough_dielectrics_are_bit_identical() {
              [[shapes]]\ntype = \"sphere\"\ncenter = [130, 380, 260]\nradius = 40\n\
              subdivisions = 2\nmaterial = \"brushed\"\n\n\
              [[shapes]]\ntype = \"rectangle\"\n\
-             transform = {{ scale = 60, translate = [400, 380, 420] }}\n\n\
-             [[shapes]]\ntype = \"rectangle\"\nemission = [5, 5, 5]\n\
-             transform = {{ scale = 40, rotate = {{ axis = [1, 0, 0], angle = 90 }}, translate = [150, 500, 150] }}\n\n\
-             [[lights]]\ntype = \"point\"\nposition = [278, 450, -100]\nintensity = [60000, 60000, 60000]\n"
+             transform = {{ scale = 60, translate = [400, 380, 420] }}\n",
+            lit_box("box", 8, 5)
         ),
     );
     assert_identical("rough dielectrics", &scene);
@@ -773,16 +776,7 @@ fn principled_surfaces_are_bit_identical() {
             format!("base_color = [0.6, 0.5, 0.5]\nroughness_map = \"{texture}\""),
         ),
     ];
-    let mut text = String::from(
-        "[render]\nspp = 3\nmax_depth = 6\nrr_depth = 2\nseed = 8\n\n\
-         [camera]\nposition = [278, 273, -600]\nlook_at = [278, 273, 0]\nup = [0, 1, 0]\n\
-         vfov = 50\nresolution = [37, 29]\n\n\
-         [environment]\nradiance = [0.3, 0.4, 0.6]\n\n\
-         [[shapes]]\ntype = \"obj\"\nfile = \"OBJ\"\nmaterial = \"box\"\n\n\
-         [[shapes]]\ntype = \"rectangle\"\nemission = [5, 5, 5]\n\
-         transform = { scale = 40, rotate = { axis = [1, 0, 0], angle = 90 }, translate = [150, 500, 150] }\n\n\
-         [[lights]]\ntype = \"point\"\nposition = [278, 450, -100]\nintensity = [60000, 60000, 60000]\n\n",
-    );
+    let mut text = lit_box("box", 6, 8);
     for (i, (name, body)) in materials.iter().enumerate() {
         text += &format!("[[materials]]\nname = \"{name}\"\ntype = \"principled\"\n{body}\n\n");
         if i == 0 {

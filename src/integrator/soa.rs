@@ -49,8 +49,8 @@ use super::{
 };
 use crate::accel::{gather_lanes, Hit, Ray, RayBatch, INVALID_ID};
 use crate::bsdf::{
-    lambert_eval, lambert_pdf, lambert_sample, Bsdf, CookTorranceParams, DielectricParams,
-    Distribution, Fresnel, Microfacet, PrincipledParams,
+    lambert_eval, lambert_pdf, lambert_sample, Bsdf, BsdfSample, CookTorranceParams,
+    DielectricParams, Distribution, Fresnel, Microfacet, PrincipledParams,
 };
 use crate::camera::{Camera, PinholeCamera};
 use crate::filter::PixelFilter;
@@ -334,6 +334,17 @@ trait LaneBsdf: Copy {
     fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3);
 }
 
+/// A general BSDF sample as [`LaneBsdf::sample`] returns it: (drawn, `wi`,
+/// its density, the throughput factor), with placeholders where none was
+/// drawn.
+#[inline(always)]
+fn lane_sample(sample: Option<BsdfSample>) -> (bool, Vec3, f32, Vec3) {
+    match sample {
+        Some(s) => (true, s.wi, s.pdf, s.weight),
+        None => (false, Vec3::Z, 0.0, Vec3::ZERO),
+    }
+}
+
 /// A Lambert surface's lane BSDF: its albedo.
 #[derive(Clone, Copy)]
 struct LambertLane(Vec3);
@@ -368,10 +379,7 @@ impl LaneBsdf for ConductorIn {
     fn sample(&self, wo: Vec3, _uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
         // [`Bsdf::sample`] of a Cook–Torrance surface (one lobe: no lobe
         // number).
-        match self.params().sample(wo, u) {
-            Some(s) => (true, s.wi, s.pdf, s.weight),
-            None => (false, Vec3::Z, 0.0, Vec3::ZERO),
-        }
+        lane_sample(self.params().sample(wo, u))
     }
 }
 
@@ -456,10 +464,7 @@ impl LaneBsdf for PrincipledLane {
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
-        match self.params().sample(wo, uc, u) {
-            Some(s) => (true, s.wi, s.pdf, s.weight),
-            None => (false, Vec3::Z, 0.0, Vec3::ZERO),
-        }
+        lane_sample(self.params().sample(wo, uc, u))
     }
 }
 
@@ -530,10 +535,7 @@ impl LaneBsdf for DielectricIn {
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
-        match self.params().sample(wo, uc, u) {
-            Some(s) => (true, s.wi, s.pdf, s.weight),
-            None => (false, Vec3::Z, 0.0, Vec3::ZERO),
-        }
+        lane_sample(self.params().sample(wo, uc, u))
     }
 }
 
