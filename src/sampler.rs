@@ -21,25 +21,38 @@
 //! which are as well distributed.
 //!
 //! An image depends only on the scene seed, the pixel and the sample
-//! index, never on threads or tiles, as with [`crate::rng::Rng`]; the
-//! state is two 64-bit words ([`PathSampler::to_parts`]) so that the
-//! vectorised kernel keeps it in structure-of-arrays lanes and draws with
+//! index, never on threads or tiles, as with [`crate::rng::Rng`]. The
+//! state is 32-bit words: the draws so far and a [`SampleStream`] that a
+//! path never changes ([`PathSampler::to_parts`]), so that the vectorised
+//! kernel keeps it in structure-of-arrays lanes and draws with
 //! [`PathSampler::step_2d`] and [`PathSampler::step_f32`], which have no
-//! branches.
+//! branches and only 32-bit arithmetic (16 lanes per AVX-512 instruction;
+//! the same numbers kept in 64-bit words made the kernel's draws about
+//! four times slower).
 
 use crate::rng::mix64;
 use glam::Vec2;
 
-/// The random stream of one camera sample: the sample index and the
-/// number of draws so far, and the pixel's hash.
+/// What stays fixed along one camera sample's path: its sample index and
+/// its pixel's hash.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SampleStream {
+    /// The sample index, bit-reversed (as the Owen scrambling of the
+    /// sample order takes it).
+    pub reversed_sample: u32,
+    /// Low half of the hash of the scene seed and the pixel.
+    pub pixel_lo: u32,
+    /// High half of that hash.
+    pub pixel_hi: u32,
+}
+
+/// The random stream of one camera sample: its [`SampleStream`] and the
+/// number of draws so far.
 #[derive(Debug, Clone)]
 pub struct PathSampler {
-    /// The sample index, bit-reversed (as the Owen scrambling of the
-    /// sample order takes it), in the high 32 bits; draws so far in the
-    /// low 32.
-    state: u64,
-    /// Hash of the scene seed and the pixel.
-    pixel: u64,
+    stream: SampleStream,
+    /// Draws so far: the dimension of the next draw.
+    dim: u32,
 }
 
 /// 2⁻²⁴: a 24-bit integer to a float in `[0, 1)`.
@@ -107,10 +120,10 @@ fn hash32(mut x: u32) -> u32 {
 /// 64-bit hash or their mix, in 32-bit arithmetic (which vectorises
 /// natively).
 #[inline(always)]
-fn draw_seeds(pixel: u64, dim: u32) -> (u32, u32, u32) {
+fn draw_seeds(stream: SampleStream, dim: u32) -> (u32, u32, u32) {
     let d = dim.wrapping_mul(0x9e37_79b9);
-    let shuffle = hash32(pixel as u32 ^ d);
-    let sx = hash32((pixel >> 32) as u32 ^ d);
+    let shuffle = hash32(stream.pixel_lo ^ d);
+    let sx = hash32(stream.pixel_hi ^ d);
     let sy = hash32(shuffle ^ sx.rotate_left(16) ^ 0x6a09_e667);
     (shuffle, sx, sy)
 }
@@ -120,52 +133,51 @@ impl PathSampler {
     /// seed `seed`.
     #[inline]
     pub fn for_sample(seed: u64, x: u32, y: u32, sample: u32) -> PathSampler {
-        let pixel = ((y as u64) << 32) | x as u64;
+        let pixel = mix64(seed ^ mix64(((y as u64) << 32) | x as u64));
         PathSampler {
-            state: (sample.reverse_bits() as u64) << 32,
-            pixel: mix64(seed ^ mix64(pixel)),
+            stream: SampleStream {
+                reversed_sample: sample.reverse_bits(),
+                pixel_lo: pixel as u32,
+                pixel_hi: (pixel >> 32) as u32,
+            },
+            dim: 0,
         }
     }
 
-    /// The raw state `(state, pixel)`, for kernels that keep many streams
-    /// in structure-of-arrays form.
+    /// The raw state: draws so far and the fixed stream, for kernels that
+    /// keep many streams in structure-of-arrays form.
     #[inline]
-    pub fn to_parts(&self) -> (u64, u64) {
-        (self.state, self.pixel)
+    pub fn to_parts(&self) -> (u32, SampleStream) {
+        (self.dim, self.stream)
     }
 
-    /// The stream with raw state `(state, pixel)` (see [`PathSampler::to_parts`]).
+    /// The sampler with raw state `(dim, stream)` (see [`PathSampler::to_parts`]).
     #[inline]
-    pub fn from_parts(state: u64, pixel: u64) -> PathSampler {
-        PathSampler { state, pixel }
+    pub fn from_parts(dim: u32, stream: SampleStream) -> PathSampler {
+        PathSampler { stream, dim }
     }
 
     /// The next draw of a raw state, as two numbers in `[0, 1)`; the same
     /// as [`PathSampler::next_2d`].
     #[inline(always)]
-    pub fn step_2d(state: &mut u64, pixel: u64) -> Vec2 {
-        let (reversed_sample, dim) = ((*state >> 32) as u32, *state as u32);
-        *state += 1;
-        let (shuffle, sx, sy) = draw_seeds(pixel, dim);
+    pub fn step_2d(dim: &mut u32, stream: SampleStream) -> Vec2 {
+        let (shuffle, sx, sy) = draw_seeds(stream, *dim);
+        *dim = dim.wrapping_add(1);
         // The shuffled index: the sample index Owen-scrambled.
-        let i = owen_permutation(reversed_sample, shuffle).reverse_bits();
-        // Owen scrambling a Sobol point `reverse(z)` is `reverse(perm(z))`;
-        // both coordinates are reversed by one 64-bit reversal.
-        let x = owen_permutation(i, sx);
-        let y = owen_permutation(sobol_1_reversed(i), sy);
-        let yx = (((x as u64) << 32) | y as u64).reverse_bits();
-        let (x, y) = (yx as u32, (yx >> 32) as u32);
+        let i = owen_permutation(stream.reversed_sample, shuffle).reverse_bits();
+        // Owen scrambling a Sobol point `reverse(z)` is `reverse(perm(z))`.
+        let x = owen_permutation(i, sx).reverse_bits();
+        let y = owen_permutation(sobol_1_reversed(i), sy).reverse_bits();
         Vec2::new((x >> 8) as f32 * TO_UNIT, (y >> 8) as f32 * TO_UNIT)
     }
 
     /// The next draw of a raw state, as one number in `[0, 1)`; the same as
     /// [`PathSampler::next_f32`].
     #[inline(always)]
-    pub fn step_f32(state: &mut u64, pixel: u64) -> f32 {
-        let (reversed_sample, dim) = ((*state >> 32) as u32, *state as u32);
-        *state += 1;
-        let (shuffle, sx, _) = draw_seeds(pixel, dim);
-        let i = owen_permutation(reversed_sample, shuffle).reverse_bits();
+    pub fn step_f32(dim: &mut u32, stream: SampleStream) -> f32 {
+        let (shuffle, sx, _) = draw_seeds(stream, *dim);
+        *dim = dim.wrapping_add(1);
+        let i = owen_permutation(stream.reversed_sample, shuffle).reverse_bits();
         let x = owen_permutation(i, sx).reverse_bits();
         (x >> 8) as f32 * TO_UNIT
     }
@@ -173,13 +185,13 @@ impl PathSampler {
     /// The next draw: one number in `[0, 1)` (24 bits, never 1.0).
     #[inline]
     pub fn next_f32(&mut self) -> f32 {
-        PathSampler::step_f32(&mut self.state, self.pixel)
+        PathSampler::step_f32(&mut self.dim, self.stream)
     }
 
     /// The next draw: two numbers in `[0, 1)`.
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
-        PathSampler::step_2d(&mut self.state, self.pixel)
+        PathSampler::step_2d(&mut self.dim, self.stream)
     }
 }
 
@@ -285,9 +297,9 @@ mod tests {
     fn draws_are_the_scrambled_sobol_points() {
         for (x, y, sample) in [(0, 0, 0), (5, 9, 1), (640, 3, 77), (1, 2, 65_535)] {
             let mut p = PathSampler::for_sample(9, x, y, sample);
-            let pixel = p.pixel;
+            let stream = p.stream;
             for dim in 0..40 {
-                let (shuffle, sx, sy) = draw_seeds(pixel, dim);
+                let (shuffle, sx, sy) = draw_seeds(stream, dim);
                 let i = owen_scramble(sample, shuffle);
                 let (mut sobol_1, mut v) = (0u32, 1u32 << 31);
                 for b in 0..32 {
@@ -316,12 +328,12 @@ mod tests {
     #[test]
     fn raw_steps_draw_what_the_sampler_draws() {
         let mut p = PathSampler::for_sample(3, 1, 4, 17);
-        let (mut state, pixel) = p.to_parts();
+        let (mut dim, stream) = p.to_parts();
         for _ in 0..50 {
-            assert_eq!(PathSampler::step_2d(&mut state, pixel), p.next_2d());
-            assert_eq!(PathSampler::step_f32(&mut state, pixel), p.next_f32());
+            assert_eq!(PathSampler::step_2d(&mut dim, stream), p.next_2d());
+            assert_eq!(PathSampler::step_f32(&mut dim, stream), p.next_f32());
         }
-        assert_eq!(PathSampler::from_parts(state, pixel).next_2d(), p.next_2d());
+        assert_eq!(PathSampler::from_parts(dim, stream).next_2d(), p.next_2d());
     }
 
     #[test]

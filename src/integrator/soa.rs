@@ -58,7 +58,7 @@ use crate::job::RenderJob;
 use crate::light::pls::SoftEdge;
 use crate::light::{point_light_sample, Cone, Light, LightSample, TrianglePoint};
 use crate::prefetch::prefetch;
-use crate::sampler::PathSampler;
+use crate::sampler::{PathSampler, SampleStream};
 use crate::scene::Scene;
 use crate::warp::{power_heuristic, Frame};
 use glam::{Vec2, Vec3};
@@ -796,8 +796,11 @@ pub struct SoaLanes {
     rays: RayBatch,
     shadow: RayBatch,
     pixel: Vec<u32>,
-    rng_state: Vec<u64>,
-    rng_inc: Vec<u64>,
+    /// Each path's random stream: the draws so far, and the fixed
+    /// [`SampleStream`] (bit-reversed sample index, pixel hash's halves),
+    /// one 32-bit array each so that the draws vectorise.
+    rng_dim: Vec<u32>,
+    rng_stream: [Vec<u32>; 3],
     beta: [Vec<f32>; 3],
     radiance: [Vec<f32>; 3],
     pending: [Vec<f32>; 3],
@@ -847,8 +850,10 @@ impl SoaLanes {
         self.rays.resize(n);
         self.shadow.resize(n);
         self.pixel.resize(n, 0);
-        self.rng_state.resize(n, 0);
-        self.rng_inc.resize(n, 0);
+        self.rng_dim.resize(n, 0);
+        for part in &mut self.rng_stream {
+            part.resize(n, 0);
+        }
         for c in 0..3 {
             self.beta[c].resize(n, 0.0);
             self.radiance[c].resize(n, 0.0);
@@ -899,6 +904,27 @@ impl SoaLanes {
         }
     }
 
+    /// Lane `i`'s random stream as a sampler.
+    #[inline(always)]
+    fn sampler(&self, i: usize) -> PathSampler {
+        let stream = SampleStream {
+            reversed_sample: self.rng_stream[0][i],
+            pixel_lo: self.rng_stream[1][i],
+            pixel_hi: self.rng_stream[2][i],
+        };
+        PathSampler::from_parts(self.rng_dim[i], stream)
+    }
+
+    /// Sets lane `i`'s random stream.
+    #[inline(always)]
+    fn set_sampler(&mut self, i: usize, sampler: &PathSampler) {
+        let (dim, stream) = sampler.to_parts();
+        self.rng_dim[i] = dim;
+        self.rng_stream[0][i] = stream.reversed_sample;
+        self.rng_stream[1][i] = stream.pixel_lo;
+        self.rng_stream[2][i] = stream.pixel_hi;
+    }
+
     /// Keeps the lanes listed in `self.kept`, in order; the previous
     /// scattering points and densities only where `emitters` need them.
     #[inline(always)]
@@ -906,8 +932,10 @@ impl SoaLanes {
         let kept = &self.kept;
         self.rays.retain(kept);
         gather_lanes(&mut self.pixel, kept);
-        gather_lanes(&mut self.rng_state, kept);
-        gather_lanes(&mut self.rng_inc, kept);
+        gather_lanes(&mut self.rng_dim, kept);
+        for part in &mut self.rng_stream {
+            gather_lanes(part, kept);
+        }
         gather_lanes(&mut self.eta_scale, kept);
         for c in 0..3 {
             gather_lanes(&mut self.beta[c], kept);
@@ -1380,7 +1408,7 @@ fn general_camera_rays(pass: &Pass, lanes: &mut SoaLanes) -> usize {
             };
             lanes.rays.set(n, ray);
             lanes.pixel[n] = py * tile.width + px;
-            (lanes.rng_state[n], lanes.rng_inc[n]) = rng.to_parts();
+            lanes.set_sampler(n, &rng);
             lanes.eta_scale[n] = 1.0;
             for c in 0..3 {
                 lanes.beta[c][n] = 1.0;
@@ -1402,8 +1430,8 @@ fn pinhole_camera_rays(camera: &PinholeCamera, pass: &Pass, lanes: &mut SoaLanes
     let n = lanes.rays.len();
     for start in (0..n).step_by(W) {
         let mut dir = [[0.0f32; W]; 3];
-        let mut state = [0u64; W];
-        let mut inc = [0u64; W];
+        let mut dim = [0u32; W];
+        let mut stream = [[0u32; W]; 3];
         for k in 0..W {
             let i = (start + k) as u32;
             let (px, py) = (i % tile.width, i / tile.width);
@@ -1414,13 +1442,18 @@ fn pinhole_camera_rays(camera: &PinholeCamera, pass: &Pass, lanes: &mut SoaLanes
             for c in 0..3 {
                 dir[c][k] = ray.dir[c];
             }
-            (state[k], inc[k]) = rng.to_parts();
+            let (d, s) = rng.to_parts();
+            dim[k] = d;
+            (stream[0][k], stream[1][k], stream[2][k]) =
+                (s.reversed_sample, s.pixel_lo, s.pixel_hi);
         }
         store(lanes.rays.dir_x.as_mut_slice(), start, &dir[0]);
         store(lanes.rays.dir_y.as_mut_slice(), start, &dir[1]);
         store(lanes.rays.dir_z.as_mut_slice(), start, &dir[2]);
-        store(&mut lanes.rng_state, start, &state);
-        store(&mut lanes.rng_inc, start, &inc);
+        store(&mut lanes.rng_dim, start, &dim);
+        for c in 0..3 {
+            store(&mut lanes.rng_stream[c], start, &stream[c]);
+        }
     }
     let origin = camera.pose.position;
     for (c, org) in [
@@ -1482,7 +1515,7 @@ fn sample_environment(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes, en
         if lanes.rays.geom_id.as_slice()[i] == INVALID_ID || !picked {
             continue;
         }
-        let mut rng = PathSampler::from_parts(lanes.rng_state[i], lanes.rng_inc[i]);
+        let mut rng = lanes.sampler(i);
         let _pick = rng.next_2d();
         lanes.env_lanes.push(i as u32);
         lanes.env_us.push(rng.next_2d());
@@ -1523,8 +1556,8 @@ fn pick_per_lane(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
             load(rays.dir_y.as_slice(), start),
             load(rays.dir_z.as_slice(), start),
         ];
-        let mut state = load(&lanes.rng_state, start);
-        let inc = load(&lanes.rng_inc, start);
+        let mut dim = load(&lanes.rng_dim, start);
+        let stream = load_streams(&lanes.rng_stream, start);
         let mut p = [[0.0f32; W]; 3];
         let mut u = [Vec2::ZERO; W];
         for k in 0..W {
@@ -1533,7 +1566,7 @@ fn pick_per_lane(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
             for c in 0..3 {
                 p[c][k] = x[c];
             }
-            u[k] = PathSampler::step_2d(&mut state[k], inc[k]);
+            u[k] = PathSampler::step_2d(&mut dim[k], stream[k]);
         }
         // Which cone-limited groups reach each lane's point: the bounding
         // cones for the whole chunk, the exact test where they cannot tell.
@@ -1633,8 +1666,9 @@ struct LaneIn {
     smooth: bool,
     beta: Vec3,
     eta_scale: f32,
-    rng: u64,
-    inc: u64,
+    /// The path's draws so far and its fixed stream.
+    rng: u32,
+    stream: SampleStream,
     light: LightIn,
     /// The lane's sample of the environment, where it picked it.
     env_valid: bool,
@@ -1662,7 +1696,8 @@ struct LaneOut {
     /// the next ray) and the point it left from.
     pdf: f32,
     point: Vec3,
-    rng: u64,
+    /// The path's draws so far.
+    rng: u32,
     /// The path's η² after this bounce (see [`LaneBsdf::eta_scale`]).
     eta_scale: f32,
 }
@@ -1727,14 +1762,14 @@ fn shade_lane<
     // Where no light was picked, the general integrator draws no numbers
     // for a light sample: drawn on a copy, kept where a light was picked.
     let light = l.light;
-    let _light_pick = PathSampler::step_2d(&mut rng, l.inc);
+    let _light_pick = PathSampler::step_2d(&mut rng, l.stream);
     let mut rng_point = rng;
-    let light_point = PathSampler::step_2d(&mut rng_point, l.inc);
+    let light_point = PathSampler::step_2d(&mut rng_point, l.stream);
     if light.picked {
         rng = rng_point;
     }
-    let lobe = PathSampler::step_f32(&mut rng, l.inc);
-    let direction = PathSampler::step_2d(&mut rng, l.inc);
+    let lobe = PathSampler::step_f32(&mut rng, l.stream);
+    let direction = PathSampler::step_2d(&mut rng, l.stream);
 
     // Every kind's sample, computed for every lane and selected (the
     // triangle's only where the scene has emitting triangles, the
@@ -1801,7 +1836,7 @@ fn shade_lane<
     let rr_beta = beta * eta_scale;
     let spin = roulette_spins(rr_beta, u.roulette);
     let mut rng_rr = rng;
-    let (survives, beta_rr) = roulette(beta, rr_beta, PathSampler::step_f32(&mut rng_rr, l.inc));
+    let (survives, beta_rr) = roulette(beta, rr_beta, PathSampler::step_f32(&mut rng_rr, l.stream));
     if spin {
         rng = rng_rr;
         beta = beta_rr;
@@ -1891,6 +1926,21 @@ fn load<T: Copy + Default>(src: &[T], start: usize) -> [T; W] {
     let m = (src.len() - start).min(W);
     out[..m].copy_from_slice(&src[start..start + m]);
     out
+}
+
+/// The fixed random streams of [`W`] lanes (see [`SoaLanes::sampler`]).
+#[inline(always)]
+fn load_streams(streams: &[Vec<u32>; 3], start: usize) -> [SampleStream; W] {
+    let parts = [
+        load(&streams[0], start),
+        load(&streams[1], start),
+        load(&streams[2], start),
+    ];
+    std::array::from_fn(|k| SampleStream {
+        reversed_sample: parts[0][k],
+        pixel_lo: parts[1][k],
+        pixel_hi: parts[2][k],
+    })
 }
 
 /// [`load`] with `fill` past the end of the lane array.
@@ -2046,9 +2096,9 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
                 &loaded
             }
         };
-        let rng_in = load(&lanes.rng_state, start);
+        let rng_in = load(&lanes.rng_dim, start);
         let mut rng = rng_in;
-        let inc = load(&lanes.rng_inc, start);
+        let stream = load_streams(&lanes.rng_stream, start);
         let eta_scale_in = load(&lanes.eta_scale, start);
         let mut eta_scale = eta_scale_in;
         let (mut ns, mut ns_valid) = ([[0.0f32; W]; 3], [false; W]);
@@ -2095,7 +2145,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
             beta: Vec3::new(br[k], bg[k], bb[k]),
             eta_scale: eta_scale_in[k],
             rng: rng_in[k],
-            inc: inc[k],
+            stream: stream[k],
             light: lights.lane(k),
             env_valid: env_valid[k],
             env_wi: Vec3::new(env_wi[0][k], env_wi[1][k], env_wi[2][k]),
@@ -2216,7 +2266,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
                     delta: false,
                 });
                 // The lane's state before the loop above changed it.
-                let mut sampler = PathSampler::from_parts(rng_in[k], inc[k]);
+                let mut sampler = PathSampler::from_parts(rng_in[k], stream[k]);
                 let mut b = Vec3::new(br[k], bg[k], bb[k]);
                 let lane = GeneralLane {
                     ray: rays.ray(i),
@@ -2263,7 +2313,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
                 }
             }
         }
-        store(&mut lanes.rng_state, start, &rng);
+        store(&mut lanes.rng_dim, start, &rng);
         store(&mut lanes.eta_scale, start, &eta_scale);
         if TRIANGLES || ENV {
             store(&mut lanes.prev_pdf, start, &prev_pdf);
