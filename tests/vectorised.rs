@@ -731,6 +731,61 @@ fn rough_dielectrics_are_bit_identical() {
 }
 
 #[test]
+fn blinn_phong_is_bit_identical() {
+    // Blinn–Phong surfaces without a colour map are shaded in a vectorised
+    // loop of their own: a box of it (chunks with no Lambert lane), a shiny
+    // and a dull sphere, smooth and faceted, one purely specular, one
+    // normal-mapped (its BSDF unchanged by the map); beside them a
+    // colour-mapped one that stays on the general integrator's code, and a
+    // Lambert panel; lit by a point light, an area light and a constant
+    // sky, with roulette from depth 2.
+    let dir = tempfile::tempdir().unwrap();
+    let texture = random_texture(dir.path(), 4, 3, 5);
+    let texture = texture.display().to_string().replace('\\', "/");
+    let materials = [
+        (
+            "box",
+            "diffuse = [0.5, 0.45, 0.4]\nspecular = [0.2, 0.2, 0.2]\nexponent = 8".to_string(),
+        ),
+        (
+            "shiny",
+            "diffuse = [0.1, 0.2, 0.35]\nspecular = [0.6, 0.6, 0.6]\nexponent = 300".into(),
+        ),
+        (
+            "dull",
+            "diffuse = [0.6, 0.3, 0.1]\nspecular = [0.1, 0.1, 0.1]\nexponent = 2".into(),
+        ),
+        (
+            "specular",
+            "diffuse = [0, 0, 0]\nspecular = [0.8, 0.7, 0.5]\nexponent = 60".into(),
+        ),
+        (
+            "bumpy",
+            format!(
+                "diffuse = [0.4, 0.4, 0.3]\nspecular = [0.4, 0.4, 0.4]\nexponent = 25\n\
+             normal_map = \"{texture}\""
+            ),
+        ),
+        (
+            "mapped",
+            format!("specular = [0.3, 0.3, 0.3]\nexponent = 40\nbase_color_map = \"{texture}\""),
+        ),
+    ];
+    let mut text = lit_box("box", 6, 4);
+    for (i, (name, body)) in materials.iter().enumerate() {
+        text += &format!("[[materials]]\nname = \"{name}\"\ntype = \"blinn_phong\"\n{body}\n\n");
+        if i == 0 {
+            continue;
+        }
+        text += &material_sphere(dir.path(), i, name, 55.0);
+    }
+    text += "[[shapes]]\ntype = \"rectangle\"\n\
+             transform = { scale = 60, translate = [400, 380, 420] }\n";
+    let scene = scene_from("blinn-phong", &text);
+    assert_identical("Blinn–Phong surfaces", &scene);
+}
+
+#[test]
 fn principled_surfaces_are_bit_identical() {
     // The principled BSDF in Mitsuba's mode, isotropic, is shaded in a
     // vectorised loop of its own: a box of it (chunks with no Lambert lane),

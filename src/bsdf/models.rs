@@ -119,7 +119,7 @@ pub fn blinn_phong_normalization(n: f32) -> f32 {
 }
 
 impl BlinnPhongParams {
-    #[inline]
+    #[inline(always)]
     fn specular_probability(&self) -> f32 {
         let (d, s) = (luminance(self.diffuse), luminance(self.specular));
         if d + s > 0.0 {
@@ -129,19 +129,19 @@ impl BlinnPhongParams {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn lobe(&self, h_z: f32) -> f32 {
         blinn_phong_normalization(self.exponent) * h_z.max(0.0).powf(self.exponent)
     }
 
     /// Density of half vectors ∝ cos^n θh, over solid angle.
-    #[inline]
+    #[inline(always)]
     fn half_pdf(&self, h_z: f32) -> f32 {
         (self.exponent + 1.0) / (2.0 * PI) * h_z.max(0.0).powf(self.exponent)
     }
 
-    #[inline]
-    pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+    #[inline(always)]
+    pub(crate) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if !both_above(wo, wi) {
             return Vec3::ZERO;
         }
@@ -149,8 +149,8 @@ impl BlinnPhongParams {
         self.diffuse * FRAC_1_PI + self.specular * self.lobe(h.z)
     }
 
-    #[inline]
-    pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+    #[inline(always)]
+    pub(crate) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if !both_above(wo, wi) {
             return 0.0;
         }
@@ -160,8 +160,8 @@ impl BlinnPhongParams {
         ps * spec + (1.0 - ps) * cosine_hemisphere_pdf(wi.z)
     }
 
-    #[inline]
-    pub(super) fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+    #[inline(always)]
+    pub(crate) fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }

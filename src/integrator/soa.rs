@@ -49,8 +49,8 @@ use super::{
 };
 use crate::accel::{gather_lanes, Hit, Ray, RayBatch, INVALID_ID};
 use crate::bsdf::{
-    lambert_eval, lambert_pdf, lambert_sample, Bsdf, BsdfSample, CookTorranceParams,
-    DielectricParams, Distribution, Fresnel, Microfacet, PrincipledParams,
+    lambert_eval, lambert_pdf, lambert_sample, BlinnPhongParams, Bsdf, BsdfSample,
+    CookTorranceParams, DielectricParams, Distribution, Fresnel, Microfacet, PrincipledParams,
 };
 use crate::camera::{Camera, PinholeCamera};
 use crate::filter::PixelFilter;
@@ -80,8 +80,9 @@ pub struct SoaScene {
     any_textured: bool,
     /// Whether each geometry's material is one the kernel does not shade in
     /// its vectorised loops (anything but Lambert, the rough conductors of
-    /// `conductor`, the principled surfaces of `principled` and the rough
-    /// dielectrics of `dielectric`): such lanes scatter
+    /// `conductor`, the principled surfaces of `principled`, the rough
+    /// dielectrics of `dielectric` and the Blinn–Phong surfaces of
+    /// `blinn_phong`): such lanes scatter
     /// through the general integrator's [`scatter`], with one extra `false`.
     general: Vec<bool>,
     /// Whether any geometry's is.
@@ -110,6 +111,12 @@ pub struct SoaScene {
     dielectric: Vec<Option<DielectricIn>>,
     /// Whether any geometry's is.
     any_dielectric: bool,
+    /// Each geometry's Blinn–Phong surface where the kernel shades it in a
+    /// vectorised loop of its own (see [`BlinnPhongIn::of`]), with one
+    /// extra `None`.
+    blinn_phong: Vec<Option<BlinnPhongIn>>,
+    /// Whether any geometry's is.
+    any_blinn_phong: bool,
     /// Whether each geometry's material transmits light (its normal layer
     /// records the geometric normal), with one extra `false`.
     transmits: Vec<bool>,
@@ -154,6 +161,7 @@ impl SoaScene {
         let mut conductor = Vec::new();
         let mut principled = Vec::new();
         let mut dielectric = Vec::new();
+        let mut blinn_phong = Vec::new();
         let mut lambert = Vec::new();
         for (g, mesh) in scene.meshes().iter().enumerate() {
             let material = &scene.materials()[mesh.material as usize];
@@ -170,12 +178,14 @@ impl SoaScene {
             let c = ConductorIn::of(material);
             let p = PrincipledIn::of(material);
             let d = DielectricIn::of(material);
+            let b = BlinnPhongIn::of(material);
             let l = matches!(material.bsdf, Bsdf::Diffuse(_));
             conductor.push(c);
             principled.push(p);
             dielectric.push(d);
+            blinn_phong.push(b);
             lambert.push(l);
-            general.push(!l && c.is_none() && p.is_none() && d.is_none());
+            general.push(!l && c.is_none() && p.is_none() && d.is_none() && b.is_none());
             transmits.push(material.bsdf.transmits());
             emissive.push(scene.light_index(g as u32, 0).is_some());
             textured.push(!material.textures.is_empty());
@@ -190,6 +200,7 @@ impl SoaScene {
         conductor.push(None);
         principled.push(None);
         dielectric.push(None);
+        blinn_phong.push(None);
         lambert.push(false);
         transmits.push(false);
         smooth.push(false);
@@ -221,6 +232,8 @@ impl SoaScene {
             principled,
             any_dielectric: dielectric.iter().any(Option::is_some),
             dielectric,
+            any_blinn_phong: blinn_phong.iter().any(Option::is_some),
+            blinn_phong,
             lambert,
             all_lambert,
             any_transmits: transmits.contains(&true),
@@ -536,6 +549,49 @@ impl LaneBsdf for DielectricIn {
     #[inline(always)]
     fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
         lane_sample(self.params().sample(wo, uc, u))
+    }
+}
+
+/// A Blinn–Phong surface's parameters as a lane takes them: exactly the
+/// general integrator's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct BlinnPhongIn(BlinnPhongParams);
+
+impl BlinnPhongIn {
+    /// Parameters for lanes that are not Blinn–Phong surfaces (see
+    /// [`ConductorIn::IDLE`]).
+    const IDLE: BlinnPhongIn = BlinnPhongIn(BlinnPhongParams {
+        diffuse: Vec3::splat(0.5),
+        specular: Vec3::splat(0.5),
+        exponent: 1.0,
+    });
+
+    /// The material's parameters where the kernel shades it: Blinn–Phong
+    /// without a colour map (no other texture changes its BSDF).
+    fn of(material: &crate::material::Material) -> Option<BlinnPhongIn> {
+        let Bsdf::BlinnPhong(p) = material.bsdf else {
+            return None;
+        };
+        material
+            .textures
+            .base_color
+            .is_none()
+            .then_some(BlinnPhongIn(p))
+    }
+}
+
+impl LaneBsdf for BlinnPhongIn {
+    #[inline(always)]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.0.eval(wo, wi)
+    }
+    #[inline(always)]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.0.pdf(wo, wi)
+    }
+    #[inline(always)]
+    fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
+        lane_sample(self.0.sample(wo, uc, u))
     }
 }
 
@@ -1704,8 +1760,7 @@ struct LaneOut {
 
 /// One bounce of one path: the general integrator's `shade` for a surface
 /// whose BSDF the lane holds (`B`: Lambert, a rough conductor, principled,
-/// a rough dielectric)
-/// and a point, area, parametric or environment light, written without
+/// Blinn–Phong, a rough dielectric) and a point, area, parametric or environment light, written without
 /// branches (every `if` is a select) so that a loop over lanes vectorises.
 /// It calls the same branch-free helpers as the general integrator (ray
 /// offsets, the lights' samples, the BSDF's own code, MIS), in the same
@@ -2200,8 +2255,9 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
                 put(k, l.hit, out);
             }
         }
-        // Rough conductors, then principled surfaces: the same loop with
-        // their BSDF, its results kept for their lanes only.
+        // Rough conductors, principled surfaces, Blinn–Phong surfaces and
+        // rough dielectrics: the same loop with their BSDF, its results kept
+        // for their lanes only.
         if kernel.any_conductor {
             let conductor = std::array::from_fn(|k| kernel.conductor[(geom[k] as usize).min(last)]);
             shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
@@ -2221,6 +2277,17 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
             shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
                 &principled,
                 idle,
+                &lane_in,
+                &mut put,
+                u,
+            );
+        }
+        if kernel.any_blinn_phong {
+            let blinn_phong =
+                std::array::from_fn(|k| kernel.blinn_phong[(geom[k] as usize).min(last)]);
+            shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+                &blinn_phong,
+                BlinnPhongIn::IDLE,
                 &lane_in,
                 &mut put,
                 u,

@@ -11,16 +11,17 @@ use std::path::Path;
 /// the same base colour (roughness 0.5, specular 0.5), in Mitsuba's mode and
 /// in the energy-conserving mode, each with the general integrator and with
 /// the vectorised kernel, and with every material a rough gold (isotropic
-/// GGX, α 0.2, gold's complex index) and every material a rough glass
+/// GGX, α 0.2, gold's complex index), every material a rough glass
 /// (isotropic GGX, α 0.2, η 1.5: the light sits inside a box of glass
-/// walls), interleaved in the same run: the ratios to the
+/// walls) and every material Blinn–Phong (the diffuse colour, specular
+/// 0.2, exponent 40), interleaved in the same run: the ratios to the
 /// all-diffuse scene say what the richer BSDF costs, the kernel's ratio to
 /// the general integrator what the wavefront gains. Returns each scene's
 /// `(general, vectorised)` Msamples/s.
-pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 5]> {
+pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 6]> {
     use plsr::bsdf::{
-        Bsdf, CookTorranceParams, DielectricParams, Distribution, Fresnel, Microfacet,
-        PrincipledParams, METALS,
+        BlinnPhongParams, Bsdf, CookTorranceParams, DielectricParams, Distribution, Fresnel,
+        Microfacet, PrincipledParams, METALS,
     };
     let path = Path::new("assets/scenes/cornell/cornell.toml");
     let mut diffuse = plsr::scene::file::load(path)?;
@@ -70,6 +71,17 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 5]> {
         }
         scene
     };
+    let blinn_phong = {
+        let mut scene = diffuse.clone();
+        for m in &mut scene.materials {
+            m.bsdf = Bsdf::BlinnPhong(BlinnPhongParams {
+                diffuse: m.bsdf.albedo().min(glam::Vec3::splat(0.8)),
+                specular: glam::Vec3::splat(0.2),
+                exponent: 40.0,
+            });
+        }
+        scene
+    };
     let options = |vectorised: bool| RenderOptions {
         threads,
         vectorised,
@@ -87,10 +99,11 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 5]> {
         ),
         ("all rough gold (GGX α 0.2)", Scene::build(gold)?),
         ("all rough glass (GGX α 0.2, η 1.5)", Scene::build(glass)?),
+        ("all Blinn–Phong (exponent 40)", Scene::build(blinn_phong)?),
     ];
     // Interleaved runs, best of three each, so drift hits all alike.
-    let mut best = [(0.0f64, 0.0f64); 5];
-    let mut same = [true; 5];
+    let mut best = [(0.0f64, 0.0f64); 6];
+    let mut same = [true; 6];
     for _ in 0..3 {
         for (k, (_, scene)) in scenes.iter().enumerate() {
             let (general, stats): (Film, RenderStats) =
