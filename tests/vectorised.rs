@@ -689,6 +689,51 @@ fn rough_conductors_are_bit_identical() {
 }
 
 #[test]
+fn rough_schlick_and_coated_reflectors_are_bit_identical() {
+    // Isotropic GGX Cook–Torrance surfaces with Schlick's Fresnel term and
+    // with a dielectric coating's are shaded in vectorised loops of their
+    // own, one per Fresnel kind: a box of the Schlick kind (chunks with no
+    // Lambert lane), a coated sphere with vertex normals, a faceted Schlick
+    // sphere and a rough conductor beside them in its own loop; a Beckmann
+    // and an anisotropic one stay on the general integrator's code, with a
+    // Lambert panel; lit by a point light, an area light and a constant
+    // sky, with roulette from depth 2.
+    let dir = tempfile::tempdir().unwrap();
+    let smooth = dir.path().join("coated.obj");
+    std::fs::write(&smooth, smooth_sphere_obj([170.0, 120.0, 200.0], 80.0)).unwrap();
+    let smooth = smooth.display().to_string().replace('\\', "/");
+    let scene = scene_from(
+        "schlick and coated",
+        &format!(
+            "{}[[materials]]\nname = \"box\"\ntype = \"cook_torrance\"\nfresnel = \"schlick\"\n\
+             f0 = [0.6, 0.5, 0.4]\nroughness = 0.5\n\n\
+             [[materials]]\nname = \"coated\"\ntype = \"cook_torrance\"\nfresnel = \"dielectric\"\n\
+             ior = 1.6\nroughness = 0.2\n\n\
+             [[materials]]\nname = \"shiny\"\ntype = \"cook_torrance\"\nfresnel = \"schlick\"\n\
+             f0 = [0.95, 0.9, 0.7]\nalpha = 0.03\n\n\
+             [[materials]]\nname = \"copper\"\ntype = \"cook_torrance\"\nmetal = \"Cu\"\nroughness = 0.4\n\n\
+             [[materials]]\nname = \"beckmann\"\ntype = \"cook_torrance\"\nfresnel = \"schlick\"\n\
+             distribution = \"beckmann\"\nroughness = 0.3\n\n\
+             [[materials]]\nname = \"brushed\"\ntype = \"cook_torrance\"\nfresnel = \"dielectric\"\n\
+             alpha_u = 0.05\nalpha_v = 0.3\n\n\
+             [[shapes]]\ntype = \"obj\"\nfile = \"{smooth}\"\nmaterial = \"coated\"\n\n\
+             [[shapes]]\ntype = \"sphere\"\ncenter = [390, 120, 250]\nradius = 80\n\
+             subdivisions = 2\nmaterial = \"shiny\"\n\n\
+             [[shapes]]\ntype = \"sphere\"\ncenter = [280, 330, 300]\nradius = 60\n\
+             subdivisions = 2\nmaterial = \"copper\"\n\n\
+             [[shapes]]\ntype = \"sphere\"\ncenter = [420, 360, 200]\nradius = 40\n\
+             subdivisions = 2\nmaterial = \"beckmann\"\n\n\
+             [[shapes]]\ntype = \"sphere\"\ncenter = [130, 380, 260]\nradius = 40\n\
+             subdivisions = 2\nmaterial = \"brushed\"\n\n\
+             [[shapes]]\ntype = \"rectangle\"\n\
+             transform = {{ scale = 60, translate = [400, 380, 420] }}\n",
+            lit_box("box", 6, 6)
+        ),
+    );
+    assert_identical("Schlick and coated reflectors", &scene);
+}
+
+#[test]
 fn rough_dielectrics_are_bit_identical() {
     // Isotropic GGX dielectrics are shaded in a vectorised loop of their
     // own, which refracts: the outside is the geometric normal's side, each

@@ -1,8 +1,9 @@
 //! The vectorised wavefront that renders every scene. Lambert surfaces
 //! (their colour textured or not, with or without vertex normals), rough
-//! conductors (isotropic GGX Cook–Torrance with a conductor's Fresnel term)
-//! and principled surfaces (Mitsuba's mode, isotropic; the base colour may
-//! be textured), each kind in a loop of its own with its BSDF
+//! Cook–Torrance surfaces (isotropic GGX with a conductor's, Schlick's or a
+//! dielectric coating's Fresnel term), principled surfaces (Mitsuba's mode,
+//! isotropic; the base colour may be textured), Blinn–Phong surfaces
+//! without a colour map and rough dielectrics (isotropic GGX), each kind in a loop of its own with its BSDF
 //! ([`LaneBsdf`]), are shaded
 //! in a branch-free loop over structure-of-arrays lanes, lit by point
 //! lights, emissive meshes (area lights), parametric lights (emitting
@@ -12,8 +13,9 @@
 //! lanes at once, with the batched lookups the general integrator uses);
 //! virtual objects (compositing) included: the job's ray mask on every
 //! ray, and their coverage counted in the matte. Lanes whose material is
-//! another model (Blinn–Phong, other Cook–Torrance surfaces, dielectrics,
-//! anisotropic or energy-conserving principled, roughness or metallic maps)
+//! another model (colour-mapped Blinn–Phong, Beckmann or anisotropic
+//! Cook–Torrance, smooth, Beckmann or anisotropic dielectrics, anisotropic
+//! or energy-conserving principled, roughness or metallic maps)
 //! scatter one by one through the general integrator's own code
 //! ([`scatter`]) inside the same wavefront, after the vectorised loop, with
 //! the light the kernel picked for them and the environment sample it took;
@@ -79,8 +81,8 @@ pub struct SoaScene {
     /// `lane_surfaces` into `SoaLanes::albedo`).
     any_textured: bool,
     /// Whether each geometry's material is one the kernel does not shade in
-    /// its vectorised loops (anything but Lambert, the rough conductors of
-    /// `conductor`, the principled surfaces of `principled`, the rough
+    /// its vectorised loops (anything but Lambert, the rough Cook–Torrance
+    /// surfaces of `conductor`, `schlick` and `coated`, the principled surfaces of `principled`, the rough
     /// dielectrics of `dielectric` and the Blinn–Phong surfaces of
     /// `blinn_phong`): such lanes scatter
     /// through the general integrator's [`scatter`], with one extra `false`.
@@ -96,9 +98,20 @@ pub struct SoaScene {
     /// conductor's Fresnel term, its roughness not textured), which the
     /// kernel shades in a vectorised loop of its own; `None` for other
     /// materials, with one extra `None`.
-    conductor: Vec<Option<ConductorIn>>,
+    conductor: Vec<Option<CookTorranceIn<ConductorTerm>>>,
     /// Whether any geometry's material is such a conductor.
     any_conductor: bool,
+    /// Each geometry's rough Cook–Torrance reflector with Schlick's Fresnel
+    /// term (otherwise as `conductor`), with one extra `None`.
+    schlick: Vec<Option<CookTorranceIn<SchlickTerm>>>,
+    /// Whether any geometry's is.
+    any_schlick: bool,
+    /// Each geometry's rough Cook–Torrance reflector with a dielectric
+    /// coating's Fresnel term (otherwise as `conductor`), with one extra
+    /// `None`.
+    coated: Vec<Option<CookTorranceIn<CoatingTerm>>>,
+    /// Whether any geometry's is.
+    any_coated: bool,
     /// Each geometry's principled surface where the kernel shades it in a
     /// vectorised loop of its own (see [`PrincipledIn::of`]), with one
     /// extra `None`.
@@ -159,6 +172,8 @@ impl SoaScene {
         let mut smooth = Vec::new();
         let mut is_virtual = Vec::new();
         let mut conductor = Vec::new();
+        let mut schlick = Vec::new();
+        let mut coated = Vec::new();
         let mut principled = Vec::new();
         let mut dielectric = Vec::new();
         let mut blinn_phong = Vec::new();
@@ -175,17 +190,28 @@ impl SoaScene {
             for (c, albedo) in albedo.iter_mut().enumerate() {
                 albedo.push(a[c]);
             }
-            let c = ConductorIn::of(material);
+            let c = CookTorranceIn::<ConductorTerm>::of(material);
+            let f = CookTorranceIn::<SchlickTerm>::of(material);
+            let o = CookTorranceIn::<CoatingTerm>::of(material);
             let p = PrincipledIn::of(material);
             let d = DielectricIn::of(material);
             let b = BlinnPhongIn::of(material);
             let l = matches!(material.bsdf, Bsdf::Diffuse(_));
             conductor.push(c);
+            schlick.push(f);
+            coated.push(o);
             principled.push(p);
             dielectric.push(d);
             blinn_phong.push(b);
             lambert.push(l);
-            general.push(!l && c.is_none() && p.is_none() && d.is_none() && b.is_none());
+            let vectorised = l
+                || c.is_some()
+                || f.is_some()
+                || o.is_some()
+                || p.is_some()
+                || d.is_some()
+                || b.is_some();
+            general.push(!vectorised);
             transmits.push(material.bsdf.transmits());
             emissive.push(scene.light_index(g as u32, 0).is_some());
             textured.push(!material.textures.is_empty());
@@ -198,6 +224,8 @@ impl SoaScene {
         general.push(false);
         let all_lambert = lambert.iter().all(|&l| l);
         conductor.push(None);
+        schlick.push(None);
+        coated.push(None);
         principled.push(None);
         dielectric.push(None);
         blinn_phong.push(None);
@@ -228,6 +256,10 @@ impl SoaScene {
             general,
             any_conductor: conductor.iter().any(Option::is_some),
             conductor,
+            any_schlick: schlick.iter().any(Option::is_some),
+            schlick,
+            any_coated: coated.iter().any(Option::is_some),
+            coated,
             any_principled: principled.iter().any(Option::is_some),
             principled,
             any_dielectric: dielectric.iter().any(Option::is_some),
@@ -250,12 +282,21 @@ impl SoaScene {
     }
 }
 
-/// A rough conductor's parameters as a lane takes them: an isotropic GGX
-/// Cook–Torrance BSDF with a conductor's Fresnel term.
+/// The Fresnel term of a Cook–Torrance lane, its kind known to the
+/// compiler (so the lane loop has no branch on it): [`ConductorTerm`],
+/// [`SchlickTerm`] or [`CoatingTerm`], one loop each.
+trait LaneFresnel: Copy + PartialEq + std::fmt::Debug {
+    /// A term for lanes of other materials (their results are discarded).
+    const IDLE: Self;
+    /// The term, if `fresnel` is of this kind.
+    fn of(fresnel: Fresnel) -> Option<Self>;
+    /// The term exactly as the general integrator holds it.
+    fn fresnel(&self) -> Fresnel;
+}
+
+/// A conductor's Fresnel term ([`Fresnel::Conductor`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct ConductorIn {
-    /// GGX roughness (the same along both tangents).
-    alpha: f32,
+struct ConductorTerm {
     /// Complex index of refraction, real part, per RGB channel.
     eta: Vec3,
     /// Its imaginary part.
@@ -264,38 +305,108 @@ struct ConductorIn {
     tint: Vec3,
 }
 
-impl ConductorIn {
-    /// Parameters for lanes that are not conductors: they run through the
-    /// conductors' loop with these, and their results are discarded.
-    const IDLE: ConductorIn = ConductorIn {
-        alpha: 1.0,
+impl LaneFresnel for ConductorTerm {
+    const IDLE: ConductorTerm = ConductorTerm {
         eta: Vec3::ONE,
         k: Vec3::ZERO,
         tint: Vec3::ONE,
     };
+    fn of(fresnel: Fresnel) -> Option<ConductorTerm> {
+        match fresnel {
+            Fresnel::Conductor {
+                eta,
+                k,
+                specular_reflectance,
+            } => Some(ConductorTerm {
+                eta,
+                k,
+                tint: specular_reflectance,
+            }),
+            _ => None,
+        }
+    }
+    #[inline(always)]
+    fn fresnel(&self) -> Fresnel {
+        Fresnel::Conductor {
+            eta: self.eta,
+            k: self.k,
+            specular_reflectance: self.tint,
+        }
+    }
+}
 
-    /// The material's parameters where the kernel shades it as a rough
-    /// conductor: isotropic GGX with a conductor Fresnel term and an
-    /// untextured roughness (its other textures do not change the BSDF).
-    fn of(material: &crate::material::Material) -> Option<ConductorIn> {
+/// Schlick's Fresnel term ([`Fresnel::Schlick`]): the reflectance at normal
+/// incidence, linear RGB.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct SchlickTerm(Vec3);
+
+impl LaneFresnel for SchlickTerm {
+    const IDLE: SchlickTerm = SchlickTerm(Vec3::splat(0.04));
+    fn of(fresnel: Fresnel) -> Option<SchlickTerm> {
+        match fresnel {
+            Fresnel::Schlick { f0 } => Some(SchlickTerm(f0)),
+            _ => None,
+        }
+    }
+    #[inline(always)]
+    fn fresnel(&self) -> Fresnel {
+        Fresnel::Schlick { f0: self.0 }
+    }
+}
+
+/// A dielectric coating's exact Fresnel term ([`Fresnel::Dielectric`]):
+/// its index of refraction relative to the outside.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct CoatingTerm(f32);
+
+impl LaneFresnel for CoatingTerm {
+    const IDLE: CoatingTerm = CoatingTerm(1.5);
+    fn of(fresnel: Fresnel) -> Option<CoatingTerm> {
+        match fresnel {
+            Fresnel::Dielectric { eta } => Some(CoatingTerm(eta)),
+            _ => None,
+        }
+    }
+    #[inline(always)]
+    fn fresnel(&self) -> Fresnel {
+        Fresnel::Dielectric { eta: self.0 }
+    }
+}
+
+/// A rough Cook–Torrance surface's parameters as a lane takes them: an
+/// isotropic GGX distribution and a Fresnel term of kind `F` (a rough
+/// conductor, or a Schlick or dielectric-coated reflector).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct CookTorranceIn<F> {
+    /// GGX roughness (the same along both tangents).
+    alpha: f32,
+    /// The Fresnel term.
+    fresnel: F,
+}
+
+impl<F: LaneFresnel> CookTorranceIn<F> {
+    /// Parameters for lanes that are not such surfaces: they run through
+    /// the loop with these, and their results are discarded.
+    const IDLE: CookTorranceIn<F> = CookTorranceIn {
+        alpha: 1.0,
+        fresnel: F::IDLE,
+    };
+
+    /// The material's parameters where the kernel shades it in `F`'s loop:
+    /// isotropic GGX with a Fresnel term of kind `F` and an untextured
+    /// roughness (its other textures do not change the BSDF).
+    fn of(material: &crate::material::Material) -> Option<CookTorranceIn<F>> {
         let Bsdf::CookTorrance(p) = material.bsdf else {
             return None;
         };
         let m = p.microfacet;
-        let Fresnel::Conductor {
-            eta,
-            k,
-            specular_reflectance,
-        } = p.fresnel
-        else {
-            return None;
-        };
         let isotropic = m.kind == Distribution::Ggx && m.alpha_x == m.alpha_y;
-        (isotropic && material.textures.roughness.is_none()).then_some(ConductorIn {
+        if !isotropic || material.textures.roughness.is_some() {
+            return None;
+        }
+        F::of(p.fresnel).map(|fresnel| CookTorranceIn {
             alpha: m.alpha_x,
-            eta,
-            k,
-            tint: specular_reflectance,
+            fresnel,
         })
     }
 
@@ -310,11 +421,7 @@ impl ConductorIn {
                 alpha_x: self.alpha,
                 alpha_y: self.alpha,
             },
-            fresnel: Fresnel::Conductor {
-                eta: self.eta,
-                k: self.k,
-                specular_reflectance: self.tint,
-            },
+            fresnel: self.fresnel.fresnel(),
         }
     }
 }
@@ -379,7 +486,7 @@ impl LaneBsdf for LambertLane {
     }
 }
 
-impl LaneBsdf for ConductorIn {
+impl<F: LaneFresnel> LaneBsdf for CookTorranceIn<F> {
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         self.params().eval(wo, wi)
@@ -413,7 +520,7 @@ struct PrincipledIn {
 
 impl PrincipledIn {
     /// Parameters for lanes that are not principled surfaces (see
-    /// [`ConductorIn::IDLE`]).
+    /// [`CookTorranceIn::IDLE`]).
     const IDLE: PrincipledIn = PrincipledIn {
         metallic: 0.0,
         roughness: 0.5,
@@ -495,7 +602,7 @@ struct DielectricIn {
 
 impl DielectricIn {
     /// Parameters for lanes that are not dielectrics (see
-    /// [`ConductorIn::IDLE`]).
+    /// [`CookTorranceIn::IDLE`]).
     const IDLE: DielectricIn = DielectricIn {
         eta: 1.5,
         alpha: 0.5,
@@ -559,7 +666,7 @@ struct BlinnPhongIn(BlinnPhongParams);
 
 impl BlinnPhongIn {
     /// Parameters for lanes that are not Blinn–Phong surfaces (see
-    /// [`ConductorIn::IDLE`]).
+    /// [`CookTorranceIn::IDLE`]).
     const IDLE: BlinnPhongIn = BlinnPhongIn(BlinnPhongParams {
         diffuse: Vec3::splat(0.5),
         specular: Vec3::splat(0.5),
@@ -1759,7 +1866,7 @@ struct LaneOut {
 }
 
 /// One bounce of one path: the general integrator's `shade` for a surface
-/// whose BSDF the lane holds (`B`: Lambert, a rough conductor, principled,
+/// whose BSDF the lane holds (`B`: Lambert, rough Cook–Torrance, principled,
 /// Blinn–Phong, a rough dielectric) and a point, area, parametric or environment light, written without
 /// branches (every `if` is a select) so that a loop over lanes vectorises.
 /// It calls the same branch-free helpers as the general integrator (ray
@@ -2255,14 +2362,35 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
                 put(k, l.hit, out);
             }
         }
-        // Rough conductors, principled surfaces, Blinn–Phong surfaces and
-        // rough dielectrics: the same loop with their BSDF, its results kept
+        // Rough Cook–Torrance surfaces (one loop per Fresnel kind),
+        // principled surfaces, Blinn–Phong surfaces and rough dielectrics:
+        // the same loop with their BSDF, its results kept
         // for their lanes only.
         if kernel.any_conductor {
             let conductor = std::array::from_fn(|k| kernel.conductor[(geom[k] as usize).min(last)]);
             shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
                 &conductor,
-                ConductorIn::IDLE,
+                CookTorranceIn::IDLE,
+                &lane_in,
+                &mut put,
+                u,
+            );
+        }
+        if kernel.any_schlick {
+            let schlick = std::array::from_fn(|k| kernel.schlick[(geom[k] as usize).min(last)]);
+            shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+                &schlick,
+                CookTorranceIn::IDLE,
+                &lane_in,
+                &mut put,
+                u,
+            );
+        }
+        if kernel.any_coated {
+            let coated = std::array::from_fn(|k| kernel.coated[(geom[k] as usize).min(last)]);
+            shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+                &coated,
+                CookTorranceIn::IDLE,
                 &lane_in,
                 &mut put,
                 u,
