@@ -659,8 +659,8 @@ fn rough_conductors_are_bit_identical() {
     // a box of tinted "none" metal (its reflectance the tint alone), so
     // that whole chunks hold no Lambert lane; gold nearly a mirror and
     // rough copper, smooth (vertex normals) and faceted; a Beckmann
-    // aluminium sphere that stays on the general integrator's code beside
-    // them, and a Lambert panel; lit by a point light, an area light and a
+    // aluminium sphere in the Beckmann conductors' loop beside them, and a
+    // Lambert panel; lit by a point light, an area light and a
     // constant sky, with roulette from depth 2.
     let dir = tempfile::tempdir().unwrap();
     let smooth = dir.path().join("gold.obj");
@@ -694,9 +694,9 @@ fn rough_schlick_and_coated_reflectors_are_bit_identical() {
     // with a dielectric coating's are shaded in vectorised loops of their
     // own, one per Fresnel kind: a box of the Schlick kind (chunks with no
     // Lambert lane), a coated sphere with vertex normals, a faceted Schlick
-    // sphere and a rough conductor beside them in its own loop; a Beckmann
-    // and an anisotropic one stay on the general integrator's code, with a
-    // Lambert panel; lit by a point light, an area light and a constant
+    // sphere and a rough conductor beside them in its own loop, a Beckmann
+    // one in the Beckmann Schlick loop; an anisotropic one stays on the
+    // general integrator's code, with a Lambert panel; lit by a point light, an area light and a constant
     // sky, with roulette from depth 2.
     let dir = tempfile::tempdir().unwrap();
     let smooth = dir.path().join("coated.obj");
@@ -740,9 +740,9 @@ fn rough_dielectrics_are_bit_identical() {
     // ray leaves on the side it goes, and the path's η² reaches Russian
     // roulette. A box of rough glass (chunks with no Lambert lane), a
     // frosted sphere with vertex normals, a rough sphere of η < 1 (total
-    // internal reflection from outside), and beside them the dielectrics
-    // that stay on the general integrator's code (smooth, Beckmann,
-    // anisotropic) and a Lambert panel; lit by a point light, an area light
+    // internal reflection from outside), and beside them a smooth and a
+    // Beckmann one (in loops of their own), an anisotropic one that stays
+    // on the general integrator's code and a Lambert panel; lit by a point light, an area light
     // and a constant sky, with roulette from depth 2.
     let dir = tempfile::tempdir().unwrap();
     let smooth = dir.path().join("frosted.obj");
@@ -773,6 +773,125 @@ fn rough_dielectrics_are_bit_identical() {
         ),
     );
     assert_identical("rough dielectrics", &scene);
+}
+
+/// The `[[shapes]]` entry of a faceted sphere (an icosphere, subdivided
+/// twice) in material `material`.
+fn sphere(center: [f32; 3], radius: f32, material: &str) -> String {
+    let [x, y, z] = center;
+    format!(
+        "[[shapes]]\ntype = \"sphere\"\ncenter = [{x}, {y}, {z}]\nradius = {radius}\n\
+         subdivisions = 2\nmaterial = \"{material}\"\n\n"
+    )
+}
+
+/// The `[[shapes]]` entry of a smooth OBJ sphere (vertex normals) written
+/// into `dir` as `{material}.obj`, in material `material`.
+fn smooth_sphere(dir: &Path, center: [f32; 3], radius: f32, material: &str) -> String {
+    let file = dir.join(format!("{material}.obj"));
+    std::fs::write(&file, smooth_sphere_obj(center, radius)).unwrap();
+    let file = file.display().to_string().replace('\\', "/");
+    format!("[[shapes]]\ntype = \"obj\"\nfile = \"{file}\"\nmaterial = \"{material}\"\n\n")
+}
+
+#[test]
+fn smooth_dielectrics_are_bit_identical() {
+    // Smooth dielectrics (delta lobes) are shaded in a vectorised loop of
+    // their own, which takes no light sample and draws no numbers for one:
+    // a box of glass (chunks with no Lambert lane, paths refracting in and
+    // out), a glass sphere with vertex normals, faceted water, a bubble of
+    // η < 1 (total internal reflection), beside a rough glass sphere in its
+    // own loop, an anisotropic one on the general integrator's code and a
+    // Lambert panel; lit by a point light, an area light and a constant
+    // sky (each lane picks one), with roulette from depth 2 on the paths'
+    // η². Then a glass sphere on a Lambert floor under a sky alone (the
+    // same light for every lane), which the refracted paths find with no
+    // MIS weight.
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = lit_box("box", 8, 9);
+    for (name, body) in [
+        ("box", "ior = 1.5"),
+        ("glass", "ior = 1.5"),
+        ("water", "ior = 1.33"),
+        ("bubble", "ior = 0.75"),
+        ("frosted", "ior = 1.5\nroughness = 0.3"),
+        ("brushed", "alpha_u = 0.05\nalpha_v = 0.3"),
+    ] {
+        text += &format!("[[materials]]\nname = \"{name}\"\ntype = \"dielectric\"\n{body}\n\n");
+    }
+    text += &smooth_sphere(dir.path(), [170.0, 120.0, 200.0], 80.0, "glass");
+    text += &sphere([390.0, 120.0, 250.0], 80.0, "water");
+    text += &sphere([280.0, 330.0, 300.0], 60.0, "bubble");
+    text += &sphere([420.0, 360.0, 200.0], 40.0, "frosted");
+    text += &sphere([130.0, 380.0, 260.0], 40.0, "brushed");
+    text += "[[shapes]]\ntype = \"rectangle\"\n\
+             transform = { scale = 60, translate = [400, 380, 420] }\n";
+    assert_identical(
+        "smooth dielectrics",
+        &scene_from("smooth dielectrics", &text),
+    );
+
+    let mut text = String::from(
+        "[render]\nspp = 4\nmax_depth = 6\nrr_depth = 2\nseed = 2\n\n\
+         [camera]\nposition = [0, 2, -6]\nlook_at = [0, 0.5, 0]\nup = [0, 1, 0]\n\
+         vfov = 40\nresolution = [31, 23]\n\n\
+         [[materials]]\nname = \"glass\"\ntype = \"dielectric\"\nior = 1.5\n\n\
+         [[shapes]]\ntype = \"rectangle\"\n\
+         transform = { scale = 4, rotate = { axis = [1, 0, 0], angle = -90 }, translate = [0, -1, 0] }\n\n\
+         [environment]\nradiance = [0.8, 0.9, 1.0]\n\n",
+    );
+    text += &smooth_sphere(dir.path(), [0.0, 0.2, 0.0], 1.0, "glass");
+    assert_identical(
+        "a glass sphere under the sky",
+        &scene_from("glass sphere", &text),
+    );
+}
+
+#[test]
+fn beckmann_microfacets_are_bit_identical() {
+    // Isotropic Beckmann distributions have loops of their own beside the
+    // GGX ones (the distribution known to the compiler, as the Fresnel
+    // term is): a box of a Beckmann conductor (chunks with no Lambert
+    // lane), Beckmann reflectors with Schlick's and a coating's Fresnel
+    // term, smooth and faceted, Beckmann rough glass and a Beckmann bubble,
+    // beside a GGX conductor, an anisotropic Beckmann one on the general
+    // integrator's code and a Lambert panel; lit by a point light, an area
+    // light and a constant sky, with roulette from depth 2.
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = lit_box("box", 7, 11);
+    for (name, body) in [
+        (
+            "box",
+            "type = \"cook_torrance\"\nmetal = \"Al\"\nroughness = 0.5",
+        ),
+        (
+            "schlick",
+            "type = \"cook_torrance\"\nfresnel = \"schlick\"\nf0 = [0.9, 0.6, 0.3]\nalpha = 0.05",
+        ),
+        (
+            "coated",
+            "type = \"cook_torrance\"\nfresnel = \"dielectric\"\nior = 1.6\nroughness = 0.3",
+        ),
+        ("glass", "type = \"dielectric\"\nior = 1.5\nroughness = 0.3"),
+        ("bubble", "type = \"dielectric\"\nior = 0.8\nalpha = 0.1"),
+        (
+            "brushed",
+            "type = \"cook_torrance\"\nmetal = \"Cu\"\nalpha_u = 0.05\nalpha_v = 0.3",
+        ),
+    ] {
+        text +=
+            &format!("[[materials]]\nname = \"{name}\"\n{body}\ndistribution = \"beckmann\"\n\n");
+    }
+    text += "[[materials]]\nname = \"gold\"\ntype = \"cook_torrance\"\nmetal = \"Au\"\nroughness = 0.3\n\n";
+    text += &smooth_sphere(dir.path(), [170.0, 120.0, 200.0], 80.0, "schlick");
+    text += &sphere([390.0, 120.0, 250.0], 80.0, "coated");
+    text += &smooth_sphere(dir.path(), [280.0, 330.0, 300.0], 60.0, "glass");
+    text += &sphere([420.0, 360.0, 200.0], 40.0, "bubble");
+    text += &sphere([130.0, 380.0, 260.0], 40.0, "brushed");
+    text += &sphere([160.0, 260.0, 120.0], 30.0, "gold");
+    text += "[[shapes]]\ntype = \"rectangle\"\n\
+             transform = { scale = 60, translate = [400, 380, 420] }\n";
+    assert_identical("Beckmann microfacets", &scene_from("Beckmann", &text));
 }
 
 #[test]

@@ -1,10 +1,11 @@
 //! The vectorised wavefront that renders every scene. Lambert surfaces
 //! (their colour textured or not, with or without vertex normals), rough
-//! Cook–Torrance surfaces (isotropic GGX with a conductor's, Schlick's or a
-//! dielectric coating's Fresnel term), principled surfaces (Mitsuba's mode,
-//! isotropic; the base colour may be textured), Blinn–Phong surfaces
-//! without a colour map and rough dielectrics (isotropic GGX), each kind in a loop of its own with its BSDF
-//! ([`LaneBsdf`]), are shaded
+//! Cook–Torrance surfaces (isotropic GGX or Beckmann with a conductor's,
+//! Schlick's or a dielectric coating's Fresnel term), principled surfaces
+//! (Mitsuba's mode, isotropic; the base colour may be textured),
+//! Blinn–Phong surfaces without a colour map, rough dielectrics (isotropic
+//! GGX or Beckmann) and smooth dielectrics, each kind in a loop of its own
+//! with its BSDF ([`LaneBsdf`]), are shaded
 //! in a branch-free loop over structure-of-arrays lanes, lit by point
 //! lights, emissive meshes (area lights), parametric lights (emitting
 //! triangles with a cone, picked only where their cone reaches) and an
@@ -13,9 +14,9 @@
 //! lanes at once, with the batched lookups the general integrator uses);
 //! virtual objects (compositing) included: the job's ray mask on every
 //! ray, and their coverage counted in the matte. Lanes whose material is
-//! another model (colour-mapped Blinn–Phong, Beckmann or anisotropic
-//! Cook–Torrance, smooth, Beckmann or anisotropic dielectrics, anisotropic
-//! or energy-conserving principled, roughness or metallic maps)
+//! another model (colour-mapped Blinn–Phong, anisotropic Cook–Torrance
+//! surfaces and dielectrics, anisotropic or energy-conserving principled,
+//! roughness or metallic maps)
 //! scatter one by one through the general integrator's own code
 //! ([`scatter`]) inside the same wavefront, after the vectorised loop, with
 //! the light the kernel picked for them and the environment sample it took;
@@ -64,6 +65,7 @@ use crate::sampler::{PathSampler, SampleStream};
 use crate::scene::Scene;
 use crate::warp::{power_heuristic, Frame};
 use glam::{Vec2, Vec3};
+use std::marker::PhantomData;
 use std::time::Instant;
 
 /// What the vectorised kernel needs of a scene it can render.
@@ -81,11 +83,9 @@ pub struct SoaScene {
     /// `lane_surfaces` into `SoaLanes::albedo`).
     any_textured: bool,
     /// Whether each geometry's material is one the kernel does not shade in
-    /// its vectorised loops (anything but Lambert, the rough Cook–Torrance
-    /// surfaces of `conductor`, `schlick` and `coated`, the principled surfaces of `principled`, the rough
-    /// dielectrics of `dielectric` and the Blinn–Phong surfaces of
-    /// `blinn_phong`): such lanes scatter
-    /// through the general integrator's [`scatter`], with one extra `false`.
+    /// its vectorised loops (neither Lambert nor in one of the kinds'
+    /// tables below): such lanes scatter through the general integrator's
+    /// [`scatter`], with one extra `false`.
     general: Vec<bool>,
     /// Whether any geometry's is.
     any_general: bool,
@@ -94,42 +94,25 @@ pub struct SoaScene {
     lambert: Vec<bool>,
     /// Whether every geometry's is.
     all_lambert: bool,
-    /// Each geometry's rough conductor (isotropic GGX Cook–Torrance with a
-    /// conductor's Fresnel term, its roughness not textured), which the
-    /// kernel shades in a vectorised loop of its own; `None` for other
-    /// materials, with one extra `None`.
-    conductor: Vec<Option<CookTorranceIn<ConductorTerm>>>,
-    /// Whether any geometry's material is such a conductor.
-    any_conductor: bool,
-    /// Each geometry's rough Cook–Torrance reflector with Schlick's Fresnel
-    /// term (otherwise as `conductor`), with one extra `None`.
-    schlick: Vec<Option<CookTorranceIn<SchlickTerm>>>,
-    /// Whether any geometry's is.
-    any_schlick: bool,
-    /// Each geometry's rough Cook–Torrance reflector with a dielectric
-    /// coating's Fresnel term (otherwise as `conductor`), with one extra
-    /// `None`.
-    coated: Vec<Option<CookTorranceIn<CoatingTerm>>>,
-    /// Whether any geometry's is.
-    any_coated: bool,
-    /// Each geometry's principled surface where the kernel shades it in a
-    /// vectorised loop of its own (see [`PrincipledIn::of`]), with one
-    /// extra `None`.
-    principled: Vec<Option<PrincipledIn>>,
-    /// Whether any geometry's is.
-    any_principled: bool,
-    /// Each geometry's rough dielectric where the kernel shades it in a
-    /// vectorised loop of its own (see [`DielectricIn::of`]), with one
-    /// extra `None`.
-    dielectric: Vec<Option<DielectricIn>>,
-    /// Whether any geometry's is.
-    any_dielectric: bool,
-    /// Each geometry's Blinn–Phong surface where the kernel shades it in a
-    /// vectorised loop of its own (see [`BlinnPhongIn::of`]), with one
-    /// extra `None`.
-    blinn_phong: Vec<Option<BlinnPhongIn>>,
-    /// Whether any geometry's is.
-    any_blinn_phong: bool,
+    /// Rough Cook–Torrance surfaces (isotropic GGX or Beckmann, untextured
+    /// roughness), one table per Fresnel term and distribution: each a
+    /// loop of its own.
+    conductor: KindTable<CookTorranceIn<ConductorTerm, Ggx>>,
+    schlick: KindTable<CookTorranceIn<SchlickTerm, Ggx>>,
+    coated: KindTable<CookTorranceIn<CoatingTerm, Ggx>>,
+    conductor_beckmann: KindTable<CookTorranceIn<ConductorTerm, Beckmann>>,
+    schlick_beckmann: KindTable<CookTorranceIn<SchlickTerm, Beckmann>>,
+    coated_beckmann: KindTable<CookTorranceIn<CoatingTerm, Beckmann>>,
+    /// Principled surfaces in Mitsuba's mode (see [`PrincipledIn::of`]).
+    principled: KindTable<PrincipledIn>,
+    /// Rough dielectrics, isotropic GGX or Beckmann (see
+    /// [`DielectricIn::of`]).
+    dielectric: KindTable<DielectricIn<Ggx>>,
+    dielectric_beckmann: KindTable<DielectricIn<Beckmann>>,
+    /// Smooth dielectrics (see [`SmoothDielectricIn`]).
+    smooth_dielectric: KindTable<SmoothDielectricIn>,
+    /// Blinn–Phong surfaces without a colour map (see [`BlinnPhongIn::of`]).
+    blinn_phong: KindTable<BlinnPhongIn>,
     /// Whether each geometry's material transmits light (its normal layer
     /// records the geometric normal), with one extra `false`.
     transmits: Vec<bool>,
@@ -171,12 +154,17 @@ impl SoaScene {
         let mut transmits = Vec::new();
         let mut smooth = Vec::new();
         let mut is_virtual = Vec::new();
-        let mut conductor = Vec::new();
-        let mut schlick = Vec::new();
-        let mut coated = Vec::new();
-        let mut principled = Vec::new();
-        let mut dielectric = Vec::new();
-        let mut blinn_phong = Vec::new();
+        let conductor = KindTable::new(scene);
+        let schlick = KindTable::new(scene);
+        let coated = KindTable::new(scene);
+        let conductor_beckmann = KindTable::new(scene);
+        let schlick_beckmann = KindTable::new(scene);
+        let coated_beckmann = KindTable::new(scene);
+        let principled = KindTable::new(scene);
+        let dielectric = KindTable::new(scene);
+        let dielectric_beckmann = KindTable::new(scene);
+        let smooth_dielectric = KindTable::new(scene);
+        let blinn_phong = KindTable::new(scene);
         let mut lambert = Vec::new();
         for (g, mesh) in scene.meshes().iter().enumerate() {
             let material = &scene.materials()[mesh.material as usize];
@@ -190,27 +178,20 @@ impl SoaScene {
             for (c, albedo) in albedo.iter_mut().enumerate() {
                 albedo.push(a[c]);
             }
-            let c = CookTorranceIn::<ConductorTerm>::of(material);
-            let f = CookTorranceIn::<SchlickTerm>::of(material);
-            let o = CookTorranceIn::<CoatingTerm>::of(material);
-            let p = PrincipledIn::of(material);
-            let d = DielectricIn::of(material);
-            let b = BlinnPhongIn::of(material);
             let l = matches!(material.bsdf, Bsdf::Diffuse(_));
-            conductor.push(c);
-            schlick.push(f);
-            coated.push(o);
-            principled.push(p);
-            dielectric.push(d);
-            blinn_phong.push(b);
             lambert.push(l);
             let vectorised = l
-                || c.is_some()
-                || f.is_some()
-                || o.is_some()
-                || p.is_some()
-                || d.is_some()
-                || b.is_some();
+                || conductor.covers(g)
+                || schlick.covers(g)
+                || coated.covers(g)
+                || conductor_beckmann.covers(g)
+                || schlick_beckmann.covers(g)
+                || coated_beckmann.covers(g)
+                || principled.covers(g)
+                || dielectric.covers(g)
+                || dielectric_beckmann.covers(g)
+                || smooth_dielectric.covers(g)
+                || blinn_phong.covers(g);
             general.push(!vectorised);
             transmits.push(material.bsdf.transmits());
             emissive.push(scene.light_index(g as u32, 0).is_some());
@@ -223,12 +204,6 @@ impl SoaScene {
         textured.push(false);
         general.push(false);
         let all_lambert = lambert.iter().all(|&l| l);
-        conductor.push(None);
-        schlick.push(None);
-        coated.push(None);
-        principled.push(None);
-        dielectric.push(None);
-        blinn_phong.push(None);
         lambert.push(false);
         transmits.push(false);
         smooth.push(false);
@@ -254,17 +229,16 @@ impl SoaScene {
             textured,
             any_general: general.contains(&true),
             general,
-            any_conductor: conductor.iter().any(Option::is_some),
             conductor,
-            any_schlick: schlick.iter().any(Option::is_some),
             schlick,
-            any_coated: coated.iter().any(Option::is_some),
             coated,
-            any_principled: principled.iter().any(Option::is_some),
+            conductor_beckmann,
+            schlick_beckmann,
+            coated_beckmann,
             principled,
-            any_dielectric: dielectric.iter().any(Option::is_some),
             dielectric,
-            any_blinn_phong: blinn_phong.iter().any(Option::is_some),
+            dielectric_beckmann,
+            smooth_dielectric,
             blinn_phong,
             lambert,
             all_lambert,
@@ -280,6 +254,76 @@ impl SoaScene {
             cones: lights.lights.iter().any(cone),
         }
     }
+}
+
+/// A material kind the kernel shades in a vectorised loop of its own: the
+/// parameters a lane of that kind takes.
+trait LaneKind: Copy {
+    /// Parameters for the lanes of a chunk that are not of this kind: they
+    /// run through the loop with these, and their results are discarded.
+    const IDLE: Self;
+    /// The material's parameters where the kernel shades it in this kind's
+    /// loop.
+    fn of(material: &crate::material::Material) -> Option<Self>;
+}
+
+/// Each geometry's material of kind `K` (by Embree id) where it is one,
+/// with one extra `None` that lanes without a hit read.
+#[derive(Debug, Clone)]
+struct KindTable<K> {
+    by_geometry: Vec<Option<K>>,
+    /// Whether any geometry's material is of this kind.
+    any: bool,
+}
+
+impl<K: LaneKind> KindTable<K> {
+    /// The table of `scene`'s geometries.
+    fn new(scene: &Scene) -> KindTable<K> {
+        let mut by_geometry: Vec<Option<K>> = scene
+            .meshes()
+            .iter()
+            .map(|mesh| K::of(&scene.materials()[mesh.material as usize]))
+            .collect();
+        by_geometry.push(None);
+        let any = by_geometry.iter().any(Option::is_some);
+        KindTable { by_geometry, any }
+    }
+
+    /// Whether geometry `g`'s material is of this kind.
+    fn covers(&self, g: usize) -> bool {
+        self.by_geometry[g].is_some()
+    }
+
+    /// The parameters of a chunk's lanes, by their geometry ids
+    /// ([`INVALID_ID`] for no hit).
+    #[inline(always)]
+    fn chunk(&self, geom: &[u32; W]) -> [Option<K>; W] {
+        let last = self.by_geometry.len() - 1;
+        std::array::from_fn(|k| self.by_geometry[(geom[k] as usize).min(last)])
+    }
+}
+
+/// A microfacet distribution's kind known to the compiler ([`Ggx`] or
+/// [`Beckmann`]), so that a lane loop has no branch on it.
+trait LaneDistribution: Copy + PartialEq + std::fmt::Debug {
+    /// The distribution.
+    const KIND: Distribution;
+}
+
+/// Trowbridge–Reitz (GGX) microfacets.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Ggx;
+
+impl LaneDistribution for Ggx {
+    const KIND: Distribution = Distribution::Ggx;
+}
+
+/// Beckmann microfacets.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Beckmann;
+
+impl LaneDistribution for Beckmann {
+    const KIND: Distribution = Distribution::Beckmann;
 }
 
 /// The Fresnel term of a Cook–Torrance lane, its kind known to the
@@ -374,42 +418,46 @@ impl LaneFresnel for CoatingTerm {
 }
 
 /// A rough Cook–Torrance surface's parameters as a lane takes them: an
-/// isotropic GGX distribution and a Fresnel term of kind `F` (a rough
-/// conductor, or a Schlick or dielectric-coated reflector).
+/// isotropic distribution of kind `D` and a Fresnel term of kind `F` (a
+/// rough conductor, or a Schlick or dielectric-coated reflector).
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct CookTorranceIn<F> {
-    /// GGX roughness (the same along both tangents).
+struct CookTorranceIn<F, D> {
+    /// Roughness α (the same along both tangents).
     alpha: f32,
     /// The Fresnel term.
     fresnel: F,
+    /// The distribution's kind.
+    distribution: PhantomData<D>,
 }
 
-impl<F: LaneFresnel> CookTorranceIn<F> {
-    /// Parameters for lanes that are not such surfaces: they run through
-    /// the loop with these, and their results are discarded.
-    const IDLE: CookTorranceIn<F> = CookTorranceIn {
+impl<F: LaneFresnel, D: LaneDistribution> LaneKind for CookTorranceIn<F, D> {
+    const IDLE: CookTorranceIn<F, D> = CookTorranceIn {
         alpha: 1.0,
         fresnel: F::IDLE,
+        distribution: PhantomData,
     };
 
-    /// The material's parameters where the kernel shades it in `F`'s loop:
-    /// isotropic GGX with a Fresnel term of kind `F` and an untextured
-    /// roughness (its other textures do not change the BSDF).
-    fn of(material: &crate::material::Material) -> Option<CookTorranceIn<F>> {
+    /// An isotropic distribution of kind `D`, a Fresnel term of kind `F`
+    /// and an untextured roughness (its other textures do not change the
+    /// BSDF).
+    fn of(material: &crate::material::Material) -> Option<CookTorranceIn<F, D>> {
         let Bsdf::CookTorrance(p) = material.bsdf else {
             return None;
         };
         let m = p.microfacet;
-        let isotropic = m.kind == Distribution::Ggx && m.alpha_x == m.alpha_y;
+        let isotropic = m.kind == D::KIND && m.alpha_x == m.alpha_y;
         if !isotropic || material.textures.roughness.is_some() {
             return None;
         }
         F::of(p.fresnel).map(|fresnel| CookTorranceIn {
             alpha: m.alpha_x,
             fresnel,
+            distribution: PhantomData,
         })
     }
+}
 
+impl<F: LaneFresnel, D: LaneDistribution> CookTorranceIn<F, D> {
     /// The BSDF's parameters, exactly as the general integrator holds them
     /// (the kinds of distribution and Fresnel term known to the compiler,
     /// so the lane loop has no branch on them).
@@ -417,7 +465,7 @@ impl<F: LaneFresnel> CookTorranceIn<F> {
     fn params(&self) -> CookTorranceParams {
         CookTorranceParams {
             microfacet: Microfacet {
-                kind: Distribution::Ggx,
+                kind: D::KIND,
                 alpha_x: self.alpha,
                 alpha_y: self.alpha,
             },
@@ -433,6 +481,11 @@ trait LaneBsdf: Copy {
     /// lane then keeps the geometric normal as the outside, and offsets each
     /// ray's origin to the side it leaves on.
     const TRANSMITS: bool = false;
+    /// Whether every lobe is a delta distribution ([`Bsdf::is_delta`]): the
+    /// lane then takes no light sample and draws no numbers for one, and its
+    /// sample's density is recorded as 0 (emission it finds next gets no
+    /// MIS weight).
+    const DELTA: bool = false;
     /// `η²` of a scattering from `wo` to `wi` ([`Bsdf::eta_scale`]).
     #[inline(always)]
     fn eta_scale(&self, _wo: Vec3, _wi: Vec3) -> f32 {
@@ -486,7 +539,7 @@ impl LaneBsdf for LambertLane {
     }
 }
 
-impl<F: LaneFresnel> LaneBsdf for CookTorranceIn<F> {
+impl<F: LaneFresnel, D: LaneDistribution> LaneBsdf for CookTorranceIn<F, D> {
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         self.params().eval(wo, wi)
@@ -518,9 +571,7 @@ struct PrincipledIn {
     spec_tint: f32,
 }
 
-impl PrincipledIn {
-    /// Parameters for lanes that are not principled surfaces (see
-    /// [`CookTorranceIn::IDLE`]).
+impl LaneKind for PrincipledIn {
     const IDLE: PrincipledIn = PrincipledIn {
         metallic: 0.0,
         roughness: 0.5,
@@ -528,8 +579,7 @@ impl PrincipledIn {
         spec_tint: 0.0,
     };
 
-    /// The material's parameters where the kernel shades it: principled in
-    /// Mitsuba's mode (not energy-conserving), isotropic, its roughness and
+    /// Principled in Mitsuba's mode (not energy-conserving), isotropic, its roughness and
     /// metallic not textured (a base colour map is: it is the lane's albedo).
     fn of(material: &crate::material::Material) -> Option<PrincipledIn> {
         let Bsdf::Principled(p) = material.bsdf else {
@@ -588,29 +638,31 @@ impl LaneBsdf for PrincipledLane {
     }
 }
 
-/// A rough dielectric's parameters as a lane takes them: isotropic GGX
-/// microfacet reflection and transmission (Walter et al. 2007). A smooth
-/// dielectric (only delta lobes: no light sample, other random numbers)
-/// and anisotropic or Beckmann ones scatter through the general code.
+/// A rough dielectric's parameters as a lane takes them: microfacet
+/// reflection and transmission (Walter et al. 2007) with an isotropic
+/// distribution of kind `D`. Smooth dielectrics have a loop of their own
+/// ([`SmoothDielectricIn`]); anisotropic ones scatter through the general
+/// code.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct DielectricIn {
+struct DielectricIn<D> {
     /// Relative index of refraction, inside over outside.
     eta: f32,
-    /// GGX roughness (the same along both tangents).
+    /// Roughness α (the same along both tangents).
     alpha: f32,
+    /// The distribution's kind.
+    distribution: PhantomData<D>,
 }
 
-impl DielectricIn {
-    /// Parameters for lanes that are not dielectrics (see
-    /// [`CookTorranceIn::IDLE`]).
-    const IDLE: DielectricIn = DielectricIn {
+impl<D: LaneDistribution> LaneKind for DielectricIn<D> {
+    const IDLE: DielectricIn<D> = DielectricIn {
         eta: 1.5,
         alpha: 0.5,
+        distribution: PhantomData,
     };
 
-    /// The material's parameters where the kernel shades it: a dielectric
-    /// with an isotropic GGX roughness (no texture changes a dielectric).
-    fn of(material: &crate::material::Material) -> Option<DielectricIn> {
+    /// A dielectric with an isotropic roughness of kind `D` (no texture
+    /// changes a dielectric).
+    fn of(material: &crate::material::Material) -> Option<DielectricIn<D>> {
         let Bsdf::Dielectric(DielectricParams {
             eta,
             microfacet: Some(m),
@@ -618,12 +670,15 @@ impl DielectricIn {
         else {
             return None;
         };
-        (m.kind == Distribution::Ggx && m.alpha_x == m.alpha_y).then_some(DielectricIn {
+        (m.kind == D::KIND && m.alpha_x == m.alpha_y).then_some(DielectricIn {
             eta,
             alpha: m.alpha_x,
+            distribution: PhantomData,
         })
     }
+}
 
+impl<D: LaneDistribution> DielectricIn<D> {
     /// The parameters exactly as the general integrator holds them (the
     /// distribution known to the compiler).
     #[inline(always)]
@@ -631,7 +686,7 @@ impl DielectricIn {
         DielectricParams {
             eta: self.eta,
             microfacet: Some(Microfacet {
-                kind: Distribution::Ggx,
+                kind: D::KIND,
                 alpha_x: self.alpha,
                 alpha_y: self.alpha,
             }),
@@ -639,7 +694,7 @@ impl DielectricIn {
     }
 }
 
-impl LaneBsdf for DielectricIn {
+impl<D: LaneDistribution> LaneBsdf for DielectricIn<D> {
     const TRANSMITS: bool = true;
     #[inline(always)]
     fn eta_scale(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -659,22 +714,77 @@ impl LaneBsdf for DielectricIn {
     }
 }
 
+/// A smooth dielectric as a lane takes it (glass, water): mirror reflection
+/// with probability F and refraction otherwise, both delta lobes
+/// ([`LaneBsdf::DELTA`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct SmoothDielectricIn {
+    /// Relative index of refraction, inside over outside.
+    eta: f32,
+}
+
+impl LaneKind for SmoothDielectricIn {
+    const IDLE: SmoothDielectricIn = SmoothDielectricIn { eta: 1.5 };
+
+    /// A smooth dielectric (no texture changes one).
+    fn of(material: &crate::material::Material) -> Option<SmoothDielectricIn> {
+        match material.bsdf {
+            Bsdf::Dielectric(DielectricParams {
+                eta,
+                microfacet: None,
+            }) => Some(SmoothDielectricIn { eta }),
+            _ => None,
+        }
+    }
+}
+
+impl SmoothDielectricIn {
+    /// The parameters exactly as the general integrator holds them.
+    #[inline(always)]
+    fn params(&self) -> DielectricParams {
+        DielectricParams {
+            eta: self.eta,
+            microfacet: None,
+        }
+    }
+}
+
+impl LaneBsdf for SmoothDielectricIn {
+    const TRANSMITS: bool = true;
+    const DELTA: bool = true;
+    #[inline(always)]
+    fn eta_scale(&self, wo: Vec3, wi: Vec3) -> f32 {
+        Bsdf::Dielectric(self.params()).eta_scale(wo, wi)
+    }
+    // A delta BSDF's value and density for any given pair of directions is
+    // zero (the lane takes no light sample, so neither is used).
+    #[inline(always)]
+    fn eval(&self, _wo: Vec3, _wi: Vec3) -> Vec3 {
+        Vec3::ZERO
+    }
+    #[inline(always)]
+    fn pdf(&self, _wo: Vec3, _wi: Vec3) -> f32 {
+        0.0
+    }
+    #[inline(always)]
+    fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
+        lane_sample(self.params().sample(wo, uc, u))
+    }
+}
+
 /// A Blinn–Phong surface's parameters as a lane takes them: exactly the
 /// general integrator's.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct BlinnPhongIn(BlinnPhongParams);
 
-impl BlinnPhongIn {
-    /// Parameters for lanes that are not Blinn–Phong surfaces (see
-    /// [`CookTorranceIn::IDLE`]).
+impl LaneKind for BlinnPhongIn {
     const IDLE: BlinnPhongIn = BlinnPhongIn(BlinnPhongParams {
         diffuse: Vec3::splat(0.5),
         specular: Vec3::splat(0.5),
         exponent: 1.0,
     });
 
-    /// The material's parameters where the kernel shades it: Blinn–Phong
-    /// without a colour map (no other texture changes its BSDF).
+    /// Blinn–Phong without a colour map (no other texture changes its BSDF).
     fn of(material: &crate::material::Material) -> Option<BlinnPhongIn> {
         let Bsdf::BlinnPhong(p) = material.bsdf else {
             return None;
@@ -1675,7 +1785,9 @@ fn sample_environment(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes, en
     for i in 0..lanes.rays.len() {
         lanes.env_valid[i] = false;
         let picked = single.unwrap_or(lanes.light[i] == env as u32);
-        if lanes.rays.geom_id.as_slice()[i] == INVALID_ID || !picked {
+        let geom = lanes.rays.geom_id.as_slice()[i];
+        // A delta BSDF (a smooth dielectric) takes no light sample.
+        if geom == INVALID_ID || !picked || kernel.smooth_dielectric.covers(geom as usize) {
             continue;
         }
         let mut rng = lanes.sampler(i);
@@ -1867,7 +1979,8 @@ struct LaneOut {
 
 /// One bounce of one path: the general integrator's `shade` for a surface
 /// whose BSDF the lane holds (`B`: Lambert, rough Cook–Torrance, principled,
-/// Blinn–Phong, a rough dielectric) and a point, area, parametric or environment light, written without
+/// Blinn–Phong, a rough or smooth dielectric) and a point, area, parametric
+/// or environment light, written without
 /// branches (every `if` is a select) so that a loop over lanes vectorises.
 /// It calls the same branch-free helpers as the general integrator (ray
 /// offsets, the lights' samples, the BSDF's own code, MIS), in the same
@@ -1923,12 +2036,14 @@ fn shade_lane<
     // two the direction.
     // Where no light was picked, the general integrator draws no numbers
     // for a light sample: drawn on a copy, kept where a light was picked.
+    // A delta BSDF takes no light sample: none of these numbers is drawn.
     let light = l.light;
-    let _light_pick = PathSampler::step_2d(&mut rng, l.stream);
-    let mut rng_point = rng;
+    let mut rng_light = rng;
+    let _light_pick = PathSampler::step_2d(&mut rng_light, l.stream);
+    let mut rng_point = rng_light;
     let light_point = PathSampler::step_2d(&mut rng_point, l.stream);
-    if light.picked {
-        rng = rng_point;
+    if !B::DELTA {
+        rng = if light.picked { rng_point } else { rng_light };
     }
     let lobe = PathSampler::step_f32(&mut rng, l.stream);
     let direction = PathSampler::step_2d(&mut rng, l.stream);
@@ -1977,10 +2092,18 @@ fn shade_lane<
     };
     let shadow_org = origin_for(ls.wi);
     let (shadow_dir, shadow_tfar) = shadow_segment(shadow_org, p, ls.wi, ls.dist);
-    let shadow = l.hit && light.picked && valid && f != Vec3::ZERO && shadow_tfar > 0.0;
-    let pending = l.beta * f * ls.radiance * (weight / light_pdf);
+    let shadow =
+        !B::DELTA && l.hit && light.picked && valid && f != Vec3::ZERO && shadow_tfar > 0.0;
+    // (For a delta BSDF, none of the light sample's work above is used.)
+    let pending = if B::DELTA {
+        Vec3::ZERO
+    } else {
+        l.beta * f * ls.radiance * (weight / light_pdf)
+    };
 
     let (sampled, local, pdf, factor) = bsdf.sample(wo_local, lobe, direction);
+    // A delta lobe's density is recorded as 0 (no MIS for what it finds).
+    let pdf = if B::DELTA { 0.0 } else { pdf };
     let next_dir = frame.to_world(local);
     // Where the guard rejects the direction, the path ends.
     let sampled = sampled && (!smooth || sides_agree(wo, next_dir, ng, wo_local, local));
@@ -2152,6 +2275,33 @@ fn shade_kind<
         if bsdfs[k].is_some() {
             put(k, l.hit, out);
         }
+    }
+}
+
+/// [`shade_kind`] for the lanes of a chunk whose material is in `table`
+/// (by their geometry ids `geom`); nothing where the scene has none.
+#[inline(always)]
+fn shade_table<
+    B: LaneKind + LaneBsdf,
+    const TRIANGLES: bool,
+    const CONES: bool,
+    const ENV: bool,
+    const SMOOTH: bool,
+>(
+    table: &KindTable<B>,
+    geom: &[u32; W],
+    lane_in: &impl Fn(usize) -> LaneIn,
+    put: &mut impl FnMut(usize, bool, LaneOut),
+    u: Uniform,
+) {
+    if table.any {
+        shade_kind::<B, TRIANGLES, CONES, ENV, SMOOTH>(
+            &table.chunk(geom),
+            B::IDLE,
+            lane_in,
+            put,
+            u,
+        );
     }
 }
 
@@ -2363,43 +2513,58 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
             }
         }
         // Rough Cook–Torrance surfaces (one loop per Fresnel kind),
-        // principled surfaces, Blinn–Phong surfaces and rough dielectrics:
+        // principled surfaces, Blinn–Phong surfaces, rough and smooth
+        // dielectrics:
         // the same loop with their BSDF, its results kept
         // for their lanes only.
-        if kernel.any_conductor {
-            let conductor = std::array::from_fn(|k| kernel.conductor[(geom[k] as usize).min(last)]);
-            shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
-                &conductor,
-                CookTorranceIn::IDLE,
-                &lane_in,
-                &mut put,
-                u,
-            );
-        }
-        if kernel.any_schlick {
-            let schlick = std::array::from_fn(|k| kernel.schlick[(geom[k] as usize).min(last)]);
-            shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
-                &schlick,
-                CookTorranceIn::IDLE,
-                &lane_in,
-                &mut put,
-                u,
-            );
-        }
-        if kernel.any_coated {
-            let coated = std::array::from_fn(|k| kernel.coated[(geom[k] as usize).min(last)]);
-            shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
-                &coated,
-                CookTorranceIn::IDLE,
-                &lane_in,
-                &mut put,
-                u,
-            );
-        }
-        if kernel.any_principled {
+        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+            &kernel.conductor,
+            &geom,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+            &kernel.schlick,
+            &geom,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+            &kernel.coated,
+            &geom,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+            &kernel.conductor_beckmann,
+            &geom,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+            &kernel.schlick_beckmann,
+            &geom,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+            &kernel.coated_beckmann,
+            &geom,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        if kernel.principled.any {
+            // The lane's albedo is its base colour.
+            let principled = kernel.principled.chunk(&geom);
             let principled = std::array::from_fn(|k| {
                 let colour = Vec3::new(ar[k], ag[k], ab[k]);
-                kernel.principled[(geom[k] as usize).min(last)].map(|p| PrincipledLane(p, colour))
+                principled[k].map(|p| PrincipledLane(p, colour))
             });
             let idle = PrincipledLane(PrincipledIn::IDLE, Vec3::splat(0.5));
             shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
@@ -2410,28 +2575,34 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
                 u,
             );
         }
-        if kernel.any_blinn_phong {
-            let blinn_phong =
-                std::array::from_fn(|k| kernel.blinn_phong[(geom[k] as usize).min(last)]);
-            shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
-                &blinn_phong,
-                BlinnPhongIn::IDLE,
-                &lane_in,
-                &mut put,
-                u,
-            );
-        }
-        if kernel.any_dielectric {
-            let dielectric =
-                std::array::from_fn(|k| kernel.dielectric[(geom[k] as usize).min(last)]);
-            shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
-                &dielectric,
-                DielectricIn::IDLE,
-                &lane_in,
-                &mut put,
-                u,
-            );
-        }
+        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+            &kernel.blinn_phong,
+            &geom,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+            &kernel.dielectric,
+            &geom,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+            &kernel.dielectric_beckmann,
+            &geom,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+            &kernel.smooth_dielectric,
+            &geom,
+            &lane_in,
+            &mut put,
+            u,
+        );
 
         // The lanes whose material the loop above does not shade (it
         // computed something for them, discarded here): one by one, through

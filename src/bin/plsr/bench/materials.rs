@@ -13,12 +13,12 @@ use std::path::Path;
 /// the vectorised kernel, and with every material a rough gold (isotropic
 /// GGX, α 0.2, gold's complex index), every material a rough glass
 /// (isotropic GGX, α 0.2, η 1.5: the light sits inside a box of glass
-/// walls) and every material Blinn–Phong (the diffuse colour, specular
-/// 0.2, exponent 40), interleaved in the same run: the ratios to the
+/// walls), every material a smooth glass (η 1.5) and every material
+/// Blinn–Phong (the diffuse colour, specular 0.2, exponent 40), interleaved in the same run: the ratios to the
 /// all-diffuse scene say what the richer BSDF costs, the kernel's ratio to
 /// the general integrator what the wavefront gains. Returns each scene's
 /// `(general, vectorised)` Msamples/s.
-pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 6]> {
+pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 7]> {
     use plsr::bsdf::{
         BlinnPhongParams, Bsdf, CookTorranceParams, DielectricParams, Distribution, Fresnel,
         Microfacet, PrincipledParams, METALS,
@@ -71,6 +71,16 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 6]> {
         }
         scene
     };
+    let smooth_glass = {
+        let mut scene = diffuse.clone();
+        for m in &mut scene.materials {
+            m.bsdf = Bsdf::Dielectric(DielectricParams {
+                eta: 1.5,
+                microfacet: None,
+            });
+        }
+        scene
+    };
     let blinn_phong = {
         let mut scene = diffuse.clone();
         for m in &mut scene.materials {
@@ -99,11 +109,12 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 6]> {
         ),
         ("all rough gold (GGX α 0.2)", Scene::build(gold)?),
         ("all rough glass (GGX α 0.2, η 1.5)", Scene::build(glass)?),
+        ("all smooth glass (η 1.5)", Scene::build(smooth_glass)?),
         ("all Blinn–Phong (exponent 40)", Scene::build(blinn_phong)?),
     ];
     // Interleaved runs, best of three each, so drift hits all alike.
-    let mut best = [(0.0f64, 0.0f64); 6];
-    let mut same = [true; 6];
+    let mut best = [(0.0f64, 0.0f64); 7];
+    let mut same = [true; 7];
     for _ in 0..3 {
         for (k, (_, scene)) in scenes.iter().enumerate() {
             let (general, stats): (Film, RenderStats) =
