@@ -690,13 +690,13 @@ fn rough_conductors_are_bit_identical() {
 
 #[test]
 fn rough_schlick_and_coated_reflectors_are_bit_identical() {
-    // Isotropic GGX Cook–Torrance surfaces with Schlick's Fresnel term and
-    // with a dielectric coating's are shaded in vectorised loops of their
-    // own, one per Fresnel kind: a box of the Schlick kind (chunks with no
-    // Lambert lane), a coated sphere with vertex normals, a faceted Schlick
-    // sphere and a rough conductor beside them in its own loop, a Beckmann
-    // one in the Beckmann Schlick loop; an anisotropic one stays on the
-    // general integrator's code, with a Lambert panel; lit by a point light, an area light and a constant
+    // GGX Cook–Torrance surfaces with Schlick's Fresnel term and with a
+    // dielectric coating's are shaded in vectorised loops of their own, one
+    // per Fresnel kind: a box of the Schlick kind (chunks with no Lambert
+    // lane), a coated sphere with vertex normals, a faceted Schlick sphere
+    // and a rough conductor beside them in its own loop, a Beckmann one in
+    // the Beckmann Schlick loop and an anisotropic coated one, with a
+    // Lambert panel; lit by a point light, an area light and a constant
     // sky, with roulette from depth 2.
     let dir = tempfile::tempdir().unwrap();
     let smooth = dir.path().join("coated.obj");
@@ -741,8 +741,8 @@ fn rough_dielectrics_are_bit_identical() {
     // roulette. A box of rough glass (chunks with no Lambert lane), a
     // frosted sphere with vertex normals, a rough sphere of η < 1 (total
     // internal reflection from outside), and beside them a smooth and a
-    // Beckmann one (in loops of their own), an anisotropic one that stays
-    // on the general integrator's code and a Lambert panel; lit by a point light, an area light
+    // Beckmann one (in loops of their own), an anisotropic one and a
+    // Lambert panel; lit by a point light, an area light
     // and a constant sky, with roulette from depth 2.
     let dir = tempfile::tempdir().unwrap();
     let smooth = dir.path().join("frosted.obj");
@@ -800,9 +800,8 @@ fn smooth_dielectrics_are_bit_identical() {
     // their own, which takes no light sample and draws no numbers for one:
     // a box of glass (chunks with no Lambert lane, paths refracting in and
     // out), a glass sphere with vertex normals, faceted water, a bubble of
-    // η < 1 (total internal reflection), beside a rough glass sphere in its
-    // own loop, an anisotropic one on the general integrator's code and a
-    // Lambert panel; lit by a point light, an area light and a constant
+    // η < 1 (total internal reflection), beside a rough glass sphere and
+    // an anisotropic one in their own loop and a Lambert panel; lit by a point light, an area light and a constant
     // sky (each lane picks one), with roulette from depth 2 on the paths'
     // η². Then a glass sphere on a Lambert floor under a sky alone (the
     // same light for every lane), which the refracted paths find with no
@@ -854,8 +853,9 @@ fn beckmann_microfacets_are_bit_identical() {
     // term is): a box of a Beckmann conductor (chunks with no Lambert
     // lane), Beckmann reflectors with Schlick's and a coating's Fresnel
     // term, smooth and faceted, Beckmann rough glass and a Beckmann bubble,
-    // beside a GGX conductor, an anisotropic Beckmann one on the general
-    // integrator's code and a Lambert panel; lit by a point light, an area
+    // an anisotropic Beckmann conductor (vertex normals and texture
+    // coordinates: its tangent is ∂p/∂u), beside a GGX conductor and a
+    // Lambert panel; lit by a point light, an area
     // light and a constant sky, with roulette from depth 2.
     let dir = tempfile::tempdir().unwrap();
     let mut text = lit_box("box", 7, 11);
@@ -887,11 +887,77 @@ fn beckmann_microfacets_are_bit_identical() {
     text += &sphere([390.0, 120.0, 250.0], 80.0, "coated");
     text += &smooth_sphere(dir.path(), [280.0, 330.0, 300.0], 60.0, "glass");
     text += &sphere([420.0, 360.0, 200.0], 40.0, "bubble");
-    text += &sphere([130.0, 380.0, 260.0], 40.0, "brushed");
+    text += &smooth_sphere(dir.path(), [130.0, 380.0, 260.0], 40.0, "brushed");
     text += &sphere([160.0, 260.0, 120.0], 30.0, "gold");
     text += "[[shapes]]\ntype = \"rectangle\"\n\
              transform = { scale = 60, translate = [400, 380, 420] }\n";
     assert_identical("Beckmann microfacets", &scene_from("Beckmann", &text));
+}
+
+#[test]
+fn anisotropic_surfaces_are_bit_identical() {
+    // Anisotropic microfacets are shaded in their kinds' vectorised loops,
+    // each lane's frame built around the tangent the general integrator
+    // takes (∂p/∂u where the mesh has texture coordinates, else the
+    // triangle's first edge): a box of anisotropic GGX metal (chunks with
+    // no Lambert lane; the box has no texture coordinates), anisotropic
+    // principled, rough glass and coated spheres with vertex normals and
+    // texture coordinates, a faceted anisotropic Beckmann one, an
+    // isotropic one beside them in the same loop, and a roughness-mapped
+    // anisotropic one on the general integrator's code; lit by a point
+    // light, an area light and a constant sky, with roulette from depth 2.
+    let dir = tempfile::tempdir().unwrap();
+    let texture = random_texture(dir.path(), 4, 6, 7);
+    let texture = texture.display().to_string().replace('\\', "/");
+    let mut text = lit_box("box", 6, 13);
+    for (name, body) in [
+        (
+            "box",
+            "type = \"cook_torrance\"\nmetal = \"Ag\"\nalpha_u = 0.4\nalpha_v = 0.05".to_string(),
+        ),
+        (
+            "plastic",
+            "type = \"principled\"\nbase_color = [0.2, 0.5, 0.8]\nroughness = 0.4\nanisotropic = 0.8"
+                .into(),
+        ),
+        (
+            "glass",
+            "type = \"dielectric\"\nior = 1.5\nalpha_u = 0.3\nalpha_v = 0.02".into(),
+        ),
+        (
+            "coated",
+            "type = \"cook_torrance\"\nfresnel = \"dielectric\"\nior = 1.6\nalpha_u = 0.02\nalpha_v = 0.2"
+                .into(),
+        ),
+        (
+            "beckmann",
+            "type = \"cook_torrance\"\nfresnel = \"schlick\"\ndistribution = \"beckmann\"\n\
+             alpha_u = 0.1\nalpha_v = 0.5"
+                .into(),
+        ),
+        (
+            "round",
+            "type = \"cook_torrance\"\nmetal = \"Ag\"\nroughness = 0.3".into(),
+        ),
+        (
+            "mapped",
+            format!(
+                "type = \"cook_torrance\"\nmetal = \"Cu\"\nalpha_u = 0.05\nalpha_v = 0.4\n\
+                 roughness_map = \"{texture}\""
+            ),
+        ),
+    ] {
+        text += &format!("[[materials]]\nname = \"{name}\"\n{body}\n\n");
+    }
+    text += &smooth_sphere(dir.path(), [170.0, 120.0, 200.0], 80.0, "plastic");
+    text += &smooth_sphere(dir.path(), [390.0, 120.0, 250.0], 80.0, "glass");
+    text += &smooth_sphere(dir.path(), [280.0, 330.0, 300.0], 60.0, "coated");
+    text += &sphere([420.0, 360.0, 200.0], 40.0, "beckmann");
+    text += &sphere([130.0, 380.0, 260.0], 40.0, "round");
+    text += &smooth_sphere(dir.path(), [160.0, 260.0, 120.0], 30.0, "mapped");
+    text += "[[shapes]]\ntype = \"rectangle\"\n\
+             transform = { scale = 60, translate = [400, 380, 420] }\n";
+    assert_identical("anisotropic surfaces", &scene_from("anisotropic", &text));
 }
 
 #[test]
@@ -951,12 +1017,12 @@ fn blinn_phong_is_bit_identical() {
 
 #[test]
 fn principled_surfaces_are_bit_identical() {
-    // The principled BSDF in Mitsuba's mode, isotropic, is shaded in a
-    // vectorised loop of its own: a box of it (chunks with no Lambert lane),
-    // spheres from dielectric to metal with and without specular tint,
-    // smooth and faceted, one with a base-colour map (the lane's albedo),
-    // and beside them the modes that stay on the general integrator's code
-    // (anisotropic, energy-conserving, a roughness map); lit by a point
+    // The principled BSDF in Mitsuba's mode is shaded in a vectorised loop
+    // of its own: a box of it (chunks with no Lambert lane), spheres from
+    // dielectric to metal with and without specular tint, smooth and
+    // faceted, one with a base-colour map (the lane's albedo), an
+    // anisotropic one, and beside them the modes that stay on the general
+    // integrator's code (energy-conserving, a roughness map); lit by a point
     // light, an area light and a constant sky, with roulette from depth 2.
     let dir = tempfile::tempdir().unwrap();
     let texture = random_texture(dir.path(), 4, 5, 3);

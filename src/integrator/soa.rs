@@ -1,11 +1,11 @@
 //! The vectorised wavefront that renders every scene. Lambert surfaces
 //! (their colour textured or not, with or without vertex normals), rough
-//! Cook–Torrance surfaces (isotropic GGX or Beckmann with a conductor's,
-//! Schlick's or a dielectric coating's Fresnel term), principled surfaces
-//! (Mitsuba's mode, isotropic; the base colour may be textured),
-//! Blinn–Phong surfaces without a colour map, rough dielectrics (isotropic
-//! GGX or Beckmann) and smooth dielectrics, each kind in a loop of its own
-//! with its BSDF ([`LaneBsdf`]), are shaded
+//! Cook–Torrance surfaces (GGX or Beckmann, isotropic or not, with a
+//! conductor's, Schlick's or a dielectric coating's Fresnel term),
+//! principled surfaces (Mitsuba's mode; the base colour may be textured),
+//! Blinn–Phong surfaces without a colour map, rough dielectrics (GGX or
+//! Beckmann) and smooth dielectrics, each kind in a loop of its own with
+//! its BSDF ([`LaneBsdf`]), are shaded
 //! in a branch-free loop over structure-of-arrays lanes, lit by point
 //! lights, emissive meshes (area lights), parametric lights (emitting
 //! triangles with a cone, picked only where their cone reaches) and an
@@ -14,8 +14,7 @@
 //! lanes at once, with the batched lookups the general integrator uses);
 //! virtual objects (compositing) included: the job's ray mask on every
 //! ray, and their coverage counted in the matte. Lanes whose material is
-//! another model (colour-mapped Blinn–Phong, anisotropic Cook–Torrance
-//! surfaces and dielectrics, anisotropic or energy-conserving principled,
+//! another model (colour-mapped Blinn–Phong, energy-conserving principled,
 //! roughness or metallic maps)
 //! scatter one by one through the general integrator's own code
 //! ([`scatter`]) inside the same wavefront, after the vectorised loop, with
@@ -122,6 +121,13 @@ pub struct SoaScene {
     /// into a photograph; counted in the compositing matte), with one extra
     /// `false`.
     is_virtual: Vec<bool>,
+    /// Whether each geometry's material is anisotropic
+    /// ([`Bsdf::is_anisotropic`]: its lanes need a tangent), with one extra
+    /// `false`.
+    anisotropic: Vec<bool>,
+    /// Whether any geometry's is (then `lane_surfaces` looks up each such
+    /// lane's tangent into `SoaLanes::tangent`).
+    any_anisotropic: bool,
     /// Whether each geometry (by Embree id) has shading normals (vertex
     /// normals, or a normal-mapped material and texture coordinates), with
     /// one extra `false`.
@@ -153,6 +159,7 @@ impl SoaScene {
         let mut general = Vec::new();
         let mut transmits = Vec::new();
         let mut smooth = Vec::new();
+        let mut anisotropic = Vec::new();
         let mut is_virtual = Vec::new();
         let conductor = KindTable::new(scene);
         let schlick = KindTable::new(scene);
@@ -194,6 +201,7 @@ impl SoaScene {
                 || blinn_phong.covers(g);
             general.push(!vectorised);
             transmits.push(material.bsdf.transmits());
+            anisotropic.push(material.bsdf.is_anisotropic());
             emissive.push(scene.light_index(g as u32, 0).is_some());
             textured.push(!material.textures.is_empty());
         }
@@ -207,6 +215,7 @@ impl SoaScene {
         lambert.push(false);
         transmits.push(false);
         smooth.push(false);
+        anisotropic.push(false);
         is_virtual.push(false);
         let lights = scene.lights();
         // One light picked the same way everywhere: the same for every lane.
@@ -246,6 +255,8 @@ impl SoaScene {
             transmits,
             any_smooth: smooth.contains(&true),
             smooth,
+            any_anisotropic: anisotropic.contains(&true),
+            anisotropic,
             is_virtual,
             single_light,
             light_table,
@@ -417,13 +428,14 @@ impl LaneFresnel for CoatingTerm {
     }
 }
 
-/// A rough Cook–Torrance surface's parameters as a lane takes them: an
-/// isotropic distribution of kind `D` and a Fresnel term of kind `F` (a
-/// rough conductor, or a Schlick or dielectric-coated reflector).
+/// A rough Cook–Torrance surface's parameters as a lane takes them: a
+/// distribution of kind `D`, isotropic or not, and a Fresnel term of kind
+/// `F` (a rough conductor, or a Schlick or dielectric-coated reflector).
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct CookTorranceIn<F, D> {
-    /// Roughness α (the same along both tangents).
-    alpha: f32,
+    /// Roughness α along the first and the second tangent.
+    alpha_x: f32,
+    alpha_y: f32,
     /// The Fresnel term.
     fresnel: F,
     /// The distribution's kind.
@@ -432,25 +444,26 @@ struct CookTorranceIn<F, D> {
 
 impl<F: LaneFresnel, D: LaneDistribution> LaneKind for CookTorranceIn<F, D> {
     const IDLE: CookTorranceIn<F, D> = CookTorranceIn {
-        alpha: 1.0,
+        alpha_x: 1.0,
+        alpha_y: 1.0,
         fresnel: F::IDLE,
         distribution: PhantomData,
     };
 
-    /// An isotropic distribution of kind `D`, a Fresnel term of kind `F`
-    /// and an untextured roughness (its other textures do not change the
-    /// BSDF).
+    /// A distribution of kind `D` (isotropic or not), a Fresnel term of
+    /// kind `F` and an untextured roughness (its other textures do not
+    /// change the BSDF).
     fn of(material: &crate::material::Material) -> Option<CookTorranceIn<F, D>> {
         let Bsdf::CookTorrance(p) = material.bsdf else {
             return None;
         };
         let m = p.microfacet;
-        let isotropic = m.kind == D::KIND && m.alpha_x == m.alpha_y;
-        if !isotropic || material.textures.roughness.is_some() {
+        if m.kind != D::KIND || material.textures.roughness.is_some() {
             return None;
         }
         F::of(p.fresnel).map(|fresnel| CookTorranceIn {
-            alpha: m.alpha_x,
+            alpha_x: m.alpha_x,
+            alpha_y: m.alpha_y,
             fresnel,
             distribution: PhantomData,
         })
@@ -466,8 +479,8 @@ impl<F: LaneFresnel, D: LaneDistribution> CookTorranceIn<F, D> {
         CookTorranceParams {
             microfacet: Microfacet {
                 kind: D::KIND,
-                alpha_x: self.alpha,
-                alpha_y: self.alpha,
+                alpha_x: self.alpha_x,
+                alpha_y: self.alpha_y,
             },
             fresnel: self.fresnel.fresnel(),
         }
@@ -486,6 +499,10 @@ trait LaneBsdf: Copy {
     /// sample's density is recorded as 0 (emission it finds next gets no
     /// MIS weight).
     const DELTA: bool = false;
+    /// Whether a surface of this kind may be anisotropic
+    /// ([`Bsdf::is_anisotropic`]): its lanes then build their shading frame
+    /// around the tangent `lane_surfaces` looked up, where they have one.
+    const MAY_BE_ANISOTROPIC: bool = false;
     /// `η²` of a scattering from `wo` to `wi` ([`Bsdf::eta_scale`]).
     #[inline(always)]
     fn eta_scale(&self, _wo: Vec3, _wi: Vec3) -> f32 {
@@ -540,6 +557,7 @@ impl LaneBsdf for LambertLane {
 }
 
 impl<F: LaneFresnel, D: LaneDistribution> LaneBsdf for CookTorranceIn<F, D> {
+    const MAY_BE_ANISOTROPIC: bool = true;
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         self.params().eval(wo, wi)
@@ -558,7 +576,7 @@ impl<F: LaneFresnel, D: LaneDistribution> LaneBsdf for CookTorranceIn<F, D> {
 
 /// A principled surface's parameters as a lane takes them (its base colour
 /// is the lane's albedo, looked up as a Lambert surface's colour is): the
-/// isotropic principled BSDF in Mitsuba's mode.
+/// principled BSDF in Mitsuba's mode, isotropic or not.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct PrincipledIn {
     /// Metallic blend in [0, 1].
@@ -569,6 +587,8 @@ struct PrincipledIn {
     specular: f32,
     /// Specular tint in [0, 1].
     spec_tint: f32,
+    /// Anisotropy in [0, 1].
+    anisotropic: f32,
 }
 
 impl LaneKind for PrincipledIn {
@@ -577,21 +597,24 @@ impl LaneKind for PrincipledIn {
         roughness: 0.5,
         specular: 0.5,
         spec_tint: 0.0,
+        anisotropic: 0.0,
     };
 
-    /// Principled in Mitsuba's mode (not energy-conserving), isotropic, its roughness and
-    /// metallic not textured (a base colour map is: it is the lane's albedo).
+    /// Principled in Mitsuba's mode (not energy-conserving), its roughness
+    /// and metallic not textured (a base colour map is: it is the lane's
+    /// albedo).
     fn of(material: &crate::material::Material) -> Option<PrincipledIn> {
         let Bsdf::Principled(p) = material.bsdf else {
             return None;
         };
         let t = &material.textures;
-        let plain = !p.energy_conserving && p.anisotropic == 0.0;
+        let plain = !p.energy_conserving;
         (plain && t.roughness.is_none() && t.metallic.is_none()).then_some(PrincipledIn {
             metallic: p.metallic,
             roughness: p.roughness,
             specular: p.specular,
             spec_tint: p.spec_tint,
+            anisotropic: p.anisotropic,
         })
     }
 }
@@ -602,8 +625,7 @@ struct PrincipledLane(PrincipledIn, Vec3);
 
 impl PrincipledLane {
     /// The parameters exactly as the general integrator holds them (the
-    /// mode and the anisotropy known to the compiler, so the lane loop has
-    /// no branch on them).
+    /// mode known to the compiler, so the lane loop has no branch on it).
     #[inline(always)]
     fn params(&self) -> PrincipledParams {
         let p = self.0;
@@ -611,7 +633,7 @@ impl PrincipledLane {
             base_color: self.1,
             roughness: p.roughness,
             metallic: p.metallic,
-            anisotropic: 0.0,
+            anisotropic: p.anisotropic,
             specular: p.specular,
             spec_tint: p.spec_tint,
             energy_conserving: false,
@@ -620,6 +642,7 @@ impl PrincipledLane {
 }
 
 impl LaneBsdf for PrincipledLane {
+    const MAY_BE_ANISOTROPIC: bool = true;
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         self.params().eval(wo, wi)
@@ -639,16 +662,16 @@ impl LaneBsdf for PrincipledLane {
 }
 
 /// A rough dielectric's parameters as a lane takes them: microfacet
-/// reflection and transmission (Walter et al. 2007) with an isotropic
-/// distribution of kind `D`. Smooth dielectrics have a loop of their own
-/// ([`SmoothDielectricIn`]); anisotropic ones scatter through the general
-/// code.
+/// reflection and transmission (Walter et al. 2007) with a distribution of
+/// kind `D`, isotropic or not. Smooth dielectrics have a loop of their own
+/// ([`SmoothDielectricIn`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct DielectricIn<D> {
     /// Relative index of refraction, inside over outside.
     eta: f32,
-    /// Roughness α (the same along both tangents).
-    alpha: f32,
+    /// Roughness α along the first and the second tangent.
+    alpha_x: f32,
+    alpha_y: f32,
     /// The distribution's kind.
     distribution: PhantomData<D>,
 }
@@ -656,11 +679,12 @@ struct DielectricIn<D> {
 impl<D: LaneDistribution> LaneKind for DielectricIn<D> {
     const IDLE: DielectricIn<D> = DielectricIn {
         eta: 1.5,
-        alpha: 0.5,
+        alpha_x: 0.5,
+        alpha_y: 0.5,
         distribution: PhantomData,
     };
 
-    /// A dielectric with an isotropic roughness of kind `D` (no texture
+    /// A rough dielectric with a distribution of kind `D` (no texture
     /// changes a dielectric).
     fn of(material: &crate::material::Material) -> Option<DielectricIn<D>> {
         let Bsdf::Dielectric(DielectricParams {
@@ -670,9 +694,10 @@ impl<D: LaneDistribution> LaneKind for DielectricIn<D> {
         else {
             return None;
         };
-        (m.kind == D::KIND && m.alpha_x == m.alpha_y).then_some(DielectricIn {
+        (m.kind == D::KIND).then_some(DielectricIn {
             eta,
-            alpha: m.alpha_x,
+            alpha_x: m.alpha_x,
+            alpha_y: m.alpha_y,
             distribution: PhantomData,
         })
     }
@@ -687,8 +712,8 @@ impl<D: LaneDistribution> DielectricIn<D> {
             eta: self.eta,
             microfacet: Some(Microfacet {
                 kind: D::KIND,
-                alpha_x: self.alpha,
-                alpha_y: self.alpha,
+                alpha_x: self.alpha_x,
+                alpha_y: self.alpha_y,
             }),
         }
     }
@@ -696,6 +721,7 @@ impl<D: LaneDistribution> DielectricIn<D> {
 
 impl<D: LaneDistribution> LaneBsdf for DielectricIn<D> {
     const TRANSMITS: bool = true;
+    const MAY_BE_ANISOTROPIC: bool = true;
     #[inline(always)]
     fn eta_scale(&self, wo: Vec3, wi: Vec3) -> f32 {
         Bsdf::Dielectric(self.params()).eta_scale(wo, wi)
@@ -1089,6 +1115,11 @@ pub struct SoaLanes {
     /// vertex normals (`ns_valid`; zero elsewhere).
     ns: [Vec<f32>; 3],
     ns_valid: Vec<bool>,
+    /// Each lane's first tangent at its hit, where its material is
+    /// anisotropic (`tangent_valid`; zero elsewhere): the general
+    /// integrator's `SurfacePoint::tangent`.
+    tangent: [Vec<f32>; 3],
+    tangent_valid: Vec<bool>,
     /// Solid-angle density of the BSDF sample that led to the current hit.
     prev_pdf: Vec<f32>,
     /// The scattering point the current ray left from.
@@ -1133,9 +1164,11 @@ impl SoaLanes {
             self.pending[c].resize(n, 0.0);
             self.albedo[c].resize(n, 0.0);
             self.ns[c].resize(n, 0.0);
+            self.tangent[c].resize(n, 0.0);
             self.prev_point[c].resize(n, 0.0);
         }
         self.ns_valid.resize(n, false);
+        self.tangent_valid.resize(n, false);
         self.eta_scale.resize(n, 1.0);
         self.uv[0].resize(n, 0.0);
         self.uv[1].resize(n, 0.0);
@@ -1392,7 +1425,7 @@ fn trace_pass_body(
     let clock = Instant::now();
     scene.accel().intersect_batch(&mut lanes.rays, true);
     stats.trace_nanos += clock.elapsed().as_nanos() as u64;
-    if kernel.any_textured || kernel.any_smooth {
+    if kernel.any_textured || kernel.any_smooth || kernel.any_anisotropic {
         lane_surfaces(kernel, scene, lanes);
     }
 
@@ -1440,7 +1473,7 @@ fn trace_pass_body(
         let clock = Instant::now();
         scene.accel().intersect_batch(&mut lanes.rays, false);
         stats.trace_nanos += clock.elapsed().as_nanos() as u64;
-        if kernel.any_textured || kernel.any_smooth {
+        if kernel.any_textured || kernel.any_smooth || kernel.any_anisotropic {
             lane_surfaces(kernel, scene, lanes);
         }
         depth += 1;
@@ -1530,7 +1563,7 @@ fn lane_surfaces(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
     let (geom, prim) = (lanes.rays.geom_id.as_slice(), lanes.rays.prim_id.as_slice());
     let attributes = |i: usize| {
         let g = (geom[i] as usize).min(last);
-        kernel.textured[g] || kernel.smooth[g]
+        kernel.textured[g] || kernel.smooth[g] || kernel.anisotropic[g]
     };
     for i in (0..n).filter(|&i| attributes(i)) {
         prefetch(&meshes[geom[i] as usize].triangles[prim[i] as usize]);
@@ -1574,6 +1607,15 @@ fn lane_surfaces(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
         let ns = ns.unwrap_or(Vec3::ZERO);
         for c in 0..3 {
             lanes.ns[c][i] = ns[c];
+        }
+        if kernel.any_anisotropic {
+            let hit = lanes.rays.hit(i).filter(|_| kernel.anisotropic[g]);
+            let tangent = hit.map(|hit| super::SurfacePoint::tangent(&meshes[g], &hit));
+            lanes.tangent_valid[i] = tangent.is_some();
+            let tangent = tangent.unwrap_or(Vec3::ZERO);
+            for c in 0..3 {
+                lanes.tangent[c][i] = tangent[c];
+            }
         }
     }
 }
@@ -1866,7 +1908,8 @@ fn pick_per_lane(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
         }
         let geom = load_or(rays.geom_id.as_slice(), start, INVALID_ID);
         for k in 0..(n - start).min(W) {
-            if geom[k] == INVALID_ID {
+            // A delta BSDF (a smooth dielectric) takes no light sample.
+            if geom[k] == INVALID_ID || kernel.smooth_dielectric.covers(geom[k] as usize) {
                 continue;
             }
             (lanes.light[start + k], lanes.light_pmf[start + k]) =
@@ -1939,6 +1982,10 @@ struct LaneIn {
     /// (`smooth`).
     ns: Vec3,
     smooth: bool,
+    /// The first tangent, where the lane's material is anisotropic
+    /// (`anisotropic`).
+    tangent: Vec3,
+    anisotropic: bool,
     beta: Vec3,
     eta_scale: f32,
     /// The path's draws so far and its fixed stream.
@@ -2016,7 +2063,13 @@ fn shade_lane<
     } else {
         n
     };
-    let frame = Frame::from_normal(shading_n);
+    // An anisotropic surface's frame follows its tangent (as the general
+    // integrator's `SurfaceHit::frame`).
+    let frame = if B::MAY_BE_ANISOTROPIC && l.anisotropic {
+        Frame::from_normal_tangent(shading_n, l.tangent)
+    } else {
+        Frame::from_normal(shading_n)
+    };
     let wo_local = frame.to_local(wo);
     let eps = ray_epsilon(p);
     // Reflected rays leave on the side of `n`; a transmissive BSDF's leave
@@ -2048,6 +2101,133 @@ fn shade_lane<
     let lobe = PathSampler::step_f32(&mut rng, l.stream);
     let direction = PathSampler::step_2d(&mut rng, l.stream);
 
+    // Next-event estimation (a delta BSDF takes no light sample).
+    let shadow = if B::DELTA {
+        LightSampleOut {
+            shadow: false,
+            org: p,
+            dir: Vec3::Z,
+            tfar: f32::NEG_INFINITY,
+            pending: Vec3::ZERO,
+        }
+    } else {
+        light_sample_lane::<B, TRIANGLES, CONES, ENV>(
+            &l,
+            &bsdf,
+            LaneFrame {
+                p,
+                wo,
+                ng,
+                n,
+                frame,
+                wo_local,
+                smooth,
+                eps,
+            },
+            light_point,
+        )
+    };
+
+    let (sampled, local, pdf, factor) = bsdf.sample(wo_local, lobe, direction);
+    // A delta lobe's density is recorded as 0 (no MIS for what it finds).
+    let pdf = if B::DELTA { 0.0 } else { pdf };
+    let next_dir = frame.to_world(local);
+    // Where the guard rejects the direction, the path ends.
+    let sampled = sampled && (!smooth || sides_agree(wo, next_dir, ng, wo_local, local));
+    let mut beta = l.beta * factor;
+    // The path's η² of its refractions, this one's included (as the
+    // general integrator keeps it, only for a sampled direction).
+    let eta_scale = if B::TRANSMITS && sampled {
+        l.eta_scale * bsdf.eta_scale(wo_local, local)
+    } else {
+        l.eta_scale
+    };
+
+    // Russian roulette draws a number only where it spins: drawn from a
+    // copy of the state, kept where it spins.
+    let rr_beta = beta * eta_scale;
+    let spin = roulette_spins(rr_beta, u.roulette);
+    let mut rng_rr = rng;
+    let (survives, beta_rr) = roulette(beta, rr_beta, PathSampler::step_f32(&mut rng_rr, l.stream));
+    if spin {
+        rng = rng_rr;
+        beta = beta_rr;
+    }
+    let survived = !spin || survives;
+    let alive = l.hit && u.continue_paths && sampled && survived && beta != Vec3::ZERO;
+    LaneOut {
+        alive,
+        next_org: origin_for(next_dir),
+        next_dir,
+        shadow: shadow.shadow,
+        shadow_org: shadow.org,
+        shadow_dir: shadow.dir,
+        shadow_tfar: shadow.tfar,
+        pending: shadow.pending,
+        beta,
+        pdf,
+        point: p,
+        rng,
+        eta_scale,
+    }
+}
+
+/// A lane's light sample: the shadow ray to trace (`shadow`: whether to
+/// trace one) and the radiance it adds if unoccluded.
+#[derive(Clone, Copy)]
+struct LightSampleOut {
+    shadow: bool,
+    org: Vec3,
+    dir: Vec3,
+    tfar: f32,
+    pending: Vec3,
+}
+
+/// Where a lane scatters, as [`shade_lane`] computed it: the point, the
+/// outgoing direction, the (unit) geometric normal, the side's normal `n`,
+/// the shading frame, `wo` in it, whether the shading normal bends the
+/// frame (`smooth`) and the ray offset.
+#[derive(Clone, Copy)]
+struct LaneFrame {
+    p: Vec3,
+    wo: Vec3,
+    ng: Vec3,
+    n: Vec3,
+    frame: Frame,
+    wo_local: Vec3,
+    smooth: bool,
+    eps: f32,
+}
+
+/// The light sample of [`shade_lane`] (not for a delta BSDF): the picked
+/// light's sample at the two numbers `light_point`, the BSDF's value and
+/// density there, the MIS weight and the shadow ray, as the general
+/// integrator's `scatter` computes them.
+#[inline(always)]
+fn light_sample_lane<B: LaneBsdf, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
+    l: &LaneIn,
+    bsdf: &B,
+    at: LaneFrame,
+    light_point: Vec2,
+) -> LightSampleOut {
+    let LaneFrame {
+        p,
+        wo,
+        ng,
+        n,
+        frame,
+        wo_local,
+        smooth,
+        eps,
+    } = at;
+    let light = l.light;
+    let origin_for = |dir: Vec3| {
+        if B::TRANSMITS {
+            spawn_origin(p, n, eps, dir)
+        } else {
+            p + n * eps
+        }
+    };
     // Every kind's sample, computed for every lane and selected (the
     // triangle's only where the scene has emitting triangles, the
     // environment's, taken by `sample_environment`, where it has one).
@@ -2092,56 +2272,12 @@ fn shade_lane<
     };
     let shadow_org = origin_for(ls.wi);
     let (shadow_dir, shadow_tfar) = shadow_segment(shadow_org, p, ls.wi, ls.dist);
-    let shadow =
-        !B::DELTA && l.hit && light.picked && valid && f != Vec3::ZERO && shadow_tfar > 0.0;
-    // (For a delta BSDF, none of the light sample's work above is used.)
-    let pending = if B::DELTA {
-        Vec3::ZERO
-    } else {
-        l.beta * f * ls.radiance * (weight / light_pdf)
-    };
-
-    let (sampled, local, pdf, factor) = bsdf.sample(wo_local, lobe, direction);
-    // A delta lobe's density is recorded as 0 (no MIS for what it finds).
-    let pdf = if B::DELTA { 0.0 } else { pdf };
-    let next_dir = frame.to_world(local);
-    // Where the guard rejects the direction, the path ends.
-    let sampled = sampled && (!smooth || sides_agree(wo, next_dir, ng, wo_local, local));
-    let mut beta = l.beta * factor;
-    // The path's η² of its refractions, this one's included (as the
-    // general integrator keeps it, only for a sampled direction).
-    let eta_scale = if B::TRANSMITS && sampled {
-        l.eta_scale * bsdf.eta_scale(wo_local, local)
-    } else {
-        l.eta_scale
-    };
-
-    // Russian roulette draws a number only where it spins: drawn from a
-    // copy of the state, kept where it spins.
-    let rr_beta = beta * eta_scale;
-    let spin = roulette_spins(rr_beta, u.roulette);
-    let mut rng_rr = rng;
-    let (survives, beta_rr) = roulette(beta, rr_beta, PathSampler::step_f32(&mut rng_rr, l.stream));
-    if spin {
-        rng = rng_rr;
-        beta = beta_rr;
-    }
-    let survived = !spin || survives;
-    let alive = l.hit && u.continue_paths && sampled && survived && beta != Vec3::ZERO;
-    LaneOut {
-        alive,
-        next_org: origin_for(next_dir),
-        next_dir,
-        shadow,
-        shadow_org,
-        shadow_dir,
-        shadow_tfar,
-        pending,
-        beta,
-        pdf,
-        point: p,
-        rng,
-        eta_scale,
+    LightSampleOut {
+        shadow: l.hit && light.picked && valid && f != Vec3::ZERO && shadow_tfar > 0.0,
+        org: shadow_org,
+        dir: shadow_dir,
+        tfar: shadow_tfar,
+        pending: l.beta * f * ls.radiance * (weight / light_pdf),
     }
 }
 
@@ -2421,6 +2557,14 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
             }
         }
 
+        let (mut tangent, mut tangent_valid) = ([[0.0f32; W]; 3], [false; W]);
+        if kernel.any_anisotropic {
+            tangent_valid = load(&lanes.tangent_valid, start);
+            for c in 0..3 {
+                tangent[c] = load(&lanes.tangent[c], start);
+            }
+        }
+
         let mut next = [[0.0f32; W]; 6];
         let mut next_tfar = [f32::NEG_INFINITY; W];
         let mut shadow_ray = [[0.0f32; W]; 6];
@@ -2454,6 +2598,8 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
             hit: geom[k] != INVALID_ID,
             ns: Vec3::new(ns[0][k], ns[1][k], ns[2][k]),
             smooth: ns_valid[k],
+            tangent: Vec3::new(tangent[0][k], tangent[1][k], tangent[2][k]),
+            anisotropic: tangent_valid[k],
             beta: Vec3::new(br[k], bg[k], bb[k]),
             eta_scale: eta_scale_in[k],
             rng: rng_in[k],
@@ -2512,47 +2658,50 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
                 put(k, l.hit, out);
             }
         }
-        // Rough Cook–Torrance surfaces (one loop per Fresnel kind),
-        // principled surfaces, Blinn–Phong surfaces, rough and smooth
-        // dielectrics:
-        // the same loop with their BSDF, its results kept
-        // for their lanes only.
-        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+        // Every other kind the kernel knows (rough Cook–Torrance surfaces,
+        // one loop per Fresnel term and distribution, principled surfaces,
+        // Blinn–Phong surfaces, rough and smooth dielectrics): the same
+        // loop with their BSDF, its results kept for their lanes only.
+        // Their loops are compiled once for scenes with and without cones
+        // and vertex normals (`CONES` = `TRIANGLES`, `SMOOTH` = true: the
+        // lanes' own flags select the same results), which keeps the
+        // kernel's compile time in bounds; Lambert's keeps every variant.
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.conductor,
             &geom,
             &lane_in,
             &mut put,
             u,
         );
-        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.schlick,
             &geom,
             &lane_in,
             &mut put,
             u,
         );
-        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.coated,
             &geom,
             &lane_in,
             &mut put,
             u,
         );
-        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.conductor_beckmann,
             &geom,
             &lane_in,
             &mut put,
             u,
         );
-        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.schlick_beckmann,
             &geom,
             &lane_in,
             &mut put,
             u,
         );
-        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.coated_beckmann,
             &geom,
             &lane_in,
@@ -2567,7 +2716,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
                 principled[k].map(|p| PrincipledLane(p, colour))
             });
             let idle = PrincipledLane(PrincipledIn::IDLE, Vec3::splat(0.5));
-            shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+            shade_kind::<_, TRIANGLES, TRIANGLES, ENV, true>(
                 &principled,
                 idle,
                 &lane_in,
@@ -2575,28 +2724,28 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
                 u,
             );
         }
-        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.blinn_phong,
             &geom,
             &lane_in,
             &mut put,
             u,
         );
-        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.dielectric,
             &geom,
             &lane_in,
             &mut put,
             u,
         );
-        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.dielectric_beckmann,
             &geom,
             &lane_in,
             &mut put,
             u,
         );
-        shade_table::<_, TRIANGLES, CONES, ENV, SMOOTH>(
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.smooth_dielectric,
             &geom,
             &lane_in,
