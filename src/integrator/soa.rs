@@ -2039,6 +2039,7 @@ fn shade_lane<
     const CONES: bool,
     const ENV: bool,
     const SMOOTH: bool,
+    const ANISO: bool,
 >(
     l: LaneIn,
     bsdf: B,
@@ -2064,8 +2065,9 @@ fn shade_lane<
         n
     };
     // An anisotropic surface's frame follows its tangent (as the general
-    // integrator's `SurfaceHit::frame`).
-    let frame = if B::MAY_BE_ANISOTROPIC && l.anisotropic {
+    // integrator's `SurfaceHit::frame`); `ANISO`: whether any lane of the
+    // chunk has one (otherwise the tangent frame is not even computed).
+    let frame = if ANISO && B::MAY_BE_ANISOTROPIC && l.anisotropic {
         Frame::from_normal_tangent(shading_n, l.tangent)
     } else {
         Frame::from_normal(shading_n)
@@ -2398,6 +2400,7 @@ fn shade_kind<
 >(
     bsdfs: &[Option<B>; W],
     idle: B,
+    aniso: bool,
     lane_in: &impl Fn(usize) -> LaneIn,
     put: &mut impl FnMut(usize, bool, LaneOut),
     u: Uniform,
@@ -2405,9 +2408,37 @@ fn shade_kind<
     if bsdfs.iter().all(Option::is_none) {
         return;
     }
+    // A chunk with an anisotropic lane (rare) takes the loop compiled for
+    // every light kind and vertex normals (the lanes' own flags select the
+    // same results), so that it adds one variant per kind to compile.
+    if B::MAY_BE_ANISOTROPIC && aniso {
+        shade_kind_lanes::<B, true, true, true, true, true>(bsdfs, idle, lane_in, put, u)
+    } else {
+        shade_kind_lanes::<B, TRIANGLES, CONES, ENV, SMOOTH, false>(bsdfs, idle, lane_in, put, u)
+    }
+}
+
+/// The loop of [`shade_kind`], for chunks with (`ANISO`) or without an
+/// anisotropic lane.
+#[inline(always)]
+fn shade_kind_lanes<
+    B: LaneBsdf,
+    const TRIANGLES: bool,
+    const CONES: bool,
+    const ENV: bool,
+    const SMOOTH: bool,
+    const ANISO: bool,
+>(
+    bsdfs: &[Option<B>; W],
+    idle: B,
+    lane_in: &impl Fn(usize) -> LaneIn,
+    put: &mut impl FnMut(usize, bool, LaneOut),
+    u: Uniform,
+) {
     for k in 0..W {
         let l = lane_in(k);
-        let out = shade_lane::<B, TRIANGLES, CONES, ENV, SMOOTH>(l, bsdfs[k].unwrap_or(idle), u);
+        let out =
+            shade_lane::<B, TRIANGLES, CONES, ENV, SMOOTH, ANISO>(l, bsdfs[k].unwrap_or(idle), u);
         if bsdfs[k].is_some() {
             put(k, l.hit, out);
         }
@@ -2426,6 +2457,7 @@ fn shade_table<
 >(
     table: &KindTable<B>,
     geom: &[u32; W],
+    aniso: bool,
     lane_in: &impl Fn(usize) -> LaneIn,
     put: &mut impl FnMut(usize, bool, LaneOut),
     u: Uniform,
@@ -2434,6 +2466,7 @@ fn shade_table<
         shade_kind::<B, TRIANGLES, CONES, ENV, SMOOTH>(
             &table.chunk(geom),
             B::IDLE,
+            aniso,
             lane_in,
             put,
             u,
@@ -2564,6 +2597,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
                 tangent[c] = load(&lanes.tangent[c], start);
             }
         }
+        let aniso = tangent_valid.contains(&true);
 
         let mut next = [[0.0f32; W]; 6];
         let mut next_tfar = [f32::NEG_INFINITY; W];
@@ -2654,7 +2688,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
             for k in 0..W {
                 let l = lane_in(k);
                 let bsdf = LambertLane(Vec3::new(ar[k], ag[k], ab[k]));
-                let out = shade_lane::<_, TRIANGLES, CONES, ENV, SMOOTH>(l, bsdf, u);
+                let out = shade_lane::<_, TRIANGLES, CONES, ENV, SMOOTH, false>(l, bsdf, u);
                 put(k, l.hit, out);
             }
         }
@@ -2669,6 +2703,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
         shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.conductor,
             &geom,
+            aniso,
             &lane_in,
             &mut put,
             u,
@@ -2676,6 +2711,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
         shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.schlick,
             &geom,
+            aniso,
             &lane_in,
             &mut put,
             u,
@@ -2683,6 +2719,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
         shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.coated,
             &geom,
+            aniso,
             &lane_in,
             &mut put,
             u,
@@ -2690,6 +2727,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
         shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.conductor_beckmann,
             &geom,
+            aniso,
             &lane_in,
             &mut put,
             u,
@@ -2697,6 +2735,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
         shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.schlick_beckmann,
             &geom,
+            aniso,
             &lane_in,
             &mut put,
             u,
@@ -2704,6 +2743,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
         shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.coated_beckmann,
             &geom,
+            aniso,
             &lane_in,
             &mut put,
             u,
@@ -2719,6 +2759,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
             shade_kind::<_, TRIANGLES, TRIANGLES, ENV, true>(
                 &principled,
                 idle,
+                aniso,
                 &lane_in,
                 &mut put,
                 u,
@@ -2727,6 +2768,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
         shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.blinn_phong,
             &geom,
+            aniso,
             &lane_in,
             &mut put,
             u,
@@ -2734,6 +2776,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
         shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.dielectric,
             &geom,
+            aniso,
             &lane_in,
             &mut put,
             u,
@@ -2741,6 +2784,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
         shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.dielectric_beckmann,
             &geom,
+            aniso,
             &lane_in,
             &mut put,
             u,
@@ -2748,6 +2792,7 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
         shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
             &kernel.smooth_dielectric,
             &geom,
+            aniso,
             &lane_in,
             &mut put,
             u,
