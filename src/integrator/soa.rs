@@ -93,24 +93,24 @@ pub struct SoaScene {
     lambert: Vec<bool>,
     /// Whether every geometry's is.
     all_lambert: bool,
-    /// Rough Cook–Torrance surfaces (isotropic GGX or Beckmann, untextured
-    /// roughness), one table per Fresnel term and distribution: each a
-    /// loop of its own.
+    /// Rough Cook–Torrance surfaces (GGX or Beckmann, isotropic or not,
+    /// untextured roughness), one table per Fresnel term and distribution:
+    /// each a loop of its own. Every table's entries are what the kind's
+    /// [`LaneKind::of`] takes of the geometry's material.
     conductor: KindTable<CookTorranceIn<ConductorTerm, Ggx>>,
     schlick: KindTable<CookTorranceIn<SchlickTerm, Ggx>>,
     coated: KindTable<CookTorranceIn<CoatingTerm, Ggx>>,
     conductor_beckmann: KindTable<CookTorranceIn<ConductorTerm, Beckmann>>,
     schlick_beckmann: KindTable<CookTorranceIn<SchlickTerm, Beckmann>>,
     coated_beckmann: KindTable<CookTorranceIn<CoatingTerm, Beckmann>>,
-    /// Principled surfaces in Mitsuba's mode (see [`PrincipledIn::of`]).
+    /// Principled surfaces in Mitsuba's mode ([`PrincipledIn`]).
     principled: KindTable<PrincipledIn>,
-    /// Rough dielectrics, isotropic GGX or Beckmann (see
-    /// [`DielectricIn::of`]).
+    /// Rough dielectrics, GGX or Beckmann ([`DielectricIn`]).
     dielectric: KindTable<DielectricIn<Ggx>>,
     dielectric_beckmann: KindTable<DielectricIn<Beckmann>>,
     /// Smooth dielectrics (see [`SmoothDielectricIn`]).
     smooth_dielectric: KindTable<SmoothDielectricIn>,
-    /// Blinn–Phong surfaces without a colour map (see [`BlinnPhongIn::of`]).
+    /// Blinn–Phong surfaces without a colour map ([`BlinnPhongIn`]).
     blinn_phong: KindTable<BlinnPhongIn>,
     /// Whether each geometry's material transmits light (its normal layer
     /// records the geometric normal), with one extra `false`.
