@@ -80,15 +80,20 @@ BINDIR ?= $(PREFIX)/bin
 INCLUDEDIR ?= $(PREFIX)/include
 DESTDIR ?=
 CARGO_TARGET_DIR ?= target
+# The cargo profile `make install` builds and installs (release; the C ABI's
+# tests install their cheaper capi-test build); its folder under
+# CARGO_TARGET_DIR is cargo's (debug for dev).
+CARGO_PROFILE ?= release
+PROFILE_DIR := $(if $(filter dev test,$(CARGO_PROFILE)),debug,$(CARGO_PROFILE))
 VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' Cargo.toml | head -1)
 # The oldest version whose C ABI this one keeps (0.2.0 last changed a struct,
 # plsr_principled); find_package(plsr X.Y) accepts requests from it up to VERSION.
 ABI_SINCE := 0.2.0
 INSTALL_ENV = PREFIX="$(PREFIX)" LIBDIR="$(LIBDIR)" BINDIR="$(BINDIR)" INCLUDEDIR="$(INCLUDEDIR)" \
 	DESTDIR="$(DESTDIR)" VERSION="$(VERSION)" ABI_SINCE="$(ABI_SINCE)" \
-	TARGET="$(CARGO_TARGET_DIR)/release"
+	TARGET="$(CARGO_TARGET_DIR)/$(PROFILE_DIR)"
 install: deps
-	CARGO_TARGET_DIR=$(CARGO_TARGET_DIR) $(CARGO) build --release -p plsr --lib --bin plsr
+	CARGO_TARGET_DIR=$(CARGO_TARGET_DIR) $(CARGO) build --profile $(CARGO_PROFILE) -p plsr --lib --bin plsr
 	$(INSTALL_ENV) bash scripts/install.sh install
 
 uninstall:

@@ -8,9 +8,10 @@
 //!   README's minimal host is built both ways, shared and static, against
 //!   an installed prefix), and `make uninstall` removes it again.
 //!
-//! The shared library is built once, by a nested `cargo build --release
-//! --lib` into `target/capi` (a separate target directory, since the outer
-//! cargo holds the lock on `target`).
+//! The shared library is built once, by a nested `cargo build --profile
+//! capi-test --lib` into `target/capi` (a separate target directory, since
+//! the outer cargo holds the lock on `target`; the profile is the tests'
+//! optimisation with line tables, without the release profile's LTO).
 
 use glam::Vec3;
 use plsr::capi::*;
@@ -23,6 +24,9 @@ fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// The cargo profile the library is built with (Cargo.toml).
+const PROFILE: &str = "capi-test";
+
 fn capi_target() -> PathBuf {
     root().join("target").join("capi")
 }
@@ -33,13 +37,13 @@ fn library() -> &'static Path {
     LIB.get_or_init(|| {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         let status = Command::new(cargo)
-            .args(["build", "--release", "--lib", "--target-dir"])
+            .args(["build", "--profile", PROFILE, "--lib", "--target-dir"])
             .arg(capi_target())
             .current_dir(root())
             .status()
             .expect("run cargo");
         assert!(status.success(), "building libplsr failed");
-        let dir = capi_target().join("release");
+        let dir = capi_target().join(PROFILE);
         assert!(dir.join("libplsr.so").is_file() && dir.join("libplsr.a").is_file());
         // Cargo writes libplsr.so alone, but a host linked against it asks
         // for its soname (build.rs), which `make install` links to the
@@ -340,13 +344,14 @@ fn require(tool: &str, package: &str) {
 /// Runs `make TARGET VAR=VALUE…` in the repository, reusing the library
 /// built by `library()`.
 fn make(target: &str, vars: &[(&str, &Path)]) {
-    library(); // builds target/capi/release, which `make install` reuses
+    library(); // builds target/capi/capi-test, which `make install` reuses
     let mut cmd = Command::new("make");
     cmd.arg("-C").arg(root()).arg(target);
     for (name, value) in vars {
         cmd.arg(format!("{name}={}", value.display()));
     }
     cmd.arg(format!("CARGO_TARGET_DIR={}", capi_target().display()));
+    cmd.arg(format!("CARGO_PROFILE={PROFILE}"));
     run(&mut cmd);
 }
 
