@@ -1448,7 +1448,7 @@ pub fn trace_pass(
         }
     }
     let _ = isa;
-    trace_pass_body(pass, lanes, pixels, stats)
+    trace_pass_body::<BASELINE>(pass, lanes, pixels, stats)
 }
 
 /// [`trace_pass_body`] compiled for AVX-512 (16 lanes per instruction).
@@ -1460,7 +1460,7 @@ unsafe fn trace_pass_avx512(
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
 ) {
-    trace_pass_body(pass, lanes, pixels, stats)
+    trace_pass_body::<AVX512>(pass, lanes, pixels, stats)
 }
 
 /// [`trace_pass_body`] compiled for AVX2 (8 lanes per instruction). `fma`
@@ -1473,12 +1473,24 @@ unsafe fn trace_pass_avx2(
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
 ) {
-    trace_pass_body(pass, lanes, pixels, stats)
+    trace_pass_body::<AVX2>(pass, lanes, pixels, stats)
 }
 
-/// One tile pass; inlined into each instruction-set variant of [`trace_pass`].
+/// The instruction set a pass is compiled for, as a const parameter
+/// (`ISA`) threaded down to the kinds' loops: those are not inlined
+/// (`shade_kind_lanes`), and a function that is not inlined does not
+/// inherit its caller's target features, so each is compiled for the
+/// instruction set this names.
+const BASELINE: u8 = 0;
+/// AVX2 with FMA ([`trace_pass_avx2`]).
+const AVX2: u8 = 1;
+/// AVX-512 ([`trace_pass_avx512`]).
+const AVX512: u8 = 2;
+
+/// One tile pass; inlined into each instruction-set variant of [`trace_pass`]
+/// (`ISA` names it).
 #[inline(always)]
-fn trace_pass_body(
+fn trace_pass_body<const ISA: u8>(
     pass: &Pass,
     lanes: &mut SoaLanes,
     pixels: &mut [PixelSums],
@@ -1532,7 +1544,7 @@ fn trace_pass_body(
             roulette: depth + 1 >= pass.job.rr_depth,
         };
         pick_lights(kernel, scene, lanes);
-        shade_lanes(kernel, lanes, uniform);
+        shade_lanes::<ISA>(kernel, lanes, uniform);
 
         let shadow_tfar = lanes.shadow.tfar.as_slice();
         stats.shadow += shadow_tfar.iter().filter(|&&t| t > 0.0).count() as u64;
@@ -2548,6 +2560,7 @@ impl ChunkOut {
 /// results are discarded. A chunk with no such lane is skipped.
 #[inline(always)]
 fn shade_kind<
+    const ISA: u8,
     B: LaneBsdf,
     const TRIANGLES: bool,
     const CONES: bool,
@@ -2568,19 +2581,125 @@ fn shade_kind<
     // same results), so that it adds one variant per kind to compile.
     let aniso = input.tangent_valid.contains(&true);
     if B::MAY_BE_ANISOTROPIC && aniso {
-        shade_kind_lanes::<B, true, true, true, true, true>(bsdfs, idle, input, out, u)
+        shade_kind_lanes::<ISA, B, true, true, true, true, true>(bsdfs, idle, input, out, u)
     } else {
-        shade_kind_lanes::<B, TRIANGLES, CONES, ENV, SMOOTH, false>(bsdfs, idle, input, out, u)
+        shade_kind_lanes::<ISA, B, TRIANGLES, CONES, ENV, SMOOTH, false>(bsdfs, idle, input, out, u)
     }
 }
 
 /// The loop of [`shade_kind`], for chunks with (`ANISO`) or without an
-/// anisotropic lane. Not inlined: each kind and variant is compiled once
-/// (not once per variant of [`shade_chunks`] that calls it), which keeps
-/// the kernel's compile time in bounds; it reads its lanes from `input` and
+/// anisotropic lane, compiled for the instruction set `ISA` names. Not
+/// inlined: each kind and variant is compiled once per instruction set (not
+/// once per variant of [`shade_chunks`] that calls it), which keeps the
+/// kernel's compile time in bounds; it reads its lanes from `input` and
 /// writes to `out`, which cannot alias, so its loop still vectorises.
-#[inline(never)]
+#[inline(always)]
 fn shade_kind_lanes<
+    const ISA: u8,
+    B: LaneBsdf,
+    const TRIANGLES: bool,
+    const CONES: bool,
+    const ENV: bool,
+    const SMOOTH: bool,
+    const ANISO: bool,
+>(
+    bsdfs: &[Option<B>; W],
+    idle: B,
+    input: &ChunkIn,
+    out: &mut ChunkOut,
+    u: Uniform,
+) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if ISA == AVX512 {
+            // SAFETY: `ISA` is AVX512 only below `trace_pass_avx512`, which
+            // `trace_pass` calls only where the CPU has its features (the
+            // same as this loop's).
+            return unsafe {
+                kind_loop_avx512::<B, TRIANGLES, CONES, ENV, SMOOTH, ANISO>(
+                    bsdfs, idle, input, out, u,
+                )
+            };
+        }
+        if ISA == AVX2 {
+            // SAFETY: `ISA` is AVX2 only below `trace_pass_avx2`, which
+            // `trace_pass` calls only where the CPU has its features (the
+            // same as this loop's).
+            return unsafe {
+                kind_loop_avx2::<B, TRIANGLES, CONES, ENV, SMOOTH, ANISO>(
+                    bsdfs, idle, input, out, u,
+                )
+            };
+        }
+    }
+    kind_loop_baseline::<B, TRIANGLES, CONES, ENV, SMOOTH, ANISO>(bsdfs, idle, input, out, u)
+}
+
+/// [`kind_loop`] compiled for AVX-512.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512dq,avx512vl,avx512bw,avx2,fma")]
+#[inline(never)]
+unsafe fn kind_loop_avx512<
+    B: LaneBsdf,
+    const TRIANGLES: bool,
+    const CONES: bool,
+    const ENV: bool,
+    const SMOOTH: bool,
+    const ANISO: bool,
+>(
+    bsdfs: &[Option<B>; W],
+    idle: B,
+    input: &ChunkIn,
+    out: &mut ChunkOut,
+    u: Uniform,
+) {
+    kind_loop::<B, TRIANGLES, CONES, ENV, SMOOTH, ANISO>(bsdfs, idle, input, out, u)
+}
+
+/// [`kind_loop`] compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+unsafe fn kind_loop_avx2<
+    B: LaneBsdf,
+    const TRIANGLES: bool,
+    const CONES: bool,
+    const ENV: bool,
+    const SMOOTH: bool,
+    const ANISO: bool,
+>(
+    bsdfs: &[Option<B>; W],
+    idle: B,
+    input: &ChunkIn,
+    out: &mut ChunkOut,
+    u: Uniform,
+) {
+    kind_loop::<B, TRIANGLES, CONES, ENV, SMOOTH, ANISO>(bsdfs, idle, input, out, u)
+}
+
+/// [`kind_loop`] compiled for the baseline instruction set.
+#[inline(never)]
+fn kind_loop_baseline<
+    B: LaneBsdf,
+    const TRIANGLES: bool,
+    const CONES: bool,
+    const ENV: bool,
+    const SMOOTH: bool,
+    const ANISO: bool,
+>(
+    bsdfs: &[Option<B>; W],
+    idle: B,
+    input: &ChunkIn,
+    out: &mut ChunkOut,
+    u: Uniform,
+) {
+    kind_loop::<B, TRIANGLES, CONES, ENV, SMOOTH, ANISO>(bsdfs, idle, input, out, u)
+}
+
+/// The loop of [`shade_kind_lanes`]: every lane of the chunk through
+/// [`shade_lane`], the results of those of kind `B` put into `out`.
+#[inline(always)]
+fn kind_loop<
     B: LaneBsdf,
     const TRIANGLES: bool,
     const CONES: bool,
@@ -2611,7 +2730,7 @@ fn shade_kind_lanes<
 /// normals (`CONES` = `TRIANGLES`, `SMOOTH` = true: the lanes' own flags
 /// select the same results), which keeps the compile time in bounds.
 #[inline(always)]
-fn shade_table<B: LaneKind + LaneBsdf, const TRIANGLES: bool, const ENV: bool>(
+fn shade_table<const ISA: u8, B: LaneKind + LaneBsdf, const TRIANGLES: bool, const ENV: bool>(
     table: &KindTable<B>,
     maps: Option<&ChunkMaps>,
     input: &ChunkIn,
@@ -2619,7 +2738,7 @@ fn shade_table<B: LaneKind + LaneBsdf, const TRIANGLES: bool, const ENV: bool>(
     u: Uniform,
 ) {
     if table.any {
-        shade_kind::<B, TRIANGLES, TRIANGLES, ENV, true>(
+        shade_kind::<ISA, B, TRIANGLES, TRIANGLES, ENV, true>(
             &table.chunk(&input.geom, maps),
             B::IDLE,
             input,
@@ -2634,7 +2753,7 @@ fn shade_table<B: LaneKind + LaneBsdf, const TRIANGLES: bool, const ENV: bool>(
 /// chunk's idle lanes take the parameters of its first principled lane (in
 /// the energy-conserving mode, [`LaneKind::IDLE`] has no albedo table).
 #[inline(always)]
-fn shade_principled<const EC: bool, const TRIANGLES: bool, const ENV: bool>(
+fn shade_principled<const ISA: u8, const EC: bool, const TRIANGLES: bool, const ENV: bool>(
     table: &KindTable<PrincipledIn<EC>>,
     maps: Option<&ChunkMaps>,
     colour: &[[f32; W]; 3],
@@ -2653,7 +2772,7 @@ fn shade_principled<const EC: bool, const TRIANGLES: bool, const ENV: bool>(
     let Some(idle) = lanes.iter().flatten().next().copied() else {
         return;
     };
-    shade_kind::<_, TRIANGLES, TRIANGLES, ENV, true>(&lanes, idle, input, out, u);
+    shade_kind::<ISA, _, TRIANGLES, TRIANGLES, ENV, true>(&lanes, idle, input, out, u);
 }
 
 /// One bounce of every lane: reads the hits in `lanes.rays`, writes the
@@ -2662,28 +2781,32 @@ fn shade_principled<const EC: bool, const TRIANGLES: bool, const ENV: bool>(
 /// [`ChunkIn`], one loop per material kind, each writing its lanes' results
 /// into a [`ChunkOut`] that is then copied back.
 #[inline(always)]
-fn shade_lanes(kernel: &SoaScene, lanes: &mut SoaLanes, u: Uniform) {
+fn shade_lanes<const ISA: u8>(kernel: &SoaScene, lanes: &mut SoaLanes, u: Uniform) {
     if kernel.any_smooth {
-        shade_lanes_with::<true>(kernel, lanes, u)
+        shade_lanes_with::<ISA, true>(kernel, lanes, u)
     } else {
-        shade_lanes_with::<false>(kernel, lanes, u)
+        shade_lanes_with::<ISA, false>(kernel, lanes, u)
     }
 }
 
 /// [`shade_lanes`] for scenes with (`SMOOTH`) or without vertex normals.
 #[inline(always)]
-fn shade_lanes_with<const SMOOTH: bool>(kernel: &SoaScene, lanes: &mut SoaLanes, u: Uniform) {
+fn shade_lanes_with<const ISA: u8, const SMOOTH: bool>(
+    kernel: &SoaScene,
+    lanes: &mut SoaLanes,
+    u: Uniform,
+) {
     match (
         kernel.triangle_lights,
         kernel.cones,
         kernel.environment.is_some(),
     ) {
-        (true, true, true) => shade_chunks::<true, true, true, SMOOTH>(kernel, lanes, u),
-        (true, true, false) => shade_chunks::<true, true, false, SMOOTH>(kernel, lanes, u),
-        (true, false, true) => shade_chunks::<true, false, true, SMOOTH>(kernel, lanes, u),
-        (true, false, false) => shade_chunks::<true, false, false, SMOOTH>(kernel, lanes, u),
-        (false, _, true) => shade_chunks::<false, false, true, SMOOTH>(kernel, lanes, u),
-        (false, _, false) => shade_chunks::<false, false, false, SMOOTH>(kernel, lanes, u),
+        (true, true, true) => shade_chunks::<ISA, true, true, true, SMOOTH>(kernel, lanes, u),
+        (true, true, false) => shade_chunks::<ISA, true, true, false, SMOOTH>(kernel, lanes, u),
+        (true, false, true) => shade_chunks::<ISA, true, false, true, SMOOTH>(kernel, lanes, u),
+        (true, false, false) => shade_chunks::<ISA, true, false, false, SMOOTH>(kernel, lanes, u),
+        (false, _, true) => shade_chunks::<ISA, false, false, true, SMOOTH>(kernel, lanes, u),
+        (false, _, false) => shade_chunks::<ISA, false, false, false, SMOOTH>(kernel, lanes, u),
     }
 }
 
@@ -2692,7 +2815,13 @@ fn shade_lanes_with<const SMOOTH: bool>(kernel: &SoaScene, lanes: &mut SoaLanes,
 /// (`ENV`) or without an environment, and with (`SMOOTH`) or without
 /// vertex normals.
 #[inline(always)]
-fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const SMOOTH: bool>(
+fn shade_chunks<
+    const ISA: u8,
+    const TRIANGLES: bool,
+    const CONES: bool,
+    const ENV: bool,
+    const SMOOTH: bool,
+>(
     kernel: &SoaScene,
     lanes: &mut SoaLanes,
     u: Uniform,
@@ -2807,31 +2936,29 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
         let lambert =
             kernel.all_lambert || (0..W).any(|k| kernel.lambert[(geom[k] as usize).min(last)]);
         if lambert {
-            let bsdfs = std::array::from_fn(|k| {
-                Some(LambertLane(Vec3::new(
-                    colour[0][k],
-                    colour[1][k],
-                    colour[2][k],
-                )))
-            });
-            let idle = LambertLane(Vec3::ZERO);
-            shade_kind_lanes::<_, TRIANGLES, CONES, ENV, SMOOTH, false>(
-                &bsdfs, idle, &input, &mut out, u,
-            );
+            // Built lane by lane from the colour arrays inside the loop (as
+            // an array of `Option<LambertLane>` read by a loop of its own,
+            // this loop did not vectorise).
+            for k in 0..W {
+                let l = input.lane(k);
+                let bsdf = LambertLane(Vec3::new(colour[0][k], colour[1][k], colour[2][k]));
+                let o = shade_lane::<_, TRIANGLES, CONES, ENV, SMOOTH, false>(l, bsdf, u);
+                out.put(k, l.hit, o, TRIANGLES || ENV);
+            }
         }
         // Every other kind (rough Cook–Torrance surfaces, one loop per
         // Fresnel term and distribution, principled surfaces in either
         // mode, Blinn–Phong surfaces, rough and smooth dielectrics): the
         // same loop with their BSDF, its results kept for their lanes only.
         let (i, o) = (&input, &mut out);
-        shade_table::<_, TRIANGLES, ENV>(&kernel.conductor, maps, i, o, u);
-        shade_table::<_, TRIANGLES, ENV>(&kernel.schlick, maps, i, o, u);
-        shade_table::<_, TRIANGLES, ENV>(&kernel.coated, maps, i, o, u);
-        shade_table::<_, TRIANGLES, ENV>(&kernel.conductor_beckmann, maps, i, o, u);
-        shade_table::<_, TRIANGLES, ENV>(&kernel.schlick_beckmann, maps, i, o, u);
-        shade_table::<_, TRIANGLES, ENV>(&kernel.coated_beckmann, maps, i, o, u);
-        shade_principled::<false, TRIANGLES, ENV>(&kernel.principled, maps, &colour, i, o, u);
-        shade_principled::<true, TRIANGLES, ENV>(
+        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.conductor, maps, i, o, u);
+        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.schlick, maps, i, o, u);
+        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.coated, maps, i, o, u);
+        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.conductor_beckmann, maps, i, o, u);
+        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.schlick_beckmann, maps, i, o, u);
+        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.coated_beckmann, maps, i, o, u);
+        shade_principled::<ISA, false, TRIANGLES, ENV>(&kernel.principled, maps, &colour, i, o, u);
+        shade_principled::<ISA, true, TRIANGLES, ENV>(
             &kernel.principled_conserving,
             maps,
             &colour,
@@ -2839,10 +2966,10 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
             o,
             u,
         );
-        shade_table::<_, TRIANGLES, ENV>(&kernel.blinn_phong, maps, i, o, u);
-        shade_table::<_, TRIANGLES, ENV>(&kernel.dielectric, maps, i, o, u);
-        shade_table::<_, TRIANGLES, ENV>(&kernel.dielectric_beckmann, maps, i, o, u);
-        shade_table::<_, TRIANGLES, ENV>(&kernel.smooth_dielectric, maps, i, o, u);
+        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.blinn_phong, maps, i, o, u);
+        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.dielectric, maps, i, o, u);
+        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.dielectric_beckmann, maps, i, o, u);
+        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.smooth_dielectric, maps, i, o, u);
 
         store(&mut lanes.rng_dim, start, &out.rng);
         store(&mut lanes.eta_scale, start, &out.eta_scale);
