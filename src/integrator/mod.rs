@@ -892,8 +892,9 @@ struct Scattered {
 /// `pick(p, u)`, a point on it by `sample(light, p, u)`, MIS-weighted),
 /// then BSDF sampling of the next direction and Russian roulette, drawing
 /// from `rng` and updating the path's throughput `beta` and `η²` product
-/// `eta_scale`. The vectorised kernel's `shade_lane` computes the same, in
-/// the same order with the same numbers (its images are bit-identical).
+/// `eta_scale`. Both integrators call it (the vectorised kernel for the
+/// lanes whose material it does not vectorise), so they trace the same
+/// paths.
 #[inline]
 fn scatter(
     at: &SurfaceHit,

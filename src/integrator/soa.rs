@@ -1,14 +1,11 @@
 //! The vectorised wavefront that renders every scene. Lambert surfaces
 //! (their colour textured or not, with or without vertex normals), rough
 //! Cook–Torrance surfaces (GGX or Beckmann, isotropic or not, with a
-//! conductor's, Schlick's or a dielectric coating's Fresnel term, roughness
-//! mapped or not), principled surfaces (Mitsuba's mode or the
-//! energy-conserving one; base colour, roughness and metallic mapped or
-//! not), Blinn–Phong surfaces (colour
-//! mapped or not), rough dielectrics (GGX or Beckmann) and smooth
-//! dielectrics, each kind in a loop of its own with its BSDF
-//! ([`LaneBsdf`]; a map's values looked up per lane, [`mapped_params`]),
-//! are shaded
+//! conductor's, Schlick's or a dielectric coating's Fresnel term),
+//! principled surfaces (Mitsuba's mode; the base colour may be textured),
+//! Blinn–Phong surfaces without a colour map, rough dielectrics (GGX or
+//! Beckmann) and smooth dielectrics, each kind in a loop of its own with
+//! its BSDF ([`LaneBsdf`]), are shaded
 //! in a branch-free loop over structure-of-arrays lanes, lit by point
 //! lights, emissive meshes (area lights), parametric lights (emitting
 //! triangles with a cone, picked only where their cone reaches) and an
@@ -16,10 +13,13 @@
 //! samples and the lookups of rays that leave the scene are taken for all
 //! lanes at once, with the batched lookups the general integrator uses);
 //! virtual objects (compositing) included: the job's ray mask on every
-//! ray, and their coverage counted in the matte. Every scattering model
-//! plsr has is shaded here; a model added to [`Bsdf`] needs a kind of its
-//! own (`SoaScene::new` checks in debug builds, and the bit-identity tests
-//! fail without one).
+//! ray, and their coverage counted in the matte. Lanes whose material is
+//! another model (colour-mapped Blinn–Phong, energy-conserving principled,
+//! roughness or metallic maps)
+//! scatter one by one through the general integrator's own code
+//! ([`scatter`]) inside the same wavefront, after the vectorised loop, with
+//! the light the kernel picked for them and the environment sample it took;
+//! their rays still go to Embree in the lanes' streams.
 //!
 //! It computes what the general integrator ([`super::render_tile`])
 //! computes, in the same floating-point operations in the same order, with
@@ -45,11 +45,11 @@
 
 use super::spawn::{ray_epsilon, shadow_segment, spawn_origin};
 use super::{
-    camera_sample, emission_weight, environment_weight, roulette, roulette_spins,
-    shading_normal_towards, sides_agree, PixelSums, PrevVertex, RayStats, Tile,
+    camera_sample, emission_weight, environment_weight, roulette, roulette_spins, scatter,
+    shading_normal_towards, sides_agree, Bounce, PixelSums, PrevVertex, RayStats, Scattered,
+    SurfaceHit, Tile,
 };
-use crate::accel::{gather_lanes, RayBatch, INVALID_ID};
-use crate::bsdf::albedo::DielectricAlbedo;
+use crate::accel::{gather_lanes, Hit, Ray, RayBatch, INVALID_ID};
 use crate::bsdf::{
     lambert_eval, lambert_pdf, lambert_sample, BlinnPhongParams, Bsdf, BsdfSample,
     CookTorranceParams, DielectricParams, Distribution, Fresnel, Microfacet, PrincipledParams,
@@ -78,17 +78,23 @@ pub struct SoaScene {
     /// Whether each geometry's material is textured (then `albedo` holds
     /// its colour where the texture gives none), with one extra `false`.
     textured: Vec<bool>,
-    /// Whether any geometry's is (then each lane's albedo and the BSDF
-    /// parameters its maps give are looked up by `lane_surfaces` into
-    /// `SoaLanes::albedo` and `SoaLanes::mapped`).
+    /// Whether any geometry's is (then each lane's albedo is looked up by
+    /// `lane_surfaces` into `SoaLanes::albedo`).
     any_textured: bool,
+    /// Whether each geometry's material is one the kernel does not shade in
+    /// its vectorised loops (neither Lambert nor in one of the kinds'
+    /// tables below): such lanes scatter through the general integrator's
+    /// [`scatter`], with one extra `false`.
+    general: Vec<bool>,
+    /// Whether any geometry's is.
+    any_general: bool,
     /// Whether each geometry's material is Lambert (shaded in the first
     /// vectorised loop), with one extra `false`.
     lambert: Vec<bool>,
     /// Whether every geometry's is.
     all_lambert: bool,
     /// Rough Cook–Torrance surfaces (GGX or Beckmann, isotropic or not,
-    /// roughness-mapped or not), one table per Fresnel term and distribution:
+    /// untextured roughness), one table per Fresnel term and distribution:
     /// each a loop of its own. Every table's entries are what the kind's
     /// [`LaneKind::of`] takes of the geometry's material.
     conductor: KindTable<CookTorranceIn<ConductorTerm, Ggx>>,
@@ -97,16 +103,14 @@ pub struct SoaScene {
     conductor_beckmann: KindTable<CookTorranceIn<ConductorTerm, Beckmann>>,
     schlick_beckmann: KindTable<CookTorranceIn<SchlickTerm, Beckmann>>,
     coated_beckmann: KindTable<CookTorranceIn<CoatingTerm, Beckmann>>,
-    /// Principled surfaces in Mitsuba's mode and in the energy-conserving
-    /// one, mapped or not ([`PrincipledIn`]).
-    principled: KindTable<PrincipledIn<false>>,
-    principled_conserving: KindTable<PrincipledIn<true>>,
+    /// Principled surfaces in Mitsuba's mode ([`PrincipledIn`]).
+    principled: KindTable<PrincipledIn>,
     /// Rough dielectrics, GGX or Beckmann ([`DielectricIn`]).
     dielectric: KindTable<DielectricIn<Ggx>>,
     dielectric_beckmann: KindTable<DielectricIn<Beckmann>>,
     /// Smooth dielectrics (see [`SmoothDielectricIn`]).
     smooth_dielectric: KindTable<SmoothDielectricIn>,
-    /// Blinn–Phong surfaces, colour-mapped or not ([`BlinnPhongIn`]).
+    /// Blinn–Phong surfaces without a colour map ([`BlinnPhongIn`]).
     blinn_phong: KindTable<BlinnPhongIn>,
     /// Whether each geometry's material transmits light (its normal layer
     /// records the geometric normal), with one extra `false`.
@@ -152,6 +156,7 @@ impl SoaScene {
         let mut albedo = [Vec::new(), Vec::new(), Vec::new()];
         let mut emissive = Vec::new();
         let mut textured = Vec::new();
+        let mut general = Vec::new();
         let mut transmits = Vec::new();
         let mut smooth = Vec::new();
         let mut anisotropic = Vec::new();
@@ -163,7 +168,6 @@ impl SoaScene {
         let schlick_beckmann = KindTable::new(scene);
         let coated_beckmann = KindTable::new(scene);
         let principled = KindTable::new(scene);
-        let principled_conserving = KindTable::new(scene);
         let dielectric = KindTable::new(scene);
         let dielectric_beckmann = KindTable::new(scene);
         let smooth_dielectric = KindTable::new(scene);
@@ -191,16 +195,13 @@ impl SoaScene {
                 || schlick_beckmann.covers(g)
                 || coated_beckmann.covers(g)
                 || principled.covers(g)
-                || principled_conserving.covers(g)
                 || dielectric.covers(g)
                 || dielectric_beckmann.covers(g)
                 || smooth_dielectric.covers(g)
                 || blinn_phong.covers(g);
-            // Every model has a loop of its own (a lane of a material no
-            // kind takes would get no result: the path would end black).
-            debug_assert!(vectorised, "no kernel kind for {:?}", material.bsdf);
+            general.push(!vectorised);
             transmits.push(material.bsdf.transmits());
-            anisotropic.push(material.is_anisotropic());
+            anisotropic.push(material.bsdf.is_anisotropic());
             emissive.push(scene.light_index(g as u32, 0).is_some());
             textured.push(!material.textures.is_empty());
         }
@@ -209,6 +210,7 @@ impl SoaScene {
         }
         emissive.push(false);
         textured.push(false);
+        general.push(false);
         let all_lambert = lambert.iter().all(|&l| l);
         lambert.push(false);
         transmits.push(false);
@@ -234,6 +236,8 @@ impl SoaScene {
             emissive,
             any_textured: textured.contains(&true),
             textured,
+            any_general: general.contains(&true),
+            general,
             conductor,
             schlick,
             coated,
@@ -241,7 +245,6 @@ impl SoaScene {
             schlick_beckmann,
             coated_beckmann,
             principled,
-            principled_conserving,
             dielectric,
             dielectric_beckmann,
             smooth_dielectric,
@@ -271,33 +274,8 @@ trait LaneKind: Copy {
     /// run through the loop with these, and their results are discarded.
     const IDLE: Self;
     /// The material's parameters where the kernel shades it in this kind's
-    /// loop (with its constant values where a map replaces one).
+    /// loop.
     fn of(material: &crate::material::Material) -> Option<Self>;
-    /// These parameters with those a lane's maps give at its hit, as
-    /// [`mapped_params`] packs them from the material's
-    /// [`crate::material::Material::bsdf_at`] there (unchanged for a kind
-    /// no map changes).
-    #[inline(always)]
-    fn with_maps(self, _mapped: [f32; 3]) -> Self {
-        self
-    }
-}
-
-/// The BSDF parameters a textured material's maps give at a hit, packed for
-/// [`LaneKind::with_maps`] from the material's
-/// [`crate::material::Material::bsdf_at`] there: a Cook–Torrance surface's
-/// `[α_x, α_y, 0]`, a principled surface's `[roughness, metallic, 0]`, a
-/// Blinn–Phong surface's diffuse colour (linear RGB); zeros for the models
-/// no map changes (a base colour map of Lambert or principled surfaces is
-/// the lane's albedo instead).
-#[inline]
-fn mapped_params(bsdf: &Bsdf) -> [f32; 3] {
-    match bsdf {
-        Bsdf::CookTorrance(p) => [p.microfacet.alpha_x, p.microfacet.alpha_y, 0.0],
-        Bsdf::Principled(p) => [p.roughness, p.metallic, 0.0],
-        Bsdf::BlinnPhong(p) => p.diffuse.to_array(),
-        Bsdf::Diffuse(_) | Bsdf::Dielectric(_) => [0.0; 3],
-    }
 }
 
 /// Each geometry's material of kind `K` (by Embree id) where it is one,
@@ -328,37 +306,11 @@ impl<K: LaneKind> KindTable<K> {
     }
 
     /// The parameters of a chunk's lanes, by their geometry ids
-    /// ([`INVALID_ID`] for no hit), with those their maps give where
-    /// `maps` has them.
+    /// ([`INVALID_ID`] for no hit).
     #[inline(always)]
-    fn chunk(&self, geom: &[u32; W], maps: Option<&ChunkMaps>) -> [Option<K>; W] {
+    fn chunk(&self, geom: &[u32; W]) -> [Option<K>; W] {
         let last = self.by_geometry.len() - 1;
-        let mut chunk = std::array::from_fn(|k| self.by_geometry[(geom[k] as usize).min(last)]);
-        if let Some(maps) = maps {
-            for (k, lane) in chunk.iter_mut().enumerate() {
-                if maps.mapped[k] {
-                    *lane = lane.map(|p| p.with_maps(maps.lane(k)));
-                }
-            }
-        }
-        chunk
-    }
-}
-
-/// The BSDF parameters a chunk's lanes take from their materials' maps
-/// (`SoaLanes::mapped`), loaded only in scenes with textured materials.
-struct ChunkMaps {
-    /// Whether the lane's material is textured (else its values are unused).
-    mapped: [bool; W],
-    /// The lanes' [`mapped_params`], one array per component.
-    values: [[f32; W]; 3],
-}
-
-impl ChunkMaps {
-    /// Lane `k`'s [`mapped_params`].
-    #[inline(always)]
-    fn lane(&self, k: usize) -> [f32; 3] {
-        [self.values[0][k], self.values[1][k], self.values[2][k]]
+        std::array::from_fn(|k| self.by_geometry[(geom[k] as usize).min(last)])
     }
 }
 
@@ -498,15 +450,15 @@ impl<F: LaneFresnel, D: LaneDistribution> LaneKind for CookTorranceIn<F, D> {
         distribution: PhantomData,
     };
 
-    /// A distribution of kind `D` (isotropic or not) and a Fresnel term of
-    /// kind `F` (a roughness map replaces α at each lane: `with_maps`; its
-    /// other textures do not change the BSDF).
+    /// A distribution of kind `D` (isotropic or not), a Fresnel term of
+    /// kind `F` and an untextured roughness (its other textures do not
+    /// change the BSDF).
     fn of(material: &crate::material::Material) -> Option<CookTorranceIn<F, D>> {
         let Bsdf::CookTorrance(p) = material.bsdf else {
             return None;
         };
         let m = p.microfacet;
-        if m.kind != D::KIND {
+        if m.kind != D::KIND || material.textures.roughness.is_some() {
             return None;
         }
         F::of(p.fresnel).map(|fresnel| CookTorranceIn {
@@ -515,16 +467,6 @@ impl<F: LaneFresnel, D: LaneDistribution> LaneKind for CookTorranceIn<F, D> {
             fresnel,
             distribution: PhantomData,
         })
-    }
-
-    /// α from a roughness map ([`mapped_params`]: `[α_x, α_y, 0]`).
-    #[inline(always)]
-    fn with_maps(self, mapped: [f32; 3]) -> CookTorranceIn<F, D> {
-        CookTorranceIn {
-            alpha_x: mapped[0],
-            alpha_y: mapped[1],
-            ..self
-        }
     }
 }
 
@@ -634,10 +576,9 @@ impl<F: LaneFresnel, D: LaneDistribution> LaneBsdf for CookTorranceIn<F, D> {
 
 /// A principled surface's parameters as a lane takes them (its base colour
 /// is the lane's albedo, looked up as a Lambert surface's colour is): the
-/// principled BSDF in Mitsuba's mode or (`EC`) the energy-conserving one,
-/// isotropic or not.
-#[derive(Debug, Clone, Copy)]
-struct PrincipledIn<const EC: bool> {
+/// principled BSDF in Mitsuba's mode, isotropic or not.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PrincipledIn {
     /// Metallic blend in [0, 1].
     metallic: f32,
     /// Roughness in [0, 1].
@@ -648,57 +589,41 @@ struct PrincipledIn<const EC: bool> {
     spec_tint: f32,
     /// Anisotropy in [0, 1].
     anisotropic: f32,
-    /// The energy-conserving mode's dielectric albedo table for `specular`
-    /// (looked up once, not at every evaluation); `None` in Mitsuba's mode
-    /// and in [`LaneKind::IDLE`] (a chunk's idle lanes take one of its
-    /// real lanes' parameters instead, see `shade_principled`).
-    table: Option<&'static DielectricAlbedo>,
 }
 
-impl<const EC: bool> LaneKind for PrincipledIn<EC> {
-    const IDLE: PrincipledIn<EC> = PrincipledIn {
+impl LaneKind for PrincipledIn {
+    const IDLE: PrincipledIn = PrincipledIn {
         metallic: 0.0,
         roughness: 0.5,
         specular: 0.5,
         spec_tint: 0.0,
         anisotropic: 0.0,
-        table: None,
     };
 
-    /// Principled in the mode `EC` says; roughness and metallic maps
-    /// replace those at each lane (`with_maps`), a base colour map is the
-    /// lane's albedo.
-    fn of(material: &crate::material::Material) -> Option<PrincipledIn<EC>> {
+    /// Principled in Mitsuba's mode (not energy-conserving), its roughness
+    /// and metallic not textured (a base colour map is: it is the lane's
+    /// albedo).
+    fn of(material: &crate::material::Material) -> Option<PrincipledIn> {
         let Bsdf::Principled(p) = material.bsdf else {
             return None;
         };
-        (p.energy_conserving == EC).then(|| PrincipledIn {
+        let t = &material.textures;
+        let plain = !p.energy_conserving;
+        (plain && t.roughness.is_none() && t.metallic.is_none()).then_some(PrincipledIn {
             metallic: p.metallic,
             roughness: p.roughness,
             specular: p.specular,
             spec_tint: p.spec_tint,
             anisotropic: p.anisotropic,
-            table: EC.then(|| DielectricAlbedo::for_specular(p.specular)),
         })
-    }
-
-    /// Roughness and metallic from their maps ([`mapped_params`]:
-    /// `[roughness, metallic, 0]`).
-    #[inline(always)]
-    fn with_maps(self, mapped: [f32; 3]) -> PrincipledIn<EC> {
-        PrincipledIn {
-            roughness: mapped[0],
-            metallic: mapped[1],
-            ..self
-        }
     }
 }
 
 /// A principled lane: its parameters and base colour.
 #[derive(Clone, Copy)]
-struct PrincipledLane<const EC: bool>(PrincipledIn<EC>, Vec3);
+struct PrincipledLane(PrincipledIn, Vec3);
 
-impl<const EC: bool> PrincipledLane<EC> {
+impl PrincipledLane {
     /// The parameters exactly as the general integrator holds them (the
     /// mode known to the compiler, so the lane loop has no branch on it).
     #[inline(always)]
@@ -711,16 +636,16 @@ impl<const EC: bool> PrincipledLane<EC> {
             anisotropic: p.anisotropic,
             specular: p.specular,
             spec_tint: p.spec_tint,
-            energy_conserving: EC,
+            energy_conserving: false,
         }
     }
 }
 
-impl<const EC: bool> LaneBsdf for PrincipledLane<EC> {
+impl LaneBsdf for PrincipledLane {
     const MAY_BE_ANISOTROPIC: bool = true;
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        self.params().eval_with_table(self.0.table, wo, wi)
+        self.params().eval(wo, wi)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -728,11 +653,11 @@ impl<const EC: bool> LaneBsdf for PrincipledLane<EC> {
     }
     #[inline(always)]
     fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        self.params().eval_pdf_with_table(self.0.table, wo, wi)
+        self.params().eval_pdf(wo, wi)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
-        lane_sample(self.params().sample_with_table(self.0.table, wo, uc, u))
+        lane_sample(self.params().sample(wo, uc, u))
     }
 }
 
@@ -885,22 +810,16 @@ impl LaneKind for BlinnPhongIn {
         exponent: 1.0,
     });
 
-    /// Blinn–Phong (a colour map replaces the diffuse colour at each lane:
-    /// `with_maps`; no other texture changes its BSDF).
+    /// Blinn–Phong without a colour map (no other texture changes its BSDF).
     fn of(material: &crate::material::Material) -> Option<BlinnPhongIn> {
-        match material.bsdf {
-            Bsdf::BlinnPhong(p) => Some(BlinnPhongIn(p)),
-            _ => None,
-        }
-    }
-
-    /// The diffuse colour from a colour map ([`mapped_params`]: linear RGB).
-    #[inline(always)]
-    fn with_maps(self, mapped: [f32; 3]) -> BlinnPhongIn {
-        BlinnPhongIn(BlinnPhongParams {
-            diffuse: Vec3::from_array(mapped),
-            ..self.0
-        })
+        let Bsdf::BlinnPhong(p) = material.bsdf else {
+            return None;
+        };
+        material
+            .textures
+            .base_color
+            .is_none()
+            .then_some(BlinnPhongIn(p))
     }
 }
 
@@ -1189,9 +1108,9 @@ pub struct SoaLanes {
     eta_scale: Vec<f32>,
     /// Each lane's albedo at its hit, where a texture gives it.
     albedo: [Vec<f32>; 3],
-    /// Each lane's BSDF parameters that its material's maps give at its
-    /// hit ([`mapped_params`]), where its material is textured.
-    mapped: [Vec<f32>; 3],
+    /// Each lane's texture coordinates at its hit, where its material is
+    /// textured (for the lanes that [`scatter`]).
+    uv: [Vec<f32>; 2],
     /// Each lane's interpolated unit normal at its hit, where its mesh has
     /// vertex normals (`ns_valid`; zero elsewhere).
     ns: [Vec<f32>; 3],
@@ -1244,7 +1163,6 @@ impl SoaLanes {
             self.radiance[c].resize(n, 0.0);
             self.pending[c].resize(n, 0.0);
             self.albedo[c].resize(n, 0.0);
-            self.mapped[c].resize(n, 0.0);
             self.ns[c].resize(n, 0.0);
             self.tangent[c].resize(n, 0.0);
             self.prev_point[c].resize(n, 0.0);
@@ -1252,6 +1170,8 @@ impl SoaLanes {
         self.ns_valid.resize(n, false);
         self.tangent_valid.resize(n, false);
         self.eta_scale.resize(n, 1.0);
+        self.uv[0].resize(n, 0.0);
+        self.uv[1].resize(n, 0.0);
         self.prev_pdf.resize(n, 0.0);
         self.light.resize(n, 0);
         self.light_pmf.resize(n, 0.0);
@@ -1448,7 +1368,7 @@ pub fn trace_pass(
         }
     }
     let _ = isa;
-    trace_pass_body::<BASELINE>(pass, lanes, pixels, stats)
+    trace_pass_body(pass, lanes, pixels, stats)
 }
 
 /// [`trace_pass_body`] compiled for AVX-512 (16 lanes per instruction).
@@ -1460,7 +1380,7 @@ unsafe fn trace_pass_avx512(
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
 ) {
-    trace_pass_body::<AVX512>(pass, lanes, pixels, stats)
+    trace_pass_body(pass, lanes, pixels, stats)
 }
 
 /// [`trace_pass_body`] compiled for AVX2 (8 lanes per instruction). `fma`
@@ -1473,24 +1393,12 @@ unsafe fn trace_pass_avx2(
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
 ) {
-    trace_pass_body::<AVX2>(pass, lanes, pixels, stats)
+    trace_pass_body(pass, lanes, pixels, stats)
 }
 
-/// The instruction set a pass is compiled for, as a const parameter
-/// (`ISA`) threaded down to the kinds' loops: those are not inlined
-/// (`shade_kind_lanes`), and a function that is not inlined does not
-/// inherit its caller's target features, so each is compiled for the
-/// instruction set this names.
-const BASELINE: u8 = 0;
-/// AVX2 with FMA ([`trace_pass_avx2`]).
-const AVX2: u8 = 1;
-/// AVX-512 ([`trace_pass_avx512`]).
-const AVX512: u8 = 2;
-
-/// One tile pass; inlined into each instruction-set variant of [`trace_pass`]
-/// (`ISA` names it).
+/// One tile pass; inlined into each instruction-set variant of [`trace_pass`].
 #[inline(always)]
-fn trace_pass_body<const ISA: u8>(
+fn trace_pass_body(
     pass: &Pass,
     lanes: &mut SoaLanes,
     pixels: &mut [PixelSums],
@@ -1544,7 +1452,7 @@ fn trace_pass_body<const ISA: u8>(
             roulette: depth + 1 >= pass.job.rr_depth,
         };
         pick_lights(kernel, scene, lanes);
-        shade_lanes::<ISA>(kernel, lanes, uniform);
+        shade_lanes(kernel, scene, lanes, uniform);
 
         let shadow_tfar = lanes.shadow.tfar.as_slice();
         stats.shadow += shadow_tfar.iter().filter(|&&t| t > 0.0).count() as u64;
@@ -1643,8 +1551,7 @@ fn add_environment(scene: &Scene, lanes: &mut SoaLanes, env: usize, depth: u32) 
 /// What each lane's hit knows of its surface, looked up as the general
 /// integrator looks it up (`SurfacePoint::new`, `Material::bsdf_at`): its
 /// albedo into `lanes.albedo` (from the table for an untextured material,
-/// else the texture at the hit's texture coordinates), for a textured
-/// material the parameters its maps give into `lanes.mapped`, and, where its mesh
+/// else the texture at the hit's texture coordinates) and, where its mesh
 /// has vertex normals, the interpolated normal into `lanes.ns`. The
 /// triangles, then their vertices' attributes, are prefetched for all
 /// lanes first, so that the cache misses on large meshes overlap.
@@ -1679,23 +1586,20 @@ fn lane_surfaces(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
             kernel.albedo[1][g],
             kernel.albedo[2][g],
         );
-        let mut ns = None;
+        let (mut ns, mut uv) = (None, Vec2::ZERO);
         if kernel.textured[g] || kernel.smooth[g] {
             if let Some(hit) = lanes.rays.hit(i) {
                 let mesh = &meshes[g];
                 let material = &scene.materials()[mesh.material as usize];
                 let surface = super::SurfacePoint::new(mesh, &hit, material);
                 if kernel.textured[g] {
-                    let bsdf = material.bsdf_at(surface.uv);
-                    albedo = bsdf.albedo();
-                    let mapped = mapped_params(&bsdf);
-                    for c in 0..3 {
-                        lanes.mapped[c][i] = mapped[c];
-                    }
+                    albedo = material.bsdf_at(surface.uv).albedo();
                 }
-                ns = surface.normal;
+                (ns, uv) = (surface.normal, surface.uv);
             }
         }
+        lanes.uv[0][i] = uv.x;
+        lanes.uv[1][i] = uv.y;
         for c in 0..3 {
             lanes.albedo[c][i] = albedo[c];
         }
@@ -2379,6 +2283,57 @@ fn light_sample_lane<B: LaneBsdf, const TRIANGLES: bool, const CONES: bool, cons
     }
 }
 
+/// A lane that scatters through the general integrator's code
+/// ([`scatter_lane`]): its ray and hit, the surface attributes
+/// `lane_surfaces` looked up, the light `pick_lights` picked for it (light
+/// index and probability) and the environment's sample it took there.
+struct GeneralLane {
+    ray: Ray,
+    hit: Hit,
+    surface: super::SurfacePoint,
+    pick: Option<(usize, f32)>,
+    environment: Option<LightSample>,
+}
+
+/// One bounce of a lane whose material the vectorised loop does not shade:
+/// the general integrator's [`scatter`] with the lane's state, the light
+/// the kernel picked for it with the same numbers, and the environment
+/// sample it took (other lights sampled here, as the general integrator
+/// samples them). Returns what it decided and the hit point.
+#[inline(never)]
+fn scatter_lane(
+    kernel: &SoaScene,
+    scene: &Scene,
+    lane: GeneralLane,
+    rng: &mut PathSampler,
+    beta: &mut Vec3,
+    eta_scale: &mut f32,
+    u: Uniform,
+) -> (Scattered, Vec3) {
+    let at = SurfaceHit::new(scene, &lane.ray, &lane.hit, lane.surface);
+    let bounce = Bounce {
+        continue_path: u.continue_paths,
+        roulette: u.roulette,
+    };
+    let environment = kernel.environment;
+    let out = scatter(
+        &at,
+        rng,
+        beta,
+        eta_scale,
+        bounce,
+        |_, _| lane.pick,
+        |li, p, u| {
+            if Some(li) == environment {
+                lane.environment
+            } else {
+                scene.lights().lights[li].sample_li(p, u)
+            }
+        },
+    );
+    (out, at.p)
+}
+
 /// Lanes per chunk of [`shade_lanes`]: one AVX-512 register of `f32`.
 const W: usize = 16;
 
@@ -2431,136 +2386,12 @@ fn store<T: Copy>(dst: &mut [T], start: usize, src: &[T; W]) {
     dst[start..start + m].copy_from_slice(&src[..m]);
 }
 
-/// A chunk's lanes as the kinds' loops read them: the state of [`W`] lanes
-/// copied out of the lane arrays into arrays of their own, so that a loop
-/// over them (`shade_kind_lanes`, which takes them by shared reference and
-/// writes a [`ChunkOut`]) vectorises without run-time overlap checks.
-struct ChunkIn<'a> {
-    org: [[f32; W]; 3],
-    dir: [[f32; W]; 3],
-    /// Hit distances.
-    t: [f32; W],
-    /// Unnormalised geometric normals.
-    ng: [[f32; W]; 3],
-    /// Embree geometry ids ([`INVALID_ID`] for no hit).
-    geom: [u32; W],
-    /// Interpolated normals and whether each lane has one (scenes with
-    /// vertex normals only; zeros elsewhere).
-    ns: [[f32; W]; 3],
-    ns_valid: [bool; W],
-    /// First tangents and whether each lane has one (scenes with
-    /// anisotropic materials only).
-    tangent: [[f32; W]; 3],
-    tangent_valid: [bool; W],
-    beta: [[f32; W]; 3],
-    eta_scale: [f32; W],
-    rng: [u32; W],
-    stream: [SampleStream; W],
-    /// The lanes' picked lights.
-    lights: &'a LightChunk,
-    /// The lanes' environment samples (scenes with an environment only).
-    env_valid: [bool; W],
-    env_wi: [[f32; W]; 3],
-    env_radiance: [[f32; W]; 3],
-    env_pdf: [f32; W],
-}
-
-impl ChunkIn<'_> {
-    /// Lane `k`'s input to [`shade_lane`].
-    #[inline(always)]
-    fn lane(&self, k: usize) -> LaneIn {
-        let v = |a: &[[f32; W]; 3]| Vec3::new(a[0][k], a[1][k], a[2][k]);
-        LaneIn {
-            org: v(&self.org),
-            dir: v(&self.dir),
-            t: self.t[k],
-            ng: v(&self.ng),
-            hit: self.geom[k] != INVALID_ID,
-            ns: v(&self.ns),
-            smooth: self.ns_valid[k],
-            tangent: v(&self.tangent),
-            anisotropic: self.tangent_valid[k],
-            beta: v(&self.beta),
-            eta_scale: self.eta_scale[k],
-            rng: self.rng[k],
-            stream: self.stream[k],
-            light: self.lights.lane(k),
-            env_valid: self.env_valid[k],
-            env_wi: v(&self.env_wi),
-            env_radiance: v(&self.env_radiance),
-            env_pdf: self.env_pdf[k],
-        }
-    }
-}
-
-/// What a bounce gives a chunk's lanes, written back to the lane arrays
-/// after every kind's loop has put its lanes' results here.
-struct ChunkOut {
-    rng: [u32; W],
-    eta_scale: [f32; W],
-    beta: [[f32; W]; 3],
-    /// The BSDF sample's density and the point it left from (scenes with
-    /// emitting triangles or an environment only: emission found later
-    /// needs them for its MIS weight).
-    prev_pdf: [f32; W],
-    prev_point: [[f32; W]; 3],
-    /// Radiance each shadow ray adds if unoccluded.
-    pending: [[f32; W]; 3],
-    /// Shadow rays (origin, direction) and their extent (−∞: none).
-    shadow_ray: [[f32; W]; 6],
-    shadow_tfar: [f32; W],
-    /// Next rays (origin, direction) and their extent (+∞, or −∞: the path
-    /// has ended).
-    next: [[f32; W]; 6],
-    next_tfar: [f32; W],
-}
-
-impl ChunkOut {
-    /// Lane `k`'s results into the chunk's outputs (`mis`: whether the
-    /// scene needs the sample's density and point).
-    #[inline(always)]
-    fn put(&mut self, k: usize, hit: bool, out: LaneOut, mis: bool) {
-        // A lane without a hit keeps its state: its path has ended.
-        if hit {
-            self.rng[k] = out.rng;
-            self.eta_scale[k] = out.eta_scale;
-            for c in 0..3 {
-                self.beta[c][k] = out.beta[c];
-            }
-        }
-        if mis && hit {
-            self.prev_pdf[k] = out.pdf;
-            for c in 0..3 {
-                self.prev_point[c][k] = out.point[c];
-            }
-        }
-        for c in 0..3 {
-            self.pending[c][k] = out.pending[c];
-            self.shadow_ray[c][k] = out.shadow_org[c];
-            self.shadow_ray[3 + c][k] = out.shadow_dir[c];
-            self.next[c][k] = out.next_org[c];
-            self.next[3 + c][k] = out.next_dir[c];
-        }
-        self.shadow_tfar[k] = if out.shadow {
-            out.shadow_tfar
-        } else {
-            f32::NEG_INFINITY
-        };
-        self.next_tfar[k] = if out.alive {
-            f32::INFINITY
-        } else {
-            f32::NEG_INFINITY
-        };
-    }
-}
-
 /// One bounce of the lanes of a chunk whose material is of one kind `B`
 /// (`Some` in `bsdfs`), through [`shade_lane`]; the chunk's other lanes go
 /// through the same loop with `idle` (so that it has no branch) and their
 /// results are discarded. A chunk with no such lane is skipped.
 #[inline(always)]
 fn shade_kind<
-    const ISA: u8,
     B: LaneBsdf,
     const TRIANGLES: bool,
     const CONES: bool,
@@ -2569,8 +2400,9 @@ fn shade_kind<
 >(
     bsdfs: &[Option<B>; W],
     idle: B,
-    input: &ChunkIn,
-    out: &mut ChunkOut,
+    aniso: bool,
+    lane_in: &impl Fn(usize) -> LaneIn,
+    put: &mut impl FnMut(usize, bool, LaneOut),
     u: Uniform,
 ) {
     if bsdfs.iter().all(Option::is_none) {
@@ -2579,23 +2411,17 @@ fn shade_kind<
     // A chunk with an anisotropic lane (rare) takes the loop compiled for
     // every light kind and vertex normals (the lanes' own flags select the
     // same results), so that it adds one variant per kind to compile.
-    let aniso = input.tangent_valid.contains(&true);
     if B::MAY_BE_ANISOTROPIC && aniso {
-        shade_kind_lanes::<ISA, B, true, true, true, true, true>(bsdfs, idle, input, out, u)
+        shade_kind_lanes::<B, true, true, true, true, true>(bsdfs, idle, lane_in, put, u)
     } else {
-        shade_kind_lanes::<ISA, B, TRIANGLES, CONES, ENV, SMOOTH, false>(bsdfs, idle, input, out, u)
+        shade_kind_lanes::<B, TRIANGLES, CONES, ENV, SMOOTH, false>(bsdfs, idle, lane_in, put, u)
     }
 }
 
 /// The loop of [`shade_kind`], for chunks with (`ANISO`) or without an
-/// anisotropic lane, compiled for the instruction set `ISA` names. Not
-/// inlined: each kind and variant is compiled once per instruction set (not
-/// once per variant of [`shade_chunks`] that calls it), which keeps the
-/// kernel's compile time in bounds; it reads its lanes from `input` and
-/// writes to `out`, which cannot alias, so its loop still vectorises.
+/// anisotropic lane.
 #[inline(always)]
 fn shade_kind_lanes<
-    const ISA: u8,
     B: LaneBsdf,
     const TRIANGLES: bool,
     const CONES: bool,
@@ -2605,194 +2431,69 @@ fn shade_kind_lanes<
 >(
     bsdfs: &[Option<B>; W],
     idle: B,
-    input: &ChunkIn,
-    out: &mut ChunkOut,
-    u: Uniform,
-) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if ISA == AVX512 {
-            // SAFETY: `ISA` is AVX512 only below `trace_pass_avx512`, which
-            // `trace_pass` calls only where the CPU has its features (the
-            // same as this loop's).
-            return unsafe {
-                kind_loop_avx512::<B, TRIANGLES, CONES, ENV, SMOOTH, ANISO>(
-                    bsdfs, idle, input, out, u,
-                )
-            };
-        }
-        if ISA == AVX2 {
-            // SAFETY: `ISA` is AVX2 only below `trace_pass_avx2`, which
-            // `trace_pass` calls only where the CPU has its features (the
-            // same as this loop's).
-            return unsafe {
-                kind_loop_avx2::<B, TRIANGLES, CONES, ENV, SMOOTH, ANISO>(
-                    bsdfs, idle, input, out, u,
-                )
-            };
-        }
-    }
-    kind_loop_baseline::<B, TRIANGLES, CONES, ENV, SMOOTH, ANISO>(bsdfs, idle, input, out, u)
-}
-
-/// [`kind_loop`] compiled for AVX-512.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512dq,avx512vl,avx512bw,avx2,fma")]
-#[inline(never)]
-unsafe fn kind_loop_avx512<
-    B: LaneBsdf,
-    const TRIANGLES: bool,
-    const CONES: bool,
-    const ENV: bool,
-    const SMOOTH: bool,
-    const ANISO: bool,
->(
-    bsdfs: &[Option<B>; W],
-    idle: B,
-    input: &ChunkIn,
-    out: &mut ChunkOut,
-    u: Uniform,
-) {
-    kind_loop::<B, TRIANGLES, CONES, ENV, SMOOTH, ANISO>(bsdfs, idle, input, out, u)
-}
-
-/// [`kind_loop`] compiled for AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline(never)]
-unsafe fn kind_loop_avx2<
-    B: LaneBsdf,
-    const TRIANGLES: bool,
-    const CONES: bool,
-    const ENV: bool,
-    const SMOOTH: bool,
-    const ANISO: bool,
->(
-    bsdfs: &[Option<B>; W],
-    idle: B,
-    input: &ChunkIn,
-    out: &mut ChunkOut,
-    u: Uniform,
-) {
-    kind_loop::<B, TRIANGLES, CONES, ENV, SMOOTH, ANISO>(bsdfs, idle, input, out, u)
-}
-
-/// [`kind_loop`] compiled for the baseline instruction set.
-#[inline(never)]
-fn kind_loop_baseline<
-    B: LaneBsdf,
-    const TRIANGLES: bool,
-    const CONES: bool,
-    const ENV: bool,
-    const SMOOTH: bool,
-    const ANISO: bool,
->(
-    bsdfs: &[Option<B>; W],
-    idle: B,
-    input: &ChunkIn,
-    out: &mut ChunkOut,
-    u: Uniform,
-) {
-    kind_loop::<B, TRIANGLES, CONES, ENV, SMOOTH, ANISO>(bsdfs, idle, input, out, u)
-}
-
-/// The loop of [`shade_kind_lanes`]: every lane of the chunk through
-/// [`shade_lane`], the results of those of kind `B` put into `out`.
-#[inline(always)]
-fn kind_loop<
-    B: LaneBsdf,
-    const TRIANGLES: bool,
-    const CONES: bool,
-    const ENV: bool,
-    const SMOOTH: bool,
-    const ANISO: bool,
->(
-    bsdfs: &[Option<B>; W],
-    idle: B,
-    input: &ChunkIn,
-    out: &mut ChunkOut,
+    lane_in: &impl Fn(usize) -> LaneIn,
+    put: &mut impl FnMut(usize, bool, LaneOut),
     u: Uniform,
 ) {
     for k in 0..W {
-        let l = input.lane(k);
-        let o =
+        let l = lane_in(k);
+        let out =
             shade_lane::<B, TRIANGLES, CONES, ENV, SMOOTH, ANISO>(l, bsdfs[k].unwrap_or(idle), u);
         if bsdfs[k].is_some() {
-            out.put(k, l.hit, o, TRIANGLES || ENV);
+            put(k, l.hit, out);
         }
     }
 }
 
 /// [`shade_kind`] for the lanes of a chunk whose material is in `table`
-/// (by their geometry ids, with the parameters their maps give where `maps`
-/// has them); nothing where the scene has none. The kinds other than
-/// Lambert are compiled once for scenes with and without cones and vertex
-/// normals (`CONES` = `TRIANGLES`, `SMOOTH` = true: the lanes' own flags
-/// select the same results), which keeps the compile time in bounds.
+/// (by their geometry ids `geom`); nothing where the scene has none.
 #[inline(always)]
-fn shade_table<const ISA: u8, B: LaneKind + LaneBsdf, const TRIANGLES: bool, const ENV: bool>(
+fn shade_table<
+    B: LaneKind + LaneBsdf,
+    const TRIANGLES: bool,
+    const CONES: bool,
+    const ENV: bool,
+    const SMOOTH: bool,
+>(
     table: &KindTable<B>,
-    maps: Option<&ChunkMaps>,
-    input: &ChunkIn,
-    out: &mut ChunkOut,
+    geom: &[u32; W],
+    aniso: bool,
+    lane_in: &impl Fn(usize) -> LaneIn,
+    put: &mut impl FnMut(usize, bool, LaneOut),
     u: Uniform,
 ) {
     if table.any {
-        shade_kind::<ISA, B, TRIANGLES, TRIANGLES, ENV, true>(
-            &table.chunk(&input.geom, maps),
+        shade_kind::<B, TRIANGLES, CONES, ENV, SMOOTH>(
+            &table.chunk(geom),
             B::IDLE,
-            input,
-            out,
+            aniso,
+            lane_in,
+            put,
             u,
         );
     }
 }
 
-/// [`shade_table`] for principled surfaces in the mode `EC` says, whose base
-/// colour is each lane's albedo (`colour`, one array per channel). The
-/// chunk's idle lanes take the parameters of its first principled lane (in
-/// the energy-conserving mode, [`LaneKind::IDLE`] has no albedo table).
-#[inline(always)]
-fn shade_principled<const ISA: u8, const EC: bool, const TRIANGLES: bool, const ENV: bool>(
-    table: &KindTable<PrincipledIn<EC>>,
-    maps: Option<&ChunkMaps>,
-    colour: &[[f32; W]; 3],
-    input: &ChunkIn,
-    out: &mut ChunkOut,
-    u: Uniform,
-) {
-    if !table.any {
-        return;
-    }
-    let params = table.chunk(&input.geom, maps);
-    let lanes: [Option<PrincipledLane<EC>>; W] = std::array::from_fn(|k| {
-        let base_color = Vec3::new(colour[0][k], colour[1][k], colour[2][k]);
-        params[k].map(|p| PrincipledLane(p, base_color))
-    });
-    let Some(idle) = lanes.iter().flatten().next().copied() else {
-        return;
-    };
-    shade_kind::<ISA, _, TRIANGLES, TRIANGLES, ENV, true>(&lanes, idle, input, out, u);
-}
-
 /// One bounce of every lane: reads the hits in `lanes.rays`, writes the
-/// shadow rays to `lanes.shadow` and the next rays back to `lanes.rays`.
-/// Lanes go through [`shade_lane`] in chunks of [`W`] copied into a
-/// [`ChunkIn`], one loop per material kind, each writing its lanes' results
-/// into a [`ChunkOut`] that is then copied back.
+/// shadow rays to `lanes.shadow` and the next rays back to `lanes.rays`. Lanes
+/// go through [`shade_lane`] in chunks of [`W`] copied into local arrays:
+/// locals cannot alias each other, so the compiler vectorises the chunk's
+/// loop without run-time overlap checks, which it could not generate for
+/// some thirty lane arrays and a table lookup.
 #[inline(always)]
-fn shade_lanes<const ISA: u8>(kernel: &SoaScene, lanes: &mut SoaLanes, u: Uniform) {
+fn shade_lanes(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes, u: Uniform) {
     if kernel.any_smooth {
-        shade_lanes_with::<ISA, true>(kernel, lanes, u)
+        shade_lanes_with::<true>(kernel, scene, lanes, u)
     } else {
-        shade_lanes_with::<ISA, false>(kernel, lanes, u)
+        shade_lanes_with::<false>(kernel, scene, lanes, u)
     }
 }
 
 /// [`shade_lanes`] for scenes with (`SMOOTH`) or without vertex normals.
 #[inline(always)]
-fn shade_lanes_with<const ISA: u8, const SMOOTH: bool>(
+fn shade_lanes_with<const SMOOTH: bool>(
     kernel: &SoaScene,
+    scene: &Scene,
     lanes: &mut SoaLanes,
     u: Uniform,
 ) {
@@ -2801,12 +2502,12 @@ fn shade_lanes_with<const ISA: u8, const SMOOTH: bool>(
         kernel.cones,
         kernel.environment.is_some(),
     ) {
-        (true, true, true) => shade_chunks::<ISA, true, true, true, SMOOTH>(kernel, lanes, u),
-        (true, true, false) => shade_chunks::<ISA, true, true, false, SMOOTH>(kernel, lanes, u),
-        (true, false, true) => shade_chunks::<ISA, true, false, true, SMOOTH>(kernel, lanes, u),
-        (true, false, false) => shade_chunks::<ISA, true, false, false, SMOOTH>(kernel, lanes, u),
-        (false, _, true) => shade_chunks::<ISA, false, false, true, SMOOTH>(kernel, lanes, u),
-        (false, _, false) => shade_chunks::<ISA, false, false, false, SMOOTH>(kernel, lanes, u),
+        (true, true, true) => shade_chunks::<true, true, true, SMOOTH>(kernel, scene, lanes, u),
+        (true, true, false) => shade_chunks::<true, true, false, SMOOTH>(kernel, scene, lanes, u),
+        (true, false, true) => shade_chunks::<true, false, true, SMOOTH>(kernel, scene, lanes, u),
+        (true, false, false) => shade_chunks::<true, false, false, SMOOTH>(kernel, scene, lanes, u),
+        (false, _, true) => shade_chunks::<false, false, true, SMOOTH>(kernel, scene, lanes, u),
+        (false, _, false) => shade_chunks::<false, false, false, SMOOTH>(kernel, scene, lanes, u),
     }
 }
 
@@ -2815,35 +2516,58 @@ fn shade_lanes_with<const ISA: u8, const SMOOTH: bool>(
 /// (`ENV`) or without an environment, and with (`SMOOTH`) or without
 /// vertex normals.
 #[inline(always)]
-fn shade_chunks<
-    const ISA: u8,
-    const TRIANGLES: bool,
-    const CONES: bool,
-    const ENV: bool,
-    const SMOOTH: bool,
->(
+fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const SMOOTH: bool>(
     kernel: &SoaScene,
+    scene: &Scene,
     lanes: &mut SoaLanes,
     u: Uniform,
 ) {
     let n = lanes.rays.len();
     let last = kernel.albedo[0].len() - 1;
+    let rays = &mut lanes.rays;
+    let shadow = &mut lanes.shadow;
     // One light: the same for every lane, so no per-lane arrays.
     let single = kernel.single_light.map(LightChunk::splat);
     for start in (0..n).step_by(W) {
-        let rays = &lanes.rays;
+        let (ox, oy, oz) = (
+            load(rays.org_x.as_slice(), start),
+            load(rays.org_y.as_slice(), start),
+            load(rays.org_z.as_slice(), start),
+        );
+        let (dx, dy, dz) = (
+            load(rays.dir_x.as_slice(), start),
+            load(rays.dir_y.as_slice(), start),
+            load(rays.dir_z.as_slice(), start),
+        );
+        let t = load(rays.tfar.as_slice(), start);
+        let (nx, ny, nz) = (
+            load(rays.ng_x.as_slice(), start),
+            load(rays.ng_y.as_slice(), start),
+            load(rays.ng_z.as_slice(), start),
+        );
         let geom = load_or(rays.geom_id.as_slice(), start, INVALID_ID);
-        let mut colour = [[0.0f32; W]; 3];
+        let (mut ar, mut ag, mut ab) = ([0.0f32; W], [0.0f32; W], [0.0f32; W]);
         if kernel.any_textured {
-            colour = std::array::from_fn(|c| load(&lanes.albedo[c], start));
+            (ar, ag, ab) = (
+                load(&lanes.albedo[0], start),
+                load(&lanes.albedo[1], start),
+                load(&lanes.albedo[2], start),
+            );
         } else {
             for k in 0..W {
                 let g = (geom[k] as usize).min(last);
-                for c in 0..3 {
-                    colour[c][k] = kernel.albedo[c][g];
-                }
+                (ar[k], ag[k], ab[k]) = (
+                    kernel.albedo[0][g],
+                    kernel.albedo[1][g],
+                    kernel.albedo[2][g],
+                );
             }
         }
+        let (br, bg, bb) = (
+            load(&lanes.beta[0], start),
+            load(&lanes.beta[1], start),
+            load(&lanes.beta[2], start),
+        );
         let loaded;
         let lights = match &single {
             Some(chunk) => chunk,
@@ -2853,158 +2577,334 @@ fn shade_chunks<
                 &loaded
             }
         };
-        let mut input = ChunkIn {
-            org: [
-                load(rays.org_x.as_slice(), start),
-                load(rays.org_y.as_slice(), start),
-                load(rays.org_z.as_slice(), start),
-            ],
-            dir: [
-                load(rays.dir_x.as_slice(), start),
-                load(rays.dir_y.as_slice(), start),
-                load(rays.dir_z.as_slice(), start),
-            ],
-            t: load(rays.tfar.as_slice(), start),
-            ng: [
-                load(rays.ng_x.as_slice(), start),
-                load(rays.ng_y.as_slice(), start),
-                load(rays.ng_z.as_slice(), start),
-            ],
-            geom,
-            ns: [[0.0; W]; 3],
-            ns_valid: [false; W],
-            tangent: [[0.0; W]; 3],
-            tangent_valid: [false; W],
-            beta: std::array::from_fn(|c| load(&lanes.beta[c], start)),
-            eta_scale: load(&lanes.eta_scale, start),
-            rng: load(&lanes.rng_dim, start),
-            stream: load_streams(&lanes.rng_stream, start),
-            lights,
-            env_valid: [false; W],
-            env_wi: [[0.0; W]; 3],
-            env_radiance: [[0.0; W]; 3],
-            env_pdf: [0.0; W],
-        };
+        let rng_in = load(&lanes.rng_dim, start);
+        let mut rng = rng_in;
+        let stream = load_streams(&lanes.rng_stream, start);
+        let eta_scale_in = load(&lanes.eta_scale, start);
+        let mut eta_scale = eta_scale_in;
+        let (mut ns, mut ns_valid) = ([[0.0f32; W]; 3], [false; W]);
         if SMOOTH {
-            input.ns_valid = load(&lanes.ns_valid, start);
-            input.ns = std::array::from_fn(|c| load(&lanes.ns[c], start));
+            ns_valid = load(&lanes.ns_valid, start);
+            for c in 0..3 {
+                ns[c] = load(&lanes.ns[c], start);
+            }
         }
-        if kernel.any_anisotropic {
-            input.tangent_valid = load(&lanes.tangent_valid, start);
-            input.tangent = std::array::from_fn(|c| load(&lanes.tangent[c], start));
-        }
-        if ENV {
-            input.env_valid = load(&lanes.env_valid, start);
-            input.env_pdf = load(&lanes.env_pdf, start);
-            input.env_wi = std::array::from_fn(|c| load(&lanes.env_wi[c], start));
-            input.env_radiance = std::array::from_fn(|c| load(&lanes.env_radiance[c], start));
-        }
-        // Lanes no loop below puts (no hit) keep their state, and get no
-        // ray and no shadow ray.
-        let mut out = ChunkOut {
-            rng: input.rng,
-            eta_scale: input.eta_scale,
-            beta: input.beta,
-            prev_pdf: [0.0; W],
-            prev_point: [[0.0; W]; 3],
-            pending: [[0.0; W]; 3],
-            shadow_ray: [[0.0; W]; 6],
-            shadow_tfar: [f32::NEG_INFINITY; W],
-            next: [[0.0; W]; 6],
-            next_tfar: [f32::NEG_INFINITY; W],
-        };
-        if TRIANGLES || ENV {
-            out.prev_pdf = load(&lanes.prev_pdf, start);
-            out.prev_point = std::array::from_fn(|c| load(&lanes.prev_point[c], start));
-        }
-        // The parameters the lanes' maps give, in scenes with textures.
-        let chunk_maps;
-        let maps = if kernel.any_textured {
-            chunk_maps = ChunkMaps {
-                mapped: std::array::from_fn(|k| kernel.textured[(geom[k] as usize).min(last)]),
-                values: std::array::from_fn(|c| load(&lanes.mapped[c], start)),
-            };
-            Some(&chunk_maps)
-        } else {
-            None
-        };
 
-        // Lambert lanes (every lane of the chunk, when it has any: the
-        // other kinds' loops below overwrite their lanes' results), in the
-        // loop compiled for every combination of light kinds and vertex
-        // normals; a chunk without a Lambert lane skips it.
+        let (mut tangent, mut tangent_valid) = ([[0.0f32; W]; 3], [false; W]);
+        if kernel.any_anisotropic {
+            tangent_valid = load(&lanes.tangent_valid, start);
+            for c in 0..3 {
+                tangent[c] = load(&lanes.tangent[c], start);
+            }
+        }
+        let aniso = tangent_valid.contains(&true);
+
+        let mut next = [[0.0f32; W]; 6];
+        let mut next_tfar = [f32::NEG_INFINITY; W];
+        let mut shadow_ray = [[0.0f32; W]; 6];
+        let mut shadow_tfar = [f32::NEG_INFINITY; W];
+        let mut pending = [[0.0f32; W]; 3];
+        let mut beta = [br, bg, bb];
+        let (mut prev_pdf, mut prev_point) = ([0.0f32; W], [[0.0f32; W]; 3]);
+        let (mut env_valid, mut env_wi, mut env_radiance, mut env_pdf) =
+            ([false; W], [[0.0f32; W]; 3], [[0.0f32; W]; 3], [0.0f32; W]);
+        if ENV {
+            env_valid = load(&lanes.env_valid, start);
+            env_pdf = load(&lanes.env_pdf, start);
+            for c in 0..3 {
+                env_wi[c] = load(&lanes.env_wi[c], start);
+                env_radiance[c] = load(&lanes.env_radiance[c], start);
+            }
+        }
+        if TRIANGLES || ENV {
+            prev_pdf = load(&lanes.prev_pdf, start);
+            for c in 0..3 {
+                prev_point[c] = load(&lanes.prev_point[c], start);
+            }
+        }
+        // Each lane's input to `shade_lane` (the state loaded above, before
+        // any loop below changed it).
+        let lane_in = |k: usize| LaneIn {
+            org: Vec3::new(ox[k], oy[k], oz[k]),
+            dir: Vec3::new(dx[k], dy[k], dz[k]),
+            t: t[k],
+            ng: Vec3::new(nx[k], ny[k], nz[k]),
+            hit: geom[k] != INVALID_ID,
+            ns: Vec3::new(ns[0][k], ns[1][k], ns[2][k]),
+            smooth: ns_valid[k],
+            tangent: Vec3::new(tangent[0][k], tangent[1][k], tangent[2][k]),
+            anisotropic: tangent_valid[k],
+            beta: Vec3::new(br[k], bg[k], bb[k]),
+            eta_scale: eta_scale_in[k],
+            rng: rng_in[k],
+            stream: stream[k],
+            light: lights.lane(k),
+            env_valid: env_valid[k],
+            env_wi: Vec3::new(env_wi[0][k], env_wi[1][k], env_wi[2][k]),
+            env_radiance: Vec3::new(env_radiance[0][k], env_radiance[1][k], env_radiance[2][k]),
+            env_pdf: env_pdf[k],
+        };
+        // Lane `k`'s results into the chunk's outputs.
+        let mut put = |k: usize, hit: bool, out: LaneOut| {
+            // A lane without a hit keeps its state: its path has ended.
+            if hit {
+                rng[k] = out.rng;
+                eta_scale[k] = out.eta_scale;
+                for c in 0..3 {
+                    beta[c][k] = out.beta[c];
+                }
+            }
+            // Only emission found later needs them (for its MIS weight).
+            if (TRIANGLES || ENV) && hit {
+                prev_pdf[k] = out.pdf;
+                for c in 0..3 {
+                    prev_point[c][k] = out.point[c];
+                }
+            }
+            for c in 0..3 {
+                pending[c][k] = out.pending[c];
+                shadow_ray[c][k] = out.shadow_org[c];
+                shadow_ray[3 + c][k] = out.shadow_dir[c];
+                next[c][k] = out.next_org[c];
+                next[3 + c][k] = out.next_dir[c];
+            }
+            shadow_tfar[k] = if out.shadow {
+                out.shadow_tfar
+            } else {
+                f32::NEG_INFINITY
+            };
+            next_tfar[k] = if out.alive {
+                f32::INFINITY
+            } else {
+                f32::NEG_INFINITY
+            };
+        };
+        // Lanes of other materials get their results below; a chunk
+        // without a Lambert lane skips the loop (its lanes without a hit
+        // keep the initial values: no ray, no shadow ray, state unchanged).
         let lambert =
             kernel.all_lambert || (0..W).any(|k| kernel.lambert[(geom[k] as usize).min(last)]);
         if lambert {
-            // Built lane by lane from the colour arrays inside the loop (as
-            // an array of `Option<LambertLane>` read by a loop of its own,
-            // this loop did not vectorise).
             for k in 0..W {
-                let l = input.lane(k);
-                let bsdf = LambertLane(Vec3::new(colour[0][k], colour[1][k], colour[2][k]));
-                let o = shade_lane::<_, TRIANGLES, CONES, ENV, SMOOTH, false>(l, bsdf, u);
-                out.put(k, l.hit, o, TRIANGLES || ENV);
+                let l = lane_in(k);
+                let bsdf = LambertLane(Vec3::new(ar[k], ag[k], ab[k]));
+                let out = shade_lane::<_, TRIANGLES, CONES, ENV, SMOOTH, false>(l, bsdf, u);
+                put(k, l.hit, out);
             }
         }
-        // Every other kind (rough Cook–Torrance surfaces, one loop per
-        // Fresnel term and distribution, principled surfaces in either
-        // mode, Blinn–Phong surfaces, rough and smooth dielectrics): the
-        // same loop with their BSDF, its results kept for their lanes only.
-        let (i, o) = (&input, &mut out);
-        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.conductor, maps, i, o, u);
-        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.schlick, maps, i, o, u);
-        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.coated, maps, i, o, u);
-        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.conductor_beckmann, maps, i, o, u);
-        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.schlick_beckmann, maps, i, o, u);
-        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.coated_beckmann, maps, i, o, u);
-        shade_principled::<ISA, false, TRIANGLES, ENV>(&kernel.principled, maps, &colour, i, o, u);
-        shade_principled::<ISA, true, TRIANGLES, ENV>(
-            &kernel.principled_conserving,
-            maps,
-            &colour,
-            i,
-            o,
+        // Every other kind the kernel knows (rough Cook–Torrance surfaces,
+        // one loop per Fresnel term and distribution, principled surfaces,
+        // Blinn–Phong surfaces, rough and smooth dielectrics): the same
+        // loop with their BSDF, its results kept for their lanes only.
+        // Their loops are compiled once for scenes with and without cones
+        // and vertex normals (`CONES` = `TRIANGLES`, `SMOOTH` = true: the
+        // lanes' own flags select the same results), which keeps the
+        // kernel's compile time in bounds; Lambert's keeps every variant.
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
+            &kernel.conductor,
+            &geom,
+            aniso,
+            &lane_in,
+            &mut put,
             u,
         );
-        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.blinn_phong, maps, i, o, u);
-        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.dielectric, maps, i, o, u);
-        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.dielectric_beckmann, maps, i, o, u);
-        shade_table::<ISA, _, TRIANGLES, ENV>(&kernel.smooth_dielectric, maps, i, o, u);
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
+            &kernel.schlick,
+            &geom,
+            aniso,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
+            &kernel.coated,
+            &geom,
+            aniso,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
+            &kernel.conductor_beckmann,
+            &geom,
+            aniso,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
+            &kernel.schlick_beckmann,
+            &geom,
+            aniso,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
+            &kernel.coated_beckmann,
+            &geom,
+            aniso,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        if kernel.principled.any {
+            // The lane's albedo is its base colour.
+            let principled = kernel.principled.chunk(&geom);
+            let principled = std::array::from_fn(|k| {
+                let colour = Vec3::new(ar[k], ag[k], ab[k]);
+                principled[k].map(|p| PrincipledLane(p, colour))
+            });
+            let idle = PrincipledLane(PrincipledIn::IDLE, Vec3::splat(0.5));
+            shade_kind::<_, TRIANGLES, TRIANGLES, ENV, true>(
+                &principled,
+                idle,
+                aniso,
+                &lane_in,
+                &mut put,
+                u,
+            );
+        }
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
+            &kernel.blinn_phong,
+            &geom,
+            aniso,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
+            &kernel.dielectric,
+            &geom,
+            aniso,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
+            &kernel.dielectric_beckmann,
+            &geom,
+            aniso,
+            &lane_in,
+            &mut put,
+            u,
+        );
+        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
+            &kernel.smooth_dielectric,
+            &geom,
+            aniso,
+            &lane_in,
+            &mut put,
+            u,
+        );
 
-        store(&mut lanes.rng_dim, start, &out.rng);
-        store(&mut lanes.eta_scale, start, &out.eta_scale);
+        // The lanes whose material the loop above does not shade (it
+        // computed something for them, discarded here): one by one, through
+        // the general integrator's scattering.
+        if kernel.any_general {
+            for k in 0..(n - start).min(W) {
+                if geom[k] == INVALID_ID || !kernel.general[geom[k] as usize] {
+                    continue;
+                }
+                let i = start + k;
+                let Some(hit) = rays.hit(i) else { continue };
+                let surface = super::SurfacePoint {
+                    uv: Vec2::new(lanes.uv[0][i], lanes.uv[1][i]),
+                    normal: (SMOOTH && ns_valid[k])
+                        .then(|| Vec3::new(ns[0][k], ns[1][k], ns[2][k])),
+                };
+                let pick = match kernel.single_light {
+                    Some(l) => Some((0, l.pmf)),
+                    None if lanes.light[i] as usize == kernel.light_table.len() - 1 => None,
+                    None => Some((lanes.light[i] as usize, lanes.light_pmf[i])),
+                };
+                let environment = (ENV && env_valid[k]).then(|| LightSample {
+                    radiance: Vec3::new(env_radiance[0][k], env_radiance[1][k], env_radiance[2][k]),
+                    wi: Vec3::new(env_wi[0][k], env_wi[1][k], env_wi[2][k]),
+                    dist: f32::INFINITY,
+                    pdf: env_pdf[k],
+                    delta: false,
+                });
+                // The lane's state before the loop above changed it.
+                let mut sampler = PathSampler::from_parts(rng_in[k], stream[k]);
+                let mut b = Vec3::new(br[k], bg[k], bb[k]);
+                let lane = GeneralLane {
+                    ray: rays.ray(i),
+                    hit,
+                    surface,
+                    pick,
+                    environment,
+                };
+                let (out, p) = scatter_lane(
+                    kernel,
+                    scene,
+                    lane,
+                    &mut sampler,
+                    &mut b,
+                    &mut eta_scale[k],
+                    u,
+                );
+                rng[k] = sampler.to_parts().0;
+                for c in 0..3 {
+                    beta[c][k] = b[c];
+                }
+                shadow_tfar[k] = f32::NEG_INFINITY;
+                if let Some((ray, radiance)) = out.shadow {
+                    for c in 0..3 {
+                        shadow_ray[c][k] = ray.org[c];
+                        shadow_ray[3 + c][k] = ray.dir[c];
+                        pending[c][k] = radiance[c];
+                    }
+                    shadow_tfar[k] = ray.tfar;
+                }
+                next_tfar[k] = f32::NEG_INFINITY;
+                if let Some((ray, pdf)) = out.next {
+                    for c in 0..3 {
+                        next[c][k] = ray.org[c];
+                        next[3 + c][k] = ray.dir[c];
+                    }
+                    next_tfar[k] = f32::INFINITY;
+                    if TRIANGLES || ENV {
+                        prev_pdf[k] = pdf;
+                        for c in 0..3 {
+                            prev_point[c][k] = p[c];
+                        }
+                    }
+                }
+            }
+        }
+        store(&mut lanes.rng_dim, start, &rng);
+        store(&mut lanes.eta_scale, start, &eta_scale);
         if TRIANGLES || ENV {
-            store(&mut lanes.prev_pdf, start, &out.prev_pdf);
+            store(&mut lanes.prev_pdf, start, &prev_pdf);
             for c in 0..3 {
-                store(&mut lanes.prev_point[c], start, &out.prev_point[c]);
+                store(&mut lanes.prev_point[c], start, &prev_point[c]);
             }
         }
         for c in 0..3 {
-            store(&mut lanes.beta[c], start, &out.beta[c]);
-            store(&mut lanes.pending[c], start, &out.pending[c]);
+            store(&mut lanes.beta[c], start, &beta[c]);
+            store(&mut lanes.pending[c], start, &pending[c]);
         }
-        let (rays, shadow) = (&mut lanes.rays, &mut lanes.shadow);
         for (dst, src) in [
-            (&mut rays.org_x, &out.next[0]),
-            (&mut rays.org_y, &out.next[1]),
-            (&mut rays.org_z, &out.next[2]),
-            (&mut rays.dir_x, &out.next[3]),
-            (&mut rays.dir_y, &out.next[4]),
-            (&mut rays.dir_z, &out.next[5]),
-            (&mut rays.tfar, &out.next_tfar),
-            (&mut shadow.org_x, &out.shadow_ray[0]),
-            (&mut shadow.org_y, &out.shadow_ray[1]),
-            (&mut shadow.org_z, &out.shadow_ray[2]),
-            (&mut shadow.dir_x, &out.shadow_ray[3]),
-            (&mut shadow.dir_y, &out.shadow_ray[4]),
-            (&mut shadow.dir_z, &out.shadow_ray[5]),
-            (&mut shadow.tfar, &out.shadow_tfar),
+            (&mut rays.org_x, &next[0]),
+            (&mut rays.org_y, &next[1]),
+            (&mut rays.org_z, &next[2]),
+            (&mut rays.dir_x, &next[3]),
+            (&mut rays.dir_y, &next[4]),
+            (&mut rays.dir_z, &next[5]),
+            (&mut rays.tfar, &next_tfar),
+            (&mut shadow.org_x, &shadow_ray[0]),
+            (&mut shadow.org_y, &shadow_ray[1]),
+            (&mut shadow.org_z, &shadow_ray[2]),
+            (&mut shadow.dir_x, &shadow_ray[3]),
+            (&mut shadow.dir_y, &shadow_ray[4]),
+            (&mut shadow.dir_z, &shadow_ray[5]),
+            (&mut shadow.tfar, &shadow_tfar),
         ] {
             store(dst.as_mut_slice(), start, src);
         }
     }
     // Every ray starts at its origin and has no hit yet.
-    let (rays, shadow) = (&mut lanes.rays, &mut lanes.shadow);
     rays.tnear.as_mut_slice().fill(0.0);
     rays.geom_id.as_mut_slice().fill(INVALID_ID);
     shadow.tnear.as_mut_slice().fill(0.0);
