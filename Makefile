@@ -82,9 +82,9 @@ DESTDIR ?=
 CARGO_TARGET_DIR ?= target
 # The cargo profile `make install` builds and installs (release; the C ABI's
 # tests install their cheaper capi-test build); its folder under
-# CARGO_TARGET_DIR is cargo's (debug for dev).
+# CARGO_TARGET_DIR is cargo's (debug for dev and test, release for bench).
 CARGO_PROFILE ?= release
-PROFILE_DIR := $(if $(filter dev test,$(CARGO_PROFILE)),debug,$(CARGO_PROFILE))
+PROFILE_DIR := $(if $(filter dev test,$(CARGO_PROFILE)),debug,$(if $(filter bench,$(CARGO_PROFILE)),release,$(CARGO_PROFILE)))
 VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' Cargo.toml | head -1)
 # The oldest version whose C ABI this one keeps (0.2.0 last changed a struct,
 # plsr_principled); find_package(plsr X.Y) accepts requests from it up to VERSION.
