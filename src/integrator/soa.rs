@@ -1368,7 +1368,7 @@ pub fn trace_pass(
         }
     }
     let _ = isa;
-    trace_pass_body(pass, lanes, pixels, stats)
+    trace_pass_body::<Baseline>(pass, lanes, pixels, stats)
 }
 
 /// [`trace_pass_body`] compiled for AVX-512 (16 lanes per instruction).
@@ -1380,7 +1380,7 @@ unsafe fn trace_pass_avx512(
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
 ) {
-    trace_pass_body(pass, lanes, pixels, stats)
+    trace_pass_body::<Avx512>(pass, lanes, pixels, stats)
 }
 
 /// [`trace_pass_body`] compiled for AVX2 (8 lanes per instruction). `fma`
@@ -1393,12 +1393,14 @@ unsafe fn trace_pass_avx2(
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
 ) {
-    trace_pass_body(pass, lanes, pixels, stats)
+    trace_pass_body::<Avx2>(pass, lanes, pixels, stats)
 }
 
-/// One tile pass; inlined into each instruction-set variant of [`trace_pass`].
+/// One tile pass; inlined into each instruction-set variant of
+/// [`trace_pass`], which names its instruction set `T` (for the material
+/// kinds' passes, which are not inlined).
 #[inline(always)]
-fn trace_pass_body(
+fn trace_pass_body<T: InstructionSet>(
     pass: &Pass,
     lanes: &mut SoaLanes,
     pixels: &mut [PixelSums],
@@ -1452,7 +1454,7 @@ fn trace_pass_body(
             roulette: depth + 1 >= pass.job.rr_depth,
         };
         pick_lights(kernel, scene, lanes);
-        shade_lanes(kernel, scene, lanes, uniform);
+        shade_lanes::<T>(kernel, scene, lanes, uniform);
 
         let shadow_tfar = lanes.shadow.tfar.as_slice();
         stats.shadow += shadow_tfar.iter().filter(|&&t| t > 0.0).count() as u64;
@@ -2445,55 +2447,65 @@ fn shade_kind_lanes<
     }
 }
 
-/// [`shade_kind`] for the lanes of a chunk whose material is in `table`
-/// (by their geometry ids `geom`); nothing where the scene has none.
-#[inline(always)]
-fn shade_table<
-    B: LaneKind + LaneBsdf,
-    const TRIANGLES: bool,
-    const CONES: bool,
-    const ENV: bool,
-    const SMOOTH: bool,
->(
-    table: &KindTable<B>,
-    geom: &[u32; W],
-    aniso: bool,
-    lane_in: &impl Fn(usize) -> LaneIn,
-    put: &mut impl FnMut(usize, bool, LaneOut),
-    u: Uniform,
-) {
-    if table.any {
-        shade_kind::<B, TRIANGLES, CONES, ENV, SMOOTH>(
-            &table.chunk(geom),
-            B::IDLE,
-            aniso,
-            lane_in,
-            put,
-            u,
-        );
-    }
-}
-
 /// One bounce of every lane: reads the hits in `lanes.rays`, writes the
-/// shadow rays to `lanes.shadow` and the next rays back to `lanes.rays`. Lanes
-/// go through [`shade_lane`] in chunks of [`W`] copied into local arrays:
-/// locals cannot alias each other, so the compiler vectorises the chunk's
-/// loop without run-time overlap checks, which it could not generate for
-/// some thirty lane arrays and a table lookup.
+/// shadow rays to `lanes.shadow` and the next rays back to `lanes.rays`.
+///
+/// Each material kind is a pass of its own over the lanes ([`shade_chunks`]
+/// with a [`ChunkPass`]), which reads the state of the lanes it shades and
+/// writes back their results only, so the passes can run in any order
+/// (the lanes without a hit end in [`end_missed_paths`]): Lambert surfaces
+/// first (compiled for every
+/// combination of the scene's light kinds and vertex normals, inside each
+/// instruction-set variant of [`trace_pass`]), then every other kind the
+/// scene has (a function of its own per kind, compiled for the pass's
+/// instruction set `T`, only for with or without emitting triangles and an
+/// environment: the lanes' own flags select the rest), then the lanes no
+/// loop shades, one by one through the general integrator
+/// ([`general_lanes`]). Compiling each kind's pass once per variant that
+/// matters, not inside every Lambert variant, is what keeps the kernel's
+/// build time in bounds.
 #[inline(always)]
-fn shade_lanes(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes, u: Uniform) {
-    if kernel.any_smooth {
-        shade_lanes_with::<true>(kernel, scene, lanes, u)
-    } else {
-        shade_lanes_with::<false>(kernel, scene, lanes, u)
-    }
-}
-
-/// [`shade_lanes`] for scenes with (`SMOOTH`) or without vertex normals.
-#[inline(always)]
-fn shade_lanes_with<const SMOOTH: bool>(
+fn shade_lanes<T: InstructionSet>(
     kernel: &SoaScene,
     scene: &Scene,
+    lanes: &mut SoaLanes,
+    u: Uniform,
+) {
+    let lambert = LambertPass;
+    if !kernel.all_lambert {
+        end_missed_paths(lanes);
+    }
+    if kernel.any_smooth {
+        shade_lambert::<true>(&lambert, kernel, lanes, u)
+    } else {
+        shade_lambert::<false>(&lambert, kernel, lanes, u)
+    }
+    shade_kind_pass::<T, _>(&KindPass(&kernel.conductor), kernel, lanes, u);
+    shade_kind_pass::<T, _>(&KindPass(&kernel.schlick), kernel, lanes, u);
+    shade_kind_pass::<T, _>(&KindPass(&kernel.coated), kernel, lanes, u);
+    shade_kind_pass::<T, _>(&KindPass(&kernel.conductor_beckmann), kernel, lanes, u);
+    shade_kind_pass::<T, _>(&KindPass(&kernel.schlick_beckmann), kernel, lanes, u);
+    shade_kind_pass::<T, _>(&KindPass(&kernel.coated_beckmann), kernel, lanes, u);
+    shade_kind_pass::<T, _>(&PrincipledPass(&kernel.principled), kernel, lanes, u);
+    shade_kind_pass::<T, _>(&KindPass(&kernel.blinn_phong), kernel, lanes, u);
+    shade_kind_pass::<T, _>(&KindPass(&kernel.dielectric), kernel, lanes, u);
+    shade_kind_pass::<T, _>(&KindPass(&kernel.dielectric_beckmann), kernel, lanes, u);
+    shade_kind_pass::<T, _>(&KindPass(&kernel.smooth_dielectric), kernel, lanes, u);
+    if kernel.any_general {
+        general_lanes(kernel, scene, lanes, u);
+    }
+    // Every ray starts at its origin and has no hit yet.
+    lanes.rays.tnear.as_mut_slice().fill(0.0);
+    lanes.rays.geom_id.as_mut_slice().fill(INVALID_ID);
+    lanes.shadow.tnear.as_mut_slice().fill(0.0);
+}
+
+/// The Lambert pass of [`shade_lanes`] for scenes with (`SMOOTH`) or
+/// without vertex normals, compiled for every combination of light kinds.
+#[inline(always)]
+fn shade_lambert<const SMOOTH: bool>(
+    pass: &LambertPass,
+    kernel: &SoaScene,
     lanes: &mut SoaLanes,
     u: Uniform,
 ) {
@@ -2502,33 +2514,331 @@ fn shade_lanes_with<const SMOOTH: bool>(
         kernel.cones,
         kernel.environment.is_some(),
     ) {
-        (true, true, true) => shade_chunks::<true, true, true, SMOOTH>(kernel, scene, lanes, u),
-        (true, true, false) => shade_chunks::<true, true, false, SMOOTH>(kernel, scene, lanes, u),
-        (true, false, true) => shade_chunks::<true, false, true, SMOOTH>(kernel, scene, lanes, u),
-        (true, false, false) => shade_chunks::<true, false, false, SMOOTH>(kernel, scene, lanes, u),
-        (false, _, true) => shade_chunks::<false, false, true, SMOOTH>(kernel, scene, lanes, u),
-        (false, _, false) => shade_chunks::<false, false, false, SMOOTH>(kernel, scene, lanes, u),
+        (true, true, true) => shade_chunks::<_, true, true, true, SMOOTH>(pass, kernel, lanes, u),
+        (true, true, false) => shade_chunks::<_, true, true, false, SMOOTH>(pass, kernel, lanes, u),
+        (true, false, true) => shade_chunks::<_, true, false, true, SMOOTH>(pass, kernel, lanes, u),
+        (true, false, false) => {
+            shade_chunks::<_, true, false, false, SMOOTH>(pass, kernel, lanes, u)
+        }
+        (false, _, true) => shade_chunks::<_, false, false, true, SMOOTH>(pass, kernel, lanes, u),
+        (false, _, false) => shade_chunks::<_, false, false, false, SMOOTH>(pass, kernel, lanes, u),
     }
 }
 
-/// [`shade_lanes`] for scenes with (`TRIANGLES`) or without emitting
-/// triangles, with (`CONES`) or without emission cones among them, with
-/// (`ENV`) or without an environment, and with (`SMOOTH`) or without
-/// vertex normals.
+/// The pass of one material kind (nothing where the scene has none of it),
+/// through the function compiled for instruction set `T` and the scene's
+/// emitting triangles and environment.
 #[inline(always)]
-fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const SMOOTH: bool>(
+fn shade_kind_pass<T: InstructionSet, P: ChunkPass>(
+    pass: &P,
     kernel: &SoaScene,
-    scene: &Scene,
+    lanes: &mut SoaLanes,
+    u: Uniform,
+) {
+    if !pass.any() {
+        return;
+    }
+    match (kernel.triangle_lights, kernel.environment.is_some()) {
+        (true, true) => T::kind_pass::<P, true, true>(pass, kernel, lanes, u),
+        (true, false) => T::kind_pass::<P, true, false>(pass, kernel, lanes, u),
+        (false, true) => T::kind_pass::<P, false, true>(pass, kernel, lanes, u),
+        (false, false) => T::kind_pass::<P, false, false>(pass, kernel, lanes, u),
+    }
+}
+
+/// An instruction set the kernel's passes are compiled for, as a type: each
+/// variant of [`trace_pass`] calls the kinds' passes compiled for its own
+/// set (a function that is not inlined does not inherit its caller's target
+/// features).
+trait InstructionSet {
+    /// [`shade_chunks`] of `pass`, for scenes with (`TRIANGLES`) or without
+    /// emitting triangles (with or without cones among them: the lanes'
+    /// lights say) and with (`ENV`) or without an environment.
+    fn kind_pass<P: ChunkPass, const TRIANGLES: bool, const ENV: bool>(
+        pass: &P,
+        kernel: &SoaScene,
+        lanes: &mut SoaLanes,
+        u: Uniform,
+    );
+}
+
+/// The baseline instruction set (every x86-64 CPU, or another architecture).
+struct Baseline;
+
+impl InstructionSet for Baseline {
+    #[inline(always)]
+    fn kind_pass<P: ChunkPass, const TRIANGLES: bool, const ENV: bool>(
+        pass: &P,
+        kernel: &SoaScene,
+        lanes: &mut SoaLanes,
+        u: Uniform,
+    ) {
+        kind_pass_baseline::<P, TRIANGLES, ENV>(pass, kernel, lanes, u)
+    }
+}
+
+/// AVX2 with FMA; only [`trace_pass_avx2`] uses it.
+#[cfg(target_arch = "x86_64")]
+struct Avx2;
+
+#[cfg(target_arch = "x86_64")]
+impl InstructionSet for Avx2 {
+    #[inline(always)]
+    fn kind_pass<P: ChunkPass, const TRIANGLES: bool, const ENV: bool>(
+        pass: &P,
+        kernel: &SoaScene,
+        lanes: &mut SoaLanes,
+        u: Uniform,
+    ) {
+        // SAFETY: only `trace_pass_avx2` passes this type, and `trace_pass`
+        // calls that only on a CPU with AVX2 and FMA.
+        unsafe { kind_pass_avx2::<P, TRIANGLES, ENV>(pass, kernel, lanes, u) }
+    }
+}
+
+/// AVX-512 (F, DQ, VL, BW); only [`trace_pass_avx512`] uses it.
+#[cfg(target_arch = "x86_64")]
+struct Avx512;
+
+#[cfg(target_arch = "x86_64")]
+impl InstructionSet for Avx512 {
+    #[inline(always)]
+    fn kind_pass<P: ChunkPass, const TRIANGLES: bool, const ENV: bool>(
+        pass: &P,
+        kernel: &SoaScene,
+        lanes: &mut SoaLanes,
+        u: Uniform,
+    ) {
+        // SAFETY: only `trace_pass_avx512` passes this type, and
+        // `trace_pass` calls that only on a CPU with these features.
+        unsafe { kind_pass_avx512::<P, TRIANGLES, ENV>(pass, kernel, lanes, u) }
+    }
+}
+
+/// A kind's pass for the baseline instruction set.
+#[inline(never)]
+fn kind_pass_baseline<P: ChunkPass, const TRIANGLES: bool, const ENV: bool>(
+    pass: &P,
+    kernel: &SoaScene,
+    lanes: &mut SoaLanes,
+    u: Uniform,
+) {
+    shade_chunks::<P, TRIANGLES, TRIANGLES, ENV, true>(pass, kernel, lanes, u)
+}
+
+/// A kind's pass compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+unsafe fn kind_pass_avx2<P: ChunkPass, const TRIANGLES: bool, const ENV: bool>(
+    pass: &P,
+    kernel: &SoaScene,
+    lanes: &mut SoaLanes,
+    u: Uniform,
+) {
+    shade_chunks::<P, TRIANGLES, TRIANGLES, ENV, true>(pass, kernel, lanes, u)
+}
+
+/// A kind's pass compiled for AVX-512.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512dq,avx512vl,avx512bw,avx2,fma")]
+#[inline(never)]
+unsafe fn kind_pass_avx512<P: ChunkPass, const TRIANGLES: bool, const ENV: bool>(
+    pass: &P,
+    kernel: &SoaScene,
+    lanes: &mut SoaLanes,
+    u: Uniform,
+) {
+    shade_chunks::<P, TRIANGLES, TRIANGLES, ENV, true>(pass, kernel, lanes, u)
+}
+
+/// Which lanes of a chunk one pass of [`shade_chunks`] shades, and its
+/// loop over them.
+trait ChunkPass {
+    /// What the loop takes of a chunk's lanes (their BSDFs' parameters).
+    type Chunk;
+    /// Whether the scene has any lane for this pass.
+    fn any(&self) -> bool;
+    /// The lanes of a chunk (by their geometry ids, [`INVALID_ID`] for no
+    /// hit) this pass shades and what its loop takes of them; `None` where
+    /// it shades none (then the chunk is skipped).
+    fn select(&self, kernel: &SoaScene, geom: &[u32; W]) -> Option<([bool; W], Self::Chunk)>;
+    /// The loop: [`shade_lane`] for the chunk's lanes (`lane_in`), their
+    /// results to `put`; `albedo` is each lane's albedo (linear RGB) and
+    /// `aniso` whether a lane of the chunk has a tangent frame.
+    #[allow(clippy::too_many_arguments)]
+    fn shade<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const SMOOTH: bool>(
+        &self,
+        chunk: &Self::Chunk,
+        albedo: &[[f32; W]; 3],
+        aniso: bool,
+        lane_in: &impl Fn(usize) -> LaneIn,
+        put: &mut impl FnMut(usize, bool, LaneOut),
+        u: Uniform,
+    );
+}
+
+/// Lambert surfaces (and, where every surface is Lambert, the lanes
+/// without a hit; elsewhere [`end_missed_paths`] ends those).
+struct LambertPass;
+
+impl ChunkPass for LambertPass {
+    type Chunk = ();
+
+    fn any(&self) -> bool {
+        true
+    }
+
+    #[inline(always)]
+    fn select(&self, kernel: &SoaScene, geom: &[u32; W]) -> Option<([bool; W], ())> {
+        if kernel.all_lambert {
+            return Some(([true; W], ()));
+        }
+        let last = kernel.lambert.len() - 1;
+        let owned: [bool; W] =
+            std::array::from_fn(|k| kernel.lambert[(geom[k] as usize).min(last)]);
+        owned.contains(&true).then_some((owned, ()))
+    }
+
+    #[inline(always)]
+    fn shade<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const SMOOTH: bool>(
+        &self,
+        _: &(),
+        albedo: &[[f32; W]; 3],
+        _aniso: bool,
+        lane_in: &impl Fn(usize) -> LaneIn,
+        put: &mut impl FnMut(usize, bool, LaneOut),
+        u: Uniform,
+    ) {
+        for k in 0..W {
+            let l = lane_in(k);
+            let bsdf = LambertLane(Vec3::new(albedo[0][k], albedo[1][k], albedo[2][k]));
+            let out = shade_lane::<_, TRIANGLES, CONES, ENV, SMOOTH, false>(l, bsdf, u);
+            put(k, l.hit, out);
+        }
+    }
+}
+
+/// Ends the paths of the lanes without a hit: no next ray, no shadow ray
+/// (what the other fields of such a lane hold is never read again).
+#[inline(never)]
+fn end_missed_paths(lanes: &mut SoaLanes) {
+    let geom = lanes.rays.geom_id.as_slice();
+    let tfar = lanes.rays.tfar.as_mut_slice();
+    let shadow_tfar = lanes.shadow.tfar.as_mut_slice();
+    for ((&g, t), s) in geom.iter().zip(tfar).zip(shadow_tfar) {
+        if g == INVALID_ID {
+            *t = f32::NEG_INFINITY;
+            *s = f32::NEG_INFINITY;
+        }
+    }
+}
+
+/// The lanes whose material is in one kind's table (rough Cook–Torrance
+/// surfaces, one table per Fresnel term and distribution, Blinn–Phong
+/// surfaces, rough and smooth dielectrics).
+struct KindPass<'a, B>(&'a KindTable<B>);
+
+impl<B: LaneKind + LaneBsdf> ChunkPass for KindPass<'_, B> {
+    type Chunk = [Option<B>; W];
+
+    fn any(&self) -> bool {
+        self.0.any
+    }
+
+    #[inline(always)]
+    fn select(&self, _kernel: &SoaScene, geom: &[u32; W]) -> Option<([bool; W], [Option<B>; W])> {
+        let bsdfs = self.0.chunk(geom);
+        let owned = bsdfs.map(|b| b.is_some());
+        owned.contains(&true).then_some((owned, bsdfs))
+    }
+
+    #[inline(always)]
+    fn shade<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const SMOOTH: bool>(
+        &self,
+        bsdfs: &[Option<B>; W],
+        _albedo: &[[f32; W]; 3],
+        aniso: bool,
+        lane_in: &impl Fn(usize) -> LaneIn,
+        put: &mut impl FnMut(usize, bool, LaneOut),
+        u: Uniform,
+    ) {
+        shade_kind::<B, TRIANGLES, CONES, ENV, SMOOTH>(bsdfs, B::IDLE, aniso, lane_in, put, u);
+    }
+}
+
+/// Principled surfaces: their base colour is the lane's albedo (so a
+/// base-colour map works).
+struct PrincipledPass<'a>(&'a KindTable<PrincipledIn>);
+
+impl ChunkPass for PrincipledPass<'_> {
+    type Chunk = [Option<PrincipledIn>; W];
+
+    fn any(&self) -> bool {
+        self.0.any
+    }
+
+    #[inline(always)]
+    fn select(
+        &self,
+        _kernel: &SoaScene,
+        geom: &[u32; W],
+    ) -> Option<([bool; W], [Option<PrincipledIn>; W])> {
+        let params = self.0.chunk(geom);
+        let owned = params.map(|p| p.is_some());
+        owned.contains(&true).then_some((owned, params))
+    }
+
+    #[inline(always)]
+    fn shade<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const SMOOTH: bool>(
+        &self,
+        params: &[Option<PrincipledIn>; W],
+        albedo: &[[f32; W]; 3],
+        aniso: bool,
+        lane_in: &impl Fn(usize) -> LaneIn,
+        put: &mut impl FnMut(usize, bool, LaneOut),
+        u: Uniform,
+    ) {
+        let principled = std::array::from_fn(|k| {
+            let colour = Vec3::new(albedo[0][k], albedo[1][k], albedo[2][k]);
+            params[k].map(|p| PrincipledLane(p, colour))
+        });
+        let idle = PrincipledLane(PrincipledIn::IDLE, Vec3::splat(0.5));
+        shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(&principled, idle, aniso, lane_in, put, u);
+    }
+}
+
+/// One pass of [`shade_lanes`]: the lanes `pass` selects, in chunks of
+/// [`W`] copied into local arrays (locals cannot alias each other, so the
+/// compiler vectorises the chunk's loop without run-time overlap checks,
+/// which it could not generate for some thirty lane arrays and a table
+/// lookup), for scenes with (`TRIANGLES`) or without emitting triangles,
+/// with (`CONES`) or without emission cones among them, with (`ENV`) or
+/// without an environment, and with (`SMOOTH`) or without vertex normals.
+/// Only the selected lanes' results are written back.
+#[inline(always)]
+fn shade_chunks<
+    P: ChunkPass,
+    const TRIANGLES: bool,
+    const CONES: bool,
+    const ENV: bool,
+    const SMOOTH: bool,
+>(
+    pass: &P,
+    kernel: &SoaScene,
     lanes: &mut SoaLanes,
     u: Uniform,
 ) {
     let n = lanes.rays.len();
     let last = kernel.albedo[0].len() - 1;
-    let rays = &mut lanes.rays;
-    let shadow = &mut lanes.shadow;
     // One light: the same for every lane, so no per-lane arrays.
     let single = kernel.single_light.map(LightChunk::splat);
     for start in (0..n).step_by(W) {
+        let rays = &lanes.rays;
+        let geom = load_or(rays.geom_id.as_slice(), start, INVALID_ID);
+        let Some((owned, chunk)) = pass.select(kernel, &geom) else {
+            continue;
+        };
         let (ox, oy, oz) = (
             load(rays.org_x.as_slice(), start),
             load(rays.org_y.as_slice(), start),
@@ -2545,22 +2855,17 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
             load(rays.ng_y.as_slice(), start),
             load(rays.ng_z.as_slice(), start),
         );
-        let geom = load_or(rays.geom_id.as_slice(), start, INVALID_ID);
-        let (mut ar, mut ag, mut ab) = ([0.0f32; W], [0.0f32; W], [0.0f32; W]);
+        let mut albedo = [[0.0f32; W]; 3];
         if kernel.any_textured {
-            (ar, ag, ab) = (
-                load(&lanes.albedo[0], start),
-                load(&lanes.albedo[1], start),
-                load(&lanes.albedo[2], start),
-            );
+            for (c, albedo) in albedo.iter_mut().enumerate() {
+                *albedo = load(&lanes.albedo[c], start);
+            }
         } else {
             for k in 0..W {
                 let g = (geom[k] as usize).min(last);
-                (ar[k], ag[k], ab[k]) = (
-                    kernel.albedo[0][g],
-                    kernel.albedo[1][g],
-                    kernel.albedo[2][g],
-                );
+                for (c, albedo) in albedo.iter_mut().enumerate() {
+                    albedo[k] = kernel.albedo[c][g];
+                }
             }
         }
         let (br, bg, bb) = (
@@ -2679,212 +2984,24 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
                 f32::NEG_INFINITY
             };
         };
-        // Lanes of other materials get their results below; a chunk
-        // without a Lambert lane skips the loop (its lanes without a hit
-        // keep the initial values: no ray, no shadow ray, state unchanged).
-        let lambert =
-            kernel.all_lambert || (0..W).any(|k| kernel.lambert[(geom[k] as usize).min(last)]);
-        if lambert {
-            for k in 0..W {
-                let l = lane_in(k);
-                let bsdf = LambertLane(Vec3::new(ar[k], ag[k], ab[k]));
-                let out = shade_lane::<_, TRIANGLES, CONES, ENV, SMOOTH, false>(l, bsdf, u);
-                put(k, l.hit, out);
-            }
-        }
-        // Every other kind the kernel knows (rough Cook–Torrance surfaces,
-        // one loop per Fresnel term and distribution, principled surfaces,
-        // Blinn–Phong surfaces, rough and smooth dielectrics): the same
-        // loop with their BSDF, its results kept for their lanes only.
-        // Their loops are compiled once for scenes with and without cones
-        // and vertex normals (`CONES` = `TRIANGLES`, `SMOOTH` = true: the
-        // lanes' own flags select the same results), which keeps the
-        // kernel's compile time in bounds; Lambert's keeps every variant.
-        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
-            &kernel.conductor,
-            &geom,
-            aniso,
-            &lane_in,
-            &mut put,
-            u,
-        );
-        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
-            &kernel.schlick,
-            &geom,
-            aniso,
-            &lane_in,
-            &mut put,
-            u,
-        );
-        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
-            &kernel.coated,
-            &geom,
-            aniso,
-            &lane_in,
-            &mut put,
-            u,
-        );
-        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
-            &kernel.conductor_beckmann,
-            &geom,
-            aniso,
-            &lane_in,
-            &mut put,
-            u,
-        );
-        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
-            &kernel.schlick_beckmann,
-            &geom,
-            aniso,
-            &lane_in,
-            &mut put,
-            u,
-        );
-        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
-            &kernel.coated_beckmann,
-            &geom,
-            aniso,
-            &lane_in,
-            &mut put,
-            u,
-        );
-        if kernel.principled.any {
-            // The lane's albedo is its base colour.
-            let principled = kernel.principled.chunk(&geom);
-            let principled = std::array::from_fn(|k| {
-                let colour = Vec3::new(ar[k], ag[k], ab[k]);
-                principled[k].map(|p| PrincipledLane(p, colour))
-            });
-            let idle = PrincipledLane(PrincipledIn::IDLE, Vec3::splat(0.5));
-            shade_kind::<_, TRIANGLES, TRIANGLES, ENV, true>(
-                &principled,
-                idle,
-                aniso,
-                &lane_in,
-                &mut put,
-                u,
-            );
-        }
-        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
-            &kernel.blinn_phong,
-            &geom,
-            aniso,
-            &lane_in,
-            &mut put,
-            u,
-        );
-        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
-            &kernel.dielectric,
-            &geom,
-            aniso,
-            &lane_in,
-            &mut put,
-            u,
-        );
-        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
-            &kernel.dielectric_beckmann,
-            &geom,
-            aniso,
-            &lane_in,
-            &mut put,
-            u,
-        );
-        shade_table::<_, TRIANGLES, TRIANGLES, ENV, true>(
-            &kernel.smooth_dielectric,
-            &geom,
-            aniso,
-            &lane_in,
-            &mut put,
-            u,
-        );
+        pass.shade::<TRIANGLES, CONES, ENV, SMOOTH>(&chunk, &albedo, aniso, &lane_in, &mut put, u);
 
-        // The lanes whose material the loop above does not shade (it
-        // computed something for them, discarded here): one by one, through
-        // the general integrator's scattering.
-        if kernel.any_general {
-            for k in 0..(n - start).min(W) {
-                if geom[k] == INVALID_ID || !kernel.general[geom[k] as usize] {
-                    continue;
-                }
-                let i = start + k;
-                let Some(hit) = rays.hit(i) else { continue };
-                let surface = super::SurfacePoint {
-                    uv: Vec2::new(lanes.uv[0][i], lanes.uv[1][i]),
-                    normal: (SMOOTH && ns_valid[k])
-                        .then(|| Vec3::new(ns[0][k], ns[1][k], ns[2][k])),
-                };
-                let pick = match kernel.single_light {
-                    Some(l) => Some((0, l.pmf)),
-                    None if lanes.light[i] as usize == kernel.light_table.len() - 1 => None,
-                    None => Some((lanes.light[i] as usize, lanes.light_pmf[i])),
-                };
-                let environment = (ENV && env_valid[k]).then(|| LightSample {
-                    radiance: Vec3::new(env_radiance[0][k], env_radiance[1][k], env_radiance[2][k]),
-                    wi: Vec3::new(env_wi[0][k], env_wi[1][k], env_wi[2][k]),
-                    dist: f32::INFINITY,
-                    pdf: env_pdf[k],
-                    delta: false,
-                });
-                // The lane's state before the loop above changed it.
-                let mut sampler = PathSampler::from_parts(rng_in[k], stream[k]);
-                let mut b = Vec3::new(br[k], bg[k], bb[k]);
-                let lane = GeneralLane {
-                    ray: rays.ray(i),
-                    hit,
-                    surface,
-                    pick,
-                    environment,
-                };
-                let (out, p) = scatter_lane(
-                    kernel,
-                    scene,
-                    lane,
-                    &mut sampler,
-                    &mut b,
-                    &mut eta_scale[k],
-                    u,
-                );
-                rng[k] = sampler.to_parts().0;
-                for c in 0..3 {
-                    beta[c][k] = b[c];
-                }
-                shadow_tfar[k] = f32::NEG_INFINITY;
-                if let Some((ray, radiance)) = out.shadow {
-                    for c in 0..3 {
-                        shadow_ray[c][k] = ray.org[c];
-                        shadow_ray[3 + c][k] = ray.dir[c];
-                        pending[c][k] = radiance[c];
-                    }
-                    shadow_tfar[k] = ray.tfar;
-                }
-                next_tfar[k] = f32::NEG_INFINITY;
-                if let Some((ray, pdf)) = out.next {
-                    for c in 0..3 {
-                        next[c][k] = ray.org[c];
-                        next[3 + c][k] = ray.dir[c];
-                    }
-                    next_tfar[k] = f32::INFINITY;
-                    if TRIANGLES || ENV {
-                        prev_pdf[k] = pdf;
-                        for c in 0..3 {
-                            prev_point[c][k] = p[c];
-                        }
-                    }
-                }
-            }
-        }
-        store(&mut lanes.rng_dim, start, &rng);
-        store(&mut lanes.eta_scale, start, &eta_scale);
+        // The selected lanes' results back into the lane arrays (the other
+        // lanes' are another pass's).
+        let all = owned == [true; W];
+        store_owned(&mut lanes.rng_dim, start, &rng, &owned, all);
+        store_owned(&mut lanes.eta_scale, start, &eta_scale, &owned, all);
         if TRIANGLES || ENV {
-            store(&mut lanes.prev_pdf, start, &prev_pdf);
+            store_owned(&mut lanes.prev_pdf, start, &prev_pdf, &owned, all);
             for c in 0..3 {
-                store(&mut lanes.prev_point[c], start, &prev_point[c]);
+                store_owned(&mut lanes.prev_point[c], start, &prev_point[c], &owned, all);
             }
         }
         for c in 0..3 {
-            store(&mut lanes.beta[c], start, &beta[c]);
-            store(&mut lanes.pending[c], start, &pending[c]);
+            store_owned(&mut lanes.beta[c], start, &beta[c], &owned, all);
+            store_owned(&mut lanes.pending[c], start, &pending[c], &owned, all);
         }
+        let (rays, shadow) = (&mut lanes.rays, &mut lanes.shadow);
         for (dst, src) in [
             (&mut rays.org_x, &next[0]),
             (&mut rays.org_y, &next[1]),
@@ -2901,11 +3018,110 @@ fn shade_chunks<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const
             (&mut shadow.dir_z, &shadow_ray[5]),
             (&mut shadow.tfar, &shadow_tfar),
         ] {
-            store(dst.as_mut_slice(), start, src);
+            store_owned(dst.as_mut_slice(), start, src, &owned, all);
         }
     }
-    // Every ray starts at its origin and has no hit yet.
-    rays.tnear.as_mut_slice().fill(0.0);
-    rays.geom_id.as_mut_slice().fill(INVALID_ID);
-    shadow.tnear.as_mut_slice().fill(0.0);
+}
+
+/// [`store`] of the lanes `owned` marks (`all`: every lane), leaving the
+/// others as they are.
+#[inline(always)]
+fn store_owned<T: Copy + Default>(
+    dst: &mut [T],
+    start: usize,
+    src: &[T; W],
+    owned: &[bool; W],
+    all: bool,
+) {
+    if all {
+        return store(dst, start, src);
+    }
+    let old = load(dst, start);
+    let merged = std::array::from_fn(|k| if owned[k] { src[k] } else { old[k] });
+    store(dst, start, &merged);
+}
+
+/// The lanes whose material no loop of the kernel shades: one by one,
+/// through the general integrator's scattering ([`scatter_lane`]), with the
+/// light the kernel picked for them and the environment sample it took.
+#[inline(never)]
+fn general_lanes(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes, u: Uniform) {
+    let env = kernel.environment.is_some();
+    let keep_prev = kernel.triangle_lights || env;
+    let last = kernel.general.len() - 1;
+    for i in 0..lanes.rays.len() {
+        let g = lanes.rays.geom_id.as_slice()[i];
+        if g == INVALID_ID || !kernel.general[(g as usize).min(last)] {
+            continue;
+        }
+        let Some(hit) = lanes.rays.hit(i) else {
+            continue;
+        };
+        let surface = super::SurfacePoint {
+            uv: Vec2::new(lanes.uv[0][i], lanes.uv[1][i]),
+            normal: (kernel.any_smooth && lanes.ns_valid[i])
+                .then(|| Vec3::new(lanes.ns[0][i], lanes.ns[1][i], lanes.ns[2][i])),
+        };
+        let pick = match kernel.single_light {
+            Some(l) => Some((0, l.pmf)),
+            None if lanes.light[i] as usize == kernel.light_table.len() - 1 => None,
+            None => Some((lanes.light[i] as usize, lanes.light_pmf[i])),
+        };
+        let environment = (env && lanes.env_valid[i]).then(|| LightSample {
+            radiance: Vec3::new(
+                lanes.env_radiance[0][i],
+                lanes.env_radiance[1][i],
+                lanes.env_radiance[2][i],
+            ),
+            wi: Vec3::new(lanes.env_wi[0][i], lanes.env_wi[1][i], lanes.env_wi[2][i]),
+            dist: f32::INFINITY,
+            pdf: lanes.env_pdf[i],
+            delta: false,
+        });
+        let mut sampler = lanes.sampler(i);
+        let mut b = Vec3::new(lanes.beta[0][i], lanes.beta[1][i], lanes.beta[2][i]);
+        let mut eta_scale = lanes.eta_scale[i];
+        let lane = GeneralLane {
+            ray: lanes.rays.ray(i),
+            hit,
+            surface,
+            pick,
+            environment,
+        };
+        let (out, p) = scatter_lane(kernel, scene, lane, &mut sampler, &mut b, &mut eta_scale, u);
+        lanes.rng_dim[i] = sampler.to_parts().0;
+        lanes.eta_scale[i] = eta_scale;
+        for c in 0..3 {
+            lanes.beta[c][i] = b[c];
+        }
+        lanes.shadow.tfar.as_mut_slice()[i] = f32::NEG_INFINITY;
+        if let Some((ray, radiance)) = out.shadow {
+            lanes.shadow.org_x.as_mut_slice()[i] = ray.org.x;
+            lanes.shadow.org_y.as_mut_slice()[i] = ray.org.y;
+            lanes.shadow.org_z.as_mut_slice()[i] = ray.org.z;
+            lanes.shadow.dir_x.as_mut_slice()[i] = ray.dir.x;
+            lanes.shadow.dir_y.as_mut_slice()[i] = ray.dir.y;
+            lanes.shadow.dir_z.as_mut_slice()[i] = ray.dir.z;
+            lanes.shadow.tfar.as_mut_slice()[i] = ray.tfar;
+            for c in 0..3 {
+                lanes.pending[c][i] = radiance[c];
+            }
+        }
+        lanes.rays.tfar.as_mut_slice()[i] = f32::NEG_INFINITY;
+        if let Some((ray, pdf)) = out.next {
+            lanes.rays.org_x.as_mut_slice()[i] = ray.org.x;
+            lanes.rays.org_y.as_mut_slice()[i] = ray.org.y;
+            lanes.rays.org_z.as_mut_slice()[i] = ray.org.z;
+            lanes.rays.dir_x.as_mut_slice()[i] = ray.dir.x;
+            lanes.rays.dir_y.as_mut_slice()[i] = ray.dir.y;
+            lanes.rays.dir_z.as_mut_slice()[i] = ray.dir.z;
+            lanes.rays.tfar.as_mut_slice()[i] = f32::INFINITY;
+            if keep_prev {
+                lanes.prev_pdf[i] = pdf;
+                for c in 0..3 {
+                    lanes.prev_point[c][i] = p[c];
+                }
+            }
+        }
+    }
 }
