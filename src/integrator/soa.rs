@@ -2452,18 +2452,16 @@ fn shade_kind_lanes<
 ///
 /// Each material kind is a pass of its own over the lanes ([`shade_chunks`]
 /// with a [`ChunkPass`]), which reads the state of the lanes it shades and
-/// writes back their results only, so the passes can run in any order
-/// (the lanes without a hit end in [`end_missed_paths`]): Lambert surfaces
-/// first (compiled for every
-/// combination of the scene's light kinds and vertex normals, inside each
-/// instruction-set variant of [`trace_pass`]), then every other kind the
-/// scene has (a function of its own per kind, compiled for the pass's
-/// instruction set `T`, only for with or without emitting triangles and an
-/// environment: the lanes' own flags select the rest), then the lanes no
-/// loop shades, one by one through the general integrator
-/// ([`general_lanes`]). Compiling each kind's pass once per variant that
-/// matters, not inside every Lambert variant, is what keeps the kernel's
-/// build time in bounds.
+/// writes back their results only, so the passes can run in any order (the
+/// lanes without a hit end in [`end_missed_paths`]): Lambert surfaces first
+/// (compiled for every combination of the scene's light kinds and vertex
+/// normals, inside each instruction-set variant of [`trace_pass`]), then every
+/// other kind the scene has (a function of its own per kind, compiled for the
+/// pass's instruction set `T`, only for with or without emitting triangles and
+/// an environment: the lanes' own flags select the rest), then the lanes no
+/// loop shades, one by one through the general integrator ([`general_lanes`]).
+/// Compiling each kind's pass once per variant that matters, not inside every
+/// Lambert variant, is what keeps the kernel's build time in bounds.
 #[inline(always)]
 fn shade_lanes<T: InstructionSet>(
     kernel: &SoaScene,
