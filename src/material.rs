@@ -76,6 +76,17 @@ impl Material {
         }
     }
 
+    /// Whether the BSDF depends on the tangent direction at every point
+    /// ([`Bsdf::is_anisotropic`] of [`Material::bsdf_at`], the same
+    /// everywhere: a roughness map makes a Cook–Torrance surface isotropic,
+    /// and no map changes the other models' anisotropy).
+    pub fn is_anisotropic(&self) -> bool {
+        match self.bsdf {
+            Bsdf::CookTorrance(_) if self.textures.roughness.is_some() => false,
+            bsdf => bsdf.is_anisotropic(),
+        }
+    }
+
     /// The BSDF at surface coordinates `uv`: the constant BSDF with its
     /// textured parameters looked up.
     #[inline]

@@ -232,7 +232,7 @@ pub fn render_window_sums(
         Some(isa) => isa,
         None => Isa::best(),
     };
-    let kernel = options.vectorised.then(|| SoaScene::new(scene));
+    let kernel = options.vectorised.then(|| SoaScene::new(scene)).flatten();
     check_memory(scene, options)
         .map_err(|m| Error::InvalidArgument(format!("camera.resolution: {m}")))?;
     let pool = thread_pool(options.threads)?;

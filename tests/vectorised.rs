@@ -561,11 +561,11 @@ fn material_sphere(dir: &Path, i: usize, name: &str, radius: f32) -> String {
 
 #[test]
 fn every_material_kind_is_bit_identical() {
-    // Every scattering model beside Lambert walls (the lanes that scatter
-    // through the general integrator's code next to the vectorised ones):
-    // Blinn–Phong, an isotropic and an anisotropic GGX metal (the
-    // anisotropic one textured, so it needs the tangent from texture
-    // coordinates), a smooth glass sphere (no light sample; refraction
+    // Every scattering model beside Lambert walls, each kind's lanes in
+    // chunks shared with the others':
+    // Blinn–Phong, an isotropic and a roughness-mapped GGX metal (on a
+    // panel with texture coordinates; the map makes its anisotropic α
+    // isotropic), a smooth glass sphere (no light sample; refraction
     // raises η², which the roulette of the Lambert lanes behind it then
     // uses), a rough glass sphere, and the principled BSDF in both modes,
     // one textured, and normal-mapped Lambert and metal; smooth spheres
@@ -903,9 +903,10 @@ fn anisotropic_surfaces_are_bit_identical() {
     // no Lambert lane; the box has no texture coordinates), anisotropic
     // principled, rough glass and coated spheres with vertex normals and
     // texture coordinates, a faceted anisotropic Beckmann one, an
-    // isotropic one beside them in the same loop, and a roughness-mapped
-    // anisotropic one on the general integrator's code; lit by a point
-    // light, an area light and a constant sky, with roulette from depth 2.
+    // isotropic one beside them in the same loop, and an anisotropic one
+    // that its roughness map makes isotropic (no tangent frame); lit by a
+    // point light, an area light and a constant sky, with roulette from
+    // depth 2.
     let dir = tempfile::tempdir().unwrap();
     let texture = random_texture(dir.path(), 4, 6, 7);
     let texture = texture.display().to_string().replace('\\', "/");
@@ -962,13 +963,12 @@ fn anisotropic_surfaces_are_bit_identical() {
 
 #[test]
 fn blinn_phong_is_bit_identical() {
-    // Blinn–Phong surfaces without a colour map are shaded in a vectorised
-    // loop of their own: a box of it (chunks with no Lambert lane), a shiny
-    // and a dull sphere, smooth and faceted, one purely specular, one
-    // normal-mapped (its BSDF unchanged by the map); beside them a
-    // colour-mapped one that stays on the general integrator's code, and a
-    // Lambert panel; lit by a point light, an area light and a constant
-    // sky, with roulette from depth 2.
+    // Blinn–Phong surfaces are shaded in a vectorised loop of their own: a
+    // box of it (chunks with no Lambert lane), a shiny and a dull sphere,
+    // smooth and faceted, one purely specular, one normal-mapped (its BSDF
+    // unchanged by the map), one colour-mapped (its diffuse colour per
+    // lane), and a Lambert panel; lit by a point light, an area light and a
+    // constant sky, with roulette from depth 2.
     let dir = tempfile::tempdir().unwrap();
     let texture = random_texture(dir.path(), 4, 3, 5);
     let texture = texture.display().to_string().replace('\\', "/");
@@ -1021,9 +1021,9 @@ fn principled_surfaces_are_bit_identical() {
     // of its own: a box of it (chunks with no Lambert lane), spheres from
     // dielectric to metal with and without specular tint, smooth and
     // faceted, one with a base-colour map (the lane's albedo), an
-    // anisotropic one, and beside them the modes that stay on the general
-    // integrator's code (energy-conserving, a roughness map); lit by a point
-    // light, an area light and a constant sky, with roulette from depth 2.
+    // anisotropic one, one roughness-mapped, and beside them one in the
+    // energy-conserving mode (a loop of its own); lit by a point light, an
+    // area light and a constant sky, with roulette from depth 2.
     let dir = tempfile::tempdir().unwrap();
     let texture = random_texture(dir.path(), 4, 5, 3);
     let texture = texture.display().to_string().replace('\\', "/");
@@ -1071,6 +1071,100 @@ fn principled_surfaces_are_bit_identical() {
     }
     let scene = scene_from("principled", &text);
     assert_identical("principled surfaces", &scene);
+}
+
+#[test]
+fn mapped_parameters_are_bit_identical() {
+    // Roughness, metallic and colour maps give each lane its own BSDF
+    // parameters (looked up per lane as the general integrator's
+    // `Material::bsdf_at` does), shaded in their kinds' vectorised loops: a
+    // box of energy-conserving principled with roughness and metallic maps
+    // (chunks of that mode alone; the box has no texture coordinates, so one
+    // texel each), roughness-mapped GGX and Beckmann metals and a coating
+    // (an anisotropic one made isotropic by its map: no tangent frame),
+    // principled spheres in Mitsuba's mode with one map each and with all
+    // three (one anisotropic), a colour-mapped Blinn–Phong sphere, and an
+    // energy-conserving one with all three maps among other kinds' lanes;
+    // lit by a point light, an area light and a constant sky, with roulette
+    // from depth 2.
+    let dir = tempfile::tempdir().unwrap();
+    let map = |name: &str, seed: u64| {
+        let folder = dir.path().join(name);
+        std::fs::create_dir(&folder).unwrap();
+        let texture = random_texture(&folder, 4, seed, 11);
+        texture.display().to_string().replace('\\', "/")
+    };
+    let (rough, metal, colour) = (map("rough", 1), map("metal", 2), map("colour", 3));
+    let materials = [
+        (
+            "box",
+            format!(
+                "type = \"principled\"\nbase_color = [0.6, 0.55, 0.5]\nspec_tint = 0.3\n\
+                 roughness_map = \"{rough}\"\nmetallic_map = \"{metal}\"\nenergy_conserving = true"
+            ),
+        ),
+        (
+            "gold",
+            format!("type = \"cook_torrance\"\nmetal = \"Au\"\nroughness_map = \"{rough}\""),
+        ),
+        (
+            "brushed",
+            format!(
+                "type = \"cook_torrance\"\nmetal = \"Ag\"\ndistribution = \"beckmann\"\n\
+                 alpha_u = 0.05\nalpha_v = 0.4\nroughness_map = \"{rough}\""
+            ),
+        ),
+        (
+            "coated",
+            format!(
+                "type = \"cook_torrance\"\nfresnel = \"dielectric\"\nior = 1.6\n\
+                 roughness_map = \"{metal}\""
+            ),
+        ),
+        (
+            "rough",
+            format!(
+                "type = \"principled\"\nbase_color = [0.2, 0.5, 0.8]\nmetallic = 0.4\n\
+                 roughness_map = \"{rough}\""
+            ),
+        ),
+        (
+            "metal",
+            format!(
+                "type = \"principled\"\nbase_color = [0.9, 0.6, 0.3]\nroughness = 0.3\n\
+                 anisotropic = 0.7\nmetallic_map = \"{metal}\""
+            ),
+        ),
+        (
+            "painted",
+            format!(
+                "type = \"principled\"\nbase_color_map = \"{colour}\"\nspec_tint = 0.5\n\
+                 roughness_map = \"{rough}\"\nmetallic_map = \"{metal}\""
+            ),
+        ),
+        (
+            "phong",
+            format!(
+                "type = \"blinn_phong\"\nspecular = [0.3, 0.2, 0.2]\nexponent = 30\n\
+                 base_color_map = \"{colour}\""
+            ),
+        ),
+        (
+            "conserving",
+            format!(
+                "type = \"principled\"\nbase_color_map = \"{colour}\"\n\
+                 roughness_map = \"{rough}\"\nmetallic_map = \"{metal}\"\nenergy_conserving = true"
+            ),
+        ),
+    ];
+    let mut text = lit_box("box", 6, 21);
+    for (i, (name, body)) in materials.iter().enumerate() {
+        text += &format!("[[materials]]\nname = \"{name}\"\n{body}\n\n");
+        if i > 0 {
+            text += &material_sphere(dir.path(), i - 1, name, 50.0);
+        }
+    }
+    assert_identical("mapped parameters", &scene_from("mapped", &text));
 }
 
 #[test]

@@ -203,6 +203,15 @@ pub struct DielectricAlbedo {
     avg: Vec<f32>,
 }
 
+impl std::fmt::Debug for DielectricAlbedo {
+    /// The table's `specular` alone (not its entries).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DielectricAlbedo")
+            .field("specular", &self.specular)
+            .finish_non_exhaustive()
+    }
+}
+
 impl DielectricAlbedo {
     /// The table of `specular` (in `[0, 1]`), computed on first use for
     /// each distinct value (a few tens of milliseconds) and kept for the

@@ -566,6 +566,20 @@ impl PrincipledParams {
 
     #[inline(always)]
     pub(crate) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.eval_with_table(None, wo, wi)
+    }
+
+    /// [`PrincipledParams::eval`], the energy-conserving mode reading
+    /// `table` where given (it must be `DielectricAlbedo::for_specular` of
+    /// `self.specular`: a caller that shades many points of one material
+    /// looks it up once), else looking it up.
+    #[inline(always)]
+    pub(crate) fn eval_with_table(
+        &self,
+        table: Option<&albedo::DielectricAlbedo>,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> Vec3 {
         if !both_above(wo, wi) {
             return Vec3::ZERO;
         }
@@ -574,18 +588,27 @@ impl PrincipledParams {
         let cos_d = wi.dot(h);
         let specular =
             self.fresnel(cos_d, self.eta()) * (m.d(h) * m.g(wo, wi, h) / (4.0 * wo.z * wi.z));
-        self.diffuse(wo, wi, cos_d, &m) + specular
+        self.diffuse(table, wo, wi, cos_d, &m) + specular
     }
 
-    /// The diffuse lobe: Burley's, or the energy-conserving coupled one.
+    /// The diffuse lobe: Burley's, or the energy-conserving coupled one
+    /// (reading `table`, else `DielectricAlbedo::for_specular`).
     #[inline(always)]
-    fn diffuse(&self, wo: Vec3, wi: Vec3, cos_d: f32, m: &Microfacet) -> Vec3 {
+    fn diffuse(
+        &self,
+        table: Option<&albedo::DielectricAlbedo>,
+        wo: Vec3,
+        wi: Vec3,
+        cos_d: f32,
+        m: &Microfacet,
+    ) -> Vec3 {
         let weight = FRAC_1_PI * (1.0 - self.metallic);
         if self.energy_conserving {
             // Kelemen and Szirmay-Kalos: ρ(1 − E(wo))(1 − E(wi)) / (π(1 − Ē)),
             // which integrates against cos θi to ρ(1 − E(wo)).
             // One table lookup per evaluation, shared by the three uses.
-            let table = albedo::DielectricAlbedo::for_specular(self.specular);
+            let table =
+                table.unwrap_or_else(|| albedo::DielectricAlbedo::for_specular(self.specular));
             let eo = self.dielectric_albedo(table, wo.z, alpha_towards(m, wo));
             let ei = self.dielectric_albedo(table, wi.z, alpha_towards(m, wi));
             let avg = self.average_dielectric_albedo(table, m);
@@ -662,6 +685,19 @@ impl PrincipledParams {
 
     #[inline(always)]
     pub(crate) fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        self.sample_with_table(None, wo, uc, u)
+    }
+
+    /// [`PrincipledParams::sample`] with the table of
+    /// [`PrincipledParams::eval_with_table`].
+    #[inline(always)]
+    pub(crate) fn sample_with_table(
+        &self,
+        table: Option<&albedo::DielectricAlbedo>,
+        wo: Vec3,
+        uc: f32,
+        u: Vec2,
+    ) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }
@@ -674,7 +710,7 @@ impl PrincipledParams {
         if wi.z <= 0.0 {
             return None;
         }
-        let (f, pdf) = self.eval_pdf_with(&m, wo, wi);
+        let (f, pdf) = self.eval_pdf_with(table, &m, wo, wi);
         finish_sample(wi, f, pdf)
     }
 
@@ -683,13 +719,31 @@ impl PrincipledParams {
     /// a BSDF sample both need).
     #[inline(always)]
     pub(crate) fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        self.eval_pdf_with(&self.microfacet(), wo, wi)
+        self.eval_pdf_with(None, &self.microfacet(), wo, wi)
     }
 
-    /// [`PrincipledParams::eval_pdf`] with the distribution `m` (=
-    /// `self.microfacet()`) already built.
+    /// [`PrincipledParams::eval_pdf`] with the table of
+    /// [`PrincipledParams::eval_with_table`].
     #[inline(always)]
-    fn eval_pdf_with(&self, m: &Microfacet, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+    pub(crate) fn eval_pdf_with_table(
+        &self,
+        table: Option<&albedo::DielectricAlbedo>,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> (Vec3, f32) {
+        self.eval_pdf_with(table, &self.microfacet(), wo, wi)
+    }
+
+    /// [`PrincipledParams::eval_pdf_with_table`] with the distribution `m`
+    /// (= `self.microfacet()`) already built.
+    #[inline(always)]
+    fn eval_pdf_with(
+        &self,
+        table: Option<&albedo::DielectricAlbedo>,
+        m: &Microfacet,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> (Vec3, f32) {
         if !both_above(wo, wi) {
             return (Vec3::ZERO, 0.0);
         }
@@ -697,7 +751,7 @@ impl PrincipledParams {
         let (d, g1o, g1i) = (m.d(h), m.g1(wo, h), m.g1(wi, h));
         let cos_d = wi.dot(h);
         let specular = self.fresnel(cos_d, self.eta()) * (d * g1o * g1i / (4.0 * wo.z * wi.z));
-        let diffuse = self.diffuse(wo, wi, cos_d, m);
+        let diffuse = self.diffuse(table, wo, wi, cos_d, m);
         // The visible-normal density over h, pdf_h = G1(wo)·max(0, wo·h)·D/cos θo,
         // turned into a density over wi by 1/(4 wo·h).
         let wo_h = wo.dot(h);

@@ -1,25 +1,21 @@
-//! The vectorised wavefront that renders every scene. Lambert surfaces
-//! (their colour textured or not, with or without vertex normals), rough
-//! Cook–Torrance surfaces (GGX or Beckmann, isotropic or not, with a
-//! conductor's, Schlick's or a dielectric coating's Fresnel term),
-//! principled surfaces (Mitsuba's mode; the base colour may be textured),
-//! Blinn–Phong surfaces without a colour map, rough dielectrics (GGX or
-//! Beckmann) and smooth dielectrics, each kind in a loop of its own with
-//! its BSDF ([`LaneBsdf`]), are shaded
-//! in a branch-free loop over structure-of-arrays lanes, lit by point
-//! lights, emissive meshes (area lights), parametric lights (emitting
-//! triangles with a cone, picked only where their cone reaches) and an
-//! environment (an importance-sampled panorama or a constant sky; its
-//! samples and the lookups of rays that leave the scene are taken for all
-//! lanes at once, with the batched lookups the general integrator uses);
-//! virtual objects (compositing) included: the job's ray mask on every
-//! ray, and their coverage counted in the matte. Lanes whose material is
-//! another model (colour-mapped Blinn–Phong, energy-conserving principled,
-//! roughness or metallic maps)
-//! scatter one by one through the general integrator's own code
-//! ([`scatter`]) inside the same wavefront, after the vectorised loop, with
-//! the light the kernel picked for them and the environment sample it took;
-//! their rays still go to Embree in the lanes' streams.
+//! The vectorised wavefront that renders every scene. Every BSDF model is
+//! shaded in a branch-free loop of its own over structure-of-arrays lanes
+//! ([`LaneBsdf`]): Lambert surfaces (their colour textured or not),
+//! rough Cook–Torrance surfaces (GGX or Beckmann, isotropic or not, with a
+//! conductor's, Schlick's or a dielectric coating's Fresnel term, their
+//! roughness mapped or not), principled surfaces (Mitsuba's mode or the
+//! energy-conserving one; base colour, roughness and metallic mapped or
+//! not), Blinn–Phong surfaces (their colour mapped or not), rough
+//! dielectrics (GGX or Beckmann) and smooth dielectrics; a map's values are
+//! looked up per lane ([`mapped_params`]), and every kind takes vertex
+//! normals and normal maps. They are lit by point lights, emissive meshes
+//! (area lights), parametric lights (emitting triangles with a cone, picked
+//! only where their cone reaches) and an environment (an
+//! importance-sampled panorama or a constant sky; its samples and the
+//! lookups of rays that leave the scene are taken for all lanes at once,
+//! with the batched lookups the general integrator uses); virtual objects
+//! (compositing) included: the job's ray mask on every ray, and their
+//! coverage counted in the matte.
 //!
 //! It computes what the general integrator ([`super::render_tile`])
 //! computes, in the same floating-point operations in the same order, with
@@ -38,18 +34,19 @@
 //! Rays go to Embree as SoA streams (`rtcIntersectNp`, `rtcOccludedNp`).
 //!
 //! [`SoaScene::new`] prepares any scene for it; the general integrator
-//! stays as the reference (`plsr render --scalar`).
+//! stays as the reference (`plsr render --scalar`), and renders a scene
+//! only where a material is one no pass shades (none is today).
 
 // Lane loops index a dozen arrays by lane; iterator chains would hide that.
 #![allow(clippy::needless_range_loop)]
 
 use super::spawn::{ray_epsilon, shadow_segment, spawn_origin};
 use super::{
-    camera_sample, emission_weight, environment_weight, roulette, roulette_spins, scatter,
-    shading_normal_towards, sides_agree, Bounce, PixelSums, PrevVertex, RayStats, Scattered,
-    SurfaceHit, Tile,
+    camera_sample, emission_weight, environment_weight, roulette, roulette_spins,
+    shading_normal_towards, sides_agree, PixelSums, PrevVertex, RayStats, Tile,
 };
-use crate::accel::{gather_lanes, Hit, Ray, RayBatch, INVALID_ID};
+use crate::accel::{gather_lanes, RayBatch, INVALID_ID};
+use crate::bsdf::albedo::DielectricAlbedo;
 use crate::bsdf::{
     lambert_eval, lambert_pdf, lambert_sample, BlinnPhongParams, Bsdf, BsdfSample,
     CookTorranceParams, DielectricParams, Distribution, Fresnel, Microfacet, PrincipledParams,
@@ -81,20 +78,20 @@ pub struct SoaScene {
     /// Whether any geometry's is (then each lane's albedo is looked up by
     /// `lane_surfaces` into `SoaLanes::albedo`).
     any_textured: bool,
-    /// Whether each geometry's material is one the kernel does not shade in
-    /// its vectorised loops (neither Lambert nor in one of the kinds'
-    /// tables below): such lanes scatter through the general integrator's
-    /// [`scatter`], with one extra `false`.
-    general: Vec<bool>,
-    /// Whether any geometry's is.
-    any_general: bool,
+    /// Whether each geometry's material has a map that changes its BSDF's
+    /// parameters beside its colour (a roughness or metallic map, or a
+    /// Blinn–Phong colour map: [`mapped_params`]), with one extra `false`.
+    mapped: Vec<bool>,
+    /// Whether any geometry's has (then `lane_surfaces` looks up each such
+    /// lane's parameters into `SoaLanes::mapped`).
+    any_mapped: bool,
     /// Whether each geometry's material is Lambert (shaded in the first
     /// vectorised loop), with one extra `false`.
     lambert: Vec<bool>,
     /// Whether every geometry's is.
     all_lambert: bool,
     /// Rough Cook–Torrance surfaces (GGX or Beckmann, isotropic or not,
-    /// untextured roughness), one table per Fresnel term and distribution:
+    /// roughness-mapped or not), one table per Fresnel term and distribution:
     /// each a loop of its own. Every table's entries are what the kind's
     /// [`LaneKind::of`] takes of the geometry's material.
     conductor: KindTable<CookTorranceIn<ConductorTerm, Ggx>>,
@@ -103,14 +100,16 @@ pub struct SoaScene {
     conductor_beckmann: KindTable<CookTorranceIn<ConductorTerm, Beckmann>>,
     schlick_beckmann: KindTable<CookTorranceIn<SchlickTerm, Beckmann>>,
     coated_beckmann: KindTable<CookTorranceIn<CoatingTerm, Beckmann>>,
-    /// Principled surfaces in Mitsuba's mode ([`PrincipledIn`]).
-    principled: KindTable<PrincipledIn>,
+    /// Principled surfaces in Mitsuba's mode and in the energy-conserving
+    /// one, mapped or not ([`PrincipledIn`]).
+    principled: KindTable<PrincipledIn<MitsubaMode>>,
+    principled_ec: KindTable<PrincipledIn<EnergyConserving>>,
     /// Rough dielectrics, GGX or Beckmann ([`DielectricIn`]).
     dielectric: KindTable<DielectricIn<Ggx>>,
     dielectric_beckmann: KindTable<DielectricIn<Beckmann>>,
     /// Smooth dielectrics (see [`SmoothDielectricIn`]).
     smooth_dielectric: KindTable<SmoothDielectricIn>,
-    /// Blinn–Phong surfaces without a colour map ([`BlinnPhongIn`]).
+    /// Blinn–Phong surfaces, colour-mapped or not ([`BlinnPhongIn`]).
     blinn_phong: KindTable<BlinnPhongIn>,
     /// Whether each geometry's material transmits light (its normal layer
     /// records the geometric normal), with one extra `false`.
@@ -122,7 +121,8 @@ pub struct SoaScene {
     /// `false`.
     is_virtual: Vec<bool>,
     /// Whether each geometry's material is anisotropic
-    /// ([`Bsdf::is_anisotropic`]: its lanes need a tangent), with one extra
+    /// ([`crate::material::Material::is_anisotropic`]: its lanes need a
+    /// tangent), with one extra
     /// `false`.
     anisotropic: Vec<bool>,
     /// Whether any geometry's is (then `lane_surfaces` looks up each such
@@ -151,12 +151,14 @@ pub struct SoaScene {
 }
 
 impl SoaScene {
-    /// The kernel's view of `scene` (any scene).
-    pub fn new(scene: &Scene) -> SoaScene {
+    /// The kernel's view of `scene`, or `None` where a material of it is one
+    /// no pass of the kernel shades (none is today: every BSDF model, mapped
+    /// or not, has a pass; the general integrator then renders the scene).
+    pub fn new(scene: &Scene) -> Option<SoaScene> {
         let mut albedo = [Vec::new(), Vec::new(), Vec::new()];
         let mut emissive = Vec::new();
         let mut textured = Vec::new();
-        let mut general = Vec::new();
+        let mut mapped = Vec::new();
         let mut transmits = Vec::new();
         let mut smooth = Vec::new();
         let mut anisotropic = Vec::new();
@@ -168,6 +170,7 @@ impl SoaScene {
         let schlick_beckmann = KindTable::new(scene);
         let coated_beckmann = KindTable::new(scene);
         let principled = KindTable::new(scene);
+        let principled_ec = KindTable::new(scene);
         let dielectric = KindTable::new(scene);
         let dielectric_beckmann = KindTable::new(scene);
         let smooth_dielectric = KindTable::new(scene);
@@ -176,8 +179,8 @@ impl SoaScene {
         for (g, mesh) in scene.meshes().iter().enumerate() {
             let material = &scene.materials()[mesh.material as usize];
             // Shading normals: interpolated, or from a normal map.
-            let mapped = material.textures.normal.is_some() && !mesh.uvs.is_empty();
-            smooth.push(!mesh.normals.is_empty() || mapped);
+            let normal_mapped = material.textures.normal.is_some() && !mesh.uvs.is_empty();
+            smooth.push(!mesh.normals.is_empty() || normal_mapped);
             is_virtual.push(mesh.is_virtual);
             // Lambert's albedo is its reflectance; for the other models it
             // is what the albedo layer records.
@@ -195,22 +198,32 @@ impl SoaScene {
                 || schlick_beckmann.covers(g)
                 || coated_beckmann.covers(g)
                 || principled.covers(g)
+                || principled_ec.covers(g)
                 || dielectric.covers(g)
                 || dielectric_beckmann.covers(g)
                 || smooth_dielectric.covers(g)
                 || blinn_phong.covers(g);
-            general.push(!vectorised);
+            if !vectorised {
+                return None;
+            }
             transmits.push(material.bsdf.transmits());
-            anisotropic.push(material.bsdf.is_anisotropic());
+            anisotropic.push(material.is_anisotropic());
             emissive.push(scene.light_index(g as u32, 0).is_some());
             textured.push(!material.textures.is_empty());
+            let t = &material.textures;
+            mapped.push(match material.bsdf {
+                Bsdf::CookTorrance(_) => t.roughness.is_some(),
+                Bsdf::Principled(_) => t.roughness.is_some() || t.metallic.is_some(),
+                Bsdf::BlinnPhong(_) => t.base_color.is_some(),
+                Bsdf::Diffuse(_) | Bsdf::Dielectric(_) => false,
+            });
         }
         for a in &mut albedo {
             a.push(0.0);
         }
         emissive.push(false);
         textured.push(false);
-        general.push(false);
+        mapped.push(false);
         let all_lambert = lambert.iter().all(|&l| l);
         lambert.push(false);
         transmits.push(false);
@@ -231,13 +244,13 @@ impl SoaScene {
         let mut light_table: Vec<LightIn> =
             lights.lights.iter().map(|l| LightIn::new(l, 0.0)).collect();
         light_table.push(LightIn::default());
-        SoaScene {
+        Some(SoaScene {
             albedo,
             emissive,
             any_textured: textured.contains(&true),
             textured,
-            any_general: general.contains(&true),
-            general,
+            any_mapped: mapped.contains(&true),
+            mapped,
             conductor,
             schlick,
             coated,
@@ -245,6 +258,7 @@ impl SoaScene {
             schlick_beckmann,
             coated_beckmann,
             principled,
+            principled_ec,
             dielectric,
             dielectric_beckmann,
             smooth_dielectric,
@@ -263,7 +277,7 @@ impl SoaScene {
             environment: scene.environment_index(),
             triangle_lights: lights.lights.iter().any(triangle),
             cones: lights.lights.iter().any(cone),
-        }
+        })
     }
 }
 
@@ -274,8 +288,71 @@ trait LaneKind: Copy {
     /// run through the loop with these, and their results are discarded.
     const IDLE: Self;
     /// The material's parameters where the kernel shades it in this kind's
-    /// loop.
+    /// loop (with its constant values where a map replaces one).
     fn of(material: &crate::material::Material) -> Option<Self>;
+    /// Whether a map can change this kind's parameters (then its pass loads
+    /// the lanes' [`mapped_params`] in scenes that have maps).
+    const MAPPABLE: bool = false;
+    /// These parameters with those a lane's maps give at its hit, as
+    /// [`mapped_params`] packs them from the material's
+    /// [`crate::material::Material::bsdf_at`] there (unchanged for a kind
+    /// no map changes).
+    #[inline(always)]
+    fn with_maps(self, _mapped: [f32; 3]) -> Self {
+        self
+    }
+}
+
+/// The BSDF parameters a textured material's maps give at a hit, packed for
+/// [`LaneKind::with_maps`] from the material's
+/// [`crate::material::Material::bsdf_at`] there: a Cook–Torrance surface's
+/// `[α_x, α_y, 0]`, a principled surface's `[roughness, metallic, 0]`, a
+/// Blinn–Phong surface's diffuse colour (linear RGB); zeros for the models
+/// no map changes (a base colour map of Lambert or principled surfaces is
+/// the lane's albedo instead).
+#[inline]
+fn mapped_params(bsdf: &Bsdf) -> [f32; 3] {
+    match bsdf {
+        Bsdf::CookTorrance(p) => [p.microfacet.alpha_x, p.microfacet.alpha_y, 0.0],
+        Bsdf::Principled(p) => [p.roughness, p.metallic, 0.0],
+        Bsdf::BlinnPhong(p) => p.diffuse.to_array(),
+        Bsdf::Diffuse(_) | Bsdf::Dielectric(_) => [0.0; 3],
+    }
+}
+
+/// The BSDF parameters a chunk's lanes take from their materials' maps
+/// (`SoaLanes::mapped`).
+struct ChunkMaps {
+    /// Whether the lane's material has a map [`mapped_params`] packs (else
+    /// its values are unused).
+    mapped: [bool; W],
+    /// The lanes' [`mapped_params`], one array per component.
+    values: [[f32; W]; 3],
+}
+
+impl ChunkMaps {
+    /// The maps of the chunk of `lanes` from `start` (geometry ids `geom`),
+    /// `None` where no lane of it has one.
+    #[inline(always)]
+    fn load(kernel: &SoaScene, lanes: &SoaLanes, start: usize, geom: &[u32; W]) -> Option<Self> {
+        let last = kernel.mapped.len() - 1;
+        let mapped: [bool; W] =
+            std::array::from_fn(|k| kernel.mapped[(geom[k] as usize).min(last)]);
+        mapped.contains(&true).then(|| ChunkMaps {
+            mapped,
+            values: [
+                load(&lanes.mapped[0], start),
+                load(&lanes.mapped[1], start),
+                load(&lanes.mapped[2], start),
+            ],
+        })
+    }
+
+    /// Lane `k`'s [`mapped_params`].
+    #[inline(always)]
+    fn lane(&self, k: usize) -> [f32; 3] {
+        [self.values[0][k], self.values[1][k], self.values[2][k]]
+    }
 }
 
 /// Each geometry's material of kind `K` (by Embree id) where it is one,
@@ -306,11 +383,20 @@ impl<K: LaneKind> KindTable<K> {
     }
 
     /// The parameters of a chunk's lanes, by their geometry ids
-    /// ([`INVALID_ID`] for no hit).
+    /// ([`INVALID_ID`] for no hit), with those their maps give where `maps`
+    /// has them.
     #[inline(always)]
-    fn chunk(&self, geom: &[u32; W]) -> [Option<K>; W] {
+    fn chunk(&self, geom: &[u32; W], maps: Option<&ChunkMaps>) -> [Option<K>; W] {
         let last = self.by_geometry.len() - 1;
-        std::array::from_fn(|k| self.by_geometry[(geom[k] as usize).min(last)])
+        let mut chunk = std::array::from_fn(|k| self.by_geometry[(geom[k] as usize).min(last)]);
+        if let Some(maps) = maps {
+            for (k, lane) in chunk.iter_mut().enumerate() {
+                if maps.mapped[k] {
+                    *lane = lane.map(|p| p.with_maps(maps.lane(k)));
+                }
+            }
+        }
+        chunk
     }
 }
 
@@ -450,15 +536,15 @@ impl<F: LaneFresnel, D: LaneDistribution> LaneKind for CookTorranceIn<F, D> {
         distribution: PhantomData,
     };
 
-    /// A distribution of kind `D` (isotropic or not), a Fresnel term of
-    /// kind `F` and an untextured roughness (its other textures do not
-    /// change the BSDF).
+    /// A distribution of kind `D` (isotropic or not) and a Fresnel term of
+    /// kind `F` (a roughness map replaces α at each lane: `with_maps`; its
+    /// other textures do not change the BSDF).
     fn of(material: &crate::material::Material) -> Option<CookTorranceIn<F, D>> {
         let Bsdf::CookTorrance(p) = material.bsdf else {
             return None;
         };
         let m = p.microfacet;
-        if m.kind != D::KIND || material.textures.roughness.is_some() {
+        if m.kind != D::KIND {
             return None;
         }
         F::of(p.fresnel).map(|fresnel| CookTorranceIn {
@@ -467,6 +553,18 @@ impl<F: LaneFresnel, D: LaneDistribution> LaneKind for CookTorranceIn<F, D> {
             fresnel,
             distribution: PhantomData,
         })
+    }
+
+    const MAPPABLE: bool = true;
+
+    /// α from a roughness map ([`mapped_params`]: `[α_x, α_y, 0]`).
+    #[inline(always)]
+    fn with_maps(self, mapped: [f32; 3]) -> CookTorranceIn<F, D> {
+        CookTorranceIn {
+            alpha_x: mapped[0],
+            alpha_y: mapped[1],
+            ..self
+        }
     }
 }
 
@@ -574,11 +672,63 @@ impl<F: LaneFresnel, D: LaneDistribution> LaneBsdf for CookTorranceIn<F, D> {
     }
 }
 
+/// Which mode of the principled BSDF a loop shades, known to the compiler:
+/// Mitsuba's ([`MitsubaMode`], nothing to carry) or the energy-conserving
+/// one ([`EnergyConserving`], which carries its albedo table).
+trait PrincipledMode: Copy + std::fmt::Debug {
+    /// Whether this is the energy-conserving mode.
+    const ENERGY_CONSERVING: bool;
+    /// What [`LaneKind::IDLE`] carries.
+    const IDLE: Self;
+    /// The mode's data for a material with this `specular`.
+    fn of(specular: f32) -> Self;
+    /// The dielectric albedo table to evaluate with (`None`: none needed,
+    /// or look it up).
+    fn table(&self) -> Option<&'static DielectricAlbedo>;
+}
+
+/// Mitsuba's mode of the principled BSDF: nothing to carry, so its lanes'
+/// parameters are plain numbers.
+#[derive(Debug, Clone, Copy)]
+struct MitsubaMode;
+
+impl PrincipledMode for MitsubaMode {
+    const ENERGY_CONSERVING: bool = false;
+    const IDLE: MitsubaMode = MitsubaMode;
+    #[inline(always)]
+    fn of(_specular: f32) -> MitsubaMode {
+        MitsubaMode
+    }
+    #[inline(always)]
+    fn table(&self) -> Option<&'static DielectricAlbedo> {
+        None
+    }
+}
+
+/// The energy-conserving mode: its dielectric albedo table for the
+/// material's `specular`, looked up once per material, not at every
+/// evaluation (`None` only in [`LaneKind::IDLE`]; a chunk's idle lanes take
+/// one of its real lanes' parameters instead, see [`PrincipledPass`]).
+#[derive(Debug, Clone, Copy)]
+struct EnergyConserving(Option<&'static DielectricAlbedo>);
+
+impl PrincipledMode for EnergyConserving {
+    const ENERGY_CONSERVING: bool = true;
+    const IDLE: EnergyConserving = EnergyConserving(None);
+    fn of(specular: f32) -> EnergyConserving {
+        EnergyConserving(Some(DielectricAlbedo::for_specular(specular)))
+    }
+    #[inline(always)]
+    fn table(&self) -> Option<&'static DielectricAlbedo> {
+        self.0
+    }
+}
+
 /// A principled surface's parameters as a lane takes them (its base colour
 /// is the lane's albedo, looked up as a Lambert surface's colour is): the
-/// principled BSDF in Mitsuba's mode, isotropic or not.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct PrincipledIn {
+/// principled BSDF in the mode `M`, isotropic or not.
+#[derive(Debug, Clone, Copy)]
+struct PrincipledIn<M> {
     /// Metallic blend in [0, 1].
     metallic: f32,
     /// Roughness in [0, 1].
@@ -589,41 +739,56 @@ struct PrincipledIn {
     spec_tint: f32,
     /// Anisotropy in [0, 1].
     anisotropic: f32,
+    /// What the mode carries.
+    mode: M,
 }
 
-impl LaneKind for PrincipledIn {
-    const IDLE: PrincipledIn = PrincipledIn {
+impl<M: PrincipledMode> LaneKind for PrincipledIn<M> {
+    const IDLE: PrincipledIn<M> = PrincipledIn {
         metallic: 0.0,
         roughness: 0.5,
         specular: 0.5,
         spec_tint: 0.0,
         anisotropic: 0.0,
+        mode: M::IDLE,
     };
 
-    /// Principled in Mitsuba's mode (not energy-conserving), its roughness
-    /// and metallic not textured (a base colour map is: it is the lane's
-    /// albedo).
-    fn of(material: &crate::material::Material) -> Option<PrincipledIn> {
+    /// Principled in the mode `M`; roughness and metallic maps replace
+    /// those at each lane (`with_maps`), a base colour map is the lane's
+    /// albedo.
+    fn of(material: &crate::material::Material) -> Option<PrincipledIn<M>> {
         let Bsdf::Principled(p) = material.bsdf else {
             return None;
         };
-        let t = &material.textures;
-        let plain = !p.energy_conserving;
-        (plain && t.roughness.is_none() && t.metallic.is_none()).then_some(PrincipledIn {
+        (p.energy_conserving == M::ENERGY_CONSERVING).then(|| PrincipledIn {
             metallic: p.metallic,
             roughness: p.roughness,
             specular: p.specular,
             spec_tint: p.spec_tint,
             anisotropic: p.anisotropic,
+            mode: M::of(p.specular),
         })
+    }
+
+    const MAPPABLE: bool = true;
+
+    /// Roughness and metallic from their maps ([`mapped_params`]:
+    /// `[roughness, metallic, 0]`).
+    #[inline(always)]
+    fn with_maps(self, mapped: [f32; 3]) -> PrincipledIn<M> {
+        PrincipledIn {
+            roughness: mapped[0],
+            metallic: mapped[1],
+            ..self
+        }
     }
 }
 
 /// A principled lane: its parameters and base colour.
 #[derive(Clone, Copy)]
-struct PrincipledLane(PrincipledIn, Vec3);
+struct PrincipledLane<M>(PrincipledIn<M>, Vec3);
 
-impl PrincipledLane {
+impl<M: PrincipledMode> PrincipledLane<M> {
     /// The parameters exactly as the general integrator holds them (the
     /// mode known to the compiler, so the lane loop has no branch on it).
     #[inline(always)]
@@ -636,16 +801,16 @@ impl PrincipledLane {
             anisotropic: p.anisotropic,
             specular: p.specular,
             spec_tint: p.spec_tint,
-            energy_conserving: false,
+            energy_conserving: M::ENERGY_CONSERVING,
         }
     }
 }
 
-impl LaneBsdf for PrincipledLane {
+impl<M: PrincipledMode> LaneBsdf for PrincipledLane<M> {
     const MAY_BE_ANISOTROPIC: bool = true;
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        self.params().eval(wo, wi)
+        self.params().eval_with_table(self.0.mode.table(), wo, wi)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -653,11 +818,15 @@ impl LaneBsdf for PrincipledLane {
     }
     #[inline(always)]
     fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        self.params().eval_pdf(wo, wi)
+        self.params()
+            .eval_pdf_with_table(self.0.mode.table(), wo, wi)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
-        lane_sample(self.params().sample(wo, uc, u))
+        lane_sample(
+            self.params()
+                .sample_with_table(self.0.mode.table(), wo, uc, u),
+        )
     }
 }
 
@@ -810,16 +979,24 @@ impl LaneKind for BlinnPhongIn {
         exponent: 1.0,
     });
 
-    /// Blinn–Phong without a colour map (no other texture changes its BSDF).
+    /// Blinn–Phong (a colour map replaces the diffuse colour at each lane:
+    /// `with_maps`; no other texture changes its BSDF).
     fn of(material: &crate::material::Material) -> Option<BlinnPhongIn> {
         let Bsdf::BlinnPhong(p) = material.bsdf else {
             return None;
         };
-        material
-            .textures
-            .base_color
-            .is_none()
-            .then_some(BlinnPhongIn(p))
+        Some(BlinnPhongIn(p))
+    }
+
+    const MAPPABLE: bool = true;
+
+    /// The diffuse colour from a colour map ([`mapped_params`]: linear RGB).
+    #[inline(always)]
+    fn with_maps(self, mapped: [f32; 3]) -> BlinnPhongIn {
+        BlinnPhongIn(BlinnPhongParams {
+            diffuse: Vec3::from_array(mapped),
+            ..self.0
+        })
     }
 }
 
@@ -1108,9 +1285,10 @@ pub struct SoaLanes {
     eta_scale: Vec<f32>,
     /// Each lane's albedo at its hit, where a texture gives it.
     albedo: [Vec<f32>; 3],
-    /// Each lane's texture coordinates at its hit, where its material is
-    /// textured (for the lanes that [`scatter`]).
-    uv: [Vec<f32>; 2],
+    /// Each lane's BSDF parameters its material's maps give at its hit
+    /// ([`mapped_params`]), where it has such maps
+    /// ([`SoaScene::mapped`]).
+    mapped: [Vec<f32>; 3],
     /// Each lane's interpolated unit normal at its hit, where its mesh has
     /// vertex normals (`ns_valid`; zero elsewhere).
     ns: [Vec<f32>; 3],
@@ -1163,6 +1341,7 @@ impl SoaLanes {
             self.radiance[c].resize(n, 0.0);
             self.pending[c].resize(n, 0.0);
             self.albedo[c].resize(n, 0.0);
+            self.mapped[c].resize(n, 0.0);
             self.ns[c].resize(n, 0.0);
             self.tangent[c].resize(n, 0.0);
             self.prev_point[c].resize(n, 0.0);
@@ -1170,8 +1349,6 @@ impl SoaLanes {
         self.ns_valid.resize(n, false);
         self.tangent_valid.resize(n, false);
         self.eta_scale.resize(n, 1.0);
-        self.uv[0].resize(n, 0.0);
-        self.uv[1].resize(n, 0.0);
         self.prev_pdf.resize(n, 0.0);
         self.light.resize(n, 0);
         self.light_pmf.resize(n, 0.0);
@@ -1454,7 +1631,7 @@ fn trace_pass_body<T: InstructionSet>(
             roulette: depth + 1 >= pass.job.rr_depth,
         };
         pick_lights(kernel, scene, lanes);
-        shade_lanes::<T>(kernel, scene, lanes, uniform);
+        shade_lanes::<T>(kernel, lanes, uniform);
 
         let shadow_tfar = lanes.shadow.tfar.as_slice();
         stats.shadow += shadow_tfar.iter().filter(|&&t| t > 0.0).count() as u64;
@@ -1588,20 +1765,25 @@ fn lane_surfaces(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) {
             kernel.albedo[1][g],
             kernel.albedo[2][g],
         );
-        let (mut ns, mut uv) = (None, Vec2::ZERO);
+        let mut ns = None;
         if kernel.textured[g] || kernel.smooth[g] {
             if let Some(hit) = lanes.rays.hit(i) {
                 let mesh = &meshes[g];
                 let material = &scene.materials()[mesh.material as usize];
                 let surface = super::SurfacePoint::new(mesh, &hit, material);
                 if kernel.textured[g] {
-                    albedo = material.bsdf_at(surface.uv).albedo();
+                    let bsdf = material.bsdf_at(surface.uv);
+                    albedo = bsdf.albedo();
+                    if kernel.mapped[g] {
+                        let mapped = mapped_params(&bsdf);
+                        for c in 0..3 {
+                            lanes.mapped[c][i] = mapped[c];
+                        }
+                    }
                 }
-                (ns, uv) = (surface.normal, surface.uv);
+                ns = surface.normal;
             }
         }
-        lanes.uv[0][i] = uv.x;
-        lanes.uv[1][i] = uv.y;
         for c in 0..3 {
             lanes.albedo[c][i] = albedo[c];
         }
@@ -2285,57 +2467,6 @@ fn light_sample_lane<B: LaneBsdf, const TRIANGLES: bool, const CONES: bool, cons
     }
 }
 
-/// A lane that scatters through the general integrator's code
-/// ([`scatter_lane`]): its ray and hit, the surface attributes
-/// `lane_surfaces` looked up, the light `pick_lights` picked for it (light
-/// index and probability) and the environment's sample it took there.
-struct GeneralLane {
-    ray: Ray,
-    hit: Hit,
-    surface: super::SurfacePoint,
-    pick: Option<(usize, f32)>,
-    environment: Option<LightSample>,
-}
-
-/// One bounce of a lane whose material the vectorised loop does not shade:
-/// the general integrator's [`scatter`] with the lane's state, the light
-/// the kernel picked for it with the same numbers, and the environment
-/// sample it took (other lights sampled here, as the general integrator
-/// samples them). Returns what it decided and the hit point.
-#[inline(never)]
-fn scatter_lane(
-    kernel: &SoaScene,
-    scene: &Scene,
-    lane: GeneralLane,
-    rng: &mut PathSampler,
-    beta: &mut Vec3,
-    eta_scale: &mut f32,
-    u: Uniform,
-) -> (Scattered, Vec3) {
-    let at = SurfaceHit::new(scene, &lane.ray, &lane.hit, lane.surface);
-    let bounce = Bounce {
-        continue_path: u.continue_paths,
-        roulette: u.roulette,
-    };
-    let environment = kernel.environment;
-    let out = scatter(
-        &at,
-        rng,
-        beta,
-        eta_scale,
-        bounce,
-        |_, _| lane.pick,
-        |li, p, u| {
-            if Some(li) == environment {
-                lane.environment
-            } else {
-                scene.lights().lights[li].sample_li(p, u)
-            }
-        },
-    );
-    (out, at.p)
-}
-
 /// Lanes per chunk of [`shade_lanes`]: one AVX-512 register of `f32`.
 const W: usize = 16;
 
@@ -2458,17 +2589,11 @@ fn shade_kind_lanes<
 /// normals, inside each instruction-set variant of [`trace_pass`]), then every
 /// other kind the scene has (a function of its own per kind, compiled for the
 /// pass's instruction set `T`, only for with or without emitting triangles and
-/// an environment: the lanes' own flags select the rest), then the lanes no
-/// loop shades, one by one through the general integrator ([`general_lanes`]).
-/// Compiling each kind's pass once per variant that matters, not inside every
+/// an environment: the lanes' own flags select the rest; a kind's maps give
+/// its lanes their parameters, [`ChunkMaps`]). Compiling each kind's pass once per variant that matters, not inside every
 /// Lambert variant, is what keeps the kernel's build time in bounds.
 #[inline(always)]
-fn shade_lanes<T: InstructionSet>(
-    kernel: &SoaScene,
-    scene: &Scene,
-    lanes: &mut SoaLanes,
-    u: Uniform,
-) {
+fn shade_lanes<T: InstructionSet>(kernel: &SoaScene, lanes: &mut SoaLanes, u: Uniform) {
     let lambert = LambertPass;
     if !kernel.all_lambert {
         end_missed_paths(lanes);
@@ -2485,13 +2610,11 @@ fn shade_lanes<T: InstructionSet>(
     shade_kind_pass::<T, _>(&KindPass(&kernel.schlick_beckmann), kernel, lanes, u);
     shade_kind_pass::<T, _>(&KindPass(&kernel.coated_beckmann), kernel, lanes, u);
     shade_kind_pass::<T, _>(&PrincipledPass(&kernel.principled), kernel, lanes, u);
+    shade_kind_pass::<T, _>(&PrincipledPass(&kernel.principled_ec), kernel, lanes, u);
     shade_kind_pass::<T, _>(&KindPass(&kernel.blinn_phong), kernel, lanes, u);
     shade_kind_pass::<T, _>(&KindPass(&kernel.dielectric), kernel, lanes, u);
     shade_kind_pass::<T, _>(&KindPass(&kernel.dielectric_beckmann), kernel, lanes, u);
     shade_kind_pass::<T, _>(&KindPass(&kernel.smooth_dielectric), kernel, lanes, u);
-    if kernel.any_general {
-        general_lanes(kernel, scene, lanes, u);
-    }
     // Every ray starts at its origin and has no hit yet.
     lanes.rays.tnear.as_mut_slice().fill(0.0);
     lanes.rays.geom_id.as_mut_slice().fill(INVALID_ID);
@@ -2657,10 +2780,17 @@ trait ChunkPass {
     type Chunk;
     /// Whether the scene has any lane for this pass.
     fn any(&self) -> bool;
-    /// The lanes of a chunk (by their geometry ids, [`INVALID_ID`] for no
-    /// hit) this pass shades and what its loop takes of them; `None` where
-    /// it shades none (then the chunk is skipped).
-    fn select(&self, kernel: &SoaScene, geom: &[u32; W]) -> Option<([bool; W], Self::Chunk)>;
+    /// The lanes of the chunk of `lanes` from `start` (their geometry ids
+    /// `geom`, [`INVALID_ID`] for no hit) this pass shades and what its loop
+    /// takes of them; `None` where it shades none (then the chunk is
+    /// skipped).
+    fn select(
+        &self,
+        kernel: &SoaScene,
+        lanes: &SoaLanes,
+        start: usize,
+        geom: &[u32; W],
+    ) -> Option<([bool; W], Self::Chunk)>;
     /// The loop: [`shade_lane`] for the chunk's lanes (`lane_in`), their
     /// results to `put`; `albedo` is each lane's albedo (linear RGB) and
     /// `aniso` whether a lane of the chunk has a tangent frame.
@@ -2688,7 +2818,13 @@ impl ChunkPass for LambertPass {
     }
 
     #[inline(always)]
-    fn select(&self, kernel: &SoaScene, geom: &[u32; W]) -> Option<([bool; W], ())> {
+    fn select(
+        &self,
+        kernel: &SoaScene,
+        _lanes: &SoaLanes,
+        _start: usize,
+        geom: &[u32; W],
+    ) -> Option<([bool; W], ())> {
         if kernel.all_lambert {
             return Some(([true; W], ()));
         }
@@ -2745,8 +2881,17 @@ impl<B: LaneKind + LaneBsdf> ChunkPass for KindPass<'_, B> {
     }
 
     #[inline(always)]
-    fn select(&self, _kernel: &SoaScene, geom: &[u32; W]) -> Option<([bool; W], [Option<B>; W])> {
-        let bsdfs = self.0.chunk(geom);
+    fn select(
+        &self,
+        kernel: &SoaScene,
+        lanes: &SoaLanes,
+        start: usize,
+        geom: &[u32; W],
+    ) -> Option<([bool; W], [Option<B>; W])> {
+        let maps = (B::MAPPABLE && kernel.any_mapped)
+            .then(|| ChunkMaps::load(kernel, lanes, start, geom))
+            .flatten();
+        let bsdfs = self.0.chunk(geom, maps.as_ref());
         let owned = bsdfs.map(|b| b.is_some());
         owned.contains(&true).then_some((owned, bsdfs))
     }
@@ -2765,12 +2910,14 @@ impl<B: LaneKind + LaneBsdf> ChunkPass for KindPass<'_, B> {
     }
 }
 
-/// Principled surfaces: their base colour is the lane's albedo (so a
-/// base-colour map works).
-struct PrincipledPass<'a>(&'a KindTable<PrincipledIn>);
+/// Principled surfaces in the mode `M`: their base colour is the lane's
+/// albedo (so a base-colour map works). In the energy-conserving mode the
+/// chunk's idle lanes take the parameters of its first principled lane
+/// ([`LaneKind::IDLE`] has no albedo table there).
+struct PrincipledPass<'a, M>(&'a KindTable<PrincipledIn<M>>);
 
-impl ChunkPass for PrincipledPass<'_> {
-    type Chunk = [Option<PrincipledIn>; W];
+impl<M: PrincipledMode> ChunkPass for PrincipledPass<'_, M> {
+    type Chunk = [Option<PrincipledIn<M>>; W];
 
     fn any(&self) -> bool {
         self.0.any
@@ -2779,10 +2926,16 @@ impl ChunkPass for PrincipledPass<'_> {
     #[inline(always)]
     fn select(
         &self,
-        _kernel: &SoaScene,
+        kernel: &SoaScene,
+        lanes: &SoaLanes,
+        start: usize,
         geom: &[u32; W],
-    ) -> Option<([bool; W], [Option<PrincipledIn>; W])> {
-        let params = self.0.chunk(geom);
+    ) -> Option<([bool; W], [Option<PrincipledIn<M>>; W])> {
+        let maps = kernel
+            .any_mapped
+            .then(|| ChunkMaps::load(kernel, lanes, start, geom))
+            .flatten();
+        let params = self.0.chunk(geom, maps.as_ref());
         let owned = params.map(|p| p.is_some());
         owned.contains(&true).then_some((owned, params))
     }
@@ -2790,7 +2943,7 @@ impl ChunkPass for PrincipledPass<'_> {
     #[inline(always)]
     fn shade<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const SMOOTH: bool>(
         &self,
-        params: &[Option<PrincipledIn>; W],
+        params: &[Option<PrincipledIn<M>>; W],
         albedo: &[[f32; W]; 3],
         aniso: bool,
         lane_in: &impl Fn(usize) -> LaneIn,
@@ -2801,7 +2954,14 @@ impl ChunkPass for PrincipledPass<'_> {
             let colour = Vec3::new(albedo[0][k], albedo[1][k], albedo[2][k]);
             params[k].map(|p| PrincipledLane(p, colour))
         });
-        let idle = PrincipledLane(PrincipledIn::IDLE, Vec3::splat(0.5));
+        let idle = if M::ENERGY_CONSERVING {
+            let Some(first) = principled.iter().flatten().next().copied() else {
+                return;
+            };
+            first
+        } else {
+            PrincipledLane(PrincipledIn::IDLE, Vec3::splat(0.5))
+        };
         shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(&principled, idle, aniso, lane_in, put, u);
     }
 }
@@ -2834,7 +2994,7 @@ fn shade_chunks<
     for start in (0..n).step_by(W) {
         let rays = &lanes.rays;
         let geom = load_or(rays.geom_id.as_slice(), start, INVALID_ID);
-        let Some((owned, chunk)) = pass.select(kernel, &geom) else {
+        let Some((owned, chunk)) = pass.select(kernel, lanes, start, &geom) else {
             continue;
         };
         let (ox, oy, oz) = (
@@ -3037,89 +3197,4 @@ fn store_owned<T: Copy + Default>(
     let old = load(dst, start);
     let merged = std::array::from_fn(|k| if owned[k] { src[k] } else { old[k] });
     store(dst, start, &merged);
-}
-
-/// The lanes whose material no loop of the kernel shades: one by one,
-/// through the general integrator's scattering ([`scatter_lane`]), with the
-/// light the kernel picked for them and the environment sample it took.
-#[inline(never)]
-fn general_lanes(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes, u: Uniform) {
-    let env = kernel.environment.is_some();
-    let keep_prev = kernel.triangle_lights || env;
-    let last = kernel.general.len() - 1;
-    for i in 0..lanes.rays.len() {
-        let g = lanes.rays.geom_id.as_slice()[i];
-        if g == INVALID_ID || !kernel.general[(g as usize).min(last)] {
-            continue;
-        }
-        let Some(hit) = lanes.rays.hit(i) else {
-            continue;
-        };
-        let surface = super::SurfacePoint {
-            uv: Vec2::new(lanes.uv[0][i], lanes.uv[1][i]),
-            normal: (kernel.any_smooth && lanes.ns_valid[i])
-                .then(|| Vec3::new(lanes.ns[0][i], lanes.ns[1][i], lanes.ns[2][i])),
-        };
-        let pick = match kernel.single_light {
-            Some(l) => Some((0, l.pmf)),
-            None if lanes.light[i] as usize == kernel.light_table.len() - 1 => None,
-            None => Some((lanes.light[i] as usize, lanes.light_pmf[i])),
-        };
-        let environment = (env && lanes.env_valid[i]).then(|| LightSample {
-            radiance: Vec3::new(
-                lanes.env_radiance[0][i],
-                lanes.env_radiance[1][i],
-                lanes.env_radiance[2][i],
-            ),
-            wi: Vec3::new(lanes.env_wi[0][i], lanes.env_wi[1][i], lanes.env_wi[2][i]),
-            dist: f32::INFINITY,
-            pdf: lanes.env_pdf[i],
-            delta: false,
-        });
-        let mut sampler = lanes.sampler(i);
-        let mut b = Vec3::new(lanes.beta[0][i], lanes.beta[1][i], lanes.beta[2][i]);
-        let mut eta_scale = lanes.eta_scale[i];
-        let lane = GeneralLane {
-            ray: lanes.rays.ray(i),
-            hit,
-            surface,
-            pick,
-            environment,
-        };
-        let (out, p) = scatter_lane(kernel, scene, lane, &mut sampler, &mut b, &mut eta_scale, u);
-        lanes.rng_dim[i] = sampler.to_parts().0;
-        lanes.eta_scale[i] = eta_scale;
-        for c in 0..3 {
-            lanes.beta[c][i] = b[c];
-        }
-        lanes.shadow.tfar.as_mut_slice()[i] = f32::NEG_INFINITY;
-        if let Some((ray, radiance)) = out.shadow {
-            lanes.shadow.org_x.as_mut_slice()[i] = ray.org.x;
-            lanes.shadow.org_y.as_mut_slice()[i] = ray.org.y;
-            lanes.shadow.org_z.as_mut_slice()[i] = ray.org.z;
-            lanes.shadow.dir_x.as_mut_slice()[i] = ray.dir.x;
-            lanes.shadow.dir_y.as_mut_slice()[i] = ray.dir.y;
-            lanes.shadow.dir_z.as_mut_slice()[i] = ray.dir.z;
-            lanes.shadow.tfar.as_mut_slice()[i] = ray.tfar;
-            for c in 0..3 {
-                lanes.pending[c][i] = radiance[c];
-            }
-        }
-        lanes.rays.tfar.as_mut_slice()[i] = f32::NEG_INFINITY;
-        if let Some((ray, pdf)) = out.next {
-            lanes.rays.org_x.as_mut_slice()[i] = ray.org.x;
-            lanes.rays.org_y.as_mut_slice()[i] = ray.org.y;
-            lanes.rays.org_z.as_mut_slice()[i] = ray.org.z;
-            lanes.rays.dir_x.as_mut_slice()[i] = ray.dir.x;
-            lanes.rays.dir_y.as_mut_slice()[i] = ray.dir.y;
-            lanes.rays.dir_z.as_mut_slice()[i] = ray.dir.z;
-            lanes.rays.tfar.as_mut_slice()[i] = f32::INFINITY;
-            if keep_prev {
-                lanes.prev_pdf[i] = pdf;
-                for c in 0..3 {
-                    lanes.prev_point[c][i] = p[c];
-                }
-            }
-        }
-    }
 }

@@ -14,11 +14,14 @@ use std::path::Path;
 /// GGX, α 0.2, gold's complex index), every material a rough glass
 /// (isotropic GGX, α 0.2, η 1.5: the light sits inside a box of glass
 /// walls), every material a smooth glass (η 1.5) and every material
-/// Blinn–Phong (the diffuse colour, specular 0.2, exponent 40), interleaved in the same run: the ratios to the
+/// Blinn–Phong (the diffuse colour, specular 0.2, exponent 40), and every
+/// material the principled one with 4×4 roughness and metallic maps (the
+/// box has no texture coordinates, so each lane looks up one texel: this row
+/// measures the per-lane lookups' cost), interleaved in the same run: the ratios to the
 /// all-diffuse scene say what the richer BSDF costs, the kernel's ratio to
 /// the general integrator what the wavefront gains. Returns each scene's
 /// `(general, vectorised)` Msamples/s.
-pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 7]> {
+pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 8]> {
     use plsr::bsdf::{
         BlinnPhongParams, Bsdf, CookTorranceParams, DielectricParams, Distribution, Fresnel,
         Microfacet, PrincipledParams, METALS,
@@ -92,6 +95,21 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 7]> {
         }
         scene
     };
+    let mapped = {
+        let mut scene = principled(false);
+        // 4×4 maps of values in [0.1, 0.9] (the red channel is read).
+        let map = |seed: u32| {
+            let texels = (0..16u32)
+                .map(|i| glam::Vec3::splat(0.1 + 0.8 * ((i * 7 + seed * 5) % 16) as f32 / 15.0))
+                .collect();
+            std::sync::Arc::new(plsr::texture::ImageTexture::from_texels(4, 4, texels))
+        };
+        for m in &mut scene.materials {
+            m.textures.roughness = Some(map(1));
+            m.textures.metallic = Some(map(2));
+        }
+        scene
+    };
     let options = |vectorised: bool| RenderOptions {
         threads,
         vectorised,
@@ -111,10 +129,14 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 7]> {
         ("all rough glass (GGX α 0.2, η 1.5)", Scene::build(glass)?),
         ("all smooth glass (η 1.5)", Scene::build(smooth_glass)?),
         ("all Blinn–Phong (exponent 40)", Scene::build(blinn_phong)?),
+        (
+            "all principled, roughness and metallic maps",
+            Scene::build(mapped)?,
+        ),
     ];
     // Interleaved runs, best of three each, so drift hits all alike.
-    let mut best = [(0.0f64, 0.0f64); 7];
-    let mut same = [true; 7];
+    let mut best = [(0.0f64, 0.0f64); 8];
+    let mut same = [true; 8];
     for _ in 0..3 {
         for (k, (_, scene)) in scenes.iter().enumerate() {
             let (general, stats): (Film, RenderStats) =
