@@ -2584,14 +2584,15 @@ fn shade_kind_lanes<
 /// Each material kind is a pass of its own over the lanes ([`shade_chunks`]
 /// with a [`ChunkPass`]), which reads the state of the lanes it shades and
 /// writes back their results only, so the passes can run in any order (the
-/// lanes without a hit end in [`end_missed_paths`]): Lambert surfaces first
-/// (compiled for every combination of the scene's light kinds and vertex
-/// normals, inside each instruction-set variant of [`trace_pass`]), then every
-/// other kind the scene has (a function of its own per kind, compiled for the
-/// pass's instruction set `T`, only for with or without emitting triangles and
-/// an environment: the lanes' own flags select the rest; a kind's maps give
-/// its lanes their parameters, [`ChunkMaps`]). Compiling each kind's pass once per variant that matters, not inside every
-/// Lambert variant, is what keeps the kernel's build time in bounds.
+/// lanes without a hit end in [`end_missed_paths`]). Each pass is a function
+/// of its own compiled for the instruction set `T` ([`InstructionSet::pass`]):
+/// Lambert surfaces first (compiled for every combination of the scene's
+/// light kinds and vertex normals), then every other kind the scene has
+/// (compiled only for with or without emitting triangles and an
+/// environment: the lanes' own flags select the rest; a kind's maps give its
+/// lanes their parameters, [`ChunkMaps`]). Compiling each kind's pass once
+/// per variant that matters, not inside every Lambert variant, is what keeps
+/// the kernel's build time in bounds.
 #[inline(always)]
 fn shade_lanes<T: InstructionSet>(kernel: &SoaScene, lanes: &mut SoaLanes, u: Uniform) {
     let lambert = LambertPass;
@@ -2599,9 +2600,9 @@ fn shade_lanes<T: InstructionSet>(kernel: &SoaScene, lanes: &mut SoaLanes, u: Un
         end_missed_paths(lanes);
     }
     if kernel.any_smooth {
-        shade_lambert::<true>(&lambert, kernel, lanes, u)
+        shade_lambert::<T, true>(&lambert, kernel, lanes, u)
     } else {
-        shade_lambert::<false>(&lambert, kernel, lanes, u)
+        shade_lambert::<T, false>(&lambert, kernel, lanes, u)
     }
     shade_kind_pass::<T, _>(&KindPass(&kernel.conductor), kernel, lanes, u);
     shade_kind_pass::<T, _>(&KindPass(&kernel.schlick), kernel, lanes, u);
@@ -2624,7 +2625,7 @@ fn shade_lanes<T: InstructionSet>(kernel: &SoaScene, lanes: &mut SoaLanes, u: Un
 /// The Lambert pass of [`shade_lanes`] for scenes with (`SMOOTH`) or
 /// without vertex normals, compiled for every combination of light kinds.
 #[inline(always)]
-fn shade_lambert<const SMOOTH: bool>(
+fn shade_lambert<T: InstructionSet, const SMOOTH: bool>(
     pass: &LambertPass,
     kernel: &SoaScene,
     lanes: &mut SoaLanes,
@@ -2635,14 +2636,12 @@ fn shade_lambert<const SMOOTH: bool>(
         kernel.cones,
         kernel.environment.is_some(),
     ) {
-        (true, true, true) => shade_chunks::<_, true, true, true, SMOOTH>(pass, kernel, lanes, u),
-        (true, true, false) => shade_chunks::<_, true, true, false, SMOOTH>(pass, kernel, lanes, u),
-        (true, false, true) => shade_chunks::<_, true, false, true, SMOOTH>(pass, kernel, lanes, u),
-        (true, false, false) => {
-            shade_chunks::<_, true, false, false, SMOOTH>(pass, kernel, lanes, u)
-        }
-        (false, _, true) => shade_chunks::<_, false, false, true, SMOOTH>(pass, kernel, lanes, u),
-        (false, _, false) => shade_chunks::<_, false, false, false, SMOOTH>(pass, kernel, lanes, u),
+        (true, true, true) => T::pass::<_, true, true, true, SMOOTH>(pass, kernel, lanes, u),
+        (true, true, false) => T::pass::<_, true, true, false, SMOOTH>(pass, kernel, lanes, u),
+        (true, false, true) => T::pass::<_, true, false, true, SMOOTH>(pass, kernel, lanes, u),
+        (true, false, false) => T::pass::<_, true, false, false, SMOOTH>(pass, kernel, lanes, u),
+        (false, _, true) => T::pass::<_, false, false, true, SMOOTH>(pass, kernel, lanes, u),
+        (false, _, false) => T::pass::<_, false, false, false, SMOOTH>(pass, kernel, lanes, u),
     }
 }
 
@@ -2660,10 +2659,10 @@ fn shade_kind_pass<T: InstructionSet, P: ChunkPass>(
         return;
     }
     match (kernel.triangle_lights, kernel.environment.is_some()) {
-        (true, true) => T::kind_pass::<P, true, true>(pass, kernel, lanes, u),
-        (true, false) => T::kind_pass::<P, true, false>(pass, kernel, lanes, u),
-        (false, true) => T::kind_pass::<P, false, true>(pass, kernel, lanes, u),
-        (false, false) => T::kind_pass::<P, false, false>(pass, kernel, lanes, u),
+        (true, true) => T::pass::<P, true, true, true, true>(pass, kernel, lanes, u),
+        (true, false) => T::pass::<P, true, true, false, true>(pass, kernel, lanes, u),
+        (false, true) => T::pass::<P, false, false, true, true>(pass, kernel, lanes, u),
+        (false, false) => T::pass::<P, false, false, false, true>(pass, kernel, lanes, u),
     }
 }
 
@@ -2672,10 +2671,15 @@ fn shade_kind_pass<T: InstructionSet, P: ChunkPass>(
 /// set (a function that is not inlined does not inherit its caller's target
 /// features).
 trait InstructionSet {
-    /// [`shade_chunks`] of `pass`, for scenes with (`TRIANGLES`) or without
-    /// emitting triangles (with or without cones among them: the lanes'
-    /// lights say) and with (`ENV`) or without an environment.
-    fn kind_pass<P: ChunkPass, const TRIANGLES: bool, const ENV: bool>(
+    /// [`shade_chunks`] of `pass` with these parameters, in a function of
+    /// its own compiled for this instruction set.
+    fn pass<
+        P: ChunkPass,
+        const TRIANGLES: bool,
+        const CONES: bool,
+        const ENV: bool,
+        const SMOOTH: bool,
+    >(
         pass: &P,
         kernel: &SoaScene,
         lanes: &mut SoaLanes,
@@ -2688,13 +2692,19 @@ struct Baseline;
 
 impl InstructionSet for Baseline {
     #[inline(always)]
-    fn kind_pass<P: ChunkPass, const TRIANGLES: bool, const ENV: bool>(
+    fn pass<
+        P: ChunkPass,
+        const TRIANGLES: bool,
+        const CONES: bool,
+        const ENV: bool,
+        const SMOOTH: bool,
+    >(
         pass: &P,
         kernel: &SoaScene,
         lanes: &mut SoaLanes,
         u: Uniform,
     ) {
-        kind_pass_baseline::<P, TRIANGLES, ENV>(pass, kernel, lanes, u)
+        pass_baseline::<P, TRIANGLES, CONES, ENV, SMOOTH>(pass, kernel, lanes, u)
     }
 }
 
@@ -2705,7 +2715,13 @@ struct Avx2;
 #[cfg(target_arch = "x86_64")]
 impl InstructionSet for Avx2 {
     #[inline(always)]
-    fn kind_pass<P: ChunkPass, const TRIANGLES: bool, const ENV: bool>(
+    fn pass<
+        P: ChunkPass,
+        const TRIANGLES: bool,
+        const CONES: bool,
+        const ENV: bool,
+        const SMOOTH: bool,
+    >(
         pass: &P,
         kernel: &SoaScene,
         lanes: &mut SoaLanes,
@@ -2713,7 +2729,7 @@ impl InstructionSet for Avx2 {
     ) {
         // SAFETY: only `trace_pass_avx2` passes this type, and `trace_pass`
         // calls that only on a CPU with AVX2 and FMA.
-        unsafe { kind_pass_avx2::<P, TRIANGLES, ENV>(pass, kernel, lanes, u) }
+        unsafe { pass_avx2::<P, TRIANGLES, CONES, ENV, SMOOTH>(pass, kernel, lanes, u) }
     }
 }
 
@@ -2724,7 +2740,13 @@ struct Avx512;
 #[cfg(target_arch = "x86_64")]
 impl InstructionSet for Avx512 {
     #[inline(always)]
-    fn kind_pass<P: ChunkPass, const TRIANGLES: bool, const ENV: bool>(
+    fn pass<
+        P: ChunkPass,
+        const TRIANGLES: bool,
+        const CONES: bool,
+        const ENV: bool,
+        const SMOOTH: bool,
+    >(
         pass: &P,
         kernel: &SoaScene,
         lanes: &mut SoaLanes,
@@ -2732,45 +2754,63 @@ impl InstructionSet for Avx512 {
     ) {
         // SAFETY: only `trace_pass_avx512` passes this type, and
         // `trace_pass` calls that only on a CPU with these features.
-        unsafe { kind_pass_avx512::<P, TRIANGLES, ENV>(pass, kernel, lanes, u) }
+        unsafe { pass_avx512::<P, TRIANGLES, CONES, ENV, SMOOTH>(pass, kernel, lanes, u) }
     }
 }
 
-/// A kind's pass for the baseline instruction set.
+/// A pass for the baseline instruction set.
 #[inline(never)]
-fn kind_pass_baseline<P: ChunkPass, const TRIANGLES: bool, const ENV: bool>(
+fn pass_baseline<
+    P: ChunkPass,
+    const TRIANGLES: bool,
+    const CONES: bool,
+    const ENV: bool,
+    const SMOOTH: bool,
+>(
     pass: &P,
     kernel: &SoaScene,
     lanes: &mut SoaLanes,
     u: Uniform,
 ) {
-    shade_chunks::<P, TRIANGLES, TRIANGLES, ENV, true>(pass, kernel, lanes, u)
+    shade_chunks::<P, TRIANGLES, CONES, ENV, SMOOTH>(pass, kernel, lanes, u)
 }
 
-/// A kind's pass compiled for AVX2.
+/// A pass compiled for AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
-unsafe fn kind_pass_avx2<P: ChunkPass, const TRIANGLES: bool, const ENV: bool>(
+unsafe fn pass_avx2<
+    P: ChunkPass,
+    const TRIANGLES: bool,
+    const CONES: bool,
+    const ENV: bool,
+    const SMOOTH: bool,
+>(
     pass: &P,
     kernel: &SoaScene,
     lanes: &mut SoaLanes,
     u: Uniform,
 ) {
-    shade_chunks::<P, TRIANGLES, TRIANGLES, ENV, true>(pass, kernel, lanes, u)
+    shade_chunks::<P, TRIANGLES, CONES, ENV, SMOOTH>(pass, kernel, lanes, u)
 }
 
-/// A kind's pass compiled for AVX-512.
+/// A pass compiled for AVX-512.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx512bw,avx2,fma")]
 #[inline(never)]
-unsafe fn kind_pass_avx512<P: ChunkPass, const TRIANGLES: bool, const ENV: bool>(
+unsafe fn pass_avx512<
+    P: ChunkPass,
+    const TRIANGLES: bool,
+    const CONES: bool,
+    const ENV: bool,
+    const SMOOTH: bool,
+>(
     pass: &P,
     kernel: &SoaScene,
     lanes: &mut SoaLanes,
     u: Uniform,
 ) {
-    shade_chunks::<P, TRIANGLES, TRIANGLES, ENV, true>(pass, kernel, lanes, u)
+    shade_chunks::<P, TRIANGLES, CONES, ENV, SMOOTH>(pass, kernel, lanes, u)
 }
 
 /// Which lanes of a chunk one pass of [`shade_chunks`] shades, and its
