@@ -2587,7 +2587,7 @@ fn shade_kind_lanes<
 /// lanes without a hit end in [`end_missed_paths`]). Each pass is a function
 /// of its own compiled for the instruction set `T` ([`InstructionSet::pass`]):
 /// Lambert surfaces first (compiled for every combination of the scene's
-/// light kinds and vertex normals), then every other kind the scene has
+/// light kinds), then every other kind the scene has
 /// (compiled only for with or without emitting triangles and an
 /// environment: the lanes' own flags select the rest; a kind's maps give its
 /// lanes their parameters, [`ChunkMaps`]). Compiling each kind's pass once
@@ -2599,11 +2599,7 @@ fn shade_lanes<T: InstructionSet>(kernel: &SoaScene, lanes: &mut SoaLanes, u: Un
     if !kernel.all_lambert {
         end_missed_paths(lanes);
     }
-    if kernel.any_smooth {
-        shade_lambert::<T, true>(&lambert, kernel, lanes, u)
-    } else {
-        shade_lambert::<T, false>(&lambert, kernel, lanes, u)
-    }
+    shade_lambert::<T>(&lambert, kernel, lanes, u);
     shade_kind_pass::<T, _>(&KindPass(&kernel.conductor), kernel, lanes, u);
     shade_kind_pass::<T, _>(&KindPass(&kernel.schlick), kernel, lanes, u);
     shade_kind_pass::<T, _>(&KindPass(&kernel.coated), kernel, lanes, u);
@@ -2622,10 +2618,12 @@ fn shade_lanes<T: InstructionSet>(kernel: &SoaScene, lanes: &mut SoaLanes, u: Un
     lanes.shadow.tnear.as_mut_slice().fill(0.0);
 }
 
-/// The Lambert pass of [`shade_lanes`] for scenes with (`SMOOTH`) or
-/// without vertex normals, compiled for every combination of light kinds.
+/// The Lambert pass of [`shade_lanes`], compiled for every combination of
+/// light kinds. Like every other kind's, it is compiled with vertex normals
+/// (`SMOOTH`) whether or not the scene has any (each lane's own flag selects
+/// the frame): without them, LLVM left the area-light variant's loop scalar.
 #[inline(always)]
-fn shade_lambert<T: InstructionSet, const SMOOTH: bool>(
+fn shade_lambert<T: InstructionSet>(
     pass: &LambertPass,
     kernel: &SoaScene,
     lanes: &mut SoaLanes,
@@ -2636,12 +2634,12 @@ fn shade_lambert<T: InstructionSet, const SMOOTH: bool>(
         kernel.cones,
         kernel.environment.is_some(),
     ) {
-        (true, true, true) => T::pass::<_, true, true, true, SMOOTH>(pass, kernel, lanes, u),
-        (true, true, false) => T::pass::<_, true, true, false, SMOOTH>(pass, kernel, lanes, u),
-        (true, false, true) => T::pass::<_, true, false, true, SMOOTH>(pass, kernel, lanes, u),
-        (true, false, false) => T::pass::<_, true, false, false, SMOOTH>(pass, kernel, lanes, u),
-        (false, _, true) => T::pass::<_, false, false, true, SMOOTH>(pass, kernel, lanes, u),
-        (false, _, false) => T::pass::<_, false, false, false, SMOOTH>(pass, kernel, lanes, u),
+        (true, true, true) => T::pass::<_, true, true, true, true>(pass, kernel, lanes, u),
+        (true, true, false) => T::pass::<_, true, true, false, true>(pass, kernel, lanes, u),
+        (true, false, true) => T::pass::<_, true, false, true, true>(pass, kernel, lanes, u),
+        (true, false, false) => T::pass::<_, true, false, false, true>(pass, kernel, lanes, u),
+        (false, _, true) => T::pass::<_, false, false, true, true>(pass, kernel, lanes, u),
+        (false, _, false) => T::pass::<_, false, false, false, true>(pass, kernel, lanes, u),
     }
 }
 
@@ -3086,7 +3084,7 @@ fn shade_chunks<
         let eta_scale_in = load(&lanes.eta_scale, start);
         let mut eta_scale = eta_scale_in;
         let (mut ns, mut ns_valid) = ([[0.0f32; W]; 3], [false; W]);
-        if SMOOTH {
+        if SMOOTH && kernel.any_smooth {
             ns_valid = load(&lanes.ns_valid, start);
             for c in 0..3 {
                 ns[c] = load(&lanes.ns[c], start);
