@@ -15,7 +15,7 @@ use plsr::warp::{
 };
 
 /// Significance per test: 1 % overall, Bonferroni-corrected over the tests here.
-const SIGNIFICANCE: f64 = 0.01 / 12.0;
+const SIGNIFICANCE: f64 = 0.01 / 16.0;
 const DRAWS: usize = 400_000;
 
 #[test]
@@ -157,7 +157,9 @@ fn light_selection_is_proportional_to_power() {
     ];
     let powers: Vec<f64> = lights.iter().map(|l| l.power() as f64).collect();
     let total: f64 = powers.iter().sum();
-    let set = LightSet::new(lights);
+    // By power alone (with several groups, `pick` would also weigh them by
+    // where they are: `spatial_light_selection_matches_its_pmf`).
+    let set = LightSet::new(lights).without_spatial_picking();
     let n = 200_000;
     let mut observed = vec![0.0; 4];
     let mut rng = Rng::new(16, 1);
@@ -172,6 +174,92 @@ fn light_selection_is_proportional_to_power() {
     let (chi2, dof) = chi2_from_counts(&observed, &expected, 5.0);
     let p = 1.0 - regularized_gamma_p(dof as f64 / 2.0, chi2 / 2.0);
     assert!(p >= SIGNIFICANCE, "chi2 = {chi2}, dof = {dof}, p = {p}");
+}
+
+/// Lights picked by distance and orientation as well as power: at points
+/// around a scene of point lights, a panel of two triangles and an
+/// environment, the picks are distributed as `pick_pmf` says (chi-square),
+/// the probabilities sum to 1, the probability returned with a pick is
+/// `pick_pmf`'s to the bit, and a panel facing away is never picked.
+#[test]
+fn spatial_light_selection_matches_its_pmf() {
+    use plsr::light::EnvironmentLight;
+    let panel = |z: f32| {
+        let (a, b, c, d) = (
+            Vec3::new(-0.5, -0.5, z),
+            Vec3::new(0.5, -0.5, z),
+            Vec3::new(0.5, 0.5, z),
+            Vec3::new(-0.5, 0.5, z),
+        );
+        // Wound to face down (−z).
+        [[a, c, b], [a, d, c]]
+            .map(|t| Light::Triangle(TriangleLight::new(t, Vec3::splat(4.0), false).unwrap()))
+    };
+    let [t0, t1] = panel(2.0);
+    let lights = vec![
+        Light::Point(PointLight {
+            position: Vec3::new(0.0, 0.0, 3.0),
+            intensity: Vec3::splat(1.0),
+        }),
+        Light::Point(PointLight {
+            position: Vec3::new(4.0, 0.0, 1.0),
+            intensity: Vec3::splat(3.0),
+        }),
+        t0,
+        t1,
+        Light::Environment {
+            light: Box::new(EnvironmentLight::constant(Vec3::splat(0.05))),
+            scene_radius: 3.0,
+        },
+    ];
+    let set = LightSet::with_groups(
+        lights,
+        vec![(0..1, None), (1..2, None), (2..4, None), (4..5, None)],
+    );
+    assert!(set.is_spatial() && !set.is_spatially_uniform());
+    let n = 200_000;
+    for (s, p) in [
+        Vec3::ZERO,
+        Vec3::new(3.0, 0.5, 0.5),
+        Vec3::new(-1.0, 1.0, 1.5),
+        // Above the panel, which faces down, beyond its bounding sphere:
+        // never picked there.
+        Vec3::new(0.2, 0.1, 3.5),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let pmf: Vec<f64> = (0..5).map(|i| set.pick_pmf(i, p) as f64).collect();
+        let sum: f64 = pmf.iter().sum();
+        assert!(
+            (sum - 1.0).abs() < 1e-5,
+            "at {p}: pmfs {pmf:?} sum to {sum}"
+        );
+        let mut observed = vec![0.0; 5];
+        let mut rng = Rng::new(40 + s as u64, 1);
+        for _ in 0..n {
+            let (i, prob) = set.pick(p, rng.next_2d()).unwrap();
+            assert_eq!(prob, set.pick_pmf(i, p), "at {p}, light {i}");
+            observed[i] += 1.0;
+        }
+        if p.z > 3.0 {
+            assert_eq!(pmf[2] + pmf[3], 0.0, "the panel faces away from {p}");
+            assert_eq!(observed[2] + observed[3], 0.0);
+        }
+        let expected: Vec<f64> = pmf.iter().map(|q| q * n as f64).collect();
+        let (chi2, dof) = chi2_from_counts(&observed, &expected, 5.0);
+        let pv = 1.0 - regularized_gamma_p(dof as f64 / 2.0, chi2 / 2.0);
+        assert!(
+            pv >= SIGNIFICANCE,
+            "at {p}: chi2 = {chi2}, dof = {dof}, p = {pv}"
+        );
+    }
+    // Nearer lights are picked more often: at the origin the point light 3
+    // units away gets 3 times its power share against the one √17 away
+    // (intensity ratio 1:3, squared distances 9 and 17).
+    let p = Vec3::ZERO;
+    let ratio = set.pick_pmf(0, p) / set.pick_pmf(1, p);
+    assert!((ratio - (1.0 / 9.0) / (3.0 / 17.0)).abs() < 1e-4, "{ratio}");
 }
 
 /// Next-event estimation on a parametric light (the paper's lamp): picking a

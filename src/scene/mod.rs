@@ -495,6 +495,19 @@ impl Scene {
         self.lights.edit(f);
     }
 
+    /// Picks lights by power alone (`false`) instead of weighing them by
+    /// distance and orientation at each shading point as well (`true`, the
+    /// default; see [`LightSet::pick`]). Both are unbiased; this is for
+    /// comparing their noise.
+    pub fn set_spatial_light_picking(&mut self, spatial: bool) {
+        let lights = std::mem::take(&mut self.lights);
+        self.lights = if spatial {
+            lights.with_spatial_picking()
+        } else {
+            lights.without_spatial_picking()
+        };
+    }
+
     /// Sets the PLS light of mesh `mesh` (an emitter made by [`pls_mesh`])
     /// to `light`'s brightness, colour and window; its outline stays.
     pub fn set_pls_window_and_brightness(&mut self, mesh: usize, light: &Pls) -> Result<()> {

@@ -86,6 +86,11 @@ pub struct RenderArgs {
     /// checking and timing.
     #[arg(long)]
     pub scalar: bool,
+    /// How next-event estimation picks a light: `spatial` (default) weighs
+    /// each light's power by its distance and orientation at the shading
+    /// point, `power` by power alone. Both are unbiased; for comparing noise.
+    #[arg(long, value_parser = ["spatial", "power"], default_value = "spatial")]
+    pub light_picking: String,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
@@ -179,6 +184,17 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             .map_err(|e| Error::InvalidArgument(format!("--resolution {r}: {e}")))?;
     }
     let mut scene = Scene::build(description)?;
+    if a.light_picking == "power" {
+        // A part's identity (its scene hash) does not record the picking,
+        // so parts rendered both ways could be merged unnoticed.
+        if a.samples.is_some() || a.resume {
+            return Err(Error::InvalidArgument(
+                "--light-picking power renders whole images only (not with --samples or --resume)"
+                    .into(),
+            ));
+        }
+        scene.set_spatial_light_picking(false);
+    }
     let mut job = scene.default_job();
     if let Some(spp) = a.spp {
         if spp == 0 {

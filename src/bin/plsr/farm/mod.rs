@@ -315,6 +315,7 @@ fn piece(a: &PieceArgs) -> Result<()> {
         exposure: None,
         filmic: false,
         scalar: false,
+        light_picking: "spatial".into(),
         resume: false,
         quiet: true,
     })
