@@ -2222,7 +2222,6 @@ fn shade_lane<
     const TRIANGLES: bool,
     const CONES: bool,
     const ENV: bool,
-    const SMOOTH: bool,
     const ANISO: bool,
 >(
     l: LaneIn,
@@ -2242,7 +2241,7 @@ fn shade_lane<
     };
     // A shading normal bends the frame; directions on different sides for
     // it and for the geometric normal are rejected (the light-leak guard).
-    let smooth = SMOOTH && l.smooth;
+    let smooth = l.smooth;
     let shading_n = if smooth {
         shading_normal_towards(l.ns, n, wo)
     } else {
@@ -2524,13 +2523,7 @@ fn store<T: Copy>(dst: &mut [T], start: usize, src: &[T; W]) {
 /// through the same loop with `idle` (so that it has no branch) and their
 /// results are discarded. A chunk with no such lane is skipped.
 #[inline(always)]
-fn shade_kind<
-    B: LaneBsdf,
-    const TRIANGLES: bool,
-    const CONES: bool,
-    const ENV: bool,
-    const SMOOTH: bool,
->(
+fn shade_kind<B: LaneBsdf, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
     bsdfs: &[Option<B>; W],
     idle: B,
     aniso: bool,
@@ -2542,12 +2535,11 @@ fn shade_kind<
         return;
     }
     // A chunk with an anisotropic lane (rare) takes the loop compiled for
-    // every light kind and vertex normals (the lanes' own flags select the
-    // same results), so that it adds one variant per kind to compile.
+    // every light kind (the lanes' own flags select the same results), so that it adds one variant per kind to compile.
     if B::MAY_BE_ANISOTROPIC && aniso {
-        shade_kind_lanes::<B, true, true, true, true, true>(bsdfs, idle, lane_in, put, u)
+        shade_kind_lanes::<B, true, true, true, true>(bsdfs, idle, lane_in, put, u)
     } else {
-        shade_kind_lanes::<B, TRIANGLES, CONES, ENV, SMOOTH, false>(bsdfs, idle, lane_in, put, u)
+        shade_kind_lanes::<B, TRIANGLES, CONES, ENV, false>(bsdfs, idle, lane_in, put, u)
     }
 }
 
@@ -2559,7 +2551,6 @@ fn shade_kind_lanes<
     const TRIANGLES: bool,
     const CONES: bool,
     const ENV: bool,
-    const SMOOTH: bool,
     const ANISO: bool,
 >(
     bsdfs: &[Option<B>; W],
@@ -2570,8 +2561,7 @@ fn shade_kind_lanes<
 ) {
     for k in 0..W {
         let l = lane_in(k);
-        let out =
-            shade_lane::<B, TRIANGLES, CONES, ENV, SMOOTH, ANISO>(l, bsdfs[k].unwrap_or(idle), u);
+        let out = shade_lane::<B, TRIANGLES, CONES, ENV, ANISO>(l, bsdfs[k].unwrap_or(idle), u);
         if bsdfs[k].is_some() {
             put(k, l.hit, out);
         }
@@ -2620,8 +2610,9 @@ fn shade_lanes<T: InstructionSet>(kernel: &SoaScene, lanes: &mut SoaLanes, u: Un
 
 /// The Lambert pass of [`shade_lanes`], compiled for every combination of
 /// light kinds. Like every other kind's, it is compiled with vertex normals
-/// (`SMOOTH`) whether or not the scene has any (each lane's own flag selects
-/// the frame): without them, LLVM left the area-light variant's loop scalar.
+/// whether or not the scene has any (each lane's own flag selects the
+/// frame): compiled without them, LLVM left the area-light variant's loop
+/// scalar.
 #[inline(always)]
 fn shade_lambert<T: InstructionSet>(
     pass: &LambertPass,
@@ -2634,12 +2625,12 @@ fn shade_lambert<T: InstructionSet>(
         kernel.cones,
         kernel.environment.is_some(),
     ) {
-        (true, true, true) => T::pass::<_, true, true, true, true>(pass, kernel, lanes, u),
-        (true, true, false) => T::pass::<_, true, true, false, true>(pass, kernel, lanes, u),
-        (true, false, true) => T::pass::<_, true, false, true, true>(pass, kernel, lanes, u),
-        (true, false, false) => T::pass::<_, true, false, false, true>(pass, kernel, lanes, u),
-        (false, _, true) => T::pass::<_, false, false, true, true>(pass, kernel, lanes, u),
-        (false, _, false) => T::pass::<_, false, false, false, true>(pass, kernel, lanes, u),
+        (true, true, true) => T::pass::<_, true, true, true>(pass, kernel, lanes, u),
+        (true, true, false) => T::pass::<_, true, true, false>(pass, kernel, lanes, u),
+        (true, false, true) => T::pass::<_, true, false, true>(pass, kernel, lanes, u),
+        (true, false, false) => T::pass::<_, true, false, false>(pass, kernel, lanes, u),
+        (false, _, true) => T::pass::<_, false, false, true>(pass, kernel, lanes, u),
+        (false, _, false) => T::pass::<_, false, false, false>(pass, kernel, lanes, u),
     }
 }
 
@@ -2657,10 +2648,10 @@ fn shade_kind_pass<T: InstructionSet, P: ChunkPass>(
         return;
     }
     match (kernel.triangle_lights, kernel.environment.is_some()) {
-        (true, true) => T::pass::<P, true, true, true, true>(pass, kernel, lanes, u),
-        (true, false) => T::pass::<P, true, true, false, true>(pass, kernel, lanes, u),
-        (false, true) => T::pass::<P, false, false, true, true>(pass, kernel, lanes, u),
-        (false, false) => T::pass::<P, false, false, false, true>(pass, kernel, lanes, u),
+        (true, true) => T::pass::<P, true, true, true>(pass, kernel, lanes, u),
+        (true, false) => T::pass::<P, true, true, false>(pass, kernel, lanes, u),
+        (false, true) => T::pass::<P, false, false, true>(pass, kernel, lanes, u),
+        (false, false) => T::pass::<P, false, false, false>(pass, kernel, lanes, u),
     }
 }
 
@@ -2671,13 +2662,7 @@ fn shade_kind_pass<T: InstructionSet, P: ChunkPass>(
 trait InstructionSet {
     /// [`shade_chunks`] of `pass` with these parameters, in a function of
     /// its own compiled for this instruction set.
-    fn pass<
-        P: ChunkPass,
-        const TRIANGLES: bool,
-        const CONES: bool,
-        const ENV: bool,
-        const SMOOTH: bool,
-    >(
+    fn pass<P: ChunkPass, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
         pass: &P,
         kernel: &SoaScene,
         lanes: &mut SoaLanes,
@@ -2690,19 +2675,13 @@ struct Baseline;
 
 impl InstructionSet for Baseline {
     #[inline(always)]
-    fn pass<
-        P: ChunkPass,
-        const TRIANGLES: bool,
-        const CONES: bool,
-        const ENV: bool,
-        const SMOOTH: bool,
-    >(
+    fn pass<P: ChunkPass, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
         pass: &P,
         kernel: &SoaScene,
         lanes: &mut SoaLanes,
         u: Uniform,
     ) {
-        pass_baseline::<P, TRIANGLES, CONES, ENV, SMOOTH>(pass, kernel, lanes, u)
+        pass_baseline::<P, TRIANGLES, CONES, ENV>(pass, kernel, lanes, u)
     }
 }
 
@@ -2713,13 +2692,7 @@ struct Avx2;
 #[cfg(target_arch = "x86_64")]
 impl InstructionSet for Avx2 {
     #[inline(always)]
-    fn pass<
-        P: ChunkPass,
-        const TRIANGLES: bool,
-        const CONES: bool,
-        const ENV: bool,
-        const SMOOTH: bool,
-    >(
+    fn pass<P: ChunkPass, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
         pass: &P,
         kernel: &SoaScene,
         lanes: &mut SoaLanes,
@@ -2727,7 +2700,7 @@ impl InstructionSet for Avx2 {
     ) {
         // SAFETY: only `trace_pass_avx2` passes this type, and `trace_pass`
         // calls that only on a CPU with AVX2 and FMA.
-        unsafe { pass_avx2::<P, TRIANGLES, CONES, ENV, SMOOTH>(pass, kernel, lanes, u) }
+        unsafe { pass_avx2::<P, TRIANGLES, CONES, ENV>(pass, kernel, lanes, u) }
     }
 }
 
@@ -2738,13 +2711,7 @@ struct Avx512;
 #[cfg(target_arch = "x86_64")]
 impl InstructionSet for Avx512 {
     #[inline(always)]
-    fn pass<
-        P: ChunkPass,
-        const TRIANGLES: bool,
-        const CONES: bool,
-        const ENV: bool,
-        const SMOOTH: bool,
-    >(
+    fn pass<P: ChunkPass, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
         pass: &P,
         kernel: &SoaScene,
         lanes: &mut SoaLanes,
@@ -2752,63 +2719,45 @@ impl InstructionSet for Avx512 {
     ) {
         // SAFETY: only `trace_pass_avx512` passes this type, and
         // `trace_pass` calls that only on a CPU with these features.
-        unsafe { pass_avx512::<P, TRIANGLES, CONES, ENV, SMOOTH>(pass, kernel, lanes, u) }
+        unsafe { pass_avx512::<P, TRIANGLES, CONES, ENV>(pass, kernel, lanes, u) }
     }
 }
 
 /// A pass for the baseline instruction set.
 #[inline(never)]
-fn pass_baseline<
-    P: ChunkPass,
-    const TRIANGLES: bool,
-    const CONES: bool,
-    const ENV: bool,
-    const SMOOTH: bool,
->(
+fn pass_baseline<P: ChunkPass, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
     pass: &P,
     kernel: &SoaScene,
     lanes: &mut SoaLanes,
     u: Uniform,
 ) {
-    shade_chunks::<P, TRIANGLES, CONES, ENV, SMOOTH>(pass, kernel, lanes, u)
+    shade_chunks::<P, TRIANGLES, CONES, ENV>(pass, kernel, lanes, u)
 }
 
 /// A pass compiled for AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
-unsafe fn pass_avx2<
-    P: ChunkPass,
-    const TRIANGLES: bool,
-    const CONES: bool,
-    const ENV: bool,
-    const SMOOTH: bool,
->(
+unsafe fn pass_avx2<P: ChunkPass, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
     pass: &P,
     kernel: &SoaScene,
     lanes: &mut SoaLanes,
     u: Uniform,
 ) {
-    shade_chunks::<P, TRIANGLES, CONES, ENV, SMOOTH>(pass, kernel, lanes, u)
+    shade_chunks::<P, TRIANGLES, CONES, ENV>(pass, kernel, lanes, u)
 }
 
 /// A pass compiled for AVX-512.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx512bw,avx2,fma")]
 #[inline(never)]
-unsafe fn pass_avx512<
-    P: ChunkPass,
-    const TRIANGLES: bool,
-    const CONES: bool,
-    const ENV: bool,
-    const SMOOTH: bool,
->(
+unsafe fn pass_avx512<P: ChunkPass, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
     pass: &P,
     kernel: &SoaScene,
     lanes: &mut SoaLanes,
     u: Uniform,
 ) {
-    shade_chunks::<P, TRIANGLES, CONES, ENV, SMOOTH>(pass, kernel, lanes, u)
+    shade_chunks::<P, TRIANGLES, CONES, ENV>(pass, kernel, lanes, u)
 }
 
 /// Which lanes of a chunk one pass of [`shade_chunks`] shades, and its
@@ -2833,7 +2782,7 @@ trait ChunkPass {
     /// results to `put`; `albedo` is each lane's albedo (linear RGB) and
     /// `aniso` whether a lane of the chunk has a tangent frame.
     #[allow(clippy::too_many_arguments)]
-    fn shade<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const SMOOTH: bool>(
+    fn shade<const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
         &self,
         chunk: &Self::Chunk,
         albedo: &[[f32; W]; 3],
@@ -2873,7 +2822,7 @@ impl ChunkPass for LambertPass {
     }
 
     #[inline(always)]
-    fn shade<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const SMOOTH: bool>(
+    fn shade<const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
         &self,
         _: &(),
         albedo: &[[f32; W]; 3],
@@ -2885,7 +2834,7 @@ impl ChunkPass for LambertPass {
         for k in 0..W {
             let l = lane_in(k);
             let bsdf = LambertLane(Vec3::new(albedo[0][k], albedo[1][k], albedo[2][k]));
-            let out = shade_lane::<_, TRIANGLES, CONES, ENV, SMOOTH, false>(l, bsdf, u);
+            let out = shade_lane::<_, TRIANGLES, CONES, ENV, false>(l, bsdf, u);
             put(k, l.hit, out);
         }
     }
@@ -2935,7 +2884,7 @@ impl<B: LaneKind + LaneBsdf> ChunkPass for KindPass<'_, B> {
     }
 
     #[inline(always)]
-    fn shade<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const SMOOTH: bool>(
+    fn shade<const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
         &self,
         bsdfs: &[Option<B>; W],
         _albedo: &[[f32; W]; 3],
@@ -2944,7 +2893,7 @@ impl<B: LaneKind + LaneBsdf> ChunkPass for KindPass<'_, B> {
         put: &mut impl FnMut(usize, bool, LaneOut),
         u: Uniform,
     ) {
-        shade_kind::<B, TRIANGLES, CONES, ENV, SMOOTH>(bsdfs, B::IDLE, aniso, lane_in, put, u);
+        shade_kind::<B, TRIANGLES, CONES, ENV>(bsdfs, B::IDLE, aniso, lane_in, put, u);
     }
 }
 
@@ -2979,7 +2928,7 @@ impl<M: PrincipledMode> ChunkPass for PrincipledPass<'_, M> {
     }
 
     #[inline(always)]
-    fn shade<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const SMOOTH: bool>(
+    fn shade<const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
         &self,
         params: &[Option<PrincipledIn<M>>; W],
         albedo: &[[f32; W]; 3],
@@ -3000,7 +2949,7 @@ impl<M: PrincipledMode> ChunkPass for PrincipledPass<'_, M> {
         } else {
             PrincipledLane(PrincipledIn::IDLE, Vec3::splat(0.5))
         };
-        shade_kind::<_, TRIANGLES, CONES, ENV, SMOOTH>(&principled, idle, aniso, lane_in, put, u);
+        shade_kind::<_, TRIANGLES, CONES, ENV>(&principled, idle, aniso, lane_in, put, u);
     }
 }
 
@@ -3009,17 +2958,11 @@ impl<M: PrincipledMode> ChunkPass for PrincipledPass<'_, M> {
 /// compiler vectorises the chunk's loop without run-time overlap checks,
 /// which it could not generate for some thirty lane arrays and a table
 /// lookup), for scenes with (`TRIANGLES`) or without emitting triangles,
-/// with (`CONES`) or without emission cones among them, with (`ENV`) or
-/// without an environment, and with (`SMOOTH`) or without vertex normals.
+/// with (`CONES`) or without emission cones among them, and with (`ENV`) or
+/// without an environment (vertex normals: each lane's own flag).
 /// Only the selected lanes' results are written back.
 #[inline(always)]
-fn shade_chunks<
-    P: ChunkPass,
-    const TRIANGLES: bool,
-    const CONES: bool,
-    const ENV: bool,
-    const SMOOTH: bool,
->(
+fn shade_chunks<P: ChunkPass, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
     pass: &P,
     kernel: &SoaScene,
     lanes: &mut SoaLanes,
@@ -3084,7 +3027,7 @@ fn shade_chunks<
         let eta_scale_in = load(&lanes.eta_scale, start);
         let mut eta_scale = eta_scale_in;
         let (mut ns, mut ns_valid) = ([[0.0f32; W]; 3], [false; W]);
-        if SMOOTH && kernel.any_smooth {
+        if kernel.any_smooth {
             ns_valid = load(&lanes.ns_valid, start);
             for c in 0..3 {
                 ns[c] = load(&lanes.ns[c], start);
@@ -3180,7 +3123,7 @@ fn shade_chunks<
                 f32::NEG_INFINITY
             };
         };
-        pass.shade::<TRIANGLES, CONES, ENV, SMOOTH>(&chunk, &albedo, aniso, &lane_in, &mut put, u);
+        pass.shade::<TRIANGLES, CONES, ENV>(&chunk, &albedo, aniso, &lane_in, &mut put, u);
 
         // The selected lanes' results back into the lane arrays (the other
         // lanes' are another pass's).

@@ -504,33 +504,23 @@ impl LightSet {
         }
         let target = u.x * total;
         let (group, pmf) = if target < self.env_power || w.power <= 0.0 {
-            let mut t = target;
-            let mut chosen = None;
-            for &g in &self.env_groups {
-                let power = self.groups[g as usize].power;
-                if power > 0.0 {
-                    chosen = Some((g, power / total));
-                    if t < power {
-                        break;
-                    }
-                    t -= power;
-                }
-            }
-            chosen?
+            let powers = self
+                .env_groups
+                .iter()
+                .map(|&g| (g, self.groups[g as usize].power));
+            let g = walk(powers, target)?;
+            (g, self.groups[g as usize].power / total)
         } else {
-            let mut t = (target - self.env_power) / w.power * w.importance_sum;
-            let mut chosen = None;
-            for (i, &(g, _)) in self.local_groups.iter().enumerate() {
-                let x = w.importance[i];
-                if x > 0.0 {
-                    chosen = Some((g, LightSet::local_pmf(&w, i, total)));
-                    if t < x {
-                        break;
-                    }
-                    t -= x;
-                }
-            }
-            chosen?
+            let t = (target - self.env_power) / w.power * w.importance_sum;
+            let i = walk(
+                w.importance
+                    .iter()
+                    .copied()
+                    .enumerate()
+                    .take(self.local_groups.len()),
+                t,
+            )?;
+            (self.local_groups[i].0, LightSet::local_pmf(&w, i, total))
         };
         let g = &self.groups[group as usize];
         let (k, pk) = g.within.sample(u.y)?;
@@ -558,18 +548,11 @@ impl LightSet {
             self.everywhere_groups[k]
         } else {
             target -= self.everywhere_power;
-            let mut chosen = None;
-            for (k, &g) in self.limited_groups.iter().enumerate() {
-                if reaches(k, g) {
-                    let w = self.groups[g as usize].power;
-                    chosen = Some(g);
-                    if target < w {
-                        break;
-                    }
-                    target -= w;
-                }
-            }
-            chosen?
+            let reaching = self.limited_groups.iter().enumerate();
+            let powers = reaching
+                .filter(|&(k, &g)| reaches(k, g))
+                .map(|(_, &g)| (g, self.groups[g as usize].power));
+            walk(powers, target)?
         };
         let g = &self.groups[group as usize];
         let (k, pk) = g.within.sample(u.y)?;
@@ -635,6 +618,25 @@ impl LightSet {
         }
         w / self.total_power(p) * group.within.pmf(index - group.range.start as usize)
     }
+}
+
+/// The item whose interval holds `target` when the positive weights of
+/// `items` are laid end to end in their order (the last such item where
+/// rounding leaves `target` past the end); `None` where no weight is
+/// positive.
+#[inline(always)]
+fn walk<T>(items: impl Iterator<Item = (T, f32)>, mut target: f32) -> Option<T> {
+    let mut chosen = None;
+    for (item, weight) in items {
+        if weight > 0.0 {
+            chosen = Some(item);
+            if target < weight {
+                break;
+            }
+            target -= weight;
+        }
+    }
+    chosen
 }
 
 #[cfg(test)]
