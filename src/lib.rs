@@ -37,6 +37,7 @@ pub mod capi;
 pub mod capture;
 pub mod color;
 pub mod composite;
+pub mod elementary;
 pub mod equirect;
 pub mod error;
 pub mod experiment;

@@ -42,6 +42,13 @@ const SQRT_ALPHA_MAX: f32 = 1.8;
 /// Stratified visible-normal samples per table entry, per side.
 const SAMPLES_PER_SIDE: usize = 24;
 
+/// A `[√α][μ]` table of directional albedos, row-major over `√α`. A fixed
+/// size, so that every index [`lookup`] forms is provably in bounds and the
+/// vectorised kernel's loops have no bounds checks.
+type Table = [f32; SQRT_ALPHA_POINTS * MU_POINTS];
+/// The `[√α]` hemispherical averages of a [`Table`].
+type Averages = [f32; SQRT_ALPHA_POINTS];
+
 /// `η` from principled's `specular` (Mitsuba's mapping).
 #[inline(always)]
 pub fn eta_from_specular(specular: f32) -> f32 {
@@ -59,7 +66,7 @@ fn sqrt_alpha_at(j: usize) -> f32 {
 
 /// A grid coordinate for `x ∈ [0, 1]` on `points` even steps: the lower
 /// index and the weight of the upper one.
-#[inline]
+#[inline(always)]
 fn cell(x: f32, points: usize) -> (usize, f32) {
     let t = x.clamp(0.0, 1.0) * (points - 1) as f32;
     let i = (t as usize).min(points - 2);
@@ -83,13 +90,11 @@ fn hemispherical_average(e: &[f32]) -> f32 {
 /// Serial on purpose: the tables may first be needed inside a render's
 /// rayon worker, where a nested parallel loop could steal a job that waits
 /// on this very initialisation.
-fn tabulate<const N: usize>(fresnels: [&dyn Fn(f32) -> f32; N]) -> [(Vec<f32>, Vec<f32>); N] {
-    let mut out: [(Vec<f32>, Vec<f32>); N] = std::array::from_fn(|_| {
-        (
-            Vec::with_capacity(SQRT_ALPHA_POINTS * MU_POINTS),
-            Vec::with_capacity(SQRT_ALPHA_POINTS),
-        )
-    });
+fn tabulate<const N: usize>(fresnels: [&dyn Fn(f32) -> f32; N]) -> [(Table, Averages); N] {
+    let mut out = [(
+        [0.0; SQRT_ALPHA_POINTS * MU_POINTS],
+        [0.0; SQRT_ALPHA_POINTS],
+    ); N];
     let n = SAMPLES_PER_SIDE;
     for j in 0..SQRT_ALPHA_POINTS {
         let a = sqrt_alpha_at(j);
@@ -122,8 +127,8 @@ fn tabulate<const N: usize>(fresnels: [&dyn Fn(f32) -> f32; N]) -> [(Vec<f32>, V
             }
         }
         for (table, row) in out.iter_mut().zip(&rows) {
-            table.0.extend_from_slice(row);
-            table.1.push(hemispherical_average(row));
+            table.0[j * MU_POINTS..(j + 1) * MU_POINTS].copy_from_slice(row);
+            table.1[j] = hemispherical_average(row);
         }
     }
     out
@@ -132,8 +137,8 @@ fn tabulate<const N: usize>(fresnels: [&dyn Fn(f32) -> f32; N]) -> [(Vec<f32>, V
 /// Bilinear lookup in a `[α][μ]` table: linear in `μ` between its grid
 /// points (the interpolant [`hemispherical_average`] integrates), linear in
 /// `√α`.
-#[inline]
-fn lookup(table: &[f32], mu: f32, alpha: f32) -> f32 {
+#[inline(always)]
+fn lookup(table: &Table, mu: f32, alpha: f32) -> f32 {
     let mu = mu.clamp(0.0, 1.0);
     let (i, _) = cell(mu.sqrt(), MU_POINTS);
     let fi = ((mu - mu_at(i)) / (mu_at(i + 1) - mu_at(i))).clamp(0.0, 1.0);
@@ -145,18 +150,68 @@ fn lookup(table: &[f32], mu: f32, alpha: f32) -> f32 {
 }
 
 /// Linear lookup in an `[α]` table of averages.
-#[inline]
-fn lookup_average(table: &[f32], alpha: f32) -> f32 {
+#[inline(always)]
+fn lookup_average(table: &Averages, alpha: f32) -> f32 {
     let (j, fj) = cell(alpha.sqrt() / SQRT_ALPHA_MAX, SQRT_ALPHA_POINTS);
     table[j] + fj * (table[j + 1] - table[j])
 }
 
 /// Albedos of the lobe with `F = 1` and with Schlick's weight as `F`.
 pub struct SpecularAlbedo {
-    white: Vec<f32>,
-    schlick: Vec<f32>,
-    white_avg: Vec<f32>,
-    schlick_avg: Vec<f32>,
+    white: Table,
+    schlick: Table,
+    white_avg: Averages,
+    schlick_avg: Averages,
+}
+
+/// Tables of zeros, for a material that never reads them (no `spec_tint`)
+/// or a lane that shades nothing.
+static NO_SPECULAR_ALBEDO: SpecularAlbedo = SpecularAlbedo {
+    white: [0.0; SQRT_ALPHA_POINTS * MU_POINTS],
+    schlick: [0.0; SQRT_ALPHA_POINTS * MU_POINTS],
+    white_avg: [0.0; SQRT_ALPHA_POINTS],
+    schlick_avg: [0.0; SQRT_ALPHA_POINTS],
+};
+
+/// A table of zeros (for a lane that shades nothing).
+static NO_DIELECTRIC_ALBEDO: DielectricAlbedo = DielectricAlbedo {
+    specular: 0.0,
+    e: [0.0; SQRT_ALPHA_POINTS * MU_POINTS],
+    avg: [0.0; SQRT_ALPHA_POINTS],
+};
+
+/// The tables the energy-conserving principled BSDF reads for one material:
+/// the dielectric albedo of its `specular` and, where it has `spec_tint`,
+/// the Schlick albedos. Looked up once per material by whoever shades many
+/// points of it, so that evaluation itself is pure arithmetic and loads.
+#[derive(Debug, Clone, Copy)]
+pub struct EnergyTables {
+    /// [`DielectricAlbedo::for_specular`] of the material's `specular`.
+    pub dielectric: &'static DielectricAlbedo,
+    /// [`SpecularAlbedo::get`] where `spec_tint > 0`; else tables of zeros,
+    /// never read.
+    pub schlick: &'static SpecularAlbedo,
+}
+
+impl EnergyTables {
+    /// Tables of zeros, for a lane that shades nothing: every lookup is 0.
+    pub const NONE: EnergyTables = EnergyTables {
+        dielectric: &NO_DIELECTRIC_ALBEDO,
+        schlick: &NO_SPECULAR_ALBEDO,
+    };
+
+    /// The tables of a material with `specular` and `spec_tint`, computing
+    /// any not computed yet.
+    pub fn of(specular: f32, spec_tint: f32) -> EnergyTables {
+        EnergyTables {
+            dielectric: DielectricAlbedo::for_specular(specular),
+            schlick: if spec_tint > 0.0 {
+                SpecularAlbedo::get()
+            } else {
+                &NO_SPECULAR_ALBEDO
+            },
+        }
+    }
 }
 
 impl SpecularAlbedo {
@@ -177,7 +232,7 @@ impl SpecularAlbedo {
 
     /// `[E(F = 1), E(F = Schlick weight)]` for `μo = cos θo` and roughness
     /// `alpha`.
-    #[inline]
+    #[inline(always)]
     pub fn directional(&self, mu: f32, alpha: f32) -> [f32; 2] {
         [
             lookup(&self.white, mu, alpha),
@@ -186,7 +241,7 @@ impl SpecularAlbedo {
     }
 
     /// The hemispherical averages `Ē = 2∫E(μ)μ dμ` of the two.
-    #[inline]
+    #[inline(always)]
     pub fn average(&self, alpha: f32) -> [f32; 2] {
         [
             lookup_average(&self.white_avg, alpha),
@@ -199,8 +254,18 @@ impl SpecularAlbedo {
 /// `specular` value.
 pub struct DielectricAlbedo {
     specular: f32,
-    e: Vec<f32>,
-    avg: Vec<f32>,
+    e: Table,
+    avg: Averages,
+}
+
+impl std::fmt::Debug for SpecularAlbedo {
+    /// Whether the tables are the computed ones (not their entries).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let computed = !std::ptr::eq(self, &NO_SPECULAR_ALBEDO);
+        f.debug_struct("SpecularAlbedo")
+            .field("computed", &computed)
+            .finish_non_exhaustive()
+    }
 }
 
 impl std::fmt::Debug for DielectricAlbedo {
@@ -260,13 +325,13 @@ impl DielectricAlbedo {
     }
 
     /// `E(μo)` for roughness `alpha`.
-    #[inline]
+    #[inline(always)]
     pub fn directional(&self, mu: f32, alpha: f32) -> f32 {
         lookup(&self.e, mu, alpha)
     }
 
     /// The hemispherical average `Ē = 2∫E(μ)μ dμ` for roughness `alpha`.
-    #[inline]
+    #[inline(always)]
     pub fn average(&self, alpha: f32) -> f32 {
         lookup_average(&self.avg, alpha)
     }

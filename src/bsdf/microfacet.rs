@@ -16,6 +16,7 @@
 //!   samples `D(h) cos θh` (Walter et al. 2007), `pdf(h) = D(h) cos θh`.
 //!   [`Microfacet::pdf_h`] returns whichever density `sample_h` draws from.
 
+use crate::elementary;
 use crate::warp::square_to_disk_concentric;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -49,25 +50,32 @@ pub struct Microfacet {
     pub alpha_y: f32,
 }
 
-/// Complementary error function for `x ≥ 0`, relative error < 1.2e-7
-/// (Numerical Recipes' Chebyshev fit), so small tails keep their precision.
-fn erfc_nonneg(z: f64) -> f64 {
-    let t = 1.0 / (1.0 + 0.5 * z);
-    t * (-z * z - 1.265_512_23
-        + t * (1.000_023_68
+/// The exponent `P(t)` of Numerical Recipes' Chebyshev fit to the
+/// complementary error function, `erfc(z) = t·exp(−z² + P(t))` with
+/// `t = 1/(1 + z/2)` for `z ≥ 0` (relative error < 1.2e-7, so small tails
+/// keep their precision).
+#[inline(always)]
+fn erfc_fit(t: f32) -> f32 {
+    -1.265_512_2
+        + t * (1.000_023_7
             + t * (0.374_091_96
                 + t * (0.096_784_18
                     + t * (-0.186_288_06
                         + t * (0.278_868_07
-                            + t * (-1.135_203_98
-                                + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
-        .exp()
+                            + t * (-1.135_204
+                                + t * (1.488_515_9 + t * (-0.822_152_2 + t * 0.170_872_77))))))))
 }
 
-/// Error function, absolute error < 1.2e-7.
+/// Error function, absolute error < 2e-7.
 pub fn erf(x: f32) -> f32 {
-    let r = erfc_nonneg((x as f64).abs());
-    (if x >= 0.0 { 1.0 - r } else { r - 1.0 }) as f32
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let r = t * elementary::exp(-z * z + erfc_fit(t));
+    if x >= 0.0 {
+        1.0 - r
+    } else {
+        r - 1.0
+    }
 }
 
 impl Microfacet {
@@ -100,7 +108,7 @@ impl Microfacet {
             }
             Distribution::Beckmann => {
                 let e = ((h.x / ax) * (h.x / ax) + (h.y / ay) * (h.y / ay)) / cos2;
-                (-e).exp() / (PI * ax * ay * cos2 * cos2)
+                elementary::exp(-e) / (PI * ax * ay * cos2 * cos2)
             }
         }
     }
@@ -121,11 +129,17 @@ impl Microfacet {
                     return 0.0;
                 }
                 // Λ = (erf(a) − 1)/2 + exp(−a²)/(2a√π), a = 1/(α tan θ),
-                // written with erfc so that Λ → 0 keeps its precision.
-                let a = 1.0 / (a2_tan2 as f64).sqrt();
-                let l = -0.5 * erfc_nonneg(a)
-                    + (-a * a).exp() / (2.0 * a * std::f64::consts::PI.sqrt());
-                l.max(0.0) as f32
+                // with erfc(a) = t·exp(−a² + P(t)) ([`erfc_fit`]): both terms
+                // share exp(−a²), so Λ = ½·exp(−a²)·(1/(a√π) − t·exp(P(t))),
+                // which keeps its precision as Λ → 0 and needs no f64 (whose
+                // conversions would keep the vectorised kernel's loop scalar).
+                let a = 1.0 / a2_tan2.sqrt();
+                let t = 1.0 / (1.0 + 0.5 * a);
+                let frac_1_sqrt_pi = 0.5 * std::f32::consts::FRAC_2_SQRT_PI;
+                let l = 0.5
+                    * elementary::exp(-a * a)
+                    * (frac_1_sqrt_pi / a - t * elementary::exp(erfc_fit(t)));
+                l.max(0.0)
             }
         }
     }
@@ -195,23 +209,28 @@ impl Microfacet {
         Vec3::new(ax * nh.x, ay * nh.y, nh.z.max(1e-6)).normalize()
     }
 
-    /// Samples `D(h) cos θh` for the Beckmann distribution.
+    /// Samples `D(h) cos θh` for the Beckmann distribution (Walter et al.
+    /// 2007; anisotropic as pbrt's, with the azimuth's direction
+    /// `(αx cos 2πu, αy sin 2πu)` normalised instead of `atan(αy/αx·tan 2πu)`,
+    /// the same angle up to a half turn, which `D` cannot tell apart).
+    /// Elementary functions from [`elementary`], so that the vectorised
+    /// kernel's loop stays vector code.
+    #[inline(always)]
     fn sample_beckmann(&self, u: Vec2) -> Vec3 {
         let (ax, ay) = (self.alpha_x, self.alpha_y);
-        let (tan2, phi) = if ax == ay {
-            (-ax * ax * (1.0 - u.x).ln(), 2.0 * PI * u.y)
+        let (s, c) = elementary::sin_cos_turns(u.y);
+        let log = elementary::ln(1.0 - u.x);
+        let (tan2, cp, sp) = if ax == ay {
+            (-ax * ax * log, c, s)
         } else {
-            let mut phi = (ay / ax * (2.0 * PI * u.y + 0.5 * PI).tan()).atan();
-            if u.y > 0.5 {
-                phi += PI;
-            }
-            let (s, c) = phi.sin_cos();
-            let a2 = 1.0 / (c * c / (ax * ax) + s * s / (ay * ay));
-            (-a2 * (1.0 - u.x).ln(), phi)
+            let (x, y) = (ax * c, ay * s);
+            let len = (x * x + y * y).sqrt();
+            let (cp, sp) = (x / len, y / len);
+            let a2 = 1.0 / (cp * cp / (ax * ax) + sp * sp / (ay * ay));
+            (-a2 * log, cp, sp)
         };
         let cos = 1.0 / (1.0 + tan2).sqrt();
         let sin = (1.0 - cos * cos).max(0.0).sqrt();
-        let (sp, cp) = phi.sin_cos();
         Vec3::new(sin * cp, sin * sp, cos)
     }
 }
@@ -267,6 +286,32 @@ mod tests {
             (-2.0, -0.995_322_3),
         ] {
             assert!((erf(x) - want).abs() < 2e-7, "erf({x}) = {}", erf(x));
+        }
+    }
+
+    #[test]
+    fn beckmann_lambda_matches_its_closed_form() {
+        // Λ(a) = (erf(a) − 1)/2 + exp(−a²)/(2a√π) in f64, with the filter
+        // module's erf; compared absolutely (what G1 = 1/(1 + Λ) sees) and
+        // relatively where Λ is not tiny.
+        let m = Microfacet::isotropic(Distribution::Beckmann, 1.0);
+        for i in 1..2000 {
+            let cos = i as f32 / 2000.0;
+            let w = Vec3::new((1.0 - cos * cos).sqrt(), 0.0, cos);
+            let a = (w.z / w.x) as f64;
+            let want = (crate::filter::erf(a) - 1.0) / 2.0
+                + (-a * a).exp() / (2.0 * a * std::f64::consts::PI.sqrt());
+            let got = m.lambda(w) as f64;
+            assert!(
+                (got - want).abs() < 2e-6 * want.max(1.0),
+                "cos θ {cos}: Λ {got}, want {want}"
+            );
+            if want > 1e-3 {
+                assert!(
+                    (got - want).abs() < 1e-4 * want,
+                    "cos θ {cos}: Λ {got}, want {want}"
+                );
+            }
         }
     }
 

@@ -10,6 +10,7 @@ use super::fresnel::{self, reflect, refract};
 use super::microfacet::{Distribution, Microfacet};
 use super::BsdfSample;
 use crate::color::luminance;
+use crate::elementary;
 use crate::warp::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -109,12 +110,17 @@ pub struct BlinnPhongParams {
 }
 
 /// The specular normalisation `K(n)` of [`BlinnPhongParams`].
+/// Computed at every evaluation (a lane of the vectorised kernel has only
+/// the exponent), so with [`elementary::exp_f64`], which vectorises:
+/// `cᵏ = exp(k ln c)` with `c = 1/√2`.
+#[inline(always)]
 pub fn blinn_phong_normalization(n: f32) -> f32 {
     let n = n as f64;
-    let c = std::f64::consts::FRAC_1_SQRT_2;
+    // ln(1/√2) = −(ln 2)/2.
+    let pow_c = |k: f64| elementary::exp_f64(k * (-0.5 * std::f64::consts::LN_2));
     let integral = 8.0
         * std::f64::consts::PI
-        * (2.0 * (1.0 - c.powf(n + 4.0)) / (n + 4.0) - (1.0 - c.powf(n + 2.0)) / (n + 2.0));
+        * (2.0 * (1.0 - pow_c(n + 4.0)) / (n + 4.0) - (1.0 - pow_c(n + 2.0)) / (n + 2.0));
     (1.0 / integral) as f32
 }
 
@@ -131,13 +137,13 @@ impl BlinnPhongParams {
 
     #[inline(always)]
     fn lobe(&self, h_z: f32) -> f32 {
-        blinn_phong_normalization(self.exponent) * h_z.max(0.0).powf(self.exponent)
+        blinn_phong_normalization(self.exponent) * elementary::pow(h_z.max(0.0), self.exponent)
     }
 
     /// Density of half vectors ∝ cos^n θh, over solid angle.
     #[inline(always)]
     fn half_pdf(&self, h_z: f32) -> f32 {
-        (self.exponent + 1.0) / (2.0 * PI) * h_z.max(0.0).powf(self.exponent)
+        (self.exponent + 1.0) / (2.0 * PI) * elementary::pow(h_z.max(0.0), self.exponent)
     }
 
     #[inline(always)]
@@ -166,9 +172,9 @@ impl BlinnPhongParams {
             return None;
         }
         let wi = if uc < self.specular_probability() {
-            let cos = u.x.powf(1.0 / (self.exponent + 1.0));
+            let cos = elementary::pow(u.x, 1.0 / (self.exponent + 1.0));
             let sin = (1.0 - cos * cos).max(0.0).sqrt();
-            let (sp, cp) = (2.0 * PI * u.y).sin_cos();
+            let (sp, cp) = elementary::sin_cos_turns(u.y);
             reflect(wo, Vec3::new(sin * cp, sin * sp, cos))
         } else {
             square_to_cosine_hemisphere(u)
@@ -521,11 +527,14 @@ impl PrincipledParams {
     /// nothing in Mitsuba's mode.
     pub fn prepare(&self) {
         if self.energy_conserving {
-            albedo::DielectricAlbedo::for_specular(self.specular);
-            if self.spec_tint > 0.0 {
-                albedo::SpecularAlbedo::get();
-            }
+            self.energy_tables();
         }
+    }
+
+    /// The albedo tables the energy-conserving mode reads for this
+    /// material (computed at first use).
+    pub fn energy_tables(&self) -> albedo::EnergyTables {
+        albedo::EnergyTables::of(self.specular, self.spec_tint)
     }
 
     #[inline(always)]
@@ -566,17 +575,17 @@ impl PrincipledParams {
 
     #[inline(always)]
     pub(crate) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        self.eval_with_table(None, wo, wi)
+        self.eval_with_tables(None, wo, wi)
     }
 
     /// [`PrincipledParams::eval`], the energy-conserving mode reading
-    /// `table` where given (it must be `DielectricAlbedo::for_specular` of
-    /// `self.specular`: a caller that shades many points of one material
-    /// looks it up once), else looking it up.
+    /// `tables` where given (they must be [`PrincipledParams::energy_tables`]:
+    /// a caller that shades many points of one material looks them up once),
+    /// else looking them up.
     #[inline(always)]
-    pub(crate) fn eval_with_table(
+    pub(crate) fn eval_with_tables(
         &self,
-        table: Option<&albedo::DielectricAlbedo>,
+        tables: Option<albedo::EnergyTables>,
         wo: Vec3,
         wi: Vec3,
     ) -> Vec3 {
@@ -588,15 +597,15 @@ impl PrincipledParams {
         let cos_d = wi.dot(h);
         let specular =
             self.fresnel(cos_d, self.eta()) * (m.d(h) * m.g(wo, wi, h) / (4.0 * wo.z * wi.z));
-        self.diffuse(table, wo, wi, cos_d, &m) + specular
+        self.diffuse(tables, wo, wi, cos_d, &m) + specular
     }
 
     /// The diffuse lobe: Burley's, or the energy-conserving coupled one
-    /// (reading `table`, else `DielectricAlbedo::for_specular`).
+    /// (reading `tables`, else [`PrincipledParams::energy_tables`]).
     #[inline(always)]
     fn diffuse(
         &self,
-        table: Option<&albedo::DielectricAlbedo>,
+        tables: Option<albedo::EnergyTables>,
         wo: Vec3,
         wi: Vec3,
         cos_d: f32,
@@ -607,11 +616,10 @@ impl PrincipledParams {
             // Kelemen and Szirmay-Kalos: ρ(1 − E(wo))(1 − E(wi)) / (π(1 − Ē)),
             // which integrates against cos θi to ρ(1 − E(wo)).
             // One table lookup per evaluation, shared by the three uses.
-            let table =
-                table.unwrap_or_else(|| albedo::DielectricAlbedo::for_specular(self.specular));
-            let eo = self.dielectric_albedo(table, wo.z, alpha_towards(m, wo));
-            let ei = self.dielectric_albedo(table, wi.z, alpha_towards(m, wi));
-            let avg = self.average_dielectric_albedo(table, m);
+            let tables = tables.unwrap_or_else(|| self.energy_tables());
+            let eo = self.dielectric_albedo(&tables, wo.z, alpha_towards(m, wo));
+            let ei = self.dielectric_albedo(&tables, wi.z, alpha_towards(m, wi));
+            let avg = self.average_dielectric_albedo(&tables, m);
             return self.base_color * weight * (Vec3::ONE - eo) * (Vec3::ONE - ei)
                 / (Vec3::ONE - avg);
         }
@@ -625,41 +633,41 @@ impl PrincipledParams {
     /// Albedo of the specular lobe's dielectric (non-metal) part per unit
     /// `1 − metallic`, for `μ = cos θ` and roughness `alpha`, from the
     /// tabulated albedos ([`albedo`]): `(1 − t)·E_d + t·(f₀(E₁ − E_w) + E_w)`
-    /// with `f₀ = tint·f0(η)`, as in [`PrincipledParams::fresnel`]; `table`
-    /// is the dielectric table of `self.specular`.
-    #[inline]
-    fn dielectric_albedo(&self, table: &albedo::DielectricAlbedo, mu: f32, alpha: f32) -> Vec3 {
-        let ed = table.directional(mu, alpha);
-        self.blend_albedo(ed, || albedo::SpecularAlbedo::get().directional(mu, alpha))
+    /// with `f₀ = tint·f0(η)`, as in [`PrincipledParams::fresnel`]; `tables`
+    /// are this material's.
+    #[inline(always)]
+    fn dielectric_albedo(&self, tables: &albedo::EnergyTables, mu: f32, alpha: f32) -> Vec3 {
+        let ed = tables.dielectric.directional(mu, alpha);
+        self.blend_albedo(ed, || tables.schlick.directional(mu, alpha))
     }
 
     /// The hemispherical average of [`PrincipledParams::dielectric_albedo`];
     /// for an anisotropic lobe the mean over azimuth of the isotropic
     /// averages at each azimuth's roughness (the same approximation as
     /// [`alpha_towards`]).
-    #[inline]
-    fn average_dielectric_albedo(&self, table: &albedo::DielectricAlbedo, m: &Microfacet) -> Vec3 {
+    #[inline(always)]
+    fn average_dielectric_albedo(&self, tables: &albedo::EnergyTables, m: &Microfacet) -> Vec3 {
         let average = |alpha: f32| {
-            let ed = table.average(alpha);
-            self.blend_albedo(ed, || albedo::SpecularAlbedo::get().average(alpha))
+            let ed = tables.dielectric.average(alpha);
+            self.blend_albedo(ed, || tables.schlick.average(alpha))
         };
         if m.alpha_x == m.alpha_y {
             return average(m.alpha_x);
         }
-        const AZIMUTHS: usize = 8;
-        let mut sum = Vec3::ZERO;
-        for k in 0..AZIMUTHS {
-            let phi = std::f32::consts::FRAC_PI_2 * (k as f32 + 0.5) / AZIMUTHS as f32;
-            let w = Vec3::new(phi.cos(), phi.sin(), 0.0);
-            sum += average(alpha_towards(m, w));
-        }
-        sum / AZIMUTHS as f32
+        // Written out, not a loop: a loop nested in the vectorised kernel's
+        // lane loop would keep that loop scalar.
+        let at = |k: usize| {
+            let (c, s) = AVERAGE_AZIMUTHS[k];
+            average(alpha_towards(m, Vec3::new(c, s, 0.0)))
+        };
+        let sum = at(0) + at(1) + at(2) + at(3) + at(4) + at(5) + at(6) + at(7);
+        sum / AVERAGE_AZIMUTHS.len() as f32
     }
 
     /// `(1 − t)·E_d + t·(f₀(E₁ − E_w) + E_w)` from the dielectric albedo
     /// `ed` and, only when `spec_tint > 0`, `[E₁, E_w]`; kept below 1 so that
     /// the coupled diffuse term stays finite.
-    #[inline]
+    #[inline(always)]
     fn blend_albedo(&self, ed: f32, schlick: impl FnOnce() -> [f32; 2]) -> Vec3 {
         let t = self.spec_tint;
         let e = if t > 0.0 {
@@ -685,15 +693,15 @@ impl PrincipledParams {
 
     #[inline(always)]
     pub(crate) fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
-        self.sample_with_table(None, wo, uc, u)
+        self.sample_with_tables(None, wo, uc, u)
     }
 
-    /// [`PrincipledParams::sample`] with the table of
-    /// [`PrincipledParams::eval_with_table`].
+    /// [`PrincipledParams::sample`] with the tables of
+    /// [`PrincipledParams::eval_with_tables`].
     #[inline(always)]
-    pub(crate) fn sample_with_table(
+    pub(crate) fn sample_with_tables(
         &self,
-        table: Option<&albedo::DielectricAlbedo>,
+        tables: Option<albedo::EnergyTables>,
         wo: Vec3,
         uc: f32,
         u: Vec2,
@@ -710,7 +718,7 @@ impl PrincipledParams {
         if wi.z <= 0.0 {
             return None;
         }
-        let (f, pdf) = self.eval_pdf_with(table, &m, wo, wi);
+        let (f, pdf) = self.eval_pdf_with(tables, &m, wo, wi);
         finish_sample(wi, f, pdf)
     }
 
@@ -722,24 +730,24 @@ impl PrincipledParams {
         self.eval_pdf_with(None, &self.microfacet(), wo, wi)
     }
 
-    /// [`PrincipledParams::eval_pdf`] with the table of
-    /// [`PrincipledParams::eval_with_table`].
+    /// [`PrincipledParams::eval_pdf`] with the tables of
+    /// [`PrincipledParams::eval_with_tables`].
     #[inline(always)]
-    pub(crate) fn eval_pdf_with_table(
+    pub(crate) fn eval_pdf_with_tables(
         &self,
-        table: Option<&albedo::DielectricAlbedo>,
+        tables: Option<albedo::EnergyTables>,
         wo: Vec3,
         wi: Vec3,
     ) -> (Vec3, f32) {
-        self.eval_pdf_with(table, &self.microfacet(), wo, wi)
+        self.eval_pdf_with(tables, &self.microfacet(), wo, wi)
     }
 
-    /// [`PrincipledParams::eval_pdf_with_table`] with the distribution `m`
+    /// [`PrincipledParams::eval_pdf_with_tables`] with the distribution `m`
     /// (= `self.microfacet()`) already built.
     #[inline(always)]
     fn eval_pdf_with(
         &self,
-        table: Option<&albedo::DielectricAlbedo>,
+        tables: Option<albedo::EnergyTables>,
         m: &Microfacet,
         wo: Vec3,
         wi: Vec3,
@@ -751,7 +759,7 @@ impl PrincipledParams {
         let (d, g1o, g1i) = (m.d(h), m.g1(wo, h), m.g1(wi, h));
         let cos_d = wi.dot(h);
         let specular = self.fresnel(cos_d, self.eta()) * (d * g1o * g1i / (4.0 * wo.z * wi.z));
-        let diffuse = self.diffuse(table, wo, wi, cos_d, m);
+        let diffuse = self.diffuse(tables, wo, wi, cos_d, m);
         // The visible-normal density over h, pdf_h = G1(wo)·max(0, wo·h)·D/cos θo,
         // turned into a density over wi by 1/(4 wo·h).
         let wo_h = wo.dot(h);
@@ -768,6 +776,23 @@ impl PrincipledParams {
     }
 }
 
+/// `(cos φ, sin φ)` at the midpoints of 8 even steps of `φ` over `[0, π/2]`,
+/// `φ = (π/2)(k + ½)/8`, over which an anisotropic lobe's average albedo is
+/// taken (a quarter turn suffices: `alpha_towards` is symmetric in both
+/// axes). Constants rather than `cos` and `sin` calls, which would keep the
+/// vectorised kernel's loop scalar; a test checks them against `f32::cos`
+/// and `f32::sin`.
+const AVERAGE_AZIMUTHS: [(f32, f32); 8] = [
+    (0.9951847, 0.09801714),
+    (0.95694035, 0.29028466),
+    (0.88192123, 0.47139674),
+    (0.77301043, 0.63439333),
+    (0.6343933, 0.77301043),
+    (0.47139665, 0.8819213),
+    (0.29028463, 0.95694035),
+    (0.098017134, 0.9951847),
+];
+
 /// The roughness of `m` along the azimuth of `w`, `√(cos²φ αx² + sin²φ αy²)`:
 /// the isotropic roughness whose masking of `w` equals `m`'s, with which the
 /// tabulated (isotropic) albedo approximates an anisotropic lobe's.
@@ -781,4 +806,18 @@ fn alpha_towards(m: &Microfacet, w: Vec3) -> f32 {
         return (m.alpha_x * m.alpha_y).sqrt();
     }
     ((w.x * w.x * m.alpha_x * m.alpha_x + w.y * w.y * m.alpha_y * m.alpha_y) / s2).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn average_azimuths_are_their_angles_cosines_and_sines() {
+        for (k, &(c, s)) in AVERAGE_AZIMUTHS.iter().enumerate() {
+            let n = AVERAGE_AZIMUTHS.len() as f32;
+            let phi = std::f32::consts::FRAC_PI_2 * (k as f32 + 0.5) / n;
+            assert_eq!((c, s), (phi.cos(), phi.sin()), "azimuth {k}");
+        }
+    }
 }

@@ -46,7 +46,7 @@ use super::{
     shading_normal_towards, sides_agree, PixelSums, PrevVertex, RayStats, Tile,
 };
 use crate::accel::{gather_lanes, RayBatch, INVALID_ID};
-use crate::bsdf::albedo::DielectricAlbedo;
+use crate::bsdf::albedo::EnergyTables;
 use crate::bsdf::{
     lambert_eval, lambert_pdf, lambert_sample, BlinnPhongParams, Bsdf, BsdfSample,
     CookTorranceParams, DielectricParams, Distribution, Fresnel, Microfacet, PrincipledParams,
@@ -680,11 +680,10 @@ trait PrincipledMode: Copy + std::fmt::Debug {
     const ENERGY_CONSERVING: bool;
     /// What [`LaneKind::IDLE`] carries.
     const IDLE: Self;
-    /// The mode's data for a material with this `specular`.
-    fn of(specular: f32) -> Self;
-    /// The dielectric albedo table to evaluate with (`None`: none needed,
-    /// or look it up).
-    fn table(&self) -> Option<&'static DielectricAlbedo>;
+    /// The mode's data for a principled material.
+    fn of(params: &PrincipledParams) -> Self;
+    /// The albedo tables to evaluate with (`None`: none needed).
+    fn tables(&self) -> Option<EnergyTables>;
 }
 
 /// Mitsuba's mode of the principled BSDF: nothing to carry, so its lanes'
@@ -696,31 +695,30 @@ impl PrincipledMode for MitsubaMode {
     const ENERGY_CONSERVING: bool = false;
     const IDLE: MitsubaMode = MitsubaMode;
     #[inline(always)]
-    fn of(_specular: f32) -> MitsubaMode {
+    fn of(_params: &PrincipledParams) -> MitsubaMode {
         MitsubaMode
     }
     #[inline(always)]
-    fn table(&self) -> Option<&'static DielectricAlbedo> {
+    fn tables(&self) -> Option<EnergyTables> {
         None
     }
 }
 
-/// The energy-conserving mode: its dielectric albedo table for the
-/// material's `specular`, looked up once per material, not at every
-/// evaluation (`None` only in [`LaneKind::IDLE`]; a chunk's idle lanes take
-/// one of its real lanes' parameters instead, see [`PrincipledPass`]).
+/// The energy-conserving mode: the material's albedo tables, looked up once
+/// per material, not at every evaluation, so that the lane loop has no call
+/// in it (tables of zeros in [`LaneKind::IDLE`]).
 #[derive(Debug, Clone, Copy)]
-struct EnergyConserving(Option<&'static DielectricAlbedo>);
+struct EnergyConserving(EnergyTables);
 
 impl PrincipledMode for EnergyConserving {
     const ENERGY_CONSERVING: bool = true;
-    const IDLE: EnergyConserving = EnergyConserving(None);
-    fn of(specular: f32) -> EnergyConserving {
-        EnergyConserving(Some(DielectricAlbedo::for_specular(specular)))
+    const IDLE: EnergyConserving = EnergyConserving(EnergyTables::NONE);
+    fn of(params: &PrincipledParams) -> EnergyConserving {
+        EnergyConserving(params.energy_tables())
     }
     #[inline(always)]
-    fn table(&self) -> Option<&'static DielectricAlbedo> {
-        self.0
+    fn tables(&self) -> Option<EnergyTables> {
+        Some(self.0)
     }
 }
 
@@ -766,7 +764,7 @@ impl<M: PrincipledMode> LaneKind for PrincipledIn<M> {
             specular: p.specular,
             spec_tint: p.spec_tint,
             anisotropic: p.anisotropic,
-            mode: M::of(p.specular),
+            mode: M::of(&p),
         })
     }
 
@@ -810,7 +808,7 @@ impl<M: PrincipledMode> LaneBsdf for PrincipledLane<M> {
     const MAY_BE_ANISOTROPIC: bool = true;
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        self.params().eval_with_table(self.0.mode.table(), wo, wi)
+        self.params().eval_with_tables(self.0.mode.tables(), wo, wi)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -819,13 +817,13 @@ impl<M: PrincipledMode> LaneBsdf for PrincipledLane<M> {
     #[inline(always)]
     fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         self.params()
-            .eval_pdf_with_table(self.0.mode.table(), wo, wi)
+            .eval_pdf_with_tables(self.0.mode.tables(), wo, wi)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
         lane_sample(
             self.params()
-                .sample_with_table(self.0.mode.table(), wo, uc, u),
+                .sample_with_tables(self.0.mode.tables(), wo, uc, u),
         )
     }
 }
@@ -2898,9 +2896,7 @@ impl<B: LaneKind + LaneBsdf> ChunkPass for KindPass<'_, B> {
 }
 
 /// Principled surfaces in the mode `M`: their base colour is the lane's
-/// albedo (so a base-colour map works). In the energy-conserving mode the
-/// chunk's idle lanes take the parameters of its first principled lane
-/// ([`LaneKind::IDLE`] has no albedo table there).
+/// albedo (so a base-colour map works).
 struct PrincipledPass<'a, M>(&'a KindTable<PrincipledIn<M>>);
 
 impl<M: PrincipledMode> ChunkPass for PrincipledPass<'_, M> {
@@ -2941,14 +2937,7 @@ impl<M: PrincipledMode> ChunkPass for PrincipledPass<'_, M> {
             let colour = Vec3::new(albedo[0][k], albedo[1][k], albedo[2][k]);
             params[k].map(|p| PrincipledLane(p, colour))
         });
-        let idle = if M::ENERGY_CONSERVING {
-            let Some(first) = principled.iter().flatten().next().copied() else {
-                return;
-            };
-            first
-        } else {
-            PrincipledLane(PrincipledIn::IDLE, Vec3::splat(0.5))
-        };
+        let idle = PrincipledLane(PrincipledIn::IDLE, Vec3::splat(0.5));
         shade_kind::<_, TRIANGLES, CONES, ENV>(&principled, idle, aniso, lane_in, put, u);
     }
 }
