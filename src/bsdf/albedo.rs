@@ -66,11 +66,15 @@ fn sqrt_alpha_at(j: usize) -> f32 {
 
 /// A grid coordinate for `x ∈ [0, 1]` on `points` even steps: the lower
 /// index and the weight of the upper one.
+///
+/// The index goes through `i32`, not `usize`: AVX2 converts packed `f32` to
+/// 32-bit integers only (a conversion to 64 bits is one instruction per
+/// lane).
 #[inline(always)]
 fn cell(x: f32, points: usize) -> (usize, f32) {
     let t = x.clamp(0.0, 1.0) * (points - 1) as f32;
-    let i = (t as usize).min(points - 2);
-    (i, t - i as f32)
+    let i = (t as i32).clamp(0, points as i32 - 2);
+    (i as usize, t - i as f32)
 }
 
 /// Exact `2 ∫₀¹ e(μ) μ dμ` of the piecewise-linear interpolant of `e` over

@@ -11,9 +11,9 @@ use std::path::Path;
 /// the same base colour (roughness 0.5, specular 0.5), in Mitsuba's mode and
 /// in the energy-conserving mode, each with the general integrator and with
 /// the vectorised kernel, and with every material a rough gold (isotropic
-/// GGX, α 0.2, gold's complex index), every material a rough glass
-/// (isotropic GGX, α 0.2, η 1.5: the light sits inside a box of glass
-/// walls), every material a smooth glass (η 1.5) and every material
+/// GGX, then Beckmann, α 0.2, gold's complex index), every material a rough
+/// glass (isotropic GGX, then Beckmann, α 0.2, η 1.5: the light sits inside
+/// a box of glass walls), every material a smooth glass (η 1.5) and every material
 /// Blinn–Phong (the diffuse colour, specular 0.2, exponent 40), and every
 /// material the principled one with 4×4 roughness and metallic maps (the
 /// box has no texture coordinates, so each lane looks up one texel: this row
@@ -21,7 +21,7 @@ use std::path::Path;
 /// all-diffuse scene say what the richer BSDF costs, the kernel's ratio to
 /// the general integrator what the wavefront gains. Returns each scene's
 /// `(general, vectorised)` Msamples/s.
-pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 8]> {
+pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 10]> {
     use plsr::bsdf::{
         BlinnPhongParams, Bsdf, CookTorranceParams, DielectricParams, Distribution, Fresnel,
         Microfacet, PrincipledParams, METALS,
@@ -49,12 +49,12 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 8]> {
         }
         scene
     };
-    let gold = {
+    let gold = |distribution: Distribution| {
         let mut scene = diffuse.clone();
         let (_, eta, k) = METALS[0];
         for m in &mut scene.materials {
             m.bsdf = Bsdf::CookTorrance(CookTorranceParams {
-                microfacet: Microfacet::isotropic(Distribution::Ggx, 0.2),
+                microfacet: Microfacet::isotropic(distribution, 0.2),
                 fresnel: Fresnel::Conductor {
                     eta: eta.into(),
                     k: k.into(),
@@ -64,12 +64,12 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 8]> {
         }
         scene
     };
-    let glass = {
+    let glass = |distribution: Distribution| {
         let mut scene = diffuse.clone();
         for m in &mut scene.materials {
             m.bsdf = Bsdf::Dielectric(DielectricParams {
                 eta: 1.5,
-                microfacet: Some(Microfacet::isotropic(Distribution::Ggx, 0.2)),
+                microfacet: Some(Microfacet::isotropic(distribution, 0.2)),
             });
         }
         scene
@@ -125,8 +125,22 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 8]> {
             "all principled, energy-conserving",
             Scene::build(principled(true))?,
         ),
-        ("all rough gold (GGX α 0.2)", Scene::build(gold)?),
-        ("all rough glass (GGX α 0.2, η 1.5)", Scene::build(glass)?),
+        (
+            "all rough gold (GGX α 0.2)",
+            Scene::build(gold(Distribution::Ggx))?,
+        ),
+        (
+            "all rough gold (Beckmann α 0.2)",
+            Scene::build(gold(Distribution::Beckmann))?,
+        ),
+        (
+            "all rough glass (GGX α 0.2, η 1.5)",
+            Scene::build(glass(Distribution::Ggx))?,
+        ),
+        (
+            "all rough glass (Beckmann α 0.2, η 1.5)",
+            Scene::build(glass(Distribution::Beckmann))?,
+        ),
         ("all smooth glass (η 1.5)", Scene::build(smooth_glass)?),
         ("all Blinn–Phong (exponent 40)", Scene::build(blinn_phong)?),
         (
@@ -135,8 +149,8 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 8]> {
         ),
     ];
     // Interleaved runs, best of three each, so drift hits all alike.
-    let mut best = [(0.0f64, 0.0f64); 8];
-    let mut same = [true; 8];
+    let mut best = [(0.0f64, 0.0f64); 10];
+    let mut same = [true; 10];
     for _ in 0..3 {
         for (k, (_, scene)) in scenes.iter().enumerate() {
             let (general, stats): (Film, RenderStats) =
