@@ -647,21 +647,34 @@ impl PrincipledParams {
     /// [`alpha_towards`]).
     #[inline(always)]
     fn average_dielectric_albedo(&self, tables: &albedo::EnergyTables, m: &Microfacet) -> Vec3 {
-        let average = |alpha: f32| {
-            let ed = tables.dielectric.average(alpha);
-            self.blend_albedo(ed, || tables.schlick.average(alpha))
-        };
         if m.alpha_x == m.alpha_y {
-            return average(m.alpha_x);
+            return self.isotropic_average_albedo(tables, m.alpha_x);
         }
-        // Written out, not a loop: a loop nested in the vectorised kernel's
-        // lane loop would keep that loop scalar.
+        // Written out, not a loop, and through an `inline(always)` method,
+        // not a closure (LLVM left a closure called 8 times out of line): a
+        // loop or a call in the vectorised kernel's lane loop keeps that loop
+        // scalar.
         let at = |k: usize| {
             let (c, s) = AVERAGE_AZIMUTHS[k];
-            average(alpha_towards(m, Vec3::new(c, s, 0.0)))
+            alpha_towards(m, Vec3::new(c, s, 0.0))
         };
-        let sum = at(0) + at(1) + at(2) + at(3) + at(4) + at(5) + at(6) + at(7);
+        let sum = self.isotropic_average_albedo(tables, at(0))
+            + self.isotropic_average_albedo(tables, at(1))
+            + self.isotropic_average_albedo(tables, at(2))
+            + self.isotropic_average_albedo(tables, at(3))
+            + self.isotropic_average_albedo(tables, at(4))
+            + self.isotropic_average_albedo(tables, at(5))
+            + self.isotropic_average_albedo(tables, at(6))
+            + self.isotropic_average_albedo(tables, at(7));
         sum / AVERAGE_AZIMUTHS.len() as f32
+    }
+
+    /// [`PrincipledParams::average_dielectric_albedo`] of an isotropic lobe
+    /// of roughness `alpha`.
+    #[inline(always)]
+    fn isotropic_average_albedo(&self, tables: &albedo::EnergyTables, alpha: f32) -> Vec3 {
+        let ed = tables.dielectric.average(alpha);
+        self.blend_albedo(ed, || tables.schlick.average(alpha))
     }
 
     /// `(1 − t)·E_d + t·(f₀(E₁ − E_w) + E_w)` from the dielectric albedo
@@ -796,7 +809,7 @@ const AVERAGE_AZIMUTHS: [(f32, f32); 8] = [
 /// The roughness of `m` along the azimuth of `w`, `√(cos²φ αx² + sin²φ αy²)`:
 /// the isotropic roughness whose masking of `w` equals `m`'s, with which the
 /// tabulated (isotropic) albedo approximates an anisotropic lobe's.
-#[inline]
+#[inline(always)]
 fn alpha_towards(m: &Microfacet, w: Vec3) -> f32 {
     if m.alpha_x == m.alpha_y {
         return m.alpha_x;
