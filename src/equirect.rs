@@ -28,6 +28,7 @@
 //! and on the seam (`u = 0` and `u = 1` are the same direction);
 //! [`equirect_uv`] returns `u ∈ [0, 1)`.
 
+use crate::elementary;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{PI, TAU};
 
@@ -76,10 +77,11 @@ impl SphereFrame {
 /// The unit direction of image coordinates `uv` (see the module docs).
 #[inline]
 pub fn equirect_direction(uv: Vec2, frame: &SphereFrame) -> Vec3 {
-    let phi = TAU * (uv.x - 0.5);
-    let theta = PI * (0.5 - uv.y);
-    let (sin_phi, cos_phi) = phi.sin_cos();
-    let (sin_theta, cos_theta) = theta.sin_cos();
+    // φ = 2π(u − ½) and θ = π(½ − v), as fractions of a turn (exact
+    // reductions, and no call into the C library: the vectorised kernel's
+    // environment stages stay vector code).
+    let (sin_phi, cos_phi) = elementary::sin_cos_turns(uv.x - 0.5);
+    let (sin_theta, cos_theta) = elementary::sin_cos_turns(0.5 * (0.5 - uv.y));
     cos_theta * (cos_phi * frame.forward + sin_phi * frame.right) + sin_theta * frame.up
 }
 
@@ -91,13 +93,13 @@ pub fn equirect_uv(dir: Vec3, frame: &SphereFrame) -> Vec2 {
     let x = d.dot(frame.forward);
     let y = d.dot(frame.right);
     let z = d.dot(frame.up).clamp(-1.0, 1.0);
-    let mut u = y.atan2(x) / TAU + 0.5;
+    let mut u = elementary::atan2(y, x) / TAU + 0.5;
     if u >= 1.0 {
         u -= 1.0;
     }
     // acos loses precision near the poles; atan2 of the horizontal length
-    // does not.
-    let v = (x.hypot(y)).atan2(z) / PI;
+    // does not (`d` is unit, so the length needs no hypot's care).
+    let v = elementary::atan2((x * x + y * y).sqrt(), z) / PI;
     Vec2::new(u.max(0.0), v)
 }
 

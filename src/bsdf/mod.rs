@@ -141,6 +141,8 @@ impl Bsdf {
     pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         match self {
             Bsdf::Principled(p) => p.eval_pdf(wo, wi),
+            Bsdf::CookTorrance(p) => p.eval_pdf(wo, wi),
+            Bsdf::Dielectric(p) => p.eval_pdf(wo, wi),
             _ => (self.eval(wo, wi), self.pdf(wo, wi)),
         }
     }

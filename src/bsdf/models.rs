@@ -273,6 +273,20 @@ impl CookTorranceParams {
         self.microfacet.pdf_h(wo, h) / (4.0 * wo.dot(h))
     }
 
+    /// `(eval, pdf)` with the half vector, `D` and `G1(wo)` computed once
+    /// (the same expressions as [`Self::eval`] and [`Self::pdf`], so the
+    /// same values to the bit).
+    #[inline(always)]
+    pub(crate) fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        if !both_above(wo, wi) {
+            return (Vec3::ZERO, 0.0);
+        }
+        let h = (wo + wi).normalize();
+        let m = &self.microfacet;
+        let f = self.fresnel.eval(wo.dot(h)) * (m.d(h) * m.g(wo, wi, h) / (4.0 * wo.z * wi.z));
+        (f, m.pdf_h(wo, h) / (4.0 * wo.dot(h)))
+    }
+
     #[inline(always)]
     pub(crate) fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
@@ -286,7 +300,8 @@ impl CookTorranceParams {
         if wi.z <= 0.0 {
             return None;
         }
-        finish_sample(wi, self.eval(wo, wi), self.pdf(wo, wi))
+        let (f, pdf) = self.eval_pdf(wo, wi);
+        finish_sample(wi, f, pdf)
     }
 }
 
@@ -369,6 +384,36 @@ impl DielectricParams {
         }
     }
 
+    /// `(eval, pdf)` with the half vector, the Fresnel term and `D` computed
+    /// once (the same expressions as [`Self::eval`] and [`Self::pdf`], so the
+    /// same values to the bit).
+    #[inline(always)]
+    pub(crate) fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        let Some(m) = &self.microfacet else {
+            return (Vec3::ZERO, 0.0);
+        };
+        let Some((h, etap, reflect)) = self.half_vector(wo, wi) else {
+            return (Vec3::ZERO, 0.0);
+        };
+        let f = fresnel::dielectric(wo.dot(h), self.eta);
+        let dg = m.d(h) * m.g(wo, wi, h);
+        let pdf_h = m.pdf_h(wo, h);
+        let (v, pdf) = if reflect {
+            (
+                dg * f / (4.0 * wi.z * wo.z).abs(),
+                pdf_h / (4.0 * wo.dot(h).abs()) * f,
+            )
+        } else {
+            let sum = wi.dot(h) + wo.dot(h) / etap;
+            let denom = sum.powi(2) * wi.z * wo.z;
+            (
+                dg * (1.0 - f) * (wi.dot(h) * wo.dot(h) / denom).abs() / (etap * etap),
+                pdf_h * wi.dot(h).abs() / sum.powi(2) * (1.0 - f),
+            )
+        };
+        (Vec3::splat(v), pdf)
+    }
+
     #[inline(always)]
     pub(crate) fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z == 0.0 {
@@ -416,7 +461,8 @@ impl DielectricParams {
             }
             wi
         };
-        finish_sample(wi, self.eval(wo, wi), self.pdf(wo, wi))
+        let (f, pdf) = self.eval_pdf(wo, wi);
+        finish_sample(wi, f, pdf)
     }
 }
 

@@ -665,6 +665,10 @@ impl<F: LaneFresnel, D: LaneDistribution> LaneBsdf for CookTorranceIn<F, D> {
         self.params().pdf(wo, wi)
     }
     #[inline(always)]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        self.params().eval_pdf(wo, wi)
+    }
+    #[inline(always)]
     fn sample(&self, wo: Vec3, _uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
         // [`Bsdf::sample`] of a Cook–Torrance surface (one lobe: no lobe
         // number).
@@ -900,6 +904,10 @@ impl<D: LaneDistribution> LaneBsdf for DielectricIn<D> {
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         self.params().pdf(wo, wi)
+    }
+    #[inline(always)]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        self.params().eval_pdf(wo, wi)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {

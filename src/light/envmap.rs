@@ -28,6 +28,7 @@
 //! ```
 
 use super::{luminance, LightSample};
+use crate::elementary;
 use crate::equirect::{equirect_direction, equirect_uv, SphereFrame};
 use crate::prefetch::prefetch;
 use glam::{Vec2, Vec3};
@@ -298,7 +299,8 @@ impl EnvironmentLight {
         (y, v, p_row): (usize, f32, f32),
         (x, uu, p_col): (usize, f32, f32),
     ) -> Option<(Vec3, Vec3, f32)> {
-        let sin_theta = (PI * v).sin();
+        // sin πv as a fraction of a turn (no C library call).
+        let sin_theta = elementary::sin_cos_turns(0.5 * v).0;
         if sin_theta <= 0.0 || p_row <= 0.0 || p_col <= 0.0 {
             return None;
         }
@@ -397,7 +399,7 @@ impl EnvironmentLight {
         let w = self.width as usize;
         let p_row = self.row_cdf[y + 1] - self.row_cdf[y];
         let p_col = self.column_cdf[y * (w + 1) + x + 1] - self.column_cdf[y * (w + 1) + x];
-        let sin_theta = (PI * uv.y).sin();
+        let sin_theta = elementary::sin_cos_turns(0.5 * uv.y).0;
         if sin_theta <= 0.0 {
             return 0.0;
         }
