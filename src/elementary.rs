@@ -14,7 +14,8 @@
 //! dense grids: `exp` and `ln` within 2 ulp, `sin_cos_turns` within 3e-7
 //! absolute, `exp_f64` within 2 ulp, `atan2` within 3e-7 absolute (and
 //! 3 ulp) of the exact angle. Both the vectorised kernel and the
-//! general integrator call these (through [`crate::bsdf`]), so the two
+//! general integrator call these (through [`crate::bsdf`] and
+//! [`crate::equirect`]), so the two
 //! still give the same images to the bit.
 
 /// `eˣ` for `f32`, within 2 ulp of `f32::exp` for `x` in `[-87.3, 88.7]`;
