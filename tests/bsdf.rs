@@ -651,8 +651,9 @@ fn eval_pdf_equals_eval_and_pdf() {
             let b = plsr::warp::square_to_uniform_sphere(rng.next_2d());
             let (f, p) = bsdf.eval_pdf(a, b);
             let (f2, p2) = (bsdf.eval(a, b), bsdf.pdf(a, b));
-            // Cook–Torrance and dielectrics share the expressions: the same
-            // bits; the principled BSDF's eval_pdf reorders its sums.
+            // Cook–Torrance's and dielectrics' eval and pdf are eval_pdf's
+            // halves: the same bits; the principled BSDF's eval_pdf
+            // reorders its sums.
             let exact = matches!(bsdf, Bsdf::CookTorrance(_) | Bsdf::Dielectric(_));
             let close = |x: f32, y: f32| {
                 if exact {

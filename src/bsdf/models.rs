@@ -254,28 +254,22 @@ pub struct CookTorranceParams {
 }
 
 impl CookTorranceParams {
+    /// `f(wo, wi)`: the first half of [`Self::eval_pdf`] (inlined, so the
+    /// density's arithmetic is dropped).
     #[inline(always)]
     pub(crate) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        if !both_above(wo, wi) {
-            return Vec3::ZERO;
-        }
-        let h = (wo + wi).normalize();
-        let m = &self.microfacet;
-        self.fresnel.eval(wo.dot(h)) * (m.d(h) * m.g(wo, wi, h) / (4.0 * wo.z * wi.z))
+        self.eval_pdf(wo, wi).0
     }
 
+    /// The density of [`Self::sample`] in solid angle: the second half of
+    /// [`Self::eval_pdf`].
     #[inline(always)]
     pub(crate) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if !both_above(wo, wi) {
-            return 0.0;
-        }
-        let h = (wo + wi).normalize();
-        self.microfacet.pdf_h(wo, h) / (4.0 * wo.dot(h))
+        self.eval_pdf(wo, wi).1
     }
 
-    /// `(eval, pdf)` with the half vector, `D` and `G1(wo)` computed once
-    /// (the same expressions as [`Self::eval`] and [`Self::pdf`], so the
-    /// same values to the bit).
+    /// `(f(wo, wi), pdf)` with the half vector, `D` and `G1(wo)` computed
+    /// once: `f = F·D·G / (4 cos θo cos θi)` and `pdf = pdf_h / (4 wo·h)`.
     #[inline(always)]
     pub(crate) fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         if !both_above(wo, wi) {
@@ -348,45 +342,22 @@ impl DielectricParams {
         Some((h, etap, reflect))
     }
 
+    /// `f(wo, wi)`, reflection and transmission: the first half of
+    /// [`Self::eval_pdf`] (zero for a smooth interface).
     #[inline(always)]
     pub(crate) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        let Some(m) = &self.microfacet else {
-            return Vec3::ZERO;
-        };
-        let Some((h, etap, reflect)) = self.half_vector(wo, wi) else {
-            return Vec3::ZERO;
-        };
-        let f = fresnel::dielectric(wo.dot(h), self.eta);
-        let dg = m.d(h) * m.g(wo, wi, h);
-        let v = if reflect {
-            dg * f / (4.0 * wi.z * wo.z).abs()
-        } else {
-            let denom = (wi.dot(h) + wo.dot(h) / etap).powi(2) * wi.z * wo.z;
-            dg * (1.0 - f) * (wi.dot(h) * wo.dot(h) / denom).abs() / (etap * etap)
-        };
-        Vec3::splat(v)
+        self.eval_pdf(wo, wi).0
     }
 
+    /// The density of [`Self::sample`] in solid angle: the second half of
+    /// [`Self::eval_pdf`] (zero for a smooth interface).
     #[inline(always)]
     pub(crate) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let Some(m) = &self.microfacet else {
-            return 0.0;
-        };
-        let Some((h, etap, reflect)) = self.half_vector(wo, wi) else {
-            return 0.0;
-        };
-        let r = fresnel::dielectric(wo.dot(h), self.eta);
-        if reflect {
-            m.pdf_h(wo, h) / (4.0 * wo.dot(h).abs()) * r
-        } else {
-            let denom = (wi.dot(h) + wo.dot(h) / etap).powi(2);
-            m.pdf_h(wo, h) * wi.dot(h).abs() / denom * (1.0 - r)
-        }
+        self.eval_pdf(wo, wi).1
     }
 
-    /// `(eval, pdf)` with the half vector, the Fresnel term and `D` computed
-    /// once (the same expressions as [`Self::eval`] and [`Self::pdf`], so the
-    /// same values to the bit).
+    /// `(f(wo, wi), pdf)` with the half vector, the Fresnel term and `D`
+    /// computed once (Walter et al. 2007).
     #[inline(always)]
     pub(crate) fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         let Some(m) = &self.microfacet else {
