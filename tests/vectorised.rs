@@ -1015,6 +1015,20 @@ fn blinn_phong_is_bit_identical() {
     assert_identical("Blinn–Phong surfaces", &scene);
 }
 
+/// The scene of [`lit_box`] with principled `materials` (name, body): the
+/// first is the box's, each other one a sphere's (in `dir`).
+fn principled_box(dir: &Path, materials: &[(&str, String)]) -> String {
+    let mut text = lit_box(materials[0].0, 6, 8);
+    for (i, (name, body)) in materials.iter().enumerate() {
+        text += &format!("[[materials]]\nname = \"{name}\"\ntype = \"principled\"\n{body}\n\n");
+        if i == 0 {
+            continue;
+        }
+        text += &material_sphere(dir, i, name, 55.0);
+    }
+    text
+}
+
 #[test]
 fn principled_surfaces_are_bit_identical() {
     // The principled BSDF in Mitsuba's mode is shaded in a vectorised loop
@@ -1061,20 +1075,12 @@ fn principled_surfaces_are_bit_identical() {
             format!("base_color = [0.6, 0.5, 0.5]\nroughness_map = \"{texture}\""),
         ),
     ];
-    let mut text = lit_box("box", 6, 8);
-    for (i, (name, body)) in materials.iter().enumerate() {
-        text += &format!("[[materials]]\nname = \"{name}\"\ntype = \"principled\"\n{body}\n\n");
-        if i == 0 {
-            continue;
-        }
-        text += &material_sphere(dir.path(), i, name, 55.0);
-    }
-    let scene = scene_from("principled", &text);
+    let scene = scene_from("principled", &principled_box(dir.path(), &materials));
     assert_identical("principled surfaces", &scene);
 }
 
 #[test]
-fn energy_conserving_groups_are_bit_identical() {
+fn energy_conserving_tables_are_bit_identical() {
     // The energy-conserving mode's albedo tables and average albedo in
     // every combination that selects different tables or entries: two
     // `specular` values (one table each), two materials sharing one,
@@ -1107,16 +1113,8 @@ fn energy_conserving_groups_are_bit_identical() {
             format!("base_color = [0.5, 0.5, 0.5]\nroughness = 0.4\nanisotropic = 0.7\nspecular = 0.2\n{ec}"),
         ),
     ];
-    let mut text = lit_box("box", 6, 8);
-    for (i, (name, body)) in materials.iter().enumerate() {
-        text += &format!("[[materials]]\nname = \"{name}\"\ntype = \"principled\"\n{body}\n\n");
-        if i == 0 {
-            continue;
-        }
-        text += &material_sphere(dir.path(), i, name, 55.0);
-    }
-    let scene = scene_from("energy-conserving groups", &text);
-    assert_identical("energy-conserving groups", &scene);
+    let scene = scene_from("energy-conserving", &principled_box(dir.path(), &materials));
+    assert_identical("energy-conserving tables", &scene);
 }
 
 #[test]
