@@ -669,3 +669,46 @@ fn eval_pdf_equals_eval_and_pdf() {
         }
     }
 }
+
+/// Dielectrics test their configurations with flags and select at the end
+/// (so that the vectorised kernel's loops stay vector code): a direction in
+/// the surface's plane, or a microfacet that either direction sees from
+/// behind, must still give nothing, not the arithmetic computed for it.
+#[test]
+fn dielectrics_give_nothing_for_degenerate_or_back_facing_configurations() {
+    let (s, c) = (60f32.to_radians().sin(), 60f32.to_radians().cos());
+    let wo = Vec3::new(s, 0.0, c);
+    // From inside near the normal (5°) out at 85° on the same side: the
+    // half vector η'·wi + wo faces away from wi, while the Fresnel term
+    // there is 0.07 and a Beckmann density D(h)·cos θh at α = 1 is 0.45, so
+    // computed regardless the density would be far from zero.
+    let (s5, c5) = (5f32.to_radians().sin(), 5f32.to_radians().cos());
+    let (s85, c85) = (85f32.to_radians().sin(), 85f32.to_radians().cos());
+    let (wo_inside, wi_back) = (Vec3::new(s5, 0.0, -c5), Vec3::new(s85, 0.0, c85));
+    // Through the interface the way Snell's law bends it.
+    let wi_snell = Vec3::new(-s / 1.5, 0.0, -(1.0 - (s / 1.5).powi(2)).sqrt());
+    let grazing = Vec3::X;
+    let smooth = Bsdf::Dielectric(DielectricParams {
+        eta: 1.5,
+        microfacet: None,
+    });
+    let mut rng = Rng::new(4, 1);
+    for kind in [Distribution::Ggx, Distribution::Beckmann] {
+        let rough = rough_glass(kind, 1.0);
+        let (f, pdf) = rough.eval_pdf(wo_inside, wi_back);
+        assert_eq!((f, pdf), (Vec3::ZERO, 0.0), "{kind:?}: back-facing h");
+        let (f, pdf) = rough.eval_pdf(wo, wi_snell);
+        assert!(f.x > 0.0 && pdf > 0.0, "{kind:?}: {f} {pdf}");
+        for (a, b) in [(grazing, wi_snell), (wo, grazing)] {
+            assert_eq!(rough.eval_pdf(a, b), (Vec3::ZERO, 0.0), "{kind:?}");
+        }
+        for _ in 0..100 {
+            let (uc, u) = (rng.next_f32(), rng.next_2d());
+            assert!(rough.sample(grazing, uc, u).is_none(), "{kind:?}");
+        }
+    }
+    for _ in 0..100 {
+        let (uc, u) = (rng.next_f32(), rng.next_2d());
+        assert!(smooth.sample(grazing, uc, u).is_none());
+    }
+}

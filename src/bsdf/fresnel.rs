@@ -146,20 +146,28 @@ pub fn conductor(cos_theta_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
 /// reflection.
 #[inline(always)]
 pub fn refract(wi: Vec3, n: Vec3, eta: f32) -> Option<(Vec3, f32)> {
-    let mut cos_i = n.dot(wi);
-    let (mut eta, mut n) = (eta, n);
-    if cos_i < 0.0 {
-        eta = 1.0 / eta;
-        cos_i = -cos_i;
-        n = -n;
-    }
+    let (wt, eta, total) = refract_or_total(wi, n, eta);
+    (!total).then_some((wt, eta))
+}
+
+/// [`refract`] without a branch: `(direction, relative index crossed, total
+/// internal reflection?)`, the direction meaningless where the last is true.
+/// A lane loop that tests the flag with a select, instead of returning early,
+/// stays vector code (see [`super::DielectricParams`]).
+#[inline(always)]
+pub fn refract_or_total(wi: Vec3, n: Vec3, eta: f32) -> (Vec3, f32, bool) {
+    let cos_i = n.dot(wi);
+    // From inside, the index is inverted and the normal turned around.
+    let inside = cos_i < 0.0;
+    let (eta, cos_i, n) = if inside {
+        (1.0 / eta, -cos_i, -n)
+    } else {
+        (eta, cos_i, n)
+    };
     let sin2_i = (1.0 - cos_i * cos_i).max(0.0);
     let sin2_t = sin2_i / (eta * eta);
-    if sin2_t >= 1.0 {
-        return None;
-    }
     let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
-    Some((-wi / eta + (cos_i / eta - cos_t) * n, eta))
+    (-wi / eta + (cos_i / eta - cos_t) * n, eta, sin2_t >= 1.0)
 }
 
 /// Mirror reflection of `wo` about `n`.

@@ -6,7 +6,7 @@
 //! tests in `tests/bsdf.rs`) and returns `eval`'s value with it.
 
 use super::albedo;
-use super::fresnel::{self, reflect, refract};
+use super::fresnel::{self, reflect, refract_or_total};
 use super::microfacet::{Distribution, Microfacet};
 use super::BsdfSample;
 use crate::color::luminance;
@@ -313,14 +313,22 @@ pub struct DielectricParams {
 }
 
 impl DielectricParams {
-    /// `(half vector facing +z, relative index η' across, reflection?)` for a
-    /// pair of directions, or `None` for a degenerate configuration.
+    /// `(valid, half vector facing +z, relative index η' across,
+    /// reflection?)` for a pair of directions; not valid for a degenerate
+    /// configuration or a back-facing microfacet (the other values are then
+    /// meaningless).
+    ///
+    /// Like [`Self::eval_pdf`] and [`Self::sample`], it computes every
+    /// candidate and keeps a validity flag instead of returning early: the
+    /// vectorised kernel's lane loops call them, and with early returns
+    /// LLVM's vectoriser counted the arithmetic under them (Beckmann's `D`
+    /// and `Λ`) as rarely run in scalar code and kept the rough Beckmann and
+    /// smooth loops scalar; as vector code the rough Beckmann glass renders
+    /// 1.7–1.9× the general integrator's speed, against 0.89×. The values
+    /// where valid are the same to the bit.
     #[inline(always)]
-    fn half_vector(&self, wo: Vec3, wi: Vec3) -> Option<(Vec3, f32, bool)> {
+    fn half_vector(&self, wo: Vec3, wi: Vec3) -> (bool, Vec3, f32, bool) {
         let (cos_o, cos_i) = (wo.z, wi.z);
-        if cos_o == 0.0 || cos_i == 0.0 {
-            return None;
-        }
         let reflect = cos_o * cos_i > 0.0;
         let etap = if reflect {
             1.0
@@ -329,17 +337,13 @@ impl DielectricParams {
         } else {
             1.0 / self.eta
         };
-        let h = wi * etap + wo;
-        if h.length_squared() == 0.0 {
-            return None;
-        }
-        let h = h.normalize();
+        let sum = wi * etap + wo;
+        let h = sum.normalize();
         let h = if h.z < 0.0 { -h } else { h };
-        // Discard back-facing microfacets.
-        if h.dot(wi) * cos_i < 0.0 || h.dot(wo) * cos_o < 0.0 {
-            return None;
-        }
-        Some((h, etap, reflect))
+        let degenerate = cos_o == 0.0 || cos_i == 0.0 || sum.length_squared() == 0.0;
+        // Back-facing microfacets are discarded.
+        let back_facing = h.dot(wi) * cos_i < 0.0 || h.dot(wo) * cos_o < 0.0;
+        (!(degenerate || back_facing), h, etap, reflect)
     }
 
     /// `f(wo, wi)`, reflection and transmission: the first half of
@@ -363,9 +367,7 @@ impl DielectricParams {
         let Some(m) = &self.microfacet else {
             return (Vec3::ZERO, 0.0);
         };
-        let Some((h, etap, reflect)) = self.half_vector(wo, wi) else {
-            return (Vec3::ZERO, 0.0);
-        };
+        let (valid, h, etap, reflect) = self.half_vector(wo, wi);
         let f = fresnel::dielectric(wo.dot(h), self.eta);
         let dg = m.d(h) * m.g(wo, wi, h);
         let pdf_h = m.pdf_h(wo, h);
@@ -382,57 +384,57 @@ impl DielectricParams {
                 pdf_h * wi.dot(h).abs() / sum.powi(2) * (1.0 - f),
             )
         };
-        (Vec3::splat(v), pdf)
+        if valid {
+            (Vec3::splat(v), pdf)
+        } else {
+            (Vec3::ZERO, 0.0)
+        }
     }
 
     #[inline(always)]
     pub(crate) fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
-        if wo.z == 0.0 {
-            return None;
-        }
         let Some(m) = &self.microfacet else {
-            // Smooth: mirror with probability F, refract otherwise.
+            // Smooth: mirror with probability F, refract otherwise; both
+            // directions computed and one selected (see `half_vector`).
             let r = fresnel::dielectric(wo.z, self.eta);
-            if uc < r {
-                let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-                return Some(BsdfSample {
-                    wi,
-                    f: Vec3::splat(r / wi.z.abs()),
-                    pdf: r,
-                    weight: Vec3::ONE,
-                    delta: true,
-                });
+            let mirrors = uc < r;
+            let (refracted, etap, total) = refract_or_total(wo, Vec3::Z, self.eta);
+            if wo.z == 0.0 || (!mirrors && total) {
+                return None;
             }
-            let (wi, etap) = refract(wo, Vec3::Z, self.eta)?;
-            let t = (1.0 - r) / (etap * etap);
+            let (wi, f, pdf, weight) = if mirrors {
+                (Vec3::new(-wo.x, -wo.y, wo.z), r, r, 1.0)
+            } else {
+                let t = (1.0 - r) / (etap * etap);
+                (refracted, t, 1.0 - r, 1.0 / (etap * etap))
+            };
             return Some(BsdfSample {
                 wi,
-                f: Vec3::splat(t / wi.z.abs()),
-                pdf: 1.0 - r,
-                weight: Vec3::splat(1.0 / (etap * etap)),
+                f: Vec3::splat(f / wi.z.abs()),
+                pdf,
+                weight: Vec3::splat(weight),
                 delta: true,
             });
         };
+        // Rough: every test is a flag, not an early return (see
+        // `half_vector`).
         let h = m.sample_h(wo, u);
         let cos_oh = wo.dot(h);
-        if cos_oh * wo.z <= 0.0 {
+        let r = fresnel::dielectric(cos_oh, self.eta);
+        let reflects = uc < r;
+        let (refracted, _, total) = refract_or_total(wo, h, self.eta);
+        let wi = if reflects { reflect(wo, h) } else { refracted };
+        // The side wi leaves on must match the lobe drawn.
+        let wrong_side = if reflects {
+            wi.z * wo.z <= 0.0
+        } else {
+            total || wi.z * wo.z >= 0.0
+        };
+        let valid = !(wo.z == 0.0 || cos_oh * wo.z <= 0.0 || wrong_side);
+        let (f, pdf) = self.eval_pdf(wo, wi);
+        if !valid {
             return None;
         }
-        let r = fresnel::dielectric(cos_oh, self.eta);
-        let wi = if uc < r {
-            let wi = reflect(wo, h);
-            if wi.z * wo.z <= 0.0 {
-                return None;
-            }
-            wi
-        } else {
-            let (wi, _) = refract(wo, h, self.eta)?;
-            if wi.z * wo.z >= 0.0 {
-                return None;
-            }
-            wi
-        };
-        let (f, pdf) = self.eval_pdf(wo, wi);
         finish_sample(wi, f, pdf)
     }
 }
