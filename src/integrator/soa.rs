@@ -398,6 +398,27 @@ impl<K: LaneKind> KindTable<K> {
         }
         chunk
     }
+
+    /// [`ChunkPass::select`] for a kind whose lanes take their parameters
+    /// from this table: the chunk's lanes of this kind and their parameters
+    /// (with their maps' values where `mappable` and the scene has maps), or
+    /// `None` where the chunk has none.
+    #[inline(always)]
+    fn select(
+        &self,
+        kernel: &SoaScene,
+        lanes: &SoaLanes,
+        start: usize,
+        geom: &[u32; W],
+        mappable: bool,
+    ) -> Option<([bool; W], [Option<K>; W])> {
+        let maps = (mappable && kernel.any_mapped)
+            .then(|| ChunkMaps::load(kernel, lanes, start, geom))
+            .flatten();
+        let params = self.chunk(geom, maps.as_ref());
+        let owned = params.map(|p| p.is_some());
+        owned.contains(&true).then_some((owned, params))
+    }
 }
 
 /// A microfacet distribution's kind known to the compiler ([`Ggx`] or
@@ -2881,12 +2902,7 @@ impl<B: LaneKind + LaneBsdf> ChunkPass for KindPass<'_, B> {
         start: usize,
         geom: &[u32; W],
     ) -> Option<([bool; W], [Option<B>; W])> {
-        let maps = (B::MAPPABLE && kernel.any_mapped)
-            .then(|| ChunkMaps::load(kernel, lanes, start, geom))
-            .flatten();
-        let bsdfs = self.0.chunk(geom, maps.as_ref());
-        let owned = bsdfs.map(|b| b.is_some());
-        owned.contains(&true).then_some((owned, bsdfs))
+        self.0.select(kernel, lanes, start, geom, B::MAPPABLE)
     }
 
     #[inline(always)]
@@ -2922,13 +2938,8 @@ impl<M: PrincipledMode> ChunkPass for PrincipledPass<'_, M> {
         start: usize,
         geom: &[u32; W],
     ) -> Option<([bool; W], [Option<PrincipledIn<M>>; W])> {
-        let maps = kernel
-            .any_mapped
-            .then(|| ChunkMaps::load(kernel, lanes, start, geom))
-            .flatten();
-        let params = self.0.chunk(geom, maps.as_ref());
-        let owned = params.map(|p| p.is_some());
-        owned.contains(&true).then_some((owned, params))
+        self.0
+            .select(kernel, lanes, start, geom, PrincipledIn::<M>::MAPPABLE)
     }
 
     #[inline(always)]
