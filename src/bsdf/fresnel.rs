@@ -141,19 +141,13 @@ pub fn conductor(cos_theta_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
 
 /// Refracts `wi` (pointing away from the surface) through the interface with
 /// normal `n` and relative index `eta` (inside / outside, the normal pointing
-/// outside). Returns the refracted direction (pointing away on the other side)
-/// and the relative index `η_t/η_i` it crossed, or `None` on total internal
-/// reflection.
-#[inline(always)]
-pub fn refract(wi: Vec3, n: Vec3, eta: f32) -> Option<(Vec3, f32)> {
-    let (wt, eta, total) = refract_or_total(wi, n, eta);
-    (!total).then_some((wt, eta))
-}
-
-/// [`refract`] without a branch: `(direction, relative index crossed, total
-/// internal reflection?)`, the direction meaningless where the last is true.
-/// A lane loop that tests the flag with a select, instead of returning early,
-/// stays vector code (see [`super::DielectricParams`]).
+/// outside): `(direction, relative index η_t/η_i crossed, total internal
+/// reflection?)`, the direction pointing away on the other side, and
+/// meaningless where the last is true.
+///
+/// The flag rather than an `Option`: a lane loop that tests it with a select,
+/// instead of returning early, stays vector code (see
+/// [`super::DielectricParams`]).
 #[inline(always)]
 pub fn refract_or_total(wi: Vec3, n: Vec3, eta: f32) -> (Vec3, f32, bool) {
     let cos_i = n.dot(wi);
@@ -231,13 +225,20 @@ mod tests {
     #[test]
     fn refraction_obeys_snell_and_reverses() {
         let wi = Vec3::new(0.6, 0.0, 0.8);
-        let (wt, eta) = refract(wi, Vec3::Z, 1.5).unwrap();
+        let (wt, eta, total) = refract_or_total(wi, Vec3::Z, 1.5);
+        assert!(!total);
         assert_eq!(eta, 1.5);
         assert!(wt.z < 0.0);
         assert!((wt.length() - 1.0).abs() < 1e-6);
         // sin θi = η sin θt
         assert!((0.6 - 1.5 * wt.x.abs()).abs() < 1e-6);
-        let (back, _) = refract(wt, Vec3::Z, 1.5).unwrap();
+        let (back, _, total) = refract_or_total(wt, Vec3::Z, 1.5);
+        assert!(!total);
         assert!((back - wi).length() < 1e-5);
+        // Beyond the critical angle from inside (sin θ > 1/1.5): total
+        // internal reflection.
+        let (_, eta, total) = refract_or_total(Vec3::new(0.8, 0.0, -0.6), Vec3::Z, 1.5);
+        assert!(total);
+        assert_eq!(eta, 1.0 / 1.5);
     }
 }
