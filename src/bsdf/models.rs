@@ -594,20 +594,14 @@ impl PrincipledParams {
 
     #[inline(always)]
     pub(crate) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        self.eval_with_tables(None, wo, wi)
+        self.eval_with(None, wo, wi)
     }
 
-    /// [`PrincipledParams::eval`], the energy-conserving mode reading
-    /// `tables` where given (they must be [`PrincipledParams::energy_tables`]:
-    /// a caller that shades many points of one material looks them up once),
-    /// else looking them up.
+    /// [`PrincipledParams::eval`], the energy-conserving mode taking the
+    /// specular lobe's albedos from `albedos` ([`AlbedoSource`]: this
+    /// material's tables, or albedos looked up in advance).
     #[inline(always)]
-    pub(crate) fn eval_with_tables(
-        &self,
-        tables: Option<albedo::EnergyTables>,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> Vec3 {
+    pub(crate) fn eval_with(&self, albedos: impl AlbedoSource, wo: Vec3, wi: Vec3) -> Vec3 {
         if !both_above(wo, wi) {
             return Vec3::ZERO;
         }
@@ -616,15 +610,15 @@ impl PrincipledParams {
         let cos_d = wi.dot(h);
         let specular =
             self.fresnel(cos_d, self.eta()) * (m.d(h) * m.g(wo, wi, h) / (4.0 * wo.z * wi.z));
-        self.diffuse(tables, wo, wi, cos_d, &m) + specular
+        self.diffuse(albedos, wo, wi, cos_d, &m) + specular
     }
 
     /// The diffuse lobe: Burley's, or the energy-conserving coupled one
-    /// (reading `tables`, else [`PrincipledParams::energy_tables`]).
+    /// (with the specular lobe's albedos from `albedos`).
     #[inline(always)]
     fn diffuse(
         &self,
-        tables: Option<albedo::EnergyTables>,
+        albedos: impl AlbedoSource,
         wo: Vec3,
         wi: Vec3,
         cos_d: f32,
@@ -634,11 +628,7 @@ impl PrincipledParams {
         if self.energy_conserving {
             // Kelemen and Szirmay-Kalos: ρ(1 − E(wo))(1 − E(wi)) / (π(1 − Ē)),
             // which integrates against cos θi to ρ(1 − E(wo)).
-            // One table lookup per evaluation, shared by the three uses.
-            let tables = tables.unwrap_or_else(|| self.energy_tables());
-            let eo = self.dielectric_albedo(&tables, wo.z, alpha_towards(m, wo));
-            let ei = self.dielectric_albedo(&tables, wi.z, alpha_towards(m, wi));
-            let avg = self.average_dielectric_albedo(&tables, m);
+            let [eo, ei, avg] = albedos.albedos(self, m, wo, wi);
             return self.base_color * weight * (Vec3::ONE - eo) * (Vec3::ONE - ei)
                 / (Vec3::ONE - avg);
         }
@@ -660,12 +650,29 @@ impl PrincipledParams {
         self.blend_albedo(ed, || tables.schlick.directional(mu, alpha))
     }
 
+    /// [`PrincipledParams::dielectric_albedo`] of the direction `w` (local
+    /// frame) for the specular lobe `m` (= `self.microfacet()`): `E(w)` of
+    /// the energy-conserving diffuse lobe, from this material's `tables`.
+    #[inline(always)]
+    pub(crate) fn albedo_towards(
+        &self,
+        tables: &albedo::EnergyTables,
+        m: &Microfacet,
+        w: Vec3,
+    ) -> Vec3 {
+        self.dielectric_albedo(tables, w.z, alpha_towards(m, w))
+    }
+
     /// The hemispherical average of [`PrincipledParams::dielectric_albedo`];
     /// for an anisotropic lobe the mean over azimuth of the isotropic
     /// averages at each azimuth's roughness (the same approximation as
     /// [`alpha_towards`]).
     #[inline(always)]
-    fn average_dielectric_albedo(&self, tables: &albedo::EnergyTables, m: &Microfacet) -> Vec3 {
+    pub(crate) fn average_dielectric_albedo(
+        &self,
+        tables: &albedo::EnergyTables,
+        m: &Microfacet,
+    ) -> Vec3 {
         if m.alpha_x == m.alpha_y {
             return self.isotropic_average_albedo(tables, m.alpha_x);
         }
@@ -725,15 +732,16 @@ impl PrincipledParams {
 
     #[inline(always)]
     pub(crate) fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
-        self.sample_with_tables(None, wo, uc, u)
+        self.sample_with(None, wo, uc, u)
     }
 
-    /// [`PrincipledParams::sample`] with the tables of
-    /// [`PrincipledParams::eval_with_tables`].
+    /// [`PrincipledParams::sample`] with the albedos of
+    /// [`PrincipledParams::eval_with`], which must be those of the
+    /// direction [`PrincipledParams::sample_direction`] draws.
     #[inline(always)]
-    pub(crate) fn sample_with_tables(
+    pub(crate) fn sample_with(
         &self,
-        tables: Option<albedo::EnergyTables>,
+        albedos: impl AlbedoSource,
         wo: Vec3,
         uc: f32,
         u: Vec2,
@@ -742,16 +750,27 @@ impl PrincipledParams {
             return None;
         }
         let m = self.microfacet();
-        let wi = if uc < self.diffuse_probability() {
-            square_to_cosine_hemisphere(u)
-        } else {
-            reflect(wo, m.sample_h(wo, u))
-        };
+        let wi = self.sample_direction(&m, wo, uc, u);
         if wi.z <= 0.0 {
             return None;
         }
-        let (f, pdf) = self.eval_pdf_with(tables, &m, wo, wi);
+        let (f, pdf) = self.eval_pdf_in(albedos, &m, wo, wi);
         finish_sample(wi, f, pdf)
+    }
+
+    /// The direction [`PrincipledParams::sample`] draws for `wo` with the
+    /// specular lobe `m` (= `self.microfacet()`), `uc` picking the lobe and
+    /// `u` the direction in it (the diffuse lobe's cosine-weighted
+    /// hemisphere or the specular lobe's visible normals), before any
+    /// check of it: what a caller that looks up its albedos in advance
+    /// needs to know.
+    #[inline(always)]
+    pub(crate) fn sample_direction(&self, m: &Microfacet, wo: Vec3, uc: f32, u: Vec2) -> Vec3 {
+        if uc < self.diffuse_probability() {
+            square_to_cosine_hemisphere(u)
+        } else {
+            reflect(wo, m.sample_h(wo, u))
+        }
     }
 
     /// `eval` and `pdf` together, sharing the half vector, the
@@ -759,27 +778,27 @@ impl PrincipledParams {
     /// a BSDF sample both need).
     #[inline(always)]
     pub(crate) fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        self.eval_pdf_with(None, &self.microfacet(), wo, wi)
+        self.eval_pdf_in(None, &self.microfacet(), wo, wi)
     }
 
-    /// [`PrincipledParams::eval_pdf`] with the tables of
-    /// [`PrincipledParams::eval_with_tables`].
+    /// [`PrincipledParams::eval_pdf`] with the albedos of
+    /// [`PrincipledParams::eval_with`].
     #[inline(always)]
-    pub(crate) fn eval_pdf_with_tables(
+    pub(crate) fn eval_pdf_with(
         &self,
-        tables: Option<albedo::EnergyTables>,
+        albedos: impl AlbedoSource,
         wo: Vec3,
         wi: Vec3,
     ) -> (Vec3, f32) {
-        self.eval_pdf_with(tables, &self.microfacet(), wo, wi)
+        self.eval_pdf_in(albedos, &self.microfacet(), wo, wi)
     }
 
-    /// [`PrincipledParams::eval_pdf_with_tables`] with the distribution `m`
+    /// [`PrincipledParams::eval_pdf_with`] with the distribution `m`
     /// (= `self.microfacet()`) already built.
     #[inline(always)]
-    fn eval_pdf_with(
+    fn eval_pdf_in(
         &self,
-        tables: Option<albedo::EnergyTables>,
+        albedos: impl AlbedoSource,
         m: &Microfacet,
         wo: Vec3,
         wi: Vec3,
@@ -791,7 +810,7 @@ impl PrincipledParams {
         let (d, g1o, g1i) = (m.d(h), m.g1(wo, h), m.g1(wi, h));
         let cos_d = wi.dot(h);
         let specular = self.fresnel(cos_d, self.eta()) * (d * g1o * g1i / (4.0 * wo.z * wi.z));
-        let diffuse = self.diffuse(tables, wo, wi, cos_d, m);
+        let diffuse = self.diffuse(albedos, wo, wi, cos_d, m);
         // The visible-normal density over h, pdf_h = G1(wo)·max(0, wo·h)·D/cos θo,
         // turned into a density over wi by 1/(4 wo·h).
         let wo_h = wo.dot(h);
@@ -805,6 +824,46 @@ impl PrincipledParams {
             diffuse + specular,
             pd * cosine_hemisphere_pdf(wi.z) + (1.0 - pd) * spec_pdf,
         )
+    }
+}
+
+/// Where the energy-conserving principled BSDF takes the specular lobe's
+/// albedos `E(wo)`, `E(wi)` and `Ē` from (each per unit `1 − metallic`,
+/// see [`PrincipledParams`]): the material's tables (`Option<EnergyTables>`:
+/// the tables given, or else looked up by the material), or albedos a caller
+/// looked up in advance ([`KnownAlbedos`]). Mitsuba's mode never asks.
+pub(crate) trait AlbedoSource: Copy {
+    /// `[E(wo), E(wi), Ē]` of the principled material `p`, whose specular
+    /// lobe is `m`, for the local directions `wo` and `wi`.
+    fn albedos(&self, p: &PrincipledParams, m: &Microfacet, wo: Vec3, wi: Vec3) -> [Vec3; 3];
+}
+
+impl AlbedoSource for Option<albedo::EnergyTables> {
+    /// Looked up in these tables (which must be
+    /// [`PrincipledParams::energy_tables`]: a caller that shades many
+    /// points of one material finds them once), or else in the material's.
+    #[inline(always)]
+    fn albedos(&self, p: &PrincipledParams, m: &Microfacet, wo: Vec3, wi: Vec3) -> [Vec3; 3] {
+        let tables = self.unwrap_or_else(|| p.energy_tables());
+        [
+            p.albedo_towards(&tables, m, wo),
+            p.albedo_towards(&tables, m, wi),
+            p.average_dielectric_albedo(&tables, m),
+        ]
+    }
+}
+
+/// `[E(wo), E(wi), Ē]` looked up in advance, for the one pair of directions
+/// they were looked up for ([`PrincipledParams::albedo_towards`],
+/// [`PrincipledParams::average_dielectric_albedo`]): so that a vectorised
+/// loop evaluating the BSDF reads no table.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct KnownAlbedos(pub [Vec3; 3]);
+
+impl AlbedoSource for KnownAlbedos {
+    #[inline(always)]
+    fn albedos(&self, _p: &PrincipledParams, _m: &Microfacet, _wo: Vec3, _wi: Vec3) -> [Vec3; 3] {
+        self.0
     }
 }
 
@@ -851,5 +910,79 @@ mod tests {
             let phi = std::f32::consts::FRAC_PI_2 * (k as f32 + 0.5) / n;
             assert_eq!((c, s), (phi.cos(), phi.sin()), "azimuth {k}");
         }
+    }
+
+    /// The bits of a value and density.
+    fn bits((f, pdf): (Vec3, f32)) -> [u32; 4] {
+        [f.x.to_bits(), f.y.to_bits(), f.z.to_bits(), pdf.to_bits()]
+    }
+
+    #[test]
+    fn albedos_looked_up_in_advance_give_the_same_bits() {
+        // What the vectorised kernel does for the energy-conserving mode:
+        // look the albedos up at the directions the BSDF will be evaluated
+        // at (`albedo_towards`, `average_dielectric_albedo`, the direction
+        // `sample_direction` draws), then evaluate with them. That must be
+        // the same bits as evaluating with the tables, for isotropic,
+        // anisotropic and tinted materials; and the coupled diffuse lobe
+        // must depend on both directions' albedos and the average.
+        let materials = [
+            (Vec3::new(0.5, 0.6, 0.5), 0.4, 0.0, 0.0, 0.5, 0.0),
+            (Vec3::new(0.8, 0.3, 0.1), 0.2, 0.5, 0.0, 0.5, 0.7),
+            (Vec3::new(0.5, 0.5, 0.5), 0.4, 0.0, 0.7, 0.2, 0.0),
+            (Vec3::new(0.9, 0.9, 0.9), 0.8, 0.1, 0.3, 0.9, 1.0),
+        ];
+        let (mut wrong_wi_differs, mut tilted_differs) = (0, 0);
+        for (base_color, roughness, metallic, anisotropic, specular, spec_tint) in materials {
+            let p = PrincipledParams {
+                base_color,
+                roughness,
+                metallic,
+                anisotropic,
+                specular,
+                spec_tint,
+                energy_conserving: true,
+            };
+            let (m, tables) = (p.microfacet(), p.energy_tables());
+            let mut rng = crate::rng::Rng::new(7, 3);
+            for _ in 0..200 {
+                let wo = square_to_cosine_hemisphere(rng.next_2d());
+                let wi = square_to_cosine_hemisphere(rng.next_2d());
+                let average = p.average_dielectric_albedo(&tables, &m);
+                let (eo, ei) = (
+                    p.albedo_towards(&tables, &m, wo),
+                    p.albedo_towards(&tables, &m, wi),
+                );
+                let known = KnownAlbedos([eo, ei, average]);
+                assert_eq!(
+                    bits(p.eval_pdf_with(known, wo, wi)),
+                    bits(p.eval_pdf(wo, wi))
+                );
+                assert_eq!(
+                    bits((p.eval_with(known, wo, wi), 0.0)),
+                    bits((p.eval(wo, wi), 0.0))
+                );
+                let wrong_wi = KnownAlbedos([eo, eo, average]);
+                let tilted = KnownAlbedos([eo, ei, average * 0.5]);
+                let original = bits(p.eval_pdf(wo, wi));
+                wrong_wi_differs +=
+                    usize::from(bits(p.eval_pdf_with(wrong_wi, wo, wi)) != original);
+                tilted_differs += usize::from(bits(p.eval_pdf_with(tilted, wo, wi)) != original);
+
+                let (uc, u) = (rng.next_f32(), rng.next_2d());
+                let drawn = p.sample_direction(&m, wo, uc, u);
+                let known = KnownAlbedos([eo, p.albedo_towards(&tables, &m, drawn), average]);
+                let (with, looked_up) = (p.sample_with(known, wo, uc, u), p.sample(wo, uc, u));
+                assert_eq!(with.is_some(), looked_up.is_some());
+                if let (Some(a), Some(b)) = (with, looked_up) {
+                    assert_eq!(a.wi, drawn);
+                    assert_eq!(bits((a.weight, a.pdf)), bits((b.weight, b.pdf)));
+                    assert_eq!(bits((a.f, 0.0)), bits((b.f, 0.0)));
+                }
+            }
+        }
+        // E(wo) and E(wi) differ for almost every pair, and Ē always counts.
+        assert!(wrong_wi_differs > 700, "{wrong_wi_differs} of 800");
+        assert_eq!(tilted_differs, 800);
     }
 }

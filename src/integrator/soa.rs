@@ -47,6 +47,7 @@ use super::{
 };
 use crate::accel::{gather_lanes, RayBatch, INVALID_ID};
 use crate::bsdf::albedo::EnergyTables;
+use crate::bsdf::models::KnownAlbedos;
 use crate::bsdf::{
     lambert_eval, lambert_pdf, lambert_sample, BlinnPhongParams, Bsdf, BsdfSample,
     CookTorranceParams, DielectricParams, Distribution, Fresnel, Microfacet, PrincipledParams,
@@ -833,7 +834,7 @@ impl<M: PrincipledMode> LaneBsdf for PrincipledLane<M> {
     const MAY_BE_ANISOTROPIC: bool = true;
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        self.params().eval_with_tables(self.0.mode.tables(), wo, wi)
+        self.params().eval_with(self.0.mode.tables(), wo, wi)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -841,15 +842,71 @@ impl<M: PrincipledMode> LaneBsdf for PrincipledLane<M> {
     }
     #[inline(always)]
     fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        self.params()
-            .eval_pdf_with_tables(self.0.mode.tables(), wo, wi)
+        self.params().eval_pdf_with(self.0.mode.tables(), wo, wi)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
-        lane_sample(
-            self.params()
-                .sample_with_tables(self.0.mode.tables(), wo, uc, u),
-        )
+        lane_sample(self.params().sample_with(self.0.mode.tables(), wo, uc, u))
+    }
+}
+
+/// The first stage of an energy-conserving principled lane's bounce
+/// ([`shade_staged_lanes`]): a lane BSDF that evaluates nothing but draws
+/// the same direction as the principled BSDF, so that [`shade_lane`] with
+/// it finds the directions the BSDF will be evaluated at
+/// ([`LaneOut::evaluated`]); everything else it computes is discarded (and
+/// so not computed at all).
+#[derive(Clone, Copy)]
+struct PrincipledProbe<M>(PrincipledLane<M>);
+
+impl<M: PrincipledMode> LaneBsdf for PrincipledProbe<M> {
+    // The same frame as the lane's own BSDF.
+    const MAY_BE_ANISOTROPIC: bool = PrincipledLane::<M>::MAY_BE_ANISOTROPIC;
+    #[inline(always)]
+    fn eval(&self, _wo: Vec3, _wi: Vec3) -> Vec3 {
+        Vec3::ZERO
+    }
+    #[inline(always)]
+    fn pdf(&self, _wo: Vec3, _wi: Vec3) -> f32 {
+        0.0
+    }
+    #[inline(always)]
+    fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
+        let params = self.0.params();
+        let wi = params.sample_direction(&params.microfacet(), wo, uc, u);
+        (true, wi, 0.0, Vec3::ZERO)
+    }
+}
+
+/// The last stage of an energy-conserving principled lane's bounce
+/// ([`shade_staged_lanes`]): the lane with the specular lobe's albedos
+/// looked up in advance for the light sample's direction (`light`: what
+/// `eval` and `eval_pdf` are called with) and for the direction `sample`
+/// draws (`sampled`), so that its loop reads no table.
+#[derive(Clone, Copy)]
+struct StagedPrincipledLane<M> {
+    lane: PrincipledLane<M>,
+    light: KnownAlbedos,
+    sampled: KnownAlbedos,
+}
+
+impl<M: PrincipledMode> LaneBsdf for StagedPrincipledLane<M> {
+    const MAY_BE_ANISOTROPIC: bool = PrincipledLane::<M>::MAY_BE_ANISOTROPIC;
+    #[inline(always)]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.lane.params().eval_with(self.light, wo, wi)
+    }
+    #[inline(always)]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.lane.params().pdf(wo, wi)
+    }
+    #[inline(always)]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        self.lane.params().eval_pdf_with(self.light, wo, wi)
+    }
+    #[inline(always)]
+    fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
+        lane_sample(self.lane.params().sample_with(self.sampled, wo, uc, u))
     }
 }
 
@@ -2233,6 +2290,10 @@ struct LaneOut {
     rng: u32,
     /// The path's η² after this bounce (see [`LaneBsdf::eta_scale`]).
     eta_scale: f32,
+    /// Where the BSDF was evaluated, in its local frame: `[wo, the light
+    /// sample's wi, the sampled wi]` (placeholders where there was none);
+    /// read only by [`shade_staged_lanes`], and so not computed elsewhere.
+    evaluated: [Vec3; 3],
 }
 
 /// One bounce of one path: the general integrator's `shade` for a surface
@@ -2321,6 +2382,7 @@ fn shade_lane<
             dir: Vec3::Z,
             tfar: f32::NEG_INFINITY,
             pending: Vec3::ZERO,
+            wi_local: Vec3::Z,
         }
     } else {
         light_sample_lane::<B, TRIANGLES, CONES, ENV>(
@@ -2381,6 +2443,7 @@ fn shade_lane<
         point: p,
         rng,
         eta_scale,
+        evaluated: [wo_local, shadow.wi_local, local],
     }
 }
 
@@ -2393,6 +2456,8 @@ struct LightSampleOut {
     dir: Vec3,
     tfar: f32,
     pending: Vec3,
+    /// The light sample's direction in the shading frame.
+    wi_local: Vec3,
 }
 
 /// Where a lane scatters, as [`shade_lane`] computed it: the point, the
@@ -2490,6 +2555,7 @@ fn light_sample_lane<B: LaneBsdf, const TRIANGLES: bool, const CONES: bool, cons
         dir: shadow_dir,
         tfar: shadow_tfar,
         pending: l.beta * f * ls.radiance * (weight / light_pdf),
+        wi_local,
     }
 }
 
@@ -2593,6 +2659,154 @@ fn shade_kind_lanes<
             put(k, l.hit, out);
         }
     }
+}
+
+/// [`shade_kind`] for energy-conserving principled lanes, whose BSDF reads
+/// albedo tables: a loop that reads a table at each lane's own place keeps
+/// the whole loop scalar (LLVM prices a gather as one load per lane, and
+/// cannot bound reads through each lane's table pointer), so the bounce is
+/// taken in three stages ([`shade_staged_lanes`]). `principled`: the chunk's
+/// lanes of this kind, `idle` for the others.
+#[inline(always)]
+fn shade_staged<M: PrincipledMode, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
+    principled: &[Option<PrincipledLane<M>>; W],
+    idle: PrincipledLane<M>,
+    aniso: bool,
+    lane_in: &impl Fn(usize) -> LaneIn,
+    put: &mut impl FnMut(usize, bool, LaneOut),
+    u: Uniform,
+) {
+    if principled.iter().all(Option::is_none) {
+        return;
+    }
+    // As `shade_kind`: a chunk with an anisotropic lane takes the loops
+    // compiled for every light kind.
+    if aniso {
+        shade_staged_lanes::<M, true, true, true, true>(principled, idle, lane_in, put, u)
+    } else {
+        shade_staged_lanes::<M, TRIANGLES, CONES, ENV, false>(principled, idle, lane_in, put, u)
+    }
+}
+
+/// The three stages of [`shade_staged`]:
+/// 1. a vectorised loop of [`shade_lane`] with [`PrincipledProbe`], which
+///    finds where each lane's BSDF will be evaluated (`wo`, the light
+///    sample's `wi`, the sampled `wi`) and nothing else;
+/// 2. a scalar loop looking up the specular lobe's albedos there in each
+///    lane's tables (`E(wo)`, `E(wi)` of both directions, `Ē`), exactly as
+///    the general integrator looks them up;
+/// 3. the vectorised loop of [`shade_lane`] with those albedos
+///    ([`StagedPrincipledLane`]), which reads no table.
+///
+/// Stages 1 and 3 run the same code on the same numbers, so the directions
+/// looked up are the ones evaluated, bit for bit.
+#[inline(always)]
+fn shade_staged_lanes<
+    M: PrincipledMode,
+    const TRIANGLES: bool,
+    const CONES: bool,
+    const ENV: bool,
+    const ANISO: bool,
+>(
+    principled: &[Option<PrincipledLane<M>>; W],
+    idle: PrincipledLane<M>,
+    lane_in: &impl Fn(usize) -> LaneIn,
+    put: &mut impl FnMut(usize, bool, LaneOut),
+    u: Uniform,
+) {
+    // The lanes' parameters by component, without their tables: a loop
+    // reading structures that hold pointers among the numbers loads each
+    // lane's fields one by one, which LLVM's cost model rightly finds too
+    // dear on AVX2 (the tables are read in stage 2 only).
+    let mut params = [[0.0f32; W]; 8];
+    let owned: [bool; W] = std::array::from_fn(|k| principled[k].is_some());
+    for (k, lane) in principled.iter().enumerate() {
+        let PrincipledLane(p, colour) = lane.unwrap_or(idle);
+        let numbers = [
+            p.metallic,
+            p.roughness,
+            p.specular,
+            p.spec_tint,
+            p.anisotropic,
+            colour.x,
+            colour.y,
+            colour.z,
+        ];
+        for (c, v) in numbers.into_iter().enumerate() {
+            params[c][k] = v;
+        }
+    }
+    // Stage 1: each lane's directions, component by component (`[wo, the
+    // light sample's wi, the sampled wi]` as x, y, z each), so that the
+    // vectorised loop stores whole registers.
+    let mut evaluated = [[0.0f32; W]; 9];
+    for k in 0..W {
+        let probe = PrincipledProbe(lane_numbers::<M>(&params, k));
+        let dirs = shade_lane::<_, TRIANGLES, CONES, ENV, ANISO>(lane_in(k), probe, u).evaluated;
+        for d in 0..3 {
+            for c in 0..3 {
+                evaluated[3 * d + c][k] = dirs[d][c];
+            }
+        }
+    }
+    // Stage 2: the albedos there, `[E(wo), E(light wi), E(sampled wi), Ē]`
+    // by component.
+    let mut albedos = [[0.0f32; W]; 12];
+    for (k, lane) in principled.iter().enumerate() {
+        let Some(lane) = lane else {
+            continue;
+        };
+        let params = lane.params();
+        let m = params.microfacet();
+        let tables = lane.0.mode.tables().unwrap_or(EnergyTables::NONE);
+        let mut found = [params.average_dielectric_albedo(&tables, &m); 4];
+        for (d, found) in found.iter_mut().take(3).enumerate() {
+            let dir = Vec3::new(
+                evaluated[3 * d][k],
+                evaluated[3 * d + 1][k],
+                evaluated[3 * d + 2][k],
+            );
+            *found = params.albedo_towards(&tables, &m, dir);
+        }
+        for a in 0..4 {
+            for c in 0..3 {
+                albedos[3 * a + c][k] = found[a][c];
+            }
+        }
+    }
+    // Stage 3: the bounce with them (no closure in the loop: LLVM may leave
+    // one out of line, and a call keeps the loop scalar).
+    for k in 0..W {
+        let l = lane_in(k);
+        let eo = Vec3::new(albedos[0][k], albedos[1][k], albedos[2][k]);
+        let e_light = Vec3::new(albedos[3][k], albedos[4][k], albedos[5][k]);
+        let e_sampled = Vec3::new(albedos[6][k], albedos[7][k], albedos[8][k]);
+        let average = Vec3::new(albedos[9][k], albedos[10][k], albedos[11][k]);
+        let staged = StagedPrincipledLane {
+            lane: lane_numbers::<M>(&params, k),
+            light: KnownAlbedos([eo, e_light, average]),
+            sampled: KnownAlbedos([eo, e_sampled, average]),
+        };
+        let out = shade_lane::<_, TRIANGLES, CONES, ENV, ANISO>(l, staged, u);
+        if owned[k] {
+            put(k, l.hit, out);
+        }
+    }
+}
+
+/// Lane `k` of [`shade_staged_lanes`]'s parameters by component, as a lane
+/// BSDF with the mode's idle data (its tables are not read there).
+#[inline(always)]
+fn lane_numbers<M: PrincipledMode>(params: &[[f32; W]; 8], k: usize) -> PrincipledLane<M> {
+    let p = PrincipledIn {
+        metallic: params[0][k],
+        roughness: params[1][k],
+        specular: params[2][k],
+        spec_tint: params[3][k],
+        anisotropic: params[4][k],
+        mode: M::IDLE,
+    };
+    PrincipledLane(p, Vec3::new(params[5][k], params[6][k], params[7][k]))
 }
 
 /// One bounce of every lane: reads the hits in `lanes.rays`, writes the
@@ -2957,7 +3171,11 @@ impl<M: PrincipledMode> ChunkPass for PrincipledPass<'_, M> {
             params[k].map(|p| PrincipledLane(p, colour))
         });
         let idle = PrincipledLane(PrincipledIn::IDLE, Vec3::splat(0.5));
-        shade_kind::<_, TRIANGLES, CONES, ENV>(&principled, idle, aniso, lane_in, put, u);
+        if M::ENERGY_CONSERVING {
+            shade_staged::<M, TRIANGLES, CONES, ENV>(&principled, idle, aniso, lane_in, put, u);
+        } else {
+            shade_kind::<_, TRIANGLES, CONES, ENV>(&principled, idle, aniso, lane_in, put, u);
+        }
     }
 }
 
