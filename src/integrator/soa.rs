@@ -642,6 +642,20 @@ trait LaneBsdf: Copy {
     /// it: (drawn, `wi` in the local frame, its density, the throughput
     /// factor `f·|cos θi|/pdf`).
     fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3);
+    /// One bounce of the lanes of a chunk whose material is of this kind
+    /// (`Some` in `bsdfs`; `idle` stands in for the others), for
+    /// [`shade_kind`]: one loop of [`shade_lane`] ([`shade_kind_lanes`]),
+    /// unless the kind needs stages of its own.
+    #[inline(always)]
+    fn shade_chunk<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const ANISO: bool>(
+        bsdfs: &[Option<Self>; W],
+        idle: Self,
+        lane_in: &impl Fn(usize) -> LaneIn,
+        put: &mut impl FnMut(usize, bool, LaneOut),
+        u: Uniform,
+    ) {
+        shade_kind_lanes::<Self, TRIANGLES, CONES, ENV, ANISO>(bsdfs, idle, lane_in, put, u)
+    }
 }
 
 /// A general BSDF sample as [`LaneBsdf::sample`] returns it: (drawn, `wi`,
@@ -847,6 +861,25 @@ impl<M: PrincipledMode> LaneBsdf for PrincipledLane<M> {
     #[inline(always)]
     fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> (bool, Vec3, f32, Vec3) {
         lane_sample(self.params().sample_with(self.0.mode.tables(), wo, uc, u))
+    }
+    /// The energy-conserving mode's lanes read albedo tables: a loop that
+    /// reads a table at each lane's own place stays scalar (LLVM prices a
+    /// gather as one load per lane, and cannot bound reads through each
+    /// lane's table pointer), so their bounce is taken in three stages
+    /// ([`shade_staged_lanes`]); Mitsuba's mode in the one loop.
+    #[inline(always)]
+    fn shade_chunk<const TRIANGLES: bool, const CONES: bool, const ENV: bool, const ANISO: bool>(
+        bsdfs: &[Option<Self>; W],
+        idle: Self,
+        lane_in: &impl Fn(usize) -> LaneIn,
+        put: &mut impl FnMut(usize, bool, LaneOut),
+        u: Uniform,
+    ) {
+        if M::ENERGY_CONSERVING {
+            shade_staged_lanes::<M, TRIANGLES, CONES, ENV, ANISO>(bsdfs, idle, lane_in, put, u)
+        } else {
+            shade_kind_lanes::<Self, TRIANGLES, CONES, ENV, ANISO>(bsdfs, idle, lane_in, put, u)
+        }
     }
 }
 
@@ -2612,9 +2645,10 @@ fn store<T: Copy>(dst: &mut [T], start: usize, src: &[T; W]) {
 }
 
 /// One bounce of the lanes of a chunk whose material is of one kind `B`
-/// (`Some` in `bsdfs`), through [`shade_lane`]; the chunk's other lanes go
-/// through the same loop with `idle` (so that it has no branch) and their
-/// results are discarded. A chunk with no such lane is skipped.
+/// (`Some` in `bsdfs`), through [`shade_lane`] ([`LaneBsdf::shade_chunk`]);
+/// the chunk's other lanes go through the same loop with `idle` (so that it
+/// has no branch) and their results are discarded. A chunk with no such
+/// lane is skipped.
 #[inline(always)]
 fn shade_kind<B: LaneBsdf, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
     bsdfs: &[Option<B>; W],
@@ -2630,9 +2664,9 @@ fn shade_kind<B: LaneBsdf, const TRIANGLES: bool, const CONES: bool, const ENV: 
     // A chunk with an anisotropic lane (rare) takes the loop compiled for
     // every light kind (the lanes' own flags select the same results), so that it adds one variant per kind to compile.
     if B::MAY_BE_ANISOTROPIC && aniso {
-        shade_kind_lanes::<B, true, true, true, true>(bsdfs, idle, lane_in, put, u)
+        B::shade_chunk::<true, true, true, true>(bsdfs, idle, lane_in, put, u)
     } else {
-        shade_kind_lanes::<B, TRIANGLES, CONES, ENV, false>(bsdfs, idle, lane_in, put, u)
+        B::shade_chunk::<TRIANGLES, CONES, ENV, false>(bsdfs, idle, lane_in, put, u)
     }
 }
 
@@ -2661,34 +2695,8 @@ fn shade_kind_lanes<
     }
 }
 
-/// [`shade_kind`] for energy-conserving principled lanes, whose BSDF reads
-/// albedo tables: a loop that reads a table at each lane's own place keeps
-/// the whole loop scalar (LLVM prices a gather as one load per lane, and
-/// cannot bound reads through each lane's table pointer), so the bounce is
-/// taken in three stages ([`shade_staged_lanes`]). `principled`: the chunk's
-/// lanes of this kind, `idle` for the others.
-#[inline(always)]
-fn shade_staged<M: PrincipledMode, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
-    principled: &[Option<PrincipledLane<M>>; W],
-    idle: PrincipledLane<M>,
-    aniso: bool,
-    lane_in: &impl Fn(usize) -> LaneIn,
-    put: &mut impl FnMut(usize, bool, LaneOut),
-    u: Uniform,
-) {
-    if principled.iter().all(Option::is_none) {
-        return;
-    }
-    // As `shade_kind`: a chunk with an anisotropic lane takes the loops
-    // compiled for every light kind.
-    if aniso {
-        shade_staged_lanes::<M, true, true, true, true>(principled, idle, lane_in, put, u)
-    } else {
-        shade_staged_lanes::<M, TRIANGLES, CONES, ENV, false>(principled, idle, lane_in, put, u)
-    }
-}
-
-/// The three stages of [`shade_staged`]:
+/// The three stages of an energy-conserving principled chunk's bounce
+/// ([`LaneBsdf::shade_chunk`]):
 /// 1. a vectorised loop of [`shade_lane`] with [`PrincipledProbe`], which
 ///    finds where each lane's BSDF will be evaluated (`wo`, the light
 ///    sample's `wi`, the sampled `wi`) and nothing else;
@@ -3171,11 +3179,7 @@ impl<M: PrincipledMode> ChunkPass for PrincipledPass<'_, M> {
             params[k].map(|p| PrincipledLane(p, colour))
         });
         let idle = PrincipledLane(PrincipledIn::IDLE, Vec3::splat(0.5));
-        if M::ENERGY_CONSERVING {
-            shade_staged::<M, TRIANGLES, CONES, ENV>(&principled, idle, aniso, lane_in, put, u);
-        } else {
-            shade_kind::<_, TRIANGLES, CONES, ENV>(&principled, idle, aniso, lane_in, put, u);
-        }
+        shade_kind::<_, TRIANGLES, CONES, ENV>(&principled, idle, aniso, lane_in, put, u);
     }
 }
 
