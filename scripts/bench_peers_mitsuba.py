@@ -10,8 +10,9 @@ starts this script with a JSON job list:
 
 For each scene it loads the XML, renders once at the job's spp to compile
 Dr.Jit's kernels (untimed), then renders `--repeats` more times with other
-seeds and keeps the fastest; the last image is written as raw little-endian
-float32 RGB rows (top row first) to the job's `image` path. Progress goes to
+seeds and keeps the fastest; every timed render's image is written, one
+after the other, as raw little-endian float32 RGB rows (top row first) to the
+job's `image` path (plsr scores each against its reference and averages). Progress goes to
 stderr; the result is one line of JSON on stdout:
 
   {"mitsuba_version": "3.x", "variant": "llvm_ad_rgb",
@@ -115,15 +116,16 @@ def main():
         dr.eval(image)
         dr.sync_thread()
         best = float("inf")
+        frames = []
         for r in range(max(1, args.repeats)):
             t = time.perf_counter()
             image = scene.integrator().render(scene, seed=r + 1, spp=spp)
             dr.eval(image)
             dr.sync_thread()
             best = min(best, time.perf_counter() - t)
-        pixels = np.array(image, dtype=np.float32)
-        height, width = pixels.shape[0], pixels.shape[1]
-        pixels[:, :, :3].astype("<f4").tofile(job["image"])
+            frames.append(np.array(image, dtype=np.float32)[:, :, :3].astype("<f4"))
+        height, width = frames[0].shape[0], frames[0].shape[1]
+        np.concatenate([f.ravel() for f in frames]).tofile(job["image"])
         print(f"mitsuba: {name}: {best:.3f} s", file=sys.stderr)
         result = {"name": name, "seconds": best, "width": width, "height": height}
         if job.get("raw_rays"):

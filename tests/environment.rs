@@ -77,6 +77,65 @@ fn sampling_matches_the_density_chi_square() {
     }
 }
 
+/// Maps looked up bilinearly: one lit texel, and the random 16×8 map.
+fn bilinear_maps() -> Vec<(&'static str, EnvironmentLight)> {
+    let mut maps = maps();
+    let random = maps.pop().expect("four maps").1;
+    let one = maps.swap_remove(0).1;
+    vec![
+        ("one texel, bilinear", one.with_bilinear(true)),
+        ("random 16×8, bilinear", random.with_bilinear(true)),
+    ]
+}
+
+#[test]
+fn bilinear_sampling_matches_the_density_chi_square() {
+    for (name, env) in bilinear_maps() {
+        let mut rng = Rng::new(19, 3);
+        let r = chi2_test(
+            SphereBinning {
+                theta_bins: 21,
+                phi_bins: 41,
+                subdivisions: 64,
+            },
+            300_000,
+            |_| env.sample(rng.next_2d()).map(|(_, d, _)| d),
+            &|w| env.pdf(w) as f64,
+            SIGNIFICANCE,
+        );
+        assert!(r.passed, "{name}: {}", r.summary);
+    }
+}
+
+/// Looked up bilinearly, a lit texel's radiance reaches into its
+/// neighbours; light sampling must reach there too, with a density that
+/// keeps radiance ÷ density bounded (else a small bright source, a sun,
+/// is found there only by BSDF sampling: fireflies). Weighing each texel by
+/// its own luminance gave those directions density 0.
+#[test]
+fn bilinear_sampling_covers_the_interpolated_radiance() {
+    for (name, env) in bilinear_maps() {
+        let integral = env.luminance_integral();
+        let mut rng = Rng::new(23, 1);
+        let mut lit = 0;
+        for _ in 0..200_000 {
+            let d = plsr::warp::square_to_uniform_sphere(rng.next_2d());
+            let l = plsr::color::luminance(env.radiance(d));
+            if l <= 0.0 {
+                continue;
+            }
+            lit += 1;
+            let pdf = env.pdf(d);
+            assert!(pdf > 0.0, "{name}: radiance {l} but density 0 at {d}");
+            assert!(
+                l / pdf <= 20.0 * integral,
+                "{name}: radiance {l} ÷ density {pdf} at {d}, ∫L = {integral}"
+            );
+        }
+        assert!(lit > 1000, "{name}: only {lit} lit directions");
+    }
+}
+
 #[test]
 fn samples_carry_their_own_density_and_radiance() {
     for (name, env) in maps() {

@@ -11,12 +11,14 @@
 //! Radiance is piecewise constant over texels (no filtering), times `scale`,
 //! or with `filter = "bilinear"` interpolated between the four nearest texel
 //! centres (wrapping round in azimuth, clamped at the poles), as Mitsuba's
-//! `envmap` looks it up. Sampling stays by texel either way: the estimators
-//! stay unbiased (a direction the texel density misses is found by BSDF
-//! sampling, which MIS then weighs fully).
-//! Directions are importance-sampled in proportion to luminance × solid
-//! angle of the texel (∝ sin θ), uniformly in `(u, v)` within a texel, so the
-//! solid-angle density is
+//! `envmap` looks it up. Sampling stays by texel either way. Directions are
+//! importance-sampled in proportion to a texel weight × solid angle of the
+//! texel (∝ sin θ), uniformly in `(u, v)` within a texel. The weight is the
+//! texel's luminance, looked up by nearest texel; looked up bilinearly, it
+//! is the largest luminance of the 3 × 3 texels whose values the texel's
+//! lookups blend, so that the density covers the radiance interpolation
+//! spreads around a bright texel (a sun's rim would otherwise be found by
+//! BSDF sampling alone, as fireflies). The solid-angle density is
 //! `p(ω) = p(u, v) / (2π² sin θ)`, with `θ = π v` the polar angle from `up`.
 //!
 //! ```toml
@@ -41,9 +43,9 @@ pub struct EnvironmentLight {
     pub width: u32,
     /// Image height in texels (π of elevation).
     pub height: u32,
-    /// Linear RGB radiance per texel (already scaled), row-major from the
-    /// top row.
-    texels: Vec<Vec3>,
+    /// Each texel's radiance and sampling density, row-major from the top
+    /// row.
+    texels: Vec<Texel>,
     /// How the image is oriented in the world.
     pub frame: SphereFrame,
     /// Marginal CDF over rows (`height + 1` entries from 0 to 1).
@@ -58,6 +60,49 @@ pub struct EnvironmentLight {
     integral: f32,
     /// Bilinear interpolation between texel centres instead of nearest.
     bilinear: bool,
+}
+
+/// One texel of the map, with what a lookup needs of it in one 16-byte
+/// record: a direction's radiance and density ([`EnvironmentLight::pdf`])
+/// then cost one cache miss, not one for the radiance and one for the
+/// column's CDF.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C, align(16))]
+struct Texel {
+    /// Linear RGB radiance (already scaled).
+    radiance: Vec3,
+    /// The density of the samples in this texel per unit area of the image
+    /// (`uv ∈ [0, 1]²`): `p_row · p_col · width · height`, the probabilities
+    /// of its row and of its column in the row, multiplied in that order
+    /// (the product `finish_sample` forms, to the bit).
+    pdf_uv: f32,
+}
+
+/// The sampling weights of a `w × h` map looked up bilinearly, from its
+/// texels' luminance: each texel's is the largest luminance of the 3 × 3
+/// texels around it (wrapping round in azimuth, clamped at the poles).
+/// Every lookup in a texel blends texels of that neighbourhood with convex
+/// weights, so its luminance is at most the texel's weight: light samples
+/// cover the radiance bilinear lookup spreads beyond a bright texel (a sun's
+/// rim), and the ratio of radiance to density stays bounded there. Weighing
+/// texels by their own luminance instead leaves that rim to BSDF sampling
+/// alone, and a small bright source then makes fireflies.
+fn bilinear_weights(luminance: &[f32], w: usize, h: usize) -> Vec<f32> {
+    let mut across = vec![0.0f32; w * h];
+    for y in 0..h {
+        let row = &luminance[y * w..(y + 1) * w];
+        for x in 0..w {
+            let (left, right) = ((x + w - 1) % w, (x + 1) % w);
+            across[y * w + x] = row[left].max(row[x]).max(row[right]);
+        }
+    }
+    (0..w * h)
+        .map(|i| {
+            let (y, x) = (i / w, i % w);
+            let (up, down) = (y.saturating_sub(1), (y + 1).min(h - 1));
+            across[up * w + x].max(across[i]).max(across[down * w + x])
+        })
+        .collect()
 }
 
 /// Builds a CDF (with a leading 0) from non-negative weights and returns it
@@ -169,6 +214,19 @@ impl EnvironmentLight {
                 }
             })
             .collect();
+        EnvironmentLight::build(width, height, texels, frame, false)
+    }
+
+    /// The environment of `texels` (already scaled and clean), sampled in
+    /// proportion to the radiance its lookups (`bilinear` or nearest)
+    /// return, or a bound of it.
+    fn build(
+        width: u32,
+        height: u32,
+        texels: Vec<Vec3>,
+        frame: SphereFrame,
+        bilinear: bool,
+    ) -> EnvironmentLight {
         let (w, h) = (width as usize, height as usize);
         // A row's solid angle per unit of v, exactly: (cos θ0 − cos θ1)·h/π
         // (the midpoint sin θ is 2.6 % off for rows 45° tall).
@@ -179,19 +237,48 @@ impl EnvironmentLight {
             );
             (t0.cos() - t1.cos()) * h as f64 / std::f64::consts::PI
         };
+        let texel_luminance: Vec<f32> = texels.iter().map(|&t| luminance(t)).collect();
+        // Σ L sin θ · (2π/w)(π/h): the integral of luminance over the sphere.
+        let total: f64 = (0..h)
+            .map(|y| {
+                let row = &texel_luminance[y * w..(y + 1) * w];
+                row.iter().map(|&l| l as f64 * sin_row(y)).sum::<f64>()
+            })
+            .sum();
+        let integral =
+            (total * 2.0 * std::f64::consts::PI * std::f64::consts::PI / (w * h) as f64) as f32;
+        // What each texel is sampled in proportion to: its luminance or,
+        // looked up bilinearly, the largest luminance of the texels its
+        // lookups blend (see `bilinear_weights`).
+        let weights = if bilinear {
+            bilinear_weights(&texel_luminance, w, h)
+        } else {
+            texel_luminance
+        };
         let mut column_cdf = Vec::with_capacity(h * (w + 1));
         let mut row_weights = Vec::with_capacity(h);
         for y in 0..h {
-            let (c, total) = cdf((0..w).map(|x| luminance(texels[y * w + x]) as f64 * sin_row(y)));
+            let (c, total) = cdf((0..w).map(|x| weights[y * w + x] as f64 * sin_row(y)));
             column_cdf.extend(c);
             row_weights.push(total);
         }
-        let (row_cdf, total) = cdf(row_weights.into_iter());
+        let (row_cdf, _) = cdf(row_weights.into_iter());
         let row_guide = guide(&row_cdf);
+        let wh = (width * height) as f32;
+        let texels = texels
+            .into_iter()
+            .enumerate()
+            .map(|(i, radiance)| {
+                let (y, x) = (i / w, i % w);
+                let p_row = row_cdf[y + 1] - row_cdf[y];
+                let p_col = column_cdf[y * (w + 1) + x + 1] - column_cdf[y * (w + 1) + x];
+                Texel {
+                    radiance,
+                    pdf_uv: p_row * p_col * wh,
+                }
+            })
+            .collect();
         let column_guide = column_cdf.chunks_exact(w + 1).flat_map(guide).collect();
-        // Σ L sin θ · (2π/w)(π/h): the integral of luminance over the sphere.
-        let integral =
-            (total * 2.0 * std::f64::consts::PI * std::f64::consts::PI / (w * h) as f64) as f32;
         EnvironmentLight {
             width,
             height,
@@ -202,25 +289,40 @@ impl EnvironmentLight {
             row_guide,
             column_guide,
             integral,
-            bilinear: false,
+            bilinear,
         }
     }
 
     /// The same environment looked up bilinearly (`true`) or by nearest
-    /// texel (`false`, the default).
-    pub fn with_bilinear(mut self, bilinear: bool) -> EnvironmentLight {
-        self.bilinear = bilinear;
-        self
+    /// texel (`false`, the default), and sampled to match.
+    pub fn with_bilinear(self, bilinear: bool) -> EnvironmentLight {
+        if bilinear == self.bilinear {
+            return self;
+        }
+        let texels = self.texels.iter().map(|t| t.radiance).collect();
+        EnvironmentLight::build(self.width, self.height, texels, self.frame, bilinear)
     }
 
     /// The radiance at image position `uv`, which lies in texel `(x, y)`:
     /// the texel's, or bilinear between the four nearest texel centres.
     #[inline]
     fn radiance_at(&self, uv: Vec2, x: usize, y: usize) -> Vec3 {
-        let (w, h) = (self.width as usize, self.height as usize);
+        let w = self.width as usize;
         if !self.bilinear {
-            return self.texels[y * w + x];
+            return self.texels[y * w + x].radiance;
         }
+        let ([x0, x1, y0, y1], tx, ty) = self.bilinear_corners(uv);
+        let t = |x: usize, y: usize| self.texels[y * w + x].radiance;
+        let top = t(x0, y0) * (1.0 - tx) + t(x1, y0) * tx;
+        let bottom = t(x0, y1) * (1.0 - tx) + t(x1, y1) * tx;
+        top * (1.0 - ty) + bottom * ty
+    }
+
+    /// The texels that bilinear lookup at `uv` interpolates, `[x0, x1, y0,
+    /// y1]`, and the weights `tx`, `ty` of `x1` and `y1`.
+    #[inline]
+    fn bilinear_corners(&self, uv: Vec2) -> ([usize; 4], f32, f32) {
+        let (w, h) = (self.width as usize, self.height as usize);
         let fx = uv.x * w as f32 - 0.5;
         let fy = (uv.y * h as f32 - 0.5).clamp(0.0, (h - 1) as f32);
         let (x0, y0) = (fx.floor(), fy.floor());
@@ -229,10 +331,22 @@ impl EnvironmentLight {
         let x1 = (x0 + 1) % w;
         let y0 = y0 as usize;
         let y1 = (y0 + 1).min(h - 1);
-        let t = |x: usize, y: usize| self.texels[y * w + x];
-        let top = t(x0, y0) * (1.0 - tx) + t(x1, y0) * tx;
-        let bottom = t(x0, y1) * (1.0 - tx) + t(x1, y1) * tx;
-        top * (1.0 - ty) + bottom * ty
+        ([x0, x1, y0, y1], tx, ty)
+    }
+
+    /// Prefetches what a lookup at `uv`, in texel `(x, y)`, reads: the
+    /// texel's record and, looked up bilinearly, its neighbours' (the row
+    /// above or below, and across the seam).
+    #[inline]
+    fn prefetch_lookup(&self, uv: Vec2, x: usize, y: usize) {
+        let w = self.width as usize;
+        prefetch(&self.texels[y * w + x]);
+        if self.bilinear {
+            let ([x0, x1, y0, y1], _, _) = self.bilinear_corners(uv);
+            for (x, y) in [(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
+                prefetch(&self.texels[y * w + x]);
+            }
+        }
     }
 
     /// A constant environment of radiance `radiance` in every direction.
@@ -344,7 +458,7 @@ impl EnvironmentLight {
             .zip(&rows)
             .map(|(u, row)| {
                 let column = self.sample_column(row.0, u.x);
-                prefetch(&self.texels[row.0 * w + column.0]);
+                self.prefetch_lookup(Vec2::new(column.1, row.1), column.0, row.0);
                 column
             })
             .collect();
@@ -372,14 +486,12 @@ impl EnvironmentLight {
     /// large map overlap.
     pub fn radiance_pdf_many(&self, dirs: &[Vec3], out: &mut Vec<(Vec3, f32)>) {
         out.clear();
-        let w = self.width as usize;
         let texels: Vec<(Vec2, usize, usize)> = dirs
             .iter()
             .map(|&dir| {
                 let uv = equirect_uv(dir, &self.frame);
                 let (x, y) = self.texel_at(uv);
-                prefetch(&self.texels[y * w + x]);
-                prefetch(&self.column_cdf[y * (w + 1) + x]);
+                self.prefetch_lookup(uv, x, y);
                 (uv, x, y)
             })
             .collect();
@@ -396,14 +508,12 @@ impl EnvironmentLight {
     /// The density at `uv`, in texel `(x, y)`.
     #[inline]
     fn pdf_at(&self, uv: Vec2, x: usize, y: usize) -> f32 {
-        let w = self.width as usize;
-        let p_row = self.row_cdf[y + 1] - self.row_cdf[y];
-        let p_col = self.column_cdf[y * (w + 1) + x + 1] - self.column_cdf[y * (w + 1) + x];
+        let pdf_uv = self.texels[y * self.width as usize + x].pdf_uv;
         let sin_theta = elementary::sin_cos_turns(0.5 * uv.y).0;
         if sin_theta <= 0.0 {
             return 0.0;
         }
-        p_row * p_col * (self.width * self.height) as f32 / (2.0 * PI * PI * sin_theta)
+        pdf_uv / (2.0 * PI * PI * sin_theta)
     }
 
     /// A light sample in the [light interface](super): the direction, the
@@ -431,7 +541,7 @@ impl EnvironmentLight {
     /// distribution, proportional to radiance, stays the same).
     pub fn scale_radiance(&mut self, s: f32) {
         for t in &mut self.texels {
-            *t *= s;
+            t.radiance *= s;
         }
         self.integral *= s;
     }
@@ -539,6 +649,37 @@ mod tests {
         env.radiance_pdf_many(&dirs, &mut values);
         for (d, v) in dirs.iter().zip(&values) {
             assert_eq!(*v, (env.radiance(*d), env.pdf(*d)), "dir {d}");
+        }
+    }
+
+    /// The density a lookup reads from the texel's record is, to the bit,
+    /// the one formed from the row's and the column's CDFs, which is how
+    /// sampling forms it: MIS weighs a direction the same whichever found it.
+    #[test]
+    fn texel_records_hold_the_cdfs_density() {
+        let mut rng = crate::rng::Rng::new(5, 0);
+        let (w, h) = (48u32, 20u32);
+        let texels: Vec<Vec3> = (0..w * h)
+            .map(|i| {
+                let dark = if i % 11 == 0 { 0.0 } else { 1.0 };
+                Vec3::new(rng.next_f32(), 3.0 * rng.next_f32(), 0.1) * dark
+            })
+            .collect();
+        for bilinear in [false, true] {
+            let env = EnvironmentLight::from_image(w, h, texels.clone(), 2.0, SphereFrame::Z_UP)
+                .with_bilinear(bilinear);
+            let (w, h) = (w as usize, h as usize);
+            for _ in 0..4000 {
+                let dir = crate::warp::square_to_uniform_sphere(rng.next_2d());
+                let uv = equirect_uv(dir, &env.frame);
+                let (x, y) = env.texel_at(uv);
+                let p_row = env.row_cdf[y + 1] - env.row_cdf[y];
+                let row = &env.column_cdf[y * (w + 1)..(y + 1) * (w + 1)];
+                let p_col = row[x + 1] - row[x];
+                let sin_theta = elementary::sin_cos_turns(0.5 * uv.y).0;
+                let want = p_row * p_col * (w * h) as f32 / (2.0 * PI * PI * sin_theta);
+                assert_eq!(env.pdf(dir).to_bits(), want.to_bits(), "dir {dir}");
+            }
         }
     }
 
