@@ -60,7 +60,7 @@ fn maps() -> Vec<(&'static str, EnvironmentLight)> {
 
 #[test]
 fn sampling_matches_the_density_chi_square() {
-    for (name, env) in maps() {
+    for (name, env) in maps().into_iter().chain(bilinear_maps()) {
         let mut rng = Rng::new(17, 2);
         let r = chi2_test(
             SphereBinning {
@@ -86,25 +86,6 @@ fn bilinear_maps() -> Vec<(&'static str, EnvironmentLight)> {
         ("one texel, bilinear", one.with_bilinear(true)),
         ("random 16×8, bilinear", random.with_bilinear(true)),
     ]
-}
-
-#[test]
-fn bilinear_sampling_matches_the_density_chi_square() {
-    for (name, env) in bilinear_maps() {
-        let mut rng = Rng::new(19, 3);
-        let r = chi2_test(
-            SphereBinning {
-                theta_bins: 21,
-                phi_bins: 41,
-                subdivisions: 64,
-            },
-            300_000,
-            |_| env.sample(rng.next_2d()).map(|(_, d, _)| d),
-            &|w| env.pdf(w) as f64,
-            SIGNIFICANCE,
-        );
-        assert!(r.passed, "{name}: {}", r.summary);
-    }
 }
 
 /// Looked up bilinearly, a lit texel's radiance reaches into its

@@ -453,16 +453,21 @@ fn objects_seen(film: &Film, scene: &Scene) -> Vec<(f32, String, usize)> {
     let mut objects: Vec<(usize, f32, String)> = counts
         .into_iter()
         .map(|(id, n)| {
-            let name = scene
+            let meshes: Vec<&str> = scene
                 .meshes()
                 .iter()
-                .find(|m| m.object_id == id)
-                .map_or_else(
-                    || format!("object {id}"),
-                    // An OBJ's object without a name of its own is
-                    // `unnamed_object`: the shape's name says enough.
-                    |m| m.name.trim_end_matches("/unnamed_object").to_string(),
-                );
+                .filter(|m| m.object_id == id)
+                .map(|m| m.name.as_str())
+                .collect();
+            let name = match meshes[..] {
+                [] => format!("object {id}"),
+                // An OBJ's object without a name of its own is
+                // `unnamed_object`: the shape's name says enough.
+                [one] => one.trim_end_matches("/unnamed_object").to_string(),
+                // The meshes of one shape (an OBJ's objects, `shape/object`)
+                // share its id: the shape's name.
+                [first, ..] => first.split('/').next().unwrap_or(first).to_string(),
+            };
             (n, id as f32, name)
         })
         .collect();
@@ -803,11 +808,15 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
                 for ((name, pixels), (a, b)) in
                     names.zip(p.rel_mse_parts.iter().zip(&m.rel_mse_parts))
                 {
+                    let ratio = if *b > 0.0 {
+                        format!("{:.2}", a / b)
+                    } else {
+                        "—".to_string()
+                    };
                     println!(
-                        "| {} | {name} | {} | {a:.5} | {b:.5} | {:.2} |",
+                        "| {} | {name} | {} | {a:.5} | {b:.5} | {ratio} |",
                         scene.name,
                         pixels.map_or_else(|| "".to_string(), |n| n.to_string()),
-                        a / b
                     );
                 }
             }
