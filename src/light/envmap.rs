@@ -73,8 +73,8 @@ struct Texel {
     radiance: Vec3,
     /// The density of the samples in this texel per unit area of the image
     /// (`uv ∈ [0, 1]²`): `p_row · p_col · width · height`, the probabilities
-    /// of its row and of its column in the row, multiplied in that order
-    /// (the product `finish_sample` forms, to the bit).
+    /// of its row and of its column in the row. Sampling and lookups both
+    /// read it, so MIS weighs a direction the same whichever found it.
     pdf_uv: f32,
 }
 
@@ -340,12 +340,14 @@ impl EnvironmentLight {
     #[inline]
     fn prefetch_lookup(&self, uv: Vec2, x: usize, y: usize) {
         let w = self.width as usize;
-        prefetch(&self.texels[y * w + x]);
         if self.bilinear {
+            // The corners include the texel itself.
             let ([x0, x1, y0, y1], _, _) = self.bilinear_corners(uv);
             for (x, y) in [(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
                 prefetch(&self.texels[y * w + x]);
             }
+        } else {
+            prefetch(&self.texels[y * w + x]);
         }
     }
 
@@ -418,8 +420,7 @@ impl EnvironmentLight {
         if sin_theta <= 0.0 || p_row <= 0.0 || p_col <= 0.0 {
             return None;
         }
-        let pdf_uv = p_row * p_col * (self.width * self.height) as f32;
-        let pdf = pdf_uv / (2.0 * PI * PI * sin_theta);
+        let pdf = self.texels[y * self.width as usize + x].pdf_uv / (2.0 * PI * PI * sin_theta);
         let dir = equirect_direction(Vec2::new(uu, v), &self.frame);
         Some((self.radiance_at(Vec2::new(uu, v), x, y), dir, pdf))
     }
