@@ -1,14 +1,17 @@
 //! Elementary functions (`exp`, `ln`, `pow`, `sin` and `cos` of a fraction
-//! of a turn, `atan2`) written as branch-free polynomials, so that a loop calling them
-//! vectorises.
+//! of a turn, `atan2`, `floor`) written as branch-free polynomials, so that a
+//! loop calling them vectorises.
 //!
 //! `f32::exp` and friends are calls into the C library, one lane at a time:
 //! a single such call in a lane loop of the vectorised kernel
 //! ([`crate::integrator`]'s structure-of-arrays passes) keeps the whole loop
 //! scalar. These are the Cephes library's polynomials (S. Moshier) with
 //! range reduction by bit manipulation instead of `frexp`/`ldexp`, so that
-//! every step is a packed instruction on AVX2: selects instead of branches,
-//! float-to-integer tricks that need no 64-bit conversion instruction.
+//! every step is a packed instruction on AVX2: selects instead of branches
+//! (bit masks where the compiler would otherwise branch, which random
+//! angles mispredict in scalar code), float-to-integer tricks that need no
+//! 64-bit conversion instruction, and a `floor` of our own (the baseline
+//! x86-64 target's is a call).
 //!
 //! Accuracy, checked by this module's tests against the standard library on
 //! dense grids: `exp` and `ln` within 2 ulp, `sin_cos_turns` within 3e-7
@@ -117,19 +120,46 @@ pub fn pow(x: f32, y: f32) -> f32 {
 #[inline(always)]
 pub fn sin_cos_turns(t: f32) -> (f32, f32) {
     // The nearest quarter turn q, and the rest r in [-π/4, π/4].
-    let q = (t * 4.0 + 0.5).floor();
+    let q = floor(t * 4.0 + 0.5);
     let r = (t - q * 0.25) * std::f32::consts::TAU;
     let z = r * r;
     let s = ((-1.951_529_6e-4 * z + 8.332_161e-3) * z - 1.666_665_5e-1) * z * r + r;
     let c = ((2.443_315_7e-5 * z - 1.388_731_6e-3) * z + 4.166_664_6e-2) * z * z - 0.5 * z + 1.0;
-    // Rotate by q quarter turns: (s, c) → (c, −s) → (−s, −c) → (−c, s).
-    let quadrant = (q as i32) & 3;
-    let (sin, cos) = if quadrant & 1 == 0 { (s, c) } else { (c, -s) };
-    if quadrant & 2 == 0 {
-        (sin, cos)
-    } else {
-        (-sin, -cos)
-    }
+    // Rotate by q quarter turns: (s, c) → (c, −s) → (−s, −c) → (−c, s),
+    // with bit masks, not branches (random angles would mispredict them):
+    // an odd quadrant swaps the pair, quadrants 2 and 3 flip both signs.
+    let quadrant = q as i32 as u32;
+    let swap = mask(quadrant & 1 != 0);
+    let flip = (quadrant & 2) << 30;
+    let sin = select(swap, c, s).to_bits() ^ flip;
+    let cos = select(swap, -s, c).to_bits() ^ flip;
+    (f32::from_bits(sin), f32::from_bits(cos))
+}
+
+/// `x.floor()`, to the bit (−0 and NaN included), without a call into the
+/// C library: the baseline x86-64 target has no rounding instruction and
+/// calls `floorf`, one lane at a time, which keeps a loop scalar.
+#[inline(always)]
+pub fn floor(x: f32) -> f32 {
+    // Truncated (exact below 2³¹ in magnitude), then one down if above.
+    let t = x as i32 as f32;
+    let t = select(mask(t > x), t - 1.0, t);
+    // Magnitudes of 2²³ or more are integers already; NaN stays NaN. The
+    // sign of x keeps floor(−0) = −0.
+    select(mask(x.abs() < 8_388_608.0), t.copysign(x), x)
+}
+
+/// All ones where `condition` holds, else zero: a lane mask for [`select`].
+#[inline(always)]
+fn mask(condition: bool) -> u32 {
+    0u32.wrapping_sub(condition as u32)
+}
+
+/// `a` where `mask` is all ones, `b` where it is zero, bit for bit: a
+/// select the compiler cannot turn into a branch.
+#[inline(always)]
+fn select(mask: u32, a: f32, b: f32) -> f32 {
+    f32::from_bits((a.to_bits() & mask) | (b.to_bits() & !mask))
 }
 
 /// The angle of `(x, y)` in radians, in `[−π, π]`, as `f32::atan2` (within
@@ -144,9 +174,11 @@ pub fn atan2(y: f32, x: f32) -> f32 {
     const TAN_PI_8: f32 = 0.414_213_57;
     let (ax, ay) = (x.abs(), y.abs());
     let (lo, hi) = (ax.min(ay), ax.max(ay));
-    let t = if hi > 0.0 { lo / hi } else { 0.0 };
-    let reduced = t > TAN_PI_8;
-    let t = if reduced { (t - 1.0) / (t + 1.0) } else { t };
+    // t = lo/hi ∈ [0, 1], reduced above tan π/8 to (t − 1)/(t + 1) =
+    // (lo − hi)/(lo + hi): one division either way.
+    let reduced = mask(lo > TAN_PI_8 * hi);
+    let t = select(reduced, lo - hi, lo) / select(reduced, lo + hi, hi);
+    let t = select(mask(hi > 0.0), t, 0.0);
     let z = t * t;
     let a =
         (((8.053_744_5e-2 * z - 1.387_768_6e-1) * z + 1.997_771_1e-1) * z - 3.333_295e-1) * z * t
@@ -155,27 +187,12 @@ pub fn atan2(y: f32, x: f32) -> f32 {
     // "more bits"), so that π − a near the −x axis (the environment map's
     // poles) keeps the small angle's precision.
     const PI_LO: f32 = -8.742_278e-8;
-    let a = if reduced {
-        FRAC_PI_4 + (a + 0.25 * PI_LO)
-    } else {
-        a
-    };
-    // Octant: above the diagonal, from the y axis; left half, from −x.
-    let a = if ay > ax {
-        FRAC_PI_2 + (0.5 * PI_LO - a)
-    } else {
-        a
-    };
-    let a = if x.is_sign_negative() {
-        PI + (PI_LO - a)
-    } else {
-        a
-    };
-    if y.is_sign_negative() {
-        -a
-    } else {
-        a
-    }
+    let a = select(reduced, FRAC_PI_4 + (a + 0.25 * PI_LO), a);
+    // Octant: above the diagonal, from the y axis; left half, from −x;
+    // the lower half by y's sign. Masks, not branches (see `sin_cos_turns`).
+    let a = select(mask(ay > ax), FRAC_PI_2 + (0.5 * PI_LO - a), a);
+    let a = select(mask(x.is_sign_negative()), PI + (PI_LO - a), a);
+    f32::from_bits(a.to_bits() ^ (y.to_bits() & 0x8000_0000))
 }
 
 /// `eˣ` for `f64`, within 2 ulp of `f64::exp` for `x` in `[-708, 709]`; 0
@@ -288,6 +305,47 @@ mod tests {
         assert_eq!(pow(0.0, 0.0), 1.0);
         assert_eq!(pow(1e-40, 3.0), 0.0);
         assert_eq!(pow(1.0, 55.0), 1.0);
+    }
+
+    #[test]
+    fn floor_matches_the_standard_library_to_the_bit() {
+        let mut rng = crate::rng::Rng::new(5, 0);
+        let specials = [
+            0.0f32,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            -1.5,
+            8_388_607.5,
+            -8_388_607.5,
+            8_388_608.0,
+            -8_388_609.0,
+            3e9,
+            -3e9,
+            f32::MAX,
+            f32::MIN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            1e-45,
+            -1e-45,
+        ];
+        let random = (0..200_000).map(|i| {
+            // Every magnitude from 2⁻³⁰ to 2³⁰, both signs.
+            let x = (rng.next_f32() - 0.5) * 2f32.powi(i % 61 - 30);
+            if i % 2 == 0 {
+                x
+            } else {
+                x.round() + [0.0, 0.5, -0.5, 1e-3][i as usize % 4]
+            }
+        });
+        for x in specials.into_iter().chain(random) {
+            assert_eq!(floor(x).to_bits(), x.floor().to_bits(), "floor({x})");
+        }
+        assert!(floor(f32::NAN).is_nan());
     }
 
     #[test]

@@ -86,21 +86,19 @@ pub fn equirect_direction(uv: Vec2, frame: &SphereFrame) -> Vec3 {
 }
 
 /// The image coordinates `uv ∈ [0, 1) × [0, 1]` of direction `dir` (any
-/// length but zero); the inverse of [`equirect_direction`].
+/// length from 1e-18 to 1e18; not normalised, since both angles are ratios
+/// of its components); the inverse of [`equirect_direction`].
 #[inline]
 pub fn equirect_uv(dir: Vec3, frame: &SphereFrame) -> Vec2 {
-    let d = dir.normalize();
-    let x = d.dot(frame.forward);
-    let y = d.dot(frame.right);
-    let z = d.dot(frame.up).clamp(-1.0, 1.0);
-    let mut u = elementary::atan2(y, x) / TAU + 0.5;
-    if u >= 1.0 {
-        u -= 1.0;
-    }
+    let x = dir.dot(frame.forward);
+    let y = dir.dot(frame.right);
+    let z = dir.dot(frame.up);
+    let u = elementary::atan2(y, x) * (1.0 / TAU) + 0.5;
+    let u = if u >= 1.0 { u - 1.0 } else { u };
     // acos loses precision near the poles; atan2 of the horizontal length
-    // does not (`d` is unit, so the length needs no hypot's care).
-    let v = elementary::atan2((x * x + y * y).sqrt(), z) / PI;
-    Vec2::new(u.max(0.0), v)
+    // does not.
+    let v = elementary::atan2((x * x + y * y).sqrt(), z) * (1.0 / PI);
+    Vec2::new(u.max(0.0), v.min(1.0))
 }
 
 #[cfg(test)]

@@ -36,6 +36,13 @@ use crate::prefetch::prefetch;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
+/// How many samples or lookups the batched functions
+/// ([`EnvironmentLight::sample_li_many`],
+/// [`EnvironmentLight::radiance_pdf_many`]) take through their stages at
+/// once: enough cache misses in flight to overlap, few enough that a
+/// chunk's arrays stay in the first-level cache.
+const CHUNK: usize = 64;
+
 /// An environment emitter at infinity.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EnvironmentLight {
@@ -325,7 +332,7 @@ impl EnvironmentLight {
         let (w, h) = (self.width as usize, self.height as usize);
         let fx = uv.x * w as f32 - 0.5;
         let fy = (uv.y * h as f32 - 0.5).clamp(0.0, (h - 1) as f32);
-        let (x0, y0) = (fx.floor(), fy.floor());
+        let (x0, y0) = (elementary::floor(fx), elementary::floor(fy));
         let (tx, ty) = (fx - x0, fy - y0);
         let x0 = (x0 as i64).rem_euclid(w as i64) as usize;
         let x1 = (x0 + 1) % w;
@@ -415,60 +422,95 @@ impl EnvironmentLight {
         (y, v, p_row): (usize, f32, f32),
         (x, uu, p_col): (usize, f32, f32),
     ) -> Option<(Vec3, Vec3, f32)> {
+        let (dir, sin_theta) = self.direction_at(uu, v);
+        self.finish_at((y, v, p_row), (x, uu, p_col), dir, sin_theta)
+    }
+
+    /// The direction of image position `(uu, v)` and `sin θ` there (what
+    /// [`EnvironmentLight::finish_at`] takes): arithmetic only, so that a
+    /// loop over many positions vectorises.
+    #[inline(always)]
+    fn direction_at(&self, uu: f32, v: f32) -> (Vec3, f32) {
         // sin πv as a fraction of a turn (no C library call).
         let sin_theta = elementary::sin_cos_turns(0.5 * v).0;
+        (equirect_direction(Vec2::new(uu, v), &self.frame), sin_theta)
+    }
+
+    /// [`EnvironmentLight::finish_sample`] given the direction and `sin θ`
+    /// of the sampled position.
+    #[inline(always)]
+    fn finish_at(
+        &self,
+        (y, v, p_row): (usize, f32, f32),
+        (x, uu, p_col): (usize, f32, f32),
+        dir: Vec3,
+        sin_theta: f32,
+    ) -> Option<(Vec3, Vec3, f32)> {
         if sin_theta <= 0.0 || p_row <= 0.0 || p_col <= 0.0 {
             return None;
         }
         let pdf = self.texels[y * self.width as usize + x].pdf_uv / (2.0 * PI * PI * sin_theta);
-        let dir = equirect_direction(Vec2::new(uu, v), &self.frame);
         Some((self.radiance_at(Vec2::new(uu, v), x, y), dir, pdf))
     }
 
     /// [`EnvironmentLight::sample_li`] for many numbers at once, the same
     /// results, into `out` (cleared first). The samples of a large map
     /// read memory far apart; taken one at a time each waits for its own
-    /// cache misses, so this takes them in stages, each a loop over all
-    /// samples that prefetches what the next stage reads (the column's
-    /// guide entry, then its CDF cells, then the texel), and the misses of
-    /// many samples overlap.
+    /// cache misses, so this takes them [`CHUNK`] at a time in stages, each
+    /// a loop over the chunk that prefetches what the next stage reads (the
+    /// column's guide entry, then its CDF cells, then the texel), and the
+    /// misses of many samples overlap. The directions are computed in a
+    /// loop of their own, over arrays, which the compiler vectorises.
     pub fn sample_li_many(&self, us: &[Vec2], out: &mut Vec<Option<LightSample>>) {
         out.clear();
         if self.integral <= 0.0 {
             out.resize(us.len(), None);
             return;
         }
+        out.reserve(us.len());
+        for chunk in us.chunks(CHUNK) {
+            self.sample_chunk(chunk, out);
+        }
+    }
+
+    /// [`EnvironmentLight::sample_li_many`] for at most [`CHUNK`] numbers,
+    /// appended to `out`.
+    #[inline]
+    fn sample_chunk(&self, us: &[Vec2], out: &mut Vec<Option<LightSample>>) {
+        let n = us.len();
+        debug_assert!(n <= CHUNK);
         let w = self.width as usize;
         let m = guide_slots(w);
-        let rows: Vec<(usize, f32, f32)> = us
-            .iter()
-            .map(|u| {
-                let row = self.sample_row(u.y);
-                let j = ((u.x * m as f32) as usize).min(m - 1);
-                prefetch(&self.column_guide[row.0 * m + j]);
-                row
-            })
-            .collect();
-        for (u, row) in us.iter().zip(&rows) {
-            let j = ((u.x * m as f32) as usize).min(m - 1);
-            let lo = self.column_guide[row.0 * m + j] as usize;
-            prefetch(&self.column_cdf[row.0 * (w + 1) + lo + 1]);
+        let mut rows = [(0usize, 0.0f32, 0.0f32); CHUNK];
+        let mut slots = [0usize; CHUNK];
+        for k in 0..n {
+            rows[k] = self.sample_row(us[k].y);
+            slots[k] = rows[k].0 * m + ((us[k].x * m as f32) as usize).min(m - 1);
+            prefetch(&self.column_guide[slots[k]]);
         }
-        let columns: Vec<(usize, f32, f32)> = us
-            .iter()
-            .zip(&rows)
-            .map(|(u, row)| {
-                let column = self.sample_column(row.0, u.x);
-                self.prefetch_lookup(Vec2::new(column.1, row.1), column.0, row.0);
-                column
-            })
-            .collect();
-        out.extend(
-            rows.into_iter()
-                .zip(columns)
-                .map(|(row, column)| Self::light_sample(self.finish_sample(row, column))),
-        );
+        for k in 0..n {
+            let lo = self.column_guide[slots[k]] as usize;
+            prefetch(&self.column_cdf[rows[k].0 * (w + 1) + lo + 1]);
+        }
+        let mut columns = [(0usize, 0.0f32, 0.0f32); CHUNK];
+        let (mut uu, mut v) = ([0.0f32; CHUNK], [0.0f32; CHUNK]);
+        for k in 0..n {
+            columns[k] = self.sample_column(rows[k].0, us[k].x);
+            (uu[k], v[k]) = (columns[k].1, rows[k].1);
+            self.prefetch_lookup(Vec2::new(uu[k], v[k]), columns[k].0, rows[k].0);
+        }
+        let mut dir = [[0.0f32; CHUNK]; 3];
+        let mut sin_theta = [0.0f32; CHUNK];
+        for k in 0..CHUNK {
+            let (d, s) = self.direction_at(uu[k], v[k]);
+            (dir[0][k], dir[1][k], dir[2][k], sin_theta[k]) = (d.x, d.y, d.z, s);
+        }
+        out.extend((0..n).map(|k| {
+            let d = Vec3::new(dir[0][k], dir[1][k], dir[2][k]);
+            Self::light_sample(self.finish_at(rows[k], columns[k], d, sin_theta[k]))
+        }));
     }
+
     /// Solid-angle density of [`EnvironmentLight::sample`] for `dir`.
     #[inline]
     pub fn pdf(&self, dir: Vec3) -> f32 {
@@ -481,26 +523,47 @@ impl EnvironmentLight {
     }
 
     /// [`EnvironmentLight::radiance`] and [`EnvironmentLight::pdf`] of many
-    /// directions at once, the same values, into `out` (cleared first): the
-    /// lookups of all directions are made in two stages, the first
+    /// directions at once, the same values, into `out` (cleared first),
+    /// [`CHUNK`] at a time: the image positions of a chunk in a loop over
+    /// arrays (which vectorises), then the lookups in two stages, the first
     /// prefetching what the second reads, so that their cache misses on a
     /// large map overlap.
     pub fn radiance_pdf_many(&self, dirs: &[Vec3], out: &mut Vec<(Vec3, f32)>) {
         out.clear();
-        let texels: Vec<(Vec2, usize, usize)> = dirs
-            .iter()
-            .map(|&dir| {
-                let uv = equirect_uv(dir, &self.frame);
-                let (x, y) = self.texel_at(uv);
-                self.prefetch_lookup(uv, x, y);
-                (uv, x, y)
-            })
-            .collect();
-        out.extend(texels.into_iter().map(|(uv, x, y)| {
+        out.reserve(dirs.len());
+        for chunk in dirs.chunks(CHUNK) {
+            self.radiance_pdf_chunk(chunk, out);
+        }
+    }
+
+    /// [`EnvironmentLight::radiance_pdf_many`] for at most [`CHUNK`]
+    /// directions, appended to `out`.
+    #[inline]
+    fn radiance_pdf_chunk(&self, dirs: &[Vec3], out: &mut Vec<(Vec3, f32)>) {
+        let n = dirs.len();
+        debug_assert!(n <= CHUNK);
+        let mut d = [[0.0f32; CHUNK]; 3];
+        for k in 0..n {
+            (d[0][k], d[1][k], d[2][k]) = (dirs[k].x, dirs[k].y, dirs[k].z);
+        }
+        let (mut u, mut v, mut sin_theta) = ([0.0f32; CHUNK], [0.0f32; CHUNK], [0.0f32; CHUNK]);
+        for k in 0..CHUNK {
+            let uv = equirect_uv(Vec3::new(d[0][k], d[1][k], d[2][k]), &self.frame);
+            (u[k], v[k]) = (uv.x, uv.y);
+            sin_theta[k] = elementary::sin_cos_turns(0.5 * uv.y).0;
+        }
+        let mut texel = [(0usize, 0usize); CHUNK];
+        for k in 0..n {
+            let uv = Vec2::new(u[k], v[k]);
+            texel[k] = self.texel_at(uv);
+            self.prefetch_lookup(uv, texel[k].0, texel[k].1);
+        }
+        out.extend((0..n).map(|k| {
+            let (uv, (x, y)) = (Vec2::new(u[k], v[k]), texel[k]);
             let pdf = if self.integral <= 0.0 {
                 0.0
             } else {
-                self.pdf_at(uv, x, y)
+                self.density(x, y, sin_theta[k])
             };
             (self.radiance_at(uv, x, y), pdf)
         }));
@@ -509,12 +572,17 @@ impl EnvironmentLight {
     /// The density at `uv`, in texel `(x, y)`.
     #[inline]
     fn pdf_at(&self, uv: Vec2, x: usize, y: usize) -> f32 {
-        let pdf_uv = self.texels[y * self.width as usize + x].pdf_uv;
-        let sin_theta = elementary::sin_cos_turns(0.5 * uv.y).0;
+        self.density(x, y, elementary::sin_cos_turns(0.5 * uv.y).0)
+    }
+
+    /// The solid-angle density in texel `(x, y)` where the polar angle's
+    /// sine is `sin_theta`: 0 at the poles.
+    #[inline(always)]
+    fn density(&self, x: usize, y: usize, sin_theta: f32) -> f32 {
         if sin_theta <= 0.0 {
             return 0.0;
         }
-        pdf_uv / (2.0 * PI * PI * sin_theta)
+        self.texels[y * self.width as usize + x].pdf_uv / (2.0 * PI * PI * sin_theta)
     }
 
     /// A light sample in the [light interface](super): the direction, the
@@ -632,24 +700,39 @@ mod tests {
                 Vec3::new(rng.next_f32(), rng.next_f32() * 2.0, spike + (i % 5) as f32)
             })
             .collect();
-        let env = EnvironmentLight::from_image(w, h, texels, 1.5, SphereFrame::Z_UP);
-        let us: Vec<Vec2> = (0..5000).map(|_| rng.next_2d()).collect();
-        let mut samples = Vec::new();
-        env.sample_li_many(&us, &mut samples);
-        assert_eq!(samples.len(), us.len());
-        for (u, s) in us.iter().zip(&samples) {
-            assert_eq!(*s, env.sample_li(*u), "u = {u}");
-        }
-        let dirs: Vec<Vec3> = samples
-            .iter()
-            .flatten()
-            .map(|s| s.wi)
-            .chain((0..2000).map(|_| crate::warp::square_to_uniform_sphere(rng.next_2d())))
-            .collect();
-        let mut values = Vec::new();
-        env.radiance_pdf_many(&dirs, &mut values);
-        for (d, v) in dirs.iter().zip(&values) {
-            assert_eq!(*v, (env.radiance(*d), env.pdf(*d)), "dir {d}");
+        let frame = SphereFrame::new(Vec3::new(0.2, -0.1, 1.0), Vec3::new(1.0, 0.4, 0.0)).unwrap();
+        // Both lookups; counts that fill no, one and many chunks.
+        for bilinear in [false, true] {
+            let env = EnvironmentLight::from_image(w, h, texels.clone(), 1.5, frame)
+                .with_bilinear(bilinear);
+            for count in [0, 1, CHUNK - 1, CHUNK, 5000] {
+                let us: Vec<Vec2> = (0..count).map(|_| rng.next_2d()).collect();
+                let mut samples = vec![None; 3];
+                env.sample_li_many(&us, &mut samples);
+                assert_eq!(samples.len(), us.len());
+                for (u, s) in us.iter().zip(&samples) {
+                    assert_eq!(*s, env.sample_li(*u), "u = {u}, bilinear {bilinear}");
+                }
+                let dirs: Vec<Vec3> = samples
+                    .iter()
+                    .flatten()
+                    .map(|s| s.wi * 3.0)
+                    .chain(
+                        (0..count / 2)
+                            .map(|_| crate::warp::square_to_uniform_sphere(rng.next_2d())),
+                    )
+                    .collect();
+                let mut values = vec![(Vec3::ONE, 1.0); 2];
+                env.radiance_pdf_many(&dirs, &mut values);
+                assert_eq!(values.len(), dirs.len());
+                for (d, v) in dirs.iter().zip(&values) {
+                    assert_eq!(
+                        *v,
+                        (env.radiance(*d), env.pdf(*d)),
+                        "dir {d}, bilinear {bilinear}"
+                    );
+                }
+            }
         }
     }
 
