@@ -486,7 +486,9 @@ impl EquirectCamera {
         if d == Vec3::ZERO {
             return None;
         }
-        let uv = equirect_uv(d, &self.pose.sphere_frame());
+        // Normalised: `equirect_uv` takes lengths from 1e-18 to 1e18 only,
+        // and a world point may lie farther.
+        let uv = equirect_uv(d.normalize(), &self.pose.sphere_frame());
         Some(uv * Vec2::new(self.width as f32, self.height as f32))
     }
 }

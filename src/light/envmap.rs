@@ -501,6 +501,8 @@ impl EnvironmentLight {
         }
         let mut dir = [[0.0f32; CHUNK]; 3];
         let mut sin_theta = [0.0f32; CHUNK];
+        // Over the whole chunk, a partial one's unused zeros included: a
+        // fixed count the compiler vectorises without a remainder loop.
         for k in 0..CHUNK {
             let (d, s) = self.direction_at(uu[k], v[k]);
             (dir[0][k], dir[1][k], dir[2][k], sin_theta[k]) = (d.x, d.y, d.z, s);
@@ -547,6 +549,7 @@ impl EnvironmentLight {
             (d[0][k], d[1][k], d[2][k]) = (dirs[k].x, dirs[k].y, dirs[k].z);
         }
         let (mut u, mut v, mut sin_theta) = ([0.0f32; CHUNK], [0.0f32; CHUNK], [0.0f32; CHUNK]);
+        // The whole chunk, as in `sample_chunk`.
         for k in 0..CHUNK {
             let uv = equirect_uv(Vec3::new(d[0][k], d[1][k], d[2][k]), &self.frame);
             (u[k], v[k]) = (uv.x, uv.y);
