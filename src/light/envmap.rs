@@ -449,7 +449,7 @@ impl EnvironmentLight {
         if sin_theta <= 0.0 || p_row <= 0.0 || p_col <= 0.0 {
             return None;
         }
-        let pdf = self.texels[y * self.width as usize + x].pdf_uv / (2.0 * PI * PI * sin_theta);
+        let pdf = self.density(x, y, sin_theta);
         Some((self.radiance_at(Vec2::new(uu, v), x, y), dir, pdf))
     }
 
