@@ -18,7 +18,9 @@
 //! Mitsuba reads the geometry plsr built, written as OBJ files (world
 //! space, exact float round trip), and the same environment EXR. Both
 //! render at the same spp; each time is the best of two after a warm-up
-//! (Mitsuba's warm-up compiles its kernels). The reference is plsr at
+//! (Mitsuba's warm-up compiles its kernels). Scene by scene, plsr is timed
+//! before and again after Mitsuba and its time is the mean of the two, so
+//! that the machine's drift in speed cancels to first order. The reference is plsr at
 //! `--reference-spp` (cached in the folder), the mean of two independent
 //! halves (different seeds); the relative MSE subtracts the reference's own
 //! error, estimated from the halves' difference, so it estimates the error
@@ -566,6 +568,10 @@ struct Measured {
     /// geometry, Mrays/s: plsr's Embree (and 0), or Mitsuba's hit-only
     /// query and its query with the surface interaction.
     raw_mrays: Option<(f64, f64)>,
+    /// plsr's best times (s) before and after Mitsuba's renders of the
+    /// scene, whose mean is `seconds`; `None` for Mitsuba, or for plsr
+    /// when Mitsuba did not run.
+    bracket: Option<(f64, f64)>,
 }
 
 /// Random rays of the raw tracing measurement.
@@ -603,6 +609,62 @@ fn read_raw(path: &Path, width: u32, height: u32) -> Result<Vec<Vec<glam::Vec3>>
                 .collect()
         })
         .collect())
+}
+
+/// Runs Mitsuba 3 on one scene (`scripts/bench_peers_mitsuba.py`, in its
+/// own Python process) and scores its renders against `reference`:
+/// what it measured, and its version and variant.
+#[allow(clippy::too_many_arguments)]
+fn run_mitsuba(
+    python: &Path,
+    threads: usize,
+    scene: &PeerScene,
+    spp: u32,
+    dir: &Path,
+    (w, h): (u32, u32),
+    reference: &Film,
+    ids: &[f32],
+) -> std::result::Result<(Measured, String), String> {
+    let image = dir.join(format!("{}.mitsuba.f32", scene.name));
+    let jobs = serde_json::json!({
+        "threads": threads,
+        "scenes": [{
+            "name": scene.name,
+            "xml": scene.mitsuba,
+            "spp": spp,
+            "image": image,
+            "raw_rays": RAW_RAYS,
+        }],
+    });
+    let jobs_file = dir.join("mitsuba-jobs.json");
+    write(&jobs_file, &jobs.to_string()).map_err(|e| e.to_string())?;
+    let mut cmd = std::process::Command::new(python);
+    cmd.arg("scripts/bench_peers_mitsuba.py").arg(&jobs_file);
+    let (v, _) = python_json(&mut cmd, python)?;
+    let version = format!(
+        "Mitsuba {} {}",
+        v["mitsuba_version"].as_str().unwrap_or("?"),
+        v["variant"].as_str().unwrap_or("?")
+    );
+    let r = v["scenes"]
+        .as_array()
+        .and_then(|a| a.iter().find(|r| r["name"] == scene.name))
+        .ok_or_else(|| format!("no result for {}", scene.name))?;
+    let seconds = r["seconds"].as_f64().ok_or("no seconds")?;
+    let images = read_raw(&image, w, h).map_err(|e| e.to_string())?;
+    let rel_mse_parts = mean_rel_mse_by_object(&images, reference, ids);
+    let measured = Measured {
+        seconds,
+        samples: w as u64 * h as u64 * spp as u64,
+        rel_mse: rel_mse_parts.iter().sum(),
+        rel_mse_parts,
+        mean: images.iter().map(|i| mean(i)).sum::<f64>() / images.len() as f64,
+        raw_mrays: r["raw_mrays_preliminary"]
+            .as_f64()
+            .zip(r["raw_mrays"].as_f64()),
+        bracket: None,
+    };
+    Ok((measured, version))
 }
 
 /// `plsr bench peers`.
@@ -648,9 +710,14 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
             .map(|n| n.get())
             .unwrap_or(1)
     });
-    // Build, export and measure plsr first.
+    // Each scene: plsr, then Mitsuba, then plsr's timing again, so that
+    // Mitsuba's time is bracketed by plsr's and the machine's drift in speed
+    // (±20 % within an hour on shared machines) cancels to first order.
     let mut plsr_results = Vec::new();
     let mut prepared = Vec::new();
+    let mut mitsuba_results = Vec::new();
+    let mut mitsuba_failure = None;
+    let mut version = String::new();
     for scene in &mut scenes {
         println!("{}:", scene.name);
         let mut description = plsr::scene::file::load(&scene.plsr)?;
@@ -672,17 +739,23 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
         scene.approximate = write_mitsuba(&description, &dir, scene.name, environment.as_deref())?;
         let built = Scene::build(description.clone())?;
         let reference = reference(scene, &built, &description, o.reference_spp, &options, &dir)?;
-        let mut seconds = f64::INFINITY;
+        // The timed renders: the best of two (seeds 1 and 2).
+        let time_plsr = |images: &mut Vec<Vec<glam::Vec3>>| -> Result<(f64, (u32, u32))> {
+            let mut seconds = f64::INFINITY;
+            let mut size = (0, 0);
+            images.clear();
+            for seed in 1..=2u64 {
+                let mut job = description.job;
+                job.seed = seed;
+                let (film, stats) = render(&built, &job, &options, &|_, _| true)?;
+                seconds = seconds.min(stats.seconds);
+                size = (film.width, film.height);
+                images.push(film.color);
+            }
+            Ok((seconds, size))
+        };
         let mut images = Vec::new();
-        let mut size = (0, 0);
-        for seed in 1..=2u64 {
-            let mut job = description.job;
-            job.seed = seed;
-            let (film, stats) = render(&built, &job, &options, &|_, _| true)?;
-            seconds = seconds.min(stats.seconds);
-            size = (film.width, film.height);
-            images.push(film.color);
-        }
+        let (before, size) = time_plsr(&mut images)?;
         let samples = size.0 as u64 * size.1 as u64 * o.spp as u64;
         let objects = objects_seen(&reference, &built);
         let ids: Vec<f32> = objects.iter().map(|o| o.0).collect();
@@ -690,13 +763,14 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
         let (single, stream, batched) =
             super::core::random_ray_throughput(&built, RAW_RAYS, o.threads)?;
         let best_raw = single.max(stream).max(batched);
-        let measured = Measured {
-            seconds,
+        let mut measured = Measured {
+            seconds: before,
             samples,
             rel_mse: rel_mse_parts.iter().sum(),
             rel_mse_parts,
             mean: images.iter().map(|i| mean(i)).sum::<f64>() / images.len() as f64,
             raw_mrays: Some((best_raw, 0.0)),
+            bracket: None,
         };
         println!(
             "  plsr: {:.3} s, {:.3} Msamples/s, relMSE {:.5}; random rays {:.2} Mrays/s",
@@ -705,57 +779,37 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
             measured.rel_mse,
             best_raw
         );
+        if let (Some(python), None) = (&o.python, &mitsuba_failure) {
+            match run_mitsuba(python, threads, scene, o.spp, &dir, size, &reference, &ids) {
+                Ok((m, v)) => {
+                    println!(
+                        "  Mitsuba: {:.3} s, {:.3} Msamples/s, relMSE {:.5}",
+                        m.seconds,
+                        m.msamples_per_s(),
+                        m.rel_mse
+                    );
+                    version = v;
+                    mitsuba_results.push(m);
+                    // plsr's time: the mean of its best before and after.
+                    let (after, _) = time_plsr(&mut images)?;
+                    measured.seconds = 0.5 * (before + after);
+                    measured.bracket = Some((before, after));
+                    println!(
+                        "  plsr after Mitsuba: {after:.3} s ({:.3} Msamples/s; {:.3} before)",
+                        samples as f64 / after / 1e6,
+                        samples as f64 / before / 1e6
+                    );
+                }
+                Err(why) => mitsuba_failure = Some(why),
+            }
+        }
         prepared.push((size.0, size.1, reference, objects));
         plsr_results.push(measured);
     }
-
-    // Then Mitsuba, all scenes in one Python process.
     let mitsuba: Option<std::result::Result<(Vec<Measured>, String), String>> =
-        o.python.as_ref().map(|python| {
-            let jobs = serde_json::json!({
-                "threads": threads,
-                "scenes": scenes.iter().map(|s| serde_json::json!({
-                    "name": s.name,
-                    "xml": s.mitsuba,
-                    "spp": o.spp,
-                    "image": dir.join(format!("{}.mitsuba.f32", s.name)),
-                    "raw_rays": RAW_RAYS,
-                })).collect::<Vec<_>>(),
-            });
-            let jobs_file = dir.join("mitsuba-jobs.json");
-            write(&jobs_file, &jobs.to_string()).map_err(|e| e.to_string())?;
-            println!("Mitsuba 3 …");
-            let mut cmd = std::process::Command::new(python);
-            cmd.arg("scripts/bench_peers_mitsuba.py").arg(&jobs_file);
-            let (v, _) = python_json(&mut cmd, python)?;
-            let version = format!(
-                "Mitsuba {} {}",
-                v["mitsuba_version"].as_str().unwrap_or("?"),
-                v["variant"].as_str().unwrap_or("?")
-            );
-            let mut out = Vec::new();
-            for (scene, (w, h, reference, objects)) in scenes.iter().zip(&prepared) {
-                let r = v["scenes"]
-                    .as_array()
-                    .and_then(|a| a.iter().find(|r| r["name"] == scene.name))
-                    .ok_or_else(|| format!("no result for {}", scene.name))?;
-                let seconds = r["seconds"].as_f64().ok_or("no seconds")?;
-                let images = read_raw(&dir.join(format!("{}.mitsuba.f32", scene.name)), *w, *h)
-                    .map_err(|e| e.to_string())?;
-                let ids: Vec<f32> = objects.iter().map(|o| o.0).collect();
-                let rel_mse_parts = mean_rel_mse_by_object(&images, reference, &ids);
-                out.push(Measured {
-                    seconds,
-                    samples: *w as u64 * *h as u64 * o.spp as u64,
-                    rel_mse: rel_mse_parts.iter().sum(),
-                    rel_mse_parts,
-                    mean: images.iter().map(|i| mean(i)).sum::<f64>() / images.len() as f64,
-                    raw_mrays: r["raw_mrays_preliminary"]
-                        .as_f64()
-                        .zip(r["raw_mrays"].as_f64()),
-                });
-            }
-            Ok((out, version))
+        o.python.as_ref().map(|_| match mitsuba_failure {
+            Some(why) => Err(why),
+            None => Ok((mitsuba_results, version)),
         });
 
     println!(
@@ -764,12 +818,16 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
     );
     match &mitsuba {
         Some(Ok((m, version))) => {
-            println!("| scene | plsr Msamples/s | {version} Msamples/s | speed ratio | plsr relMSE | Mitsuba relMSE | time to equal error, plsr ÷ Mitsuba speed | mean ratio |");
+            println!("| scene | plsr Msamples/s (before / after Mitsuba) | {version} Msamples/s | speed ratio | plsr relMSE | Mitsuba relMSE | time to equal error, plsr ÷ Mitsuba speed | mean ratio |");
             println!("| --- | --- | --- | --- | --- | --- | --- | --- |");
             for ((scene, p), m) in scenes.iter().zip(&plsr_results).zip(m) {
                 let equal_error = (m.seconds * m.rel_mse) / (p.seconds * p.rel_mse);
+                let bracket = p.bracket.map_or_else(String::new, |(before, after)| {
+                    let rate = |s: f64| p.samples as f64 / s / 1e6;
+                    format!(" ({:.3} / {:.3})", rate(before), rate(after))
+                });
                 println!(
-                    "| {}{} | {:.3} | {:.3} | {:.2}× | {:.5} | {:.5} | {:.2}× | {:.4} |",
+                    "| {}{} | {:.3}{bracket} | {:.3} | {:.2}× | {:.5} | {:.5} | {:.2}× | {:.4} |",
                     scene.name,
                     if scene.approximate {
                         " (Mitsuba's lights approximate)"
@@ -786,7 +844,9 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
                 );
             }
             println!(
-                "\nspeed ratio: plsr's samples/s over Mitsuba's; time to equal error: \
+                "\nplsr's time is the mean of its best before and its best after Mitsuba's \
+                 renders of the scene (shown in brackets), so that the machine's drift in \
+                 speed cancels. speed ratio: plsr's samples/s over Mitsuba's; time to equal error: \
                  Mitsuba's time × relMSE over plsr's (> 1: plsr reaches the same error sooner); \
                  mean ratio: plsr's image mean over Mitsuba's."
             );
