@@ -20,14 +20,14 @@
 //! render at the same spp; each time is the best of two after a warm-up
 //! (Mitsuba's warm-up compiles its kernels). Scene by scene, plsr is timed
 //! before and again after Mitsuba and its time is the mean of the two, so
-//! that the machine's drift in speed cancels to first order. The reference is plsr at
-//! `--reference-spp` (cached in the folder), the mean of two independent
-//! halves (different seeds); the relative MSE subtracts the reference's own
-//! error, estimated from the halves' difference, so it estimates the error
-//! against the converged image. (The `variance` layer of one render would
-//! overestimate it: plsr's samples are stratified.) plsr's `max_depth`
-//! counts scattering events, Mitsuba's path segments, so Mitsuba gets
-//! plsr's + 1.
+//! that the machine's drift in speed cancels to first order. The reference
+//! is plsr at `--reference-spp` (cached in the folder), the mean of two
+//! independent halves (different seeds); the relative MSE subtracts the
+//! reference's own error, estimated from the halves' difference, so it
+//! estimates the error against the converged image. (The `variance` layer
+//! of one render would overestimate it: plsr's samples are stratified.)
+//! plsr's `max_depth` counts scattering events, Mitsuba's path segments, so
+//! Mitsuba gets plsr's + 1.
 
 use super::python_json;
 use plsr::bsdf::{Bsdf, Distribution, Fresnel};
