@@ -1,0 +1,104 @@
+//! `plsr bench peers` end to end, with a stand-in for Mitsuba 3: a script
+//! given as `--python` that answers each job as `scripts/bench_peers_mitsuba.py`
+//! would (a black image and a fixed time), so the benchmark's own logic —
+//! one peer process per scene, bracketed by plsr's timings — is tested on
+//! machines without Mitsuba.
+
+#[cfg(unix)]
+use std::process::Command;
+
+/// The stand-in's render time for every scene, seconds.
+#[cfg(unix)]
+const PEER_SECONDS: f64 = 0.5;
+
+/// Parses `1.234 (1.200 / 1.270)` into its three numbers.
+#[cfg(unix)]
+fn bracketed(cell: &str) -> Option<(f64, f64, f64)> {
+    let (mean, rest) = cell.trim().split_once(" (")?;
+    let (before, after) = rest.strip_suffix(')')?.split_once(" / ")?;
+    Some((
+        mean.parse().ok()?,
+        before.parse().ok()?,
+        after.parse().ok()?,
+    ))
+}
+
+#[cfg(unix)]
+#[test]
+fn each_scene_gets_its_own_peer_run_bracketed_by_plsr_timings() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("peer-jobs.log");
+    let peer = dir.path().join("fake-python");
+    // Called as `fake-python scripts/bench_peers_mitsuba.py JOBS.json`:
+    // logs the job, writes one black frame where the job says, prints the
+    // result line.
+    let script = format!(
+        r#"#!/bin/sh
+jobs="$2"
+cat "$jobs" >> "{log}"
+echo >> "{log}"
+name=$(grep -o '"name":"[^"]*"' "$jobs" | head -n 1 | cut -d'"' -f4)
+image=$(grep -o '"image":"[^"]*"' "$jobs" | head -n 1 | cut -d'"' -f4)
+case "$name" in
+  cornell) bytes=$((512 * 512 * 12)) ;;
+  pls-room) bytes=$((640 * 480 * 12)) ;;
+  *) echo "unknown scene $name" >&2; exit 1 ;;
+esac
+head -c "$bytes" /dev/zero > "$image"
+echo '{{"mitsuba_version":"stand-in","variant":"test","scenes":[{{"name":"'"$name"'","seconds":{PEER_SECONDS}}}]}}'
+"#,
+        log = log.display()
+    );
+    std::fs::write(&peer, script).unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&peer, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .args(["bench", "peers", "--scenes", "cornell,pls-room"])
+        .args(["--spp", "2", "--reference-spp", "4", "--threads", "2"])
+        .arg("--python")
+        .arg(&peer)
+        .arg("--peers-dir")
+        .arg(dir.path().join("work"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+
+    // One peer process per scene, each given that scene alone, in order.
+    let jobs = std::fs::read_to_string(&log).unwrap();
+    let jobs: Vec<&str> = jobs.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(jobs.len(), 2, "{jobs:?}");
+    for (job, name) in jobs.iter().zip(["cornell", "pls-room"]) {
+        assert_eq!(job.matches("\"name\":").count(), 1, "{job}");
+        assert!(job.contains(&format!("\"name\":\"{name}\"")), "{job}");
+    }
+
+    // plsr timed again after each peer run, and the table's plsr figure is
+    // the rate of the mean of its two times; the peer's is its own time.
+    assert_eq!(stdout.matches("plsr after Mitsuba").count(), 2, "{stdout}");
+    for (name, (w, h)) in [("cornell", (512u64, 512u64)), ("pls-room", (640, 480))] {
+        let row = stdout
+            .lines()
+            .find(|l| l.starts_with(&format!("| {name} ")) && l.contains(" / "))
+            .unwrap_or_else(|| panic!("no bracketed row for {name}:\n{stdout}"));
+        let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+        let (mean, before, after) =
+            bracketed(cells[2]).unwrap_or_else(|| panic!("bad plsr cell in {row}"));
+        // Rates r = s / t, and t = (t_before + t_after) / 2.
+        let expected = 2.0 / (1.0 / before + 1.0 / after);
+        assert!(
+            (mean - expected).abs() <= 0.002 * expected + 0.0015,
+            "{row}: {mean} is not the rate of the mean time of {before} and {after}"
+        );
+        let peer_rate: f64 = cells[3].parse().unwrap();
+        let samples = (w * h * 2) as f64;
+        let want = samples / PEER_SECONDS / 1e6;
+        assert!(
+            (peer_rate - want).abs() < 0.002,
+            "{row}: peer {peer_rate}, want {want}"
+        );
+        let ratio: f64 = cells[4].trim_end_matches('×').parse().unwrap();
+        assert!((ratio - mean / peer_rate).abs() < 0.01, "{row}");
+    }
+}
