@@ -26,7 +26,9 @@ fn bracketed(cell: &str) -> Option<(f64, f64, f64)> {
 #[cfg(unix)]
 #[test]
 fn each_scene_gets_its_own_peer_run_bracketed_by_plsr_timings() {
-    let dir = tempfile::tempdir().unwrap();
+    // Under the build's own temporary folder: the stand-in is executed,
+    // and /tmp may be mounted without execution.
+    let dir = tempfile::tempdir_in(env!("CARGO_TARGET_TMPDIR")).unwrap();
     let log = dir.path().join("peer-jobs.log");
     let peer = dir.path().join("fake-python");
     // Called as `fake-python scripts/bench_peers_mitsuba.py JOBS.json`:
