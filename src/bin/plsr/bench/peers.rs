@@ -780,6 +780,7 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
             best_raw
         );
         if let (Some(python), None) = (&o.python, &mitsuba_failure) {
+            println!("  Mitsuba 3 …");
             match run_mitsuba(python, threads, scene, o.spp, &dir, size, &reference, &ids) {
                 Ok((m, v)) => {
                     println!(
@@ -846,7 +847,7 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
             println!(
                 "\nplsr's time is the mean of its best before and its best after Mitsuba's \
                  renders of the scene (shown in brackets), so that the machine's drift in \
-                 speed cancels. speed ratio: plsr's samples/s over Mitsuba's; time to equal error: \
+                 speed cancels to first order. speed ratio: plsr's samples/s over Mitsuba's; time to equal error: \
                  Mitsuba's time × relMSE over plsr's (> 1: plsr reaches the same error sooner); \
                  mean ratio: plsr's image mean over Mitsuba's."
             );
