@@ -10,8 +10,7 @@
 // and, against the Embree that Mitsuba's wheel bundles (its API lives in a
 // C++ namespace, which RTC_NAMESPACE_USE opens), with M its package folder:
 //
-//   g++ -O2 -std=c++17 -I$M/include raw_rays.cpp -o raw_rays_mitsuba \
-//       -L$M -lembree3 -Wl,-rpath,$M -lpthread
+//   g++ -O2 -std=c++17 -I$M/include raw_rays.cpp -o raw_rays_mitsuba -L$M -lembree3 -Wl,-rpath,$M -lpthread
 #include <embree3/rtcore.h>
 #include <cstdio>
 #include <cstdlib>
