@@ -30,15 +30,17 @@ fn each_scene_gets_its_own_peer_run_bracketed_by_plsr_timings() {
     // and /tmp may be mounted without execution.
     let dir = tempfile::tempdir_in(env!("CARGO_TARGET_TMPDIR")).unwrap();
     let log = dir.path().join("peer-jobs.log");
+    let arg_log = dir.path().join("peer-args.log");
     let peer = dir.path().join("fake-python");
-    // Called as `fake-python scripts/bench_peers_mitsuba.py JOBS.json`:
-    // logs the job, writes one black frame where the job says, prints the
-    // result line.
+    // Called as `fake-python scripts/bench_peers_mitsuba.py JOBS.json
+    // --repeats N`: logs the job and its arguments, writes one black frame
+    // where the job says, prints the result line.
     let script = format!(
         r#"#!/bin/sh
 jobs="$2"
 cat "$jobs" >> "{log}"
 echo >> "{log}"
+echo "$3 $4" >> "{arg_log}"
 name=$(grep -o '"name":"[^"]*"' "$jobs" | head -n 1 | cut -d'"' -f4)
 image=$(grep -o '"image":"[^"]*"' "$jobs" | head -n 1 | cut -d'"' -f4)
 case "$name" in
@@ -49,7 +51,8 @@ esac
 head -c "$bytes" /dev/zero > "$image"
 echo '{{"mitsuba_version":"stand-in","variant":"test","scenes":[{{"name":"'"$name"'","seconds":{PEER_SECONDS}}}]}}'
 "#,
-        log = log.display()
+        log = log.display(),
+        arg_log = arg_log.display()
     );
     std::fs::write(&peer, script).unwrap();
     use std::os::unix::fs::PermissionsExt;
@@ -57,6 +60,7 @@ echo '{{"mitsuba_version":"stand-in","variant":"test","scenes":[{{"name":"'"$nam
     let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
         .args(["bench", "peers", "--scenes", "cornell,pls-room"])
         .args(["--spp", "2", "--reference-spp", "4", "--threads", "2"])
+        .args(["--seeds", "3"])
         .arg("--python")
         .arg(&peer)
         .arg("--peers-dir")
@@ -75,6 +79,14 @@ echo '{{"mitsuba_version":"stand-in","variant":"test","scenes":[{{"name":"'"$nam
         assert_eq!(job.matches("\"name\":").count(), 1, "{job}");
         assert!(job.contains(&format!("\"name\":\"{name}\"")), "{job}");
     }
+
+    // `--seeds 3`: plsr and Mitsuba render each scene three times, and the
+    // tables say that each relMSE is the mean over three renders.
+    let args = std::fs::read_to_string(&arg_log).unwrap();
+    assert_eq!(args, "--repeats 3\n--repeats 3\n", "{args}");
+    assert_eq!(stdout.matches("(best of 3 renders)").count(), 2, "{stdout}");
+    assert!(stdout.contains("2 spp, 3 seeds each"), "{stdout}");
+    assert!(stdout.contains("the mean over 3 renders"), "{stdout}");
 
     // plsr timed again after each peer run, and the table's plsr figure is
     // the rate of the mean of its two times; the peer's is its own time.

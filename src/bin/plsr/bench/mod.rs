@@ -87,6 +87,12 @@ pub struct BenchArgs {
     /// glossy-env, cornell, pls-room).
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
+    /// Timed renders per renderer and scene in `plsr bench peers` (seeds
+    /// 1 to N): each time is their best and each relMSE their mean. More
+    /// seeds give a steadier relMSE where a few rare bright paths carry the
+    /// error, as the glass sphere's do in the glossy scene.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub seeds: u32,
     /// Parts of `plsr bench farm` (they must divide its spp).
     #[arg(long, default_value_t = 8)]
     pub parts: u32,
@@ -115,6 +121,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
             reference_spp: a.reference_spp,
             dir: a.peers_dir,
             only: a.scenes,
+            seeds: a.seeds,
         }),
         "compare" => compare::run(&compare::CompareBenchOptions {
             threads: a.threads,

@@ -17,8 +17,11 @@
 //!
 //! Mitsuba reads the geometry plsr built, written as OBJ files (world
 //! space, exact float round trip), and the same environment EXR. Both
-//! render at the same spp; each time is the best of two after a warm-up
-//! (Mitsuba's warm-up compiles its kernels). Scene by scene, plsr is timed
+//! render at the same spp, `--seeds` times each (two by default, with
+//! seeds 1, 2, …); each time is the best of them after a warm-up
+//! (Mitsuba's warm-up compiles its kernels), each relMSE their mean. More
+//! seeds steady the relMSE of a scene whose error is a few rare bright
+//! paths (the glass sphere's). Scene by scene, plsr is timed
 //! before and again after Mitsuba and its time is the mean of the two, so
 //! that the machine's drift in speed cancels to first order. The reference
 //! is plsr at `--reference-spp` (cached in the folder), the mean of two
@@ -55,6 +58,9 @@ pub struct PeersBenchOptions {
     pub dir: PathBuf,
     /// Only the scenes named (empty: all).
     pub only: Vec<String>,
+    /// Timed renders per renderer and scene (seeds 1 to `seeds`): each
+    /// time is their best, each relMSE their mean.
+    pub seeds: u32,
 }
 
 /// One scene of the suite, as both renderers get it.
@@ -620,6 +626,7 @@ fn run_mitsuba(
     threads: usize,
     scene: &PeerScene,
     spp: u32,
+    seeds: u32,
     dir: &Path,
     (w, h): (u32, u32),
     reference: &Film,
@@ -639,7 +646,10 @@ fn run_mitsuba(
     let jobs_file = dir.join("mitsuba-jobs.json");
     write(&jobs_file, &jobs.to_string()).map_err(|e| e.to_string())?;
     let mut cmd = std::process::Command::new(python);
-    cmd.arg("scripts/bench_peers_mitsuba.py").arg(&jobs_file);
+    cmd.arg("scripts/bench_peers_mitsuba.py")
+        .arg(&jobs_file)
+        .arg("--repeats")
+        .arg(seeds.max(1).to_string());
     let (v, _) = python_json(&mut cmd, python)?;
     let version = format!(
         "Mitsuba {} {}",
@@ -739,12 +749,12 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
         scene.approximate = write_mitsuba(&description, &dir, scene.name, environment.as_deref())?;
         let built = Scene::build(description.clone())?;
         let reference = reference(scene, &built, &description, o.reference_spp, &options, &dir)?;
-        // The timed renders: the best of two (seeds 1 and 2).
+        // The timed renders: the best of `o.seeds` (seeds 1, 2, …).
         let time_plsr = |images: &mut Vec<Vec<glam::Vec3>>| -> Result<(f64, (u32, u32))> {
             let mut seconds = f64::INFINITY;
             let mut size = (0, 0);
             images.clear();
-            for seed in 1..=2u64 {
+            for seed in 1..=u64::from(o.seeds.max(1)) {
                 let mut job = description.job;
                 job.seed = seed;
                 let (film, stats) = render(&built, &job, &options, &|_, _| true)?;
@@ -773,15 +783,19 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
             bracket: None,
         };
         println!(
-            "  plsr: {:.3} s, {:.3} Msamples/s, relMSE {:.5}; random rays {:.2} Mrays/s",
+            "  plsr: {:.3} s (best of {} renders), {:.3} Msamples/s, relMSE {:.5}; \
+             random rays {:.2} Mrays/s",
             measured.seconds,
+            images.len(),
             measured.msamples_per_s(),
             measured.rel_mse,
             best_raw
         );
         if let (Some(python), None) = (&o.python, &mitsuba_failure) {
             println!("  Mitsuba 3 …");
-            match run_mitsuba(python, threads, scene, o.spp, &dir, size, &reference, &ids) {
+            match run_mitsuba(
+                python, threads, scene, o.spp, o.seeds, &dir, size, &reference, &ids,
+            ) {
                 Ok((m, v)) => {
                     println!(
                         "  Mitsuba: {:.3} s, {:.3} Msamples/s, relMSE {:.5}",
@@ -814,8 +828,10 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
         });
 
     println!(
-        "\nplsr bench peers: {} spp, reference {} spp, {threads} threads\n",
-        o.spp, o.reference_spp
+        "\nplsr bench peers: {} spp, {} seeds each, reference {} spp, {threads} threads\n",
+        o.spp,
+        o.seeds.max(1),
+        o.reference_spp
     );
     match &mitsuba {
         Some(Ok((m, version))) => {
@@ -854,8 +870,9 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
             println!(
                 "\nWhere the error is: each renderer's relMSE cut into the parts of the pixels \
                  that see each object (they add up to it; \"rest\": the background and light \
-                 fixtures); plsr's and Mitsuba's each the mean over two renders with different \
-                 seeds, as are the relMSEs above.\n"
+                 fixtures); plsr's and Mitsuba's each the mean over {} renders with \
+                 different seeds, as are the relMSEs above.\n",
+                o.seeds.max(1)
             );
             println!("| scene | object | pixels | plsr | Mitsuba | plsr ÷ Mitsuba |");
             println!("| --- | --- | --- | --- | --- | --- |");
