@@ -649,7 +649,7 @@ fn run_mitsuba(
     cmd.arg("scripts/bench_peers_mitsuba.py")
         .arg(&jobs_file)
         .arg("--repeats")
-        .arg(seeds.max(1).to_string());
+        .arg(seeds.to_string());
     let (v, _) = python_json(&mut cmd, python)?;
     let version = format!(
         "Mitsuba {} {}",
@@ -680,6 +680,8 @@ fn run_mitsuba(
 /// `plsr bench peers`.
 pub fn run(o: &PeersBenchOptions) -> Result<()> {
     let dir = &o.dir;
+    // Timed renders per renderer and scene (the command line asks for 1 to 64).
+    let seeds = o.seeds.max(1);
     std::fs::create_dir_all(dir).map_err(io_err(dir))?;
     let dir = dir.canonicalize().map_err(io_err(dir))?;
     let wanted = |name: &str| o.only.is_empty() || o.only.iter().any(|n| n == name);
@@ -749,12 +751,12 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
         scene.approximate = write_mitsuba(&description, &dir, scene.name, environment.as_deref())?;
         let built = Scene::build(description.clone())?;
         let reference = reference(scene, &built, &description, o.reference_spp, &options, &dir)?;
-        // The timed renders: the best of `o.seeds` (seeds 1, 2, …).
+        // The timed renders: the best of `seeds` (seeds 1, 2, …).
         let time_plsr = |images: &mut Vec<Vec<glam::Vec3>>| -> Result<(f64, (u32, u32))> {
             let mut seconds = f64::INFINITY;
             let mut size = (0, 0);
             images.clear();
-            for seed in 1..=u64::from(o.seeds.max(1)) {
+            for seed in 1..=u64::from(seeds) {
                 let mut job = description.job;
                 job.seed = seed;
                 let (film, stats) = render(&built, &job, &options, &|_, _| true)?;
@@ -794,7 +796,7 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
         if let (Some(python), None) = (&o.python, &mitsuba_failure) {
             println!("  Mitsuba 3 …");
             match run_mitsuba(
-                python, threads, scene, o.spp, o.seeds, &dir, size, &reference, &ids,
+                python, threads, scene, o.spp, seeds, &dir, size, &reference, &ids,
             ) {
                 Ok((m, v)) => {
                     println!(
@@ -829,9 +831,7 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
 
     println!(
         "\nplsr bench peers: {} spp, {} seeds each, reference {} spp, {threads} threads\n",
-        o.spp,
-        o.seeds.max(1),
-        o.reference_spp
+        o.spp, seeds, o.reference_spp
     );
     match &mitsuba {
         Some(Ok((m, version))) => {
@@ -872,7 +872,7 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
                  that see each object (they add up to it; \"rest\": the background and light \
                  fixtures); plsr's and Mitsuba's each the mean over {} renders with \
                  different seeds, as are the relMSEs above.\n",
-                o.seeds.max(1)
+                seeds
             );
             println!("| scene | object | pixels | plsr | Mitsuba | plsr ÷ Mitsuba |");
             println!("| --- | --- | --- | --- | --- | --- |");
