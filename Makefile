@@ -34,11 +34,11 @@ paper: deps
 
 # Searches further than `make test`'s fixed-seed fuzzing: fresh seeds, more
 # cases (FUZZ_CASES per parser). Failures are shrunk and their seeds kept in
-# tests/fuzz_parsers.proptest-regressions.
+# tests/it/fuzz_parsers.proptest-regressions.
 FUZZ_CASES ?= 20000
 fuzz: deps
 	PLSR_FUZZ_SEED=random PLSR_FUZZ_CASES=$(FUZZ_CASES) PLSR_FUZZ_TRACE=$(CURDIR)/target/fuzz-case.txt \
-		$(CARGO) test --test fuzz_parsers -- --nocapture
+		$(CARGO) test -p plsr --test it fuzz_parsers:: -- --nocapture
 
 build: deps
 	$(CARGO) build --release
@@ -58,12 +58,12 @@ bench-deps:
 fmt:
 	$(CARGO) fmt --all
 
-clippy:
+clippy: deps
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
 
-# Regenerates the C header include/plsr.h from src/capi/ (pinned cbindgen).
+# Regenerates the C header include/plsr.h from crates/capi/ (pinned cbindgen).
 header:
-	PLSR_WRITE_HEADER=1 $(CARGO) test --test capi_header
+	PLSR_WRITE_HEADER=1 $(CARGO) test -p plsr-capi --lib tests::header
 
 # Installs the C ABI and the program (README, "From C and C++"):
 # libplsr.so.X.Y.Z (stripped; soname libplsr.so.X, debug info in
@@ -80,20 +80,25 @@ BINDIR ?= $(PREFIX)/bin
 INCLUDEDIR ?= $(PREFIX)/include
 DESTDIR ?=
 CARGO_TARGET_DIR ?= target
-# The cargo profile `make install` builds and installs (release; the C ABI's
-# tests install their cheaper capi-test build); its folder under
-# CARGO_TARGET_DIR is cargo's (debug for dev and test, release for bench).
+# The cargo profile `make install` builds and installs (release); its folder
+# under CARGO_TARGET_DIR is cargo's (debug for dev and test, release for bench).
 CARGO_PROFILE ?= release
 PROFILE_DIR := $(if $(filter dev test,$(CARGO_PROFILE)),debug,$(if $(filter bench,$(CARGO_PROFILE)),release,$(CARGO_PROFILE)))
 VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' Cargo.toml | head -1)
 # The oldest version whose C ABI this one keeps (0.2.0 last changed a struct,
 # plsr_principled); find_package(plsr X.Y) accepts requests from it up to VERSION.
 ABI_SINCE := 0.2.0
+# INSTALL_FROM: a folder that already holds libplsr.so, libplsr.a and plsr;
+# `make install` then installs those and builds nothing (the C ABI's tests
+# install what `cargo test` built this way).
+INSTALL_FROM ?=
 INSTALL_ENV = PREFIX="$(PREFIX)" LIBDIR="$(LIBDIR)" BINDIR="$(BINDIR)" INCLUDEDIR="$(INCLUDEDIR)" \
 	DESTDIR="$(DESTDIR)" VERSION="$(VERSION)" ABI_SINCE="$(ABI_SINCE)" \
-	TARGET="$(CARGO_TARGET_DIR)/$(PROFILE_DIR)"
+	TARGET="$(or $(INSTALL_FROM),$(CARGO_TARGET_DIR)/$(PROFILE_DIR))"
 install: deps
-	CARGO_TARGET_DIR=$(CARGO_TARGET_DIR) $(CARGO) build --profile $(CARGO_PROFILE) -p plsr --lib --bin plsr
+ifeq ($(INSTALL_FROM),)
+	CARGO_TARGET_DIR=$(CARGO_TARGET_DIR) $(CARGO) build --profile $(CARGO_PROFILE) -p plsr-capi -p plsr-cli
+endif
 	$(INSTALL_ENV) bash scripts/install.sh install
 
 uninstall:

@@ -96,14 +96,14 @@ major=${VERSION%%.*}
 real=libplsr.so.$VERSION
 soname=libplsr.so.$major
 for f in libplsr.so libplsr.a plsr; do
-  [ -f "$TARGET/$f" ] || die "$TARGET/$f is missing: build first (cargo build --release -p plsr --lib --bin plsr)"
+  [ -f "$TARGET/$f" ] || die "$TARGET/$f is missing: build first (make install builds it; or cargo build --release -p plsr-capi -p plsr-cli)"
 done
 for tool in objcopy readelf; do
   command -v $tool > /dev/null || die "$tool is missing (Debian package binutils)"
 done
 built_soname=$(readelf -d "$TARGET/libplsr.so" | sed -n 's/.*(SONAME).*\[\(.*\)\]/\1/p')
 [ "$built_soname" = "$soname" ] || die "$TARGET/libplsr.so has soname '$built_soname', \
-expected $soname (build.rs sets it; rebuild with cargo build --release)"
+expected $soname (crates/capi/build.rs sets it; rebuild with cargo build --release)"
 
 # An earlier install here is replaced: its files go, the folders it made are
 # remembered as made by plsr.

@@ -18,8 +18,11 @@
 //! Threads: Embree's ray queries on a committed scene are thread-safe, and
 //! every worker that traces rays must run with flush-to-zero and
 //! denormals-are-zero set (Embree's documented requirement for speed); see
-//! [`enable_flush_to_zero`], which plsr's thread pools call in their start
+//! [`enable_flush_to_zero`] (in `plsr-base`), which plsr's thread pools call in their start
 //! handler.
+
+pub use crate::error::EmbreeError;
+pub use crate::threads::{enable_flush_to_zero, flush_to_zero_enabled};
 
 /// The largest coordinate (absolute, scene units) a scene may use: Embree
 /// refuses rays whose origin leaves ±1.8·10^18, and f32 geometry far
@@ -44,38 +47,10 @@ pub fn within_coordinates(p: glam::Vec3) -> bool {
 use crate::sys;
 use glam::Vec3;
 use std::ffi::{c_void, CStr, CString};
-use std::fmt;
 use std::sync::Mutex;
 
 /// Embree's "no geometry" id (`RTC_INVALID_GEOMETRY_ID`).
 pub const INVALID_ID: u32 = u32::MAX;
-
-/// An error reported by Embree: its error code and message.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct EmbreeError {
-    /// Embree's `RTCError` code (1 = unknown, 2 = invalid argument, 3 = invalid
-    /// operation, 4 = out of memory, 5 = unsupported CPU, 6 = cancelled).
-    pub code: u32,
-    /// Embree's message, or a description of the failing call.
-    pub message: String,
-}
-
-impl fmt::Display for EmbreeError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let name = match self.code {
-            sys::RTC_ERROR_UNKNOWN => "unknown error",
-            sys::RTC_ERROR_INVALID_ARGUMENT => "invalid argument",
-            sys::RTC_ERROR_INVALID_OPERATION => "invalid operation",
-            sys::RTC_ERROR_OUT_OF_MEMORY => "out of memory",
-            sys::RTC_ERROR_UNSUPPORTED_CPU => "unsupported CPU",
-            sys::RTC_ERROR_CANCELLED => "cancelled",
-            _ => "error",
-        };
-        write!(f, "Embree {name}: {}", self.message)
-    }
-}
-
-impl std::error::Error for EmbreeError {}
 
 /// Where the error callback of one device writes; boxed so its address is stable.
 #[derive(Default)]
@@ -98,6 +73,8 @@ unsafe extern "C" fn error_callback(
         let text = if message.is_null() {
             String::from("(no message)")
         } else {
+            // SAFETY: not null, so a NUL-terminated string owned by Embree
+            // for the duration of this call (above).
             unsafe { CStr::from_ptr(message) }
                 .to_string_lossy()
                 .into_owned()
@@ -109,42 +86,6 @@ unsafe extern "C" fn error_callback(
             });
         }
     });
-}
-
-/// Sets flush-to-zero and denormals-are-zero in this thread's MXCSR register.
-///
-/// Embree asks for both on every thread that traces rays; plsr's rayon pools
-/// call this from their start handler. A no-op on targets other than x86-64.
-pub fn enable_flush_to_zero() {
-    #[cfg(target_arch = "x86_64")]
-    {
-        const FTZ: u32 = 1 << 15;
-        const DAZ: u32 = 1 << 6;
-        let mut csr: u32 = 0;
-        // SAFETY: stmxcsr/ldmxcsr only read and write the calling thread's
-        // SSE control register; setting FTZ and DAZ changes how denormals are
-        // rounded and cannot cause undefined behaviour.
-        unsafe {
-            std::arch::asm!("stmxcsr [{}]", in(reg) &mut csr, options(nostack));
-            csr |= FTZ | DAZ;
-            std::arch::asm!("ldmxcsr [{}]", in(reg) &csr, options(nostack, readonly));
-        }
-    }
-}
-
-/// Whether flush-to-zero and denormals-are-zero are set on this thread.
-pub fn flush_to_zero_enabled() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        let mut csr: u32 = 0;
-        // SAFETY: stmxcsr only stores the calling thread's control register.
-        unsafe { std::arch::asm!("stmxcsr [{}]", in(reg) &mut csr, options(nostack)) };
-        csr & (1 << 15) != 0 && csr & (1 << 6) != 0
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        true
-    }
 }
 
 /// An Embree device: the context that owns scenes and geometries.
@@ -1002,5 +943,31 @@ impl Accel {
         let rays = batch.rtc_rays();
         // SAFETY: as in `intersect_batch`.
         unsafe { sys::rtcOccludedNp(self.scene.0, &mut ctx, &rays, batch.len() as u32) };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::sys;
+
+    /// `EmbreeError`'s names (in `plsr-base`, which cannot see the
+    /// bindings) use Embree's error codes.
+    #[test]
+    fn error_codes_are_embrees() {
+        let named = [
+            (sys::RTC_ERROR_UNKNOWN, "unknown error"),
+            (sys::RTC_ERROR_INVALID_ARGUMENT, "invalid argument"),
+            (sys::RTC_ERROR_INVALID_OPERATION, "invalid operation"),
+            (sys::RTC_ERROR_OUT_OF_MEMORY, "out of memory"),
+            (sys::RTC_ERROR_UNSUPPORTED_CPU, "unsupported CPU"),
+            (sys::RTC_ERROR_CANCELLED, "cancelled"),
+        ];
+        for (code, name) in named {
+            let e = super::EmbreeError {
+                code,
+                message: "m".into(),
+            };
+            assert_eq!(e.to_string(), format!("Embree {name}: m"));
+        }
     }
 }

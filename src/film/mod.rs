@@ -295,15 +295,7 @@ impl Default for ToneMap {
     }
 }
 
-/// sRGB opto-electronic transfer function for a linear value in `[0, 1]`.
-#[inline]
-pub fn srgb_encode(x: f32) -> f32 {
-    if x <= 0.003_130_8 {
-        12.92 * x
-    } else {
-        1.055 * x.powf(1.0 / 2.4) - 0.055
-    }
-}
+pub use crate::color::srgb_encode;
 
 /// ACES filmic curve fit (Narkowicz 2015), mapping `[0, ∞)` to `[0, 1)`.
 #[inline]
@@ -778,7 +770,7 @@ mod tests {
         }
         // OpenEXR's own library (through OpenImageIO) reads the reordered
         // header too.
-        let oiio = crate::hdr::oiio::ImageReader::open(&path).unwrap();
+        let oiio = plsr_hdr::oiio::ImageReader::open(&path).unwrap();
         assert_eq!((oiio.info().width, oiio.info().height), (5, 3));
         assert_eq!(oiio.info().channels, 15);
         assert_eq!(

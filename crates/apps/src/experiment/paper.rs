@@ -1,0 +1,727 @@
+//! The paper's experiment (its Tables 4 and 5), redone on the synthetic
+//! [`PaperRoom`]: `plsr experiment paper`.
+//!
+//! 1. **Ground truth.** plsr's simulated camera ([`CameraModel`]: filmic
+//!    response, noise, 8 bits) photographs the room lit by its physical
+//!    fixtures, from each position's camera: without objects, with each
+//!    object, and with each object again from other samples (the noise
+//!    floor: what a second photo of the same scene scores).
+//! 2. **Lighting capture.** The PLS lights are derived from the fixtures'
+//!    geometry ([`crate::experiment::fixture`]). The HDR panorama is
+//!    captured by a simulated 360° camera at the sensor position
+//!    ([`crate::capture`], the paper's ten exposures) and merged
+//!    ([`plsr_hdr::merge`]), which also recovers the camera's response
+//!    curve; the photos are read through that curve.
+//! 3. **Insertion.** Each object is composited ([`crate::composite`],
+//!    differential rendering) into the photo without objects, lit once by
+//!    the PLS lights (with the whole room as the proxy) and once by the
+//!    panorama as an infinitely distant environment (with the floor and
+//!    table as the proxy).
+//! 4. **Scores.** Each composite is scored against the photo with the real
+//!    object by CW-SSIM, LPIPS and FLIP over the object's crop
+//!    ([`CropSpec::Auto`]: the matte's bounding box plus a margin).
+//!
+//! Everything is written into one new folder, staged and renamed at the
+//! end: the scene files of every step (re-runnable with `plsr render` and
+//! `plsr composite`), the photos, the panorama, the composites, the table
+//! (`results.md`, `results.json`) and a figure of the crops
+//! (`figure.png`).
+
+use crate::capture::{capture, CaptureOptions, PAPER_EXPOSURES};
+use crate::composite::{composite_scene, CompositeOptions};
+use crate::experiment::paper_room::{Lighting, Object, PaperRoom, SceneSpec, Surroundings};
+use glam::Vec3;
+use plsr::film::Film;
+use plsr::render::{render, RenderOptions};
+use plsr::scene::{file, Scene};
+use plsr_base::error::{Error, Result};
+use plsr_hdr::merge::{merge, MergeOptions};
+use plsr_hdr::synth::{write_brackets, BracketOptions, CameraModel};
+use plsr_metrics::{compare_files, CompareOptions, Crop, CropSpec, Metric, MetricImage};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Sizes and samples of a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// Size of the photos (pixels).
+    pub resolution: (u32, u32),
+    /// Samples per pixel of the ground-truth photos.
+    pub truth_spp: u32,
+    /// Samples per pixel of each of a composite's two renders.
+    pub composite_spp: u32,
+    /// Size of the panorama (pixels, 2:1).
+    pub panorama_size: (u32, u32),
+    /// Samples per pixel of the panorama.
+    pub panorama_spp: u32,
+}
+
+impl Settings {
+    /// The full experiment (about 13 minutes on two cores).
+    pub fn full() -> Settings {
+        Settings {
+            resolution: (256, 192),
+            truth_spp: 1024,
+            composite_spp: 512,
+            panorama_size: (512, 256),
+            panorama_spp: 256,
+        }
+    }
+
+    /// The whole pipeline, small (well under two minutes on two cores).
+    pub fn quick() -> Settings {
+        Settings {
+            resolution: (192, 144),
+            truth_spp: 64,
+            composite_spp: 32,
+            panorama_size: (128, 64),
+            panorama_spp: 32,
+        }
+    }
+}
+
+/// How to run the experiment.
+#[derive(Debug, Clone)]
+pub struct PaperOptions {
+    /// The new folder everything is written into (must not exist or be
+    /// empty).
+    pub out: PathBuf,
+    /// The Stanford bunny's OBJ file.
+    pub bunny: PathBuf,
+    /// Sizes and samples.
+    pub settings: Settings,
+    /// Worker threads (`None`: all cores).
+    pub threads: Option<usize>,
+}
+
+/// How an object was lit in a row of the table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// The PLS lights derived from the fixtures.
+    Pls,
+    /// The HDR panorama as an infinitely distant environment.
+    Panorama,
+    /// Not composited: a second photo of the real object (other samples
+    /// and camera noise), the best score any method can expect.
+    NoiseFloor,
+}
+
+impl Method {
+    /// All three, in the table's order.
+    pub const ALL: [Method; 3] = [Method::Pls, Method::Panorama, Method::NoiseFloor];
+
+    /// Its name in tables and file names.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Pls => "pls",
+            Method::Panorama => "panorama",
+            Method::NoiseFloor => "noise-floor",
+        }
+    }
+
+    /// Its label in the table.
+    pub fn label(self) -> &'static str {
+        match self {
+            Method::Pls => "PLS",
+            Method::Panorama => "panorama",
+            Method::NoiseFloor => "noise floor (2nd photo)",
+        }
+    }
+}
+
+/// One scored image: an object at a position, lit by a method.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Row {
+    /// The object.
+    pub object: Object,
+    /// Its position (0: the flashlight's beam, 1: under the lamp).
+    pub position: usize,
+    /// How it was lit.
+    pub method: Method,
+    /// The window compared.
+    pub crop: Crop,
+    /// CW-SSIM (higher is better, 1 is identical).
+    pub cwssim: f64,
+    /// LPIPS (lower is better, 0 is identical).
+    pub lpips: f64,
+    /// Mean FLIP error (lower is better, 0 is identical).
+    pub flip: f64,
+}
+
+/// What a run found.
+#[derive(Debug, Clone)]
+pub struct PaperResults {
+    /// Every score: object × position × method.
+    pub rows: Vec<Row>,
+    /// The derived PLS lights' windows: name, `a` and `w` in degrees.
+    pub windows: Vec<(String, f32, f32)>,
+    /// Wall-clock seconds of the whole run.
+    pub seconds: f64,
+}
+
+impl PaperResults {
+    /// The row of an object at a position lit by a method.
+    pub fn row(&self, object: Object, position: usize, method: Method) -> Option<&Row> {
+        self.rows
+            .iter()
+            .find(|r| r.object == object && r.position == position && r.method == method)
+    }
+
+    /// The table, as Markdown: one column per position and object, rows
+    /// per metric and method.
+    pub fn table(&self) -> String {
+        let mut s = String::new();
+        let cases: Vec<(usize, Object)> = [0, 1]
+            .iter()
+            .flat_map(|&p| Object::ALL.iter().map(move |&o| (p, o)))
+            .collect();
+        let _ = write!(s, "| metric | method |");
+        for (p, o) in &cases {
+            let _ = write!(s, " {} at {} |", o.name(), POSITION_NAMES[*p]);
+        }
+        let _ = writeln!(s);
+        let _ = writeln!(s, "|---|---|{}", "---:|".repeat(cases.len()));
+        let metrics: [(&str, MetricOf); 3] = [
+            ("CW-SSIM ↑", |r| r.cwssim),
+            ("LPIPS ↓", |r| r.lpips),
+            ("FLIP ↓", |r| r.flip),
+        ];
+        for (name, value) in metrics {
+            for method in Method::ALL {
+                let _ = write!(s, "| {name} | {} |", method.label());
+                for (p, o) in &cases {
+                    match self.row(*o, *p, method) {
+                        Some(r) => {
+                            let _ = write!(s, " {:.4} |", value(r));
+                        }
+                        None => s.push_str(" – |"),
+                    }
+                }
+                let _ = writeln!(s);
+            }
+        }
+        s
+    }
+
+    /// The results as JSON.
+    pub fn json(&self) -> String {
+        let rows: Vec<serde_json::Value> = self
+            .rows
+            .iter()
+            .map(|r| {
+                serde_json::json!({
+                    "object": r.object.name(),
+                    "position": r.position + 1,
+                    "method": r.method.name(),
+                    "crop": [r.crop.x, r.crop.y, r.crop.w, r.crop.h],
+                    "cwssim": r.cwssim,
+                    "lpips": r.lpips,
+                    "flip": r.flip,
+                })
+            })
+            .collect();
+        let windows: Vec<serde_json::Value> = self
+            .windows
+            .iter()
+            .map(|(n, a, w)| serde_json::json!({"light": n, "a": a, "penumbra": w}))
+            .collect();
+        let v = serde_json::json!({
+            "rows": rows,
+            "pls_windows": windows,
+            "seconds": self.seconds,
+        });
+        serde_json::to_string_pretty(&v).expect("JSON of numbers and strings")
+    }
+}
+
+/// Reads one metric's value from a row.
+type MetricOf = fn(&Row) -> f64;
+
+/// The positions' names in tables.
+pub const POSITION_NAMES: [&str; 2] = ["1 (flashlight)", "2 (lamp)"];
+
+/// Render seeds: the photo without objects, the photos with them, the
+/// second photos with them, and the composites.
+const SEED_EMPTY: u64 = 1;
+const SEED_TRUTH: u64 = 2;
+const SEED_SECOND: u64 = 3;
+const SEED_COMPOSITE: u64 = 4;
+
+/// Runs the experiment into the new folder `options.out`; `log` receives
+/// one line per step. On failure nothing is left behind.
+pub fn run(options: &PaperOptions, log: &(dyn Fn(&str) + Sync)) -> Result<PaperResults> {
+    let out = &options.out;
+    if out.exists()
+        && std::fs::read_dir(out)
+            .map(|mut d| d.next().is_some())
+            .unwrap_or(true)
+    {
+        return Err(Error::Output {
+            file: out.clone(),
+            message: "the output folder exists and is not empty: remove it or choose another"
+                .into(),
+        });
+    }
+    let bunny = std::fs::canonicalize(&options.bunny).map_err(|source| Error::Io {
+        file: options.bunny.clone(),
+        source,
+    })?;
+    plsr_base::atomic_write::sweep_stale_partials(out);
+    let staging = plsr_base::atomic_write::partial_path(out);
+    plsr_base::atomic_write::register_partial(&staging);
+    let result = run_in(&staging, &bunny, options, log);
+    let placed = result.and_then(|results| {
+        if out.exists() {
+            std::fs::remove_dir(out).map_err(|source| Error::Io {
+                file: out.clone(),
+                source,
+            })?;
+        }
+        std::fs::rename(&staging, out).map_err(|source| Error::Io {
+            file: out.clone(),
+            source,
+        })?;
+        Ok(results)
+    });
+    if placed.is_err() {
+        let _ = std::fs::remove_dir_all(&staging);
+    }
+    plsr_base::atomic_write::forget_partial(&staging);
+    placed
+}
+
+fn io(file: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
+    move |source| Error::Io {
+        file: file.to_path_buf(),
+        source,
+    }
+}
+
+fn mkdir(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(io(dir))
+}
+
+fn write_text(path: &Path, text: &str) -> Result<()> {
+    std::fs::write(path, text).map_err(io(path))
+}
+
+/// The experiment, written into `dir` (the staging folder).
+fn run_in(
+    dir: &Path,
+    bunny: &Path,
+    options: &PaperOptions,
+    log: &(dyn Fn(&str) + Sync),
+) -> Result<PaperResults> {
+    let start = Instant::now();
+    let settings = options.settings;
+    let room = PaperRoom::new();
+    let render_options = RenderOptions {
+        threads: options.threads,
+        ..Default::default()
+    };
+    let no_progress = |_: usize, _: usize| true;
+    let scenes = dir.join("scenes");
+    let photos = dir.join("photos");
+    let panorama_dir = dir.join("panorama");
+    let composites = dir.join("composites");
+    for d in [&scenes, &photos, &panorama_dir, &composites] {
+        mkdir(d)?;
+    }
+    mkdir(&scenes.join("meshes"))?;
+    for (name, text) in room.meshes() {
+        write_text(&scenes.join("meshes").join(name), &text)?;
+    }
+    let pls = room.pls();
+    let pls_file = scenes.join("lights.pls.toml");
+    write_text(
+        &pls_file,
+        &plsr::light::pls::file::to_string(&pls, &pls_file)?,
+    )?;
+    let windows: Vec<(String, f32, f32)> = pls
+        .lights
+        .iter()
+        .map(|l| (l.name.clone().unwrap_or_default(), l.a_deg, l.penumbra_deg))
+        .collect();
+    for (n, a, w) in &windows {
+        log(&format!(
+            "derived the {n}'s PLS light from its geometry: a = {a:.2}°, soft edge w = {w:.2}°"
+        ));
+    }
+
+    let spec = |title: String, camera: usize, spp: u32, seed: u64| SceneSpec {
+        title,
+        meshes: PathBuf::from("meshes"),
+        bunny: bunny.to_path_buf(),
+        camera,
+        resolution: settings.resolution,
+        spp,
+        seed,
+        surroundings: Surroundings::Room,
+        lighting: Lighting::Fixtures,
+        objects: Vec::new(),
+        photo: None,
+    };
+    let write_scene = |name: &str, spec: &SceneSpec| -> Result<PathBuf> {
+        let path = scenes.join(name);
+        write_text(&path, &room.scene_text(spec))?;
+        Ok(path)
+    };
+    let render_file = |path: &Path| -> Result<Film> {
+        let scene = Scene::build(file::load(path)?)?;
+        let (film, _) = render(&scene, &scene.default_job(), &render_options, &no_progress)?;
+        Ok(film)
+    };
+
+    // 1. The ground-truth photos.
+    let mut camera_seed = 100;
+    let mut photograph = |film: &Film, t: f64, path: &Path| -> Result<()> {
+        camera_seed += 1;
+        let tmp = photos.join(".bracket");
+        mkdir(&tmp)?;
+        let camera = CameraModel {
+            seed: camera_seed,
+            ..CameraModel::default()
+        };
+        let written = write_brackets(
+            &crate::capture::FilmRadiance(film),
+            &camera,
+            &[t],
+            &tmp,
+            &BracketOptions {
+                extension: "png".into(),
+                ..Default::default()
+            },
+        )?;
+        std::fs::rename(&written[0], path).map_err(io(path))?;
+        std::fs::remove_dir(&tmp).map_err(io(&tmp))
+    };
+    let mut exposure_times = [0.0; 2];
+    for position in 0..2 {
+        let step = Instant::now();
+        let p = position + 1;
+        let path = write_scene(
+            &format!("truth-empty-{p}.toml"),
+            &spec(
+                format!("Ground truth: the room seen by camera {p}, no objects."),
+                position,
+                settings.truth_spp,
+                SEED_EMPTY,
+            ),
+        )?;
+        let film = render_file(&path)?;
+        let t = exposure_time(&film);
+        exposure_times[position] = t;
+        photograph(&film, t, &photos.join(format!("empty-{p}.png")))?;
+        for object in Object::ALL {
+            let o = object.name();
+            for (seed, suffix, what) in [
+                (SEED_TRUTH, "", "the photo"),
+                (
+                    SEED_SECOND,
+                    "-second",
+                    "a second photo (other samples and noise)",
+                ),
+            ] {
+                let path = write_scene(
+                    &format!("truth-{o}-{p}{suffix}.toml"),
+                    &SceneSpec {
+                        objects: vec![(object, position, false)],
+                        ..spec(
+                            format!("Ground truth: {what} of the real {o} at position {p}."),
+                            position,
+                            settings.truth_spp,
+                            seed,
+                        )
+                    },
+                )?;
+                let film = render_file(&path)?;
+                photograph(&film, t, &photos.join(format!("{o}-{p}{suffix}.png")))?;
+            }
+        }
+        log(&format!(
+            "photographed position {}: 5 photos at {} spp, exposure {t:.3} s, {:.1} s",
+            POSITION_NAMES[position],
+            settings.truth_spp,
+            step.elapsed().as_secs_f64()
+        ));
+    }
+
+    // 2. The panorama, captured where the flashlight's beam does not reach.
+    let step = Instant::now();
+    let capture_scene = write_scene(
+        "capture.toml",
+        &spec(
+            "The room for the 360° capture (the camera is replaced by the panorama's).".into(),
+            0,
+            settings.panorama_spp,
+            SEED_EMPTY,
+        ),
+    )?;
+    let (up, forward) = (Vec3::Z, Vec3::Y);
+    let brackets = capture(
+        &capture_scene,
+        &panorama_dir.join("brackets"),
+        &CaptureOptions {
+            at: room.sensor,
+            up: Some(up),
+            forward: Some(forward),
+            size: settings.panorama_size,
+            spp: Some(settings.panorama_spp),
+            // The paper's ten, as its capture used.
+            exposures: Some(PAPER_EXPOSURES.to_vec()),
+            camera: CameraModel {
+                seed: 7,
+                ..CameraModel::default()
+            },
+            format: "tif".into(),
+            threads: options.threads,
+        },
+        &no_progress,
+    )?
+    .paths;
+    let panorama = panorama_dir.join("panorama.exr");
+    let curve = panorama_dir.join("curve.csv");
+    merge(
+        &brackets,
+        &panorama,
+        &MergeOptions {
+            curve_csv: Some(curve.clone()),
+            threads: options.threads,
+            ..Default::default()
+        },
+        &|_, _, _| {},
+    )?;
+    log(&format!(
+        "captured and merged the {}×{} panorama at ({:.2}, {:.2}, {:.2}) from {} brackets, {:.1} s",
+        settings.panorama_size.0,
+        settings.panorama_size.1,
+        room.sensor.x,
+        room.sensor.y,
+        room.sensor.z,
+        brackets.len(),
+        step.elapsed().as_secs_f64()
+    ));
+
+    // 3 and 4. Composites and scores.
+    let compare_options = CompareOptions {
+        metrics: vec![Metric::CwSsim, Metric::Lpips, Metric::Flip],
+        cwssim: Default::default(),
+        flip: Default::default(),
+    };
+    let mut rows = Vec::new();
+    let rel = |p: &Path| Path::new("..").join(p.strip_prefix(dir).expect("inside the run"));
+    for position in 0..2 {
+        let p = position + 1;
+        for object in Object::ALL {
+            let step = Instant::now();
+            let o = object.name();
+            let truth = photos.join(format!("{o}-{p}.png"));
+            let mask = composites.join(format!("mask-{o}-{p}.png"));
+            let mut scored = Vec::new();
+            for method in [Method::Pls, Method::Panorama] {
+                let (surroundings, lighting) = match method {
+                    Method::Pls => (Surroundings::Room, Lighting::Pls("lights.pls.toml".into())),
+                    _ => (
+                        Surroundings::Local,
+                        Lighting::Panorama {
+                            file: rel(&panorama),
+                            up,
+                            forward,
+                        },
+                    ),
+                };
+                let m = method.name();
+                let path = write_scene(
+                    &format!("{m}-{o}-{p}.toml"),
+                    &SceneSpec {
+                        surroundings,
+                        lighting,
+                        objects: vec![(object, position, true)],
+                        photo: Some((rel(&photos.join(format!("empty-{p}.png"))), rel(&curve))),
+                        ..spec(
+                            format!("The virtual {o} composited at position {p}, lit by {m}."),
+                            position,
+                            settings.composite_spp,
+                            SEED_COMPOSITE,
+                        )
+                    },
+                )?;
+                let contents = file::load_contents(&path)?;
+                let (c, transfer, _) = composite_scene(
+                    &path,
+                    contents,
+                    &CompositeOptions {
+                        render: render_options,
+                        ..Default::default()
+                    },
+                    &no_progress,
+                )?;
+                let mut outputs = plsr_base::atomic_write::OutputSet::new();
+                let png = composites.join(format!("{m}-{o}-{p}.png"));
+                c.stage_exr(&mut outputs, &composites.join(format!("{m}-{o}-{p}.exr")))?;
+                c.stage_png(&mut outputs, &png, &transfer)?;
+                outputs.commit()?;
+                if method == Method::Pls {
+                    write_mask(&c.matte, c.width, c.height, &mask)?;
+                }
+                scored.push((method, png));
+            }
+            scored.push((
+                Method::NoiseFloor,
+                photos.join(format!("{o}-{p}-second.png")),
+            ));
+            for (method, test) in scored {
+                let report =
+                    compare_files(&truth, &test, Some(&mask), CropSpec::Auto, &compare_options)?;
+                let score = |metric: Metric| {
+                    report
+                        .scores
+                        .iter()
+                        .find(|s| s.metric == metric)
+                        .map_or(f64::NAN, |s| s.value)
+                };
+                rows.push(Row {
+                    object,
+                    position,
+                    method,
+                    crop: report.crop,
+                    cwssim: score(Metric::CwSsim),
+                    lpips: score(Metric::Lpips),
+                    flip: score(Metric::Flip),
+                });
+            }
+            let line = |m: Method| {
+                let r = rows
+                    .iter()
+                    .rev()
+                    .find(|r| r.method == m)
+                    .expect("just scored");
+                format!("{} CW-SSIM {:.4} LPIPS {:.4}", m.label(), r.cwssim, r.lpips)
+            };
+            log(&format!(
+                "{o} at position {p}: {}; {}; {}; {:.1} s",
+                line(Method::Pls),
+                line(Method::Panorama),
+                line(Method::NoiseFloor),
+                step.elapsed().as_secs_f64()
+            ));
+        }
+    }
+
+    let results = PaperResults {
+        rows,
+        windows,
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    figure(dir, &results)?;
+    write_text(&dir.join("results.json"), &results.json())?;
+    write_text(
+        &dir.join("results.md"),
+        &format!(
+            "# plsr experiment paper\n\n{}\nPhotos {}×{} at {} spp; composites at {} spp; panorama {}×{} at {} spp. {:.0} s.\n",
+            results.table(),
+            settings.resolution.0,
+            settings.resolution.1,
+            settings.truth_spp,
+            settings.composite_spp,
+            settings.panorama_size.0,
+            settings.panorama_size.1,
+            settings.panorama_spp,
+            results.seconds
+        ),
+    )?;
+    Ok(results)
+}
+
+/// The exposure time (seconds) that puts the 99.5th percentile of the
+/// brightest channel at 15 % of the simulated camera's clipping exposure
+/// (72 % of its output range), clear of its compressed highlights, where
+/// the recovered response curve magnifies noise.
+fn exposure_time(film: &Film) -> f64 {
+    let mut v: Vec<f32> = film.color.iter().map(|c| c.max_element()).collect();
+    v.sort_by(f32::total_cmp);
+    let p = v[(v.len() as f64 * 0.995) as usize % v.len()].max(1e-6);
+    0.15 / p as f64
+}
+
+/// Writes the matte as an 8-bit mask: white where the object covers at
+/// least half a pixel.
+fn write_mask(matte: &[f32], width: u32, height: u32, path: &Path) -> Result<()> {
+    let pixels: Vec<u8> = matte
+        .iter()
+        .map(|&a| if a >= 0.5 { 255 } else { 0 })
+        .collect();
+    let image = image::GrayImage::from_raw(width, height, pixels).expect("one value per pixel");
+    image.save(path).map_err(|e| Error::Output {
+        file: path.to_path_buf(),
+        message: e.to_string(),
+    })
+}
+
+/// Height of a row of the figure (pixels).
+const FIGURE_ROW: u32 = 160;
+
+/// `figure.png`: one row per object and position, in the table's order;
+/// columns: the photo of the real object, the PLS composite, the panorama
+/// composite, each the crop that was scored, scaled to one height.
+fn figure(dir: &Path, results: &PaperResults) -> Result<()> {
+    let gap = 4;
+    let mut tiles: Vec<Vec<image::RgbImage>> = Vec::new();
+    for position in 0..2 {
+        let p = position + 1;
+        for object in Object::ALL {
+            let o = object.name();
+            let Some(row) = results.row(object, position, Method::Pls) else {
+                continue;
+            };
+            let mut line = Vec::new();
+            for file in [
+                dir.join("photos").join(format!("{o}-{p}.png")),
+                dir.join("composites").join(format!("pls-{o}-{p}.png")),
+                dir.join("composites").join(format!("panorama-{o}-{p}.png")),
+            ] {
+                let img = MetricImage::load(&file)?.crop(row.crop);
+                let rgb: Vec<u8> = img
+                    .display()
+                    .iter()
+                    .map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
+                    .collect();
+                let (w, h) = (img.width as u32, img.height as u32);
+                let tile = image::RgbImage::from_raw(w, h, rgb).expect("three values per pixel");
+                let w = (w as f32 * FIGURE_ROW as f32 / h as f32).round() as u32;
+                line.push(image::imageops::resize(
+                    &tile,
+                    w.max(1),
+                    FIGURE_ROW,
+                    image::imageops::FilterType::Nearest,
+                ));
+            }
+            tiles.push(line);
+        }
+    }
+    let width = tiles
+        .iter()
+        .map(|l| l.iter().map(|t| t.width() + gap).sum::<u32>() - gap)
+        .max()
+        .unwrap_or(1);
+    let height = tiles.len() as u32 * (FIGURE_ROW + gap) - gap;
+    let mut fig = image::RgbImage::from_pixel(width, height.max(1), image::Rgb([255, 255, 255]));
+    for (r, line) in tiles.iter().enumerate() {
+        let mut x = 0;
+        for t in line {
+            image::imageops::replace(
+                &mut fig,
+                t,
+                x as i64,
+                (r as u32 * (FIGURE_ROW + gap)) as i64,
+            );
+            x += t.width() + gap;
+        }
+    }
+    let path = dir.join("figure.png");
+    fig.save(&path).map_err(|e| Error::Output {
+        file: path.clone(),
+        message: e.to_string(),
+    })
+}

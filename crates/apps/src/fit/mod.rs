@@ -1,0 +1,867 @@
+//! Fitting materials and light brightness to photographs: the loss, its
+//! gradient and projected Adam.
+//!
+//! A fit compares renders of the scene's real surfaces (virtual objects
+//! hidden) with photos of them, each through its own camera (a *view*):
+//!
+//! `ℒ = 1/(3N) Σ_views Σ_{p ∈ mask} Σ_channels (I_p − P_p/k)²`,
+//!
+//! the mean squared error in linear radiance between the render `I` and
+//! the photo `P` linearised through its response and divided by its
+//! exposure `k` (`[photo] exposure`, as in compositing), over the pixels of
+//! each view's mask (by default every pixel whose camera rays all meet a
+//! real, non-emitting surface). Each iteration renders the primal `I` with
+//! one seed, then estimates the gradient with another
+//! ([`plsr::integrator::gradient`]): the two estimates are independent,
+//! so the gradient of the squared error is unbiased. Adam (Kingma and Ba
+//! 2015) steps every number of every parameter, and each is then clamped
+//! into its bounds (projected Adam). Light parameters step in units of
+//! their initial value, materials in absolute units.
+//!
+//! The paper's defaults (learning rate 0.05, 16 spp, 100 iterations) are
+//! [`FitOptions::default`].
+
+pub mod light;
+pub mod params;
+pub mod plot;
+pub mod write;
+
+use crate::composite::Photo;
+use glam::{Vec2, Vec3};
+pub use params::{Owner, Parameter};
+use plsr::accel::{RayHit, REAL_MASK};
+use plsr::camera::Camera;
+use plsr::integrator::gradient::GradientMap;
+use plsr::job::RenderJob;
+use plsr::render::{render_gradient, render_sums, RenderOptions};
+use plsr::scene::Scene;
+use plsr_base::error::{Error, Result};
+use std::time::Instant;
+
+/// How to fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitOptions {
+    /// Adam iterations.
+    pub iterations: u32,
+    /// Adam's learning rate (parameter units per step; light parameters
+    /// in units of their initial value).
+    pub learning_rate: f32,
+    /// Samples per pixel of each render (the primal and the gradient each).
+    pub spp: u32,
+    /// Base seed; iteration `i` renders its primal with `seed + 2i` and its
+    /// gradient with `seed + 2i + 1`.
+    pub seed: u64,
+    /// Patterns selecting the parameters (see [`params`]); empty: the
+    /// paper's choice.
+    pub params: Vec<String>,
+    /// Worker threads; `None`: every core.
+    pub threads: Option<usize>,
+    /// PLS lights (by name) whose window (`a`, `penumbra`) and brightness
+    /// `b` are found first by a derivative-free search ([`light`]); with
+    /// no `params` given, only they are fitted.
+    pub windows: Vec<String>,
+    /// Whether the window search also turns the lights' directions `n`.
+    pub window_direction: bool,
+    /// Whether the window search also scales the lights' outlines (and
+    /// then holds their penumbra).
+    pub window_size: bool,
+    /// Whether the window search also fits each light's outline shape:
+    /// its axis length and its four half-widths `d` on their own
+    /// (includes the size).
+    pub window_shape: bool,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            iterations: 100,
+            learning_rate: 0.05,
+            spp: 16,
+            seed: 0,
+            params: Vec::new(),
+            threads: None,
+            windows: Vec::new(),
+            window_direction: false,
+            window_size: false,
+            window_shape: false,
+        }
+    }
+}
+
+/// A photo to fit against, seen through its camera.
+#[derive(Debug, Clone)]
+pub struct View {
+    /// What to call it in messages (the photo's file).
+    pub label: String,
+    /// The camera that took it.
+    pub camera: Camera,
+    /// The photo in the render's units: linear radiance divided by the
+    /// exposure `k`, row-major.
+    pub target: Vec<Vec3>,
+    /// Which pixels count in the loss.
+    pub mask: Vec<bool>,
+}
+
+impl View {
+    /// A view of `photo` (linear, `P ≈ k·render`) through `camera`, with
+    /// the default mask (pixels whose camera rays meet real, non-emitting
+    /// surfaces; see [`surface_mask`]). The photo must have the camera's
+    /// size.
+    pub fn new(scene: &Scene, label: &str, camera: Camera, photo: &Photo, k: f32) -> Result<View> {
+        let (w, h) = (camera.width(), camera.height());
+        if (photo.width, photo.height) != (w, h) {
+            return Err(Error::InvalidArgument(format!(
+                "{label}: the photo is {}×{} pixels but its camera renders {w}×{h}",
+                photo.width, photo.height
+            )));
+        }
+        if !(k.is_finite() && k > 0.0) {
+            return Err(Error::InvalidArgument(format!(
+                "{label}: exposure {k} must be positive"
+            )));
+        }
+        let mask = surface_mask(scene, &camera);
+        Ok(View {
+            label: label.to_string(),
+            target: photo.radiance.iter().map(|p| *p / k).collect(),
+            camera,
+            mask,
+        })
+    }
+
+    /// Pixels in the loss.
+    pub fn pixels(&self) -> usize {
+        self.mask.iter().filter(|m| **m).count()
+    }
+}
+
+/// The default mask of a camera: pixels whose rays through four points of
+/// the pixel (lens centre) all meet a real surface that does not emit.
+pub fn surface_mask(scene: &Scene, camera: &Camera) -> Vec<bool> {
+    let (w, h) = (camera.width(), camera.height());
+    let mut mask = vec![false; (w * h) as usize];
+    let offsets = [
+        Vec2::new(0.25, 0.25),
+        Vec2::new(0.75, 0.25),
+        Vec2::new(0.25, 0.75),
+        Vec2::new(0.75, 0.75),
+    ];
+    for y in 0..h {
+        for x in 0..w {
+            let all = offsets.iter().all(|o| {
+                let film = Vec2::new(x as f32, y as f32) + *o;
+                let Some(ray) = camera.generate_ray(film, Vec2::splat(0.5)) else {
+                    return false;
+                };
+                let mut rh = [RayHit::masked(ray, REAL_MASK)];
+                scene.accel().intersect_each(&mut rh);
+                rh[0].hit().is_some_and(|hit| {
+                    let m = hit.geom_id as usize;
+                    scene.mesh_lights(m).is_none() && scene.meshes()[m].pls.is_none()
+                })
+            });
+            mask[(y * w + x) as usize] = all;
+        }
+    }
+    mask
+}
+
+/// The squared error `Σ_{p ∈ mask} |I_p − target_p|² / terms` of the
+/// scene's render `I` (the primal job) and its gradient per slot of `map`
+/// (from the gradient job, which must have another seed). `target` and
+/// `mask` are row-major over the scene's camera.
+pub fn squared_error_gradient(
+    scene: &Scene,
+    map: &GradientMap,
+    target: &[Vec3],
+    mask: &[bool],
+    (primal, gradient_job): (&RenderJob, &RenderJob),
+    options: &RenderOptions,
+    terms: f64,
+) -> Result<(f64, Vec<f64>)> {
+    let n = (scene.camera().width() * scene.camera().height()) as usize;
+    if target.len() != n || mask.len() != n {
+        return Err(Error::InvalidArgument(format!(
+            "the target has {} pixels and the mask {}, the camera {n}",
+            target.len(),
+            mask.len()
+        )));
+    }
+    let (sums, _) = render_sums(scene, primal, options, &|_, _| true)?;
+    let mut loss = 0.0;
+    let mut adjoint = vec![Vec3::ZERO; n];
+    for (i, mean) in sums.means().into_iter().enumerate() {
+        if mask[i] {
+            let d = mean - target[i];
+            loss += d.as_dvec3().dot(d.as_dvec3());
+            adjoint[i] = d * (2.0 / terms as f32);
+        }
+    }
+    let r = render_gradient(scene, gradient_job, options, map, &adjoint, false)?;
+    Ok((loss / terms, r.gradient))
+}
+
+/// Projected Adam over a flat vector of numbers.
+#[derive(Debug, Clone)]
+pub struct Adam {
+    /// Learning rate.
+    pub learning_rate: f32,
+    m: Vec<f64>,
+    v: Vec<f64>,
+    t: i32,
+}
+
+impl Adam {
+    /// β₁ = 0.9, β₂ = 0.999, ε = 1e-8, as Kingma and Ba (and Mitsuba).
+    const BETA1: f64 = 0.9;
+    const BETA2: f64 = 0.999;
+    const EPSILON: f64 = 1e-8;
+
+    /// An optimiser for `n` numbers.
+    pub fn new(n: usize, learning_rate: f32) -> Adam {
+        Adam {
+            learning_rate,
+            m: vec![0.0; n],
+            v: vec![0.0; n],
+            t: 0,
+        }
+    }
+
+    /// One step of `x` down the gradient `g`, each number then clamped to
+    /// `[lower, upper]`.
+    pub fn step(&mut self, x: &mut [f64], g: &[f64], lower: &[f64], upper: &[f64]) {
+        self.t += 1;
+        let c1 = 1.0 - Self::BETA1.powi(self.t);
+        let c2 = 1.0 - Self::BETA2.powi(self.t);
+        for i in 0..x.len() {
+            self.m[i] = Self::BETA1 * self.m[i] + (1.0 - Self::BETA1) * g[i];
+            self.v[i] = Self::BETA2 * self.v[i] + (1.0 - Self::BETA2) * g[i] * g[i];
+            let step = self.learning_rate as f64 * (self.m[i] / c1)
+                / ((self.v[i] / c2).sqrt() + Self::EPSILON);
+            x[i] = (x[i] - step).clamp(lower[i], upper[i]);
+        }
+    }
+}
+
+/// One iteration's numbers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Iteration {
+    /// Its index (0 = the starting values).
+    pub index: u32,
+    /// The loss at the values it started from (the primal render's).
+    pub loss: f64,
+    /// The gradient per gradient slot.
+    pub gradient: Vec<f64>,
+    /// Seconds it took (renders, gradient and step).
+    pub seconds: f64,
+}
+
+/// A fit in progress: the scene, its views, the parameters and Adam.
+pub struct Fit {
+    scene: Scene,
+    views: Vec<View>,
+    params: Vec<Parameter>,
+    adam: Adam,
+    options: FitOptions,
+    /// Per gradient slot: whether any iteration saw a non-zero derivative.
+    seen: Vec<bool>,
+    max_depth: u32,
+    /// Sums of the values reached in the last tenth of the iterations, and
+    /// their count (Polyak–Ruppert averaging, [`Fit::finish`]).
+    averages: (Vec<f64>, u32),
+}
+
+impl Fit {
+    /// A fit of `params` (selected by [`params::select`] on this scene)
+    /// against `views`.
+    pub fn new(
+        scene: Scene,
+        views: Vec<View>,
+        params: Vec<Parameter>,
+        options: FitOptions,
+    ) -> Result<Fit> {
+        if views.is_empty() {
+            return Err(Error::InvalidArgument(
+                "a fit needs at least one photo".into(),
+            ));
+        }
+        if views.iter().all(|v| v.pixels() == 0) {
+            return Err(Error::InvalidArgument(
+                "no photo pixel sees a real surface of the scene (every mask is empty)".into(),
+            ));
+        }
+        if options.spp == 0 || options.spp > plsr::job::MAX_SPP {
+            return Err(Error::InvalidArgument(format!(
+                "spp {} must be in [1, {}]",
+                options.spp,
+                plsr::job::MAX_SPP
+            )));
+        }
+        if !(options.learning_rate.is_finite() && options.learning_rate > 0.0) {
+            return Err(Error::InvalidArgument(format!(
+                "learning rate {} must be positive",
+                options.learning_rate
+            )));
+        }
+        let n = params.iter().map(|p| p.value.len()).sum();
+        let max_depth = scene.default_job().max_depth;
+        Ok(Fit {
+            adam: Adam::new(n, options.learning_rate),
+            seen: vec![false; n],
+            averages: (vec![0.0; n], 0),
+            scene,
+            views,
+            params,
+            options,
+            max_depth,
+        })
+    }
+
+    /// The parameters with their current values.
+    pub fn parameters(&self) -> &[Parameter] {
+        &self.params
+    }
+
+    /// The scene with the current values.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The views.
+    pub fn views(&self) -> &[View] {
+        &self.views
+    }
+
+    fn job(&self, seed: u64) -> RenderJob {
+        RenderJob {
+            spp: self.options.spp,
+            sample_start: 0,
+            max_depth: self.max_depth,
+            seed,
+            hide_virtual: true,
+            ..Default::default()
+        }
+    }
+
+    fn render_options(&self) -> RenderOptions {
+        RenderOptions {
+            threads: self.options.threads,
+            ..RenderOptions::default()
+        }
+    }
+
+    /// Pixels in the loss, times 3 channels.
+    fn terms(&self) -> f64 {
+        3.0 * self.views.iter().map(View::pixels).sum::<usize>() as f64
+    }
+
+    /// Renders view `v` with `seed`: each pixel's mean recorded value.
+    fn render_view(&mut self, v: usize, seed: u64) -> Result<Vec<Vec3>> {
+        self.scene.set_camera(self.views[v].camera.clone());
+        let job = self.job(seed);
+        let (sums, _) = render_sums(&self.scene, &job, &self.render_options(), &|_, _| true)?;
+        Ok(sums.means())
+    }
+
+    /// The loss at the current values, from a render with `seed`.
+    pub fn loss(&mut self, seed: u64) -> Result<f64> {
+        let mut total = 0.0;
+        for v in 0..self.views.len() {
+            let image = self.render_view(v, seed)?;
+            let view = &self.views[v];
+            for (i, (c, t)) in image.iter().zip(&view.target).enumerate() {
+                if view.mask[i] {
+                    let d = (*c - *t).as_dvec3();
+                    total += d.dot(d);
+                }
+            }
+        }
+        Ok(total / self.terms())
+    }
+
+    /// The loss at the current values and its gradient per slot: primal
+    /// renders with `seed`, the gradient with `seed + 1`.
+    pub fn loss_and_gradient(&mut self, seed: u64) -> Result<(f64, Vec<f64>)> {
+        let map: GradientMap = params::gradient_map(&self.scene, &self.params);
+        let terms = self.terms();
+        let mut loss = 0.0;
+        let mut gradient = vec![0.0f64; map.len];
+        let (primal, gradient_job) = (self.job(seed), self.job(seed.wrapping_add(1)));
+        let options = self.render_options();
+        for v in 0..self.views.len() {
+            self.scene.set_camera(self.views[v].camera.clone());
+            let view = &self.views[v];
+            let (l, g) = squared_error_gradient(
+                &self.scene,
+                &map,
+                &view.target,
+                &view.mask,
+                (&primal, &gradient_job),
+                &options,
+                terms,
+            )?;
+            loss += l;
+            for (a, b) in gradient.iter_mut().zip(&g) {
+                *a += b;
+            }
+        }
+        Ok((loss, gradient))
+    }
+
+    /// One iteration: the loss and gradient at the current values, then a
+    /// projected Adam step. A gradient that is not finite is an error.
+    pub fn step(&mut self, index: u32) -> Result<Iteration> {
+        let start = Instant::now();
+        let seed = self.options.seed.wrapping_add(2 * index as u64);
+        let (loss, gradient) = self.loss_and_gradient(seed)?;
+        if let Some(i) = gradient.iter().position(|g| !g.is_finite()) {
+            let p = self
+                .params
+                .iter()
+                .find(|p| (p.slot as usize..p.slot as usize + p.value.len()).contains(&i));
+            return Err(Error::InvalidArgument(format!(
+                "the gradient of {} is not finite at iteration {index}",
+                p.map_or("a parameter", |p| p.name.as_str())
+            )));
+        }
+        for (s, g) in self.seen.iter_mut().zip(&gradient) {
+            *s |= *g != 0.0;
+        }
+        // Adam in each number's own units: absolute for materials, relative
+        // to the initial value for lights.
+        let (mut x, mut g, mut lo, mut hi, mut unit) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for p in &self.params {
+            for k in 0..p.value.len() {
+                let s = if p.relative() && p.initial[k] > 0.0 {
+                    p.initial[k] as f64
+                } else {
+                    1.0
+                };
+                unit.push(s);
+                x.push(p.value[k] as f64 / s);
+                g.push(gradient[p.slot as usize + k] * s);
+                lo.push(p.bounds.0 as f64 / s);
+                hi.push(p.bounds.1 as f64 / s);
+            }
+        }
+        self.adam.step(&mut x, &g, &lo, &hi);
+        let mut k = 0;
+        let average = index >= self.average_from();
+        for i in 0..self.params.len() {
+            let n = self.params[i].value.len();
+            let new: Vec<f32> = (0..n).map(|j| (x[k + j] * unit[k + j]) as f32).collect();
+            if average {
+                for (j, v) in new.iter().enumerate() {
+                    self.averages.0[k + j] += *v as f64;
+                }
+            }
+            k += n;
+            params::apply(&mut self.scene, &self.params[i], &new)?;
+            self.params[i].value = new;
+        }
+        if average {
+            self.averages.1 += 1;
+        }
+        Ok(Iteration {
+            index,
+            loss,
+            gradient,
+            seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// The first iteration whose values are averaged: the last tenth of
+    /// `options.iterations` (at least one).
+    fn average_from(&self) -> u32 {
+        let n = self.options.iterations;
+        n - (n / 10).max(1).min(n)
+    }
+
+    /// Ends the fit: every parameter takes the mean of the values the last
+    /// tenth of the iterations reached (Polyak–Ruppert averaging), which
+    /// removes most of the noise that few-sample gradients leave in the
+    /// last iterate. Does nothing if those iterations have not run.
+    pub fn finish(&mut self) -> Result<()> {
+        let count = self.averages.1;
+        if count == 0 {
+            return Ok(());
+        }
+        let mut k = 0;
+        for i in 0..self.params.len() {
+            let n = self.params[i].value.len();
+            let (lo, hi) = self.params[i].bounds;
+            let mean: Vec<f32> = (0..n)
+                .map(|j| ((self.averages.0[k + j] / count as f64) as f32).clamp(lo, hi))
+                .collect();
+            k += n;
+            params::apply(&mut self.scene, &self.params[i], &mean)?;
+            self.params[i].value = mean;
+        }
+        self.averages = (vec![0.0; k], 0);
+        Ok(())
+    }
+
+    /// Warnings about parameters no photo pixel saw (their gradient was
+    /// zero at every iteration, so they kept their value).
+    pub fn warnings(&self) -> Vec<String> {
+        self.params
+            .iter()
+            .filter(|p| (0..p.value.len()).all(|k| !self.seen[p.slot as usize + k]))
+            .map(|p| {
+                format!(
+                    "{}: no photo pixel sees it (its gradient was zero), so it kept its value",
+                    p.name
+                )
+            })
+            .collect()
+    }
+}
+
+/// Everything a fit of a scene file produced.
+#[derive(Debug, Clone)]
+pub struct FitOutcome {
+    /// The parameters with their fitted values (and where they started).
+    pub parameters: Vec<Parameter>,
+    /// The loss after each number of steps (`iterations + 1` values; the
+    /// last is measured at the fitted values, after [`Fit::finish`]).
+    pub losses: Vec<f64>,
+    /// Parameters no photo pixel saw, exposures fitted, …
+    pub warnings: Vec<String>,
+    /// Mean seconds per iteration.
+    pub seconds_per_iteration: f64,
+    /// Pixels in the loss, over all views.
+    pub pixels: usize,
+    /// The windows fitted: the light's name and what was found.
+    pub windows: Vec<(String, light::WindowFit)>,
+    /// The fitted scene file (and PLS files), ready to write.
+    pub fitted: write::FittedFiles,
+}
+
+/// Fits the parameters `options.params` select to the scene file's
+/// `[photo]` and `[[views]]`, and prepares the fitted scene file that
+/// `out` will be. `progress` sees every iteration and the values it
+/// reached; returning `false` cancels ([`Error::Cancelled`]).
+pub fn fit_scene_file(
+    path: &std::path::Path,
+    out: &std::path::Path,
+    options: &FitOptions,
+    progress: &mut dyn FnMut(&Iteration, &[Parameter]) -> bool,
+) -> Result<FitOutcome> {
+    let contents = plsr::scene::file::load_contents(path)?;
+    // A direction or size search rebuilds the scene from its description.
+    let rebuilds = options.window_direction || options.window_size || options.window_shape;
+    let description =
+        (rebuilds && !options.windows.is_empty()).then(|| contents.description.clone());
+    let mut scene = Scene::build(contents.description)?;
+    let scale = write::environment_scale(path)?;
+    let adam = !options.params.is_empty() || options.windows.is_empty();
+    let mut params = if adam {
+        params::select(&scene, &options.params, scale)?
+    } else {
+        Vec::new()
+    };
+    // The PLS lights whose windows are fitted: (name, mesh, table, index).
+    let pls = params::pls_lights(&scene);
+    let mut window_lights = Vec::new();
+    for name in &options.windows {
+        let found = pls.iter().find(|(m, _, _)| {
+            let mesh = &scene.meshes()[*m];
+            mesh.pls.as_ref().and_then(|p| p.light.name.as_deref()) == Some(name.as_str())
+                || mesh.name == *name
+        });
+        match found {
+            Some(&(m, table, light)) => window_lights.push((name.clone(), m, table, light)),
+            None => {
+                let names: Vec<String> = pls
+                    .iter()
+                    .map(|(m, _, _)| {
+                        let mesh = &scene.meshes()[*m];
+                        mesh.pls
+                            .as_ref()
+                            .and_then(|p| p.light.name.clone())
+                            .unwrap_or_else(|| mesh.name.clone())
+                    })
+                    .collect();
+                return Err(Error::InvalidArgument(format!(
+                    "--window {name}: no PLS light of that name (the scene's: {})",
+                    if names.is_empty() {
+                        "none".to_string()
+                    } else {
+                        names.join(", ")
+                    }
+                )));
+            }
+        }
+    }
+    let fits_lights = params.iter().any(Parameter::relative) || !window_lights.is_empty();
+    let mut specs = Vec::new();
+    if let Some(photo) = contents.photo {
+        specs.push(("photo".to_string(), scene.camera().clone(), photo));
+    }
+    for (i, v) in contents.views.into_iter().enumerate() {
+        specs.push((format!("views[{i}]"), v.camera, v.photo));
+    }
+    if specs.is_empty() {
+        return Err(Error::input(
+            path,
+            "photo",
+            "is missing: a fit needs a [photo] (or [[views]]) of the real scene to fit against",
+        ));
+    }
+    let mut warnings = Vec::new();
+    let mut views = Vec::new();
+    for (field, camera, spec) in specs {
+        let photo = Photo::load(&spec)?;
+        let label = format!("{field} ({})", spec.file.display());
+        let k = match spec.exposure {
+            Some(k) => k,
+            None if fits_lights => {
+                return Err(Error::input(
+                    path,
+                    format!("{field}.exposure"),
+                    "is \"auto\", but light parameters are being fitted: their brightness and \
+                     the exposure cannot both be found; give the photo's exposure as a number",
+                ))
+            }
+            None => {
+                let k = auto_exposure(&mut scene, &camera, &photo, options, &label)?;
+                warnings.push(format!(
+                    "{label}: exposure \"auto\" fitted once at the starting values: k = {k:.6}"
+                ));
+                k
+            }
+        };
+        views.push(View::new(&scene, &label, camera, &photo, k)?);
+    }
+    let pixels = views.iter().map(View::pixels).sum();
+    if views.iter().all(|v| v.pixels() == 0) {
+        return Err(Error::InvalidArgument(
+            "no photo pixel sees a real surface of the scene (every mask is empty)".into(),
+        ));
+    }
+    // The windows first: Adam then starts from their brightness.
+    let mut windows = Vec::new();
+    let mut written = Vec::new();
+    for (name, mesh, table, index) in window_lights {
+        let found = light::fit_window(
+            &mut scene,
+            description.as_ref(),
+            &views,
+            mesh,
+            &light::WindowFitOptions {
+                spp: 4 * options.spp,
+                seed: options.seed ^ 0x9e37,
+                threads: options.threads,
+                fit_direction: options.window_direction,
+                fit_size: options.window_size,
+                fit_shape: options.window_shape,
+                fit_penumbra: !(options.window_size || options.window_shape),
+                max_evaluations: if options.window_shape {
+                    400
+                } else if rebuilds {
+                    160
+                } else {
+                    80
+                },
+            },
+        )?;
+        let owner = Owner::Pls {
+            mesh,
+            table,
+            light: index,
+        };
+        let mut fields = vec![
+            ("a", vec![found.a_deg]),
+            ("penumbra", vec![found.penumbra_deg]),
+            ("b", vec![found.b]),
+        ];
+        if options.window_direction {
+            fields.push(("n", found.n.to_array().to_vec()));
+        }
+        if rebuilds {
+            fields.push(("e1", found.e[0].to_array().to_vec()));
+            fields.push(("e2", found.e[1].to_array().to_vec()));
+        }
+        if options.window_shape {
+            // The explicit outline (a circle light becomes one).
+            let alpha = scene.meshes()[mesh]
+                .pls
+                .as_ref()
+                .map_or([1.0 / 3.0, 2.0 / 3.0], |p| {
+                    [p.light.g.alpha1, p.light.g.alpha2]
+                });
+            fields.push(("alpha1", vec![alpha[0]]));
+            fields.push(("alpha2", vec![alpha[1]]));
+            fields.push(("d", found.d.to_vec()));
+        } else if options.window_size {
+            fields.push(("d", found.d.to_vec()));
+            // A circle light's radius (its `d2 = d3 = 1.35·r`).
+            fields.push((
+                "circle.radius",
+                vec![found.d[1] / plsr::light::pls::CIRCLE_FACTOR],
+            ));
+        }
+        for (field, v) in fields {
+            written.push(Parameter {
+                name: format!("{name}.{field}"),
+                owner: owner.clone(),
+                field,
+                initial: v.clone(),
+                value: v,
+                bounds: (f32::MIN, f32::MAX),
+                slot: u32::MAX,
+            });
+        }
+        for p in &mut params {
+            if p.owner == owner {
+                if let Some(pls) = &scene.meshes()[mesh].pls {
+                    p.value = match p.field {
+                        "b" => vec![pls.light.b],
+                        _ => pls.light.c.to_array().to_vec(),
+                    };
+                    p.initial = p.value.clone();
+                }
+            }
+        }
+        windows.push((name, found));
+    }
+    if !adam {
+        let fitted = write::fitted_files(path, &scene, &written, out)?;
+        let loss = windows.last().map_or(0.0, |w| w.1.loss);
+        return Ok(FitOutcome {
+            parameters: written,
+            losses: vec![loss],
+            warnings,
+            seconds_per_iteration: 0.0,
+            pixels,
+            windows,
+            fitted,
+        });
+    }
+    let mut fit = Fit::new(scene, views, params, options.clone())?;
+    let mut losses = Vec::with_capacity(options.iterations as usize + 1);
+    let mut seconds = 0.0;
+    for i in 0..options.iterations {
+        let it = fit.step(i)?;
+        losses.push(it.loss);
+        seconds += it.seconds;
+        if !progress(&it, fit.parameters()) {
+            return Err(Error::Cancelled);
+        }
+    }
+    fit.finish()?;
+    losses.push(fit.loss(options.seed.wrapping_add(2 * options.iterations as u64))?);
+    warnings.extend(fit.warnings());
+    // A light's b fitted by Adam replaces the window search's.
+    written.retain(|w| {
+        !fit.parameters()
+            .iter()
+            .any(|p| p.owner == w.owner && p.field == w.field)
+    });
+    let mut parameters = written;
+    parameters.extend(fit.parameters().iter().cloned());
+    let fitted = write::fitted_files(path, fit.scene(), &parameters, out)?;
+    Ok(FitOutcome {
+        windows,
+        parameters,
+        losses,
+        warnings,
+        seconds_per_iteration: seconds / options.iterations.max(1) as f64,
+        pixels,
+        fitted,
+    })
+}
+
+/// The exposure `k` of `photo ≈ k·render` at the starting values, by the
+/// compositing's robust fit over the view's surface pixels.
+fn auto_exposure(
+    scene: &mut Scene,
+    camera: &Camera,
+    photo: &Photo,
+    options: &FitOptions,
+    label: &str,
+) -> Result<f32> {
+    if (photo.width, photo.height) != (camera.width(), camera.height()) {
+        return Err(Error::InvalidArgument(format!(
+            "{label}: the photo is {}×{} pixels but its camera renders {}×{}",
+            photo.width,
+            photo.height,
+            camera.width(),
+            camera.height()
+        )));
+    }
+    scene.set_camera(camera.clone());
+    let mask = surface_mask(scene, camera);
+    let job = RenderJob {
+        spp: options.spp.max(16),
+        sample_start: 0,
+        max_depth: scene.default_job().max_depth,
+        seed: options.seed ^ 0x5eed,
+        hide_virtual: true,
+        ..Default::default()
+    };
+    let render_options = RenderOptions {
+        threads: options.threads,
+        ..RenderOptions::default()
+    };
+    let (sums, _) = render_sums(scene, &job, &render_options, &|_, _| true)?;
+    let without = sums.means();
+    let matte: Vec<f32> = mask.iter().map(|m| if *m { 0.0 } else { 1.0 }).collect();
+    crate::composite::fit_exposure(&photo.radiance, &without, &matte)
+        .map(|f| f.k)
+        .ok_or_else(|| {
+            Error::InvalidArgument(format!(
+                "{label}: the exposure cannot be fitted: the render is black where the photo \
+                 sees the scene's surfaces"
+            ))
+        })
+}
+
+impl FitOutcome {
+    /// Writes the fitted scene to `out` (and its fitted PLS files beside
+    /// it), the loss curve as CSV to `loss_csv` and as a PNG plot to
+    /// `loss_png`, all committed together; none may replace one of the
+    /// scene's `inputs`.
+    pub fn write(
+        &self,
+        out: &std::path::Path,
+        loss_csv: &std::path::Path,
+        loss_png: &std::path::Path,
+        inputs: &[std::path::PathBuf],
+    ) -> Result<()> {
+        let mut targets: Vec<(&std::path::Path, &str)> = vec![(out, self.fitted.scene.as_str())];
+        for (p, text) in &self.fitted.pls {
+            targets.push((p, text));
+        }
+        for (target, _) in &targets {
+            if let Some(input) = inputs
+                .iter()
+                .find(|i| plsr_base::atomic_write::same_file(i, target))
+            {
+                return Err(Error::Output {
+                    file: target.to_path_buf(),
+                    message: format!("would replace the input {}", input.display()),
+                });
+            }
+        }
+        for extra in [loss_csv, loss_png] {
+            if inputs
+                .iter()
+                .any(|i| plsr_base::atomic_write::same_file(i, extra))
+            {
+                return Err(Error::Output {
+                    file: extra.to_path_buf(),
+                    message: "would replace one of the scene's inputs".into(),
+                });
+            }
+        }
+        let mut outputs = plsr_base::atomic_write::OutputSet::new();
+        for (target, text) in targets {
+            outputs.stage_bytes(target, text.as_bytes())?;
+        }
+        plot::stage_loss_csv(&mut outputs, loss_csv, &self.losses)?;
+        plot::stage_loss_plot(&mut outputs, loss_png, &self.losses)?;
+        outputs.commit()
+    }
+}

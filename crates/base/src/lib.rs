@@ -1,0 +1,18 @@
+//! plsr's building blocks, below everything else in the workspace: the
+//! error type every crate reports through, files replaced all at once,
+//! checks of a user's input files, random streams, colour, the worker
+//! threads, the machine's free memory and a bitmap font for plot labels.
+//!
+//! Nothing here knows about scenes, images or Embree (but [`EmbreeError`],
+//! the data of an Embree failure, so that [`Error`] can carry it).
+
+pub mod atomic_write;
+pub mod color;
+pub mod error;
+pub mod input;
+pub mod memory;
+pub mod rng;
+pub mod text;
+pub mod threads;
+
+pub use error::{EmbreeError, Error, Result};

@@ -1,0 +1,117 @@
+//! `plsr composite`: virtual objects into a photograph, with their shadows.
+
+use crate::progress::progress_bar;
+use plsr::atomic_write::{check_extension, same_file, OutputSet};
+use plsr::error::{Error, Result};
+use plsr::render::RenderOptions;
+use plsr_apps::composite::{composite_scene, CompositeOptions, Mode};
+use std::path::PathBuf;
+
+/// Arguments of `plsr composite`.
+#[derive(Debug, clap::Args)]
+pub struct CompositeArgs {
+    /// The scene file, with a [photo] table and shapes marked `virtual = true`.
+    pub scene: PathBuf,
+    /// Output OpenEXR (linear: composite RGB, matte A, difference.R/G/B).
+    #[arg(short, long, value_name = "OUT.exr")]
+    pub output: PathBuf,
+    /// Also write an 8-bit PNG encoded through the photo's response.
+    #[arg(long, value_name = "OUT.png")]
+    pub png: Option<PathBuf>,
+    /// `differential` (objects, their shadows and reflected light) or
+    /// `superimpose` (objects pasted over the photo).
+    #[arg(long, default_value = "differential")]
+    pub mode: Mode,
+    /// Samples per pixel of each render (default: the scene's render.spp).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Random seed (default: the scene's render.seed).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// No progress bar.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+/// Runs `plsr composite`.
+pub fn run(a: &CompositeArgs) -> Result<()> {
+    let output_error = |file: &PathBuf, message: String| Error::Output {
+        file: file.clone(),
+        message,
+    };
+    check_extension(&a.output, "exr", "OpenEXR")
+        .map_err(|m| output_error(&a.output, format!("-o: {m}")))?;
+    if let Some(p) = &a.png {
+        check_extension(p, "png", "PNG").map_err(|m| output_error(p, format!("--png: {m}")))?;
+        if same_file(p, &a.output) {
+            return Err(output_error(p, "--png names the same file as -o".into()));
+        }
+    }
+    if a.spp == Some(0) {
+        return Err(Error::InvalidArgument("--spp must be at least 1".into()));
+    }
+    let contents = plsr::scene::file::load_contents(&a.scene)?;
+    for out in std::iter::once(&a.output).chain(&a.png) {
+        if let Some(input) = std::iter::once(&a.scene)
+            .chain(&contents.inputs)
+            .find(|i| same_file(out, i))
+        {
+            return Err(output_error(
+                out,
+                format!(
+                    "is {}, which the scene reads: it would be overwritten",
+                    input.display()
+                ),
+            ));
+        }
+    }
+    let options = CompositeOptions {
+        mode: a.mode,
+        spp: a.spp,
+        seed: a.seed,
+        render: RenderOptions {
+            threads: a.threads,
+            ..Default::default()
+        },
+    };
+    let bar = progress_bar(
+        a.quiet,
+        "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} tiles, with and without the virtual objects (eta {eta})",
+    );
+    let progress = |done: usize, total: usize| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+        true
+    };
+    let (result, transfer, report) = composite_scene(&a.scene, contents, &options, &progress)?;
+    bar.finish_and_clear();
+    let mut outputs = OutputSet::new();
+    result.stage_exr(&mut outputs, &a.output)?;
+    if let Some(p) = &a.png {
+        result.stage_png(&mut outputs, p, &transfer)?;
+    }
+    outputs.commit()?;
+    let exposure = match report.fit {
+        Some(f) => format!(
+            "exposure k = {:.5} fitted on {} of {} pixels (relative RMS residual {:.3})",
+            f.k, f.used, f.considered, f.relative_rms
+        ),
+        None => format!("exposure k = {} (from the scene)", result.k),
+    };
+    eprintln!(
+        "composited {}×{} ({:?}) in {:.2} s of rendering, {exposure} → {}{}",
+        result.width,
+        result.height,
+        a.mode,
+        report.render_seconds,
+        a.output.display(),
+        a.png
+            .as_ref()
+            .map(|p| format!(", {}", p.display()))
+            .unwrap_or_default()
+    );
+    Ok(())
+}

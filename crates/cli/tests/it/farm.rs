@@ -1,0 +1,659 @@
+//! Pieces of a render (`plsr render --samples` / `--crop`) and `plsr
+//! merge`: merged sample ranges give the image of one render of their
+//! union, stitched windows the full image bit for bit, and bad sets of
+//! parts are refused with the file named and no output written.
+
+use plsr_testkit as common;
+
+use common::films::assert_close;
+use plsr::film::Film;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const SCENE: &str = "tests/data/cornell-64.toml";
+
+/// Runs `plsr ARGS` and returns (success, stderr).
+fn plsr(args: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .args(args)
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+/// `plsr merge` takes no `--quiet`.
+fn merge(parts: &[&Path], out: &Path) -> (bool, String) {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_plsr"));
+    cmd.arg("merge");
+    for p in parts {
+        cmd.arg(p);
+    }
+    let out = cmd.arg("-o").arg(out).output().unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+/// Renders a part of the test scene with `extra` arguments into `dir/name`.
+fn part(dir: &Path, name: &str, extra: &[&str]) -> PathBuf {
+    let path = dir.join(name);
+    let mut args = vec![
+        "render",
+        SCENE,
+        "-o",
+        path.to_str().unwrap(),
+        "--max-depth",
+        "3",
+    ];
+    args.extend_from_slice(extra);
+    let (ok, err) = plsr(&args);
+    assert!(ok, "{name}: {err}");
+    path
+}
+
+#[test]
+fn sample_ranges_merge_into_the_render_of_their_union() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let whole = part(d, "whole.exr", &["--spp", "16"]);
+    // Uneven ranges, given to merge out of order.
+    let parts = [
+        part(d, "c.exr", &["--samples", "8..9"]),
+        part(d, "a.exr", &["--samples", "0..3"]),
+        part(d, "d.exr", &["--samples", "9..16"]),
+        part(d, "b.exr", &["--samples", "3..8"]),
+    ];
+    let merged = d.join("merged.exr");
+    let refs: Vec<&Path> = parts.iter().map(|p| p.as_path()).collect();
+    let (ok, err) = merge(&refs, &merged);
+    assert!(ok, "{err}");
+    let (w, m) = (
+        Film::read_exr(&whole).unwrap(),
+        Film::read_exr(&merged).unwrap(),
+    );
+    assert!(w.color.iter().any(|c| c.max_element() > 0.0));
+    // The sums add in another grouping than one render's, so the means may
+    // differ in the last bits of their f64 sums: ulp-level.
+    assert_close("4 sample ranges", &w, &m, 1e-6);
+    // One part of the whole range is the render itself, bit for bit.
+    let all = part(d, "all.exr", &["--samples", "0..16"]);
+    let one = d.join("one.exr");
+    assert!(merge(&[&all], &one).0);
+    assert_close("one part", &w, &Film::read_exr(&one).unwrap(), 0.0);
+}
+
+#[test]
+fn windows_stitch_into_the_full_image_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let whole = part(d, "whole.exr", &["--spp", "5"]);
+    let parts = [
+        part(d, "a.exr", &["--spp", "5", "--crop", "0,0,40,25"]),
+        part(d, "b.exr", &["--spp", "5", "--crop", "40,0,64,25"]),
+        part(d, "c.exr", &["--spp", "5", "--crop", "0,25,30,64"]),
+        part(d, "d.exr", &["--spp", "5", "--crop", "30,25,64,64"]),
+    ];
+    let merged = d.join("merged.exr");
+    let refs: Vec<&Path> = parts.iter().map(|p| p.as_path()).collect();
+    let (ok, err) = merge(&refs, &merged);
+    assert!(ok, "{err}");
+    assert_close(
+        "4 windows",
+        &Film::read_exr(&whole).unwrap(),
+        &Film::read_exr(&merged).unwrap(),
+        0.0,
+    );
+    // Windows and sample ranges together.
+    let mixed = [
+        part(d, "e.exr", &["--samples", "0..2", "--crop", "0,0,64,30"]),
+        part(d, "f.exr", &["--samples", "2..5", "--crop", "0,0,64,30"]),
+        part(d, "g.exr", &["--samples", "0..4", "--crop", "0,30,64,64"]),
+        part(d, "h.exr", &["--samples", "4..5", "--crop", "0,30,64,64"]),
+    ];
+    let refs: Vec<&Path> = mixed.iter().map(|p| p.as_path()).collect();
+    assert!(merge(&refs, &merged).0);
+    assert_close(
+        "windows × ranges",
+        &Film::read_exr(&whole).unwrap(),
+        &Film::read_exr(&merged).unwrap(),
+        1e-6,
+    );
+}
+
+#[test]
+fn bad_sets_of_parts_are_refused_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let a = part(d, "a.exr", &["--samples", "0..4"]);
+    let b = part(d, "b.exr", &["--samples", "4..8"]);
+    let other_seed = part(d, "seed.exr", &["--samples", "4..8", "--seed", "7"]);
+    let gap = part(d, "gap.exr", &["--samples", "6..8"]);
+    let overlap = part(d, "overlap.exr", &["--samples", "2..8"]);
+    let window = part(
+        d,
+        "window.exr",
+        &["--samples", "0..8", "--crop", "0,0,64,32"],
+    );
+    let plain = d.join("plain.exr");
+    assert!(plsr(&["render", SCENE, "-o", plain.to_str().unwrap(), "--spp", "2"]).0);
+    let truncated = d.join("truncated.exr");
+    let bytes = std::fs::read(&b).unwrap();
+    std::fs::write(&truncated, &bytes[..bytes.len() * 2 / 3]).unwrap();
+    let out = d.join("out.exr");
+    for (what, parts, file, says) in [
+        (
+            "another seed",
+            vec![&a, &other_seed],
+            &other_seed,
+            "scene hash",
+        ),
+        ("a gap", vec![&a, &gap], &gap, "samples 4..6 are missing"),
+        (
+            "an overlap",
+            vec![&a, &overlap],
+            &overlap,
+            "overlap samples 0..4",
+        ),
+        (
+            "a truncated part",
+            vec![&a, &truncated],
+            &truncated,
+            "cannot read EXR",
+        ),
+        ("a plain render", vec![&a, &plain], &plain, "not a part"),
+        (
+            "a missing window",
+            vec![&window],
+            &window,
+            "no part covers pixel (0, 32)",
+        ),
+    ] {
+        let refs: Vec<&Path> = parts.iter().map(|p| p.as_path()).collect();
+        let (ok, err) = merge(&refs, &out);
+        assert!(!ok, "{what}: merged");
+        let name = file.file_name().unwrap().to_str().unwrap();
+        assert!(
+            err.contains(says) && (what == "a missing window" || err.contains(name)),
+            "{what}: {err}"
+        );
+        assert!(!out.exists(), "{what}: left an output");
+    }
+    // The good pair merges.
+    assert!(merge(&[&a, &b], &out).0);
+    // Bad options.
+    for (args, says) in [
+        (vec!["--samples", "5..5"], "START must be below END"),
+        (vec!["--samples", "x..4"], "not a sample index"),
+        (
+            vec!["--samples", "0..4", "--spp", "4"],
+            "cannot be used with",
+        ),
+        (vec!["--crop", "0,0,65,10"], "reaches past the 64×64 image"),
+        (vec!["--crop", "3,0,3,10"], "empty"),
+        (vec!["--crop", "1,2,3"], "expected X0,Y0,X1,Y1"),
+    ] {
+        let o = d.join("bad.exr");
+        let mut full = vec!["render", SCENE, "-o", o.to_str().unwrap()];
+        full.extend(args.iter().copied());
+        let (ok, err) = plsr(&full);
+        assert!(!ok && err.contains(says), "{args:?}: {err}");
+        assert!(!o.exists());
+    }
+}
+
+/// The test scene in `dir` with `camera` in place of its `[camera]` table.
+fn scene_with_camera(dir: &Path, camera: &str) -> PathBuf {
+    common::scenes::cornell_64(dir, "scene.toml", Some(camera), "")
+}
+
+/// A camera at `position` (x, z) looking into the box.
+fn static_camera(x: f32, z: f32) -> String {
+    format!(
+        "[camera]\nposition = [{x}, 273, {z}]\nlook_at = [278, 273, 0]\nup = [0, 1, 0]\n\
+         vfov = 37\nresolution = [64, 64]"
+    )
+}
+
+/// Three keys: frame 0 at x 278, frame 4 at x 378 (z −800 throughout),
+/// frame 6 at z −700.
+const PATH_CAMERA: &str = "[camera]\nup = [0, 1, 0]\nvfov = 37\nresolution = [64, 64]\n\
+    [[camera.path]]\nframe = 0\nposition = [278, 273, -800]\nlook_at = [278, 273, 0]\n\
+    [[camera.path]]\nframe = 4\nposition = [378, 273, -800]\nlook_at = [278, 273, 0]\n\
+    [[camera.path]]\nframe = 6\nposition = [378, 273, -700]\nlook_at = [278, 273, 0]";
+
+#[test]
+fn frames_follow_the_camera_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let anim = scene_with_camera(d, PATH_CAMERA);
+    let pattern = d.join("frame-{frame}.exr");
+    let (ok, err) = plsr(&[
+        "render",
+        anim.to_str().unwrap(),
+        "-o",
+        pattern.to_str().unwrap(),
+        "--frames",
+        "0..=6",
+        "--spp",
+        "2",
+    ]);
+    assert!(ok, "{err}");
+    // Keys and the frames between are the poses of static cameras there,
+    // bit for bit (the interpolated positions are exact in f32 here).
+    let sub = tempfile::tempdir().unwrap();
+    for (frame, x, z) in [
+        (0, 278.0, -800.0),
+        (2, 328.0, -800.0),
+        (4, 378.0, -800.0),
+        (5, 378.0, -750.0),
+        (6, 378.0, -700.0),
+    ] {
+        let still = scene_with_camera(sub.path(), &static_camera(x, z));
+        let out = sub.path().join("still.exr");
+        let (ok, err) = plsr(&[
+            "render",
+            still.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--spp",
+            "2",
+        ]);
+        assert!(ok, "{err}");
+        let framed = d.join(format!("frame-{frame:04}.exr"));
+        assert_close(
+            &format!("frame {frame}"),
+            &Film::read_exr(&out).unwrap(),
+            &Film::read_exr(&framed).unwrap(),
+            0.0,
+        );
+    }
+    assert!(!d.join("frame-0007.exr").exists());
+    // Frames differ from each other.
+    assert_ne!(
+        Film::read_exr(&d.join("frame-0000.exr")).unwrap().color,
+        Film::read_exr(&d.join("frame-0006.exr")).unwrap().color
+    );
+    // Bad frames and paths.
+    let one = d.join("one.exr");
+    let anim_s = anim.to_str().unwrap();
+    for (args, says) in [
+        (
+            vec!["--frame", "7"],
+            "the camera path runs from frame 0 to 6",
+        ),
+        (vec!["--frames", "0..3"], "the name must contain {frame}"),
+        (vec!["--frames", "4..4"], "no frames"),
+        (vec!["--frames", "a..4"], "not a frame number"),
+    ] {
+        let mut full = vec!["render", anim_s, "-o", one.to_str().unwrap()];
+        full.extend(args.iter().copied());
+        let (ok, err) = plsr(&full);
+        assert!(!ok && err.contains(says), "{args:?}: {err}");
+        assert!(!one.exists());
+    }
+    let (ok, err) = plsr(&["render", SCENE, "-o", one.to_str().unwrap(), "--frame", "0"]);
+    assert!(!ok && err.contains("has no camera path"), "{err}");
+    let bad = scene_with_camera(d, &PATH_CAMERA.replace("frame = 4", "frame = 0"));
+    let (ok, err) = plsr(&["render", bad.to_str().unwrap(), "-o", one.to_str().unwrap()]);
+    assert!(
+        !ok && err.contains("camera.path[1].frame") && err.contains("frames must increase"),
+        "{err}"
+    );
+}
+
+/// Runs the plsr command line `command` (its first word `plsr`) with the
+/// pods' `mount` mapped to the local `root`, and `env`.
+fn run_as_pod(
+    command: &[String],
+    mount: &str,
+    root: &Path,
+    env: &[(&str, String)],
+) -> (bool, String) {
+    assert_eq!(command[0], "plsr");
+    let args: Vec<String> = command[1..]
+        .iter()
+        .map(|a| a.replace(mount, root.to_str().unwrap()))
+        .collect();
+    let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .args(&args)
+        .envs(env.iter().map(|(k, v)| (k, v)))
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+#[test]
+fn kubernetes_manifests_are_indexed_jobs_whose_pods_render_the_pieces() {
+    let volume = tempfile::tempdir().unwrap();
+    let root = std::fs::canonicalize(volume.path()).unwrap();
+    let anim = scene_with_camera(&root, PATH_CAMERA);
+    let out = root.join("renders/shot");
+    let (ok, err) = plsr(&[
+        "farm",
+        "k8s",
+        anim.to_str().unwrap(),
+        "--parts",
+        "2",
+        "--spp",
+        "6",
+        "--frames",
+        "3..5",
+        "-o",
+        out.to_str().unwrap(),
+        "--image",
+        "registry.example.com/plsr:0.2",
+        "--claim",
+        "render-data",
+        "--volume-root",
+        root.to_str().unwrap(),
+        "--mount",
+        "/mnt/vol",
+        "--cpus",
+        "2",
+        "--memory",
+        "2Gi",
+    ]);
+    assert!(ok, "{err}");
+    let yaml = |name: &str| -> serde_yaml::Value {
+        serde_yaml::from_str(&std::fs::read_to_string(out.join(name)).unwrap()).unwrap()
+    };
+    let render = yaml("render-job.yaml");
+    let merge = yaml("merge-job.yaml");
+    let s = |v: &serde_yaml::Value| v.as_str().unwrap().to_string();
+    let command = |job: &serde_yaml::Value| -> Vec<String> {
+        job["spec"]["template"]["spec"]["containers"][0]["command"]
+            .as_sequence()
+            .unwrap()
+            .iter()
+            .map(s)
+            .collect()
+    };
+    for job in [&render, &merge] {
+        assert_eq!(s(&job["apiVersion"]), "batch/v1");
+        assert_eq!(s(&job["kind"]), "Job");
+        let pod = &job["spec"]["template"]["spec"];
+        assert_eq!(s(&pod["restartPolicy"]), "Never");
+        let c = &pod["containers"][0];
+        assert_eq!(s(&c["image"]), "registry.example.com/plsr:0.2");
+        assert_eq!(s(&c["volumeMounts"][0]["mountPath"]), "/mnt/vol");
+        assert_eq!(s(&c["resources"]["requests"]["memory"]), "2Gi");
+        assert_eq!(s(&c["resources"]["requests"]["cpu"]), "2");
+        let volume = &pod["volumes"][0];
+        assert_eq!(volume["name"], c["volumeMounts"][0]["name"]);
+        assert_eq!(
+            s(&volume["persistentVolumeClaim"]["claimName"]),
+            "render-data"
+        );
+    }
+    assert_eq!(s(&render["metadata"]["name"]), "plsr-shot-render");
+    assert_eq!(s(&merge["metadata"]["name"]), "plsr-shot-merge");
+    // Frames 3 and 4, two parts each.
+    assert_eq!(s(&render["spec"]["completionMode"]), "Indexed");
+    assert_eq!(render["spec"]["completions"].as_u64(), Some(4));
+    assert_eq!(render["spec"]["parallelism"].as_u64(), Some(4));
+    let render_cmd = command(&render);
+    assert_eq!(
+        render_cmd,
+        [
+            "plsr",
+            "farm",
+            "piece",
+            "/mnt/vol/renders/shot/farm.toml",
+            "--threads",
+            "2"
+        ]
+    );
+    assert_eq!(
+        command(&merge),
+        ["plsr", "farm", "merge", "/mnt/vol/renders/shot/farm.toml"]
+    );
+    let script = std::fs::read_to_string(out.join("run-k8s.sh")).unwrap();
+    let order: Vec<usize> = [
+        "apply -f ",
+        "wait --for=condition=complete --timeout=${PLSR_TIMEOUT:-168h} job/plsr-shot-render",
+        "merge-job.yaml",
+        "job/plsr-shot-merge",
+    ]
+    .iter()
+    .map(|w| {
+        script
+            .find(w)
+            .unwrap_or_else(|| panic!("{w} not in {script}"))
+    })
+    .collect();
+    assert!(order.windows(2).all(|w| w[0] < w[1]), "{script}");
+
+    // The pods, run here with the volume at its local path: merging before
+    // every piece is there is refused, naming what is missing.
+    let merge_cmd = command(&merge);
+    let pod = |i: u32| {
+        let (ok, err) = run_as_pod(
+            &render_cmd,
+            "/mnt/vol",
+            &root,
+            &[("JOB_COMPLETION_INDEX", i.to_string())],
+        );
+        assert!(ok, "pod {i}: {err}");
+    };
+    for i in [0, 2, 3] {
+        pod(i);
+    }
+    let (ok, err) = run_as_pod(&merge_cmd, "/mnt/vol", &root, &[]);
+    assert!(
+        !ok && err.contains("1 of 4 pieces are missing or stale (1)"),
+        "{err}"
+    );
+    assert!(!out.join("image-0003.exr").exists());
+    pod(1);
+    let (ok, err) = run_as_pod(&merge_cmd, "/mnt/vol", &root, &[]);
+    assert!(ok, "{err}");
+    let single = root.join("single.exr");
+    assert!(
+        plsr(&[
+            "render",
+            anim.to_str().unwrap(),
+            "--frame",
+            "4",
+            "--spp",
+            "6",
+            "-o",
+            single.to_str().unwrap()
+        ])
+        .0
+    );
+    assert_close(
+        "frame 4 from pods",
+        &Film::read_exr(&single).unwrap(),
+        &Film::read_exr(&out.join("image-0004.exr")).unwrap(),
+        1e-6,
+    );
+    assert!(out.join("image-0003.png").is_file());
+    let (ok, err) = run_as_pod(
+        &render_cmd,
+        "/mnt/vol",
+        &root,
+        &[("JOB_COMPLETION_INDEX", "4".into())],
+    );
+    assert!(!ok && err.contains("has pieces 0 to 3"), "{err}");
+}
+
+#[test]
+fn bad_farm_requests_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("out");
+    let o = out.to_str().unwrap();
+    let (ok, err) = plsr(&["farm", "slurm", SCENE, "--parts", "0", "-o", o]);
+    assert!(
+        !ok && err.contains("--parts: must be between 1 and spp"),
+        "{err}"
+    );
+    let (ok, err) = plsr(&[
+        "farm", "slurm", SCENE, "--parts", "9", "--spp", "8", "-o", o,
+    ]);
+    assert!(
+        !ok && err.contains("each part renders at least one sample"),
+        "{err}"
+    );
+    let (ok, err) = plsr(&[
+        "farm", "slurm", SCENE, "--parts", "2", "--frames", "0..2", "-o", o,
+    ]);
+    assert!(!ok && err.contains("has no camera path"), "{err}");
+    assert!(!out.exists(), "a refused plan makes no folder");
+    // The plan would replace the scene (a scene named farm.toml, OUTDIR its
+    // folder): refused, the scene untouched.
+    let own = d.join("own");
+    std::fs::create_dir(&own).unwrap();
+    let scene_text = std::fs::read_to_string(SCENE).unwrap().replace(
+        "\"../../assets/",
+        &format!("\"{}/", std::fs::canonicalize("assets").unwrap().display()),
+    );
+    std::fs::write(own.join("farm.toml"), &scene_text).unwrap();
+    let (ok, err) = plsr(&[
+        "farm",
+        "slurm",
+        own.join("farm.toml").to_str().unwrap(),
+        "--parts",
+        "2",
+        "-o",
+        own.to_str().unwrap(),
+    ]);
+    assert!(!ok && err.contains("which the scene reads"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(own.join("farm.toml")).unwrap(),
+        scene_text
+    );
+    assert!(!own.join("render.sbatch").exists());
+    // The pods see only the volume: a scene outside it is refused.
+    let root = d.join("volume");
+    std::fs::create_dir(&root).unwrap();
+    let (ok, err) = plsr(&[
+        "farm",
+        "k8s",
+        SCENE,
+        "--parts",
+        "2",
+        "-o",
+        root.join("o").to_str().unwrap(),
+        "--image",
+        "i",
+        "--claim",
+        "c",
+        "--volume-root",
+        root.to_str().unwrap(),
+    ]);
+    assert!(!ok && err.contains("is not inside --volume-root"), "{err}");
+    let (ok, err) = plsr(&[
+        "farm",
+        "piece",
+        d.join("nothing.toml").to_str().unwrap(),
+        "0",
+    ]);
+    assert!(!ok && err.contains("nothing.toml"), "{err}");
+    // A plan, then a piece without an index outside a batch system.
+    assert!(plsr(&["farm", "slurm", SCENE, "--parts", "2", "--spp", "2", "-o", o]).0);
+    let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .args(["farm", "piece", out.join("farm.toml").to_str().unwrap()])
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env_remove("JOB_COMPLETION_INDEX")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("no piece index"),
+        "{err}"
+    );
+}
+
+#[test]
+fn resume_adds_samples_to_a_part() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("resumed.exr");
+    let o = out.to_str().unwrap();
+    let (ok, err) = plsr(&[
+        "render",
+        SCENE,
+        "-o",
+        o,
+        "--resume",
+        "--spp",
+        "4",
+        "--max-depth",
+        "3",
+    ]);
+    assert!(ok, "{err}");
+    let (ok, err) = plsr(&[
+        "render",
+        SCENE,
+        "-o",
+        o,
+        "--resume",
+        "--spp",
+        "16",
+        "--max-depth",
+        "3",
+    ]);
+    assert!(ok, "{err}");
+    let whole = part(d, "whole.exr", &["--spp", "16"]);
+    let resumed = Film::read_exr(&out).unwrap();
+    assert_eq!(resumed.spp, 16);
+    assert_close("resumed", &Film::read_exr(&whole).unwrap(), &resumed, 1e-6);
+    // Nothing left to do, then a plain render and other settings refused.
+    let (ok, err) = plsr(&[
+        "render",
+        SCENE,
+        "-o",
+        o,
+        "--resume",
+        "--spp",
+        "16",
+        "--max-depth",
+        "3",
+    ]);
+    assert!(ok && err.contains("holds 16 samples already"), "{err}");
+    let w = whole.to_str().unwrap();
+    let (ok, err) = plsr(&[
+        "render",
+        SCENE,
+        "-o",
+        w,
+        "--resume",
+        "--spp",
+        "32",
+        "--max-depth",
+        "3",
+    ]);
+    assert!(
+        !ok && err.contains("whole.exr") && err.contains("not a part"),
+        "{err}"
+    );
+    let (ok, err) = plsr(&[
+        "render",
+        SCENE,
+        "-o",
+        o,
+        "--resume",
+        "--spp",
+        "32",
+        "--max-depth",
+        "4",
+    ]);
+    assert!(
+        !ok && err.contains("resumed.exr") && err.contains("scene hash"),
+        "{err}"
+    );
+    assert_eq!(
+        Film::read_exr(&out).unwrap().spp,
+        16,
+        "the refused resume left it"
+    );
+}

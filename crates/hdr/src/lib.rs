@@ -1,0 +1,21 @@
+//! HDR panoramas from bracketed exposures.
+//!
+//! - [`oiio`]: reading and writing images through OpenImageIO (C++ shim);
+//! - [`response`]: camera response curves (Debevec–Malik, Robertson, linear,
+//!   sRGB), saved as CSV and plotted as PNG;
+//! - [`merge`]: the streaming merge of brackets into one float/half EXR, with
+//!   optional median-threshold-bitmap alignment ([`align`]);
+//! - [`synth`]: synthetic HDR scenes and simulated brackets for tests and the
+//!   benchmark;
+//!
+//! The simulated 360° capture of a rendered scene is [`plsr_apps::capture`]
+//! (it renders, so it sits above the renderer); the `plsr hdr` commands and
+//! `plsr bench hdr` are in the program.
+//!
+//! See docs/hdr.md.
+
+pub mod align;
+pub mod merge;
+pub use plsr_oiio as oiio;
+pub mod response;
+pub mod synth;

@@ -1,0 +1,477 @@
+//! glTF 2.0 import: a glTF quad placed in a scene renders bit for bit as the
+//! equivalent plsr rectangle; node transforms, texture coordinates (v
+//! flipped), metallic-roughness channels and factors, cameras and point
+//! lights are read as glTF defines them; `.gltf` and `.glb` render alike;
+//! bad files are refused naming the file and the fault.
+
+use plsr_testkit as common;
+
+use common::films::assert_close;
+use glam::{Vec2, Vec3};
+use plsr::film::Film;
+use plsr::render::{render, RenderOptions};
+use plsr::scene::gltf_scene::{read_gltf, LUMENS_PER_WATT};
+use plsr::scene::Scene;
+use std::path::Path;
+
+fn render_file(path: &Path) -> Film {
+    let scene = Scene::load(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap()
+    .0
+}
+
+/// The quad `[-1, 1]²` at z = 0 facing +z, as plsr's rectangle makes it:
+/// positions, texture coordinates (glTF's, v down) and two triangles.
+fn quad_buffer() -> Vec<u8> {
+    let p: [[f32; 3]; 4] = [[-1., -1., 0.], [1., -1., 0.], [1., 1., 0.], [-1., 1., 0.]];
+    let mut b = Vec::new();
+    for v in p {
+        for x in v {
+            b.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    for v in p {
+        // plsr's rectangle: u = (x+1)/2, v = (y+1)/2; glTF's v runs down.
+        let (u, w) = (0.5 * (v[0] + 1.0), 1.0 - 0.5 * (v[1] + 1.0));
+        b.extend_from_slice(&u.to_le_bytes());
+        b.extend_from_slice(&w.to_le_bytes());
+    }
+    for i in [0u16, 1, 2, 0, 2, 3] {
+        b.extend_from_slice(&i.to_le_bytes());
+    }
+    b
+}
+
+/// The glTF JSON of the quad: `uri` for its buffer (`None` for a GLB's
+/// own), a node moving it, a material with a base-colour texture and
+/// metallic-roughness texture, a camera and a point light.
+fn quad_json(uri: Option<&str>, material: &str) -> String {
+    let uri = uri
+        .map(|u| format!(", \"uri\": \"{u}\""))
+        .unwrap_or_default();
+    format!(
+        r#"{{
+  "asset": {{"version": "2.0"}},
+  "extensionsUsed": ["KHR_lights_punctual"],
+  "extensions": {{"KHR_lights_punctual": {{"lights": [
+    {{"type": "point", "color": [1, 0.5, 0.25], "intensity": 683}},
+    {{"type": "directional"}}
+  ]}}}},
+  "scene": 0,
+  "scenes": [{{"nodes": [0, 1, 2, 3]}}],
+  "nodes": [
+    {{"mesh": 0, "translation": [0, 0.5, -1], "scale": [2, 2, 2], "name": "quad"}},
+    {{"camera": 0, "translation": [0, 1, 4]}},
+    {{"extensions": {{"KHR_lights_punctual": {{"light": 0}}}}, "translation": [1, 2, 3]}},
+    {{"extensions": {{"KHR_lights_punctual": {{"light": 1}}}}}}
+  ],
+  "cameras": [{{"type": "perspective", "perspective": {{"yfov": 0.7, "aspectRatio": 1.5, "znear": 0.1}}}}],
+  "meshes": [{{"name": "quad", "primitives": [{{"attributes": {{"POSITION": 0, "TEXCOORD_0": 1}}, "indices": 2, "material": 0}}]}}],
+  {material},
+  "buffers": [{{"byteLength": 92{uri}}}],
+  "bufferViews": [
+    {{"buffer": 0, "byteOffset": 0, "byteLength": 48}},
+    {{"buffer": 0, "byteOffset": 48, "byteLength": 32}},
+    {{"buffer": 0, "byteOffset": 80, "byteLength": 12}}
+  ],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"}},
+    {{"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}}
+  ]
+}}"#
+    )
+}
+
+/// A material with a base-colour texture (`tex.png`) and a normal texture
+/// (`nrm.png`, scale 0.6).
+const TEXTURED: &str = r#""materials": [{"name": "paint", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.25, "roughnessFactor": 0.5}, "normalTexture": {"index": 1, "scale": 0.6}}],
+  "textures": [{"source": 0}, {"source": 1}], "images": [{"uri": "tex.png"}, {"uri": "nrm.png"}]"#;
+
+/// A material with a metallic-roughness texture (`mr.png`), factors, a
+/// normal texture and emission.
+const MR: &str = r#""materials": [{"name": "mr", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.25, 1, 1], "metallicRoughnessTexture": {"index": 0}, "metallicFactor": 0.5, "roughnessFactor": 0.75}, "normalTexture": {"index": 0}, "emissiveFactor": [1, 2, 3]}],
+  "textures": [{"source": 0}], "images": [{"uri": "mr.png"}]"#;
+
+/// A 2×2 RGB PNG: top row red, green; bottom row blue, white (at 8 bits).
+fn write_png(path: &Path, texels: [[u8; 3]; 4]) {
+    let img = image::RgbImage::from_fn(2, 2, |x, y| image::Rgb(texels[(y * 2 + x) as usize]));
+    img.save(path).unwrap();
+}
+
+fn write_quad(dir: &Path, material: &str) {
+    std::fs::write(dir.join("quad.bin"), quad_buffer()).unwrap();
+    std::fs::write(dir.join("quad.gltf"), quad_json(Some("quad.bin"), material)).unwrap();
+    write_png(
+        &dir.join("tex.png"),
+        [[200, 30, 30], [30, 200, 30], [30, 30, 200], [250, 250, 250]],
+    );
+    write_png(
+        &dir.join("nrm.png"),
+        [
+            [128, 128, 255],
+            [200, 100, 230],
+            [60, 180, 220],
+            [150, 40, 200],
+        ],
+    );
+    write_png(
+        &dir.join("mr.png"),
+        [[0, 255, 0], [0, 128, 255], [0, 0, 64], [0, 64, 128]],
+    );
+}
+
+/// The same quad as a binary glTF (GLB): JSON chunk, then BIN chunk.
+fn write_glb(path: &Path, material: &str) {
+    let mut json = quad_json(None, material).into_bytes();
+    while !json.len().is_multiple_of(4) {
+        json.push(b' ');
+    }
+    let mut bin = quad_buffer();
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut glb = Vec::new();
+    glb.extend_from_slice(b"glTF");
+    glb.extend_from_slice(&2u32.to_le_bytes());
+    glb.extend_from_slice(&(total as u32).to_le_bytes());
+    glb.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    glb.extend_from_slice(b"JSON");
+    glb.extend_from_slice(&json);
+    glb.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    glb.extend_from_slice(b"BIN\0");
+    glb.extend_from_slice(&bin);
+    std::fs::write(path, glb).unwrap();
+}
+
+const SCENE_HEAD: &str = r#"
+[render]
+spp = 4
+max_depth = 3
+
+[camera]
+position = [0, 1, 4]
+look_at = [0, 0.5, 0]
+up = [0, 1, 0]
+vfov = 40
+resolution = [24, 16]
+
+[[lights]]
+type = "point"
+position = [1, 3, 3]
+intensity = [20, 20, 20]
+"#;
+
+#[test]
+fn a_gltf_quad_renders_as_the_plsr_rectangle() {
+    let dir = tempfile::tempdir().unwrap();
+    write_quad(dir.path(), TEXTURED);
+    // The glTF placed in a scene, moved again by the shape's transform.
+    let placed = dir.path().join("placed.toml");
+    std::fs::write(
+        &placed,
+        format!(
+            "{SCENE_HEAD}\n[[shapes]]\ntype = \"gltf\"\nfile = \"quad.gltf\"\ntransform.translate = [0, 0, 0.5]\n"
+        ),
+    )
+    .unwrap();
+    // Its twin: node (translate 0, 0.5, -1; scale 2), then the shape's.
+    let twin = dir.path().join("twin.toml");
+    std::fs::write(
+        &twin,
+        format!(
+            "{SCENE_HEAD}\n[[materials]]\nname = \"paint\"\ntype = \"principled\"\n\
+             base_color_map = \"tex.png\"\nmetallic = 0.25\nroughness = 0.5\n\
+             normal_map = \"nrm.png\"\nnormal_scale = 0.6\n\n\
+             [[shapes]]\ntype = \"rectangle\"\nmaterial = \"paint\"\n\
+             transform.matrix = [[2, 0, 0, 0], [0, 2, 0, 0.5], [0, 0, 2, -0.5], [0, 0, 0, 1]]\n"
+        ),
+    )
+    .unwrap();
+    let a = render_file(&placed);
+    let b = render_file(&twin);
+    assert!(a.color.iter().any(|c| c.max_element() > 0.0));
+    assert_close("glTF quad against the rectangle", &a, &b, 0.0);
+}
+
+#[test]
+fn gltf_contents_are_read_as_gltf_defines_them() {
+    let dir = tempfile::tempdir().unwrap();
+    write_quad(dir.path(), MR);
+    let g = read_gltf(&dir.path().join("quad.gltf")).unwrap();
+    assert_eq!(g.objects.len(), 1);
+    let o = &g.objects[0];
+    // Node: scale 2, then translate (0, 0.5, -1).
+    assert_eq!(o.positions[0], Vec3::new(-2.0, -1.5, -1.0));
+    assert_eq!(o.positions[2], Vec3::new(2.0, 2.5, -1.0));
+    // v flipped: the quad's top-left corner (-1, 1) has glTF uv (0, 0).
+    assert_eq!(o.uvs[3], Vec2::new(0.0, 1.0));
+    // Metallic in blue, roughness in green, times their factors; the base
+    // colour is its factor.
+    let m = &g.materials[o.material.unwrap()];
+    let (r, mt) = (
+        m.textures.roughness.as_ref().unwrap(),
+        m.textures.metallic.as_ref().unwrap(),
+    );
+    // Texel centres: (0.25, 0.75) is the top-left texel.
+    let at = |x: f32, y: f32| Vec2::new(x, y);
+    assert!((r.eval(at(0.25, 0.75)).x - 0.75).abs() < 1e-6); // G 255 × 0.75
+    assert!((mt.eval(at(0.25, 0.75)).x - 0.0).abs() < 1e-6); // B 0
+    assert!((r.eval(at(0.75, 0.75)).x - 0.75 * 128.0 / 255.0).abs() < 1e-6);
+    assert!((mt.eval(at(0.75, 0.75)).x - 0.5).abs() < 1e-6); // B 255 × 0.5
+    assert!((mt.eval(at(0.25, 0.25)).x - 0.5 * 64.0 / 255.0).abs() < 1e-6);
+    assert_eq!(m.bsdf.albedo(), Vec3::new(0.5, 0.25, 1.0));
+    assert_eq!(g.emission[0], Vec3::new(1.0, 2.0, 3.0));
+    // The normal texture, decoded: 2c − 1 (scale 1).
+    let n = m.textures.normal.as_ref().unwrap();
+    assert_eq!(n.eval(at(0.25, 0.75)), Vec3::new(-1.0, 1.0, -1.0));
+    assert!(
+        (n.eval(at(0.75, 0.75)) - Vec3::new(-1.0, 2.0 * 128.0 / 255.0 - 1.0, 1.0)).length() < 1e-6
+    );
+    assert!(
+        !g.notes.iter().any(|n| n.contains("normal")),
+        "{:?}",
+        g.notes
+    );
+    // The camera looks down its -z with +y up; the point light's 683 cd
+    // are 1 W/sr; the directional light is skipped with a note.
+    let c = g.cameras[0];
+    assert_eq!(c.position, Vec3::new(0.0, 1.0, 4.0));
+    assert_eq!(c.forward, -Vec3::Z);
+    assert!((c.vfov_deg - 0.7f32.to_degrees()).abs() < 1e-4);
+    assert_eq!(c.aspect, Some(1.5));
+    let l = g.point_lights[0];
+    assert_eq!(l.position, Vec3::new(1.0, 2.0, 3.0));
+    assert_eq!(
+        l.intensity,
+        Vec3::new(1.0, 0.5, 0.25) * 683.0 / LUMENS_PER_WATT
+    );
+    assert!(
+        g.notes.iter().any(|n| n.contains("directional")),
+        "{:?}",
+        g.notes
+    );
+}
+
+#[test]
+fn gltf_and_glb_render_directly_and_alike() {
+    let dir = tempfile::tempdir().unwrap();
+    write_quad(dir.path(), TEXTURED);
+    let glb = dir.path().join("quad.glb");
+    // The GLB's image is the same file, referenced by its uri.
+    write_glb(&glb, TEXTURED);
+    let contents = plsr::scene::file::load_contents(&dir.path().join("quad.gltf")).unwrap();
+    // The file's camera, its aspect ratio, its point light.
+    let cam = &contents.description.camera;
+    assert_eq!((cam.width(), cam.height()), (960, 640));
+    assert_eq!(contents.description.point_lights.len(), 1);
+    assert!(contents.notes.iter().any(|n| n.contains("directional")));
+    let small = |p: &Path| {
+        let scene = Scene::load(p).unwrap();
+        let job = plsr::render::RenderJob {
+            spp: 1,
+            ..scene.default_job()
+        };
+        render(&scene, &job, &RenderOptions::default(), &|_, _| true)
+            .unwrap()
+            .0
+    };
+    assert_close(
+        ".gltf against .glb",
+        &small(&dir.path().join("quad.gltf")),
+        &small(&glb),
+        0.0,
+    );
+}
+
+#[test]
+fn bad_gltf_files_are_refused_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    write_quad(dir.path(), TEXTURED);
+    let scene = |file: &str| {
+        let p = dir.path().join("s.toml");
+        std::fs::write(
+            &p,
+            format!("{SCENE_HEAD}\n[[shapes]]\ntype = \"gltf\"\nfile = \"{file}\"\n"),
+        )
+        .unwrap();
+        match plsr::scene::file::load(&p) {
+            Ok(_) => panic!("{file} accepted"),
+            Err(e) => e.to_string(),
+        }
+    };
+    let e = scene("missing.gltf");
+    assert!(
+        e.contains("shapes[0].file") && e.contains("missing.gltf"),
+        "{e}"
+    );
+    std::fs::write(dir.path().join("junk.gltf"), "{ not json").unwrap();
+    let e = scene("junk.gltf");
+    assert!(
+        e.contains("shapes[0].file") && e.contains("not a readable glTF"),
+        "{e}"
+    );
+    // An index past the vertices.
+    let json =
+        quad_json(Some("quad.bin"), TEXTURED).replace("\"count\": 6", "\"count\": 6, \"max\": [9]");
+    std::fs::write(dir.path().join("short.bin"), &quad_buffer()[..80]).unwrap();
+    std::fs::write(
+        dir.path().join("short.gltf"),
+        json.replace("quad.bin", "short.bin"),
+    )
+    .unwrap();
+    let e = scene("short.gltf");
+    assert!(
+        e.contains("shapes[0].file") && e.contains("short.gltf"),
+        "{e}"
+    );
+    // A missing texture names the image.
+    std::fs::remove_file(dir.path().join("tex.png")).unwrap();
+    let e = scene("quad.gltf");
+    assert!(
+        e.contains("quad.gltf") && e.contains("not a readable glTF"),
+        "{e}"
+    );
+    // Directly: the same messages, naming the file.
+    let e = plsr::scene::file::load(&dir.path().join("junk.gltf"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("junk.gltf") && e.contains("not a readable glTF"),
+        "{e}"
+    );
+}
+
+/// A quad `[-1, 1]²` at z = 0 as glTF, with texture coordinates as plsr's
+/// rectangle has them, normals +z when `normals`, tangents `(0, 1, 0, w)`
+/// (along world +y) when `w` is given, and a material whose normal texture
+/// is `nrm.png`.
+fn tangent_quad_json(normals: bool, w: Option<f32>) -> (String, Vec<u8>) {
+    let mut b = quad_buffer(); // positions 0..48, uvs 48..80, indices 80..92
+    let mut attributes = String::from(r#""POSITION": 0, "TEXCOORD_0": 1"#);
+    let mut views = String::new();
+    let mut accessors = String::new();
+    if normals {
+        let at = b.len();
+        for _ in 0..4 {
+            for x in [0f32, 0.0, 1.0] {
+                b.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        attributes += r#", "NORMAL": 3"#;
+        views += &format!(r#", {{"buffer": 0, "byteOffset": {at}, "byteLength": 48}}"#);
+        accessors += r#", {"bufferView": 3, "componentType": 5126, "count": 4, "type": "VEC3"}"#;
+    }
+    if let Some(w) = w {
+        let at = b.len();
+        for _ in 0..4 {
+            for x in [0f32, 1.0, 0.0, w] {
+                b.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        let view = if normals { 4 } else { 3 };
+        attributes += &format!(r#", "TANGENT": {view}"#);
+        views += &format!(r#", {{"buffer": 0, "byteOffset": {at}, "byteLength": 64}}"#);
+        accessors += &format!(
+            r#", {{"bufferView": {view}, "componentType": 5126, "count": 4, "type": "VEC4"}}"#
+        );
+    }
+    let json = format!(
+        r#"{{
+  "asset": {{"version": "2.0"}},
+  "scene": 0,
+  "scenes": [{{"nodes": [0]}}],
+  "nodes": [{{"mesh": 0}}],
+  "meshes": [{{"primitives": [{{"attributes": {{{attributes}}}, "indices": 2, "material": 0}}]}}],
+  "materials": [{{"name": "bumpy", "pbrMetallicRoughness": {{"metallicFactor": 0}}, "normalTexture": {{"index": 0}}}}],
+  "textures": [{{"source": 0}}], "images": [{{"uri": "nrm.png"}}],
+  "buffers": [{{"byteLength": {len}, "uri": "quad.bin"}}],
+  "bufferViews": [
+    {{"buffer": 0, "byteOffset": 0, "byteLength": 48}},
+    {{"buffer": 0, "byteOffset": 48, "byteLength": 32}},
+    {{"buffer": 0, "byteOffset": 80, "byteLength": 12}}{views}
+  ],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"}},
+    {{"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}}{accessors}
+  ]
+}}"#,
+        len = b.len()
+    );
+    (json, b)
+}
+
+#[test]
+fn gltf_tangents_orient_the_normal_map() {
+    // A flat normal texture tilted along its x (red) and y (green). The
+    // normal layer, seen from above, shows the frame the map was applied in.
+    let dir = tempfile::tempdir().unwrap();
+    let rgb = [166u8, 200, 255];
+    image::RgbImage::from_pixel(2, 2, image::Rgb(rgb))
+        .save(dir.path().join("nrm.png"))
+        .unwrap();
+    let c = |k: u8| 2.0 * (k as f32 / 255.0) - 1.0;
+    let (x, y, z) = (c(rgb[0]), c(rgb[1]), c(rgb[2]));
+    let frame = |t: Vec3, b: Vec3| (t * x + b * y + Vec3::Z * z).normalize();
+    let normal_at_centre = |normals: bool, w: Option<f32>, transform: &str| {
+        let (json, bin) = tangent_quad_json(normals, w);
+        std::fs::write(dir.path().join("quad.gltf"), json).unwrap();
+        std::fs::write(dir.path().join("quad.bin"), bin).unwrap();
+        let scene = dir.path().join("scene.toml");
+        std::fs::write(
+            &scene,
+            format!(
+                "[render]\nspp = 1\n[camera]\nposition = [0, 0, 2]\nlook_at = [0, 0, 0]\n\
+                 up = [0, 1, 0]\nvfov = 53.130102\nresolution = [16, 16]\n\n\
+                 [environment]\nradiance = [1, 1, 1]\n\n\
+                 [[shapes]]\ntype = \"gltf\"\nfile = \"quad.gltf\"\n{transform}\n"
+            ),
+        )
+        .unwrap();
+        let film = render_file(&scene);
+        film.normal[film.index(8, 8)]
+    };
+    let close = |a: Vec3, b: Vec3, what: &str| {
+        assert!((a - b).length() < 1e-4, "{what}: normal {a}, expected {b}");
+    };
+    // Without tangents: the frame of the texture coordinates, u along +x
+    // and v along +y.
+    close(
+        normal_at_centre(true, None, ""),
+        frame(Vec3::X, Vec3::Y),
+        "no tangents",
+    );
+    // Tangents along +y: the bitangent is w·(n × t), −x for w = 1 and +x
+    // for w = −1.
+    close(
+        normal_at_centre(true, Some(1.0), ""),
+        frame(Vec3::Y, -Vec3::X),
+        "w = 1",
+    );
+    close(
+        normal_at_centre(true, Some(-1.0), ""),
+        frame(Vec3::Y, Vec3::X),
+        "w = -1",
+    );
+    // A mirroring transform (x → −x) carries the frame with it: the tangent
+    // stays +y, the bitangent −x becomes +x.
+    close(
+        normal_at_centre(true, Some(1.0), "transform = { scale = [-1, 1, 1] }"),
+        frame(Vec3::Y, Vec3::X),
+        "mirrored",
+    );
+    // Tangents without normals are ignored, as glTF says.
+    close(
+        normal_at_centre(false, Some(1.0), ""),
+        frame(Vec3::X, Vec3::Y),
+        "no normals",
+    );
+}

@@ -1,0 +1,19 @@
+//! The renderer's tests, one module per topic: radiometry against analytic
+//! answers, chi-square tests of every sampling routine, the vectorised
+//! kernel against the general integrator, determinism, scene files.
+
+mod bsdf;
+mod cameras;
+mod determinism;
+mod embree_layer;
+mod environment;
+mod fuzz_parsers;
+mod gltf_import;
+mod materials;
+mod pls;
+mod pls_render;
+mod radiometry;
+mod regression;
+mod sampling_chi2;
+mod surfaces;
+mod vectorised;
