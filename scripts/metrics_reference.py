@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Makes the image pairs of tests/fixtures/metrics/ and their reference
-scores from the metrics' reference implementations, once; `tests/metrics.rs`
+scores from the metrics' reference implementations, once; `crates/cli/tests/it/metrics.rs`
 checks plsr's scores against them.
 
 The pairs are crops of docs/img/compositing.png (a photo of a room, the

@@ -2,7 +2,7 @@
 //! distributions, and the MIS heuristic.
 //!
 //! Every warp comes with its density so that `sample` and `pdf` cannot drift
-//! apart; the chi-square tests in `tests/sampling_chi2.rs` check each pair.
+//! apart; the chi-square tests in `tests/it/sampling_chi2.rs` check each pair.
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};

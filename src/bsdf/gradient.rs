@@ -14,7 +14,7 @@
 //! sampling), which keeps its estimator unbiased.
 //!
 //! The derivatives are checked against central finite differences of
-//! [`Bsdf::eval`] in `tests/gradients.rs`.
+//! [`Bsdf::eval`] in `crates/cli/tests/it/gradients.rs`.
 
 use super::fresnel;
 use super::microfacet::{Microfacet, MIN_ALPHA};

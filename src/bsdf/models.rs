@@ -3,7 +3,7 @@
 //!
 //! Every model implements `eval`, `sample` and `pdf` consistently: `sample`
 //! draws from exactly the density `pdf` reports (verified by the chi-square
-//! tests in `tests/bsdf.rs`) and returns `eval`'s value with it.
+//! tests in `tests/it/bsdf.rs`) and returns `eval`'s value with it.
 
 use super::albedo;
 use super::fresnel::{self, reflect, refract_or_total};

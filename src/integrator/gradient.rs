@@ -13,7 +13,7 @@
 //! The paths are those of the general integrator (same next-event
 //! estimation, BSDF sampling, MIS and Russian roulette, the same random
 //! numbers in the same order: [`gradient_tile`] renders the same image bit
-//! for bit, which `tests/gradients.rs` checks). Every choice the sampler
+//! for bit, which `crates/cli/tests/it/gradients.rs` checks). Every choice the sampler
 //! makes (directions, light picks, MIS weights, roulette probabilities) is
 //! treated as a constant of the parameters: *detached sampling*. Each path
 //! contribution `c = L_e · Π_k f_k cos θ_k / p_k · w` is then a product of
@@ -43,7 +43,7 @@
 //! path replay backpropagation instead).
 
 use super::spawn::{ray_epsilon, shadow_segment, spawn_origin};
-use super::{
+use super::steps::{
     camera_sample, emission_weight, roulette, roulette_spins, sides_agree, PrevVertex, SurfacePoint,
 };
 use crate::accel::{Ray, RayHit, ShadowRay};

@@ -9,7 +9,7 @@
 //! difference layer (grey is no change, darker is shadow), composite.
 //!
 //! ```sh
-//! cargo run --release --example ar_demo   # writes photo.png, curve.csv, the figure
+//! cargo run --release -p plsr-apps --example ar_demo   # writes photo.png, curve.csv, the figure
 //! ```
 
 use plsr::error::{Error, Result};

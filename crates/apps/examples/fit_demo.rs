@@ -6,7 +6,7 @@
 //! the loss plot of `docs/fitting.md` (`docs/img/fitting-loss.png`).
 //!
 //! ```sh
-//! cargo run --release --example fit_demo   # writes photo.exr and the figure
+//! cargo run --release -p plsr-apps --example fit_demo   # writes photo.exr and the figure
 //! ```
 
 use plsr::error::{Error, Result};

@@ -421,7 +421,7 @@ mod tests {
         assert!(live.contains(&tmp) && !live.contains(&kept));
         // What a signal handler removes: this one, by `remove_partial`
         // (calling `remove_partial_outputs` here would lock the list for
-        // good; tests/bad_output.rs signals a real merge instead).
+        // good; crates/cli/tests/it/bad_output.rs signals a real merge instead).
         forget_partial(&tmp);
         assert!(remove_partial(&tmp));
         assert!(!tmp.exists() && kept.exists());

@@ -4,7 +4,7 @@
 //! Images", Eurographics 2021), LDR-FLIP and HDR-FLIP, computed as the
 //! reference implementation (the `flip-evaluator` 1.7 package, NVlabs'
 //! `FLIP.h`) computes them: in `f32`, with the same constants and steps, so
-//! the mean FLIP agrees with it within 1e-4 (`tests/metrics.rs`).
+//! the mean FLIP agrees with it within 1e-4 (`crates/cli/tests/it/metrics.rs`).
 //!
 //! **LDR-FLIP** compares two images of linear RGB in [0, 1] (sRGB-encoded
 //! display values are first decoded with the sRGB transfer function).

@@ -13,7 +13,7 @@ use std::time::Instant;
 const ROOM: &str = "assets/scenes/fit-room";
 
 /// The parameters fitted (10): every colour and roughness, and the ball's
-/// metallic, as `examples/fit_demo.rs` and the Mitsuba script fit them.
+/// metallic, as `crates/apps/examples/fit_demo.rs` and the Mitsuba script fit them.
 const PARAMS: [&str; 4] = [
     "*.base_color",
     "*.reflectance",

@@ -1,0 +1,284 @@
+//! The steps both integrators take alike, so that the vectorised kernel
+//! ([`super::soa`]) and the general wavefront ([`super::general`]) compute
+//! the same numbers: the camera sample, the shading point and its normal,
+//! the emission and environment MIS weights, Russian roulette, and the ray
+//! counts both report.
+
+use crate::accel::Ray;
+use crate::sampler::PathSampler;
+use crate::scene::Scene;
+use crate::warp::power_heuristic;
+use glam::{Vec2, Vec3};
+
+/// Whether Russian roulette spins for a path that has reached
+/// [`RenderJob::rr_depth`] (`at_depth`), judged by `rr_beta`, its
+/// throughput `β` times `η²` of the refractions it went through (see
+/// [`PathState::eta_scale`]): only where the largest channel `q` of
+/// `rr_beta` is below 1, and only then does it draw a number.
+#[inline(always)]
+pub(crate) fn roulette_spins(rr_beta: Vec3, at_depth: bool) -> bool {
+    at_depth && rr_beta.max_element() < 1.0
+}
+
+/// The roulette's outcome for the uniform number `u`: the path survives
+/// with probability `q` (the largest channel of `rr_beta`), its throughput
+/// `beta` divided by `q` so the estimate stays unbiased.
+#[inline(always)]
+pub(crate) fn roulette(beta: Vec3, rr_beta: Vec3, u: f32) -> (bool, Vec3) {
+    let q = rr_beta.max_element();
+    (u < q, beta / q)
+}
+
+/// Counts of rays traced and the time spent tracing them, for throughput
+/// reports (not comparable between runs: it holds a timing).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RayStats {
+    /// Camera rays (closest hit).
+    pub camera: u64,
+    /// Continuation rays after scattering (closest hit).
+    pub bounce: u64,
+    /// Shadow rays of next-event estimation (any hit).
+    pub shadow: u64,
+    /// Nanoseconds spent inside Embree's queries, summed over threads (the
+    /// rest of a render's CPU time is shading and bookkeeping). Timed per
+    /// batch of a wavefront, so the clock costs nothing measurable.
+    pub trace_nanos: u64,
+}
+
+impl RayStats {
+    /// All rays.
+    pub fn total(&self) -> u64 {
+        self.camera + self.bounce + self.shadow
+    }
+
+    /// Adds another count.
+    pub fn add(&mut self, o: &RayStats) {
+        self.camera += o.camera;
+        self.bounce += o.bounce;
+        self.shadow += o.shadow;
+        self.trace_nanos += o.trace_nanos;
+    }
+}
+
+/// The light-leak guard of shading normals: a direction pair must be a
+/// reflection (or a transmission) both for the geometric normal `ng` and in
+/// the shading frame (`*_local`), or it is discarded; otherwise a bent
+/// shading normal would let light through opaque surfaces.
+#[inline(always)]
+pub(crate) fn sides_agree(wo: Vec3, wi: Vec3, ng: Vec3, wo_local: Vec3, wi_local: Vec3) -> bool {
+    (wo.dot(ng) * wi.dot(ng) > 0.0) == (wo_local.z * wi_local.z > 0.0)
+}
+
+/// What a hit knows of its surface beyond the geometric normal: texture
+/// coordinates and the shading normal.
+pub(crate) struct SurfacePoint {
+    /// Texture coordinates (zero where the mesh has none or none are needed).
+    pub(crate) uv: Vec2,
+    /// Unit shading normal: interpolated where the mesh has vertex normals,
+    /// tilted by the material's normal map where it has one and the mesh
+    /// has texture coordinates.
+    pub(crate) normal: Option<Vec3>,
+}
+
+impl SurfacePoint {
+    /// Interpolates the mesh's vertex attributes at the hit (Embree's
+    /// barycentrics: `p = (1 − u − v)·p0 + u·p1 + v·p2`); `uv` only when
+    /// `material` is textured; then applies its normal map.
+    #[inline]
+    pub(crate) fn new(
+        mesh: &crate::scene::Mesh,
+        hit: &crate::accel::Hit,
+        material: &crate::scene::Material,
+    ) -> SurfacePoint {
+        let has_uv = !material.textures.is_empty() && !mesh.uvs.is_empty();
+        if !has_uv && mesh.normals.is_empty() {
+            return SurfacePoint {
+                uv: Vec2::ZERO,
+                normal: None,
+            };
+        }
+        let [i0, i1, i2] = mesh.triangles[hit.prim_id as usize].map(|i| i as usize);
+        let (b1, b2) = (hit.u, hit.v);
+        let b0 = 1.0 - b1 - b2;
+        let uv = if has_uv {
+            mesh.uvs[i0] * b0 + mesh.uvs[i1] * b1 + mesh.uvs[i2] * b2
+        } else {
+            Vec2::ZERO
+        };
+        let normal = if mesh.normals.is_empty() {
+            None
+        } else {
+            (mesh.normals[i0] * b0 + mesh.normals[i1] * b1 + mesh.normals[i2] * b2).try_normalize()
+        };
+        let normal = match &material.textures.normal {
+            Some(map) if has_uv => {
+                Self::normal_mapped(mesh, [i0, i1, i2], [b0, b1, b2], uv, normal, map)
+            }
+            _ => normal,
+        };
+        SurfacePoint { uv, normal }
+    }
+
+    /// The shading normal tilted by a normal map at `uv`: the map's
+    /// tangent-space direction in a frame around the interpolated normal
+    /// `normal` (the triangle's own, by its winding, where there is none).
+    /// Where the mesh has tangents (glTF's `TANGENT`), the frame is the
+    /// interpolated tangent, made orthogonal to the normal, and the
+    /// bitangent `w·(n × t)`; otherwise the triangle's ∂p/∂u and ∂p/∂v
+    /// (Gram–Schmidt against the normal, so mirrored texture coordinates
+    /// mirror the tilt). The untilted normal where the frame is degenerate.
+    #[cold]
+    pub(crate) fn normal_mapped(
+        mesh: &crate::scene::Mesh,
+        [i0, i1, i2]: [usize; 3],
+        [b0, b1, b2]: [f32; 3],
+        uv: Vec2,
+        normal: Option<Vec3>,
+        map: &crate::texture::ImageTexture,
+    ) -> Option<Vec3> {
+        let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
+        let (dp1, dp2) = (p1 - p0, p2 - p0);
+        let n = normal.or_else(|| dp1.cross(dp2).try_normalize())?;
+        if !mesh.tangents.is_empty() {
+            let (t0, t1, t2) = (mesh.tangents[i0], mesh.tangents[i1], mesh.tangents[i2]);
+            let t = t0.truncate() * b0 + t1.truncate() * b1 + t2.truncate() * b2;
+            let Some(t) = (t - n * n.dot(t)).try_normalize() else {
+                return Some(n);
+            };
+            let b = n.cross(t) * if t0.w < 0.0 { -1.0 } else { 1.0 };
+            let m = map.eval(uv);
+            return (t * m.x + b * m.y + n * m.z).try_normalize().or(Some(n));
+        }
+        let (d1, d2) = (mesh.uvs[i1] - mesh.uvs[i0], mesh.uvs[i2] - mesh.uvs[i0]);
+        let det = d1.x * d2.y - d1.y * d2.x;
+        if det.abs() <= 1e-20 {
+            return Some(n);
+        }
+        let dpdu = (dp1 * d2.y - dp2 * d1.y) / det;
+        let dpdv = (dp2 * d1.x - dp1 * d2.x) / det;
+        let Some(t) = (dpdu - n * n.dot(dpdu)).try_normalize() else {
+            return Some(n);
+        };
+        let Some(b) = (dpdv - n * n.dot(dpdv) - t * t.dot(dpdv)).try_normalize() else {
+            return Some(n);
+        };
+        let m = map.eval(uv);
+        (t * m.x + b * m.y + n * m.z).try_normalize().or(Some(n))
+    }
+
+    /// The normal of the shading frame: the interpolated normal turned to the
+    /// side of `n` (the geometric normal as the BSDF sees it), or `n` itself
+    /// where there is none or where `wo` lies on different sides of the two.
+    #[inline]
+    pub(crate) fn shading_normal(&self, n: Vec3, wo: Vec3) -> Vec3 {
+        match self.normal {
+            Some(ns) => shading_normal_towards(ns, n, wo),
+            None => n,
+        }
+    }
+
+    /// The first tangent for anisotropic BSDFs: ∂p/∂u where the mesh has
+    /// texture coordinates, else the triangle's first edge.
+    pub(crate) fn tangent(mesh: &crate::scene::Mesh, hit: &crate::accel::Hit) -> Vec3 {
+        let [i0, i1, i2] = mesh.triangles[hit.prim_id as usize].map(|i| i as usize);
+        let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
+        let (dp1, dp2) = (p1 - p0, p2 - p0);
+        if !mesh.uvs.is_empty() {
+            let (d1, d2) = (mesh.uvs[i1] - mesh.uvs[i0], mesh.uvs[i2] - mesh.uvs[i0]);
+            let det = d1.x * d2.y - d1.y * d2.x;
+            if det.abs() > 1e-12 {
+                return (dp1 * d2.y - dp2 * d1.y) / det;
+            }
+        }
+        dp1
+    }
+}
+
+/// The normal of the shading frame for the interpolated unit normal `ns`:
+/// `ns` turned to the side of `n` (the geometric normal as the BSDF sees
+/// it), or `n` where `wo` lies on different sides of the two. Branch-free
+/// (both integrators call it).
+#[inline(always)]
+pub(crate) fn shading_normal_towards(ns: Vec3, n: Vec3, wo: Vec3) -> Vec3 {
+    let ns = if ns.dot(n) < 0.0 { -ns } else { ns };
+    if ns.dot(wo) * n.dot(wo) > 0.0 {
+        ns
+    } else {
+        n
+    }
+}
+
+/// The scattering vertex a path's current ray left from.
+pub(crate) struct PrevVertex {
+    /// Scattering events before it (0: the ray is the camera's).
+    pub depth: u32,
+    /// Solid-angle density of the BSDF sample that chose the ray; 0 after a
+    /// delta lobe.
+    pub pdf: f32,
+    /// Its position.
+    pub point: Vec3,
+}
+
+/// MIS weight of emission from triangle light `li` at `p` found along `dir`
+/// by a BSDF sample (power heuristic against light sampling, which could
+/// have found it too); 1 for the camera ray or after a delta lobe.
+#[inline]
+pub(crate) fn emission_weight(
+    scene: &Scene,
+    li: usize,
+    prev: &PrevVertex,
+    p: Vec3,
+    dir: Vec3,
+) -> f32 {
+    if prev.depth == 0 || prev.pdf == 0.0 {
+        1.0
+    } else {
+        let light = &scene.lights().lights[li];
+        let light_pdf = scene.lights().pick_pmf(li, prev.point) * light.pdf_li(prev.point, p, dir);
+        power_heuristic(prev.pdf, light_pdf)
+    }
+}
+
+/// MIS weight of the environment (light `env`) seen along a ray that left
+/// the scene, whose direction the environment samples with density `pdf()`
+/// (asked only when needed): power heuristic against light sampling; 1 for
+/// the camera ray or after a delta lobe.
+#[inline]
+pub(crate) fn environment_weight(
+    scene: &Scene,
+    env: usize,
+    prev: &PrevVertex,
+    pdf: impl FnOnce() -> f32,
+) -> f32 {
+    if prev.depth == 0 || prev.pdf == 0.0 {
+        1.0
+    } else {
+        let light_pdf = scene.lights().pick_pmf(env, prev.point) * pdf();
+        power_heuristic(prev.pdf, light_pdf)
+    }
+}
+
+/// Camera sample `sample` of pixel `(x, y)`: its random stream, after the
+/// numbers the filter and (when `lens_sample`) the lens took, and the camera
+/// ray, if the camera has one there.
+#[inline(always)]
+pub(crate) fn camera_sample(
+    scene: &Scene,
+    seed: u64,
+    lens_sample: bool,
+    x: u32,
+    y: u32,
+    sample: u32,
+) -> (PathSampler, Option<Ray>) {
+    let mut rng = PathSampler::for_sample(seed, x, y, sample);
+    // Filter importance sampling: the filter places the sample, which keeps
+    // weight 1 (see `crate::filter`).
+    let film = Vec2::new(x as f32, y as f32) + scene.film().filter.sample(rng.next_2d());
+    let lens = if lens_sample {
+        rng.next_2d()
+    } else {
+        Vec2::ZERO
+    };
+    let ray = scene.camera().generate_ray(film, lens);
+    (rng, ray)
+}
