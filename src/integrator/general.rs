@@ -137,7 +137,7 @@ struct Ahead {
 /// at all (the copy is then simply dropped). For each path whose ray left
 /// the scene it looks up the environment's radiance and density along it.
 /// Images do not change.
-fn sample_environment_ahead(pass: &Pass, wf: &mut Wavefront, env: usize) {
+fn sample_environment_ahead(pass: &TilePass, wf: &mut Wavefront, env: usize) {
     let scene = pass.scene;
     let Light::Environment { light, .. } = &scene.lights().lights[env] else {
         unreachable!("Scene::environment indexes an environment light")
@@ -179,7 +179,7 @@ fn sample_environment_ahead(pass: &Pass, wf: &mut Wavefront, env: usize) {
 }
 
 /// One sample pass of the general integrator over a tile.
-struct Pass<'a> {
+struct TilePass<'a> {
     scene: &'a Scene,
     job: &'a RenderJob,
     tile: Tile,
@@ -190,8 +190,8 @@ struct Pass<'a> {
     first: bool,
 }
 
-fn trace_pass(pass: &Pass, wf: &mut Wavefront, pixels: &mut [PixelSums], stats: &mut RayStats) {
-    let &Pass {
+fn trace_pass(pass: &TilePass, wf: &mut Wavefront, pixels: &mut [PixelSums], stats: &mut RayStats) {
+    let &TilePass {
         scene,
         job,
         tile,
@@ -303,7 +303,7 @@ fn trace_pass(pass: &Pass, wf: &mut Wavefront, pixels: &mut [PixelSums], stats: 
 #[inline]
 #[allow(clippy::too_many_arguments)] // the path, its pixel, its queues, what was looked up ahead
 fn shade(
-    pass: &Pass,
+    pass: &TilePass,
     path: &mut PathState,
     rh: &mut RayHit,
     index: u32,
@@ -649,7 +649,7 @@ pub(super) fn render_samples(
     let first_sample = job.samples().start;
     let mut wf = Wavefront::default();
     for s in job.samples() {
-        let pass = Pass {
+        let pass = TilePass {
             scene,
             job,
             tile,

@@ -79,7 +79,7 @@ pub fn render_tile(
     if let Some((kernel, isa)) = kernel {
         let mut lanes = soa::SoaLanes::default();
         for s in samples {
-            let pass = soa::Pass {
+            let pass = soa::TilePass {
                 kernel,
                 scene,
                 job,

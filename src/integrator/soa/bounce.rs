@@ -9,7 +9,7 @@ use super::*;
 /// kinds' passes, which are not inlined).
 #[inline(always)]
 pub(super) fn trace_pass_body<T: InstructionSet>(
-    pass: &Pass,
+    pass: &TilePass,
     lanes: &mut SoaLanes,
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
@@ -240,7 +240,7 @@ pub(super) fn lane_surfaces(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLan
 /// general integrator does at a path's first hit: per-lane values in
 /// vectorised chunks, then the sums lane by lane.
 #[inline(always)]
-pub(super) fn camera_vertex_layers(pass: &Pass, lanes: &SoaLanes, pixels: &mut [PixelSums]) {
+pub(super) fn camera_vertex_layers(pass: &TilePass, lanes: &SoaLanes, pixels: &mut [PixelSums]) {
     let rays = &lanes.rays;
     let n = rays.len();
     let last = pass.kernel.albedo[0].len() - 1;

@@ -7,7 +7,7 @@ use super::*;
 /// filter, lane by lane; a pixel the camera has no ray for (outside a
 /// fisheye's circles) gets no lane. Returns the number of lanes.
 #[inline(always)]
-pub(super) fn general_camera_rays(pass: &Pass, lanes: &mut SoaLanes) -> usize {
+pub(super) fn general_camera_rays(pass: &TilePass, lanes: &mut SoaLanes) -> usize {
     let (scene, tile) = (pass.scene, pass.tile);
     let lens_sample = scene.camera().needs_lens_sample();
     let mut n = 0;
@@ -38,7 +38,7 @@ pub(super) fn general_camera_rays(pass: &Pass, lanes: &mut SoaLanes) -> usize {
 /// after the filter's two numbers: the general integrator's camera stage,
 /// vectorised.
 #[inline(always)]
-pub(super) fn pinhole_camera_rays(camera: &PinholeCamera, pass: &Pass, lanes: &mut SoaLanes) {
+pub(super) fn pinhole_camera_rays(camera: &PinholeCamera, pass: &TilePass, lanes: &mut SoaLanes) {
     let (tile, seed, sample) = (pass.tile, pass.job.seed, pass.sample);
     let n = lanes.rays.len();
     for start in (0..n).step_by(W) {

@@ -62,7 +62,7 @@ impl Isa {
 /// fuses no multiply-add by itself.
 pub fn trace_pass(
     isa: Isa,
-    pass: &Pass,
+    pass: &TilePass,
     lanes: &mut SoaLanes,
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
@@ -88,7 +88,7 @@ pub fn trace_pass(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx512bw,avx2,fma")]
 pub(super) unsafe fn trace_pass_avx512(
-    pass: &Pass,
+    pass: &TilePass,
     lanes: &mut SoaLanes,
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
@@ -101,7 +101,7 @@ pub(super) unsafe fn trace_pass_avx512(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 pub(super) unsafe fn trace_pass_avx2(
-    pass: &Pass,
+    pass: &TilePass,
     lanes: &mut SoaLanes,
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
@@ -116,7 +116,7 @@ pub(super) unsafe fn trace_pass_avx2(
 pub(super) trait InstructionSet {
     /// [`shade_chunks`] of `pass` with these parameters, in a function of
     /// its own compiled for this instruction set.
-    fn pass<P: ChunkPass, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
+    fn pass<P: MaterialPass, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
         pass: &P,
         kernel: &SoaScene,
         lanes: &mut SoaLanes,
@@ -129,13 +129,13 @@ pub(super) struct Baseline;
 
 impl InstructionSet for Baseline {
     #[inline(always)]
-    fn pass<P: ChunkPass, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
+    fn pass<P: MaterialPass, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
         pass: &P,
         kernel: &SoaScene,
         lanes: &mut SoaLanes,
         u: Uniform,
     ) {
-        pass_baseline::<P, TRIANGLES, CONES, ENV>(pass, kernel, lanes, u)
+        material_pass_baseline::<P, TRIANGLES, CONES, ENV>(pass, kernel, lanes, u)
     }
 }
 
@@ -146,7 +146,7 @@ pub(super) struct Avx2;
 #[cfg(target_arch = "x86_64")]
 impl InstructionSet for Avx2 {
     #[inline(always)]
-    fn pass<P: ChunkPass, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
+    fn pass<P: MaterialPass, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
         pass: &P,
         kernel: &SoaScene,
         lanes: &mut SoaLanes,
@@ -154,7 +154,7 @@ impl InstructionSet for Avx2 {
     ) {
         // SAFETY: only `trace_pass_avx2` passes this type, and `trace_pass`
         // calls that only on a CPU with AVX2 and FMA.
-        unsafe { pass_avx2::<P, TRIANGLES, CONES, ENV>(pass, kernel, lanes, u) }
+        unsafe { material_pass_avx2::<P, TRIANGLES, CONES, ENV>(pass, kernel, lanes, u) }
     }
 }
 
@@ -165,7 +165,7 @@ pub(super) struct Avx512;
 #[cfg(target_arch = "x86_64")]
 impl InstructionSet for Avx512 {
     #[inline(always)]
-    fn pass<P: ChunkPass, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
+    fn pass<P: MaterialPass, const TRIANGLES: bool, const CONES: bool, const ENV: bool>(
         pass: &P,
         kernel: &SoaScene,
         lanes: &mut SoaLanes,
@@ -173,14 +173,14 @@ impl InstructionSet for Avx512 {
     ) {
         // SAFETY: only `trace_pass_avx512` passes this type, and
         // `trace_pass` calls that only on a CPU with these features.
-        unsafe { pass_avx512::<P, TRIANGLES, CONES, ENV>(pass, kernel, lanes, u) }
+        unsafe { material_pass_avx512::<P, TRIANGLES, CONES, ENV>(pass, kernel, lanes, u) }
     }
 }
 
 /// A pass for the baseline instruction set.
 #[inline(never)]
-pub(super) fn pass_baseline<
-    P: ChunkPass,
+pub(super) fn material_pass_baseline<
+    P: MaterialPass,
     const TRIANGLES: bool,
     const CONES: bool,
     const ENV: bool,
@@ -197,8 +197,8 @@ pub(super) fn pass_baseline<
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
-pub(super) unsafe fn pass_avx2<
-    P: ChunkPass,
+pub(super) unsafe fn material_pass_avx2<
+    P: MaterialPass,
     const TRIANGLES: bool,
     const CONES: bool,
     const ENV: bool,
@@ -215,8 +215,8 @@ pub(super) unsafe fn pass_avx2<
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx512bw,avx2,fma")]
 #[inline(never)]
-pub(super) unsafe fn pass_avx512<
-    P: ChunkPass,
+pub(super) unsafe fn material_pass_avx512<
+    P: MaterialPass,
     const TRIANGLES: bool,
     const CONES: bool,
     const ENV: bool,

@@ -1,5 +1,5 @@
 //! The paths of one tile pass in structure-of-arrays lanes ([`SoaLanes`]),
-//! what ends them ([`retire`]), and a tile pass's arguments ([`Pass`]).
+//! what ends them ([`retire`]), and a tile pass's arguments ([`TilePass`]).
 
 use super::*;
 
@@ -190,7 +190,7 @@ pub(super) fn retire(lanes: &SoaLanes, ended: &[u32], scene: &Scene, pixels: &mu
 }
 
 /// The arguments of one tile pass.
-pub struct Pass<'a> {
+pub struct TilePass<'a> {
     /// The kernel's view of the scene.
     pub kernel: &'a SoaScene,
     /// The scene.

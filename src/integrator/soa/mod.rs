@@ -105,5 +105,5 @@ use smooth_dielectric::*;
 use tables::*;
 
 pub use isa::{trace_pass, Isa};
-pub use lanes::{Pass, SoaLanes};
+pub use lanes::{SoaLanes, TilePass};
 pub use tables::SoaScene;

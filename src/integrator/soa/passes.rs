@@ -1,6 +1,6 @@
 //! The shading passes: one pass per material kind over the lanes
 //! ([`shade_lanes`]), each in chunks of [`W`] lanes ([`shade_chunks`]),
-//! which lanes each pass shades ([`ChunkPass`]).
+//! which lanes each pass shades ([`MaterialPass`]).
 
 use super::*;
 
@@ -184,7 +184,7 @@ pub(super) fn lane_numbers<M: PrincipledMode>(
 /// shadow rays to `lanes.shadow` and the next rays back to `lanes.rays`.
 ///
 /// Each material kind is a pass of its own over the lanes ([`shade_chunks`]
-/// with a [`ChunkPass`]), which reads the state of the lanes it shades and
+/// with a [`MaterialPass`]), which reads the state of the lanes it shades and
 /// writes back their results only, so the passes can run in any order (the
 /// lanes without a hit end in [`end_missed_paths`]). Each pass is a function
 /// of its own compiled for the instruction set `T` ([`InstructionSet::pass`]):
@@ -202,18 +202,18 @@ pub(super) fn shade_lanes<T: InstructionSet>(kernel: &SoaScene, lanes: &mut SoaL
         end_missed_paths(lanes);
     }
     shade_lambert::<T>(&lambert, kernel, lanes, u);
-    shade_kind_pass::<T, _>(&KindPass(&kernel.conductor), kernel, lanes, u);
-    shade_kind_pass::<T, _>(&KindPass(&kernel.schlick), kernel, lanes, u);
-    shade_kind_pass::<T, _>(&KindPass(&kernel.coated), kernel, lanes, u);
-    shade_kind_pass::<T, _>(&KindPass(&kernel.conductor_beckmann), kernel, lanes, u);
-    shade_kind_pass::<T, _>(&KindPass(&kernel.schlick_beckmann), kernel, lanes, u);
-    shade_kind_pass::<T, _>(&KindPass(&kernel.coated_beckmann), kernel, lanes, u);
-    shade_kind_pass::<T, _>(&PrincipledPass(&kernel.principled), kernel, lanes, u);
-    shade_kind_pass::<T, _>(&PrincipledPass(&kernel.principled_ec), kernel, lanes, u);
-    shade_kind_pass::<T, _>(&KindPass(&kernel.blinn_phong), kernel, lanes, u);
-    shade_kind_pass::<T, _>(&KindPass(&kernel.dielectric), kernel, lanes, u);
-    shade_kind_pass::<T, _>(&KindPass(&kernel.dielectric_beckmann), kernel, lanes, u);
-    shade_kind_pass::<T, _>(&KindPass(&kernel.smooth_dielectric), kernel, lanes, u);
+    run_material_pass::<T, _>(&KindPass(&kernel.conductor), kernel, lanes, u);
+    run_material_pass::<T, _>(&KindPass(&kernel.schlick), kernel, lanes, u);
+    run_material_pass::<T, _>(&KindPass(&kernel.coated), kernel, lanes, u);
+    run_material_pass::<T, _>(&KindPass(&kernel.conductor_beckmann), kernel, lanes, u);
+    run_material_pass::<T, _>(&KindPass(&kernel.schlick_beckmann), kernel, lanes, u);
+    run_material_pass::<T, _>(&KindPass(&kernel.coated_beckmann), kernel, lanes, u);
+    run_material_pass::<T, _>(&PrincipledPass(&kernel.principled), kernel, lanes, u);
+    run_material_pass::<T, _>(&PrincipledPass(&kernel.principled_ec), kernel, lanes, u);
+    run_material_pass::<T, _>(&KindPass(&kernel.blinn_phong), kernel, lanes, u);
+    run_material_pass::<T, _>(&KindPass(&kernel.dielectric), kernel, lanes, u);
+    run_material_pass::<T, _>(&KindPass(&kernel.dielectric_beckmann), kernel, lanes, u);
+    run_material_pass::<T, _>(&KindPass(&kernel.smooth_dielectric), kernel, lanes, u);
     // Every ray starts at its origin and has no hit yet.
     lanes.rays.tnear.as_mut_slice().fill(0.0);
     lanes.rays.geom_id.as_mut_slice().fill(INVALID_ID);
@@ -250,7 +250,7 @@ pub(super) fn shade_lambert<T: InstructionSet>(
 /// through the function compiled for instruction set `T` and the scene's
 /// emitting triangles and environment.
 #[inline(always)]
-pub(super) fn shade_kind_pass<T: InstructionSet, P: ChunkPass>(
+pub(super) fn run_material_pass<T: InstructionSet, P: MaterialPass>(
     pass: &P,
     kernel: &SoaScene,
     lanes: &mut SoaLanes,
@@ -269,7 +269,7 @@ pub(super) fn shade_kind_pass<T: InstructionSet, P: ChunkPass>(
 
 /// Which lanes of a chunk one pass of [`shade_chunks`] shades, and its
 /// loop over them.
-pub(super) trait ChunkPass {
+pub(super) trait MaterialPass {
     /// What the loop takes of a chunk's lanes (their BSDFs' parameters).
     type Chunk;
     /// Whether the scene has any lane for this pass.
@@ -304,7 +304,7 @@ pub(super) trait ChunkPass {
 /// without a hit; elsewhere [`end_missed_paths`] ends those).
 pub(super) struct LambertPass;
 
-impl ChunkPass for LambertPass {
+impl MaterialPass for LambertPass {
     type Chunk = ();
 
     fn any(&self) -> bool {
@@ -367,7 +367,7 @@ pub(super) fn end_missed_paths(lanes: &mut SoaLanes) {
 /// surfaces, rough and smooth dielectrics).
 pub(super) struct KindPass<'a, B>(pub(super) &'a KindTable<B>);
 
-impl<B: LaneKind + LaneBsdf> ChunkPass for KindPass<'_, B> {
+impl<B: LaneKind + LaneBsdf> MaterialPass for KindPass<'_, B> {
     type Chunk = [Option<B>; W];
 
     fn any(&self) -> bool {
@@ -403,7 +403,7 @@ impl<B: LaneKind + LaneBsdf> ChunkPass for KindPass<'_, B> {
 /// albedo (so a base-colour map works).
 pub(super) struct PrincipledPass<'a, M>(pub(super) &'a KindTable<PrincipledIn<M>>);
 
-impl<M: PrincipledMode> ChunkPass for PrincipledPass<'_, M> {
+impl<M: PrincipledMode> MaterialPass for PrincipledPass<'_, M> {
     type Chunk = [Option<PrincipledIn<M>>; W];
 
     fn any(&self) -> bool {
@@ -451,7 +451,7 @@ impl<M: PrincipledMode> ChunkPass for PrincipledPass<'_, M> {
 /// Only the selected lanes' results are written back.
 #[inline(always)]
 pub(super) fn shade_chunks<
-    P: ChunkPass,
+    P: MaterialPass,
     const TRIANGLES: bool,
     const CONES: bool,
     const ENV: bool,

@@ -322,7 +322,7 @@ impl<K: LaneKind> KindTable<K> {
         chunk
     }
 
-    /// [`ChunkPass::select`] for a kind whose lanes take their parameters
+    /// [`MaterialPass::select`] for a kind whose lanes take their parameters
     /// from this table: the chunk's lanes of this kind and their parameters
     /// (with their maps' values where `mappable` and the scene has maps), or
     /// `None` where the chunk has none.
