@@ -29,3 +29,27 @@ resolution = [8, 8]
 type = "sphere"
 emission = [1, 1, 1]
 "#;
+
+/// Makes a test binary start in the repository's root, before any test
+/// runs: the tests name the repository's files relative to it (`assets/…`,
+/// `tests/data/…`), as a user at the top of a checkout would, while cargo
+/// starts a crate's tests in that crate's folder. One `.init_array` entry,
+/// run by the loader; call it once at the top of a test binary's `main.rs`.
+#[macro_export]
+macro_rules! run_from_the_repository_root {
+    () => {
+        #[used]
+        #[link_section = ".init_array"]
+        static RUN_FROM_THE_REPOSITORY_ROOT: extern "C" fn() = run_from_the_repository_root;
+
+        extern "C" fn run_from_the_repository_root() {
+            if let Err(e) = std::env::set_current_dir($crate::REPO_ROOT) {
+                eprintln!(
+                    "cannot enter the repository's root {}: {e}",
+                    $crate::REPO_ROOT
+                );
+                std::process::abort();
+            }
+        }
+    };
+}
