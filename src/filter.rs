@@ -51,15 +51,26 @@ pub struct GaussianFilter {
     erf_radius: f32,
 }
 
+/// Parameters no Gaussian filter can have.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum BadGaussian {
+    /// σ is not a positive number (pixels).
+    #[error("sigma must be a positive number, got {0}")]
+    Sigma(f32),
+    /// The radius is outside (0, 64] pixels.
+    #[error("radius must be in (0, 64] pixels, got {0}")]
+    Radius(f32),
+}
+
 impl GaussianFilter {
     /// A Gaussian of standard deviation `sigma` truncated at `radius` (both
     /// pixels, positive and finite; `radius ≤ 64`). Errors name the parameter.
-    pub fn new(sigma: f32, radius: f32) -> Result<GaussianFilter, String> {
+    pub fn new(sigma: f32, radius: f32) -> Result<GaussianFilter, BadGaussian> {
         if !(sigma > 0.0 && sigma.is_finite()) {
-            return Err(format!("sigma must be a positive number, got {sigma}"));
+            return Err(BadGaussian::Sigma(sigma));
         }
         if !(radius > 0.0 && radius <= 64.0) {
-            return Err(format!("radius must be in (0, 64] pixels, got {radius}"));
+            return Err(BadGaussian::Radius(radius));
         }
         let erf_radius = erf(radius as f64 / (sigma as f64 * std::f64::consts::SQRT_2)) as f32;
         // Beyond ~5.5σ the float mass rounds to 1 and erfinv(±1) is infinite.

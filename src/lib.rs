@@ -27,7 +27,7 @@
 pub use plsr_embree_sys as sys;
 
 // The building blocks, under the paths they had before the workspace.
-pub use plsr_base::{atomic_write, color, error, input, memory, rng, text, threads};
+pub use plsr_base::{atomic_write, color, input, memory, rng, text, threads};
 
 pub mod accel;
 pub mod bsdf;
@@ -35,6 +35,7 @@ pub mod camera;
 pub mod camera_path;
 pub mod elementary;
 pub mod equirect;
+pub mod error;
 pub mod film;
 pub mod filter;
 pub mod integrator;

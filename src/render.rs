@@ -8,6 +8,7 @@ use crate::integrator::{render_tile, Isa, RayStats, SoaScene, Tile};
 pub use crate::job::RenderJob;
 use crate::scene::Scene;
 pub use crate::threads::thread_pool;
+use plsr_base::Vocabulary;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -131,24 +132,45 @@ pub fn memory_needed(width: u32, height: u32, tile_size: u32, threads: usize) ->
     pixels * (sums + film + exr) + tile * (sums + PATH_STATE_BYTES) * threads as u64
 }
 
+/// A render that would need more memory than the machine has free. Its
+/// text does not name the option or field.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "{width}×{height} pixels need about {} of memory to render, more than the {} available \
+     (render a smaller image, or pieces of it)",
+    crate::memory::human_bytes(*needed),
+    crate::memory::human_bytes(*available)
+)]
+pub struct NotEnoughMemory {
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+    /// Bytes the render needs, estimated.
+    pub needed: u64,
+    /// Bytes free.
+    pub available: u64,
+}
+
 /// Checks that a render of `scene` with `options` fits in the memory this
 /// machine has free; the message gives both. Passes where the machine does
 /// not say (non-Linux).
-pub fn check_memory(scene: &Scene, options: &RenderOptions) -> std::result::Result<(), String> {
+pub fn check_memory(
+    scene: &Scene,
+    options: &RenderOptions,
+) -> std::result::Result<(), NotEnoughMemory> {
     let cam = scene.camera();
     let threads = options
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let needed = memory_needed(cam.width(), cam.height(), options.tile_size, threads);
     match crate::memory::available_bytes() {
-        Some(available) if needed > available => Err(format!(
-            "{}×{} pixels need about {} of memory to render, more than the {} available \
-             (render a smaller image, or pieces of it)",
-            cam.width(),
-            cam.height(),
-            crate::memory::human_bytes(needed),
-            crate::memory::human_bytes(available)
-        )),
+        Some(available) if needed > available => Err(NotEnoughMemory {
+            width: cam.width(),
+            height: cam.height(),
+            needed,
+            available,
+        }),
         _ => Ok(()),
     }
 }
@@ -189,9 +211,9 @@ pub fn render_window_sums(
     progress: &(dyn Fn(usize, usize) -> bool + Sync),
 ) -> Result<(FilmSums, RenderStats)> {
     job.validate()
-        .map_err(|e| Error::InvalidArgument(format!("render: {e}")))?;
+        .map_err(|e| Error::invalid_argument(format!("render: {e}")))?;
     if options.tile_size == 0 || options.tile_size > MAX_TILE_SIZE {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "tile size {} must be in [1, {MAX_TILE_SIZE}] pixels",
             options.tile_size
         )));
@@ -209,7 +231,7 @@ pub fn render_window_sums(
         || window.x0.saturating_add(window.width) > width
         || window.y0.saturating_add(window.height) > height
     {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "window {}×{} at ({}, {}) does not lie inside the {width}×{height} image",
             window.width, window.height, window.x0, window.y0
         )));
@@ -224,7 +246,7 @@ pub fn render_window_sums(
         .collect();
     let isa = match options.isa {
         Some(isa) if !isa.is_available() => {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "this CPU cannot run the {} kernel",
                 isa.name()
             )))
@@ -234,7 +256,7 @@ pub fn render_window_sums(
     };
     let kernel = options.vectorised.then(|| SoaScene::new(scene)).flatten();
     check_memory(scene, options)
-        .map_err(|m| Error::InvalidArgument(format!("camera.resolution: {m}")))?;
+        .map_err(|m| Error::invalid_argument(format!("camera.resolution: {m}")))?;
     let pool = thread_pool(options.threads)?;
     let done = AtomicUsize::new(0);
     let cancelled = AtomicBool::new(false);
@@ -265,7 +287,7 @@ pub fn render_window_sums(
         })
     });
     if cancelled.load(Ordering::Relaxed) {
-        return Err(Error::Cancelled);
+        return Err(Error::cancelled());
     }
     let seconds = start.elapsed().as_secs_f64();
     let stats = RenderStats {
@@ -304,11 +326,11 @@ pub fn render_gradient(
     all_paths: bool,
 ) -> Result<GradientResult> {
     job.validate()
-        .map_err(|e| Error::InvalidArgument(format!("render: {e}")))?;
+        .map_err(|e| Error::invalid_argument(format!("render: {e}")))?;
     let cam = scene.camera();
     let (width, height) = (cam.width(), cam.height());
     if adjoint.len() != width as usize * height as usize {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "the adjoint image has {} pixels, the camera {width}×{height}",
             adjoint.len()
         )));
@@ -316,12 +338,12 @@ pub fn render_gradient(
     if map.materials.len() != scene.materials().len()
         || map.lights.len() != scene.lights().lights.len()
     {
-        return Err(Error::InvalidArgument(
-            "the gradient map was made for another scene".into(),
+        return Err(Error::invalid_argument(
+            "the gradient map was made for another scene",
         ));
     }
     check_memory(scene, options)
-        .map_err(|m| Error::InvalidArgument(format!("camera.resolution: {m}")))?;
+        .map_err(|m| Error::invalid_argument(format!("camera.resolution: {m}")))?;
     let tiles = tiles(width, height, options.tile_size.max(1));
     let pool = thread_pool(options.threads)?;
     let start = Instant::now();

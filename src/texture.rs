@@ -19,7 +19,36 @@
 
 use crate::error::{Error, Result};
 use glam::{Vec2, Vec3};
-use std::path::Path;
+use plsr_base::Vocabulary;
+use std::path::{Path, PathBuf};
+
+/// A texture image that could not be loaded. Its text names the image; the
+/// scene reader adds the scene file and field.
+#[derive(Debug, thiserror::Error)]
+pub enum TextureError {
+    /// The path is not a readable regular file.
+    #[error("{}: texture file {fault}", path.display())]
+    NotAFile {
+        /// The image.
+        path: PathBuf,
+        /// What the path is instead.
+        fault: crate::input::NotAFile,
+    },
+    /// The decoder refused the file.
+    #[error("{}: cannot read texture: {source}", path.display())]
+    Decode {
+        /// The image.
+        path: PathBuf,
+        /// The decoder's error.
+        source: image::ImageError,
+    },
+    /// The image has no pixels.
+    #[error("{}: the texture is empty", .0.display())]
+    Empty(PathBuf),
+    /// Some texel is not finite.
+    #[error("{}: the texture has non-finite values", .0.display())]
+    NonFinite(PathBuf),
+}
 
 /// How a texture's stored values map to linear values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,15 +94,23 @@ impl ImageTexture {
 
     /// Loads a PNG or JPEG file. The error message names the file and the
     /// decoder's complaint; callers add the scene field.
-    pub fn load(path: &Path, encoding: Encoding) -> std::result::Result<ImageTexture, String> {
-        crate::input::check_regular_file(path)
-            .map_err(|m| format!("{}: texture file {m}", path.display()))?;
-        let image = image::open(path)
-            .map_err(|e| format!("{}: cannot read texture: {e}", path.display()))?;
+    pub fn load(
+        path: &Path,
+        encoding: Encoding,
+    ) -> std::result::Result<ImageTexture, TextureError> {
+        let at = path.to_path_buf();
+        crate::input::check_regular_file(path).map_err(|fault| TextureError::NotAFile {
+            path: at.clone(),
+            fault,
+        })?;
+        let image = image::open(path).map_err(|source| TextureError::Decode {
+            path: at.clone(),
+            source,
+        })?;
         let rgb = image.to_rgb32f();
         let (width, height) = rgb.dimensions();
         if width == 0 || height == 0 {
-            return Err(format!("{}: the texture is empty", path.display()));
+            return Err(TextureError::Empty(at));
         }
         let decode = |c: f32| match encoding {
             Encoding::Srgb => srgb_to_linear(c.clamp(0.0, 1.0)),
@@ -84,10 +121,7 @@ impl ImageTexture {
             .map(|p| Vec3::new(decode(p[0]), decode(p[1]), decode(p[2])))
             .collect::<Vec<_>>();
         if texels.iter().any(|t| !t.is_finite()) {
-            return Err(format!(
-                "{}: the texture has non-finite values",
-                path.display()
-            ));
+            return Err(TextureError::NonFinite(at));
         }
         Ok(ImageTexture {
             width,
@@ -144,7 +178,7 @@ pub fn load_for(
     path: &Path,
     encoding: Encoding,
 ) -> Result<ImageTexture> {
-    ImageTexture::load(path, encoding).map_err(|m| Error::input(scene_file, field, m))
+    ImageTexture::load(path, encoding).map_err(|m| Error::input(scene_file, field, m.to_string()))
 }
 
 #[cfg(test)]

@@ -42,6 +42,7 @@
 //! order, so the same film always gives the same file, byte for byte.
 
 use crate::atomic_write::{check_extension, OutputSet};
+use plsr_base::Vocabulary;
 use std::fs::File;
 use std::io::BufWriter;
 pub mod part;
@@ -173,10 +174,7 @@ pub fn stage_exr_layers(
     layers: &[(String, Vec<f32>)],
     attributes: &[(String, String)],
 ) -> Result<()> {
-    let fail = |message: String| Error::Output {
-        file: path.to_path_buf(),
-        message,
-    };
+    let fail = |message: String| Error::output(path.to_path_buf(), message);
     let mut list: exrp::SmallVec<[AnyChannel<FlatSamples>; 4]> = exrp::SmallVec::new();
     for (name, values) in layers {
         if values.len() != (width * height) as usize {
@@ -228,11 +226,7 @@ pub fn stage_exr_layers(
 fn read_flat_layer(path: &Path) -> Result<exrp::Layer<AnyChannels<FlatSamples>>> {
     exrp::read_first_flat_layer_from_file(path)
         .map(|image| image.layer_data)
-        .map_err(|e| Error::Input {
-            file: path.to_path_buf(),
-            field: String::new(),
-            message: format!("cannot read EXR: {e}"),
-        })
+        .map_err(|e| Error::input(path, "", format!("cannot read EXR: {e}")))
 }
 
 /// How radiance becomes display values in [`Film::write_png`].
@@ -249,15 +243,19 @@ pub struct ToneMap {
 /// real exposure.
 pub const MAX_EXPOSURE_STOPS: f32 = 64.0;
 
+/// An exposure compensation (stops) that is not finite or beyond
+/// ±[`MAX_EXPOSURE_STOPS`]. Its text does not name the option or field.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("must be between -{MAX_EXPOSURE_STOPS} and {MAX_EXPOSURE_STOPS} stops, got {0}")]
+pub struct ExposureOutOfRange(pub f32);
+
 /// Checks an exposure compensation in stops: finite and within
-/// ±[`MAX_EXPOSURE_STOPS`]; the error says what is wrong.
-pub fn check_exposure_stops(stops: f32) -> std::result::Result<f32, String> {
+/// ±[`MAX_EXPOSURE_STOPS`].
+pub fn check_exposure_stops(stops: f32) -> std::result::Result<f32, ExposureOutOfRange> {
     if stops.is_finite() && stops.abs() <= MAX_EXPOSURE_STOPS {
         Ok(stops)
     } else {
-        Err(format!(
-            "must be between -{MAX_EXPOSURE_STOPS} and {MAX_EXPOSURE_STOPS} stops, got {stops}"
-        ))
+        Err(ExposureOutOfRange(stops))
     }
 }
 
@@ -362,7 +360,7 @@ impl Film {
     pub fn write_exr(&self, path: &Path) -> Result<()> {
         let mut outputs = OutputSet::new();
         self.stage_exr(&mut outputs, path)?;
-        outputs.commit()
+        Ok(outputs.commit()?)
     }
 
     /// Writes the OpenEXR file into `outputs`, to be committed with the
@@ -387,10 +385,8 @@ impl Film {
         attributes: Vec<(exrp::Text, exrp::AttributeValue)>,
         encoding: exrp::Encoding,
     ) -> Result<()> {
-        check_extension(path, "exr", "OpenEXR").map_err(|message| Error::Output {
-            file: path.to_path_buf(),
-            message,
-        })?;
+        check_extension(path, "exr", "OpenEXR")
+            .map_err(|wrong| Error::output(path, wrong.to_string()))?;
         outputs.stage(path, |w| {
             self.encode_exr(path, w, extra, attributes, encoding)
         })
@@ -456,10 +452,7 @@ impl Film {
         );
         let image = exrp::Image::from_layer(layer);
         {
-            let fail = |message: String| Error::Output {
-                file: path.to_path_buf(),
-                message,
-            };
+            let fail = |message: String| Error::output(path.to_path_buf(), message);
             image
                 .write()
                 .to_buffered(&mut *w)
@@ -577,16 +570,14 @@ impl Film {
     pub fn write_png(&self, path: &Path, tone: ToneMap) -> Result<()> {
         let mut outputs = OutputSet::new();
         self.stage_png(&mut outputs, path, tone)?;
-        outputs.commit()
+        Ok(outputs.commit()?)
     }
 
     /// Writes the PNG into `outputs`, to be committed with the command's
     /// other outputs.
     pub fn stage_png(&self, outputs: &mut OutputSet, path: &Path, tone: ToneMap) -> Result<()> {
-        check_extension(path, "png", "PNG").map_err(|message| Error::Output {
-            file: path.to_path_buf(),
-            message,
-        })?;
+        check_extension(path, "png", "PNG")
+            .map_err(|wrong| Error::output(path, wrong.to_string()))?;
         outputs.stage(path, |w| self.encode_png(path, tone, w))
     }
 
@@ -602,10 +593,7 @@ impl Film {
             image::ExtendedColorType::Rgb8,
             image::ImageFormat::Png,
         )
-        .map_err(|e| Error::Output {
-            file: path.to_path_buf(),
-            message: format!("cannot write PNG: {e}"),
-        })
+        .map_err(|e| Error::output(path.to_path_buf(), format!("cannot write PNG: {e}")))
     }
 }
 

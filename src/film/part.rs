@@ -22,6 +22,7 @@ use super::{FilmSums, PixelSums, Tile};
 use crate::atomic_write::OutputSet;
 use crate::error::{Error, Result};
 use exr::prelude::{self as exrp, AnyChannel, FlatSamples};
+use plsr_base::Vocabulary;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
@@ -113,10 +114,7 @@ pub fn scene_hash(files: &[PathBuf], extra: &str) -> Result<u64> {
 pub fn scene_files_hasher(files: &[PathBuf]) -> Result<StableHasher> {
     let mut h = StableHasher::default();
     for file in files {
-        let bytes = std::fs::read(file).map_err(|source| Error::Io {
-            file: file.clone(),
-            source,
-        })?;
+        let bytes = std::fs::read(file).map_err(|source| Error::io(file.clone(), source))?;
         h.field(&bytes);
     }
     Ok(h)
@@ -370,7 +368,7 @@ impl Part {
 /// window are added in sample order.
 pub fn merge_parts(parts: &[(PathBuf, Part)]) -> Result<(FilmSums, u32)> {
     let Some((first_file, first)) = parts.first() else {
-        return Err(Error::InvalidArgument("no parts to merge".into()));
+        return Err(Error::invalid_argument("no parts to merge"));
     };
     let name = |f: &Path| f.display().to_string();
     for (file, part) in parts {
@@ -500,7 +498,7 @@ pub fn merge_parts(parts: &[(PathBuf, Part)]) -> Result<(FilmSums, u32)> {
     }
     if let Some(i) = owner.iter().position(|o| o.is_none()) {
         let (x, y) = (i as u32 % width, i as u32 / width);
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "no part covers pixel ({x}, {y}) of the {width}×{height} image: a window is missing"
         )));
     }

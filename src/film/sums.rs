@@ -11,6 +11,7 @@
 use super::{Film, FilmSettings};
 use crate::error::{Error, Result};
 use glam::{DVec3, Vec3};
+use plsr_base::Vocabulary;
 
 /// A rectangle of pixels `[x0, x0+width) × [y0, y0+height)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -195,14 +196,14 @@ impl FilmSums {
     /// whose samples come first.
     pub fn merge(&mut self, other: &FilmSums) -> Result<()> {
         if (self.width, self.height) != (other.width, other.height) {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "cannot merge a {}×{} film into a {}×{} one",
                 other.width, other.height, self.width, self.height
             )));
         }
         if self.settings != other.settings {
-            return Err(Error::InvalidArgument(
-                "cannot merge films recorded with different film settings".into(),
+            return Err(Error::invalid_argument(
+                "cannot merge films recorded with different film settings",
             ));
         }
         let other_first = other.sample_start < self.sample_start;

@@ -17,9 +17,11 @@
 //! incidence, 0.04, is plsr's default `specular` (0.5, `η = 1.5`).
 
 use crate::bsdf::{Bsdf, PrincipledParams};
+use crate::error::FormatError;
 use crate::material::{decode_normal, Material, MaterialTextures};
 use crate::texture::{srgb_to_linear, ImageTexture};
 use glam::{Mat4, Vec2, Vec3};
+use plsr_base::Vocabulary;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -104,7 +106,7 @@ impl GltfScene {
 /// Reads a glTF file (`.gltf` or `.glb`) and everything it references. The
 /// error message says what is wrong; callers put the file and field in
 /// front.
-pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, String> {
+pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, FormatError> {
     let (doc, buffers, images) =
         gltf::import(path).map_err(|e| format!("not a readable glTF 2.0 file: {e}"))?;
     let base = path.parent().unwrap_or(Path::new("."));
@@ -195,7 +197,8 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, String> {
             if !(scale.is_finite() && scale.abs() <= 10.0) {
                 return Err(format!(
                     "material `{name}`: normal texture scale {scale} is not in [-10, 10]"
-                ));
+                )
+                .into());
             }
             t.normal = Some(Arc::new(texture(w, h, &px, |p| {
                 decode_normal(Vec3::new(p[0], p[1], p[2]), scale)
@@ -225,7 +228,8 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, String> {
         if !e.is_finite() || e.min_element() < 0.0 {
             return Err(format!(
                 "material `{name}`: emissive factor {e} is not finite and non-negative"
-            ));
+            )
+            .into());
         }
         emission.push(e);
         materials.push(Material {
@@ -254,10 +258,7 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, String> {
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
         let m = parent * local;
         if !m.is_finite() {
-            return Err(format!(
-                "node {}: its transform is not finite",
-                node.index()
-            ));
+            return Err(format!("node {}: its transform is not finite", node.index()).into());
         }
         if let Some(mesh) = node.mesh() {
             let mesh_name = mesh
@@ -287,10 +288,11 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, String> {
                     return Err(format!(
                         "`{name}`: {} indices is not a whole number of triangles",
                         indices.len()
-                    ));
+                    )
+                    .into());
                 }
                 if let Some(bad) = indices.iter().find(|&&i| i as usize >= n) {
-                    return Err(format!("`{name}`: index {bad} is past its {n} vertices"));
+                    return Err(format!("`{name}`: index {bad} is past its {n} vertices").into());
                 }
                 let mut triangles: Vec<[u32; 3]> = indices
                     .chunks_exact(3)
@@ -316,14 +318,14 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, String> {
                     || (!uvs.is_empty() && uvs.len() != n)
                     || (!tangents.is_empty() && tangents.len() != n)
                 {
-                    return Err(format!("`{name}`: attributes of different lengths"));
+                    return Err(format!("`{name}`: attributes of different lengths").into());
                 }
                 if positions.iter().any(|p| !p.is_finite())
                     || normals.iter().any(|v| !v.is_finite())
                     || uvs.iter().any(|v| !v.is_finite())
                     || tangents.iter().any(|v| !v.is_finite())
                 {
-                    return Err(format!("`{name}` has non-finite vertex data"));
+                    return Err(format!("`{name}` has non-finite vertex data").into());
                 }
                 if triangles.is_empty() {
                     continue;
@@ -364,7 +366,8 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, String> {
                         return Err(format!(
                             "camera {}: degenerate pose or field of view",
                             camera.index()
-                        ));
+                        )
+                        .into());
                     }
                     cameras.push(GltfCamera {
                         position: m.transform_point3(Vec3::ZERO),
@@ -390,7 +393,8 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, String> {
                         return Err(format!(
                             "light {}: intensity is not finite and non-negative",
                             light.index()
-                        ));
+                        )
+                        .into());
                     }
                     point_lights.push(GltfPointLight {
                         position: m.transform_point3(Vec3::ZERO),
@@ -534,7 +538,7 @@ pub const DIRECT_WIDTH: u32 = 960;
 /// The scene [`GltfWrapper`] of the glTF file `path`.
 pub fn scene_toml(path: &Path) -> crate::error::Result<GltfWrapper> {
     crate::input::check_input_file(path)?;
-    let scene = read_gltf(path).map_err(|m| crate::error::Error::input(path, "", m))?;
+    let scene = read_gltf(path).map_err(|m| crate::error::Error::input(path, "", m.to_string()))?;
     let mut notes = Vec::new();
     let file = path
         .file_name()

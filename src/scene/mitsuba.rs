@@ -27,6 +27,7 @@
 
 use crate::error::{Error, Result};
 use glam::{DMat4, DVec3, DVec4};
+use plsr_base::Vocabulary;
 use roxmltree::{Document, Node};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
@@ -119,10 +120,8 @@ pub fn translate_for(path: &Path, text: &str, out_dir: &Path) -> Result<Translat
     if same {
         return translate_into(path, text, None);
     }
-    let base = std::fs::canonicalize(here).map_err(|source| Error::Io {
-        file: here.to_path_buf(),
-        source,
-    })?;
+    let base =
+        std::fs::canonicalize(here).map_err(|source| Error::io(here.to_path_buf(), source))?;
     translate_into(path, text, Some(base))
 }
 

@@ -21,6 +21,7 @@ use crate::job::RenderJob;
 use crate::light::pls::{BrightnessMode, Pls, PlsEmitter};
 use crate::light::{Cone, EnvironmentLight, Light, LightSet, PointLight, Reach, TriangleLight};
 use glam::{Vec2, Vec3};
+use plsr_base::Vocabulary;
 use std::path::Path;
 
 /// Environment variable holding extra Embree device configuration (e.g.
@@ -334,25 +335,25 @@ impl Scene {
             robust,
         } = desc;
         job.validate()
-            .map_err(|e| Error::InvalidArgument(format!("render: {e}")))?;
+            .map_err(|e| Error::invalid_argument(format!("render: {e}")))?;
         if meshes.len() >= u32::MAX as usize {
-            return Err(Error::InvalidArgument("too many meshes".into()));
+            return Err(Error::invalid_argument("too many meshes"));
         }
         // Tabulate the albedos energy-conserving materials need now rather
         // than in the middle of the render.
         for (i, m) in materials.iter().enumerate() {
             if let crate::bsdf::Bsdf::Principled(p) = &m.bsdf {
                 p.validate().map_err(|e| {
-                    Error::InvalidArgument(format!("material {i} ({}): {e}", m.name))
+                    Error::invalid_argument(format!("material {i} ({}): {e}", m.name))
                 })?;
                 p.prepare();
             }
         }
         for (i, m) in meshes.iter().enumerate() {
             m.validate()
-                .map_err(|e| Error::InvalidArgument(format!("mesh {i} ({}): {e}", m.name)))?;
+                .map_err(|e| Error::invalid_argument(format!("mesh {i} ({}): {e}", m.name)))?;
             if m.material as usize >= materials.len() {
-                return Err(Error::InvalidArgument(format!(
+                return Err(Error::invalid_argument(format!(
                     "mesh {i} ({}) uses material {} of {}",
                     m.name,
                     m.material,
@@ -362,14 +363,14 @@ impl Scene {
         }
         for (i, l) in point_lights.iter().enumerate() {
             if !crate::accel::within_coordinates(l.position) {
-                return Err(Error::InvalidArgument(format!(
+                return Err(Error::invalid_argument(format!(
                     "point light {i}: position {} is beyond ±{:e} scene units",
                     l.position,
                     crate::accel::MAX_COORDINATE
                 )));
             }
             if !(l.intensity.is_finite() && l.intensity.min_element() >= 0.0) {
-                return Err(Error::InvalidArgument(format!(
+                return Err(Error::invalid_argument(format!(
                     "point light {i}: intensity {} must be finite and not negative",
                     l.intensity
                 )));
@@ -477,11 +478,11 @@ impl Scene {
     /// parameters.
     pub fn set_material_bsdf(&mut self, index: usize, bsdf: crate::bsdf::Bsdf) -> Result<()> {
         let Some(material) = self.materials.get_mut(index) else {
-            return Err(Error::InvalidArgument(format!("no material {index}")));
+            return Err(Error::invalid_argument(format!("no material {index}")));
         };
         if let crate::bsdf::Bsdf::Principled(p) = &bsdf {
             p.validate().map_err(|e| {
-                Error::InvalidArgument(format!("material {index} ({}): {e}", material.name))
+                Error::invalid_argument(format!("material {index} ({}): {e}", material.name))
             })?;
             p.prepare();
         }
@@ -512,7 +513,7 @@ impl Scene {
     /// to `light`'s brightness, colour and window; its outline stays.
     pub fn set_pls_window_and_brightness(&mut self, mesh: usize, light: &Pls) -> Result<()> {
         let Some(emitter) = self.meshes.get(mesh).and_then(|m| m.pls.clone()) else {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "mesh {mesh} is not a PLS light"
             )));
         };
@@ -523,7 +524,7 @@ impl Scene {
         updated.penumbra_deg = light.penumbra_deg;
         updated
             .validate(0)
-            .map_err(|e| Error::InvalidArgument(format!("{}: {e}", self.meshes[mesh].name)))?;
+            .map_err(|e| Error::invalid_argument(format!("{}: {e}", self.meshes[mesh].name)))?;
         let new = crate::light::pls::PlsEmitter {
             light: updated,
             ..emitter

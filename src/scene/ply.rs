@@ -7,6 +7,7 @@
 //! polygons split into fans. Every other element and property is skipped.
 //! Errors name the file and what is wrong (with the header line).
 
+use crate::error::FormatError;
 use glam::{Vec2, Vec3};
 use std::path::Path;
 
@@ -95,12 +96,12 @@ struct Reader<'a> {
 }
 
 impl Reader<'_> {
-    fn value(&mut self, t: Scalar) -> Result<f64, String> {
+    fn value(&mut self, t: Scalar) -> Result<f64, FormatError> {
         if self.encoding == Encoding::Ascii {
             let tok = self.tokens.next().ok_or("the data ends early")?;
             return tok
                 .parse::<f64>()
-                .map_err(|_| format!("{tok:?} is not a number"));
+                .map_err(|_| FormatError::Content(format!("{tok:?} is not a number")));
         }
         let n = t.size();
         let b = self
@@ -128,13 +129,13 @@ impl Reader<'_> {
 
 /// Reads a PLY file; the error says what is wrong (the caller names the
 /// file).
-pub fn read_ply(path: &Path) -> Result<PlyMesh, String> {
-    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+pub fn read_ply(path: &Path) -> Result<PlyMesh, FormatError> {
+    let bytes = std::fs::read(path)?;
     parse_ply(&bytes)
 }
 
 /// Parses the bytes of a PLY file.
-pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
+pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, FormatError> {
     // The header: ASCII lines up to `end_header`.
     let mut at = 0;
     let mut lines = Vec::new();
@@ -167,14 +168,14 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
                     "ascii" => Encoding::Ascii,
                     "binary_little_endian" => Encoding::Little,
                     "binary_big_endian" => Encoding::Big,
-                    _ => return Err(bad("unknown format")),
+                    _ => return Err(FormatError::Content(bad("unknown format"))),
                 })
             }
             ["comment", ..] | ["obj_info", ..] | [] => {}
             ["element", name, count] => {
                 let count: u64 = count.parse().map_err(|_| bad("bad element count"))?;
                 if count > MAX_COUNT {
-                    return Err(bad("too many items"));
+                    return Err(FormatError::Content(bad("too many items")));
                 }
                 elements.push(Element {
                     name: name.to_string(),
@@ -201,7 +202,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
                     .properties
                     .push(Property::Scalar(name.to_string(), t));
             }
-            _ => return Err(bad("not understood")),
+            _ => return Err(FormatError::Content(bad("not understood"))),
         }
     }
     let encoding = encoding.ok_or("no `format` line in the header")?;
@@ -254,19 +255,20 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
         let mut values = vec![0.0f64; e.properties.len()];
         let mut polygon: Vec<u32> = Vec::new();
         for item in 0..e.count {
-            let err = |m: String| format!("{} {item}: {m}", e.name);
+            let err = |m: String| FormatError::Content(format!("{} {item}: {m}", e.name));
+            let at = |f: FormatError| err(f.to_string());
             for (k, p) in e.properties.iter().enumerate() {
                 match p {
-                    Property::Scalar(_, t) => values[k] = r.value(*t).map_err(err)?,
+                    Property::Scalar(_, t) => values[k] = r.value(*t).map_err(at)?,
                     Property::List(_, c, t) => {
-                        let n = r.value(*c).map_err(err)?;
+                        let n = r.value(*c).map_err(at)?;
                         if !((0.0..=1e6).contains(&n) && n.fract() == 0.0) {
                             return Err(err(format!("bad list length {n}")));
                         }
                         let keep = faces && Some(k) == list;
                         polygon.clear();
                         for _ in 0..n as usize {
-                            let v = r.value(*t).map_err(err)?;
+                            let v = r.value(*t).map_err(at)?;
                             if keep {
                                 if !((0.0..u32::MAX as f64).contains(&v) && v.fract() == 0.0) {
                                     return Err(err(format!("bad vertex index {v}")));
@@ -302,10 +304,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
         .iter()
         .find(|t| t.iter().any(|&i| i as u64 >= n))
     {
-        return Err(format!(
-            "a face uses vertex {} of {n}",
-            t.iter().max().unwrap()
-        ));
+        return Err(format!("a face uses vertex {} of {n}", t.iter().max().unwrap()).into());
     }
     if mesh.positions.iter().any(|p| !p.is_finite()) {
         return Err("a vertex position is not a finite number".into());
@@ -416,7 +415,7 @@ mod tests {
             ("ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n\x00\x00", "truncated"),
         ] {
             let e = parse_ply(text.as_bytes()).unwrap_err();
-            assert!(e.contains(says), "{text:?}: {e}");
+            assert!(e.to_string().contains(says), "{text:?}: {e}");
         }
     }
 }

@@ -9,9 +9,11 @@
 //! - `cube`: the cube `[-1, 1]³`, normals outwards, 12 triangles (Mitsuba's
 //!   `cube`).
 
+use crate::error::FormatError;
 use crate::error::{Error, Result};
 use glam::Vec2;
 use glam::{Mat4, Vec3};
+use plsr_base::Vocabulary;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -241,8 +243,8 @@ pub struct ObjFile {
 /// Checks what tobj's MTL reader assumes of a library: text (no NUL or
 /// other control bytes), three numbers after `Ka`, `Kd`, `Ks` and `Ke`,
 /// one after `Ns`, `Ni` and `d`. The error names the line.
-fn check_mtl(path: &Path) -> std::result::Result<(), String> {
-    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+fn check_mtl(path: &Path) -> std::result::Result<(), FormatError> {
+    let bytes = std::fs::read(path)?;
     if let Some(i) = bytes
         .iter()
         .position(|&b| b < 0x20 && !matches!(b, b'\t' | b'\n' | b'\r' | 0x0c))
@@ -250,7 +252,8 @@ fn check_mtl(path: &Path) -> std::result::Result<(), String> {
         return Err(format!(
             "not a text MTL library (control byte 0x{:02x} at offset {i})",
             bytes[i]
-        ));
+        )
+        .into());
     }
     let text = String::from_utf8_lossy(&bytes);
     for (n, line) in text.lines().enumerate() {
@@ -270,7 +273,8 @@ fn check_mtl(path: &Path) -> std::result::Result<(), String> {
                 "line {}: `{key}` needs {what}, got `{}`",
                 n + 1,
                 line.trim()
-            ));
+            )
+            .into());
         }
     }
     Ok(())
@@ -285,7 +289,7 @@ fn check_mtl(path: &Path) -> std::result::Result<(), String> {
 /// `v/vt/vn` with indices that name an existing element (1-based, or
 /// negative: counted back from the line; texture and normal indices are
 /// ignored, as tobj does, in a file without any).
-fn check_obj(text: &str) -> std::result::Result<(), String> {
+fn check_obj(text: &str) -> std::result::Result<(), FormatError> {
     // Totals first: a positive index may name an element defined later.
     let mut total = [0usize; 3];
     for line in text.lines() {
@@ -332,10 +336,10 @@ fn check_obj(text: &str) -> std::result::Result<(), String> {
                     _ => false,
                 };
                 if !ok {
-                    return Err(at(format!(
+                    return Err(FormatError::Content(at(format!(
                         "`v` takes x y z, then a non-zero weight w or a colour r g b; got `{}`",
                         line.trim()
-                    )));
+                    ))));
                 }
                 so_far[0] += 1;
             }
@@ -352,15 +356,15 @@ fn check_obj(text: &str) -> std::result::Result<(), String> {
                 // are skipped; a face of none is an error.
                 let corners: Vec<&str> = words.collect();
                 if corners.is_empty() {
-                    return Err(at(format!("`{key}` without corners")));
+                    return Err(FormatError::Content(at(format!("`{key}` without corners"))));
                 }
                 for (c, corner) in corners.iter().enumerate() {
                     let parts: Vec<&str> = corner.split('/').collect();
                     if parts.len() > 3 || parts[0].is_empty() {
-                        return Err(at(format!(
+                        return Err(FormatError::Content(at(format!(
                             "corner {} `{corner}` is not v, v/vt, v//vn or v/vt/vn",
                             c + 1
-                        )));
+                        ))));
                     }
                     for (k, part) in parts.iter().enumerate() {
                         // Texture and normal indices of a file that has no
@@ -381,11 +385,11 @@ fn check_obj(text: &str) -> std::result::Result<(), String> {
                             Ok(_) => None,
                         };
                         if let Some(fault) = fault {
-                            return Err(at(format!(
+                            return Err(FormatError::Content(at(format!(
                                 "corner {} `{corner}`: {} index {part} {fault}",
                                 c + 1,
                                 WHAT[k]
-                            )));
+                            ))));
                         }
                     }
                 }
@@ -396,7 +400,7 @@ fn check_obj(text: &str) -> std::result::Result<(), String> {
     if let (Some(c), Some(p)) = (coloured, plain) {
         return Err(format!(
             "line {p}: a vertex without a colour, but line {c} gives one: give r g b on every `v` line or on none"
-        ));
+        ).into());
     }
     Ok(())
 }

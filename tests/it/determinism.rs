@@ -77,7 +77,10 @@ fn cancelling_stops_the_render() {
         &RenderOptions::default(),
         &|done, _| done < 2,
     );
-    assert!(matches!(r, Err(plsr::Error::Cancelled)));
+    assert!(matches!(
+        r,
+        Err(plsr::Error::Base(plsr_base::Error::Cancelled))
+    ));
 }
 
 #[test]

@@ -12,10 +12,11 @@
 //! cargo run --release -p plsr-apps --example ar_demo   # writes photo.png, curve.csv, the figure
 //! ```
 
-use plsr::error::{Error, Result};
 use plsr::render::{render, RenderJob, RenderOptions};
 use plsr::scene::Scene;
 use plsr_apps::composite::{composite_scene, CompositeOptions};
+use plsr_apps::{Error, Result};
+use plsr_base::Vocabulary;
 use plsr_hdr::merge::{merge, MergeOptions};
 use plsr_hdr::synth::{write_brackets, BracketOptions, CameraModel};
 use std::path::Path;
@@ -33,10 +34,7 @@ fn main() -> Result<()> {
     eprintln!("rendering the room without the sphere at {} spp…", job.spp);
     let (film, _) = render(&scene, &job, &RenderOptions::default(), &|_, _| true)?;
     let work = std::env::temp_dir().join(format!("plsr-ar-demo-{}", std::process::id()));
-    std::fs::create_dir_all(&work).map_err(|source| plsr::error::Error::Io {
-        file: work.clone(),
-        source,
-    })?;
+    std::fs::create_dir_all(&work).map_err(|source| Error::io(work.clone(), source))?;
     let brackets = write_brackets(
         &plsr_apps::capture::FilmRadiance(&film),
         &CameraModel::default(),
@@ -53,12 +51,8 @@ fn main() -> Result<()> {
         ..Default::default()
     };
     merge(&brackets, &work.join("room.exr"), &options, &|_, _, _| {})?;
-    std::fs::copy(&brackets[1], dir.join("photo.png")).map_err(|source| {
-        plsr::error::Error::Io {
-            file: dir.join("photo.png"),
-            source,
-        }
-    })?;
+    std::fs::copy(&brackets[1], dir.join("photo.png"))
+        .map_err(|source| Error::io(dir.join("photo.png"), source))?;
     let _ = std::fs::remove_dir_all(&work);
     figure(dir)?;
     eprintln!(
@@ -82,7 +76,7 @@ fn figure(dir: &Path) -> Result<()> {
     )?;
     eprintln!("composited: {:?}", report.fit);
     let photo = image::open(dir.join("photo.png"))
-        .map_err(|e| Error::InvalidArgument(e.to_string()))?
+        .map_err(|e| Error::invalid_argument(e.to_string()))?
         .to_rgb8();
     let (w, h) = (c.width, c.height);
     let composite_png = std::env::temp_dir().join(format!("plsr-ar-{}.png", std::process::id()));
@@ -90,7 +84,7 @@ fn figure(dir: &Path) -> Result<()> {
     c.stage_png(&mut outputs, &composite_png, &transfer)?;
     outputs.commit()?;
     let composite = image::open(&composite_png)
-        .map_err(|e| Error::InvalidArgument(e.to_string()))?
+        .map_err(|e| Error::invalid_argument(e.to_string()))?
         .to_rgb8();
     let _ = std::fs::remove_file(&composite_png);
     let gap = 4;
@@ -115,14 +109,9 @@ fn figure(dir: &Path) -> Result<()> {
         }
     }
     let out = Path::new("docs/img/compositing.png");
-    std::fs::create_dir_all("docs/img").map_err(|source| Error::Io {
-        file: out.to_path_buf(),
-        source,
-    })?;
-    fig.save(out).map_err(|e| Error::Output {
-        file: out.to_path_buf(),
-        message: e.to_string(),
-    })?;
+    std::fs::create_dir_all("docs/img").map_err(|source| Error::io(out.to_path_buf(), source))?;
+    fig.save(out)
+        .map_err(|e| Error::output(out.to_path_buf(), e.to_string()))?;
     eprintln!("wrote {}", out.display());
     Ok(())
 }

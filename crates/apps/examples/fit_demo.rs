@@ -9,10 +9,11 @@
 //! cargo run --release -p plsr-apps --example fit_demo   # writes photo.exr and the figure
 //! ```
 
-use plsr::error::{Error, Result};
 use plsr::render::{render, RenderJob, RenderOptions};
 use plsr::scene::Scene;
 use plsr_apps::fit::{fit_scene_file, FitOptions};
+use plsr_apps::{Error, Result};
+use plsr_base::Vocabulary;
 use std::path::Path;
 
 /// The parameters the demo fits (10): every colour and roughness, and the
@@ -43,10 +44,8 @@ fn main() -> Result<()> {
             exr::prelude::f16::from_f32(c.z),
         )
     };
-    exr::prelude::write_rgb_file(&photo, w, h, rgb).map_err(|e| Error::Output {
-        file: photo.clone(),
-        message: e.to_string(),
-    })?;
+    exr::prelude::write_rgb_file(&photo, w, h, rgb)
+        .map_err(|e| Error::output(photo.clone(), e.to_string()))?;
     println!("wrote {} ({w}×{h}, {} spp)", photo.display(), job.spp);
 
     let options = FitOptions {
@@ -72,10 +71,8 @@ fn main() -> Result<()> {
     }
     let img = plsr_apps::fit::plot::loss_plot(&outcome.losses, 640, 400);
     let figure = Path::new("docs/img/fitting-loss.png");
-    img.save(figure).map_err(|e| Error::Output {
-        file: figure.to_path_buf(),
-        message: e.to_string(),
-    })?;
+    img.save(figure)
+        .map_err(|e| Error::output(figure.to_path_buf(), e.to_string()))?;
     println!("wrote {}", figure.display());
     Ok(())
 }

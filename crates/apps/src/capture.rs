@@ -9,11 +9,12 @@
 //! EXIF exposure time, f-number and ISO, ready for `plsr hdr merge`. The
 //! rendered panorama itself is written as `truth.exr` next to them.
 
+use crate::error::{Error, Result};
 use glam::Vec3;
 use plsr::camera::{Camera, EquirectCamera, Pose};
 use plsr::render::{render, RenderOptions};
 use plsr::scene::{file, Scene};
-use plsr_base::error::{Error, Result};
+use plsr_base::Vocabulary;
 pub use plsr_hdr::synth::PAPER_EXPOSURES;
 use plsr_hdr::synth::{auto_exposures, write_brackets, BracketOptions, CameraModel, ExposurePlan};
 use std::path::{Path, PathBuf};
@@ -65,7 +66,7 @@ pub fn capture(
     options: &CaptureOptions,
     progress: &(dyn Fn(usize, usize) -> bool + Sync),
 ) -> Result<Captured> {
-    let invalid = |m: String| Error::InvalidArgument(m);
+    let invalid = |m: String| Error::invalid_argument(m);
     if !options.at.is_finite() {
         return Err(invalid("--at must be three finite numbers".into()));
     }
@@ -87,10 +88,10 @@ pub fn capture(
             .map(|mut d| d.next().is_some())
             .unwrap_or(true)
     {
-        return Err(Error::Output {
-            file: out.to_path_buf(),
-            message: "the output folder exists and is not empty".into(),
-        });
+        return Err(Error::output(
+            out.to_path_buf(),
+            "the output folder exists and is not empty",
+        ));
     }
     let mut desc = file::load(scene_path)?;
     let pose = *desc.camera.pose();
@@ -134,10 +135,7 @@ pub fn capture(
     plsr_base::atomic_write::sweep_stale_partials(out);
     let staging = plsr_base::atomic_write::partial_path(out);
     plsr_base::atomic_write::register_partial(&staging);
-    let io = |e: std::io::Error, f: &Path| Error::Io {
-        file: f.to_path_buf(),
-        source: e,
-    };
+    let io = |e: std::io::Error, f: &Path| Error::io(f.to_path_buf(), e);
     std::fs::create_dir_all(&staging).map_err(|e| io(e, &staging))?;
     let result = (|| -> Result<Vec<PathBuf>> {
         film.write_exr(&staging.join("truth.exr"))?;
@@ -146,13 +144,13 @@ pub fn capture(
             exif: true,
             ..Default::default()
         };
-        write_brackets(
+        Ok(write_brackets(
             &FilmRadiance(&film),
             &options.camera,
             &exposures,
             &staging,
             &bracket_options,
-        )
+        )?)
     })();
     let placed = result.and_then(|paths| {
         if out.exists() {

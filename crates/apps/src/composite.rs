@@ -17,11 +17,12 @@
 //! Where no path of a pixel meets a virtual object, `W` and `O` are equal
 //! bit for bit (same samples, same paths), so `C = P` exactly.
 
+use crate::error::{Error, Result};
 use glam::Vec3;
 use plsr::film::FilmSums;
 use plsr::scene::photo::{PhotoResponse, PhotoSpec};
 use plsr_base::atomic_write::OutputSet;
-use plsr_base::error::{Error, Result};
+use plsr_base::Vocabulary;
 use plsr_hdr::oiio::{ImageReader, PixelType};
 use plsr_hdr::response::ResponseCurve;
 use std::path::Path;
@@ -36,15 +37,18 @@ pub enum Mode {
     Superimpose,
 }
 
+/// A compositing mode's name that is not one of plsr's.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown mode `{0}` (known: differential, superimpose)")]
+pub struct UnknownMode(pub String);
+
 impl std::str::FromStr for Mode {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Mode, String> {
+    type Err = UnknownMode;
+    fn from_str(s: &str) -> std::result::Result<Mode, UnknownMode> {
         match s {
             "differential" => Ok(Mode::Differential),
             "superimpose" => Ok(Mode::Superimpose),
-            other => Err(format!(
-                "unknown mode `{other}` (known: differential, superimpose)"
-            )),
+            other => Err(UnknownMode(other.into())),
         }
     }
 }
@@ -225,7 +229,7 @@ impl Photo {
     pub fn from_rgb8(width: u32, height: u32, rgb: &[u8], transfer: Transfer) -> Result<Photo> {
         let n = width as usize * height as usize;
         if n == 0 || rgb.len() != n * 3 {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "a {width}×{height} RGB photo has {} bytes, got {}",
                 n * 3,
                 rgb.len()
@@ -233,7 +237,7 @@ impl Photo {
         }
         if let Transfer::Curve(curve) = &transfer {
             if curve.levels() != 256 {
-                return Err(Error::InvalidArgument(format!(
+                return Err(Error::invalid_argument(format!(
                     "the curve has {} levels, an 8-bit photo 256",
                     curve.levels()
                 )));
@@ -401,12 +405,8 @@ impl Composite {
     /// Stages the linear OpenEXR: `R`, `G`, `B` the composite, `A` the
     /// matte, `difference.R/G/B` the shadow and reflection layer.
     pub fn stage_exr(&self, outputs: &mut OutputSet, path: &Path) -> Result<()> {
-        plsr_base::atomic_write::check_extension(path, "exr", "OpenEXR").map_err(|message| {
-            Error::Output {
-                file: path.to_path_buf(),
-                message,
-            }
-        })?;
+        plsr_base::atomic_write::check_extension(path, "exr", "OpenEXR")
+            .map_err(|message| Error::output(path.to_path_buf(), message.to_string()))?;
         let split = |v: &[Vec3], c: usize| -> Vec<f32> { v.iter().map(|x| x[c]).collect() };
         let mut layers: Vec<(String, Vec<f32>)> = Vec::new();
         for (c, name) in ["R", "G", "B"].iter().enumerate() {
@@ -414,14 +414,14 @@ impl Composite {
             layers.push((format!("difference.{name}"), split(&self.difference, c)));
         }
         layers.push(("A".into(), self.matte.clone()));
-        plsr::film::stage_exr_layers(
+        Ok(plsr::film::stage_exr_layers(
             outputs,
             path,
             self.width,
             self.height,
             &layers,
             &[("plsr:exposure_k".into(), format!("{}", self.k))],
-        )
+        )?)
     }
 
     /// Stages an 8-bit PNG encoded through the photo's transfer, so that
@@ -432,12 +432,8 @@ impl Composite {
         path: &Path,
         transfer: &Transfer,
     ) -> Result<()> {
-        plsr_base::atomic_write::check_extension(path, "png", "PNG").map_err(|message| {
-            Error::Output {
-                file: path.to_path_buf(),
-                message,
-            }
-        })?;
+        plsr_base::atomic_write::check_extension(path, "png", "PNG")
+            .map_err(|message| Error::output(path.to_path_buf(), message.to_string()))?;
         let mut img = image::RgbImage::new(self.width, self.height);
         for (i, px) in img.pixels_mut().enumerate() {
             let c = self.color[i];
@@ -449,10 +445,7 @@ impl Composite {
         }
         outputs.stage(path, |w| {
             img.write_to(w, image::ImageFormat::Png)
-                .map_err(|e| Error::Output {
-                    file: path.to_path_buf(),
-                    message: e.to_string(),
-                })
+                .map_err(|e| Error::output(path.to_path_buf(), e.to_string()))
         })
     }
 }
@@ -537,7 +530,7 @@ pub fn composite_scene(
     let (result, report) = composite_built(&scene, &photo, spec.exposure, options, progress)
         .map_err(|e| match e {
             // The fit's failure is about the scene's `photo.exposure`.
-            Error::InvalidArgument(m) if m.starts_with(FIT_FAILED) => {
+            Error::Base(plsr_base::Error::InvalidArgument(m)) if m.starts_with(FIT_FAILED) => {
                 Error::input(scene_file, "photo.exposure", m)
             }
             other => other,
@@ -556,20 +549,20 @@ pub fn composite_built(
     progress: &(dyn Fn(usize, usize) -> bool + Sync),
 ) -> Result<(Composite, CompositeReport)> {
     if !scene.meshes().iter().any(|m| m.is_virtual) {
-        return Err(Error::InvalidArgument(
-            "no shape is virtual: mark the objects to insert with `virtual = true`".into(),
+        return Err(Error::invalid_argument(
+            "no shape is virtual: mark the objects to insert with `virtual = true`",
         ));
     }
     let (cw, ch) = (scene.camera().width(), scene.camera().height());
     if (photo.width, photo.height) != (cw, ch) {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "the photo is {}×{} pixels but the camera renders {cw}×{ch}",
             photo.width, photo.height
         )));
     }
     if let Some(k) = exposure {
         if !(k.is_finite() && k > 0.0) {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "exposure {k}: must be a positive number"
             )));
         }
@@ -582,7 +575,7 @@ pub fn composite_built(
         job.seed = seed;
     }
     job.validate()
-        .map_err(|e| Error::InvalidArgument(format!("render: {e}")))?;
+        .map_err(|e| Error::invalid_argument(format!("render: {e}")))?;
     // With the virtual objects, then without: the same samples.
     let jobs = [false, true].map(|hide_virtual| plsr::job::RenderJob {
         hide_virtual,
@@ -608,7 +601,7 @@ pub fn composite_built(
         Some(k) => k,
         None => {
             let fit = fit_exposure(&photo.radiance, &without, &matte).ok_or_else(|| {
-                Error::InvalidArgument(format!(
+                Error::invalid_argument(format!(
                     "{FIT_FAILED}: no pixel outside the virtual objects is lit in the render; give the exposure"
                 ))
             })?;

@@ -5,9 +5,13 @@
 //! - [`composite`]: virtual objects composited into a photograph
 //!   (differential rendering, the exposure fit);
 //! - [`fit`]: materials and lights fitted to photographs;
+//! - [`error`]: the applications' error enum;
 //! - [`experiment`]: the paper's experiment redone on a generated room.
 
 pub mod capture;
 pub mod composite;
+pub mod error;
 pub mod experiment;
 pub mod fit;
+
+pub use error::{Error, Result};

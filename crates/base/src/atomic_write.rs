@@ -165,15 +165,15 @@ pub fn sweep_stale_partials(target: &Path) -> usize {
 /// (opened for reading and writing) and renaming it into place only when
 /// `write` succeeded; on failure the temporary file is removed and `path` is
 /// untouched.
-pub fn write_atomically(
+pub fn write_atomically<E: From<Error>>(
     path: &Path,
-    write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
-) -> Result<()> {
+    write: impl FnOnce(&mut BufWriter<File>) -> std::result::Result<(), E>,
+) -> std::result::Result<(), E> {
     // A set of one output: staged, then renamed; on failure its drop
     // removes the temporary file.
     let mut outputs = OutputSet::new();
     outputs.stage(path, write)?;
-    outputs.commit()
+    Ok(outputs.commit()?)
 }
 
 /// Bytes free to an unprivileged writer on the file system holding
@@ -220,21 +220,51 @@ pub fn write_failure_message(path: &Path, tmp: &Path, needed: u64, message: &str
     }
 }
 
+/// An output named with another format's extension. Its text does not
+/// repeat the path; callers put it in front.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct WrongExtension {
+    /// The format that would be written ("OpenEXR").
+    pub format: String,
+    /// The extension it needs, without the dot.
+    pub wanted: String,
+    /// The extension the path has (empty if none).
+    pub got: String,
+}
+
+impl std::fmt::Display for WrongExtension {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let WrongExtension {
+            format,
+            wanted,
+            got,
+        } = self;
+        write!(
+            f,
+            "writes {format}; name the file `.{wanted}` (got `.{got}`)"
+        )
+    }
+}
+
+impl std::error::Error for WrongExtension {}
+
 /// Checks that `path` ends in `.extension` (any case), the format
 /// `format` that will be written: no file is ever written under the name
-/// of another format. The message does not repeat the path.
+/// of another format.
 pub fn check_extension(
     path: &Path,
     extension: &str,
     format: &str,
-) -> std::result::Result<(), String> {
+) -> std::result::Result<(), WrongExtension> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
     if ext.eq_ignore_ascii_case(extension) {
         Ok(())
     } else {
-        Err(format!(
-            "writes {format}; name the file `.{extension}` (got `.{ext}`)"
-        ))
+        Err(WrongExtension {
+            format: format.into(),
+            wanted: extension.into(),
+            got: ext.into(),
+        })
     }
 }
 
@@ -278,12 +308,13 @@ impl OutputSet {
 
     /// Writes the future `path` by calling `write` on a temporary file in
     /// the same folder (opened for reading and writing); `path` itself is
-    /// untouched until [`OutputSet::commit`].
-    pub fn stage(
+    /// untouched until [`OutputSet::commit`]. `write` may fail with any
+    /// error enum that holds this crate's [`Error`].
+    pub fn stage<E: From<Error>>(
         &mut self,
         path: &Path,
-        write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
-    ) -> Result<()> {
+        write: impl FnOnce(&mut BufWriter<File>) -> std::result::Result<(), E>,
+    ) -> std::result::Result<(), E> {
         sweep_stale_partials(path);
         let tmp = partial_path(path);
         let io_err = |source| Error::Io {
@@ -305,7 +336,7 @@ impl OutputSet {
         let mut w = BufWriter::new(file);
         write(&mut w)?;
         let file = w.into_inner().map_err(|e| io_err(e.into_error()))?;
-        file.sync_all().map_err(io_err)
+        Ok(file.sync_all().map_err(io_err)?)
     }
 
     /// Stages `bytes` as the future `path` (see [`OutputSet::stage`]).
@@ -462,7 +493,7 @@ mod tests {
         std::fs::write(&a, "old a").unwrap();
         // The second output fails: neither target changes, no temporary stays.
         let mut set = OutputSet::new();
-        set.stage(&a, |w| {
+        set.stage::<Error>(&a, |w| {
             w.write_all(b"new a").unwrap();
             Ok(())
         })
@@ -476,12 +507,12 @@ mod tests {
         assert_eq!(left.len(), 1, "only a.txt remains");
         // Both succeed: both are replaced at commit, not before.
         let mut set = OutputSet::new();
-        set.stage(&a, |w| {
+        set.stage::<Error>(&a, |w| {
             w.write_all(b"new a").unwrap();
             Ok(())
         })
         .unwrap();
-        set.stage(&b, |w| {
+        set.stage::<Error>(&b, |w| {
             w.write_all(b"new b").unwrap();
             Ok(())
         })

@@ -1,9 +1,13 @@
-//! plsr's error type: every failure names what it was working on.
+//! The shared vocabulary of plsr's errors: every failure names what it was
+//! working on. Each library crate above this one has its own error enum
+//! holding this one (`#[from]`) beside its own faults; [`Vocabulary`] gives
+//! those enums the same constructors.
 
 use std::fmt;
 use std::path::PathBuf;
 
-/// Any error plsr reports.
+/// A failure every crate can meet: bad input, a file that cannot be read
+/// or written, an invalid argument, cancelled work.
 #[derive(Debug)]
 pub enum Error {
     /// Bad input: the file, the field (a path such as `shapes[2].transform.scale`,
@@ -30,15 +34,30 @@ pub enum Error {
         /// What went wrong.
         message: String,
     },
-    /// Embree reported an error.
-    Embree(EmbreeError),
     /// A value passed through the API is invalid.
     InvalidArgument(String),
-    /// The render was cancelled by its progress callback.
+    /// Long work (a render, a fit) was cancelled by its progress callback.
     Cancelled,
 }
 
 impl Error {
+    /// The same error with `field` named where none was: for helpers that
+    /// know the file but not which field of the caller's input named it.
+    pub fn in_field(self, field: impl Into<String>) -> Error {
+        match self {
+            Error::Input {
+                file,
+                field: f,
+                message,
+            } if f.is_empty() => Error::Input {
+                file,
+                field: field.into(),
+                message,
+            },
+            other => other,
+        }
+    }
+
     /// An [`Error::Input`] for `file`, `field`, `message`.
     pub fn input(
         file: impl Into<PathBuf>,
@@ -69,7 +88,6 @@ impl fmt::Display for Error {
             }
             Error::Io { file, source } => write!(f, "{}: {source}", file.display()),
             Error::Output { file, message } => write!(f, "{}: {message}", file.display()),
-            Error::Embree(e) => write!(f, "{e}"),
             Error::InvalidArgument(m) => write!(f, "invalid argument: {m}"),
             Error::Cancelled => write!(f, "render cancelled"),
         }
@@ -80,45 +98,50 @@ impl std::error::Error for Error {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
             Error::Io { source, .. } => Some(source),
-            Error::Embree(e) => Some(e),
             _ => None,
         }
     }
 }
 
-impl From<EmbreeError> for Error {
-    fn from(e: EmbreeError) -> Error {
-        Error::Embree(e)
-    }
-}
-
-/// An error reported by Embree: its error code and message. Defined here,
-/// below the renderer that calls Embree, so that [`Error`] can carry it.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct EmbreeError {
-    /// Embree's `RTCError` code (1 = unknown, 2 = invalid argument, 3 = invalid
-    /// operation, 4 = out of memory, 5 = unsupported CPU, 6 = cancelled).
-    pub code: u32,
-    /// Embree's message, or a description of the failing call.
-    pub message: String,
-}
-
-impl fmt::Display for EmbreeError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let name = match self.code {
-            1 => "unknown error",
-            2 => "invalid argument",
-            3 => "invalid operation",
-            4 => "out of memory",
-            5 => "unsupported CPU",
-            6 => "cancelled",
-            _ => "error",
-        };
-        write!(f, "Embree {name}: {}", self.message)
-    }
-}
-
-impl std::error::Error for EmbreeError {}
-
 /// plsr's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// The constructors of [`Error`] on any error enum that holds it, so that a
+/// crate's own enum is built as `Error::input(file, field, message)` like
+/// the vocabulary itself.
+pub trait Vocabulary: From<Error> {
+    /// Bad input: `file`, `field` (dotted path, or empty), what is wrong.
+    fn input(
+        file: impl Into<PathBuf>,
+        field: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Self {
+        Error::input(file, field, message).into()
+    }
+    /// `file` could not be read or written.
+    fn io(file: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            file: file.into(),
+            source,
+        }
+        .into()
+    }
+    /// The output `file` could not be produced.
+    fn output(file: impl Into<PathBuf>, message: impl Into<String>) -> Self {
+        Error::Output {
+            file: file.into(),
+            message: message.into(),
+        }
+        .into()
+    }
+    /// A value passed through the API or on the command line is invalid.
+    fn invalid_argument(message: impl Into<String>) -> Self {
+        Error::InvalidArgument(message.into()).into()
+    }
+    /// Long work was cancelled by its progress callback.
+    fn cancelled() -> Self {
+        Error::Cancelled.into()
+    }
+}
+
+impl<E: From<Error>> Vocabulary for E {}

@@ -4,15 +4,42 @@
 
 use std::path::Path;
 
+/// Why a path named as an input is not a readable regular file. Its text
+/// does not repeat the path; callers put it in front.
+#[derive(Debug)]
+pub enum NotAFile {
+    /// The path names a folder.
+    Folder,
+    /// The path names a FIFO, a socket or a device.
+    Special,
+    /// Nothing exists at the path.
+    NotFound,
+    /// The path's metadata cannot be read (permissions, a broken link, …).
+    Unreadable(std::io::Error),
+}
+
+impl std::fmt::Display for NotAFile {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            NotAFile::Folder => f.write_str("is a folder, not a file"),
+            NotAFile::Special => f.write_str("is not a regular file (a FIFO, socket or device)"),
+            NotAFile::NotFound => f.write_str("not found"),
+            NotAFile::Unreadable(e) => write!(f, "cannot be read: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for NotAFile {}
+
 /// Checks that `path` names an existing regular file (after following
-/// links). The message does not repeat the path; callers put it in front.
-pub fn check_regular_file(path: &Path) -> std::result::Result<(), String> {
+/// links).
+pub fn check_regular_file(path: &Path) -> std::result::Result<(), NotAFile> {
     match std::fs::metadata(path) {
         Ok(m) if m.is_file() => Ok(()),
-        Ok(m) if m.is_dir() => Err("is a folder, not a file".into()),
-        Ok(_) => Err("is not a regular file (a FIFO, socket or device)".into()),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err("not found".into()),
-        Err(e) => Err(format!("cannot be read: {e}")),
+        Ok(m) if m.is_dir() => Err(NotAFile::Folder),
+        Ok(_) => Err(NotAFile::Special),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err(NotAFile::NotFound),
+        Err(e) => Err(NotAFile::Unreadable(e)),
     }
 }
 
@@ -25,7 +52,8 @@ pub fn check_input_file(path: &Path) -> crate::error::Result<()> {
             file: path.to_path_buf(),
             source,
         }),
-        Ok(_) => check_regular_file(path).map_err(|m| crate::error::Error::input(path, "", m)),
+        Ok(_) => check_regular_file(path)
+            .map_err(|m| crate::error::Error::input(path, "", m.to_string())),
     }
 }
 
@@ -121,19 +149,19 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let file = dir.join("a.txt");
         std::fs::write(&file, "x").unwrap();
-        assert_eq!(check_regular_file(&file), Ok(()));
-        assert_eq!(
-            check_regular_file(&dir).unwrap_err(),
-            "is a folder, not a file"
-        );
-        assert_eq!(
-            check_regular_file(&dir.join("missing")).unwrap_err(),
-            "not found"
-        );
+        assert!(check_regular_file(&file).is_ok());
+        let folder = check_regular_file(&dir).unwrap_err();
+        assert!(matches!(folder, NotAFile::Folder));
+        assert_eq!(folder.to_string(), "is a folder, not a file");
+        let missing = check_regular_file(&dir.join("missing")).unwrap_err();
+        assert!(matches!(missing, NotAFile::NotFound));
+        assert_eq!(missing.to_string(), "not found");
         #[cfg(unix)]
-        assert!(check_regular_file(Path::new("/dev/null"))
-            .unwrap_err()
-            .contains("not a regular file"));
+        {
+            let device = check_regular_file(Path::new("/dev/null")).unwrap_err();
+            assert!(matches!(device, NotAFile::Special));
+            assert!(device.to_string().contains("not a regular file"));
+        }
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

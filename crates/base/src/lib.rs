@@ -3,8 +3,7 @@
 //! checks of a user's input files, random streams, colour, the worker
 //! threads, the machine's free memory and a bitmap font for plot labels.
 //!
-//! Nothing here knows about scenes, images or Embree (but [`EmbreeError`],
-//! the data of an Embree failure, so that [`Error`] can carry it).
+//! Nothing here knows about scenes, images or Embree.
 
 pub mod atomic_write;
 pub mod color;
@@ -15,4 +14,4 @@ pub mod rng;
 pub mod text;
 pub mod threads;
 
-pub use error::{EmbreeError, Error, Result};
+pub use error::{Error, Result, Vocabulary};

@@ -99,18 +99,92 @@ impl FfiError {
     }
 }
 
-impl From<plsr_base::Error> for FfiError {
-    fn from(e: plsr_base::Error) -> FfiError {
-        let code = match &e {
+/// The result code of each kind of failure, whichever crate reported it.
+trait ResultCode {
+    fn result_code(&self) -> plsr_result;
+}
+
+impl ResultCode for plsr_base::Error {
+    fn result_code(&self) -> plsr_result {
+        match self {
             plsr_base::Error::Input { .. } => PLSR_ERR_INPUT,
             plsr_base::Error::Io { .. } | plsr_base::Error::Output { .. } => PLSR_ERR_IO,
-            plsr_base::Error::Embree(_) => PLSR_ERR_EMBREE,
             plsr_base::Error::InvalidArgument(_) => PLSR_ERR_INVALID_ARGUMENT,
             plsr_base::Error::Cancelled => PLSR_ERR_CANCELLED,
-        };
-        FfiError::new(code, e.to_string())
+        }
     }
 }
+
+impl ResultCode for plsr_hdr::oiio::Error {
+    fn result_code(&self) -> plsr_result {
+        match self {
+            plsr_hdr::oiio::Error::Base(e) => e.result_code(),
+            plsr_hdr::oiio::Error::Unavailable { .. } | plsr_hdr::oiio::Error::Read { .. } => {
+                PLSR_ERR_INPUT
+            }
+            plsr_hdr::oiio::Error::Write { .. } => PLSR_ERR_IO,
+        }
+    }
+}
+
+impl ResultCode for plsr::Error {
+    fn result_code(&self) -> plsr_result {
+        match self {
+            plsr::Error::Base(e) => e.result_code(),
+            plsr::Error::Embree(_) => PLSR_ERR_EMBREE,
+        }
+    }
+}
+
+impl ResultCode for plsr_hdr::Error {
+    fn result_code(&self) -> plsr_result {
+        match self {
+            plsr_hdr::Error::Base(e) => e.result_code(),
+            plsr_hdr::Error::Image(e) => e.result_code(),
+        }
+    }
+}
+
+impl ResultCode for plsr_metrics::Error {
+    fn result_code(&self) -> plsr_result {
+        match self {
+            plsr_metrics::Error::Base(e) => e.result_code(),
+            plsr_metrics::Error::Image(e) => e.result_code(),
+            plsr_metrics::Error::Weights(_) => PLSR_ERR_INVALID_ARGUMENT,
+        }
+    }
+}
+
+impl ResultCode for plsr_apps::Error {
+    fn result_code(&self) -> plsr_result {
+        match self {
+            plsr_apps::Error::Base(e) => e.result_code(),
+            plsr_apps::Error::Render(e) => e.result_code(),
+            plsr_apps::Error::Hdr(e) => e.result_code(),
+            plsr_apps::Error::Image(e) => e.result_code(),
+            plsr_apps::Error::Metrics(e) => e.result_code(),
+        }
+    }
+}
+
+macro_rules! ffi_error_from {
+    ($($error:ty),*) => {$(
+        impl From<$error> for FfiError {
+            fn from(e: $error) -> FfiError {
+                FfiError::new(e.result_code(), e.to_string())
+            }
+        }
+    )*};
+}
+
+ffi_error_from!(
+    plsr_base::Error,
+    plsr_hdr::oiio::Error,
+    plsr::Error,
+    plsr_hdr::Error,
+    plsr_metrics::Error,
+    plsr_apps::Error
+);
 
 thread_local! {
     static LAST_ERROR: RefCell<CString> = RefCell::new(CString::default());

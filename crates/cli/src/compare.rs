@@ -1,8 +1,9 @@
 //! `plsr compare`: scores a test image against a reference (CW-SSIM,
 //! LPIPS, SSIM, PSNR, RMSE, FLIP), over a crop and a mask.
 
+use crate::error::{Error, Result};
 use plsr::atomic_write::{check_extension, same_file, OutputSet};
-use plsr::error::{Error, Result};
+use plsr_base::Vocabulary;
 use plsr_metrics::{compare_files, CompareOptions, Crop, CropSpec, Metric};
 use std::path::PathBuf;
 
@@ -62,7 +63,7 @@ fn parse_crop(text: Option<&str>) -> Result<CropSpec> {
     let numbers: Option<Vec<usize>> = parts.iter().map(|p| p.trim().parse().ok()).collect();
     match numbers.as_deref() {
         Some(&[x, y, w, h]) => Ok(CropSpec::Window(Crop { x, y, w, h })),
-        _ => Err(Error::InvalidArgument(format!(
+        _ => Err(Error::invalid_argument(format!(
             "--crop {text}: expected `auto` or four whole numbers X,Y,W,H"
         ))),
     }
@@ -78,7 +79,7 @@ pub fn run(a: &CompareArgs) -> Result<()> {
             .iter()
             .map(|m| {
                 Metric::parse(m.trim()).ok_or_else(|| {
-                    Error::InvalidArgument(format!(
+                    Error::invalid_argument(format!(
                         "--metric {m}: unknown metric (known: {})",
                         Metric::ALL.map(Metric::name).join(", ")
                     ))
@@ -87,10 +88,7 @@ pub fn run(a: &CompareArgs) -> Result<()> {
             .collect::<Result<Vec<_>>>()?
     };
     if let Some(p) = &a.map {
-        let output_error = |message: String| Error::Output {
-            file: p.clone(),
-            message,
-        };
+        let output_error = |message: String| Error::output(p.clone(), message);
         check_extension(p, "png", "PNG").map_err(|m| output_error(format!("--map: {m}")))?;
         let inputs = [Some(&a.reference), Some(&a.test), a.mask.as_ref()];
         if let Some(input) = inputs.into_iter().flatten().find(|i| same_file(p, i)) {

@@ -1,10 +1,11 @@
 //! `plsr composite`: virtual objects into a photograph, with their shadows.
 
+use crate::error::{Error, Result};
 use crate::progress::progress_bar;
 use plsr::atomic_write::{check_extension, same_file, OutputSet};
-use plsr::error::{Error, Result};
 use plsr::render::RenderOptions;
 use plsr_apps::composite::{composite_scene, CompositeOptions, Mode};
+use plsr_base::Vocabulary;
 use std::path::PathBuf;
 
 /// Arguments of `plsr composite`.
@@ -38,10 +39,7 @@ pub struct CompositeArgs {
 
 /// Runs `plsr composite`.
 pub fn run(a: &CompositeArgs) -> Result<()> {
-    let output_error = |file: &PathBuf, message: String| Error::Output {
-        file: file.clone(),
-        message,
-    };
+    let output_error = |file: &PathBuf, message: String| Error::output(file.clone(), message);
     check_extension(&a.output, "exr", "OpenEXR")
         .map_err(|m| output_error(&a.output, format!("-o: {m}")))?;
     if let Some(p) = &a.png {
@@ -51,7 +49,7 @@ pub fn run(a: &CompositeArgs) -> Result<()> {
         }
     }
     if a.spp == Some(0) {
-        return Err(Error::InvalidArgument("--spp must be at least 1".into()));
+        return Err(Error::invalid_argument("--spp must be at least 1"));
     }
     let contents = plsr::scene::file::load_contents(&a.scene)?;
     for out in std::iter::once(&a.output).chain(&a.png) {

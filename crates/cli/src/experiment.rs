@@ -1,7 +1,7 @@
 //! `plsr experiment`: reproducible experiments; `plsr experiment paper`
 //! redoes the paper's experiment on a synthetic, physically lit room.
 
-use plsr::error::Result;
+use crate::error::Result;
 use plsr_apps::experiment::paper::{run as run_paper, PaperOptions, Settings};
 use plsr_apps::experiment::paper_room::PaperRoom;
 use std::path::PathBuf;

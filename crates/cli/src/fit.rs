@@ -1,9 +1,10 @@
 //! `plsr fit`: materials (and light brightness) fitted to photographs.
 
+use crate::error::{Error, Result};
 use crate::progress::progress_bar;
 use plsr::atomic_write::{check_extension, same_file};
-use plsr::error::{Error, Result};
 use plsr_apps::fit::{fit_scene_file, FitOptions};
+use plsr_base::Vocabulary;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `plsr fit`.
@@ -79,10 +80,7 @@ fn beside(out: &Path, ext: &str) -> PathBuf {
 
 /// Runs `plsr fit`.
 pub fn run(a: &FitArgs) -> Result<()> {
-    let output_error = |file: &Path, message: String| Error::Output {
-        file: file.to_path_buf(),
-        message,
-    };
+    let output_error = |file: &Path, message: String| Error::output(file.to_path_buf(), message);
     let scene_ext = a
         .scene
         .extension()
@@ -108,15 +106,13 @@ pub fn run(a: &FitArgs) -> Result<()> {
     check_extension(&loss_png, "png", "PNG")
         .map_err(|m| output_error(&loss_png, format!("--loss-png: {m}")))?;
     if a.iterations == 0 {
-        return Err(Error::InvalidArgument(
-            "--iterations must be at least 1".into(),
-        ));
+        return Err(Error::invalid_argument("--iterations must be at least 1"));
     }
     if a.spp == 0 {
-        return Err(Error::InvalidArgument("--spp must be at least 1".into()));
+        return Err(Error::invalid_argument("--spp must be at least 1"));
     }
     if !(a.lr.is_finite() && a.lr > 0.0) {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "--lr {} must be a positive number",
             a.lr
         )));

@@ -1,8 +1,9 @@
 //! `plsr hdr merge`.
 
+use crate::error::{Error, Result};
 use crate::progress::progress_bar;
 use clap::Subcommand;
-use plsr::error::{Error, Result};
+use plsr_base::Vocabulary;
 use plsr_hdr::merge::{merge, parse_exposures, Calibration, MergeOptions};
 use plsr_hdr::response::ResponseMethod;
 use std::cell::RefCell;
@@ -143,7 +144,7 @@ pub struct HdrMergeArgs {
 /// `X0,Y0,X1,Y1`.
 fn calibration_window(flag: &str, s: &str, with_value: bool) -> Result<([usize; 4], f64)> {
     let bad = || {
-        Error::InvalidArgument(format!(
+        Error::invalid_argument(format!(
             "{flag} `{s}`: expected {}",
             if with_value {
                 "X0,Y0,X1,Y1=VALUE (pixels, then a positive number)"
@@ -166,7 +167,7 @@ fn calibration_window(flag: &str, s: &str, with_value: bool) -> Result<([usize; 
         return Err(bad());
     };
     if !(value.is_finite() && value > 0.0) {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "{flag} `{s}`: the value must be positive"
         )));
     }
@@ -202,12 +203,12 @@ fn calibration(a: &HdrMergeArgs) -> Result<Calibration> {
         let e = a.illuminance.unwrap_or(0.0);
         let rho = a.card_reflectance;
         if !(e.is_finite() && e > 0.0) {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "--illuminance {e}: must be a positive number of lux"
             )));
         }
         if !(rho > 0.0 && rho <= 1.0) {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "--card-reflectance {rho}: must be in (0, 1]"
             )));
         }
@@ -236,12 +237,12 @@ fn triple(flag: &str, s: &str) -> Result<glam::Vec3> {
         .split(',')
         .map(|x| x.trim().parse::<f32>())
         .collect::<std::result::Result<_, _>>()
-        .map_err(|_| Error::InvalidArgument(format!("{flag}: expected X,Y,Z, got `{s}`")))?;
+        .map_err(|_| Error::invalid_argument(format!("{flag}: expected X,Y,Z, got `{s}`")))?;
     match v[..] {
         [x, y, z] if x.is_finite() && y.is_finite() && z.is_finite() => {
             Ok(glam::Vec3::new(x, y, z))
         }
-        _ => Err(Error::InvalidArgument(format!(
+        _ => Err(Error::invalid_argument(format!(
             "{flag}: expected three finite numbers X,Y,Z, got `{s}`"
         ))),
     }
@@ -255,19 +256,21 @@ fn capture_command(a: &HdrCaptureArgs) -> Result<()> {
         .split_once(['x', 'X'])
         .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
         .filter(|&(w, h)| w > 0 && h > 0 && w <= 1 << 15 && h <= 1 << 15)
-        .ok_or_else(|| Error::InvalidArgument(format!("--size: expected WxH, got `{}`", a.size)))?;
+        .ok_or_else(|| {
+            Error::invalid_argument(format!("--size: expected WxH, got `{}`", a.size))
+        })?;
     let exposures = match a.exposures.trim() {
         "auto" => None,
         "paper" => Some(PAPER_EXPOSURES.to_vec()),
         s => Some(
-            parse_exposures(s).map_err(|m| Error::InvalidArgument(format!("--exposures: {m}")))?,
+            parse_exposures(s).map_err(|m| Error::invalid_argument(format!("--exposures: {m}")))?,
         ),
     };
     let mut camera = match a.response.as_str() {
         "filmic" => CameraModel::default(),
         "linear" => CameraModel::linear(),
         other => {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "--response: unknown camera response `{other}` (filmic, linear)"
             )))
         }
@@ -340,20 +343,23 @@ fn seconds(t: f64) -> String {
 fn merge_command(a: &HdrMergeArgs) -> Result<()> {
     let exposures = match &a.exposures {
         Some(s) => Some(
-            parse_exposures(s).map_err(|m| Error::InvalidArgument(format!("--exposures: {m}")))?,
+            parse_exposures(s).map_err(|m| Error::invalid_argument(format!("--exposures: {m}")))?,
         ),
         None => None,
     };
-    let response: ResponseMethod = a.response.parse().map_err(Error::InvalidArgument)?;
+    let response: ResponseMethod =
+        a.response
+            .parse()
+            .map_err(|e: plsr_hdr::error::UnknownResponseMethod| {
+                Error::invalid_argument(e.to_string())
+            })?;
     if !(a.lambda.is_finite() && a.lambda >= 0.0) {
-        return Err(Error::InvalidArgument(
-            "--lambda must be a finite number ≥ 0".into(),
+        return Err(Error::invalid_argument(
+            "--lambda must be a finite number ≥ 0",
         ));
     }
     if a.samples == Some(0) {
-        return Err(Error::InvalidArgument(
-            "--samples must be at least 1".into(),
-        ));
+        return Err(Error::invalid_argument("--samples must be at least 1"));
     }
     let options = MergeOptions {
         response,

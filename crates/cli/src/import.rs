@@ -1,8 +1,9 @@
 //! `plsr import`: a Mitsuba 3 XML scene translated into plsr's scene
 //! format (TOML), checked by building it, written or printed.
 
+use crate::error::{Error, Result};
 use plsr::atomic_write::{check_extension, same_file, write_atomically};
-use plsr::error::{Error, Result};
+use plsr_base::Vocabulary;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -21,10 +22,7 @@ pub struct ImportArgs {
 /// Runs `plsr import`.
 pub fn run(a: &ImportArgs) -> Result<()> {
     plsr::input::check_input_file(&a.input)?;
-    let bytes = std::fs::read(&a.input).map_err(|source| Error::Io {
-        file: a.input.clone(),
-        source,
-    })?;
+    let bytes = std::fs::read(&a.input).map_err(|source| Error::io(a.input.clone(), source))?;
     if !plsr::scene::mitsuba::looks_like_xml(&a.input, &bytes) {
         return Err(Error::input(
             &a.input,
@@ -45,9 +43,9 @@ pub fn run(a: &ImportArgs) -> Result<()> {
     let translation = match &a.output {
         Some(out) => {
             check_extension(out, "toml", "a plsr scene (TOML)")
-                .map_err(|m| Error::InvalidArgument(format!("-o {}: {m}", out.display())))?;
+                .map_err(|m| Error::invalid_argument(format!("-o {}: {m}", out.display())))?;
             if same_file(out, &a.input) || contents.inputs.iter().any(|i| same_file(out, i)) {
-                return Err(Error::InvalidArgument(format!(
+                return Err(Error::invalid_argument(format!(
                     "-o {}: would replace the scene or a file it reads",
                     out.display()
                 )));
@@ -67,10 +65,7 @@ pub fn run(a: &ImportArgs) -> Result<()> {
         Some(out) => {
             write_atomically(out, |w| {
                 w.write_all(translation.toml.as_bytes())
-                    .map_err(|source| Error::Io {
-                        file: out.clone(),
-                        source,
-                    })
+                    .map_err(|source| Error::io(out.clone(), source))
             })?;
             eprintln!("wrote {}", out.display());
         }

@@ -2,8 +2,9 @@
 //! channels, compression, and header attributes (plsr's own: spp, film
 //! settings, a part's scene hash and range, an HDR merge's exposure data).
 
+use crate::error::{Error, Result};
 use exr::meta::attribute::{AttributeValue, SampleType};
-use plsr::error::{Error, Result};
+use plsr_base::Vocabulary;
 use std::path::PathBuf;
 
 /// Arguments of `plsr info`.

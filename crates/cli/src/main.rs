@@ -4,6 +4,7 @@
 mod bench;
 mod compare;
 mod composite;
+mod error;
 mod experiment;
 mod farm;
 mod fit;
@@ -16,8 +17,8 @@ mod progress;
 mod render;
 mod tonemap;
 
+use crate::error::Result;
 use clap::{Parser, Subcommand};
-use plsr::error::Result;
 use std::ffi::OsString;
 use std::process::ExitCode;
 

@@ -1,10 +1,11 @@
 //! `plsr merge`: combines the parts of a render (`plsr render --samples` or
 //! `--crop`) into the image one render of their union gives.
 
+use crate::error::{Error, Result};
 use crate::tonemap::{Exposure, SequenceExposure};
 use plsr::atomic_write::{same_file, OutputSet};
-use plsr::error::{Error, Result};
 use plsr::film::part::{merge_parts, Part};
+use plsr_base::Vocabulary;
 use std::path::PathBuf;
 
 /// Arguments of `plsr merge`.
@@ -43,18 +44,15 @@ pub fn run_in_sequence(a: &MergeArgs, exposure: &mut SequenceExposure) -> Result
     if let Some(p) = &a.png {
         crate::render::check_output("--png", p, "png", "PNG")?;
         if same_file(p, &a.output) {
-            return Err(Error::Output {
-                file: p.clone(),
-                message: "--png names the same file as -o".into(),
-            });
+            return Err(Error::output(p.clone(), "--png names the same file as -o"));
         }
     }
     for out in std::iter::once(&a.output).chain(&a.png) {
         if let Some(part) = a.parts.iter().find(|p| same_file(out, p)) {
-            return Err(Error::Output {
-                file: out.clone(),
-                message: format!("is the part {}: it would be overwritten", part.display()),
-            });
+            return Err(Error::output(
+                out.clone(),
+                format!("is the part {}: it would be overwritten", part.display()),
+            ));
         }
     }
     let mut parts = Vec::with_capacity(a.parts.len());

@@ -1,10 +1,11 @@
 //! `plsr pls check | mesh | transform`.
 
+use crate::error::{Error, Result};
 use clap::Subcommand;
 use glam::{Mat4, Quat, Vec3};
 use plsr::color::luminance;
-use plsr::error::{Error, Result};
 use plsr::light::pls::{file, BrightnessMode};
+use plsr_base::Vocabulary;
 use std::path::Path;
 use std::path::PathBuf;
 
@@ -94,7 +95,7 @@ pub fn run(command: PlsCommand) -> Result<()> {
 
 /// `--nf`, checked as scene files check `nf`.
 fn nf_arg(nf: u64) -> Result<u32> {
-    plsr::light::pls::check_nf(nf).map_err(|m| Error::InvalidArgument(format!("--nf: {m}")))
+    plsr::light::pls::check_nf(nf).map_err(|m| Error::invalid_argument(format!("--nf: {m}")))
 }
 
 fn check(path: &Path, nf: u32) -> Result<()> {
@@ -155,9 +156,9 @@ fn numbers(what: &str, text: &str, count: usize) -> Result<Vec<f32>> {
         .filter(|s| !s.is_empty())
         .map(|s| s.parse::<f32>())
         .collect::<std::result::Result<_, _>>()
-        .map_err(|e| Error::InvalidArgument(format!("--{what}: {e} in {text:?}")))?;
+        .map_err(|e| Error::invalid_argument(format!("--{what}: {e} in {text:?}")))?;
     if v.len() != count || v.iter().any(|x| !x.is_finite()) {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "--{what}: expected {count} finite numbers, got {text:?}"
         )));
     }
@@ -174,20 +175,20 @@ pub fn transform_matrix(
 ) -> Result<Mat4> {
     if let Some(m) = matrix {
         if translate.is_some() || rotate_axis.is_some() || rotate_deg.is_some() || scale.is_some() {
-            return Err(Error::InvalidArgument(
-                "--matrix cannot be combined with --translate/--rotate-*/--scale".into(),
+            return Err(Error::invalid_argument(
+                "--matrix cannot be combined with --translate/--rotate-*/--scale",
             ));
         }
         let v = numbers("matrix", m, 16)?;
         if v[12..16] != [0.0, 0.0, 0.0, 1.0] {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "--matrix: the last row must be 0 0 0 1 for an affine transform, got {:?}",
                 &v[12..16]
             )));
         }
         let mat = Mat4::from_cols_slice(&v).transpose();
         if mat.determinant() == 0.0 {
-            return Err(Error::InvalidArgument("--matrix is singular".into()));
+            return Err(Error::invalid_argument("--matrix is singular"));
         }
         return Ok(mat);
     }
@@ -199,20 +200,20 @@ pub fn transform_matrix(
         (Some(a), Some(deg)) if deg.is_finite() => {
             let axis = Vec3::from_slice(&numbers("rotate-axis", a, 3)?)
                 .try_normalize()
-                .ok_or_else(|| Error::InvalidArgument("--rotate-axis must not be zero".into()))?;
+                .ok_or_else(|| Error::invalid_argument("--rotate-axis must not be zero"))?;
             Quat::from_axis_angle(axis, deg.to_radians())
         }
         (None, None) => Quat::IDENTITY,
         _ => {
-            return Err(Error::InvalidArgument(
-                "--rotate-axis and --rotate-deg (finite) go together".into(),
+            return Err(Error::invalid_argument(
+                "--rotate-axis and --rotate-deg (finite) go together",
             ))
         }
     };
     let s = match scale {
         Some(s) if s.is_finite() && s > 0.0 => s,
         Some(s) => {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "--scale must be positive, got {s}"
             )))
         }

@@ -1,15 +1,16 @@
 //! `plsr render`: a scene file to OpenEXR (and PNG).
 
+use crate::error::{Error, Result};
 use crate::progress::progress_bar;
 use crate::tonemap::{Exposure, SequenceExposure};
 use plsr::atomic_write::{check_extension, same_file, OutputSet};
-use plsr::error::{Error, Result};
 use plsr::film::part::{merge_parts, scene_files_hasher, Part, PartInfo, StableHasher};
 use plsr::film::Tile;
 use plsr::job::RenderJob;
 use plsr::job::{JobError, MAX_DEPTH, MAX_SPP};
 use plsr::render::{render_window_sums, RenderOptions, DEFAULT_TILE_SIZE, MAX_TILE_SIZE};
 use plsr::scene::Scene;
+use plsr_base::Vocabulary;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `plsr render`.
@@ -100,10 +101,7 @@ pub struct RenderArgs {
 /// is not a folder itself, and its extension is the format written
 /// (`extension`), so that no file is ever written under the wrong name.
 pub(crate) fn check_output(flag: &str, path: &Path, extension: &str, format: &str) -> Result<()> {
-    let fail = |message: String| Error::Output {
-        file: path.to_path_buf(),
-        message,
-    };
+    let fail = |message: String| Error::output(path.to_path_buf(), message);
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -122,7 +120,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     // Options are checked as strictly as scene files, before any work.
     let mut exposure = SequenceExposure::new(Exposure::parse_optional(a.exposure.as_deref())?);
     if a.tile_size == 0 || a.tile_size > MAX_TILE_SIZE {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "--tile-size {}: must be between 1 and {MAX_TILE_SIZE} pixels",
             a.tile_size
         )));
@@ -136,7 +134,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     let frames: Vec<Option<u32>> = match (a.frame, &a.frames, &contents.camera_path) {
         (None, None, _) => vec![None],
         (_, _, None) => {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
             "--frame/--frames: {} has no camera path ([[camera.path]]; see docs/scene-format.md)",
             a.scene.display()
         )))
@@ -160,12 +158,9 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     for (flag, path) in std::iter::once(("-o", &a.output)).chain(a.png.iter().map(|p| ("--png", p)))
     {
         if many && !path.to_string_lossy().contains(FRAME_FIELD) {
-            return Err(Error::Output {
-                file: path.clone(),
-                message: format!(
+            return Err(Error::output(path.clone(), format!(
                     "{flag}: --frames writes one file per frame: the name must contain {FRAME_FIELD}"
-                ),
-            });
+                )));
         }
     }
     let mut outputs_of = Vec::with_capacity(frames.len());
@@ -181,16 +176,15 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         description.camera = description
             .camera
             .with_resolution(w, h)
-            .map_err(|e| Error::InvalidArgument(format!("--resolution {r}: {e}")))?;
+            .map_err(|e| Error::invalid_argument(format!("--resolution {r}: {e}")))?;
     }
     let mut scene = Scene::build(description)?;
     if a.light_picking == "power" {
         // A part's identity (its scene hash) does not record the picking,
         // so parts rendered both ways could be merged unnoticed.
         if a.samples.is_some() || a.resume {
-            return Err(Error::InvalidArgument(
-                "--light-picking power renders whole images only (not with --samples or --resume)"
-                    .into(),
+            return Err(Error::invalid_argument(
+                "--light-picking power renders whole images only (not with --samples or --resume)",
             ));
         }
         scene.set_spatial_light_picking(false);
@@ -198,15 +192,13 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     let mut job = scene.default_job();
     if let Some(spp) = a.spp {
         if spp == 0 {
-            return Err(Error::InvalidArgument("--spp must be at least 1".into()));
+            return Err(Error::invalid_argument("--spp must be at least 1"));
         }
         job.spp = spp;
     }
     if let Some(d) = a.max_depth {
         if d == 0 {
-            return Err(Error::InvalidArgument(
-                "--max-depth must be at least 1".into(),
-            ));
+            return Err(Error::invalid_argument("--max-depth must be at least 1"));
         }
         job.max_depth = d;
     }
@@ -228,7 +220,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         .map(|c| parse_crop(c, width, height))
         .transpose()?;
     job.validate().map_err(|e| {
-        Error::InvalidArgument(match e {
+        Error::invalid_argument(match e {
             JobError::Spp(v) => format!("--spp {v}: at most {MAX_SPP}"),
             JobError::MaxDepth(v) => format!("--max-depth {v}: at most {MAX_DEPTH}"),
             JobError::RrDepth(v) => format!("--rr-depth {v}: at most {MAX_DEPTH}"),
@@ -243,7 +235,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     };
     // Named against the scene file, before anything is allocated.
     plsr::render::check_memory(&scene, &options)
-        .map_err(|m| Error::input(&a.scene, "camera.resolution", m))?;
+        .map_err(|m| Error::input(&a.scene, "camera.resolution", m.to_string()))?;
     let base_camera = scene.camera().clone();
     let mut files = vec![a.scene.clone()];
     files.extend(inputs.iter().cloned());
@@ -338,7 +330,7 @@ pub(crate) fn frame_path(path: &Path, frame: Option<u32>) -> PathBuf {
 fn check_frame(frame: u32, path: &plsr::camera_path::CameraPath) -> Result<()> {
     let frames = path.frames();
     if !frames.contains(&frame) {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "frame {frame}: the camera path runs from frame {} to {}",
             frames.start(),
             frames.end()
@@ -349,7 +341,7 @@ fn check_frame(frame: u32, path: &plsr::camera_path::CameraPath) -> Result<()> {
 
 /// `--frames A..B` (B excluded) or `A..=B` (B included): a non-empty range.
 pub(crate) fn parse_frames(s: &str) -> Result<std::ops::RangeInclusive<u32>> {
-    let bad = |why: &str| Error::InvalidArgument(format!("--frames {s}: {why}"));
+    let bad = |why: &str| Error::invalid_argument(format!("--frames {s}: {why}"));
     let (a, b, inclusive) = match s.split_once("..=") {
         Some((a, b)) => (a, b, true),
         None => {
@@ -390,30 +382,27 @@ fn check_outputs(
     if let Some(p) = png {
         check_output("--png", p, "png", "PNG")?;
         if same_file(p, output) {
-            return Err(Error::Output {
-                file: p.clone(),
-                message: "--png names the same file as -o".into(),
-            });
+            return Err(Error::output(p.clone(), "--png names the same file as -o"));
         }
     }
     for out in std::iter::once(output).chain(png.map(|p| p.as_path())) {
         if same_file(out, &a.scene) {
-            return Err(Error::Output {
-                file: out.to_path_buf(),
-                message: format!(
+            return Err(Error::output(
+                out.to_path_buf(),
+                format!(
                     "is the scene file {}: it would be overwritten",
                     a.scene.display()
                 ),
-            });
+            ));
         }
         if let Some(input) = inputs.iter().find(|i| same_file(out, i)) {
-            return Err(Error::Output {
-                file: out.to_path_buf(),
-                message: format!(
+            return Err(Error::output(
+                out.to_path_buf(),
+                format!(
                     "is {}, which the scene reads: it would be overwritten",
                     input.display()
                 ),
-            });
+            ));
         }
     }
     Ok(())
@@ -526,7 +515,7 @@ fn job_identity(job: &RenderJob, frame: Option<u32>) -> String {
 
 /// `--samples START..END`: `START < END`.
 fn parse_samples(s: &str) -> Result<(u32, u32)> {
-    let bad = |why: &str| Error::InvalidArgument(format!("--samples {s}: {why}"));
+    let bad = |why: &str| Error::invalid_argument(format!("--samples {s}: {why}"));
     let (a, b) = s
         .split_once("..")
         .ok_or_else(|| bad("expected START..END, e.g. 0..64"))?;
@@ -547,7 +536,7 @@ fn parse_samples(s: &str) -> Result<(u32, u32)> {
 
 /// `--resolution W,H`: a width and height of 1 to 65 536 pixels.
 fn parse_resolution(s: &str) -> Result<(u32, u32)> {
-    let bad = |why: &str| Error::InvalidArgument(format!("--resolution {s}: {why}"));
+    let bad = |why: &str| Error::invalid_argument(format!("--resolution {s}: {why}"));
     let (w, h) = s
         .split_once([',', 'x'])
         .ok_or_else(|| bad("expected W,H, e.g. 1920,1080"))?;
@@ -563,7 +552,7 @@ fn parse_resolution(s: &str) -> Result<(u32, u32)> {
 
 /// `--crop X0,Y0,X1,Y1`: a non-empty window inside the `width × height` image.
 fn parse_crop(s: &str, width: u32, height: u32) -> Result<Tile> {
-    let bad = |why: String| Error::InvalidArgument(format!("--crop {s}: {why}"));
+    let bad = |why: String| Error::invalid_argument(format!("--crop {s}: {why}"));
     let v: Vec<u32> = s
         .split(',')
         .map(|x| {

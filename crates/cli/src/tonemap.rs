@@ -2,10 +2,11 @@
 //! to an 8-bit sRGB PNG, with automatic or given exposure; and the
 //! `--exposure auto|STOPS` value every command writing a PNG takes.
 
+use crate::error::{Error, Result};
 use crate::render::check_output;
 use plsr::atomic_write::{same_file, OutputSet};
-use plsr::error::{Error, Result};
 use plsr::film::{auto_exposure_stops, check_exposure_stops, Film, FilmSettings, ToneMap};
+use plsr_base::Vocabulary;
 use std::path::PathBuf;
 
 /// Arguments of `plsr tonemap`.
@@ -43,13 +44,13 @@ impl Exposure {
             return Ok(Exposure::Auto);
         }
         let stops: f32 = s.trim().parse().map_err(|_| {
-            Error::InvalidArgument(format!(
+            Error::invalid_argument(format!(
                 "--exposure {s}: expected `auto` or a number of stops"
             ))
         })?;
         check_exposure_stops(stops)
             .map(Exposure::Stops)
-            .map_err(|m| Error::InvalidArgument(format!("--exposure: {m}")))
+            .map_err(|m| Error::invalid_argument(format!("--exposure: {m}")))
     }
 
     /// What `render --png` and `merge --png` use without `--exposure`: the
@@ -121,10 +122,10 @@ pub fn run(a: &TonemapArgs) -> Result<()> {
     let exposure = Exposure::parse(&a.exposure)?;
     check_output("-o", &a.output, "png", "PNG")?;
     if same_file(&a.output, &a.input) {
-        return Err(Error::Output {
-            file: a.output.clone(),
-            message: "is the input image: it would be overwritten".into(),
-        });
+        return Err(Error::output(
+            a.output.clone(),
+            "is the input image: it would be overwritten",
+        ));
     }
     plsr::input::check_input_file(&a.input)?;
     let film = Film::read_exr(&a.input)?;

@@ -17,7 +17,7 @@
 //! none, keeps the shift (0, 0). Only whole-pixel translations are found.
 
 use super::oiio::ImageReader;
-use plsr_base::error::Result;
+use crate::error::Result;
 use rayon::prelude::*;
 
 /// An 8-bit grey image.

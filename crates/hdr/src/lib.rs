@@ -1,5 +1,6 @@
 //! HDR panoramas from bracketed exposures.
 //!
+//! - [`error`]: the toolkit's error enum and its parse faults;
 //! - [`oiio`]: reading and writing images through OpenImageIO (C++ shim);
 //! - [`response`]: camera response curves (Debevec–Malik, Robertson, linear,
 //!   sRGB), saved as CSV and plotted as PNG;
@@ -15,7 +16,10 @@
 //! See docs/hdr.md.
 
 pub mod align;
+pub mod error;
 pub mod merge;
 pub use plsr_oiio as oiio;
 pub mod response;
 pub mod synth;
+
+pub use error::{Error, Result};

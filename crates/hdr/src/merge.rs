@@ -33,7 +33,8 @@
 use super::align;
 use super::oiio::{AttrValue, Attribute, ImageReader, ImageWriter, PixelType, Sample};
 use super::response::{self, hat, ResponseCurve, ResponseMethod, SampleSet, BINNED_LEVELS};
-use plsr_base::error::{Error, Result};
+use crate::error::{BadExposure, Error, Result};
+use plsr_base::Vocabulary;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::sync_channel;
@@ -188,31 +189,26 @@ pub const MIN_EXPOSURE_S: f64 = 1e-9;
 pub const MAX_EXPOSURE_S: f64 = 1e9;
 
 /// Parses an exposure time: `1/30`, `0.5`, `15` (seconds).
-pub fn parse_exposure(s: &str) -> std::result::Result<f64, String> {
+pub fn parse_exposure(s: &str) -> std::result::Result<f64, BadExposure> {
     let s = s.trim();
+    let number = |t: &str| {
+        t.trim()
+            .parse::<f64>()
+            .map_err(|_| BadExposure::NotANumber(s.into()))
+    };
     let v = match s.split_once('/') {
-        Some((a, b)) => {
-            let a: f64 = a
-                .trim()
-                .parse()
-                .map_err(|_| format!("{s:?} is not a number"))?;
-            let b: f64 = b
-                .trim()
-                .parse()
-                .map_err(|_| format!("{s:?} is not a number"))?;
-            a / b
-        }
-        None => s.parse().map_err(|_| format!("{s:?} is not a number"))?,
+        Some((a, b)) => number(a)? / number(b)?,
+        None => number(s)?,
     };
     if v.is_finite() && v > 0.0 {
         Ok(v)
     } else {
-        Err(format!("{s:?} is not a positive exposure time"))
+        Err(BadExposure::NotPositive(s.into()))
     }
 }
 
 /// Parses a comma-separated list of exposure times (see [`parse_exposure`]).
-pub fn parse_exposures(s: &str) -> std::result::Result<Vec<f64>, String> {
+pub fn parse_exposures(s: &str) -> std::result::Result<Vec<f64>, BadExposure> {
     s.split(',').map(parse_exposure).collect()
 }
 
@@ -226,8 +222,8 @@ struct Input {
 fn open_inputs(inputs: &[PathBuf], options: &MergeOptions) -> Result<Vec<Input>> {
     match inputs.len() {
         0 => {
-            return Err(Error::InvalidArgument(
-                "no images given; merging needs at least two brackets".into(),
+            return Err(Error::invalid_argument(
+                "no images given; merging needs at least two brackets",
             ))
         }
         1 => {
@@ -241,14 +237,14 @@ fn open_inputs(inputs: &[PathBuf], options: &MergeOptions) -> Result<Vec<Input>>
     }
     if let Some(e) = &options.exposures {
         if e.len() != inputs.len() {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "--exposures has {} value(s) but {} images were given",
                 e.len(),
                 inputs.len()
             )));
         }
         if let Some(t) = e.iter().find(|t| !(t.is_finite() && **t > 0.0)) {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "exposure time {t} is not positive"
             )));
         }
@@ -363,7 +359,7 @@ fn open_inputs(inputs: &[PathBuf], options: &MergeOptions) -> Result<Vec<Input>>
     });
     let infos: Vec<&BracketInfo> = out.iter().map(|i| &i.info).collect();
     if equal_exposure(infos[0], infos[infos.len() - 1]) {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "all {} brackets have the same exposure ({}): merging needs at least two \
              different ones (was the camera in an automatic exposure mode?)",
             infos.len(),
@@ -737,7 +733,7 @@ pub const EXR_COMPRESSIONS: [&str; 10] = [
 /// with a numeric level (`zip:9`, `dwaa:45`), and only for an EXR output
 /// (`ext`, lower case).
 fn check_compression(c: &str, ext: &str) -> Result<()> {
-    let bad = |why: String| Error::InvalidArgument(format!("compression `{c}`: {why}"));
+    let bad = |why: String| Error::invalid_argument(format!("compression `{c}`: {why}"));
     if ext != "exr" {
         return Err(bad("only OpenEXR (.exr) outputs are compressed".into()));
     }
@@ -776,16 +772,16 @@ pub fn merge(
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
     if ext != "exr" && ext != "hdr" {
-        return Err(Error::Output {
-            file: output.to_path_buf(),
-            message: "the output must be an OpenEXR (.exr) or Radiance (.hdr) file".into(),
-        });
+        return Err(Error::output(
+            output.to_path_buf(),
+            "the output must be an OpenEXR (.exr) or Radiance (.hdr) file",
+        ));
     }
     if options.half && ext != "exr" {
-        return Err(Error::Output {
-            file: output.to_path_buf(),
-            message: "--half needs an OpenEXR (.exr) output".into(),
-        });
+        return Err(Error::output(
+            output.to_path_buf(),
+            "--half needs an OpenEXR (.exr) output",
+        ));
     }
     let plot = options.curve_csv.as_ref().map(|c| c.with_extension("png"));
     for p in std::iter::once(output)
@@ -793,20 +789,17 @@ pub fn merge(
         .chain(plot.as_deref())
     {
         if p.is_dir() {
-            return Err(Error::Output {
-                file: p.to_path_buf(),
-                message: "is a folder, not a file".into(),
-            });
+            return Err(Error::output(p.to_path_buf(), "is a folder, not a file"));
         }
         let dir = match p.parent() {
             Some(d) if !d.as_os_str().is_empty() => d,
             _ => Path::new("."),
         };
         if !dir.is_dir() {
-            return Err(Error::Output {
-                file: p.to_path_buf(),
-                message: format!("folder {} does not exist", dir.display()),
-            });
+            return Err(Error::output(
+                p.to_path_buf(),
+                format!("folder {} does not exist", dir.display()),
+            ));
         }
     }
     if let Some(c) = &options.compression {
@@ -821,18 +814,18 @@ pub fn merge(
             .iter()
             .find(|i| plsr_base::atomic_write::same_file(i, out))
         {
-            return Err(Error::Output {
-                file: out.to_path_buf(),
-                message: format!("is the input {}: it would be overwritten", input.display()),
-            });
+            return Err(Error::output(
+                out.to_path_buf(),
+                format!("is the input {}: it would be overwritten", input.display()),
+            ));
         }
     }
     if let [out, curve] = outputs[..] {
         if plsr_base::atomic_write::same_file(out, curve) {
-            return Err(Error::Output {
-                file: curve.to_path_buf(),
-                message: "--curve names the same file as the output".into(),
-            });
+            return Err(Error::output(
+                curve.to_path_buf(),
+                "--curve names the same file as the output",
+            ));
         }
     }
     let mut brackets = open_inputs(inputs, options)?;
@@ -920,7 +913,7 @@ fn run<T: Px>(
         } => {
             let mean = region_luminance::<T>(brackets, &lk, *window, w, h, ch_in, ch_out, options)?;
             if !(mean.is_finite() && mean > 0.0) {
-                return Err(Error::InvalidArgument(format!(
+                return Err(Error::invalid_argument(format!(
                     "calibration: the window {},{},{},{} merges to luminance {mean}: it must \
                      be lit and unclipped in some bracket",
                     window[0], window[1], window[2], window[3]
@@ -974,7 +967,7 @@ fn run<T: Px>(
                     let s1 = (y1 as i64 - 1 - dy).clamp(0, h as i64 - 1) as usize + 1;
                     let mut data = vec![T::default(); (s1 - s0) * w * ch_in];
                     if let Err(e) = r.read_rows(s0, s1, &mut data) {
-                        let _ = to_merge.send(Err(e));
+                        let _ = to_merge.send(Err(e.into()));
                         return;
                     }
                     rows.push(BandRows {
@@ -1059,7 +1052,7 @@ fn run<T: Px>(
         drop(to_writer);
         let writer = writer_thread
             .join()
-            .map_err(|_| Error::InvalidArgument("the EXR writer thread panicked".into()))?;
+            .map_err(|_| Error::invalid_argument("the EXR writer thread panicked"))?;
         merged?;
         writer
     });
@@ -1111,7 +1104,7 @@ fn exif_scale(brackets: &[Input], constant: f64) -> Result<(f64, String)> {
         ));
     };
     if !(constant.is_finite() && constant > 0.0) {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "--calibration-constant {constant}: must be positive"
         )));
     }
@@ -1141,7 +1134,7 @@ fn region_luminance<T: Px>(
 ) -> Result<f64> {
     let [x0, y0, x1, y1] = window;
     if !(x0 < x1 && y0 < y1 && x1 <= w && y1 <= h) {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "calibration window {x0},{y0},{x1},{y1}: must be X0,Y0,X1,Y1 with X0 < X1 ≤ {w} \
              and Y0 < Y1 ≤ {h} (the images' size)"
         )));

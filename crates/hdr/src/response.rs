@@ -21,7 +21,8 @@
 //! exposure a linear curve gives it (≈ 0.5), per channel: a mid-grey pixel
 //! stays neutral.
 
-use plsr_base::error::{Error, Result};
+use crate::error::{Error, Result, UnknownResponseMethod};
+use plsr_base::Vocabulary;
 use std::fmt;
 use std::io::Write;
 use std::path::Path;
@@ -67,16 +68,14 @@ impl fmt::Display for ResponseMethod {
 }
 
 impl FromStr for ResponseMethod {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
+    type Err = UnknownResponseMethod;
+    fn from_str(s: &str) -> std::result::Result<Self, UnknownResponseMethod> {
         match s.to_ascii_lowercase().as_str() {
             "debevec" => Ok(ResponseMethod::Debevec),
             "robertson" => Ok(ResponseMethod::Robertson),
             "linear" => Ok(ResponseMethod::Linear),
             "srgb" => Ok(ResponseMethod::Srgb),
-            _ => Err(format!(
-                "unknown response method {s:?} (expected debevec, robertson, linear or srgb)"
-            )),
+            _ => Err(UnknownResponseMethod(s.into())),
         }
     }
 }
@@ -191,10 +190,8 @@ impl ResponseCurve {
     /// and the line.
     pub fn read_csv(path: &Path) -> Result<ResponseCurve> {
         plsr_base::input::check_input_file(path)?;
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            file: path.to_path_buf(),
-            source,
-        })?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| Error::io(path.to_path_buf(), source))?;
         let fail = |line: usize, m: String| Error::input(path, "", format!("line {line}: {m}"));
         let mut rows = text
             .lines()
@@ -259,7 +256,7 @@ impl ResponseCurve {
     pub fn write_csv(&self, path: &Path) -> Result<()> {
         let mut outputs = plsr_base::atomic_write::OutputSet::new();
         self.stage_csv(&mut outputs, path)?;
-        outputs.commit()
+        Ok(outputs.commit()?)
     }
 
     /// [`ResponseCurve::write_csv`] into `outputs`, to be committed with
@@ -275,10 +272,7 @@ impl ResponseCurve {
             n => (0..n).map(|c| format!("c{c}")).collect(),
         };
         outputs.stage(path, |w| {
-            let io = |source| Error::Io {
-                file: path.to_path_buf(),
-                source,
-            };
+            let io = |source| Error::io(path.to_path_buf(), source);
             writeln!(
                 w,
                 "# plsr camera response ({}): relative linear exposure per pixel level",
@@ -307,7 +301,7 @@ impl ResponseCurve {
     pub fn write_plot_png(&self, path: &Path, width: u32, height: u32) -> Result<()> {
         let mut outputs = plsr_base::atomic_write::OutputSet::new();
         self.stage_plot_png(&mut outputs, path, width, height)?;
-        outputs.commit()
+        Ok(outputs.commit()?)
     }
 
     /// [`ResponseCurve::write_plot_png`] into `outputs`, to be committed
@@ -319,7 +313,7 @@ impl ResponseCurve {
         width: u32,
         height: u32,
     ) -> Result<()> {
-        outputs.stage_png(path, &self.plot(width.max(64), height.max(48)))
+        Ok(outputs.stage_png(path, &self.plot(width.max(64), height.max(48)))?)
     }
 
     fn plot(&self, width: u32, height: u32) -> image::RgbImage {
@@ -479,13 +473,13 @@ fn level_weight(z: usize, levels: usize) -> f64 {
 
 fn check_samples(samples: &SampleSet, exposures: &[f64]) -> Result<()> {
     if samples.levels < 2 || samples.levels > 65536 {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "response recovery needs 2–65536 levels, got {}",
             samples.levels
         )));
     }
     if exposures.len() != samples.brackets || samples.brackets < 2 {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "response recovery needs at least 2 brackets and one exposure each ({} brackets, {} exposures)",
             samples.brackets,
             exposures.len()
@@ -495,18 +489,18 @@ fn check_samples(samples: &SampleSet, exposures: &[f64]) -> Result<()> {
         .iter()
         .any(|t| t.is_nan() || *t <= 0.0 || !t.is_finite())
     {
-        return Err(Error::InvalidArgument(
-            "exposures must be positive and finite".into(),
+        return Err(Error::invalid_argument(
+            "exposures must be positive and finite",
         ));
     }
     if samples.is_empty() {
-        return Err(Error::InvalidArgument(
-            "response recovery got no sample pixels".into(),
+        return Err(Error::invalid_argument(
+            "response recovery got no sample pixels",
         ));
     }
     if samples.values.iter().any(|&z| z as usize >= samples.levels) {
-        return Err(Error::InvalidArgument(
-            "a sample level is outside the curve's domain".into(),
+        return Err(Error::invalid_argument(
+            "a sample level is outside the curve's domain",
         ));
     }
     Ok(())
@@ -607,8 +601,8 @@ pub fn debevec(samples: &SampleSet, exposures: &[f64], lambda: f64) -> Result<Re
             g[z * l + z] += 1e-10 * trace.max(1.0);
         }
         let sol = cholesky_solve(&mut g, &mut rhs, l).ok_or_else(|| {
-            Error::InvalidArgument(
-                "Debevec response recovery: the least-squares system is singular (too few usable samples?)".into(),
+            Error::invalid_argument(
+                "Debevec response recovery: the least-squares system is singular (too few usable samples?)",
             )
         })?;
         inverse.push(sol.iter().map(|g| (g.exp()) as f32).collect());

@@ -10,8 +10,9 @@
 //! noise, clipping and quantisation.
 
 use super::oiio::{AttrValue, Attribute, ImageReader, ImageWriter, PixelType};
-use plsr_base::error::{Error, Result};
+use crate::error::{Error, NoExposurePlan, Result};
 use plsr_base::rng::{mix64, Rng};
+use plsr_base::Vocabulary;
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::path::{Path, PathBuf};
@@ -411,7 +412,7 @@ pub const AUTO_LOW_VALUE: f32 = 0.5;
 pub fn auto_exposures<S: RadianceImage + ?Sized>(
     image: &S,
     camera: &CameraModel,
-) -> std::result::Result<ExposurePlan, String> {
+) -> std::result::Result<ExposurePlan, NoExposurePlan> {
     let (w, h) = image.size();
     let mut peaks: Vec<f32> = (0..h)
         .into_par_iter()
@@ -425,7 +426,7 @@ pub fn auto_exposures<S: RadianceImage + ?Sized>(
         .collect();
     let n = peaks.len();
     if n == 0 {
-        return Err("the image has no light (every pixel is black): nothing to expose for".into());
+        return Err(NoExposurePlan::NoLight);
     }
     let bright_rank = n - 1 - ((n as f64 * AUTO_IGNORED_BRIGHT) as usize).min(n - 1);
     let (_, &mut brightest, _) = peaks.select_nth_unstable_by(bright_rank, f32::total_cmp);
@@ -756,6 +757,6 @@ mod tests {
         // Black (and not-finite) pixels only: an error.
         let black = Image(8, 8, |x, _| if x == 0 { f32::NAN } else { 0.0 });
         let e = auto_exposures(&black, &camera).unwrap_err();
-        assert!(e.contains("no light"), "{e}");
+        assert!(e.to_string().contains("no light"), "{e}");
     }
 }

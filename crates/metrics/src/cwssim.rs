@@ -17,7 +17,8 @@
 //! depend on the images' scale.
 
 use super::GreyImage;
-use plsr_base::error::{Error, Result};
+use crate::error::{Error, Result};
+use plsr_base::Vocabulary;
 use rustfft::num_complex::Complex64;
 use rustfft::FftPlanner;
 use std::f64::consts::PI;
@@ -60,20 +61,20 @@ struct Spectrum {
 /// The CW-SSIM of two grey images of the same size (1 when identical).
 pub fn cwssim(a: &GreyImage, b: &GreyImage, options: &CwSsimOptions) -> Result<f64> {
     if (a.width, a.height) != (b.width, b.height) {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "CW-SSIM: the images differ in size ({}×{} and {}×{})",
             a.width, a.height, b.width, b.height
         )));
     }
     if options.orientations == 0 || options.level == 0 {
-        return Err(Error::InvalidArgument(
-            "CW-SSIM: level and orientations must be at least 1".into(),
+        return Err(Error::invalid_argument(
+            "CW-SSIM: level and orientations must be at least 1",
         ));
     }
     let smallest = a.width.min(a.height);
     let most = (smallest.max(1) as f64).log2().floor() as i64 - 2;
     if options.level as i64 > most {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "CW-SSIM: a {}×{} image holds at most {} pyramid levels, {} asked for \
              (crop less tightly or lower --cwssim-level)",
             a.width,
@@ -87,7 +88,7 @@ pub fn cwssim(a: &GreyImage, b: &GreyImage, options: &CwSsimOptions) -> Result<f
     let (bw, bh) = (pa[0].w, pa[0].h);
     let gb = (options.guard >> (options.level - 1)) as usize;
     if bw < 2 * gb + WINDOW || bh < 2 * gb + WINDOW {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "CW-SSIM: the level-{} bands ({bw}×{bh}) are too small for 7×7 windows{}",
             options.level,
             if gb > 0 {

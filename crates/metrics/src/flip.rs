@@ -47,8 +47,9 @@
 //! spaced from start to stop inclusive. Each of the three can be given
 //! instead ([`FlipOptions`]).
 
+use crate::error::{Error, Result};
 use crate::MetricImage;
-use plsr_base::error::{Error, Result};
+use plsr_base::Vocabulary;
 use rayon::prelude::*;
 
 /// π (`FLIP.h`'s 3.14159265358979 rounds to the same `f32`).
@@ -235,7 +236,7 @@ pub fn hdr_flip(reference: &MetricImage, test: &MetricImage, o: &FlipOptions) ->
     let ppd = check(reference, test, o)?;
     for img in [reference, test] {
         if let Some(i) = img.rgb.iter().position(|v| !v.is_finite()) {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "FLIP: {} has a value that is not a finite number at pixel ({}, {})",
                 img.path.display(),
                 (i / 3) % img.width,
@@ -262,21 +263,21 @@ pub fn hdr_flip(reference: &MetricImage, test: &MetricImage, o: &FlipOptions) ->
     }
     let (start, stop) = (start.unwrap_or(0.0), stop.unwrap_or(0.0));
     if !start.is_finite() || !stop.is_finite() {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "HDR-FLIP: the exposure range of {} is not finite (start {start}, stop {stop}): \
              its largest or median luminance is 0; give the start and stop exposures",
             reference.path.display()
         )));
     }
     if start > stop {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "HDR-FLIP: the start exposure ({start}) must not exceed the stop exposure ({stop})"
         )));
     }
     let count = match o.exposures {
         Some(0) => {
-            return Err(Error::InvalidArgument(
-                "HDR-FLIP: the number of exposures must be at least 1".into(),
+            return Err(Error::invalid_argument(
+                "HDR-FLIP: the number of exposures must be at least 1",
             ))
         }
         Some(n) => n,
@@ -317,14 +318,14 @@ pub fn hdr_flip(reference: &MetricImage, test: &MetricImage, o: &FlipOptions) ->
 fn check(reference: &MetricImage, test: &MetricImage, o: &FlipOptions) -> Result<f32> {
     super::same_size("FLIP: ", reference, test)?;
     if reference.width == 0 || reference.height == 0 {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "FLIP: {} has no pixels",
             reference.path.display()
         )));
     }
     for img in [reference, test] {
         if img.rgb.len() != img.width * img.height * 3 {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "FLIP: {} holds {} values, not 3 per pixel of its {}×{}",
                 img.path.display(),
                 img.rgb.len(),
@@ -335,13 +336,13 @@ fn check(reference: &MetricImage, test: &MetricImage, o: &FlipOptions) -> Result
     }
     let ppd = o.pixels_per_degree;
     if !(ppd.is_finite() && ppd > 0.0) {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "FLIP: the pixels per degree must be a positive number, not {ppd}"
         )));
     }
     for (name, v) in [("start", o.start_exposure), ("stop", o.stop_exposure)] {
         if v.is_some_and(|v| !v.is_finite()) {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "HDR-FLIP: the {name} exposure must be a finite number"
             )));
         }

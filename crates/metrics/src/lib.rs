@@ -10,6 +10,7 @@
 //! [`MetricImage::display`]. The structural metrics work on grey values as
 //! MATLAB's `rgb2gray` makes them, on the 0–255 scale.
 //!
+//! - [`error`]: the metrics' error enum.
 //! - [`cwssim`]: CW-SSIM (complex steerable pyramid, one band level).
 //! - [`lpips`]: LPIPS (AlexNet, v0.1; the weights ship inside plsr).
 //! - [`ssim`]: SSIM (Wang et al. 2004, Gaussian 11×11 windows).
@@ -18,12 +19,15 @@
 //!   both files are float files).
 
 pub mod cwssim;
+pub mod error;
 pub mod flip;
 pub mod lpips;
 pub mod pixel;
 pub mod ssim;
 
-use plsr_base::error::{Error, Result};
+pub use error::{Error, Result};
+
+use plsr_base::Vocabulary;
 use std::path::{Path, PathBuf};
 
 /// A grey image on MATLAB's 0–255 scale, row-major.
@@ -324,7 +328,7 @@ fn same_size(metric: &str, reference: &MetricImage, test: &MetricImage) -> Resul
     if (reference.width, reference.height) == (test.width, test.height) {
         return Ok(());
     }
-    Err(Error::InvalidArgument(format!(
+    Err(Error::invalid_argument(format!(
         "{metric}{} is {}×{} but {} is {}×{}: the images must have the same size",
         reference.path.display(),
         reference.width,
@@ -452,14 +456,14 @@ pub fn compare_files(
         CropSpec::Auto => match &mask {
             Some(m) => m.bounding_box(AUTO_MARGIN, AUTO_MIN_SIDE),
             None => {
-                return Err(Error::InvalidArgument(
-                    "--crop auto needs --mask (the crop is the mask's bounding box)".into(),
+                return Err(Error::invalid_argument(
+                    "--crop auto needs --mask (the crop is the mask's bounding box)",
                 ))
             }
         },
         CropSpec::Window(c) => {
             if c.w == 0 || c.h == 0 || c.x + c.w > a.width || c.y + c.h > a.height {
-                return Err(Error::InvalidArgument(format!(
+                return Err(Error::invalid_argument(format!(
                     "--crop {},{},{},{} is not inside the {}×{} image",
                     c.x, c.y, c.w, c.h, a.width, a.height
                 )));
@@ -471,7 +475,7 @@ pub fn compare_files(
     let mask = mask.map(|m| m.crop(window));
     if let Some(m) = &mask {
         if !m.inside.iter().any(|&x| x) {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "the crop {},{},{},{} holds no pixel of the mask",
                 window.x, window.y, window.w, window.h
             )));

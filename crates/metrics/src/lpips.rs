@@ -18,7 +18,8 @@
 //! thread pool, so memory stays bounded on panoramas.
 
 use super::MetricImage;
-use plsr_base::error::{Error, Result};
+use crate::error::{BadWeights, Error, Result};
+use plsr_base::Vocabulary;
 use rayon::prelude::*;
 use std::sync::OnceLock;
 
@@ -55,29 +56,29 @@ struct Features {
 }
 
 fn network() -> Result<&'static Network> {
-    static NET: OnceLock<std::result::Result<Network, String>> = OnceLock::new();
+    static NET: OnceLock<std::result::Result<Network, BadWeights>> = OnceLock::new();
     NET.get_or_init(|| parse(WEIGHTS))
         .as_ref()
-        .map_err(|m| Error::InvalidArgument(format!("LPIPS weights: {m}")))
+        .map_err(|m| Error::Weights(m.clone()))
 }
 
 /// Reads the weights file (see the conversion script for its layout).
-fn parse(bytes: &[u8]) -> std::result::Result<Network, String> {
+fn parse(bytes: &[u8]) -> std::result::Result<Network, BadWeights> {
     let mut at = 0usize;
-    let mut take = |n: usize| -> std::result::Result<&[u8], String> {
-        let s = bytes.get(at..at + n).ok_or("truncated")?;
+    let mut take = |n: usize| -> std::result::Result<&[u8], BadWeights> {
+        let s = bytes.get(at..at + n).ok_or(BadWeights::Truncated)?;
         at += n;
         Ok(s)
     };
     if take(10)? != b"PLSRLPIPS1" {
-        return Err("not a PLSRLPIPS1 file".into());
+        return Err(BadWeights::NotLpips);
     }
     let u32_at = |s: &[u8]| u32::from_le_bytes([s[0], s[1], s[2], s[3]]) as usize;
     let count = u32_at(take(4)?);
     let mut tensors = std::collections::HashMap::new();
     for _ in 0..count {
         let n = u32_at(take(4)?);
-        let name = String::from_utf8(take(n)?.to_vec()).map_err(|_| "a name is not UTF-8")?;
+        let name = String::from_utf8(take(n)?.to_vec()).map_err(|_| BadWeights::NameNotUtf8)?;
         let rank = u32_at(take(4)?);
         let mut dims = Vec::with_capacity(rank);
         for _ in 0..rank {
@@ -90,7 +91,11 @@ fn parse(bytes: &[u8]) -> std::result::Result<Network, String> {
             .collect::<Vec<f32>>();
         tensors.insert(name, (dims, values));
     }
-    let mut get = |name: &str| tensors.remove(name).ok_or(format!("{name} is missing"));
+    let mut get = |name: &str| {
+        tensors
+            .remove(name)
+            .ok_or_else(|| BadWeights::Missing(name.into()))
+    };
     let layout = [(11, 4, 2), (5, 1, 2), (3, 1, 1), (3, 1, 1), (3, 1, 1)];
     let mut conv = Vec::new();
     let mut lin = Vec::new();
@@ -98,16 +103,15 @@ fn parse(bytes: &[u8]) -> std::result::Result<Network, String> {
         let (dims, weight) = get(&format!("conv{}.weight", k + 1))?;
         let (_, bias) = get(&format!("conv{}.bias", k + 1))?;
         if dims.len() != 4 || dims[2] != size || dims[3] != size || bias.len() != dims[0] {
-            return Err(format!("conv{} has the wrong shape {dims:?}", k + 1));
+            return Err(BadWeights::ConvShape { layer: k + 1, dims });
         }
         let (_, w) = get(&format!("lin{}.weight", k + 1))?;
         if w.len() != dims[0] {
-            return Err(format!(
-                "lin{} has {} weights for {} channels",
-                k + 1,
-                w.len(),
-                dims[0]
-            ));
+            return Err(BadWeights::LinearShape {
+                layer: k + 1,
+                weights: w.len(),
+                channels: dims[0],
+            });
         }
         conv.push(Conv {
             outputs: dims[0],
@@ -279,7 +283,7 @@ pub const MIN_SIDE: usize = 32;
 pub fn lpips(a: &MetricImage, b: &MetricImage) -> Result<f64> {
     super::same_size("LPIPS: ", a, b)?;
     if a.width.min(a.height) < MIN_SIDE {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "LPIPS: a {}×{} image is too small (at least {MIN_SIDE} pixels a side)",
             a.width, a.height
         )));

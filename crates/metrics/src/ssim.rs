@@ -5,7 +5,8 @@
 //! `K2 = 0.03`, `L = 255`, and the mean of the map. No downsampling.
 
 use super::GreyImage;
-use plsr_base::error::{Error, Result};
+use crate::error::{Error, Result};
+use plsr_base::Vocabulary;
 
 /// Side of the Gaussian window.
 const SIDE: usize = 11;
@@ -22,13 +23,13 @@ pub fn ssim(a: &GreyImage, b: &GreyImage) -> Result<f64> {
 pub fn ssim_map(a: &GreyImage, b: &GreyImage) -> Result<Vec<f64>> {
     let (w, h) = (a.width, a.height);
     if (w, h) != (b.width, b.height) {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "SSIM: the images differ in size ({w}×{h} and {}×{})",
             b.width, b.height
         )));
     }
     if w < SIDE || h < SIDE {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "SSIM: a {w}×{h} image is smaller than its 11×11 window"
         )));
     }

@@ -10,10 +10,13 @@
 //! same folder that is renamed into place only when the file is complete.
 //!
 //! Every failure is an [`Error`] naming the file and carrying OpenImageIO's
-//! own message; the shim catches every C++ exception, none reaches Rust.
+//! own message ([`error`]); the shim catches every C++ exception, none reaches Rust.
 //! This module holds all of plsr's `unsafe` code for OpenImageIO.
 
-use plsr_base::error::{Error, Result};
+pub mod error;
+
+pub use error::{Error, LoadFailure, Result};
+use plsr_base::Vocabulary;
 use std::ffi::{c_char, c_int, CStr, CString};
 use std::path::{Path, PathBuf};
 use std::ptr::NonNull;
@@ -29,6 +32,7 @@ use std::ptr::NonNull;
 ///
 /// cbindgen:ignore
 mod ffi {
+    use crate::LoadFailure;
     use std::ffi::{c_char, c_float, c_int, c_void, CStr};
     use std::sync::OnceLock;
 
@@ -135,12 +139,12 @@ mod ffi {
     /// The shim library, as `build.rs` linked it.
     static SHIM: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/libplsr_oiio.so"));
 
-    static API: OnceLock<Result<Api, String>> = OnceLock::new();
+    static API: OnceLock<Result<Api, LoadFailure>> = OnceLock::new();
 
     /// The shim's entry points, loading it (and with it OpenImageIO) on
     /// first use; the error says why it could not be loaded.
-    pub fn api() -> Result<&'static Api, &'static str> {
-        API.get_or_init(load).as_ref().map_err(|e| e.as_str())
+    pub fn api() -> Result<&'static Api, &'static LoadFailure> {
+        API.get_or_init(load).as_ref()
     }
 
     /// The entry points of the shim already loaded: every handle came from
@@ -168,7 +172,7 @@ mod ffi {
     /// Opens the embedded library: from an anonymous in-memory file
     /// (`memfd_create`), or where that is unavailable from a temporary file
     /// removed again once it is mapped.
-    fn open_library() -> Result<*mut c_void, String> {
+    fn open_library() -> Result<*mut c_void, LoadFailure> {
         use std::io::Write;
         use std::os::fd::FromRawFd;
         let flags = libc::RTLD_NOW | libc::RTLD_LOCAL;
@@ -178,8 +182,9 @@ mod ffi {
         if fd >= 0 {
             // SAFETY: `fd` is a fresh descriptor nobody else owns.
             let mut file = unsafe { std::fs::File::from_raw_fd(fd) };
-            file.write_all(SHIM)
-                .map_err(|e| format!("cannot write the OpenImageIO shim to memory: {e}"))?;
+            file.write_all(SHIM).map_err(|e| {
+                LoadFailure::Staging(format!("cannot write the OpenImageIO shim to memory: {e}"))
+            })?;
             let path = std::ffi::CString::new(format!("/proc/self/fd/{fd}"))
                 .expect("no NUL in a formatted path");
             // SAFETY: a NUL-terminated path; the descriptor stays open (the
@@ -193,7 +198,7 @@ mod ffi {
             // /proc not mounted: fall back to a file. Anything else (a
             // missing OpenImageIO) would fail there too.
             if !why.contains("/proc/self/fd") {
-                return Err(why);
+                return Err(LoadFailure::Dlopen(why));
             }
         }
         let dir = std::env::temp_dir();
@@ -211,17 +216,18 @@ mod ffi {
         };
         if let Err(e) = write() {
             let _ = std::fs::remove_file(&path);
-            return Err(format!(
+            return Err(LoadFailure::Staging(format!(
                 "cannot write the OpenImageIO shim to {}: {e}",
                 path.display()
-            ));
+            )));
         }
-        let cpath = std::ffi::CString::new(path.as_os_str().as_encoded_bytes())
-            .map_err(|_| format!("{}: the path contains a NUL byte", path.display()))?;
+        let cpath = std::ffi::CString::new(path.as_os_str().as_encoded_bytes()).map_err(|_| {
+            LoadFailure::Staging(format!("{}: the path contains a NUL byte", path.display()))
+        })?;
         // SAFETY: a NUL-terminated path to a complete library file.
         let handle = unsafe { libc::dlopen(cpath.as_ptr(), flags) };
         let result = if handle.is_null() {
-            Err(dl_error())
+            Err(LoadFailure::Dlopen(dl_error()))
         } else {
             Ok(handle)
         };
@@ -229,23 +235,17 @@ mod ffi {
         result
     }
 
-    fn load() -> Result<Api, String> {
-        let lib = open_library().map_err(|why| {
-            format!(
-                "OpenImageIO could not be loaded ({why}); install it \
-                 (Debian: apt-get install libopenimageio-dev)"
-            )
-        })?;
-        let symbol = |name: &CStr| -> Result<*mut c_void, String> {
+    fn load() -> Result<Api, LoadFailure> {
+        let lib = open_library()?;
+        let symbol = |name: &CStr| -> Result<*mut c_void, LoadFailure> {
             // SAFETY: `lib` is a live handle from dlopen (never closed) and
             // `name` a NUL-terminated symbol name.
             let p = unsafe { libc::dlsym(lib, name.as_ptr()) };
             if p.is_null() {
-                Err(format!(
-                    "the OpenImageIO shim lacks {}: {}",
-                    name.to_string_lossy(),
-                    dl_error()
-                ))
+                Err(LoadFailure::MissingSymbol {
+                    name: name.to_string_lossy().into_owned(),
+                    dl_error: dl_error(),
+                })
             } else {
                 Ok(p)
             }
@@ -409,7 +409,10 @@ impl ImageReader {
         let mut handle: *mut ffi::Input = std::ptr::null_mut();
         let mut spec = ffi::Spec::default();
         let mut err = [0 as c_char; ERR_LEN];
-        let api = ffi::api().map_err(|why| Error::input(path, "", why))?;
+        let api = ffi::api().map_err(|why| Error::Unavailable {
+            file: path.to_path_buf(),
+            reason: why.clone(),
+        })?;
         // SAFETY: all pointers are valid for the duration of the call: the
         // path is a NUL-terminated CString, `handle` and `spec` are local
         // out-parameters, and `err` holds ERR_LEN bytes as stated.
@@ -423,10 +426,15 @@ impl ImageReader {
             )
         };
         if status != ffi::OK {
-            return Err(Error::input(path, "", message(&err)));
+            return Err(Error::Read {
+                file: path.to_path_buf(),
+                message: message(&err),
+            });
         }
-        let handle = NonNull::new(handle)
-            .ok_or_else(|| Error::input(path, "", "OpenImageIO returned no image"))?;
+        let handle = NonNull::new(handle).ok_or_else(|| Error::Read {
+            file: path.to_path_buf(),
+            message: "OpenImageIO returned no image".into(),
+        })?;
         let format = PixelType::from_code(spec.format);
         Ok(ImageReader {
             handle,
@@ -505,7 +513,7 @@ impl ImageReader {
     pub fn read_rows<T: Sample>(&mut self, y0: usize, y1: usize, out: &mut [T]) -> Result<()> {
         let need = y1.saturating_sub(y0) * self.info.width * self.info.channels;
         if y0 > y1 || y1 > self.info.height || out.len() != need {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "{}: rows {y0}..{y1} with a buffer of {} values (image {}×{}×{})",
                 self.path.display(),
                 out.len(),
@@ -532,7 +540,10 @@ impl ImageReader {
             )
         };
         if status != ffi::OK {
-            return Err(Error::input(&self.path, "", message(&err)));
+            return Err(Error::Read {
+                file: self.path.clone(),
+                message: message(&err),
+            });
         }
         Ok(())
     }
@@ -622,7 +633,7 @@ impl ImageWriter {
         stored: PixelType,
         attributes: &[Attribute],
     ) -> Result<ImageWriter> {
-        let out_err = |message: String| Error::Output {
+        let out_err = |message: String| Error::Write {
             file: path.to_path_buf(),
             message,
         };
@@ -676,7 +687,10 @@ impl ImageWriter {
             Ok(api) => api,
             Err(why) => {
                 discard(&tmp);
-                return Err(out_err(why.to_string()));
+                return Err(Error::Unavailable {
+                    file: path.to_path_buf(),
+                    reason: why.clone(),
+                });
             }
         };
         // SAFETY: the path and every attribute name/string are NUL-terminated
@@ -728,13 +742,13 @@ impl ImageWriter {
     pub fn write_rows<T: Sample>(&mut self, y0: usize, y1: usize, data: &[T]) -> Result<()> {
         let need = y1.saturating_sub(y0) * self.width * self.channels;
         let Some(handle) = self.handle else {
-            return Err(Error::Output {
+            return Err(Error::Write {
                 file: self.path.clone(),
                 message: "writer already closed".into(),
             });
         };
         if y0 > y1 || y1 > self.height || data.len() != need {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "{}: rows {y0}..{y1} with {} values",
                 self.path.display(),
                 data.len()
@@ -757,7 +771,7 @@ impl ImageWriter {
             )
         };
         if status != ffi::OK {
-            return Err(Error::Output {
+            return Err(Error::Write {
                 file: self.path.clone(),
                 message: self.failure(&message(&err)),
             });
@@ -775,14 +789,14 @@ impl ImageWriter {
     pub fn finish(self) -> Result<()> {
         let mut outputs = plsr_base::atomic_write::OutputSet::new();
         self.finish_into(&mut outputs)?;
-        outputs.commit()
+        Ok(outputs.commit()?)
     }
 
     /// Closes the file and hands it to `outputs`, to be renamed into place
     /// with the command's other outputs (or removed with them).
     pub fn finish_into(mut self, outputs: &mut plsr_base::atomic_write::OutputSet) -> Result<()> {
         let Some(handle) = self.handle.take() else {
-            return Err(Error::Output {
+            return Err(Error::Write {
                 file: self.path.clone(),
                 message: "writer already closed".into(),
             });
@@ -794,7 +808,7 @@ impl ImageWriter {
         let status = unsafe { (ffi::loaded().finish)(handle.as_ptr(), err.as_mut_ptr(), ERR_LEN) };
         if status != ffi::OK {
             discard(&self.tmp);
-            return Err(Error::Output {
+            return Err(Error::Write {
                 file: self.path.clone(),
                 message: self.failure(&message(&err)),
             });

@@ -12,13 +12,19 @@ pub const MAX_NF: u32 = 4096;
 /// Checks a tessellation count: 1 to [`MAX_NF`] quads along the axis. The
 /// one check of Nf that scene files, the command line and the C ABI share;
 /// the error says what is wrong.
-pub fn check_nf(nf: u64) -> Result<u32, String> {
+pub fn check_nf(nf: u64) -> Result<u32, NfOutOfRange> {
     if (1..=MAX_NF as u64).contains(&nf) {
         Ok(nf as u32)
     } else {
-        Err(format!("must be between 1 and {MAX_NF}, got {nf}"))
+        Err(NfOutOfRange(nf))
     }
 }
+
+/// A tessellation count outside 1 to [`MAX_NF`]. Its text does not name
+/// the option or field.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("must be between 1 and {MAX_NF}, got {0}")]
+pub struct NfOutOfRange(pub u64);
 
 /// One parametric light in a scene.
 #[derive(Debug, Clone, PartialEq)]
@@ -38,7 +44,7 @@ impl PlsEmitter {
         check_nf(nf as u64).map_err(|message| PlsError {
             light: light.label(0),
             parameter: "nf".into(),
-            message,
+            message: message.to_string(),
         })?;
         Ok(PlsEmitter { light, mode, nf })
     }

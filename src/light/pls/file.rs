@@ -25,6 +25,7 @@ use super::{BrightnessMode, Pls, PlsGeometry, PlsLighting};
 use crate::atomic_write::write_atomically;
 use crate::error::{Error, Result};
 use glam::Vec3;
+use plsr_base::Vocabulary;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::Path;
@@ -208,10 +209,8 @@ pub fn parse(text: &str, path: &Path) -> Result<PlsLighting> {
 /// Reads and validates a PLS file.
 pub fn load(path: &Path) -> Result<PlsLighting> {
     crate::input::check_input_file(path)?;
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-        file: path.to_path_buf(),
-        source,
-    })?;
+    let text =
+        std::fs::read_to_string(path).map_err(|source| Error::io(path.to_path_buf(), source))?;
     parse(&text, path)
 }
 
@@ -250,30 +249,22 @@ pub fn to_string(lighting: &PlsLighting, path: &Path) -> Result<String> {
     } else {
         toml::to_string(&file).map_err(|e| e.to_string())
     };
-    out.map_err(|message| Error::Output {
-        file: path.to_path_buf(),
-        message,
-    })
+    out.map_err(|message| Error::output(path.to_path_buf(), message))
 }
 
 /// Writes a lighting to a PLS file, atomically.
 pub fn save(lighting: &PlsLighting, path: &Path) -> Result<()> {
     let text = to_string(lighting, path)?;
     write_atomically(path, |w| {
-        w.write_all(text.as_bytes()).map_err(|source| Error::Io {
-            file: path.to_path_buf(),
-            source,
-        })
+        w.write_all(text.as_bytes())
+            .map_err(|source| Error::io(path.to_path_buf(), source))
     })
 }
 
 /// Writes the tessellated lights as an OBJ: one object per light, faces
 /// counter-clockwise seen from the emitting side.
 pub fn save_obj(lighting: &PlsLighting, nf: u32, path: &Path) -> Result<()> {
-    let io = |source| Error::Io {
-        file: path.to_path_buf(),
-        source,
-    };
+    let io = |source| Error::io(path.to_path_buf(), source);
     write_atomically(path, |w| {
         writeln!(
             w,

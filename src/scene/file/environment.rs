@@ -1,9 +1,11 @@
 //! `[environment]`: an HDR panorama or a constant sky at infinity.
 
 use super::Builder;
+use crate::error::FormatError;
 use crate::error::{Error, Result};
 use crate::light::EnvironmentLight;
 use glam::Vec3;
+use plsr_base::Vocabulary;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -101,7 +103,7 @@ impl Builder<'_> {
                 self.read_input(&path);
                 checked_environment(&path, frame, scale)
                     .map(|env| env.with_bilinear(bilinear))
-                    .map_err(|m| self.err("environment.file", m))
+                    .map_err(|m| self.err("environment.file", m.to_string()))
             }
         }
     }
@@ -115,14 +117,14 @@ pub fn load_environment(
     frame: crate::equirect::SphereFrame,
     scale: f32,
 ) -> Result<EnvironmentLight> {
-    checked_environment(path, frame, scale).map_err(|m| Error::input(path, "", m))
+    checked_environment(path, frame, scale).map_err(|m| Error::input(path, "", m.to_string()))
 }
 
 pub(super) fn checked_environment(
     path: &Path,
     frame: crate::equirect::SphereFrame,
     scale: f32,
-) -> std::result::Result<EnvironmentLight, String> {
+) -> std::result::Result<EnvironmentLight, FormatError> {
     let (w, h, texels) = load_environment_image(path)?;
     if let Some(i) = texels
         .iter()
@@ -134,7 +136,8 @@ pub(super) fn checked_environment(
             i % w as usize,
             i / w as usize,
             texels[i]
-        ));
+        )
+        .into());
     }
     Ok(EnvironmentLight::from_image(w, h, texels, scale, frame))
 }
@@ -144,7 +147,7 @@ pub(super) fn checked_environment(
 /// texels row-major from the top row.
 pub(super) fn load_environment_image(
     path: &Path,
-) -> std::result::Result<(u32, u32, Vec<Vec3>), String> {
+) -> std::result::Result<(u32, u32, Vec<Vec3>), FormatError> {
     crate::input::check_regular_file(path).map_err(|m| {
         format!(
             "{}: environment image {m} (paths are relative to the scene file)",
@@ -175,6 +178,7 @@ pub(super) fn load_environment_image(
         _ => Err(format!(
             "{}: unsupported environment image (use .exr or .hdr)",
             path.display()
-        )),
+        )
+        .into()),
     }
 }

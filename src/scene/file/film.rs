@@ -54,7 +54,7 @@ impl Builder<'_> {
                     f.filter_radius.unwrap_or(DEFAULT_GAUSSIAN_RADIUS),
                 )?;
                 let g = GaussianFilter::new(sigma, radius)
-                    .map_err(|e| self.err("film.filter_radius", e))?;
+                    .map_err(|e| self.err("film.filter_radius", e.to_string()))?;
                 PixelFilter::Gaussian(g)
             }
             other => {
@@ -66,7 +66,7 @@ impl Builder<'_> {
         };
         let exposure_ev = self.finite("film.exposure_ev", f.exposure_ev.unwrap_or(0.0))?;
         let exposure_ev = crate::film::check_exposure_stops(exposure_ev)
-            .map_err(|m| self.err("film.exposure_ev", m))?;
+            .map_err(|m| self.err("film.exposure_ev", m.to_string()))?;
         let camera_exposure = match f.f_number {
             Some(n) => {
                 let n = self.positive("film.f_number", n)?;

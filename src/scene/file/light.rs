@@ -65,7 +65,7 @@ impl Builder<'_> {
             })?;
         }
         let nf = crate::light::pls::check_nf(s.nf.unwrap_or(crate::light::pls::DEFAULT_NF) as u64)
-            .map_err(|m| self.err(format!("{field}.nf"), m))?;
+            .map_err(|m| self.err(format!("{field}.nf"), m.to_string()))?;
         // PLS emitters do not reflect: a black material.
         let black = match materials.iter().position(|m| m.name == "(pls)") {
             Some(i) => i as u32,

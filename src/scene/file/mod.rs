@@ -28,6 +28,7 @@ use film::FilmSection;
 use light::{LightSection, PlsSection};
 use material::MaterialSection;
 use photo::PhotoSection;
+use plsr_base::Vocabulary;
 use render::RenderSection;
 use shape::ShapeSection;
 use toml_path::{field_at, position_of};
@@ -110,10 +111,7 @@ struct ViewSection {
 /// translated into a plsr scene ([`crate::scene::mitsuba`]).
 pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
     crate::input::check_input_file(path)?;
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        file: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = std::fs::read(path).map_err(|source| Error::io(path.to_path_buf(), source))?;
     if crate::scene::gltf_scene::looks_like_gltf(path, &bytes) {
         let wrapper = crate::scene::gltf_scene::scene_toml(path)?;
         let mut contents = from_text(path, &wrapper.toml, false)?;
@@ -135,11 +133,11 @@ pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
         let translation = crate::scene::mitsuba::translate(path, &text)?;
         // What the builder finds wrong is in the translation, not the XML.
         let mut contents = from_text(path, &translation.toml, false).map_err(|e| match e {
-            Error::Input {
+            Error::Base(plsr_base::Error::Input {
                 file,
                 field,
                 message,
-            } => Error::Input {
+            }) => Error::Base(plsr_base::Error::Input {
                 file,
                 field: if field.is_empty() {
                     "(translated scene)".into()
@@ -150,7 +148,7 @@ pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
                     "{message} (the Mitsuba scene translated into plsr's format, \
                      which `plsr import` writes out, has this fault)"
                 ),
-            },
+            }),
             other => other,
         })?;
         let mut notes = translation.notes;
@@ -215,15 +213,15 @@ fn from_text(path: &Path, text: &str, is_json: bool) -> Result<SceneFileContents
     for (i, v) in parsed.views.iter().enumerate() {
         // The builders name `camera.…` and `photo.…`: place them in the view.
         let within = |e: Error| match e {
-            Error::Input {
+            Error::Base(plsr_base::Error::Input {
                 file,
                 field,
                 message,
-            } => Error::Input {
+            }) => Error::Base(plsr_base::Error::Input {
                 file,
                 field: format!("views[{i}].{field}"),
                 message,
-            },
+            }),
             other => other,
         };
         if v.camera.path.is_some() {

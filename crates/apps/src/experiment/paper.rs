@@ -29,12 +29,13 @@
 
 use crate::capture::{capture, CaptureOptions, PAPER_EXPOSURES};
 use crate::composite::{composite_scene, CompositeOptions};
+use crate::error::{Error, Result};
 use crate::experiment::paper_room::{Lighting, Object, PaperRoom, SceneSpec, Surroundings};
 use glam::Vec3;
 use plsr::film::Film;
 use plsr::render::{render, RenderOptions};
 use plsr::scene::{file, Scene};
-use plsr_base::error::{Error, Result};
+use plsr_base::Vocabulary;
 use plsr_hdr::merge::{merge, MergeOptions};
 use plsr_hdr::synth::{write_brackets, BracketOptions, CameraModel};
 use plsr_metrics::{compare_files, CompareOptions, Crop, CropSpec, Metric, MetricImage};
@@ -257,31 +258,22 @@ pub fn run(options: &PaperOptions, log: &(dyn Fn(&str) + Sync)) -> Result<PaperR
             .map(|mut d| d.next().is_some())
             .unwrap_or(true)
     {
-        return Err(Error::Output {
-            file: out.clone(),
-            message: "the output folder exists and is not empty: remove it or choose another"
-                .into(),
-        });
+        return Err(Error::output(
+            out.clone(),
+            "the output folder exists and is not empty: remove it or choose another",
+        ));
     }
-    let bunny = std::fs::canonicalize(&options.bunny).map_err(|source| Error::Io {
-        file: options.bunny.clone(),
-        source,
-    })?;
+    let bunny = std::fs::canonicalize(&options.bunny)
+        .map_err(|source| Error::io(options.bunny.clone(), source))?;
     plsr_base::atomic_write::sweep_stale_partials(out);
     let staging = plsr_base::atomic_write::partial_path(out);
     plsr_base::atomic_write::register_partial(&staging);
     let result = run_in(&staging, &bunny, options, log);
     let placed = result.and_then(|results| {
         if out.exists() {
-            std::fs::remove_dir(out).map_err(|source| Error::Io {
-                file: out.clone(),
-                source,
-            })?;
+            std::fs::remove_dir(out).map_err(|source| Error::io(out.clone(), source))?;
         }
-        std::fs::rename(&staging, out).map_err(|source| Error::Io {
-            file: out.clone(),
-            source,
-        })?;
+        std::fs::rename(&staging, out).map_err(|source| Error::io(out.clone(), source))?;
         Ok(results)
     });
     if placed.is_err() {
@@ -292,10 +284,7 @@ pub fn run(options: &PaperOptions, log: &(dyn Fn(&str) + Sync)) -> Result<PaperR
 }
 
 fn io(file: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
-    move |source| Error::Io {
-        file: file.to_path_buf(),
-        source,
-    }
+    move |source| Error::io(file.to_path_buf(), source)
 }
 
 fn mkdir(dir: &Path) -> Result<()> {
@@ -653,10 +642,9 @@ fn write_mask(matte: &[f32], width: u32, height: u32, path: &Path) -> Result<()>
         .map(|&a| if a >= 0.5 { 255 } else { 0 })
         .collect();
     let image = image::GrayImage::from_raw(width, height, pixels).expect("one value per pixel");
-    image.save(path).map_err(|e| Error::Output {
-        file: path.to_path_buf(),
-        message: e.to_string(),
-    })
+    image
+        .save(path)
+        .map_err(|e| Error::output(path.to_path_buf(), e.to_string()))
 }
 
 /// Height of a row of the figure (pixels).
@@ -720,8 +708,6 @@ fn figure(dir: &Path, results: &PaperResults) -> Result<()> {
         }
     }
     let path = dir.join("figure.png");
-    fig.save(&path).map_err(|e| Error::Output {
-        file: path.clone(),
-        message: e.to_string(),
-    })
+    fig.save(&path)
+        .map_err(|e| Error::output(path.clone(), e.to_string()))
 }

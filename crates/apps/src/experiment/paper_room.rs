@@ -14,11 +14,12 @@
 //! `assets/scenes/paper-room/` holds the room, its meshes and its PLS
 //! lights as this writes them ([`PaperRoom::write_assets`]).
 
+use crate::error::{Error, Result};
 use crate::experiment::fixture::{Flashlight, Lamp};
 use crate::experiment::mesh::MeshBuilder;
 use glam::Vec3;
 use plsr::light::pls::{BrightnessMode, PlsLighting};
-use plsr_base::error::{Error, Result};
+use plsr_base::Vocabulary;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -426,19 +427,14 @@ impl PaperRoom {
 }
 
 fn create_dir(dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|source| Error::Io {
-        file: dir.to_path_buf(),
-        source,
-    })
+    std::fs::create_dir_all(dir).map_err(|source| Error::io(dir.to_path_buf(), source))
 }
 
 fn write_file(path: &Path, text: &str) -> Result<()> {
     plsr_base::atomic_write::write_atomically(path, |w| {
         use std::io::Write as _;
-        w.write_all(text.as_bytes()).map_err(|source| Error::Io {
-            file: path.to_path_buf(),
-            source,
-        })
+        w.write_all(text.as_bytes())
+            .map_err(|source| Error::io(path.to_path_buf(), source))
     })
 }
 

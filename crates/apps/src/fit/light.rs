@@ -18,12 +18,13 @@
 //! are not noise.
 
 use super::View;
+use crate::error::{Error, Result};
 use glam::Vec3;
 use plsr::job::RenderJob;
 use plsr::light::Light;
 use plsr::render::{render_sums, RenderOptions};
 use plsr::scene::Scene;
-use plsr_base::error::{Error, Result};
+use plsr_base::Vocabulary;
 
 /// What a window fit found.
 #[derive(Debug, Clone, PartialEq)]
@@ -142,12 +143,12 @@ pub fn fit_window(
     options: &WindowFitOptions,
 ) -> Result<WindowFit> {
     let Some(emitter) = scene.meshes().get(mesh).and_then(|m| m.pls.clone()) else {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "mesh {mesh} is not a PLS light"
         )));
     };
     let Some(range) = scene.mesh_lights(mesh) else {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "{}: the light emits nothing (b or c is 0)",
             scene.meshes()[mesh].name
         )));
@@ -155,8 +156,8 @@ pub fn fit_window(
     let rebuilds = options.fit_direction || options.fit_size || options.fit_shape;
     let desc = match (rebuilds, desc) {
         (true, None) => {
-            return Err(Error::InvalidArgument(
-                "fitting a light's direction, size or shape needs the scene's description".into(),
+            return Err(Error::invalid_argument(
+                "fitting a light's direction, size or shape needs the scene's description",
             ))
         }
         (true, Some(d)) => Some(d),

@@ -27,6 +27,7 @@ pub mod plot;
 pub mod write;
 
 use crate::composite::Photo;
+use crate::error::{Error, Result};
 use glam::{Vec2, Vec3};
 pub use params::{Owner, Parameter};
 use plsr::accel::{RayHit, REAL_MASK};
@@ -35,7 +36,7 @@ use plsr::integrator::gradient::GradientMap;
 use plsr::job::RenderJob;
 use plsr::render::{render_gradient, render_sums, RenderOptions};
 use plsr::scene::Scene;
-use plsr_base::error::{Error, Result};
+use plsr_base::Vocabulary;
 use std::time::Instant;
 
 /// How to fit.
@@ -110,13 +111,13 @@ impl View {
     pub fn new(scene: &Scene, label: &str, camera: Camera, photo: &Photo, k: f32) -> Result<View> {
         let (w, h) = (camera.width(), camera.height());
         if (photo.width, photo.height) != (w, h) {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "{label}: the photo is {}×{} pixels but its camera renders {w}×{h}",
                 photo.width, photo.height
             )));
         }
         if !(k.is_finite() && k > 0.0) {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "{label}: exposure {k} must be positive"
             )));
         }
@@ -181,7 +182,7 @@ pub fn squared_error_gradient(
 ) -> Result<(f64, Vec<f64>)> {
     let n = (scene.camera().width() * scene.camera().height()) as usize;
     if target.len() != n || mask.len() != n {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "the target has {} pixels and the mask {}, the camera {n}",
             target.len(),
             mask.len()
@@ -281,24 +282,22 @@ impl Fit {
         options: FitOptions,
     ) -> Result<Fit> {
         if views.is_empty() {
-            return Err(Error::InvalidArgument(
-                "a fit needs at least one photo".into(),
-            ));
+            return Err(Error::invalid_argument("a fit needs at least one photo"));
         }
         if views.iter().all(|v| v.pixels() == 0) {
-            return Err(Error::InvalidArgument(
-                "no photo pixel sees a real surface of the scene (every mask is empty)".into(),
+            return Err(Error::invalid_argument(
+                "no photo pixel sees a real surface of the scene (every mask is empty)",
             ));
         }
         if options.spp == 0 || options.spp > plsr::job::MAX_SPP {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "spp {} must be in [1, {}]",
                 options.spp,
                 plsr::job::MAX_SPP
             )));
         }
         if !(options.learning_rate.is_finite() && options.learning_rate > 0.0) {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "learning rate {} must be positive",
                 options.learning_rate
             )));
@@ -419,7 +418,7 @@ impl Fit {
                 .params
                 .iter()
                 .find(|p| (p.slot as usize..p.slot as usize + p.value.len()).contains(&i));
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "the gradient of {} is not finite at iteration {index}",
                 p.map_or("a parameter", |p| p.name.as_str())
             )));
@@ -583,7 +582,7 @@ pub fn fit_scene_file(
                             .unwrap_or_else(|| mesh.name.clone())
                     })
                     .collect();
-                return Err(Error::InvalidArgument(format!(
+                return Err(Error::invalid_argument(format!(
                     "--window {name}: no PLS light of that name (the scene's: {})",
                     if names.is_empty() {
                         "none".to_string()
@@ -636,8 +635,8 @@ pub fn fit_scene_file(
     }
     let pixels = views.iter().map(View::pixels).sum();
     if views.iter().all(|v| v.pixels() == 0) {
-        return Err(Error::InvalidArgument(
-            "no photo pixel sees a real surface of the scene (every mask is empty)".into(),
+        return Err(Error::invalid_argument(
+            "no photo pixel sees a real surface of the scene (every mask is empty)",
         ));
     }
     // The windows first: Adam then starts from their brightness.
@@ -747,7 +746,7 @@ pub fn fit_scene_file(
         losses.push(it.loss);
         seconds += it.seconds;
         if !progress(&it, fit.parameters()) {
-            return Err(Error::Cancelled);
+            return Err(Error::cancelled());
         }
     }
     fit.finish()?;
@@ -783,7 +782,7 @@ fn auto_exposure(
     label: &str,
 ) -> Result<f32> {
     if (photo.width, photo.height) != (camera.width(), camera.height()) {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "{label}: the photo is {}×{} pixels but its camera renders {}×{}",
             photo.width,
             photo.height,
@@ -811,7 +810,7 @@ fn auto_exposure(
     crate::composite::fit_exposure(&photo.radiance, &without, &matte)
         .map(|f| f.k)
         .ok_or_else(|| {
-            Error::InvalidArgument(format!(
+            Error::invalid_argument(format!(
                 "{label}: the exposure cannot be fitted: the render is black where the photo \
                  sees the scene's surfaces"
             ))
@@ -839,10 +838,10 @@ impl FitOutcome {
                 .iter()
                 .find(|i| plsr_base::atomic_write::same_file(i, target))
             {
-                return Err(Error::Output {
-                    file: target.to_path_buf(),
-                    message: format!("would replace the input {}", input.display()),
-                });
+                return Err(Error::output(
+                    target.to_path_buf(),
+                    format!("would replace the input {}", input.display()),
+                ));
             }
         }
         for extra in [loss_csv, loss_png] {
@@ -850,10 +849,10 @@ impl FitOutcome {
                 .iter()
                 .any(|i| plsr_base::atomic_write::same_file(i, extra))
             {
-                return Err(Error::Output {
-                    file: extra.to_path_buf(),
-                    message: "would replace one of the scene's inputs".into(),
-                });
+                return Err(Error::output(
+                    extra.to_path_buf(),
+                    "would replace one of the scene's inputs",
+                ));
             }
         }
         let mut outputs = plsr_base::atomic_write::OutputSet::new();
@@ -862,6 +861,6 @@ impl FitOutcome {
         }
         plot::stage_loss_csv(&mut outputs, loss_csv, &self.losses)?;
         plot::stage_loss_plot(&mut outputs, loss_png, &self.losses)?;
-        outputs.commit()
+        Ok(outputs.commit()?)
     }
 }

@@ -16,12 +16,13 @@
 //! Patterns select parameters with `*` matching any run of characters:
 //! `wall.reflectance`, `floor.*`, `*.roughness`, `lamp.b`.
 
+use crate::error::{Error, Result};
 use glam::Vec3;
 use plsr::bsdf::{Bsdf, BsdfParam};
 use plsr::integrator::gradient::GradientMap;
 use plsr::light::Light;
 use plsr::scene::Scene;
-use plsr_base::error::{Error, Result};
+use plsr_base::Vocabulary;
 
 /// What a parameter belongs to.
 #[derive(Debug, Clone, PartialEq)]
@@ -340,7 +341,7 @@ pub fn select(
                 // A wildcard passes over what cannot be fitted; a name
                 // that means it exactly is refused.
                 if !pattern.contains('*') {
-                    return Err(Error::InvalidArgument(format!("--param {pattern}: {why}")));
+                    return Err(Error::invalid_argument(format!("--param {pattern}: {why}")));
                 }
                 continue;
             }
@@ -348,7 +349,7 @@ pub fn select(
             any = true;
         }
         if !any {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "--param {pattern} matches no parameter of the scene (available: {})",
                 available
             )));
@@ -373,7 +374,7 @@ pub fn select(
         slot += n;
     }
     if out.is_empty() {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "the scene has no parameter to fit (available: {})",
             available
         )));
@@ -445,7 +446,7 @@ pub fn apply(scene: &mut Scene, param: &Parameter, value: &[f32]) -> Result<()> 
                 (Bsdf::Principled(p), "specular") => p.specular = value[0],
                 _ => {}
             }
-            scene.set_material_bsdf(*i, bsdf)
+            Ok(scene.set_material_bsdf(*i, bsdf)?)
         }
         owner => {
             let old = param.rgb();

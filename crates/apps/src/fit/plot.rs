@@ -2,10 +2,11 @@
 //! scale on y, both axes labelled and ticked (a small built-in bitmap font,
 //! so that no font file is needed).
 
+use crate::error::{Error, Result};
 use image::{Rgb, RgbImage};
 use plsr_base::atomic_write::OutputSet;
-use plsr_base::error::{Error, Result};
 use plsr_base::text::line;
+use plsr_base::Vocabulary;
 use std::io::Write;
 use std::path::Path;
 
@@ -169,17 +170,14 @@ pub fn loss_plot(losses: &[f64], width: u32, height: u32) -> RgbImage {
 
 /// Stages the loss curve as a PNG at `path` (see [`loss_plot`]).
 pub fn stage_loss_plot(outputs: &mut OutputSet, path: &Path, losses: &[f64]) -> Result<()> {
-    outputs.stage_png(path, &loss_plot(losses, 640, 400))
+    Ok(outputs.stage_png(path, &loss_plot(losses, 640, 400))?)
 }
 
 /// Stages the loss curve as CSV at `path`: `iteration,loss`, one row per
 /// iteration (row `i`: the loss after `i` steps).
 pub fn stage_loss_csv(outputs: &mut OutputSet, path: &Path, losses: &[f64]) -> Result<()> {
     outputs.stage(path, |w| {
-        let io = |source| Error::Io {
-            file: path.to_path_buf(),
-            source,
-        };
+        let io = |source| Error::io(path.to_path_buf(), source);
         writeln!(w, "iteration,loss").map_err(io)?;
         for (i, v) in losses.iter().enumerate() {
             writeln!(w, "{i},{v:e}").map_err(io)?;

@@ -4,8 +4,9 @@
 //! were fitted get a fitted copy of their PLS file beside the scene.
 
 use super::params::{Owner, Parameter};
+use crate::error::{Error, Result};
 use plsr::scene::Scene;
-use plsr_base::error::{Error, Result};
+use plsr_base::Vocabulary;
 use serde_json::Value as Json;
 use std::path::{Path, PathBuf};
 
@@ -128,7 +129,7 @@ fn edit(path: &Path, text: &str, edits: &[(Vec<Seg>, NewValue)]) -> Result<Strin
         .map_err(|e: toml_edit::TomlError| Error::input(path, "", e.message().to_string()))?;
     for (segs, value) in edits {
         set_in_table(doc.as_table_mut(), segs, value)
-            .map_err(|m| Error::input(path, field_name(segs), m))?;
+            .map_err(|m| Error::input(path, field_name(segs), m.to_string()))?;
     }
     Ok(doc.to_string())
 }
@@ -164,11 +165,38 @@ fn toml_value(value: &NewValue, old: Option<&toml_edit::Value>) -> toml_edit::Va
     v
 }
 
+/// Why a fitted value could not be set at its path in the scene file. Its
+/// text follows the path.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum NotSettable {
+    /// An array of tables has no entry of this index.
+    #[error("has no entry {0}")]
+    NoEntry(usize),
+    /// The path stops at an array of tables.
+    #[error("is an array of tables")]
+    ArrayOfTables,
+    /// An array has no inline table at this index.
+    #[error("has no table at {0}")]
+    NoTableAt(usize),
+    /// The path stops at an array.
+    #[error("is an array")]
+    Array,
+    /// The path goes through a value that is not a table.
+    #[error("is not a table")]
+    NotATable,
+    /// The path goes through a key that is not an inline table.
+    #[error("`{0}` is not an inline table")]
+    NotInline(String),
+    /// The path does not end in a field.
+    #[error("is not a field")]
+    NotAField,
+}
+
 fn set_in_table(
     t: &mut toml_edit::Table,
     segs: &[Seg],
     value: &NewValue,
-) -> std::result::Result<(), String> {
+) -> std::result::Result<(), NotSettable> {
     match segs {
         [Seg::Key(k)] if *value == NewValue::Remove => {
             t.remove(k);
@@ -188,9 +216,9 @@ fn set_in_table(
                 Some(toml_edit::Item::ArrayOfTables(a)) => match rest {
                     [Seg::Index(i), rest @ ..] => match a.get_mut(*i) {
                         Some(sub) => set_in_table(sub, rest, value),
-                        None => Err(format!("has no entry {i}")),
+                        None => Err(NotSettable::NoEntry(*i)),
                     },
-                    _ => Err("is an array of tables".into()),
+                    _ => Err(NotSettable::ArrayOfTables),
                 },
                 Some(toml_edit::Item::Value(toml_edit::Value::InlineTable(it))) => {
                     set_in_inline(it, rest, value)
@@ -198,14 +226,14 @@ fn set_in_table(
                 Some(toml_edit::Item::Value(toml_edit::Value::Array(arr))) => match rest {
                     [Seg::Index(i), rest @ ..] => match arr.get_mut(*i) {
                         Some(toml_edit::Value::InlineTable(it)) => set_in_inline(it, rest, value),
-                        _ => Err(format!("has no table at {i}")),
+                        _ => Err(NotSettable::NoTableAt(*i)),
                     },
-                    _ => Err("is an array".into()),
+                    _ => Err(NotSettable::Array),
                 },
-                _ => Err("is not a table".into()),
+                _ => Err(NotSettable::NotATable),
             }
         }
-        _ => Err("is not a field".into()),
+        _ => Err(NotSettable::NotAField),
     }
 }
 
@@ -213,7 +241,7 @@ fn set_in_inline(
     t: &mut toml_edit::InlineTable,
     segs: &[Seg],
     value: &NewValue,
-) -> std::result::Result<(), String> {
+) -> std::result::Result<(), NotSettable> {
     match segs {
         [Seg::Key(k)] if *value == NewValue::Remove => {
             t.remove(k);
@@ -226,9 +254,9 @@ fn set_in_inline(
         }
         [Seg::Key(k), rest @ ..] => match t.get_mut(k) {
             Some(toml_edit::Value::InlineTable(sub)) => set_in_inline(sub, rest, value),
-            _ => Err(format!("`{k}` is not an inline table")),
+            _ => Err(NotSettable::NotInline(k.clone())),
         },
-        _ => Err("is not a field".into()),
+        _ => Err(NotSettable::NotAField),
     }
 }
 
@@ -263,10 +291,8 @@ pub fn fitted_files(
     params: &[Parameter],
     out: &Path,
 ) -> Result<FittedFiles> {
-    let text = std::fs::read_to_string(scene_path).map_err(|source| Error::Io {
-        file: scene_path.to_path_buf(),
-        source,
-    })?;
+    let text = std::fs::read_to_string(scene_path)
+        .map_err(|source| Error::io(scene_path.to_path_buf(), source))?;
     let doc = parse(scene_path, &text)?;
     let scene_dir = scene_path.parent().unwrap_or(Path::new("."));
     let out_dir = match out.parent() {
@@ -326,10 +352,8 @@ pub fn fitted_files(
             .and_then(Json::as_str)
             .ok_or_else(|| Error::input(scene_path, format!("pls[{table}].file"), "is missing"))?;
         let src = scene_dir.join(file);
-        let src_text = std::fs::read_to_string(&src).map_err(|source| Error::Io {
-            file: src.clone(),
-            source,
-        })?;
+        let src_text =
+            std::fs::read_to_string(&src).map_err(|source| Error::io(src.clone(), source))?;
         let ext = src
             .extension()
             .map(|e| e.to_string_lossy().into_owned())
@@ -440,10 +464,8 @@ fn relative_paths(doc: &Json) -> Vec<(Vec<Seg>, String)> {
 
 /// The scene file's `environment.scale` (1 when absent).
 pub fn environment_scale(scene_path: &Path) -> Result<f32> {
-    let text = std::fs::read_to_string(scene_path).map_err(|source| Error::Io {
-        file: scene_path.to_path_buf(),
-        source,
-    })?;
+    let text = std::fs::read_to_string(scene_path)
+        .map_err(|source| Error::io(scene_path.to_path_buf(), source))?;
     let doc = parse(scene_path, &text)?;
     Ok(doc
         .get("environment")

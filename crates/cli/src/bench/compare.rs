@@ -3,7 +3,8 @@
 //! implementations (pyiqa's `cw_ssim`, the `lpips` package) on the same
 //! images in the same run.
 
-use plsr::error::{Error, Result};
+use crate::error::{Error, Result};
+use plsr_base::Vocabulary;
 use plsr_metrics::{cwssim, lpips, MetricImage};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -60,10 +61,7 @@ fn write_png(img: &MetricImage, path: &Path) -> Result<()> {
     image::RgbImage::from_raw(img.width as u32, img.height as u32, bytes)
         .expect("the buffer fits")
         .save(path)
-        .map_err(|e| Error::Output {
-            file: path.to_path_buf(),
-            message: e.to_string(),
-        })
+        .map_err(|e| Error::output(path.to_path_buf(), e.to_string()))
 }
 
 /// Best time of `repeat` runs of `f` (after a warm-up when `warm`).
@@ -108,9 +106,9 @@ pub fn run(o: &CompareBenchOptions) -> Result<()> {
         let repeat = if small { 3 } else { 1 };
         let (ga, gb) = (a.grey(), b.grey());
         let (c, tc) = best(repeat, small, || {
-            cwssim::cwssim(&ga, &gb, &cwssim::CwSsimOptions::default())
+            Ok(cwssim::cwssim(&ga, &gb, &cwssim::CwSsimOptions::default())?)
         })?;
-        let (l, tl) = best(repeat, small, || lpips::lpips(&a, &b))?;
+        let (l, tl) = best(repeat, small, || Ok(lpips::lpips(&a, &b)?))?;
         ours.push((w, h, c, tc, l, tl));
         files.push((pa, pb));
     }

@@ -1,10 +1,11 @@
 //! `plsr bench composite`: what compositing costs against one render.
 
-use plsr::error::{Error, Result};
+use crate::error::{Error, Result};
 use plsr::film::ToneMap;
 use plsr::render::{render, RenderJob, RenderOptions};
 use plsr::scene::Scene;
 use plsr_apps::composite::{composite_scene, CompositeOptions, Mode};
+use plsr_base::Vocabulary;
 use std::path::Path;
 use std::time::Instant;
 
@@ -142,8 +143,5 @@ pub fn run(threads: Option<usize>) -> Result<f64> {
 
 /// Writes a scene file of the benchmark.
 fn write(path: &Path, text: &str) -> Result<()> {
-    std::fs::write(path, text).map_err(|source| Error::Io {
-        file: path.to_path_buf(),
-        source,
-    })
+    std::fs::write(path, text).map_err(|source| Error::io(path.to_path_buf(), source))
 }

@@ -14,14 +14,15 @@
 //!    plsr and the pathtracer take turns, best of three each, so that the
 //!    machine's drift hits both alike.
 
+use crate::error::{Error, Result};
 use glam::Vec3;
 use plsr::accel::{Ray, RayBatch, RayHit};
-use plsr::error::{Error, Result};
 use plsr::film::Film;
 use plsr::render::{render, thread_pool, RenderOptions, RenderStats};
 use plsr::rng::Rng;
 use plsr::scene::Scene;
 use plsr::warp::square_to_uniform_sphere;
+use plsr_base::Vocabulary;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -128,14 +129,14 @@ fn run_embree_pathtracer(bin: &Path, ecs: &Path, size: u32, spp: u32) -> Result<
         .args(["--benchmark", "1", "3", "--legacy", "-o"])
         .arg(&out)
         .output()
-        .map_err(|e| Error::InvalidArgument(format!("cannot run {}: {e}", bin.display())))?;
+        .map_err(|e| Error::invalid_argument(format!("cannot run {}: {e}", bin.display())))?;
     let text = String::from_utf8_lossy(&output.stdout);
     let fps = text
         .lines()
         .find_map(|l| l.strip_prefix("BENCHMARK_RENDER_AVG "))
         .and_then(|v| v.trim().parse::<f64>().ok())
         .ok_or_else(|| {
-            Error::InvalidArgument(format!(
+            Error::invalid_argument(format!(
                 "{} printed no BENCHMARK_RENDER_AVG line: {}{}",
                 bin.display(),
                 text,
@@ -203,7 +204,7 @@ pub fn run(o: &BenchOptions) -> Result<()> {
     desc.camera = desc
         .camera
         .with_resolution(o.size, o.size)
-        .map_err(|e| Error::InvalidArgument(e.to_string()))?;
+        .map_err(|e| Error::invalid_argument(e.to_string()))?;
     let scene = Scene::build(desc)?;
     let threads = thread_pool(o.threads)?.current_num_threads();
     println!(

@@ -5,8 +5,9 @@
 //! a part on a farm pays: start-up, scene load, Embree's build, writing its
 //! EXR; and the merge reads them all.
 
-use plsr::error::{Error, Result};
+use crate::error::{Error, Result};
 use plsr::film::Film;
+use plsr_base::Vocabulary;
 use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
@@ -24,17 +25,14 @@ fn scene(obj: &Path, size: u32, spp: u32) -> String {
 
 /// Runs this binary with `args`; its wall-clock seconds.
 fn timed(args: &[String]) -> Result<f64> {
-    let exe = std::env::current_exe().map_err(|source| Error::Io {
-        file: "plsr".into(),
-        source,
-    })?;
+    let exe = std::env::current_exe().map_err(|source| Error::io("plsr", source))?;
     let clock = Instant::now();
     let out = Command::new(&exe)
         .args(args)
         .output()
-        .map_err(|source| Error::Io { file: exe, source })?;
+        .map_err(|source| Error::io(exe, source))?;
     if !out.status.success() {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "plsr {}: {}",
             args.join(" "),
             String::from_utf8_lossy(&out.stderr).trim()
@@ -49,21 +47,16 @@ fn timed(args: &[String]) -> Result<f64> {
 /// overhead (parts and merge over one render, minus 1).
 pub fn run(threads: Option<usize>, size: u32, spp: u32, parts: u32) -> Result<f64> {
     if parts == 0 || !spp.is_multiple_of(parts) {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "--parts {parts} must divide --spp {spp}"
         )));
     }
     let dir = super::bench_dir("farm")?;
-    let obj =
-        std::fs::canonicalize("assets/scenes/cornell/cornell.obj").map_err(|source| Error::Io {
-            file: "assets/scenes/cornell/cornell.obj".into(),
-            source,
-        })?;
+    let obj = std::fs::canonicalize("assets/scenes/cornell/cornell.obj")
+        .map_err(|source| Error::io("assets/scenes/cornell/cornell.obj", source))?;
     let scene_path = dir.join("cornell.toml");
-    std::fs::write(&scene_path, scene(&obj, size, spp)).map_err(|source| Error::Io {
-        file: scene_path.clone(),
-        source,
-    })?;
+    std::fs::write(&scene_path, scene(&obj, size, spp))
+        .map_err(|source| Error::io(scene_path.clone(), source))?;
     let s = |p: &Path| p.display().to_string();
     let mut common = vec!["--quiet".to_string()];
     if let Some(t) = threads {

@@ -2,10 +2,11 @@
 //! plain render of the same scene, and against Mitsuba 3's `prb`
 //! integrator on the same room and parameters when Mitsuba is installed.
 
-use plsr::error::{Error, Result};
+use crate::error::{Error, Result};
 use plsr::render::{render, RenderJob, RenderOptions};
 use plsr::scene::Scene;
 use plsr_apps::fit::{fit_scene_file, FitOptions};
+use plsr_base::Vocabulary;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -34,7 +35,7 @@ pub struct FitBenchOptions {
 fn copy_room(dir: &Path) -> Result<()> {
     for f in ["fit-room.toml", "truth.toml", "photo.exr"] {
         let src = Path::new(ROOM).join(f);
-        std::fs::copy(&src, dir.join(f)).map_err(|source| Error::Io { file: src, source })?;
+        std::fs::copy(&src, dir.join(f)).map_err(|source| Error::io(src, source))?;
     }
     Ok(())
 }

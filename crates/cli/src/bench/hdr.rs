@@ -14,7 +14,8 @@
 //! Both outputs are compared with the truth (log-space RMSE after the best
 //! global scale, over the recoverable pixels) and a table is printed.
 
-use plsr::error::{Error, Result};
+use crate::error::{Error, Result};
+use plsr_base::Vocabulary;
 use plsr_hdr::oiio::AttrValue;
 use plsr_hdr::synth::{self, BracketOptions, CameraModel, SyntheticScene, PAPER_EXPOSURES};
 use std::path::{Path, PathBuf};
@@ -80,10 +81,7 @@ pub fn run(o: &HdrBenchOptions) -> Result<()> {
     let dir = o.dir.clone().unwrap_or_else(|| {
         std::env::temp_dir().join(format!("plsr-bench-hdr-{}", std::process::id()))
     });
-    std::fs::create_dir_all(&dir).map_err(|source| Error::Io {
-        file: dir.clone(),
-        source,
-    })?;
+    std::fs::create_dir_all(&dir).map_err(|source| Error::io(dir.clone(), source))?;
     let result = run_in(o, &dir);
     if o.dir.is_none() {
         let _ = std::fs::remove_dir_all(&dir);
@@ -138,10 +136,7 @@ fn run_in(o: &HdrBenchOptions, dir: &Path) -> Result<()> {
     };
 
     // plsr, as a child process.
-    let exe = std::env::current_exe().map_err(|source| Error::Io {
-        file: PathBuf::from("plsr"),
-        source,
-    })?;
+    let exe = std::env::current_exe().map_err(|source| Error::io(PathBuf::from("plsr"), source))?;
     let out = dir.join("plsr.exr");
     let mut cmd = Command::new(&exe);
     cmd.args(["hdr", "merge"])
@@ -155,11 +150,11 @@ fn run_in(o: &HdrBenchOptions, dir: &Path) -> Result<()> {
     let t = Instant::now();
     let output = cmd
         .output()
-        .map_err(|e| Error::InvalidArgument(format!("cannot run {}: {e}", exe.display())))?;
+        .map_err(|e| Error::invalid_argument(format!("cannot run {}: {e}", exe.display())))?;
     let wall = t.elapsed().as_secs_f64();
     let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
     if !output.status.success() {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "plsr hdr merge failed: {stderr}"
         )));
     }
@@ -257,10 +252,7 @@ fn run_opencv(
     camera: &CameraModel,
 ) -> Result<Run> {
     let script = dir.join("opencv_merge.py");
-    std::fs::write(&script, OPENCV_SCRIPT).map_err(|source| Error::Io {
-        file: script.clone(),
-        source,
-    })?;
+    std::fs::write(&script, OPENCV_SCRIPT).map_err(|source| Error::io(script.clone(), source))?;
     let out = dir.join("opencv.hdr");
     let list: Vec<String> = times.iter().map(|t| format!("{t}")).collect();
     let t = Instant::now();
@@ -270,7 +262,7 @@ fn run_opencv(
         .arg(list.join(","))
         .args(files)
         .output()
-        .map_err(|e| Error::InvalidArgument(format!("cannot run {}: {e}", py.display())))?;
+        .map_err(|e| Error::invalid_argument(format!("cannot run {}: {e}", py.display())))?;
     let wall = t.elapsed().as_secs_f64();
     let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
     let json: serde_json::Value = stdout
@@ -278,7 +270,7 @@ fn run_opencv(
         .last()
         .and_then(|l| serde_json::from_str(l).ok())
         .ok_or_else(|| {
-            Error::InvalidArgument(format!(
+            Error::invalid_argument(format!(
                 "the OpenCV script printed no result: {stdout}{}",
                 String::from_utf8_lossy(&output.stderr)
             ))

@@ -1,9 +1,10 @@
 //! `plsr bench materials`: what the richer BSDFs cost against Lambert.
 
-use plsr::error::{Error, Result};
+use crate::error::{Error, Result};
 use plsr::film::Film;
 use plsr::render::{render, RenderOptions, RenderStats};
 use plsr::scene::Scene;
+use plsr_base::Vocabulary;
 use std::path::Path;
 
 /// `plsr bench materials`: the Cornell box rendered with all-diffuse
@@ -33,7 +34,7 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 10]> {
     diffuse.camera = diffuse
         .camera
         .with_resolution(256, 256)
-        .map_err(|e| Error::InvalidArgument(e.to_string()))?;
+        .map_err(|e| Error::invalid_argument(e.to_string()))?;
     let principled = |energy_conserving: bool| {
         let mut scene = diffuse.clone();
         for m in &mut scene.materials {

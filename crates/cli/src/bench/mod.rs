@@ -20,7 +20,8 @@ mod materials;
 mod peers;
 mod pls;
 
-use plsr::error::{Error, Result};
+use crate::error::{Error, Result};
+use plsr_base::Vocabulary;
 use std::path::PathBuf;
 
 /// Arguments of `plsr bench`.
@@ -153,7 +154,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
 /// Parses `WIDTHxHEIGHT` (both at least 16).
 fn parse_size(s: &str) -> Result<(usize, usize)> {
     let bad = || {
-        Error::InvalidArgument(format!(
+        Error::invalid_argument(format!(
             "--hdr-size {s:?}: expected WIDTHxHEIGHT, e.g. 6720x3360"
         ))
     };
@@ -170,10 +171,7 @@ fn parse_size(s: &str) -> Result<(usize, usize)> {
 /// it).
 fn bench_dir(suite: &str) -> Result<PathBuf> {
     let dir = std::env::temp_dir().join(format!("plsr-bench-{suite}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).map_err(|source| Error::Io {
-        file: dir.clone(),
-        source,
-    })?;
+    std::fs::create_dir_all(&dir).map_err(|source| Error::io(dir.clone(), source))?;
     Ok(dir)
 }
 

@@ -33,13 +33,14 @@
 //! Mitsuba gets plsr's + 1.
 
 use super::python_json;
+use crate::error::{Error, Result};
 use plsr::bsdf::{Bsdf, Distribution, Fresnel};
 use plsr::camera::Camera;
-use plsr::error::{Error, Result};
 use plsr::film::Film;
 use plsr::filter::PixelFilter;
 use plsr::render::{render, RenderOptions};
 use plsr::scene::{Scene, SceneDescription};
+use plsr_base::Vocabulary;
 use plsr_hdr::oiio::PixelType;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -75,10 +76,7 @@ struct PeerScene {
 }
 
 fn io_err(file: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
-    move |source| Error::Io {
-        file: file.to_path_buf(),
-        source,
-    }
+    move |source| Error::io(file.to_path_buf(), source)
 }
 
 /// Writes a text file whole or not at all.
@@ -148,7 +146,15 @@ fn write_sky(path: &Path) -> Result<()> {
             pixels.extend([r, g, b]);
         }
     }
-    plsr_hdr::oiio::write_image(path, w, h, 3, PixelType::F32, &[], &pixels)
+    Ok(plsr_hdr::oiio::write_image(
+        path,
+        w,
+        h,
+        3,
+        PixelType::F32,
+        &[],
+        &pixels,
+    )?)
 }
 
 /// Writes the glossy/environment scene's files into `dir`; plsr's scene file.
@@ -289,7 +295,7 @@ fn write_mitsuba(
     environment: Option<&Path>,
 ) -> Result<bool> {
     let unsupported = |what: String| {
-        Error::InvalidArgument(format!("bench peers: {name}: Mitsuba export: {what}"))
+        Error::invalid_argument(format!("bench peers: {name}: Mitsuba export: {what}"))
     };
     let meshes_dir = dir.join(format!("{name}-meshes"));
     std::fs::create_dir_all(&meshes_dir).map_err(io_err(&meshes_dir))?;
@@ -527,7 +533,7 @@ fn reference(
     let key_file = dir.join(format!("{}.reference.key", scene.name));
     if exr.is_file() && std::fs::read_to_string(&key_file).ok().as_deref() == Some(key.as_str()) {
         println!("  reference: reusing {}", exr.display());
-        return Film::read_exr(&exr);
+        return Ok(Film::read_exr(&exr)?);
     }
     let mut job = description.job;
     job.spp = spp.div_ceil(2);
@@ -595,7 +601,7 @@ fn read_raw(path: &Path, width: u32, height: u32) -> Result<Vec<Vec<glam::Vec3>>
     let bytes = std::fs::read(path).map_err(io_err(path))?;
     let frame = (width * height) as usize * 12;
     if bytes.is_empty() || bytes.len() % frame != 0 {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "{}: {} bytes, expected whole frames of {}×{}×3 floats",
             path.display(),
             bytes.len(),
@@ -708,7 +714,7 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
         }
     }
     if scenes.is_empty() {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "bench peers: no scene named {:?} (known: glossy-env, cornell, pls-room)",
             o.only
         )));
@@ -744,7 +750,7 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
             description.camera = description
                 .camera
                 .with_resolution(w, h)
-                .map_err(|e| Error::InvalidArgument(e.to_string()))?;
+                .map_err(|e| Error::invalid_argument(e.to_string()))?;
         }
         description.job.spp = o.spp;
         let environment = (scene.name == "glossy-env").then(|| dir.join("sky.exr"));

@@ -6,8 +6,8 @@
 //! 2. Rendering the PLS room with its lights as PLS (window function and
 //!    reach test) versus the same outlines as plain emissive meshes.
 
+use crate::error::Result;
 use glam::{Mat4, Quat, Vec3};
-use plsr::error::Result;
 use plsr::light::pls::{file, BrightnessMode, Pls, PlsMesh};
 use plsr::render::{render, RenderOptions};
 use plsr::rng::Rng;

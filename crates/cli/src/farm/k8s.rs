@@ -6,8 +6,9 @@
 
 use super::plan::{relative_path, FarmPlan};
 use super::{make_plan, shell_quote, PlanArgs};
+use crate::error::{Error, Result};
 use plsr::atomic_write::OutputSet;
-use plsr::error::{Error, Result};
+use plsr_base::Vocabulary;
 use std::path::{Component, Path, PathBuf};
 
 /// Arguments of `plsr farm k8s`.
@@ -63,25 +64,25 @@ pub const RUN_SCRIPT: &str = "run-k8s.sh";
 /// Runs `plsr farm k8s`.
 pub fn run(a: &K8sArgs) -> Result<()> {
     if !a.mount.starts_with('/') {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "--mount {}: must be an absolute path in the pods",
             a.mount
         )));
     }
     if a.parallelism == Some(0) || a.cpus == Some(0) {
-        return Err(Error::InvalidArgument(
-            "--parallelism and --cpus must be at least 1".into(),
+        return Err(Error::invalid_argument(
+            "--parallelism and --cpus must be at least 1",
         ));
     }
     for (flag, v) in [("--image", &a.image), ("--claim", &a.claim)] {
         if v.trim().is_empty() {
-            return Err(Error::InvalidArgument(format!("{flag} must not be empty")));
+            return Err(Error::invalid_argument(format!("{flag} must not be empty")));
         }
     }
     let name = match &a.job_name {
         Some(n) => {
             if dns_label(n) != *n {
-                return Err(Error::InvalidArgument(format!(
+                return Err(Error::invalid_argument(format!(
                     "--job-name {n:?}: must be lowercase letters, digits and '-', \
                      start and end with a letter or digit, at most {MAX_NAME} characters"
                 )));
@@ -100,10 +101,8 @@ pub fn run(a: &K8sArgs) -> Result<()> {
     };
     // Where the scene and the output folder are inside the volume: checked
     // before the plan is written.
-    let root = std::fs::canonicalize(&a.volume_root).map_err(|source| Error::Io {
-        file: a.volume_root.clone(),
-        source,
-    })?;
+    let root = std::fs::canonicalize(&a.volume_root)
+        .map_err(|source| Error::io(a.volume_root.clone(), source))?;
     inside(&root, &a.plan.scene, "the scene")?;
     let (plan, dir, plan_file) = make_plan(&a.plan, &[RENDER_JOB, MERGE_JOB, RUN_SCRIPT])?;
     let in_pod = |p: &Path| -> Result<String> {
@@ -115,7 +114,7 @@ pub fn run(a: &K8sArgs) -> Result<()> {
         ))
     };
     if plan.piece_count() > MAX_COMPLETIONS {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "{} pieces: Kubernetes refuses Indexed Jobs of more than {MAX_COMPLETIONS} completions",
             plan.piece_count()
         )));
@@ -180,13 +179,11 @@ fn dns_label(s: &str) -> String {
 
 /// `path` relative to the volume's `root`, which it must lie in.
 fn inside(root: &Path, path: &Path, what: &str) -> Result<PathBuf> {
-    let abs = std::fs::canonicalize(path).map_err(|source| Error::Io {
-        file: path.to_path_buf(),
-        source,
-    })?;
+    let abs =
+        std::fs::canonicalize(path).map_err(|source| Error::io(path.to_path_buf(), source))?;
     let rel = relative_path(root, &abs)?;
     if rel.is_absolute() || rel.components().next() == Some(Component::ParentDir) {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "{what} {} is not inside --volume-root {}: the pods see only the volume",
             path.display(),
             root.display()
@@ -336,10 +333,6 @@ fn run_script(a: &K8sArgs, name: &str, dir: &Path) -> String {
 /// Makes the run script executable (rwxr-xr-x).
 fn set_executable(path: &Path) -> Result<()> {
     use std::os::unix::fs::PermissionsExt;
-    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o755)).map_err(|source| {
-        Error::Io {
-            file: path.to_path_buf(),
-            source,
-        }
-    })
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o755))
+        .map_err(|source| Error::io(path.to_path_buf(), source))
 }

@@ -13,11 +13,12 @@ mod k8s;
 mod plan;
 mod slurm;
 
+use crate::error::{Error, Result};
 use crate::render::{parse_frames, RenderArgs};
 use plan::{index_list, relative_path, DoneCheck, FarmPlan, PLAN_FILE};
 use plsr::atomic_write::same_file;
-use plsr::error::{Error, Result};
 use plsr::render::DEFAULT_TILE_SIZE;
+use plsr_base::Vocabulary;
 use std::path::{Path, PathBuf};
 
 /// The `plsr farm` subcommands.
@@ -120,10 +121,10 @@ pub fn make_plan(a: &PlanArgs, writes: &[&str]) -> Result<(FarmPlan, PathBuf, Pa
     let contents = plsr::scene::file::load_contents(&a.scene)?;
     let spp = a.spp.unwrap_or(contents.description.job.spp);
     if spp == 0 {
-        return Err(Error::InvalidArgument("--spp must be at least 1".into()));
+        return Err(Error::invalid_argument("--spp must be at least 1"));
     }
     if spp > plsr::job::MAX_SPP {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "--spp {spp}: at most {}",
             plsr::job::MAX_SPP
         )));
@@ -131,7 +132,7 @@ pub fn make_plan(a: &PlanArgs, writes: &[&str]) -> Result<(FarmPlan, PathBuf, Pa
     let frames = match (&a.frames, &contents.camera_path) {
         (None, _) => None,
         (Some(_), None) => {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "--frames: {} has no camera path ([[camera.path]]; see docs/scene-format.md)",
                 a.scene.display()
             )))
@@ -140,7 +141,7 @@ pub fn make_plan(a: &PlanArgs, writes: &[&str]) -> Result<(FarmPlan, PathBuf, Pa
             let range = parse_frames(s)?;
             let have = path.frames();
             if range.start() < have.start() || range.end() > have.end() {
-                return Err(Error::InvalidArgument(format!(
+                return Err(Error::invalid_argument(format!(
                     "--frames {s}: the camera path runs from frame {} to {}",
                     have.start(),
                     have.end()
@@ -164,16 +165,12 @@ pub fn make_plan(a: &PlanArgs, writes: &[&str]) -> Result<(FarmPlan, PathBuf, Pa
             "frames" => "--frames",
             _ => "--parts",
         };
-        Error::InvalidArgument(format!("{flag}: {m}"))
+        Error::invalid_argument(format!("{flag}: {m}"))
     })?;
-    std::fs::create_dir_all(&a.output_dir).map_err(|source| Error::Io {
-        file: a.output_dir.clone(),
-        source,
-    })?;
-    let dir = std::fs::canonicalize(&a.output_dir).map_err(|source| Error::Io {
-        file: a.output_dir.clone(),
-        source,
-    })?;
+    std::fs::create_dir_all(&a.output_dir)
+        .map_err(|source| Error::io(a.output_dir.clone(), source))?;
+    let dir = std::fs::canonicalize(&a.output_dir)
+        .map_err(|source| Error::io(a.output_dir.clone(), source))?;
     // No file written into the folder — the plan, the caller's files, the
     // merged images — may replace the scene or a file it reads.
     let merged = plan.frame_list().into_iter().flat_map(|f| {
@@ -189,23 +186,22 @@ pub fn make_plan(a: &PlanArgs, writes: &[&str]) -> Result<(FarmPlan, PathBuf, Pa
             .chain(&contents.inputs)
             .find(|i| same_file(&out, i))
         {
-            return Err(Error::Output {
-                file: out,
-                message: format!(
+            return Err(Error::output(
+                out,
+                format!(
                     "is {}, which the scene reads: it would be overwritten (choose another -o)",
                     input.display()
                 ),
-            });
+            ));
         }
     }
     let scene_dir = match a.scene.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let scene_name = a
-        .scene
-        .file_name()
-        .ok_or_else(|| Error::InvalidArgument(format!("{}: not a file name", a.scene.display())))?;
+    let scene_name = a.scene.file_name().ok_or_else(|| {
+        Error::invalid_argument(format!("{}: not a file name", a.scene.display()))
+    })?;
     plan.scene = relative_path(&dir, scene_dir)?.join(scene_name);
     let plan_file = dir.join(PLAN_FILE);
     if plan_file.exists() {
@@ -246,14 +242,13 @@ fn piece_index(given: Option<u32>) -> Result<u32> {
     for var in ["SLURM_ARRAY_TASK_ID", "JOB_COMPLETION_INDEX"] {
         if let Ok(v) = std::env::var(var) {
             return v.trim().parse().map_err(|_| {
-                Error::InvalidArgument(format!("${var} is {v:?}, not a piece index"))
+                Error::invalid_argument(format!("${var} is {v:?}, not a piece index"))
             });
         }
     }
-    Err(Error::InvalidArgument(
+    Err(Error::invalid_argument(
         "no piece index: give INDEX, or run inside a Slurm array task ($SLURM_ARRAY_TASK_ID) \
-         or a Kubernetes Indexed Job ($JOB_COMPLETION_INDEX)"
-            .into(),
+         or a Kubernetes Indexed Job ($JOB_COMPLETION_INDEX)",
     ))
 }
 
@@ -262,7 +257,7 @@ fn piece(a: &PieceArgs) -> Result<()> {
     let (plan, dir, file) = read_plan(&a.plan)?;
     let index = piece_index(a.index)?;
     let piece = plan.piece(index).ok_or_else(|| {
-        Error::InvalidArgument(format!(
+        Error::invalid_argument(format!(
             "piece {index}: {} has pieces 0 to {}",
             file.display(),
             plan.piece_count() - 1
@@ -280,10 +275,8 @@ fn piece(a: &PieceArgs) -> Result<()> {
         return Ok(());
     }
     if let Some(folder) = output.parent() {
-        std::fs::create_dir_all(folder).map_err(|source| Error::Io {
-            file: folder.to_path_buf(),
-            source,
-        })?;
+        std::fs::create_dir_all(folder)
+            .map_err(|source| Error::io(folder.to_path_buf(), source))?;
     }
     if !a.quiet {
         eprintln!(
@@ -327,7 +320,7 @@ fn merge(a: &FarmMergeArgs) -> Result<()> {
     let (plan, dir, file) = read_plan(&a.plan)?;
     let missing = DoneCheck::new(&plan, &dir)?.missing(&plan, &dir);
     if !missing.is_empty() {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "{}: {} of {} pieces are missing or stale ({}): render them first \
              (`plsr farm piece {} INDEX`, or submit again: only they are rendered)",
             file.display(),
@@ -398,5 +391,5 @@ pub fn shell_quote(s: &str) -> String {
 pub fn this_program() -> Result<PathBuf> {
     std::env::current_exe()
         .and_then(std::fs::canonicalize)
-        .map_err(|e| Error::InvalidArgument(format!("cannot find the plsr program's path: {e}")))
+        .map_err(|e| Error::invalid_argument(format!("cannot find the plsr program's path: {e}")))
 }

@@ -9,10 +9,11 @@
 //! under the plan's folder; the merge writes `NAME.exr` (`NAME-NNNN.exr`
 //! per frame) and its PNG there.
 
+use crate::error::{Error, Result};
 use crate::render::part_hash;
 use plsr::atomic_write::OutputSet;
-use plsr::error::{Error, Result};
 use plsr::film::part::{scene_files_hasher, Part, StableHasher};
+use plsr_base::Vocabulary;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -55,10 +56,8 @@ pub struct Piece {
 impl FarmPlan {
     /// Reads a plan file.
     pub fn read(path: &Path) -> Result<FarmPlan> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            file: path.to_path_buf(),
-            source,
-        })?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| Error::io(path.to_path_buf(), source))?;
         let plan: FarmPlan = toml::from_str(&text).map_err(|e| {
             Error::input(
                 path,
@@ -252,12 +251,8 @@ pub fn index_list(indices: &[u32]) -> String {
 /// `to` relative to the folder `from` (both made absolute first), or `to`
 /// made absolute where they share nothing but the root.
 pub fn relative_path(from: &Path, to: &Path) -> Result<PathBuf> {
-    let abs = |p: &Path| {
-        std::fs::canonicalize(p).map_err(|source| Error::Io {
-            file: p.to_path_buf(),
-            source,
-        })
-    };
+    let abs =
+        |p: &Path| std::fs::canonicalize(p).map_err(|source| Error::io(p.to_path_buf(), source));
     let (from, to) = (abs(from)?, abs(to)?);
     let common = from
         .components()

@@ -4,8 +4,9 @@
 
 use super::plan::{index_list, DoneCheck, FarmPlan};
 use super::{make_plan, shell_quote, this_program, PlanArgs};
+use crate::error::{Error, Result};
 use plsr::atomic_write::OutputSet;
-use plsr::error::{Error, Result};
+use plsr_base::Vocabulary;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -52,18 +53,16 @@ pub const MERGE_SCRIPT: &str = "merge.sbatch";
 /// Runs `plsr farm slurm`.
 pub fn run(a: &SlurmArgs) -> Result<()> {
     if a.cpus_per_task == Some(0) {
-        return Err(Error::InvalidArgument(
-            "--cpus-per-task must be at least 1".into(),
+        return Err(Error::invalid_argument(
+            "--cpus-per-task must be at least 1",
         ));
     }
     if a.max_running == Some(0) {
-        return Err(Error::InvalidArgument(
-            "--max-running must be at least 1".into(),
-        ));
+        return Err(Error::invalid_argument("--max-running must be at least 1"));
     }
     for o in &a.sbatch_option {
         if !o.starts_with('-') || o.contains('\n') {
-            return Err(Error::InvalidArgument(format!(
+            return Err(Error::invalid_argument(format!(
                 "--sbatch-option {o:?}: expected one sbatch option such as --account=NAME"
             )));
         }
@@ -73,10 +72,8 @@ pub fn run(a: &SlurmArgs) -> Result<()> {
         Some(p) => p.clone(),
         None => this_program()?,
     };
-    std::fs::create_dir_all(dir.join("logs")).map_err(|source| Error::Io {
-        file: dir.join("logs"),
-        source,
-    })?;
+    std::fs::create_dir_all(dir.join("logs"))
+        .map_err(|source| Error::io(dir.join("logs"), source))?;
     let mut outputs = OutputSet::new();
     let render = dir.join(RENDER_SCRIPT);
     let merge = dir.join(MERGE_SCRIPT);
@@ -148,12 +145,12 @@ pub fn run(a: &SlurmArgs) -> Result<()> {
 /// Runs sbatch with `args`; returns the job id it prints (`--parsable`).
 fn sbatch(args: &[String]) -> Result<String> {
     let out = Command::new("sbatch").args(args).output().map_err(|e| {
-        Error::InvalidArgument(format!(
+        Error::invalid_argument(format!(
             "cannot run sbatch ({e}): is Slurm's client (Debian: slurm-client) installed and on PATH?"
         ))
     })?;
     if !out.status.success() {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "sbatch {} failed ({}): {}",
             args.join(" "),
             out.status,
@@ -164,7 +161,7 @@ fn sbatch(args: &[String]) -> Result<String> {
     // `--parsable` prints "ID" or "ID;CLUSTER".
     let id = text.trim().split(';').next().unwrap_or("").to_string();
     if id.is_empty() || !id.bytes().all(|b| b.is_ascii_digit()) {
-        return Err(Error::InvalidArgument(format!(
+        return Err(Error::invalid_argument(format!(
             "sbatch printed {text:?}, not a job id"
         )));
     }
