@@ -109,134 +109,20 @@ impl GltfScene {
 pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, FormatError> {
     let (doc, buffers, images) =
         gltf::import(path).map_err(|e| format!("not a readable glTF 2.0 file: {e}"))?;
-    let base = path.parent().unwrap_or(Path::new("."));
-    let mut files = Vec::new();
-    let mut external = |uri: &str| {
-        if !uri.starts_with("data:") {
-            files.push(base.join(uri));
-        }
-    };
-    for b in doc.buffers() {
-        if let gltf::buffer::Source::Uri(uri) = b.source() {
-            external(uri);
-        }
-    }
-    for i in doc.images() {
-        if let gltf::image::Source::Uri { uri, .. } = i.source() {
-            external(uri);
-        }
-    }
-    let mut notes = Vec::new();
-    let mut note = |n: String| {
-        if !notes.contains(&n) {
-            notes.push(n);
-        }
-    };
+    let files = external_files(&doc, path.parent().unwrap_or(Path::new(".")));
+    let mut notes = Notes::default();
 
     // Materials: the metallic-roughness model as principled.
-    let mut textures: Vec<Option<Arc<Vec<[f32; 4]>>>> = vec![None; images.len()];
-    #[allow(clippy::type_complexity)]
-    let mut texels = |index: usize| -> std::result::Result<(u32, u32, Arc<Vec<[f32; 4]>>), String> {
-        let image = images
-            .get(index)
-            .ok_or_else(|| format!("image {index} does not exist"))?;
-        if textures[index].is_none() {
-            textures[index] = Some(Arc::new(decode(image)?));
-        }
-        Ok((image.width, image.height, textures[index].clone().unwrap()))
+    let mut cache = TexelCache {
+        images: &images,
+        decoded: vec![None; images.len()],
     };
     let mut materials = Vec::new();
     let mut emission = Vec::new();
     for (i, m) in doc.materials().enumerate() {
-        let name = m
-            .name()
-            .map_or_else(|| format!("material {i}"), String::from);
-        let pbr = m.pbr_metallic_roughness();
-        let [r, g, b, _] = pbr.base_color_factor();
-        let factor = Vec3::new(r, g, b);
-        let params = PrincipledParams {
-            base_color: factor.clamp(Vec3::ZERO, Vec3::ONE),
-            roughness: pbr.roughness_factor().clamp(0.0, 1.0),
-            metallic: pbr.metallic_factor().clamp(0.0, 1.0),
-            anisotropic: 0.0,
-            specular: 0.5,
-            spec_tint: 0.0,
-            energy_conserving: false,
-        };
-        let mut t = MaterialTextures::default();
-        let mut uses_second_uv = false;
-        if let Some(info) = pbr.base_color_texture() {
-            uses_second_uv |= info.tex_coord() != 0;
-            let (w, h, px) = texels(info.texture().source().index())?;
-            t.base_color = Some(Arc::new(texture(w, h, &px, |p| {
-                let c = Vec3::new(
-                    srgb_to_linear(p[0]),
-                    srgb_to_linear(p[1]),
-                    srgb_to_linear(p[2]),
-                );
-                (c * factor).clamp(Vec3::ZERO, Vec3::ONE)
-            })));
-        }
-        if let Some(info) = pbr.metallic_roughness_texture() {
-            uses_second_uv |= info.tex_coord() != 0;
-            let (w, h, px) = texels(info.texture().source().index())?;
-            // Roughness in green, metallic in blue, each times its factor.
-            let rf = params.roughness;
-            let mf = params.metallic;
-            t.roughness = Some(Arc::new(texture(w, h, &px, |p| {
-                Vec3::splat((p[1] * rf).clamp(0.0, 1.0))
-            })));
-            t.metallic = Some(Arc::new(texture(w, h, &px, |p| {
-                Vec3::splat((p[2] * mf).clamp(0.0, 1.0))
-            })));
-        }
-        if let Some(info) = m.normal_texture() {
-            uses_second_uv |= info.tex_coord() != 0;
-            let (w, h, px) = texels(info.texture().source().index())?;
-            let scale = info.scale();
-            if !(scale.is_finite() && scale.abs() <= 10.0) {
-                return Err(format!(
-                    "material `{name}`: normal texture scale {scale} is not in [-10, 10]"
-                )
-                .into());
-            }
-            t.normal = Some(Arc::new(texture(w, h, &px, |p| {
-                decode_normal(Vec3::new(p[0], p[1], p[2]), scale)
-            })));
-        }
-        if uses_second_uv {
-            note(format!(
-                "material `{name}`: textures on a second UV set are looked up with the first"
-            ));
-        }
-        if m.occlusion_texture().is_some() {
-            note(format!("material `{name}`: its occlusion texture is not used (light transport computes occlusion)"));
-        }
-        if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
-            note(format!(
-                "material `{name}`: alpha {:?} is rendered opaque",
-                m.alpha_mode()
-            ));
-        }
-        let strength = m.emissive_strength().unwrap_or(1.0);
-        let e = Vec3::from_array(m.emissive_factor()) * strength;
-        if m.emissive_texture().is_some() {
-            note(format!(
-                "material `{name}`: its emissive texture is not used; the emissive factor is"
-            ));
-        }
-        if !e.is_finite() || e.min_element() < 0.0 {
-            return Err(format!(
-                "material `{name}`: emissive factor {e} is not finite and non-negative"
-            )
-            .into());
-        }
+        let (material, e) = read_material(i, &m, &mut cache, &mut notes)?;
         emission.push(e);
-        materials.push(Material {
-            name,
-            bsdf: Bsdf::Principled(params),
-            textures: t,
-        });
+        materials.push(material);
     }
 
     // The default scene's nodes, with their transforms.
@@ -265,151 +151,14 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, FormatError> {
                 .name()
                 .map_or_else(|| format!("mesh {}", mesh.index()), String::from);
             for prim in mesh.primitives() {
-                let name = format!("{mesh_name}/{}", prim.index());
-                if prim.mode() != gltf::mesh::Mode::Triangles {
-                    note(format!(
-                        "`{name}`: {:?} primitives are skipped (plsr renders triangles)",
-                        prim.mode()
-                    ));
-                    continue;
-                }
-                let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-                let positions: Vec<Vec3> = reader
-                    .read_positions()
-                    .ok_or_else(|| format!("`{name}` has no POSITION attribute"))?
-                    .map(Vec3::from_array)
-                    .collect();
-                let n = positions.len();
-                let indices: Vec<u32> = match reader.read_indices() {
-                    Some(i) => i.into_u32().collect(),
-                    None => (0..n as u32).collect(),
-                };
-                if !indices.len().is_multiple_of(3) {
-                    return Err(format!(
-                        "`{name}`: {} indices is not a whole number of triangles",
-                        indices.len()
-                    )
-                    .into());
-                }
-                if let Some(bad) = indices.iter().find(|&&i| i as usize >= n) {
-                    return Err(format!("`{name}`: index {bad} is past its {n} vertices").into());
-                }
-                let mut triangles: Vec<[u32; 3]> = indices
-                    .chunks_exact(3)
-                    .map(|t| [t[0], t[1], t[2]])
-                    .collect();
-                let mut normals: Vec<Vec3> = reader
-                    .read_normals()
-                    .map(|it| it.map(Vec3::from_array).collect())
-                    .unwrap_or_default();
-                let uvs: Vec<Vec2> = reader
-                    .read_tex_coords(0)
-                    .map(|t| t.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).collect())
-                    .unwrap_or_default();
-                // Without normals, glTF's tangents are ignored (its rule).
-                let mut tangents: Vec<glam::Vec4> = match normals.is_empty() {
-                    true => Vec::new(),
-                    false => reader
-                        .read_tangents()
-                        .map(|it| it.map(glam::Vec4::from_array).collect())
-                        .unwrap_or_default(),
-                };
-                if (!normals.is_empty() && normals.len() != n)
-                    || (!uvs.is_empty() && uvs.len() != n)
-                    || (!tangents.is_empty() && tangents.len() != n)
-                {
-                    return Err(format!("`{name}`: attributes of different lengths").into());
-                }
-                if positions.iter().any(|p| !p.is_finite())
-                    || normals.iter().any(|v| !v.is_finite())
-                    || uvs.iter().any(|v| !v.is_finite())
-                    || tangents.iter().any(|v| !v.is_finite())
-                {
-                    return Err(format!("`{name}` has non-finite vertex data").into());
-                }
-                if triangles.is_empty() {
-                    continue;
-                }
-                let world: Vec<Vec3> = positions.iter().map(|p| m.transform_point3(*p)).collect();
-                if m.determinant() < 0.0 {
-                    // A mirroring transform turns the winding round.
-                    for t in &mut triangles {
-                        t.swap(1, 2);
-                    }
-                }
-                let nm = glam::Mat3::from_mat4(m).inverse().transpose();
-                for v in &mut normals {
-                    *v = (nm * *v).normalize_or_zero();
-                }
-                tangents = transform_tangents(&m, tangents);
-                objects.push(GltfObject {
-                    name,
-                    positions: world,
-                    triangles,
-                    normals,
-                    uvs,
-                    tangents,
-                    material: prim.material().index(),
-                });
+                read_primitive(&mesh_name, &prim, &m, &buffers, &mut objects, &mut notes)?;
             }
         }
         if let Some(camera) = node.camera() {
-            match camera.projection() {
-                gltf::camera::Projection::Perspective(p) => {
-                    let forward = m.transform_vector3(-Vec3::Z).normalize_or_zero();
-                    let up = m.transform_vector3(Vec3::Y).normalize_or_zero();
-                    let vfov_deg = p.yfov().to_degrees();
-                    if forward == Vec3::ZERO
-                        || up == Vec3::ZERO
-                        || !(vfov_deg > 0.0 && vfov_deg < 180.0)
-                    {
-                        return Err(format!(
-                            "camera {}: degenerate pose or field of view",
-                            camera.index()
-                        )
-                        .into());
-                    }
-                    cameras.push(GltfCamera {
-                        position: m.transform_point3(Vec3::ZERO),
-                        forward,
-                        up,
-                        vfov_deg,
-                        aspect: p.aspect_ratio().filter(|a| a.is_finite() && *a > 0.0),
-                    });
-                }
-                gltf::camera::Projection::Orthographic(_) => {
-                    note(format!(
-                        "camera {}: orthographic cameras are skipped",
-                        camera.index()
-                    ));
-                }
-            }
+            read_camera(&camera, &m, &mut cameras, &mut notes)?;
         }
         if let Some(light) = node.light() {
-            let colour = Vec3::from_array(light.color()) * light.intensity() / LUMENS_PER_WATT;
-            match light.kind() {
-                gltf::khr_lights_punctual::Kind::Point => {
-                    if !colour.is_finite() || colour.min_element() < 0.0 {
-                        return Err(format!(
-                            "light {}: intensity is not finite and non-negative",
-                            light.index()
-                        )
-                        .into());
-                    }
-                    point_lights.push(GltfPointLight {
-                        position: m.transform_point3(Vec3::ZERO),
-                        intensity: colour,
-                    });
-                }
-                other => note(format!(
-                    "light {}: {} lights are skipped (plsr imports point lights)",
-                    light.index(),
-                    match other {
-                        gltf::khr_lights_punctual::Kind::Directional => "directional",
-                        _ => "spot",
-                    }
-                )),
-            }
+            read_light(&light, &m, &mut point_lights, &mut notes)?;
         }
         let children: Vec<_> = node.children().collect();
         for child in children.into_iter().rev() {
@@ -422,13 +171,349 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, FormatError> {
         emission,
         cameras,
         point_lights,
-        notes,
+        notes: notes.0,
         files,
     })
 }
 
+/// The files a glTF document references besides itself (buffers and
+/// images not embedded as `data:` URIs), relative to `base`.
+fn external_files(doc: &gltf::Document, base: &Path) -> Vec<std::path::PathBuf> {
+    let mut files = Vec::new();
+    let mut external = |uri: &str| {
+        if !uri.starts_with("data:") {
+            files.push(base.join(uri));
+        }
+    };
+    for b in doc.buffers() {
+        if let gltf::buffer::Source::Uri(uri) = b.source() {
+            external(uri);
+        }
+    }
+    for i in doc.images() {
+        if let gltf::image::Source::Uri { uri, .. } = i.source() {
+            external(uri);
+        }
+    }
+    files
+}
+
+/// The import's notes, each said once.
+#[derive(Default)]
+struct Notes(Vec<String>);
+
+impl Notes {
+    fn add(&mut self, n: String) {
+        if !self.0.contains(&n) {
+            self.0.push(n);
+        }
+    }
+}
+
+/// The document's images, each decoded the first time a material uses it.
+struct TexelCache<'a> {
+    images: &'a [gltf::image::Data],
+    decoded: Vec<Option<Texels>>,
+}
+
+/// An image's RGBA texels, shared by the textures made of it.
+type Texels = Arc<Vec<[f32; 4]>>;
+
+impl TexelCache<'_> {
+    /// Image `index`: its width, height and RGBA texels.
+    fn texels(&mut self, index: usize) -> std::result::Result<(u32, u32, Texels), FormatError> {
+        let image = self
+            .images
+            .get(index)
+            .ok_or_else(|| format!("image {index} does not exist"))?;
+        if self.decoded[index].is_none() {
+            self.decoded[index] = Some(Arc::new(decode(image)?));
+        }
+        Ok((
+            image.width,
+            image.height,
+            self.decoded[index].clone().unwrap(),
+        ))
+    }
+}
+
+/// Material `i`, the metallic-roughness model as principled with its
+/// textures, and its emitted radiance (the emissive factor times its
+/// strength).
+fn read_material(
+    i: usize,
+    m: &gltf::Material,
+    cache: &mut TexelCache,
+    notes: &mut Notes,
+) -> std::result::Result<(Material, Vec3), FormatError> {
+    let name = m
+        .name()
+        .map_or_else(|| format!("material {i}"), String::from);
+    let pbr = m.pbr_metallic_roughness();
+    let [r, g, b, _] = pbr.base_color_factor();
+    let factor = Vec3::new(r, g, b);
+    let params = PrincipledParams {
+        base_color: factor.clamp(Vec3::ZERO, Vec3::ONE),
+        roughness: pbr.roughness_factor().clamp(0.0, 1.0),
+        metallic: pbr.metallic_factor().clamp(0.0, 1.0),
+        anisotropic: 0.0,
+        specular: 0.5,
+        spec_tint: 0.0,
+        energy_conserving: false,
+    };
+    let mut t = MaterialTextures::default();
+    let mut uses_second_uv = false;
+    if let Some(info) = pbr.base_color_texture() {
+        uses_second_uv |= info.tex_coord() != 0;
+        let (w, h, px) = cache.texels(info.texture().source().index())?;
+        t.base_color = Some(Arc::new(texture(w, h, &px, |p| {
+            let c = Vec3::new(
+                srgb_to_linear(p[0]),
+                srgb_to_linear(p[1]),
+                srgb_to_linear(p[2]),
+            );
+            (c * factor).clamp(Vec3::ZERO, Vec3::ONE)
+        })));
+    }
+    if let Some(info) = pbr.metallic_roughness_texture() {
+        uses_second_uv |= info.tex_coord() != 0;
+        let (w, h, px) = cache.texels(info.texture().source().index())?;
+        // Roughness in green, metallic in blue, each times its factor.
+        let rf = params.roughness;
+        let mf = params.metallic;
+        t.roughness = Some(Arc::new(texture(w, h, &px, |p| {
+            Vec3::splat((p[1] * rf).clamp(0.0, 1.0))
+        })));
+        t.metallic = Some(Arc::new(texture(w, h, &px, |p| {
+            Vec3::splat((p[2] * mf).clamp(0.0, 1.0))
+        })));
+    }
+    if let Some(info) = m.normal_texture() {
+        uses_second_uv |= info.tex_coord() != 0;
+        let (w, h, px) = cache.texels(info.texture().source().index())?;
+        let scale = info.scale();
+        if !(scale.is_finite() && scale.abs() <= 10.0) {
+            return Err(format!(
+                "material `{name}`: normal texture scale {scale} is not in [-10, 10]"
+            )
+            .into());
+        }
+        t.normal = Some(Arc::new(texture(w, h, &px, |p| {
+            decode_normal(Vec3::new(p[0], p[1], p[2]), scale)
+        })));
+    }
+    if uses_second_uv {
+        notes.add(format!(
+            "material `{name}`: textures on a second UV set are looked up with the first"
+        ));
+    }
+    if m.occlusion_texture().is_some() {
+        notes.add(format!("material `{name}`: its occlusion texture is not used (light transport computes occlusion)"));
+    }
+    if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
+        notes.add(format!(
+            "material `{name}`: alpha {:?} is rendered opaque",
+            m.alpha_mode()
+        ));
+    }
+    let strength = m.emissive_strength().unwrap_or(1.0);
+    let e = Vec3::from_array(m.emissive_factor()) * strength;
+    if m.emissive_texture().is_some() {
+        notes.add(format!(
+            "material `{name}`: its emissive texture is not used; the emissive factor is"
+        ));
+    }
+    if !e.is_finite() || e.min_element() < 0.0 {
+        return Err(format!(
+            "material `{name}`: emissive factor {e} is not finite and non-negative"
+        )
+        .into());
+    }
+    Ok((
+        Material {
+            name,
+            bsdf: Bsdf::Principled(params),
+            textures: t,
+        },
+        e,
+    ))
+}
+
+/// A triangle primitive of mesh `mesh_name`, placed by the node's
+/// transform `m`, into `objects`; other primitives are skipped with a note.
+fn read_primitive(
+    mesh_name: &str,
+    prim: &gltf::Primitive,
+    m: &Mat4,
+    buffers: &[gltf::buffer::Data],
+    objects: &mut Vec<GltfObject>,
+    notes: &mut Notes,
+) -> std::result::Result<(), FormatError> {
+    let m = *m;
+    let name = format!("{mesh_name}/{}", prim.index());
+    if prim.mode() != gltf::mesh::Mode::Triangles {
+        notes.add(format!(
+            "`{name}`: {:?} primitives are skipped (plsr renders triangles)",
+            prim.mode()
+        ));
+        return Ok(());
+    }
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+    let positions: Vec<Vec3> = reader
+        .read_positions()
+        .ok_or_else(|| format!("`{name}` has no POSITION attribute"))?
+        .map(Vec3::from_array)
+        .collect();
+    let n = positions.len();
+    let indices: Vec<u32> = match reader.read_indices() {
+        Some(i) => i.into_u32().collect(),
+        None => (0..n as u32).collect(),
+    };
+    if !indices.len().is_multiple_of(3) {
+        return Err(format!(
+            "`{name}`: {} indices is not a whole number of triangles",
+            indices.len()
+        )
+        .into());
+    }
+    if let Some(bad) = indices.iter().find(|&&i| i as usize >= n) {
+        return Err(format!("`{name}`: index {bad} is past its {n} vertices").into());
+    }
+    let mut triangles: Vec<[u32; 3]> = indices
+        .chunks_exact(3)
+        .map(|t| [t[0], t[1], t[2]])
+        .collect();
+    let mut normals: Vec<Vec3> = reader
+        .read_normals()
+        .map(|it| it.map(Vec3::from_array).collect())
+        .unwrap_or_default();
+    let uvs: Vec<Vec2> = reader
+        .read_tex_coords(0)
+        .map(|t| t.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).collect())
+        .unwrap_or_default();
+    // Without normals, glTF's tangents are ignored (its rule).
+    let mut tangents: Vec<glam::Vec4> = match normals.is_empty() {
+        true => Vec::new(),
+        false => reader
+            .read_tangents()
+            .map(|it| it.map(glam::Vec4::from_array).collect())
+            .unwrap_or_default(),
+    };
+    if (!normals.is_empty() && normals.len() != n)
+        || (!uvs.is_empty() && uvs.len() != n)
+        || (!tangents.is_empty() && tangents.len() != n)
+    {
+        return Err(format!("`{name}`: attributes of different lengths").into());
+    }
+    if positions.iter().any(|p| !p.is_finite())
+        || normals.iter().any(|v| !v.is_finite())
+        || uvs.iter().any(|v| !v.is_finite())
+        || tangents.iter().any(|v| !v.is_finite())
+    {
+        return Err(format!("`{name}` has non-finite vertex data").into());
+    }
+    if triangles.is_empty() {
+        return Ok(());
+    }
+    let world: Vec<Vec3> = positions.iter().map(|p| m.transform_point3(*p)).collect();
+    if m.determinant() < 0.0 {
+        // A mirroring transform turns the winding round.
+        for t in &mut triangles {
+            t.swap(1, 2);
+        }
+    }
+    let nm = glam::Mat3::from_mat4(m).inverse().transpose();
+    for v in &mut normals {
+        *v = (nm * *v).normalize_or_zero();
+    }
+    tangents = transform_tangents(&m, tangents);
+    objects.push(GltfObject {
+        name,
+        positions: world,
+        triangles,
+        normals,
+        uvs,
+        tangents,
+        material: prim.material().index(),
+    });
+    Ok(())
+}
+
+/// A perspective camera placed by the node's transform `m`, into
+/// `cameras`; orthographic ones are skipped with a note.
+fn read_camera(
+    camera: &gltf::Camera,
+    m: &Mat4,
+    cameras: &mut Vec<GltfCamera>,
+    notes: &mut Notes,
+) -> std::result::Result<(), FormatError> {
+    match camera.projection() {
+        gltf::camera::Projection::Perspective(p) => {
+            let forward = m.transform_vector3(-Vec3::Z).normalize_or_zero();
+            let up = m.transform_vector3(Vec3::Y).normalize_or_zero();
+            let vfov_deg = p.yfov().to_degrees();
+            if forward == Vec3::ZERO || up == Vec3::ZERO || !(vfov_deg > 0.0 && vfov_deg < 180.0) {
+                return Err(format!(
+                    "camera {}: degenerate pose or field of view",
+                    camera.index()
+                )
+                .into());
+            }
+            cameras.push(GltfCamera {
+                position: m.transform_point3(Vec3::ZERO),
+                forward,
+                up,
+                vfov_deg,
+                aspect: p.aspect_ratio().filter(|a| a.is_finite() && *a > 0.0),
+            });
+        }
+        gltf::camera::Projection::Orthographic(_) => {
+            notes.add(format!(
+                "camera {}: orthographic cameras are skipped",
+                camera.index()
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A point light placed by the node's transform `m`, into `point_lights`;
+/// other kinds are skipped with a note.
+fn read_light(
+    light: &gltf::khr_lights_punctual::Light,
+    m: &Mat4,
+    point_lights: &mut Vec<GltfPointLight>,
+    notes: &mut Notes,
+) -> std::result::Result<(), FormatError> {
+    let colour = Vec3::from_array(light.color()) * light.intensity() / LUMENS_PER_WATT;
+    match light.kind() {
+        gltf::khr_lights_punctual::Kind::Point => {
+            if !colour.is_finite() || colour.min_element() < 0.0 {
+                return Err(format!(
+                    "light {}: intensity is not finite and non-negative",
+                    light.index()
+                )
+                .into());
+            }
+            point_lights.push(GltfPointLight {
+                position: m.transform_point3(Vec3::ZERO),
+                intensity: colour,
+            });
+        }
+        other => notes.add(format!(
+            "light {}: {} lights are skipped (plsr imports point lights)",
+            light.index(),
+            match other {
+                gltf::khr_lights_punctual::Kind::Directional => "directional",
+                _ => "spot",
+            }
+        )),
+    }
+    Ok(())
+}
+
 /// An image's texels as RGBA in `[0, 1]` (not yet decoded from sRGB).
-fn decode(image: &gltf::image::Data) -> std::result::Result<Vec<[f32; 4]>, String> {
+fn decode(image: &gltf::image::Data) -> std::result::Result<Vec<[f32; 4]>, FormatError> {
     use gltf::image::Format::*;
     let (channels, bytes) = match image.format {
         R8 => (1, 1),
@@ -449,7 +534,8 @@ fn decode(image: &gltf::image::Data) -> std::result::Result<Vec<[f32; 4]>, Strin
             image.width,
             image.height,
             image.pixels.len()
-        ));
+        )
+        .into());
     }
     let value = |k: usize| -> f32 {
         let at = k * bytes;

@@ -844,100 +844,24 @@ impl<'a, 'input> Translator<'a, 'input> {
         }
         let mut p = self.params(node)?;
         // The film, filter and sampler first: the field of view needs the size.
-        let (mut width, mut height) = (768i64, 576i64);
-        let mut filter = Some(0.5f64); // Mitsuba's default: Gaussian, σ 0.5 px
-        let mut spp = 4i64;
-        let mut seed = None;
+        let mut settings = SensorSettings::default();
         for c in node
             .children()
             .filter(|c| c.is_element() && c.attribute("name").is_none())
         {
             match tag(c) {
-                "film" => {
-                    let film_kind = self.required_attr(c, "type")?;
-                    if film_kind != "hdrfilm" {
-                        return Err(self.err(
-                            c,
-                            format!("the `{film_kind}` film is not supported (supported: hdrfilm)"),
-                        ));
-                    }
-                    let mut f = self.params(c)?;
-                    width = self.take_int(&mut f, "width")?.unwrap_or(width);
-                    height = self.take_int(&mut f, "height")?.unwrap_or(height);
-                    for crop in [
-                        "crop_offset_x",
-                        "crop_offset_y",
-                        "crop_width",
-                        "crop_height",
-                    ] {
-                        if self.take(&mut f, crop).is_some() {
-                            return Err(self.err(
-                                c,
-                                format!(
-                                    "`{crop}` is not supported here: render the whole image, \
-                                     or a window with `plsr render --crop`"
-                                ),
-                            ));
-                        }
-                    }
-                    self.take_bool(&mut f, "sample_border")?;
-                    self.leftovers(&f)?;
-                    for r in c
-                        .children()
-                        .filter(|r| r.is_element() && r.attribute("name").is_none())
-                    {
-                        if tag(r) != "rfilter" {
-                            return Err(self.err(r, "not supported inside a film"));
-                        }
-                        let rk = self.required_attr(r, "type")?;
-                        let mut rp = self.params(r)?;
-                        match rk.as_str() {
-                            "box" => filter = None,
-                            "gaussian" => {
-                                filter = Some(self.take_float(&mut rp, "stddev")?.unwrap_or(0.5));
-                            }
-                            other => {
-                                self.note(
-                                    r,
-                                    format!(
-                                        "the `{other}` pixel filter is rendered with a Gaussian \
-                                         of σ 0.5 px (plsr has box and gaussian)"
-                                    ),
-                                );
-                                rp.used.extend(rp.named.iter().map(|(n, _)| n.clone()));
-                            }
-                        }
-                        self.leftovers(&rp)?;
-                    }
-                }
-                "sampler" => {
-                    let mut s = self.params(c)?;
-                    let sk = self.attr(c, "type")?.unwrap_or_default();
-                    if !matches!(
-                        sk.as_str(),
-                        "independent" | "stratified" | "multijitter" | "ldsampler" | "orthogonal"
-                    ) {
-                        return Err(self.err(c, format!("the `{sk}` sampler is not known")));
-                    }
-                    if sk != "independent" {
-                        self.note(
-                            c,
-                            format!(
-                                "the `{sk}` sampler: plsr uses its own stratified samples \
-                                 (the sample count is kept)"
-                            ),
-                        );
-                    }
-                    spp = self.take_int(&mut s, "sample_count")?.unwrap_or(spp);
-                    seed = self.take_int(&mut s, "seed")?;
-                    for ignored in ["jitter", "scramble", "strength"] {
-                        self.take(&mut s, ignored);
-                    }
-                    self.leftovers(&s)?;
-                }
+                "film" => self.sensor_film(c, &mut settings)?,
+                "sampler" => self.sensor_sampler(c, &mut settings)?,
                 other => return Err(self.err(c, format!("<{other}> is not supported in a sensor"))),
             }
         }
+        let SensorSettings {
+            width,
+            height,
+            filter,
+            spp,
+            seed,
+        } = settings;
         if !(1..=65536).contains(&width) || !(1..=65536).contains(&height) {
             return Err(self.err(
                 node,
@@ -961,9 +885,139 @@ impl<'a, 'input> Translator<'a, 'input> {
                 .insert("filter_radius".into(), float((4.0 * sigma).min(64.0)));
         }
 
-        // Pose.
+        self.sensor_pose(node, &mut p, &mut camera)?;
+        self.sensor_fov(node, &mut p, (width as f64, height as f64), &mut camera)?;
+        for s in ["principal_point_offset_x", "principal_point_offset_y"] {
+            if let Some(v) = self.take_float(&mut p, s)? {
+                if v != 0.0 {
+                    return Err(self.err(node, format!("`{s}` is not supported")));
+                }
+            }
+        }
+        if kind == "thinlens" {
+            let r = self.take_float(&mut p, "aperture_radius")?.unwrap_or(1.0);
+            camera.insert("aperture_radius".into(), float(r));
+            let d = self.take_float(&mut p, "focus_distance")?.unwrap_or(0.0);
+            if d > 0.0 {
+                camera.insert("focus_distance".into(), float(d));
+            }
+        }
+        if let Some(s) = self.take_float(&mut p, "shutter_close")? {
+            if s != 0.0 {
+                self.note(node, "shutter_close: plsr renders no motion blur");
+            }
+        }
+        self.leftovers(&p)?;
+        self.camera = Some(camera);
+        Ok(())
+    }
+
+    /// A sensor's `<film>`: its size, and its `<rfilter>` children.
+    fn sensor_film(&mut self, c: Node<'a, 'input>, settings: &mut SensorSettings) -> Result<()> {
+        let film_kind = self.required_attr(c, "type")?;
+        if film_kind != "hdrfilm" {
+            return Err(self.err(
+                c,
+                format!("the `{film_kind}` film is not supported (supported: hdrfilm)"),
+            ));
+        }
+        let mut f = self.params(c)?;
+        settings.width = self.take_int(&mut f, "width")?.unwrap_or(settings.width);
+        settings.height = self.take_int(&mut f, "height")?.unwrap_or(settings.height);
+        for crop in [
+            "crop_offset_x",
+            "crop_offset_y",
+            "crop_width",
+            "crop_height",
+        ] {
+            if self.take(&mut f, crop).is_some() {
+                return Err(self.err(
+                    c,
+                    format!(
+                        "`{crop}` is not supported here: render the whole image, \
+                         or a window with `plsr render --crop`"
+                    ),
+                ));
+            }
+        }
+        self.take_bool(&mut f, "sample_border")?;
+        self.leftovers(&f)?;
+        for r in c
+            .children()
+            .filter(|r| r.is_element() && r.attribute("name").is_none())
+        {
+            if tag(r) != "rfilter" {
+                return Err(self.err(r, "not supported inside a film"));
+            }
+            self.sensor_filter(r, settings)?;
+        }
+        Ok(())
+    }
+
+    /// A film's `<rfilter>`: box, or a Gaussian of its σ (others become the
+    /// default Gaussian, with a note).
+    fn sensor_filter(&mut self, r: Node<'a, 'input>, settings: &mut SensorSettings) -> Result<()> {
+        let rk = self.required_attr(r, "type")?;
+        let mut rp = self.params(r)?;
+        match rk.as_str() {
+            "box" => settings.filter = None,
+            "gaussian" => {
+                settings.filter = Some(self.take_float(&mut rp, "stddev")?.unwrap_or(0.5));
+            }
+            other => {
+                self.note(
+                    r,
+                    format!(
+                        "the `{other}` pixel filter is rendered with a Gaussian \
+                         of σ 0.5 px (plsr has box and gaussian)"
+                    ),
+                );
+                rp.used.extend(rp.named.iter().map(|(n, _)| n.clone()));
+            }
+        }
+        self.leftovers(&rp)?;
+        Ok(())
+    }
+
+    /// A sensor's `<sampler>`: the sample count and seed.
+    fn sensor_sampler(&mut self, c: Node<'a, 'input>, settings: &mut SensorSettings) -> Result<()> {
+        let mut s = self.params(c)?;
+        let sk = self.attr(c, "type")?.unwrap_or_default();
+        if !matches!(
+            sk.as_str(),
+            "independent" | "stratified" | "multijitter" | "ldsampler" | "orthogonal"
+        ) {
+            return Err(self.err(c, format!("the `{sk}` sampler is not known")));
+        }
+        if sk != "independent" {
+            self.note(
+                c,
+                format!(
+                    "the `{sk}` sampler: plsr uses its own stratified samples \
+                     (the sample count is kept)"
+                ),
+            );
+        }
+        settings.spp = self
+            .take_int(&mut s, "sample_count")?
+            .unwrap_or(settings.spp);
+        settings.seed = self.take_int(&mut s, "seed")?;
+        for ignored in ["jitter", "scramble", "strength"] {
+            self.take(&mut s, ignored);
+        }
+        self.leftovers(&s)?;
+        Ok(())
+    }
+
+    /// The sensor's pose from its `to_world`: position, look-at point, up.
+    fn sensor_pose(
+        &mut self,
+        node: Node<'a, 'input>,
+        p: &mut Params<'a, 'input>,
+        camera: &mut Table,
+    ) -> Result<()> {
         let m = self
-            .take_transform(&mut p, "to_world")?
+            .take_transform(p, "to_world")?
             .unwrap_or(DMat4::IDENTITY);
         let position = m.transform_point3(DVec3::ZERO);
         let forward = m.transform_vector3(DVec3::Z);
@@ -982,12 +1036,23 @@ impl<'a, 'input> Translator<'a, 'input> {
         camera.insert("look_at".into(), dvec(position + forward.normalize()));
         camera.insert("up".into(), dvec(up.normalize()));
 
+        Ok(())
+    }
+
+    /// The field of view from `fov` and `fov_axis` or `focal_length`, for a
+    /// film of `(w, h)` pixels.
+    fn sensor_fov(
+        &mut self,
+        node: Node<'a, 'input>,
+        p: &mut Params<'a, 'input>,
+        (w, h): (f64, f64),
+        camera: &mut Table,
+    ) -> Result<()> {
         // Field of view: Mitsuba's `fov` is along `fov_axis` (default x);
         // `focal_length` is a 35 mm equivalent, 36 mm wide.
-        let fov = self.take_float(&mut p, "fov")?;
-        let focal = self.take_string(&mut p, "focal_length")?;
-        let axis = self.take_string(&mut p, "fov_axis")?;
-        let (w, h) = (width as f64, height as f64);
+        let fov = self.take_float(p, "fov")?;
+        let focal = self.take_string(p, "focal_length")?;
+        let axis = self.take_string(p, "fov_axis")?;
         let half_tan = |deg: f64| (deg.to_radians() / 2.0).tan();
         let from_half_tan = |t: f64| 2.0 * t.atan().to_degrees();
         let (key, deg) = match (fov, focal) {
@@ -1027,28 +1092,6 @@ impl<'a, 'input> Translator<'a, 'input> {
             }
         };
         camera.insert(key.into(), float(deg));
-        for s in ["principal_point_offset_x", "principal_point_offset_y"] {
-            if let Some(v) = self.take_float(&mut p, s)? {
-                if v != 0.0 {
-                    return Err(self.err(node, format!("`{s}` is not supported")));
-                }
-            }
-        }
-        if kind == "thinlens" {
-            let r = self.take_float(&mut p, "aperture_radius")?.unwrap_or(1.0);
-            camera.insert("aperture_radius".into(), float(r));
-            let d = self.take_float(&mut p, "focus_distance")?.unwrap_or(0.0);
-            if d > 0.0 {
-                camera.insert("focus_distance".into(), float(d));
-            }
-        }
-        if let Some(s) = self.take_float(&mut p, "shutter_close")? {
-            if s != 0.0 {
-                self.note(node, "shutter_close: plsr renders no motion blur");
-            }
-        }
-        self.leftovers(&p)?;
-        self.camera = Some(camera);
         Ok(())
     }
 
@@ -1119,165 +1162,13 @@ impl<'a, 'input> Translator<'a, 'input> {
                  surfaces from both sides (as with twosided)",
             );
         }
-        let set = |t: &mut Table, k: &str, v: Value| {
-            t.insert(k.to_string(), v);
-        };
         match kind.as_str() {
-            "diffuse" => {
-                set(&mut t, "type", Value::String("diffuse".into()));
-                match self
-                    .take_colour(&mut p, "reflectance")?
-                    .unwrap_or(Colour::Rgb([0.5; 3]))
-                {
-                    Colour::Rgb(v) => set(&mut t, "reflectance", vec3(v)),
-                    Colour::Bitmap(f) => set(&mut t, "base_color_map", Value::String(f)),
-                }
-            }
-            "roughconductor" | "conductor" => {
-                set(&mut t, "type", Value::String("cook_torrance".into()));
-                set(&mut t, "fresnel", Value::String("conductor".into()));
-                if kind == "conductor" {
-                    self.note(
-                        node,
-                        "a smooth conductor is rendered as GGX with α = 0.001 (numerically a mirror)",
-                    );
-                    set(&mut t, "alpha", float(0.0));
-                } else {
-                    self.roughness(&mut p, &mut t, node)?;
-                }
-                let eta = self.take_rgb(&mut p, "eta")?;
-                let k = self.take_rgb(&mut p, "k")?;
-                let preset = self.take_string(&mut p, "material")?;
-                match (preset, eta, k) {
-                    (Some(_), Some(_), _) | (Some(_), _, Some(_)) => {
-                        return Err(self.err(node, "give `material` or `eta` and `k`, not both"))
-                    }
-                    (Some(m), None, None) => {
-                        if !METAL_NAMES.contains(&m.as_str()) {
-                            return Err(self.err(
-                                node,
-                                format!(
-                                    "material `{m}`: plsr has the presets {} (or give eta and k)",
-                                    METAL_NAMES.join(", ")
-                                ),
-                            ));
-                        }
-                        set(&mut t, "metal", Value::String(m));
-                    }
-                    (None, None, None) => set(&mut t, "metal", Value::String("none".into())),
-                    (None, eta, k) => {
-                        set(&mut t, "eta", vec3(eta.unwrap_or([0.0; 3])));
-                        set(&mut t, "k", vec3(k.unwrap_or([1.0; 3])));
-                    }
-                }
-                if let Some(s) = self.take_rgb(&mut p, "specular_reflectance")? {
-                    set(&mut t, "specular_reflectance", vec3(s));
-                }
-            }
+            "diffuse" => self.bsdf_diffuse(&mut p, &mut t)?,
+            "roughconductor" | "conductor" => self.bsdf_conductor(node, &kind, &mut p, &mut t)?,
             "roughdielectric" | "dielectric" => {
-                set(&mut t, "type", Value::String("dielectric".into()));
-                let ior = |this: &Self, p: &mut Params<'a, 'input>, name: &str, default: f64| {
-                    let Some(c) = this.take(p, name) else {
-                        return Ok(default);
-                    };
-                    match tag(c) {
-                        "float" => this.number(c, &this.required_attr(c, "value")?),
-                        "string" => {
-                            let v = this.required_attr(c, "value")?;
-                            NAMED_IORS
-                                .iter()
-                                .find(|(n, _)| *n == v)
-                                .map(|(_, i)| *i)
-                                .ok_or_else(|| {
-                                    this.err(c, format!("`{v}` is not a known material's index"))
-                                })
-                        }
-                        _ => Err(this.err(c, format!("`{name}` must be a <float> or <string>"))),
-                    }
-                };
-                let int_ior = ior(self, &mut p, "int_ior", 1.5046)?;
-                let ext_ior = ior(self, &mut p, "ext_ior", 1.000277)?;
-                if !(int_ior > 0.0 && ext_ior > 0.0) || int_ior == ext_ior {
-                    return Err(self.err(
-                        node,
-                        format!(
-                            "int_ior {int_ior} and ext_ior {ext_ior} must be positive and differ"
-                        ),
-                    ));
-                }
-                set(&mut t, "ior", float(int_ior / ext_ior));
-                if kind == "roughdielectric" {
-                    self.roughness(&mut p, &mut t, node)?;
-                }
-                for s in ["specular_reflectance", "specular_transmittance"] {
-                    if let Some(v) = self.take_rgb(&mut p, s)? {
-                        if v != [1.0; 3] {
-                            return Err(
-                                self.err(node, format!("`{s}` other than 1 is not supported"))
-                            );
-                        }
-                    }
-                }
+                self.bsdf_dielectric(node, &kind, &mut p, &mut t)?
             }
-            "principled" => {
-                set(&mut t, "type", Value::String("principled".into()));
-                match self.take_colour(&mut p, "base_color")? {
-                    Some(Colour::Rgb(v)) => set(&mut t, "base_color", vec3(v)),
-                    Some(Colour::Bitmap(f)) => set(&mut t, "base_color_map", Value::String(f)),
-                    None => {}
-                }
-                for (name, map) in [("roughness", "roughness_map"), ("metallic", "metallic_map")] {
-                    match self.take_colour(&mut p, name)? {
-                        Some(Colour::Rgb([a, b, c])) if a == b && b == c => {
-                            set(&mut t, name, float(a))
-                        }
-                        Some(Colour::Rgb(_)) => {
-                            return Err(self.err(node, format!("`{name}` must be one number")))
-                        }
-                        Some(Colour::Bitmap(f)) => {
-                            self.note(
-                                node,
-                                format!("`{name}` texture: plsr reads its red channel, linearly"),
-                            );
-                            set(&mut t, map, Value::String(f))
-                        }
-                        None => {}
-                    }
-                }
-                for name in ["anisotropic", "specular", "spec_tint"] {
-                    if let Some(v) = self.take_float(&mut p, name)? {
-                        set(&mut t, name, float(v));
-                    }
-                }
-                for name in [
-                    "sheen",
-                    "sheen_tint",
-                    "clearcoat",
-                    "clearcoat_gloss",
-                    "spec_trans",
-                    "flatness",
-                ] {
-                    if let Some(v) = self.take_float(&mut p, name)? {
-                        if v != 0.0 {
-                            return Err(self.err(
-                                node,
-                                format!(
-                                    "`{name}` = {v}: principled's {name} is not modelled by plsr \
-                                     (only 0 is accepted)"
-                                ),
-                            ));
-                        }
-                    }
-                }
-                if let Some(eta) = self.take_float(&mut p, "eta")? {
-                    // Mitsuba: η given instead of `specular`.
-                    let s = ((eta - 1.0) / (eta + 1.0)).powi(2) / 0.08;
-                    if !(0.0..=1.0).contains(&s) {
-                        return Err(self.err(node, format!("eta = {eta} is outside plsr's range")));
-                    }
-                    set(&mut t, "specular", float(s));
-                }
-            }
+            "principled" => self.bsdf_principled(node, &mut p, &mut t)?,
             "twosided" => return Err(self.err(node, "a twosided inside a twosided")),
             other => {
                 return Err(self.err(
@@ -1297,6 +1188,187 @@ impl<'a, 'input> Translator<'a, 'input> {
             return Err(self.err(c, "not supported inside a BSDF"));
         }
         Ok(t)
+    }
+
+    /// `diffuse`: plsr's diffuse, its reflectance a colour or a bitmap.
+    fn bsdf_diffuse(&mut self, p: &mut Params<'a, 'input>, t: &mut Table) -> Result<()> {
+        set(t, "type", Value::String("diffuse".into()));
+        match self
+            .take_colour(p, "reflectance")?
+            .unwrap_or(Colour::Rgb([0.5; 3]))
+        {
+            Colour::Rgb(v) => set(t, "reflectance", vec3(v)),
+            Colour::Bitmap(f) => set(t, "base_color_map", Value::String(f)),
+        }
+        Ok(())
+    }
+
+    /// `conductor` and `roughconductor`: Cook–Torrance with a conductor's
+    /// Fresnel (a preset metal, or `eta` and `k`).
+    fn bsdf_conductor(
+        &mut self,
+        node: Node<'a, 'input>,
+        kind: &str,
+        p: &mut Params<'a, 'input>,
+        t: &mut Table,
+    ) -> Result<()> {
+        set(t, "type", Value::String("cook_torrance".into()));
+        set(t, "fresnel", Value::String("conductor".into()));
+        if kind == "conductor" {
+            self.note(
+                node,
+                "a smooth conductor is rendered as GGX with α = 0.001 (numerically a mirror)",
+            );
+            set(t, "alpha", float(0.0));
+        } else {
+            self.roughness(p, t, node)?;
+        }
+        let eta = self.take_rgb(p, "eta")?;
+        let k = self.take_rgb(p, "k")?;
+        let preset = self.take_string(p, "material")?;
+        match (preset, eta, k) {
+            (Some(_), Some(_), _) | (Some(_), _, Some(_)) => {
+                return Err(self.err(node, "give `material` or `eta` and `k`, not both"))
+            }
+            (Some(m), None, None) => {
+                if !METAL_NAMES.contains(&m.as_str()) {
+                    return Err(self.err(
+                        node,
+                        format!(
+                            "material `{m}`: plsr has the presets {} (or give eta and k)",
+                            METAL_NAMES.join(", ")
+                        ),
+                    ));
+                }
+                set(t, "metal", Value::String(m));
+            }
+            (None, None, None) => set(t, "metal", Value::String("none".into())),
+            (None, eta, k) => {
+                set(t, "eta", vec3(eta.unwrap_or([0.0; 3])));
+                set(t, "k", vec3(k.unwrap_or([1.0; 3])));
+            }
+        }
+        if let Some(s) = self.take_rgb(p, "specular_reflectance")? {
+            set(t, "specular_reflectance", vec3(s));
+        }
+        Ok(())
+    }
+
+    /// `dielectric` and `roughdielectric`: plsr's dielectric of relative
+    /// index `int_ior / ext_ior` (numbers or named materials).
+    fn bsdf_dielectric(
+        &mut self,
+        node: Node<'a, 'input>,
+        kind: &str,
+        p: &mut Params<'a, 'input>,
+        t: &mut Table,
+    ) -> Result<()> {
+        set(t, "type", Value::String("dielectric".into()));
+        let ior = |this: &Self, p: &mut Params<'a, 'input>, name: &str, default: f64| {
+            let Some(c) = this.take(p, name) else {
+                return Ok(default);
+            };
+            match tag(c) {
+                "float" => this.number(c, &this.required_attr(c, "value")?),
+                "string" => {
+                    let v = this.required_attr(c, "value")?;
+                    NAMED_IORS
+                        .iter()
+                        .find(|(n, _)| *n == v)
+                        .map(|(_, i)| *i)
+                        .ok_or_else(|| {
+                            this.err(c, format!("`{v}` is not a known material's index"))
+                        })
+                }
+                _ => Err(this.err(c, format!("`{name}` must be a <float> or <string>"))),
+            }
+        };
+        let int_ior = ior(self, p, "int_ior", 1.5046)?;
+        let ext_ior = ior(self, p, "ext_ior", 1.000277)?;
+        if !(int_ior > 0.0 && ext_ior > 0.0) || int_ior == ext_ior {
+            return Err(self.err(
+                node,
+                format!("int_ior {int_ior} and ext_ior {ext_ior} must be positive and differ"),
+            ));
+        }
+        set(t, "ior", float(int_ior / ext_ior));
+        if kind == "roughdielectric" {
+            self.roughness(p, t, node)?;
+        }
+        for s in ["specular_reflectance", "specular_transmittance"] {
+            if let Some(v) = self.take_rgb(p, s)? {
+                if v != [1.0; 3] {
+                    return Err(self.err(node, format!("`{s}` other than 1 is not supported")));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `principled`: plsr's principled; the lobes plsr does not model must
+    /// be 0.
+    fn bsdf_principled(
+        &mut self,
+        node: Node<'a, 'input>,
+        p: &mut Params<'a, 'input>,
+        t: &mut Table,
+    ) -> Result<()> {
+        set(t, "type", Value::String("principled".into()));
+        match self.take_colour(p, "base_color")? {
+            Some(Colour::Rgb(v)) => set(t, "base_color", vec3(v)),
+            Some(Colour::Bitmap(f)) => set(t, "base_color_map", Value::String(f)),
+            None => {}
+        }
+        for (name, map) in [("roughness", "roughness_map"), ("metallic", "metallic_map")] {
+            match self.take_colour(p, name)? {
+                Some(Colour::Rgb([a, b, c])) if a == b && b == c => set(t, name, float(a)),
+                Some(Colour::Rgb(_)) => {
+                    return Err(self.err(node, format!("`{name}` must be one number")))
+                }
+                Some(Colour::Bitmap(f)) => {
+                    self.note(
+                        node,
+                        format!("`{name}` texture: plsr reads its red channel, linearly"),
+                    );
+                    set(t, map, Value::String(f))
+                }
+                None => {}
+            }
+        }
+        for name in ["anisotropic", "specular", "spec_tint"] {
+            if let Some(v) = self.take_float(p, name)? {
+                set(t, name, float(v));
+            }
+        }
+        for name in [
+            "sheen",
+            "sheen_tint",
+            "clearcoat",
+            "clearcoat_gloss",
+            "spec_trans",
+            "flatness",
+        ] {
+            if let Some(v) = self.take_float(p, name)? {
+                if v != 0.0 {
+                    return Err(self.err(
+                        node,
+                        format!(
+                            "`{name}` = {v}: principled's {name} is not modelled by plsr \
+                             (only 0 is accepted)"
+                        ),
+                    ));
+                }
+            }
+        }
+        if let Some(eta) = self.take_float(p, "eta")? {
+            // Mitsuba: η given instead of `specular`.
+            let s = ((eta - 1.0) / (eta + 1.0)).powi(2) / 0.08;
+            if !(0.0..=1.0).contains(&s) {
+                return Err(self.err(node, format!("eta = {eta} is outside plsr's range")));
+            }
+            set(t, "specular", float(s));
+        }
+        Ok(())
     }
 
     /// `distribution` and `alpha` / `alpha_u`, `alpha_v` (Mitsuba's default:
@@ -1588,6 +1660,37 @@ impl<'a, 'input> Translator<'a, 'input> {
     }
 }
 
+/// Sets `t[k] = v`.
+fn set(t: &mut Table, k: &str, v: Value) {
+    t.insert(k.to_string(), v);
+}
+
 fn vec3_row(r: DVec4) -> Value {
     Value::Array(r.to_array().iter().map(|&x| float(x)).collect())
+}
+
+/// What a sensor's film and sampler set, with Mitsuba's defaults.
+struct SensorSettings {
+    /// Film width, pixels.
+    width: i64,
+    /// Film height, pixels.
+    height: i64,
+    /// The Gaussian pixel filter's σ (pixels), or `None` for a box.
+    filter: Option<f64>,
+    /// Samples per pixel.
+    spp: i64,
+    /// The sampler's seed, if given.
+    seed: Option<i64>,
+}
+
+impl Default for SensorSettings {
+    fn default() -> SensorSettings {
+        SensorSettings {
+            width: 768,
+            height: 576,
+            filter: Some(0.5), // Mitsuba's default: Gaussian, σ 0.5 px
+            spp: 4,
+            seed: None,
+        }
+    }
 }

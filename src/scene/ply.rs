@@ -136,7 +136,34 @@ pub fn read_ply(path: &Path) -> Result<PlyMesh, FormatError> {
 
 /// Parses the bytes of a PLY file.
 pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, FormatError> {
-    // The header: ASCII lines up to `end_header`.
+    let (lines, at) = header_lines(bytes)?;
+    if lines.first().map(String::as_str) != Some("ply") {
+        return Err("not a PLY file (the first line is not `ply`)".into());
+    }
+    let (encoding, elements) = parse_header(&lines)?;
+    let body = &bytes[at..];
+    let text = if encoding == Encoding::Ascii {
+        std::str::from_utf8(body).map_err(|_| "the ASCII data is not text")?
+    } else {
+        ""
+    };
+    let mut r = Reader {
+        encoding,
+        bytes: body,
+        at: 0,
+        tokens: text.split_ascii_whitespace(),
+    };
+    let mut mesh = PlyMesh::default();
+    for e in &elements {
+        read_element(&mut r, e, &mut mesh)?;
+    }
+    check_mesh(&mut mesh)?;
+    Ok(mesh)
+}
+
+/// The header's lines (trimmed, without `end_header`) and the offset of
+/// the body after it.
+fn header_lines(bytes: &[u8]) -> Result<(Vec<String>, usize), FormatError> {
     let mut at = 0;
     let mut lines = Vec::new();
     loop {
@@ -154,9 +181,12 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, FormatError> {
         }
         lines.push(line.to_string());
     }
-    if lines.first().map(String::as_str) != Some("ply") {
-        return Err("not a PLY file (the first line is not `ply`)".into());
-    }
+    Ok((lines, at))
+}
+
+/// The header after its `ply` line: the encoding and the elements with
+/// their properties.
+fn parse_header(lines: &[String]) -> Result<(Encoding, Vec<Element>), FormatError> {
     let mut encoding = None;
     let mut elements: Vec<Element> = Vec::new();
     for (i, line) in lines.iter().enumerate().skip(1) {
@@ -206,98 +236,96 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, FormatError> {
         }
     }
     let encoding = encoding.ok_or("no `format` line in the header")?;
-    let body = &bytes[at..];
-    let text = if encoding == Encoding::Ascii {
-        std::str::from_utf8(body).map_err(|_| "the ASCII data is not text")?
-    } else {
-        ""
+    Ok((encoding, elements))
+}
+
+/// Reads every item of element `e` from `r`: vertices (positions, normals,
+/// texture coordinates) and faces (fan-triangulated) go into `mesh`, any
+/// other element is read past.
+fn read_element(r: &mut Reader, e: &Element, mesh: &mut PlyMesh) -> Result<(), FormatError> {
+    let slot = |n: &str| {
+        e.properties
+            .iter()
+            .position(|p| matches!(p, Property::Scalar(m, _) if m == n))
     };
-    let mut r = Reader {
-        encoding,
-        bytes: body,
-        at: 0,
-        tokens: text.split_ascii_whitespace(),
-    };
-    let mut mesh = PlyMesh::default();
-    for e in &elements {
-        let slot = |n: &str| {
-            e.properties
-                .iter()
-                .position(|p| matches!(p, Property::Scalar(m, _) if m == n))
-        };
-        let is_vertex = e.name == "vertex";
-        let (pos, nrm, uv) = if is_vertex {
-            let pos = [slot("x"), slot("y"), slot("z")];
-            if pos.iter().any(Option::is_none) {
-                return Err("the vertex element has no x, y and z".into());
-            }
-            let nrm = [slot("nx"), slot("ny"), slot("nz")];
-            let uv = [("u", "v"), ("s", "t"), ("texture_u", "texture_v")]
-                .iter()
-                .find_map(|(a, b)| Some([slot(a)?, slot(b)?]));
-            (
-                pos.map(Option::unwrap),
-                nrm.iter()
-                    .all(Option::is_some)
-                    .then(|| nrm.map(Option::unwrap)),
-                uv,
-            )
-        } else {
-            ([0; 3], None, None)
-        };
-        let faces = e.name == "face";
-        let list = e.properties.iter().position(
-            |p| matches!(p, Property::List(n, _, _) if n == "vertex_indices" || n == "vertex_index"),
-        );
-        if faces && list.is_none() {
-            return Err("the face element has no vertex_indices list".into());
+    let is_vertex = e.name == "vertex";
+    let (pos, nrm, uv) = if is_vertex {
+        let pos = [slot("x"), slot("y"), slot("z")];
+        if pos.iter().any(Option::is_none) {
+            return Err("the vertex element has no x, y and z".into());
         }
-        let mut values = vec![0.0f64; e.properties.len()];
-        let mut polygon: Vec<u32> = Vec::new();
-        for item in 0..e.count {
-            let err = |m: String| FormatError::Content(format!("{} {item}: {m}", e.name));
-            let at = |f: FormatError| err(f.to_string());
-            for (k, p) in e.properties.iter().enumerate() {
-                match p {
-                    Property::Scalar(_, t) => values[k] = r.value(*t).map_err(at)?,
-                    Property::List(_, c, t) => {
-                        let n = r.value(*c).map_err(at)?;
-                        if !((0.0..=1e6).contains(&n) && n.fract() == 0.0) {
-                            return Err(err(format!("bad list length {n}")));
-                        }
-                        let keep = faces && Some(k) == list;
-                        polygon.clear();
-                        for _ in 0..n as usize {
-                            let v = r.value(*t).map_err(at)?;
-                            if keep {
-                                if !((0.0..u32::MAX as f64).contains(&v) && v.fract() == 0.0) {
-                                    return Err(err(format!("bad vertex index {v}")));
-                                }
-                                polygon.push(v as u32);
-                            }
-                        }
+        let nrm = [slot("nx"), slot("ny"), slot("nz")];
+        let uv = [("u", "v"), ("s", "t"), ("texture_u", "texture_v")]
+            .iter()
+            .find_map(|(a, b)| Some([slot(a)?, slot(b)?]));
+        (
+            pos.map(Option::unwrap),
+            nrm.iter()
+                .all(Option::is_some)
+                .then(|| nrm.map(Option::unwrap)),
+            uv,
+        )
+    } else {
+        ([0; 3], None, None)
+    };
+    let faces = e.name == "face";
+    let list = e.properties.iter().position(
+        |p| matches!(p, Property::List(n, _, _) if n == "vertex_indices" || n == "vertex_index"),
+    );
+    if faces && list.is_none() {
+        return Err("the face element has no vertex_indices list".into());
+    }
+    let mut values = vec![0.0f64; e.properties.len()];
+    let mut polygon: Vec<u32> = Vec::new();
+    for item in 0..e.count {
+        let err = |m: String| FormatError::Content(format!("{} {item}: {m}", e.name));
+        let at = |f: FormatError| err(f.to_string());
+        for (k, p) in e.properties.iter().enumerate() {
+            match p {
+                Property::Scalar(_, t) => values[k] = r.value(*t).map_err(at)?,
+                Property::List(_, c, t) => {
+                    let n = r.value(*c).map_err(at)?;
+                    if !((0.0..=1e6).contains(&n) && n.fract() == 0.0) {
+                        return Err(err(format!("bad list length {n}")));
+                    }
+                    let keep = faces && Some(k) == list;
+                    polygon.clear();
+                    for _ in 0..n as usize {
+                        let v = r.value(*t).map_err(at)?;
                         if keep {
-                            for j in 1..polygon.len().saturating_sub(1) {
-                                mesh.triangles
-                                    .push([polygon[0], polygon[j], polygon[j + 1]]);
+                            if !((0.0..u32::MAX as f64).contains(&v) && v.fract() == 0.0) {
+                                return Err(err(format!("bad vertex index {v}")));
                             }
+                            polygon.push(v as u32);
+                        }
+                    }
+                    if keep {
+                        for j in 1..polygon.len().saturating_sub(1) {
+                            mesh.triangles
+                                .push([polygon[0], polygon[j], polygon[j + 1]]);
                         }
                     }
                 }
             }
-            if is_vertex {
-                let v = |i: usize| values[i] as f32;
-                mesh.positions
-                    .push(Vec3::new(v(pos[0]), v(pos[1]), v(pos[2])));
-                if let Some(n) = nrm {
-                    mesh.normals.push(Vec3::new(v(n[0]), v(n[1]), v(n[2])));
-                }
-                if let Some([a, b]) = uv {
-                    mesh.uvs.push(Vec2::new(v(a), v(b)));
-                }
+        }
+        if is_vertex {
+            let v = |i: usize| values[i] as f32;
+            mesh.positions
+                .push(Vec3::new(v(pos[0]), v(pos[1]), v(pos[2])));
+            if let Some(n) = nrm {
+                mesh.normals.push(Vec3::new(v(n[0]), v(n[1]), v(n[2])));
+            }
+            if let Some([a, b]) = uv {
+                mesh.uvs.push(Vec2::new(v(a), v(b)));
             }
         }
     }
+    Ok(())
+}
+
+/// Checks the mesh read: faces name existing vertices, positions are
+/// finite; normals are made unit length, or dropped if any is unusable.
+fn check_mesh(mesh: &mut PlyMesh) -> Result<(), FormatError> {
     let n = mesh.positions.len() as u64;
     if let Some(t) = mesh
         .triangles
@@ -320,7 +348,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, FormatError> {
     for n in &mut mesh.normals {
         *n = n.normalize();
     }
-    Ok(mesh)
+    Ok(())
 }
 
 #[cfg(test)]

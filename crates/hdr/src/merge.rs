@@ -31,7 +31,7 @@
 //! taken as normalised, clipping at 1.0.
 
 use super::align;
-use super::oiio::{AttrValue, Attribute, ImageReader, ImageWriter, PixelType, Sample};
+use super::oiio::{AttrValue, Attribute, ImageInfo, ImageReader, ImageWriter, PixelType, Sample};
 use super::response::{self, hat, ResponseCurve, ResponseMethod, SampleSet, BINNED_LEVELS};
 use crate::error::{BadExposure, Error, Result};
 use plsr_base::Vocabulary;
@@ -844,6 +844,8 @@ pub fn merge(
     })
 }
 
+/// The merge of opened, sorted brackets: alignment, the response curve,
+/// calibration, then the streamed merge into `output` and the curve files.
 fn run<T: Px>(
     brackets: &mut [Input],
     output: &Path,
@@ -855,45 +857,10 @@ fn run<T: Px>(
     let info = brackets[0].reader.info().clone();
     let (w, h, ch_in) = (info.width, info.height, info.channels);
     let ch_out = if ch_in >= 3 { 3 } else { 1 };
-    let n = brackets.len();
-
-    // Alignment, relative to the middle exposure, each bracket to its
-    // neighbour towards it (brackets are sorted by exposure).
     if options.align {
-        let levels = align::default_levels(w, h);
-        progress("aligning", 0, n as u64);
-        let mut done = 0;
-        let shifts = align::stack_shifts(n, levels, Some(pool), |b| {
-            // Separate readers, so the merge's readers stay at row 0.
-            let g = align::read_grey(&mut ImageReader::open(&brackets[b].info.path)?)?;
-            done += 1;
-            progress("aligning", done, n as u64);
-            Ok(g)
-        })?;
-        for (bracket, shift) in brackets.iter_mut().zip(shifts) {
-            bracket.info.shift = shift;
-        }
+        align_brackets(brackets, options, pool, progress)?;
     }
-
-    // Response curve.
-    let levels = domain_levels(info.format, options.response);
-    let curve = match options.response {
-        ResponseMethod::Linear => ResponseCurve::linear(levels, ch_out),
-        ResponseMethod::Srgb => ResponseCurve::srgb(levels, ch_out),
-        method => {
-            let k: Vec<f64> = brackets.iter().map(|b| b.info.relative_exposure).collect();
-            let lattice = sample_lattice::<T>(brackets, levels, ch_out, progress)?;
-            if method == ResponseMethod::Debevec {
-                let wanted = options
-                    .samples
-                    .unwrap_or_else(|| (3 * levels / (n - 1)).clamp(100, 2000));
-                let chosen = choose_samples(&lattice, wanted);
-                response::debevec(&chosen, &k, options.lambda)?
-            } else {
-                response::robertson(&lattice.samples, &k, 50, 1e-4)?
-            }
-        }
-    };
+    let curve = recover_curve::<T>(brackets, &info, options, ch_out, progress)?;
 
     // Merge pass. Readers must start from row 0: re-open them (the lattice
     // pass read forward through them).
@@ -901,37 +868,14 @@ fn run<T: Px>(
         b.reader = ImageReader::open(&b.info.path)?;
     }
     let lk = Lookup::new::<T>(curve.clone(), ch_out);
-    // Absolute units: every merged value times `scale`, which is every
-    // relative exposure divided by it.
-    let calibration = match &options.calibration {
-        Calibration::Relative => None,
-        Calibration::Exif { constant } => Some(exif_scale(brackets, *constant)?),
-        Calibration::Region {
-            window,
-            luminance,
-            source,
-        } => {
-            let mean = region_luminance::<T>(brackets, &lk, *window, w, h, ch_in, ch_out, options)?;
-            if !(mean.is_finite() && mean > 0.0) {
-                return Err(Error::invalid_argument(format!(
-                    "calibration: the window {},{},{},{} merges to luminance {mean}: it must \
-                     be lit and unclipped in some bracket",
-                    window[0], window[1], window[2], window[3]
-                )));
-            }
-            Some((*luminance / mean, source.clone()))
-        }
-    };
-    let scale = calibration.as_ref().map_or(1.0, |c| c.0);
-    let k: Vec<f32> = brackets
-        .iter()
-        .map(|b| (b.info.relative_exposure / scale) as f32)
-        .collect();
-    let ln_k: Vec<f32> = k.iter().map(|v| v.ln()).collect();
-    let shifts: Vec<(i32, i32)> = brackets.iter().map(|b| b.info.shift).collect();
-    let shifts_x: Vec<i32> = shifts.iter().map(|s| s.0).collect();
-    let robertson = options.response == ResponseMethod::Robertson;
-    let fast = T::TABLE.then(|| Tables::new(&lk, &k, &ln_k, robertson));
+    let calibration = calibrate::<T>(brackets, &lk, (w, h, ch_in, ch_out), options)?;
+    let kernel = MergeKernel::new::<T>(
+        brackets,
+        lk,
+        calibration.as_ref(),
+        options,
+        (w, h, ch_in, ch_out),
+    );
 
     let attrs = header(brackets, &curve, options, calibration.as_ref());
     let stored = if options.half {
@@ -940,123 +884,8 @@ fn run<T: Px>(
         PixelType::F32
     };
     let writer = ImageWriter::create(output, w, h, ch_out, stored, &attrs)?;
-
-    // Rows per band: about 16 MB of input per band.
-    let bytes = std::mem::size_of::<T>().max(1);
-    let band = (16usize << 20) / (n * w * ch_in * bytes).max(1);
-    let band = band.clamp(4, 256).min(h);
-
-    let (to_merge, from_reader) = sync_channel::<Result<(usize, usize, Vec<BandRows<T>>)>>(2);
-    let (to_writer, from_merge) = sync_channel::<(usize, usize, Vec<f32>)>(2);
-    let readers: Vec<&mut ImageReader> = brackets.iter_mut().map(|b| &mut b.reader).collect();
-    let mut stats = (0u64, 0u64);
-    let mut clamped = 0u64;
-    let result: Result<ImageWriter> = std::thread::scope(|scope| {
-        // Reader.
-        let shifts_r = shifts.clone();
-        scope.spawn(move || {
-            let shifts = shifts_r;
-            let mut readers = readers;
-            let mut y0 = 0;
-            while y0 < h {
-                let y1 = (y0 + band).min(h);
-                let mut rows = Vec::with_capacity(readers.len());
-                for (b, r) in readers.iter_mut().enumerate() {
-                    let dy = shifts[b].1 as i64;
-                    let s0 = (y0 as i64 - dy).clamp(0, h as i64 - 1) as usize;
-                    let s1 = (y1 as i64 - 1 - dy).clamp(0, h as i64 - 1) as usize + 1;
-                    let mut data = vec![T::default(); (s1 - s0) * w * ch_in];
-                    if let Err(e) = r.read_rows(s0, s1, &mut data) {
-                        let _ = to_merge.send(Err(e.into()));
-                        return;
-                    }
-                    rows.push(BandRows {
-                        first_row: s0,
-                        data,
-                    });
-                }
-                if to_merge.send(Ok((y0, y1, rows))).is_err() {
-                    return;
-                }
-                y0 = y1;
-            }
-        });
-        // Writer.
-        let writer_thread = scope.spawn(move || -> Result<ImageWriter> {
-            let mut writer = writer;
-            for (y0, y1, data) in from_merge {
-                writer.write_rows(y0, y1, &data)?;
-            }
-            Ok(writer)
-        });
-        // Merge.
-        let merged: Result<()> = (|| {
-            for item in from_reader {
-                let (y0, y1, rows) = item?;
-                let mut out = vec![0f32; (y1 - y0) * w * ch_out];
-                let band_stats: Vec<(u64, u64)> = pool.install(|| {
-                    out.par_chunks_mut(w * ch_out)
-                        .enumerate()
-                        .map(|(r, orow)| {
-                            let y = y0 + r;
-                            // Each bracket's row, moved by its alignment shift.
-                            let src: Vec<std::borrow::Cow<[T]>> = rows
-                                .iter()
-                                .enumerate()
-                                .map(|(b, br)| {
-                                    let sy = (y as i64 - shifts[b].1 as i64).clamp(0, h as i64 - 1)
-                                        as usize;
-                                    let off = (sy - br.first_row) * w * ch_in;
-                                    let row = &br.data[off..off + w * ch_in];
-                                    shift_row(row, shifts_x[b], w, ch_in)
-                                })
-                                .collect();
-                            let src: Vec<&[T]> = src.iter().map(|r| r.as_ref()).collect();
-                            let mut st = (0u64, 0u64);
-                            if let Some(ft) = &fast {
-                                merge_row_tables(
-                                    ft, &lk, &src, ch_in, ch_out, orow, &ln_k, &k, robertson,
-                                    &mut st,
-                                );
-                            } else {
-                                for x in 0..w {
-                                    for c in 0..ch_out {
-                                        orow[x * ch_out + c] = merge_value(
-                                            &lk, &src, ch_in, x, c, &ln_k, &k, robertson, &mut st,
-                                        );
-                                    }
-                                }
-                            }
-                            st
-                        })
-                        .collect()
-                });
-                for s in band_stats {
-                    stats.0 += s.0;
-                    stats.1 += s.1;
-                }
-                // Half floats end at 65504: beyond it they would be infinite.
-                if options.half {
-                    for v in out.iter_mut().filter(|v| **v > HALF_MAX) {
-                        *v = HALF_MAX;
-                        clamped += 1;
-                    }
-                }
-                progress("merging", y1 as u64, h as u64);
-                if to_writer.send((y0, y1, out)).is_err() {
-                    break;
-                }
-            }
-            Ok(())
-        })();
-        drop(to_writer);
-        let writer = writer_thread
-            .join()
-            .map_err(|_| Error::invalid_argument("the EXR writer thread panicked"))?;
-        merged?;
-        writer
-    });
-    let writer = result?;
+    let (writer, stats, clamped) =
+        stream_merge::<T>(brackets, writer, &kernel, options, pool, progress)?;
     // The curve files and the image are renamed into place together, once
     // all are written: a failure writing any leaves every old file.
     let mut outputs = plsr_base::atomic_write::OutputSet::new();
@@ -1087,6 +916,308 @@ fn run<T: Px>(
             Vec::new()
         },
     })
+}
+
+/// Aligns the brackets relative to the middle exposure, each bracket to
+/// its neighbour towards it (brackets are sorted by exposure): sets each
+/// bracket's `shift`.
+fn align_brackets(
+    brackets: &mut [Input],
+    options: &MergeOptions,
+    pool: &rayon::ThreadPool,
+    progress: &dyn Fn(&str, u64, u64),
+) -> Result<()> {
+    debug_assert!(options.align);
+    let info = brackets[0].reader.info().clone();
+    let n = brackets.len();
+    let levels = align::default_levels(info.width, info.height);
+    progress("aligning", 0, n as u64);
+    let mut done = 0;
+    let shifts = align::stack_shifts(n, levels, Some(pool), |b| {
+        // Separate readers, so the merge's readers stay at row 0.
+        let g = align::read_grey(&mut ImageReader::open(&brackets[b].info.path)?)?;
+        done += 1;
+        progress("aligning", done, n as u64);
+        Ok(g)
+    })?;
+    for (bracket, shift) in brackets.iter_mut().zip(shifts) {
+        bracket.info.shift = shift;
+    }
+    Ok(())
+}
+
+/// The response curve: a fixed one (linear, sRGB), or one recovered from
+/// the brackets' pixels (Debevec–Malik, Robertson).
+fn recover_curve<T: Px>(
+    brackets: &mut [Input],
+    info: &ImageInfo,
+    options: &MergeOptions,
+    ch_out: usize,
+    progress: &dyn Fn(&str, u64, u64),
+) -> Result<ResponseCurve> {
+    let n = brackets.len();
+    let levels = domain_levels(info.format, options.response);
+    Ok(match options.response {
+        ResponseMethod::Linear => ResponseCurve::linear(levels, ch_out),
+        ResponseMethod::Srgb => ResponseCurve::srgb(levels, ch_out),
+        method => {
+            let k: Vec<f64> = brackets.iter().map(|b| b.info.relative_exposure).collect();
+            let lattice = sample_lattice::<T>(brackets, levels, ch_out, progress)?;
+            if method == ResponseMethod::Debevec {
+                let wanted = options
+                    .samples
+                    .unwrap_or_else(|| (3 * levels / (n - 1)).clamp(100, 2000));
+                let chosen = choose_samples(&lattice, wanted);
+                response::debevec(&chosen, &k, options.lambda)?
+            } else {
+                response::robertson(&lattice.samples, &k, 50, 1e-4)?
+            }
+        }
+    })
+}
+
+/// Absolute units: the factor every merged value is multiplied by (every
+/// relative exposure is divided by it) and where it came from; `None` for
+/// relative units. `dims` is (width, height, input channels, output channels).
+fn calibrate<T: Px>(
+    brackets: &mut [Input],
+    lk: &Lookup,
+    dims: (usize, usize, usize, usize),
+    options: &MergeOptions,
+) -> Result<Option<(f64, String)>> {
+    let (w, h, ch_in, ch_out) = dims;
+    Ok(match &options.calibration {
+        Calibration::Relative => None,
+        Calibration::Exif { constant } => Some(exif_scale(brackets, *constant)?),
+        Calibration::Region {
+            window,
+            luminance,
+            source,
+        } => {
+            let mean = region_luminance::<T>(brackets, lk, *window, w, h, ch_in, ch_out, options)?;
+            if !(mean.is_finite() && mean > 0.0) {
+                return Err(Error::invalid_argument(format!(
+                    "calibration: the window {},{},{},{} merges to luminance {mean}: it must \
+                     be lit and unclipped in some bracket",
+                    window[0], window[1], window[2], window[3]
+                )));
+            }
+            Some((*luminance / mean, source.clone()))
+        }
+    })
+}
+
+/// What merging a row needs: the curve's lookup, each bracket's exposure
+/// (calibrated) and its log, the alignment shifts, the image's size.
+struct MergeKernel {
+    lk: Lookup,
+    k: Vec<f32>,
+    ln_k: Vec<f32>,
+    shifts: Vec<(i32, i32)>,
+    shifts_x: Vec<i32>,
+    robertson: bool,
+    fast: Option<Tables>,
+    w: usize,
+    h: usize,
+    ch_in: usize,
+    ch_out: usize,
+}
+
+impl MergeKernel {
+    fn new<T: Px>(
+        brackets: &[Input],
+        lk: Lookup,
+        calibration: Option<&(f64, String)>,
+        options: &MergeOptions,
+        (w, h, ch_in, ch_out): (usize, usize, usize, usize),
+    ) -> MergeKernel {
+        let scale = calibration.map_or(1.0, |c| c.0);
+        let k: Vec<f32> = brackets
+            .iter()
+            .map(|b| (b.info.relative_exposure / scale) as f32)
+            .collect();
+        let ln_k: Vec<f32> = k.iter().map(|v| v.ln()).collect();
+        let shifts: Vec<(i32, i32)> = brackets.iter().map(|b| b.info.shift).collect();
+        let shifts_x: Vec<i32> = shifts.iter().map(|s| s.0).collect();
+        let robertson = options.response == ResponseMethod::Robertson;
+        let fast = T::TABLE.then(|| Tables::new(&lk, &k, &ln_k, robertson));
+        MergeKernel {
+            lk,
+            k,
+            ln_k,
+            shifts,
+            shifts_x,
+            robertson,
+            fast,
+            w,
+            h,
+            ch_in,
+            ch_out,
+        }
+    }
+
+    /// Merges output row `y` from the bands' `rows` into `orow`; returns
+    /// the (saturated, dark) value counts.
+    fn merge_row<T: Px>(&self, y: usize, rows: &[BandRows<T>], orow: &mut [f32]) -> (u64, u64) {
+        let (w, h, ch_in, ch_out) = (self.w, self.h, self.ch_in, self.ch_out);
+        // Each bracket's row, moved by its alignment shift.
+        let src: Vec<std::borrow::Cow<[T]>> = rows
+            .iter()
+            .enumerate()
+            .map(|(b, br)| {
+                let sy = (y as i64 - self.shifts[b].1 as i64).clamp(0, h as i64 - 1) as usize;
+                let off = (sy - br.first_row) * w * ch_in;
+                let row = &br.data[off..off + w * ch_in];
+                shift_row(row, self.shifts_x[b], w, ch_in)
+            })
+            .collect();
+        let src: Vec<&[T]> = src.iter().map(|r| r.as_ref()).collect();
+        let mut st = (0u64, 0u64);
+        if let Some(ft) = &self.fast {
+            merge_row_tables(
+                ft,
+                &self.lk,
+                &src,
+                ch_in,
+                ch_out,
+                orow,
+                &self.ln_k,
+                &self.k,
+                self.robertson,
+                &mut st,
+            );
+        } else {
+            for x in 0..w {
+                for c in 0..ch_out {
+                    orow[x * ch_out + c] = merge_value(
+                        &self.lk,
+                        &src,
+                        ch_in,
+                        x,
+                        c,
+                        &self.ln_k,
+                        &self.k,
+                        self.robertson,
+                        &mut st,
+                    );
+                }
+            }
+        }
+        st
+    }
+}
+
+/// The streamed merge: a reader thread reads bands of rows of every
+/// bracket, the pool merges them, a writer thread writes them. Returns the
+/// writer (not yet finished), the (saturated, dark) counts and how many
+/// values were clamped to the largest half float.
+fn stream_merge<T: Px>(
+    brackets: &mut [Input],
+    writer: ImageWriter,
+    kernel: &MergeKernel,
+    options: &MergeOptions,
+    pool: &rayon::ThreadPool,
+    progress: &dyn Fn(&str, u64, u64),
+) -> Result<(ImageWriter, (u64, u64), u64)> {
+    let (w, h, ch_in, ch_out) = (kernel.w, kernel.h, kernel.ch_in, kernel.ch_out);
+    let n = brackets.len();
+    // Rows per band: about 16 MB of input per band.
+    let bytes = std::mem::size_of::<T>().max(1);
+    let band = (16usize << 20) / (n * w * ch_in * bytes).max(1);
+    let band = band.clamp(4, 256).min(h);
+
+    let (to_merge, from_reader) = sync_channel::<Result<Band<T>>>(2);
+    let (to_writer, from_merge) = sync_channel::<(usize, usize, Vec<f32>)>(2);
+    let readers: Vec<&mut ImageReader> = brackets.iter_mut().map(|b| &mut b.reader).collect();
+    let mut stats = (0u64, 0u64);
+    let mut clamped = 0u64;
+    let result: Result<ImageWriter> = std::thread::scope(|scope| {
+        let shifts = kernel.shifts.clone();
+        scope.spawn(move || read_bands(readers, &shifts, w, h, ch_in, band, to_merge));
+        let writer_thread = scope.spawn(move || -> Result<ImageWriter> {
+            let mut writer = writer;
+            for (y0, y1, data) in from_merge {
+                writer.write_rows(y0, y1, &data)?;
+            }
+            Ok(writer)
+        });
+        // Merge.
+        let merged: Result<()> = (|| {
+            for item in from_reader {
+                let (y0, y1, rows) = item?;
+                let mut out = vec![0f32; (y1 - y0) * w * ch_out];
+                let band_stats: Vec<(u64, u64)> = pool.install(|| {
+                    out.par_chunks_mut(w * ch_out)
+                        .enumerate()
+                        .map(|(r, orow)| kernel.merge_row(y0 + r, &rows, orow))
+                        .collect()
+                });
+                for s in band_stats {
+                    stats.0 += s.0;
+                    stats.1 += s.1;
+                }
+                // Half floats end at 65504: beyond it they would be infinite.
+                if options.half {
+                    for v in out.iter_mut().filter(|v| **v > HALF_MAX) {
+                        *v = HALF_MAX;
+                        clamped += 1;
+                    }
+                }
+                progress("merging", y1 as u64, h as u64);
+                if to_writer.send((y0, y1, out)).is_err() {
+                    break;
+                }
+            }
+            Ok(())
+        })();
+        drop(to_writer);
+        let writer = writer_thread
+            .join()
+            .map_err(|_| Error::invalid_argument("the EXR writer thread panicked"))?;
+        merged?;
+        writer
+    });
+    Ok((result?, stats, clamped))
+}
+
+/// Rows `y0..y1` of the output as each bracket's rows: `(y0, y1, rows)`.
+type Band<T> = (usize, usize, Vec<BandRows<T>>);
+
+/// The reader thread of [`stream_merge`]: bands of `band` rows of every
+/// bracket (each moved by its vertical shift), sent until the image ends,
+/// a read fails (the error is sent) or the merge stops listening.
+fn read_bands<T: Px>(
+    mut readers: Vec<&mut ImageReader>,
+    shifts: &[(i32, i32)],
+    w: usize,
+    h: usize,
+    ch_in: usize,
+    band: usize,
+    to_merge: std::sync::mpsc::SyncSender<Result<Band<T>>>,
+) {
+    let mut y0 = 0;
+    while y0 < h {
+        let y1 = (y0 + band).min(h);
+        let mut rows = Vec::with_capacity(readers.len());
+        for (b, r) in readers.iter_mut().enumerate() {
+            let dy = shifts[b].1 as i64;
+            let s0 = (y0 as i64 - dy).clamp(0, h as i64 - 1) as usize;
+            let s1 = (y1 as i64 - 1 - dy).clamp(0, h as i64 - 1) as usize + 1;
+            let mut data = vec![T::default(); (s1 - s0) * w * ch_in];
+            if let Err(e) = r.read_rows(s0, s1, &mut data) {
+                let _ = to_merge.send(Err(e.into()));
+                return;
+            }
+            rows.push(BandRows {
+                first_row: s0,
+                data,
+            });
+        }
+        if to_merge.send(Ok((y0, y1, rows))).is_err() {
+            return;
+        }
+        y0 = y1;
+    }
 }
 
 /// The factor from relative to absolute units given by the first
