@@ -405,25 +405,7 @@ fn step(
     let adjoint = path.adjoint;
     let ray = rh.ray();
     let Some(hit) = rh.hit() else {
-        if let Some(env) = scene.environment_index() {
-            let Light::Environment { light, .. } = &scene.lights().lights[env] else {
-                unreachable!("Scene::environment indexes an environment light")
-            };
-            let le = light.radiance(ray.dir);
-            if le != Vec3::ZERO {
-                let weight = if path.depth == 0 || path.prev_pdf == 0.0 {
-                    1.0
-                } else {
-                    let light_pdf =
-                        scene.lights().pick_pmf(env, path.prev_point) * light.pdf(ray.dir);
-                    power_heuristic(path.prev_pdf, light_pdf)
-                };
-                let contribution = path.beta * le * weight;
-                path.radiance += contribution;
-                dbeta.contribute(le * weight, adjoint, gradient);
-                add_light_terms(map, env, contribution, adjoint, gradient);
-            }
-        }
+        escaped(ctx, path, ray, dbeta, gradient);
         path.alive = false;
         return;
     };
@@ -485,37 +467,128 @@ fn step(
             Frame::from_normal(shading_n)
         };
     let wo_local = frame.to_local(wo);
-    let eps = ray_epsilon(p);
-    let transmits = bsdf.transmits();
-    let origin_for = |dir: Vec3| {
-        if transmits {
-            spawn_origin(p, n, eps, dir)
-        } else {
-            p + n * eps
-        }
+    let v = Vertex {
+        p,
+        wo,
+        ng,
+        n,
+        eps: ray_epsilon(p),
+        guard,
+        bsdf,
+        frame,
+        wo_local,
+        slots,
+        differentiable,
+        wanted,
     };
 
-    let light_pick = if bsdf.is_delta() {
+    next_event(ctx, path, index, &v, dbeta, queues);
+    if depth + 1 == max_depth && !scene.has_hittable_lights() {
+        path.alive = false;
+        return;
+    }
+    match continue_path(ctx, path, &v, dbeta) {
+        Some(wi) => *rh = RayHit::masked(Ray::new(v.origin_for(wi), wi), mask),
+        None => path.alive = false,
+    }
+}
+
+/// A hit point and what the steps after the hit share: its frames, its
+/// BSDF (textures applied) and the gradient slots of its material.
+struct Vertex<'a> {
+    p: Vec3,
+    wo: Vec3,
+    ng: Vec3,
+    /// The normal rays leave by (geometric, facing `wo` unless the BSDF transmits).
+    n: Vec3,
+    eps: f32,
+    /// Whether shading normals may disagree with the geometry (so leaks are checked).
+    guard: bool,
+    bsdf: &'a crate::bsdf::Bsdf,
+    frame: Frame,
+    wo_local: Vec3,
+    slots: &'a [Option<u32>; BSDF_PARAMS],
+    differentiable: bool,
+    /// The derivatives the material needs (bit k: slot k).
+    wanted: u8,
+}
+
+impl Vertex<'_> {
+    /// Where a ray leaving towards `dir` starts.
+    fn origin_for(&self, dir: Vec3) -> Vec3 {
+        if self.bsdf.transmits() {
+            spawn_origin(self.p, self.n, self.eps, dir)
+        } else {
+            self.p + self.n * self.eps
+        }
+    }
+}
+
+/// A path that left the scene: the environment's radiance, MIS-weighted
+/// against the last BSDF sample, and its gradient terms.
+fn escaped(
+    ctx: &Context,
+    path: &mut GradientPath,
+    ray: Ray,
+    dbeta: &mut ThroughputDerivative,
+    gradient: &mut [f64],
+) {
+    let Context { scene, map, .. } = *ctx;
+    let adjoint = path.adjoint;
+    if let Some(env) = scene.environment_index() {
+        let Light::Environment { light, .. } = &scene.lights().lights[env] else {
+            unreachable!("Scene::environment indexes an environment light")
+        };
+        let le = light.radiance(ray.dir);
+        if le != Vec3::ZERO {
+            let weight = if path.depth == 0 || path.prev_pdf == 0.0 {
+                1.0
+            } else {
+                let light_pdf = scene.lights().pick_pmf(env, path.prev_point) * light.pdf(ray.dir);
+                power_heuristic(path.prev_pdf, light_pdf)
+            };
+            let contribution = path.beta * le * weight;
+            path.radiance += contribution;
+            dbeta.contribute(le * weight, adjoint, gradient);
+            add_light_terms(map, env, contribution, adjoint, gradient);
+        }
+    }
+}
+
+/// Next-event estimation at `v`: a light sample whose contribution and
+/// gradient terms are queued on its shadow ray.
+fn next_event(
+    ctx: &Context,
+    path: &mut GradientPath,
+    index: u32,
+    v: &Vertex,
+    dbeta: &mut ThroughputDerivative,
+    queues: Queues,
+) {
+    let Context { scene, job, map } = *ctx;
+    let mask = job.ray_mask();
+    let (adjoint, beta) = (path.adjoint, path.beta);
+    let light_pick = if v.bsdf.is_delta() {
         None
     } else {
-        scene.lights().pick(p, path.rng.next_2d())
+        scene.lights().pick(v.p, path.rng.next_2d())
     };
     if let Some((li, pick_pmf)) = light_pick {
         let u = path.rng.next_2d();
-        if let Some(ls) = scene.lights().lights[li].sample_li(p, u) {
-            let wi_local = frame.to_local(ls.wi);
-            let leaks = guard && !sides_agree(wo, ls.wi, ng, wo_local, wi_local);
+        if let Some(ls) = scene.lights().lights[li].sample_li(v.p, u) {
+            let wi_local = v.frame.to_local(ls.wi);
+            let leaks = v.guard && !sides_agree(v.wo, ls.wi, v.ng, v.wo_local, wi_local);
             // A zero BSDF value may still have a derivative (a black
             // albedo): the differentiable case goes on to its shadow ray.
             // Towards a delta light the derivatives' value is `eval`'s,
             // bit for bit, and stands for it.
-            let dfc = (differentiable && !leaks)
-                .then(|| bsdf.eval_gradient_of(wo_local, wi_local, wanted));
+            let dfc = (v.differentiable && !leaks)
+                .then(|| v.bsdf.eval_gradient_of(v.wo_local, wi_local, v.wanted));
             let (f, bsdf_pdf) = match dfc {
                 _ if leaks => (Vec3::ZERO, 0.0),
                 Some(g) if ls.delta => (g.f, 0.0),
-                _ if ls.delta => (bsdf.eval(wo_local, wi_local), 0.0),
-                _ => bsdf.eval_pdf(wo_local, wi_local),
+                _ if ls.delta => (v.bsdf.eval(v.wo_local, wi_local), 0.0),
+                _ => v.bsdf.eval_pdf(v.wo_local, wi_local),
             };
             let cos = wi_local.z.abs();
             let fc = f * cos;
@@ -527,8 +600,8 @@ fn step(
                 } else {
                     power_heuristic(light_pdf, bsdf_pdf)
                 };
-                let origin = origin_for(ls.wi);
-                let (dir, tfar) = shadow_segment(origin, p, ls.wi, ls.dist);
+                let origin = v.origin_for(ls.wi);
+                let (dir, tfar) = shadow_segment(origin, v.p, ls.wi, ls.dist);
                 let shadow = Ray {
                     org: origin,
                     dir,
@@ -545,7 +618,7 @@ fn step(
                     add_light_terms(map, li, contribution, adjoint, queues.terms);
                     if let Some(g) = dfc {
                         let ax = adjoint * beta * ls.radiance * (cos * scale);
-                        for (k, slot) in slots.iter().enumerate() {
+                        for (k, slot) in v.slots.iter().enumerate() {
                             if let Some(slot) = slot {
                                 queues.terms.push((*slot, ax.dot(g.d[k]) as f64));
                             }
@@ -561,27 +634,35 @@ fn step(
             }
         }
     }
+}
 
-    if depth + 1 == max_depth && !scene.has_hittable_lights() {
-        path.alive = false;
-        return;
-    }
+/// The BSDF sample at `v`: updates the path's throughput, its derivative
+/// and Russian roulette; the direction of the next ray, or `None` if the
+/// path ends.
+fn continue_path(
+    ctx: &Context,
+    path: &mut GradientPath,
+    v: &Vertex,
+    dbeta: &mut ThroughputDerivative,
+) -> Option<Vec3> {
+    let job = ctx.job;
+    let beta = path.beta;
     let uc = path.rng.next_f32();
-    let Some(bs) = bsdf.sample(wo_local, uc, path.rng.next_2d()) else {
+    let Some(bs) = v.bsdf.sample(v.wo_local, uc, path.rng.next_2d()) else {
         path.alive = false;
-        return;
+        return None;
     };
-    let wi = frame.to_world(bs.wi);
-    if guard && !sides_agree(wo, wi, ng, wo_local, bs.wi) {
+    let wi = v.frame.to_world(bs.wi);
+    if v.guard && !sides_agree(v.wo, wi, v.ng, v.wo_local, bs.wi) {
         path.alive = false;
-        return;
+        return None;
     }
     // ∂β' = ∂β·w + β·∂f·|cos θ|/p (detached p), with the old β.
     dbeta.scale(bs.weight);
-    if differentiable && !bs.delta && bs.pdf > 0.0 {
-        let g = bsdf.eval_gradient_of(wo_local, bs.wi, wanted);
+    if v.differentiable && !bs.delta && bs.pdf > 0.0 {
+        let g = v.bsdf.eval_gradient_of(v.wo_local, bs.wi, v.wanted);
         let k = bs.wi.z.abs() / bs.pdf;
-        for (slot, d) in slots.iter().zip(g.d) {
+        for (slot, d) in v.slots.iter().zip(g.d) {
             if let Some(slot) = slot {
                 dbeta.add(*slot, beta * d * k);
             }
@@ -589,23 +670,23 @@ fn step(
     }
     path.beta *= bs.weight;
     path.prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
-    path.prev_point = p;
+    path.prev_point = v.p;
     path.depth += 1;
-    path.eta_scale *= bsdf.eta_scale(wo_local, bs.wi);
+    path.eta_scale *= v.bsdf.eta_scale(v.wo_local, bs.wi);
     let rr_beta = path.beta * path.eta_scale;
     if roulette_spins(rr_beta, path.depth >= job.rr_depth) {
         let q = rr_beta.max_element();
         let (survives, b) = roulette(path.beta, rr_beta, path.rng.next_f32());
         if !survives {
             path.alive = false;
-            return;
+            return None;
         }
         path.beta = b;
         dbeta.scale(Vec3::splat(1.0 / q));
     }
     if path.beta == Vec3::ZERO && dbeta.is_zero() {
         path.alive = false;
-        return;
+        return None;
     }
-    *rh = RayHit::masked(Ray::new(origin_for(wi), wi), mask);
+    Some(wi)
 }

@@ -423,25 +423,7 @@ pub fn load_obj(path: &Path, scene_file: &Path, field: &str) -> Result<ObjFile> 
     check_obj(&text).map_err(|m| fail(format!("{}: {m}", path.display())))?;
     let base = path.parent().unwrap_or(Path::new("."));
     // tobj does not say which MTL library is missing: check them first.
-    let mut libraries = Vec::new();
-    for line in text.lines() {
-        if let Some(libs) = line.trim_start().strip_prefix("mtllib ") {
-            for lib in libs.split_whitespace() {
-                let mtl = base.join(lib);
-                crate::input::check_regular_file(&mtl).map_err(|m| {
-                    fail(format!(
-                        "{}: MTL library {} {m}",
-                        path.display(),
-                        mtl.display()
-                    ))
-                })?;
-                // tobj panics on some malformed lines and says only
-                // "material parse error" on others: check them first.
-                check_mtl(&mtl).map_err(|m| fail(format!("{}: {m}", mtl.display())))?;
-                libraries.push(mtl);
-            }
-        }
-    }
+    let libraries = check_mtl_libraries(&text, base, path, &fail)?;
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
@@ -471,142 +453,191 @@ pub fn load_obj(path: &Path, scene_file: &Path, field: &str) -> Result<ObjFile> 
     };
     let mut objects = Vec::with_capacity(models.len());
     for m in models {
-        let mesh = m.mesh;
-        let positions: Vec<Vec3> = mesh
-            .positions
-            .chunks_exact(3)
-            .map(|c| Vec3::new(c[0], c[1], c[2]))
-            .collect();
-        if positions.iter().any(|p| !p.is_finite()) {
-            return Err(fail(format!(
-                "{}: object `{}` has a non-finite vertex position",
-                path.display(),
-                m.name
-            )));
-        }
-        let normals: Vec<Vec3> = mesh
-            .normals
-            .chunks_exact(3)
-            .map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero())
-            .collect();
-        let uvs: Vec<Vec2> = mesh
-            .texcoords
-            .chunks_exact(2)
-            .map(|c| Vec2::new(c[0], c[1]))
-            .collect();
-        // With single_index, attributes are per vertex; a file that gives
-        // them for some faces only is read without them.
-        let normals = if normals.len() == positions.len()
-            && normals.iter().all(|n| n.is_finite() && *n != Vec3::ZERO)
-        {
-            normals
-        } else {
-            Vec::new()
-        };
-        let uvs = if uvs.len() == positions.len() && uvs.iter().all(|t| t.is_finite()) {
-            uvs
-        } else {
-            Vec::new()
-        };
-        let triangles: Vec<[u32; 3]> = mesh
-            .indices
-            .chunks_exact(3)
-            .map(|c| [c[0], c[1], c[2]])
-            .collect();
-        if let Some(t) = triangles
-            .iter()
-            .find(|t| t.iter().any(|&i| i as usize >= positions.len()))
-        {
-            return Err(fail(format!(
-                "{}: object `{}`: face {t:?} refers to a missing vertex",
-                path.display(),
-                m.name
-            )));
-        }
-        if triangles.is_empty() {
-            continue;
-        }
-        objects.push(ObjObject {
-            name: m.name,
-            positions,
-            triangles,
-            normals,
-            uvs,
-            material: mesh.material_id,
-        });
+        objects.extend(obj_object(m, path, &fail)?);
     }
     // Every MTL entry is checked, used or not: bad input is an error wherever it is.
-    let mut checked = Vec::with_capacity(materials.len());
-    for m in materials {
-        let diffuse = m.diffuse.map(Vec3::from_array);
-        let emission = m.emissive.map(Vec3::from_array);
-        if let Some(kd) =
-            diffuse.filter(|kd| !kd.is_finite() || kd.min_element() < 0.0 || kd.max_element() > 1.0)
-        {
-            return Err(fail(format!(
-                "{}: MTL material `{}`: Kd must be in [0, 1], got {kd}",
-                path.display(),
-                m.name
-            )));
-        }
-        if let Some(ke) = emission.filter(|ke| !ke.is_finite() || ke.min_element() < 0.0) {
-            return Err(fail(format!(
-                "{}: MTL material `{}`: Ke must be finite and not negative, got {ke}",
-                path.display(),
-                m.name
-            )));
-        }
-        let bad = |key: &str, what: String| {
-            fail(format!(
-                "{}: MTL material `{}`: {key} {what}",
-                path.display(),
-                m.name
-            ))
-        };
-        let specular = m.specular.map(Vec3::from_array);
-        if let Some(ks) = specular
-            .filter(|ks| !ks.is_finite() || ks.min_element() < 0.0 || ks.max_element() > 1.0)
-        {
-            return Err(bad("Ks", format!("must be in [0, 1], got {ks}")));
-        }
-        if let Some(ns) = m.shininess.filter(|ns| !ns.is_finite() || *ns < 0.0) {
-            return Err(bad(
-                "Ns",
-                format!("must be finite and not negative, got {ns}"),
-            ));
-        }
-        let unit = |key: &str| -> Result<Option<f32>> {
-            match m.unknown_param.get(key) {
-                None => Ok(None),
-                Some(v) => match v.trim().parse::<f32>() {
-                    Ok(x) if (0.0..=1.0).contains(&x) => Ok(Some(x)),
-                    _ => Err(bad(key, format!("must be a number in [0, 1], got `{v}`"))),
-                },
-            }
-        };
-        let roughness = unit("Pr")?;
-        let metallic = unit("Pm")?;
-        let map = |name: Option<&String>| {
-            name.map(|n| base.join(n.split_whitespace().last().unwrap_or(n)))
-        };
-        checked.push(ObjMaterial {
-            name: m.name.clone(),
-            diffuse,
-            emission,
-            specular,
-            shininess: m.shininess,
-            roughness,
-            metallic,
-            diffuse_map: map(m.diffuse_texture.as_ref()),
-            roughness_map: map(m.unknown_param.get("map_Pr")),
-            metallic_map: map(m.unknown_param.get("map_Pm")),
-        });
-    }
-    let materials = checked;
+    let materials = materials
+        .into_iter()
+        .map(|m| obj_material(m, base, path, &fail))
+        .collect::<Result<Vec<_>>>()?;
     Ok(ObjFile {
         objects,
         materials,
         libraries,
+    })
+}
+
+/// The MTL libraries an OBJ's `mtllib` lines name (relative to `base`),
+/// each checked to be a readable file that tobj can parse safely.
+fn check_mtl_libraries(
+    text: &str,
+    base: &Path,
+    path: &Path,
+    fail: &dyn Fn(String) -> Error,
+) -> Result<Vec<PathBuf>> {
+    let mut libraries = Vec::new();
+    for line in text.lines() {
+        if let Some(libs) = line.trim_start().strip_prefix("mtllib ") {
+            for lib in libs.split_whitespace() {
+                let mtl = base.join(lib);
+                crate::input::check_regular_file(&mtl).map_err(|m| {
+                    fail(format!(
+                        "{}: MTL library {} {m}",
+                        path.display(),
+                        mtl.display()
+                    ))
+                })?;
+                // tobj panics on some malformed lines and says only
+                // "material parse error" on others: check them first.
+                check_mtl(&mtl).map_err(|m| fail(format!("{}: {m}", mtl.display())))?;
+                libraries.push(mtl);
+            }
+        }
+    }
+    Ok(libraries)
+}
+
+/// One object of an OBJ file as read by tobj, checked; `None` if it has
+/// no triangles.
+fn obj_object(
+    m: tobj::Model,
+    path: &Path,
+    fail: &dyn Fn(String) -> Error,
+) -> Result<Option<ObjObject>> {
+    let mesh = m.mesh;
+    let positions: Vec<Vec3> = mesh
+        .positions
+        .chunks_exact(3)
+        .map(|c| Vec3::new(c[0], c[1], c[2]))
+        .collect();
+    if positions.iter().any(|p| !p.is_finite()) {
+        return Err(fail(format!(
+            "{}: object `{}` has a non-finite vertex position",
+            path.display(),
+            m.name
+        )));
+    }
+    let normals: Vec<Vec3> = mesh
+        .normals
+        .chunks_exact(3)
+        .map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero())
+        .collect();
+    let uvs: Vec<Vec2> = mesh
+        .texcoords
+        .chunks_exact(2)
+        .map(|c| Vec2::new(c[0], c[1]))
+        .collect();
+    // With single_index, attributes are per vertex; a file that gives
+    // them for some faces only is read without them.
+    let normals = if normals.len() == positions.len()
+        && normals.iter().all(|n| n.is_finite() && *n != Vec3::ZERO)
+    {
+        normals
+    } else {
+        Vec::new()
+    };
+    let uvs = if uvs.len() == positions.len() && uvs.iter().all(|t| t.is_finite()) {
+        uvs
+    } else {
+        Vec::new()
+    };
+    let triangles: Vec<[u32; 3]> = mesh
+        .indices
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    if let Some(t) = triangles
+        .iter()
+        .find(|t| t.iter().any(|&i| i as usize >= positions.len()))
+    {
+        return Err(fail(format!(
+            "{}: object `{}`: face {t:?} refers to a missing vertex",
+            path.display(),
+            m.name
+        )));
+    }
+    if triangles.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some(ObjObject {
+        name: m.name,
+        positions,
+        triangles,
+        normals,
+        uvs,
+        material: mesh.material_id,
+    }))
+}
+
+/// One MTL material as read by tobj, checked (Kd, Ke, Ks, Ns, Pr, Pm) and
+/// with its texture paths relative to `base`.
+fn obj_material(
+    m: tobj::Material,
+    base: &Path,
+    path: &Path,
+    fail: &dyn Fn(String) -> Error,
+) -> Result<ObjMaterial> {
+    let diffuse = m.diffuse.map(Vec3::from_array);
+    let emission = m.emissive.map(Vec3::from_array);
+    if let Some(kd) =
+        diffuse.filter(|kd| !kd.is_finite() || kd.min_element() < 0.0 || kd.max_element() > 1.0)
+    {
+        return Err(fail(format!(
+            "{}: MTL material `{}`: Kd must be in [0, 1], got {kd}",
+            path.display(),
+            m.name
+        )));
+    }
+    if let Some(ke) = emission.filter(|ke| !ke.is_finite() || ke.min_element() < 0.0) {
+        return Err(fail(format!(
+            "{}: MTL material `{}`: Ke must be finite and not negative, got {ke}",
+            path.display(),
+            m.name
+        )));
+    }
+    let bad = |key: &str, what: String| {
+        fail(format!(
+            "{}: MTL material `{}`: {key} {what}",
+            path.display(),
+            m.name
+        ))
+    };
+    let specular = m.specular.map(Vec3::from_array);
+    if let Some(ks) =
+        specular.filter(|ks| !ks.is_finite() || ks.min_element() < 0.0 || ks.max_element() > 1.0)
+    {
+        return Err(bad("Ks", format!("must be in [0, 1], got {ks}")));
+    }
+    if let Some(ns) = m.shininess.filter(|ns| !ns.is_finite() || *ns < 0.0) {
+        return Err(bad(
+            "Ns",
+            format!("must be finite and not negative, got {ns}"),
+        ));
+    }
+    let unit = |key: &str| -> Result<Option<f32>> {
+        match m.unknown_param.get(key) {
+            None => Ok(None),
+            Some(v) => match v.trim().parse::<f32>() {
+                Ok(x) if (0.0..=1.0).contains(&x) => Ok(Some(x)),
+                _ => Err(bad(key, format!("must be a number in [0, 1], got `{v}`"))),
+            },
+        }
+    };
+    let roughness = unit("Pr")?;
+    let metallic = unit("Pm")?;
+    let map =
+        |name: Option<&String>| name.map(|n| base.join(n.split_whitespace().last().unwrap_or(n)));
+    Ok(ObjMaterial {
+        name: m.name.clone(),
+        diffuse,
+        emission,
+        specular,
+        shininess: m.shininess,
+        roughness,
+        metallic,
+        diffuse_map: map(m.diffuse_texture.as_ref()),
+        roughness_map: map(m.unknown_param.get("map_Pr")),
+        metallic_map: map(m.unknown_param.get("map_Pm")),
     })
 }
 

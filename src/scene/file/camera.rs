@@ -117,7 +117,39 @@ impl Builder<'_> {
                 format!("unknown camera type `{kind}` (known: {TYPES})"),
             ));
         }
-        // A key of another camera type is "not used"; any other key unknown.
+        let (lens, fisheye) = self.camera_type_keys(c, kind)?;
+        let preset = self.camera_preset_named(lens.as_ref())?;
+        let pose = self.camera_pose(c)?;
+        let (w, h) = self.camera_size(c, preset)?;
+        let camera = match kind {
+            "equirectangular" => Camera::Equirect(
+                EquirectCamera::new(pose, w, h)
+                    .map_err(|e| self.err(camera_field(&e, "camera"), e.to_string()))?,
+            ),
+            "dual_fisheye" => {
+                let fov = fisheye.and_then(|f| f.fov);
+                let fov = self.finite("camera.fov", fov.unwrap_or(DEFAULT_FISHEYE_FOV_DEG))?;
+                Camera::DualFisheye(
+                    DualFisheyeCamera::new(pose, fov, w, h)
+                        .map_err(|e| self.err(camera_field(&e, "camera"), e.to_string()))?,
+                )
+            }
+            _ => {
+                let lens = lens.expect("perspective cameras read their lens keys");
+                self.perspective_camera(c, kind, &lens, preset, pose, (w, h))?
+            }
+        };
+        Ok((camera, preset))
+    }
+
+    /// The keys of the camera's type: a perspective camera's lens, a dual
+    /// fisheye's field of view (a key of another type is "not used"; any
+    /// other key unknown).
+    fn camera_type_keys(
+        &self,
+        c: &CameraSection,
+        kind: &str,
+    ) -> Result<(Option<LensKeys>, Option<FisheyeKeys>)> {
         let unknown = |key: &str| {
             let mut all = CAMERA_KEYS.to_vec();
             all.extend(key_names::<LensKeys>());
@@ -132,7 +164,7 @@ impl Builder<'_> {
                 format!("unknown field `{key}`, expected one of {}", list.join(", "))
             }
         };
-        let (lens, fisheye) = match kind {
+        Ok(match kind {
             "pinhole" | "thin_lens" => {
                 let lens: LensKeys = self.typed_keys("camera", &c.keys, unknown)?;
                 if kind == "pinhole" {
@@ -159,8 +191,15 @@ impl Builder<'_> {
                 let _: EquirectKeys = self.typed_keys("camera", &c.keys, unknown)?;
                 (None, None)
             }
-        };
-        let preset = match lens.as_ref().and_then(|l| l.preset.as_ref()) {
+        })
+    }
+
+    /// The preset the lens keys name, if any.
+    fn camera_preset_named(
+        &self,
+        lens: Option<&LensKeys>,
+    ) -> Result<Option<&'static CameraPreset>> {
+        Ok(match lens.and_then(|l| l.preset.as_ref()) {
             Some(name) => Some(camera_preset(name).ok_or_else(|| {
                 let known: Vec<_> = PRESETS.iter().map(|p| p.name).collect();
                 self.err(
@@ -169,10 +208,13 @@ impl Builder<'_> {
                 )
             })?),
             None => None,
-        };
+        })
+    }
 
-        // Pose: look-at or a camera-to-world matrix.
-        let pose = match &c.to_world {
+    /// The camera's pose: look-at or a camera-to-world matrix (a camera with
+    /// a path may leave its pose to the first key).
+    fn camera_pose(&self, c: &CameraSection) -> Result<Pose> {
+        Ok(match &c.to_world {
             Some(m) => {
                 for (name, present) in [
                     ("position", c.position.is_some()),
@@ -203,7 +245,6 @@ impl Builder<'_> {
                     })?;
                     self.vec3(&format!("camera.{name}"), v)
                 };
-                // A camera with a path may leave its pose to the first key.
                 let first = c.path.as_ref().and_then(|p| p.first());
                 let position = match (c.position, first) {
                     (None, Some(k)) => self.vec3("camera.path[0].position", k.position)?,
@@ -226,9 +267,16 @@ impl Builder<'_> {
                     self.err(field, e.to_string())
                 })?
             }
-        };
+        })
+    }
 
-        let (w, h) = match (c.resolution, preset) {
+    /// The image size in pixels: `resolution`, or the preset's.
+    fn camera_size(
+        &self,
+        c: &CameraSection,
+        preset: Option<&'static CameraPreset>,
+    ) -> Result<(u32, u32)> {
+        Ok(match (c.resolution, preset) {
             (Some(r), _) => (
                 self.positive_count("camera.resolution[0]", r[0], 1 << 16)?,
                 self.positive_count("camera.resolution[1]", r[1], 1 << 16)?,
@@ -240,68 +288,50 @@ impl Builder<'_> {
                     "required: [width, height] in pixels (or a preset)",
                 ))
             }
-        };
-        let field_of = |e: &CameraError, default: &'static str| match e {
-            CameraError::BadFov(_) => "camera.vfov",
-            CameraError::BadZoom(_) => "camera.zoom",
-            CameraError::EmptyImage => "camera.resolution",
-            CameraError::BadAperture(_) => "camera.aperture_radius",
-            CameraError::BadFocusDistance(_) => "camera.focus_distance",
-            CameraError::BadFisheyeFov(_) => "camera.fov",
-            CameraError::TooFar(_) => "camera.position",
-            _ => default,
-        };
+        })
+    }
 
-        let camera = match kind {
-            "equirectangular" => Camera::Equirect(
-                EquirectCamera::new(pose, w, h)
-                    .map_err(|e| self.err(field_of(&e, "camera"), e.to_string()))?,
-            ),
-            "dual_fisheye" => {
-                let fov = fisheye.and_then(|f| f.fov);
-                let fov = self.finite("camera.fov", fov.unwrap_or(DEFAULT_FISHEYE_FOV_DEG))?;
-                Camera::DualFisheye(
-                    DualFisheyeCamera::new(pose, fov, w, h)
-                        .map_err(|e| self.err(field_of(&e, "camera"), e.to_string()))?,
-                )
-            }
-            _ => {
-                let lens = lens.expect("perspective cameras read their lens keys");
-                let fov = self.perspective_fov(&lens, preset)?;
-                let zoom = match lens.zoom {
-                    Some(z) => self.finite("camera.zoom", z)?,
-                    None => preset.map_or(1.0, |p| p.zoom),
-                };
-                let pinhole = PinholeCamera::new(pose, fov, zoom, w, h)
-                    .map_err(|e| self.err(field_of(&e, "camera"), e.to_string()))?;
-                if kind == "pinhole" {
-                    Camera::Pinhole(pinhole)
-                } else {
-                    let radius = lens.aperture_radius.ok_or_else(|| {
-                        self.err(
-                            "camera.aperture_radius",
-                            "required for a thin_lens camera (scene units)",
-                        )
-                    })?;
-                    let radius = self.finite("camera.aperture_radius", radius)?;
-                    let focus = match (lens.focus_distance, c.look_at) {
-                        (Some(d), _) => self.finite("camera.focus_distance", d)?,
-                        (None, Some(l)) => (Vec3::from_array(l) - pose.position).length(),
-                        (None, None) => {
-                            return Err(self.err(
-                                "camera.focus_distance",
-                                "required with to_world (with look_at it defaults to the distance to look_at)",
-                            ))
-                        }
-                    };
-                    Camera::ThinLens(
-                        ThinLensCamera::new(pinhole, radius, focus)
-                            .map_err(|e| self.err(field_of(&e, "camera"), e.to_string()))?,
-                    )
-                }
-            }
+    /// A pinhole or thin-lens camera: field of view, zoom, and the thin
+    /// lens's aperture and focus distance.
+    fn perspective_camera(
+        &self,
+        c: &CameraSection,
+        kind: &str,
+        lens: &LensKeys,
+        preset: Option<&'static CameraPreset>,
+        pose: Pose,
+        (w, h): (u32, u32),
+    ) -> Result<Camera> {
+        let fov = self.perspective_fov(lens, preset)?;
+        let zoom = match lens.zoom {
+            Some(z) => self.finite("camera.zoom", z)?,
+            None => preset.map_or(1.0, |p| p.zoom),
         };
-        Ok((camera, preset))
+        let pinhole = PinholeCamera::new(pose, fov, zoom, w, h)
+            .map_err(|e| self.err(camera_field(&e, "camera"), e.to_string()))?;
+        if kind == "pinhole" {
+            return Ok(Camera::Pinhole(pinhole));
+        }
+        let radius = lens.aperture_radius.ok_or_else(|| {
+            self.err(
+                "camera.aperture_radius",
+                "required for a thin_lens camera (scene units)",
+            )
+        })?;
+        let radius = self.finite("camera.aperture_radius", radius)?;
+        let focus =
+            match (lens.focus_distance, c.look_at) {
+                (Some(d), _) => self.finite("camera.focus_distance", d)?,
+                (None, Some(l)) => (Vec3::from_array(l) - pose.position).length(),
+                (None, None) => return Err(self.err(
+                    "camera.focus_distance",
+                    "required with to_world (with look_at it defaults to the distance to look_at)",
+                )),
+            };
+        Ok(Camera::ThinLens(
+            ThinLensCamera::new(pinhole, radius, focus)
+                .map_err(|e| self.err(camera_field(&e, "camera"), e.to_string()))?,
+        ))
     }
 
     /// The camera path of `[[camera.path]]`, if any.
@@ -438,5 +468,20 @@ impl Builder<'_> {
                 Ok(Fov::Vertical(fov_from_focal_length(f, sh)))
             }
         }
+    }
+}
+
+/// The scene field a camera's construction error is about (`default` when
+/// no one field is).
+fn camera_field(e: &CameraError, default: &'static str) -> &'static str {
+    match e {
+        CameraError::BadFov(_) => "camera.vfov",
+        CameraError::BadZoom(_) => "camera.zoom",
+        CameraError::EmptyImage => "camera.resolution",
+        CameraError::BadAperture(_) => "camera.aperture_radius",
+        CameraError::BadFocusDistance(_) => "camera.focus_distance",
+        CameraError::BadFisheyeFov(_) => "camera.fov",
+        CameraError::TooFar(_) => "camera.position",
+        _ => default,
     }
 }

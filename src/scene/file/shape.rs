@@ -207,38 +207,7 @@ impl Builder<'_> {
         meshes: &mut Vec<Mesh>,
     ) -> Result<()> {
         let field = format!("shapes[{index}]");
-        // A key of another shape type is "not used"; any other key unknown.
-        let type_keys = || -> Vec<&'static str> {
-            let mut all = SHAPE_KEYS.to_vec();
-            for k in [
-                key_names::<ObjKeys>(),
-                key_names::<RectangleKeys>(),
-                key_names::<SphereKeys>(),
-                key_names::<DiskKeys>(),
-                key_names::<PlyKeys>(),
-                key_names::<CubeKeys>(),
-                key_names::<GltfKeys>(),
-            ]
-            .concat()
-            {
-                if !all.contains(&k) {
-                    all.push(k);
-                }
-            }
-            all
-        };
-        let unknown = |key: &str| {
-            let all = type_keys();
-            if all.contains(&key) {
-                format!("not used by shapes of type `{}`", s.kind)
-            } else {
-                let list: Vec<String> = std::iter::once("type")
-                    .chain(all)
-                    .map(|k| format!("`{k}`"))
-                    .collect();
-                format!("unknown field `{key}`, expected one of {}", list.join(", "))
-            }
-        };
+        let unknown = |key: &str| unknown_shape_key(&s.kind, key);
         let matrix = match &s.transform {
             Some(t) => self.transform(&format!("{field}.transform"), t)?,
             None => Mat4::IDENTITY,
@@ -252,23 +221,7 @@ impl Builder<'_> {
             })?),
             None => None,
         };
-        let emission = match s.emission {
-            Some(e) => Some(Emission {
-                radiance: self.colour(&format!("{field}.emission"), e, None)?,
-                two_sided: s.two_sided.unwrap_or(false),
-                cone: None,
-            }),
-            None => {
-                // On OBJ shapes, two_sided also applies to MTL `Ke` emission.
-                if s.two_sided.is_some() && s.kind != "obj" && s.kind != "gltf" {
-                    return Err(self.err(
-                        format!("{field}.two_sided"),
-                        "only used together with `emission`",
-                    ));
-                }
-                None
-            }
-        };
+        let emission = self.shape_emission(&field, s)?;
         let shape_name = s
             .name
             .clone()
@@ -284,8 +237,7 @@ impl Builder<'_> {
 
         let flip;
         let (mut positions, mut triangles, normals, uvs) = match s.kind.as_str() {
-            "obj" => {
-                let keys: ObjKeys = self.typed_keys(&field, &s.keys, unknown)?;
+            "obj" | "gltf" => {
                 let shape = Common {
                     field: &field,
                     matrix,
@@ -296,21 +248,13 @@ impl Builder<'_> {
                     object_id,
                     is_virtual,
                 };
-                return self.obj_meshes(&shape, &keys, materials, meshes);
-            }
-            "gltf" => {
-                let keys: GltfKeys = self.typed_keys(&field, &s.keys, unknown)?;
-                let shape = Common {
-                    field: &field,
-                    matrix,
-                    material,
-                    emission,
-                    two_sided: s.two_sided.unwrap_or(false),
-                    name: &shape_name,
-                    object_id,
-                    is_virtual,
+                return if s.kind == "obj" {
+                    let keys: ObjKeys = self.typed_keys(&field, &s.keys, unknown)?;
+                    self.obj_meshes(&shape, &keys, materials, meshes)
+                } else {
+                    let keys: GltfKeys = self.typed_keys(&field, &s.keys, unknown)?;
+                    self.gltf_meshes(&shape, &keys, materials, meshes)
                 };
-                return self.gltf_meshes(&shape, &keys, materials, meshes);
             }
             "rectangle" => {
                 let keys: RectangleKeys = self.typed_keys(&field, &s.keys, unknown)?;
@@ -331,29 +275,7 @@ impl Builder<'_> {
             "ply" => {
                 let keys: PlyKeys = self.typed_keys(&field, &s.keys, unknown)?;
                 flip = keys.flip_normals.unwrap_or(false);
-                let rel = keys
-                    .file
-                    .as_ref()
-                    .ok_or_else(|| self.err(format!("{field}.file"), "required for a PLY shape"))?;
-                let path = self.base.join(rel);
-                crate::input::check_input_file(&path)
-                    .map_err(|e| self.err(format!("{field}.file"), e.to_string()))?;
-                let ply = crate::scene::ply::read_ply(&path).map_err(|m| {
-                    self.err(format!("{field}.file"), format!("{}: {m}", path.display()))
-                })?;
-                self.read_input(&path);
-                if ply.triangles.is_empty() {
-                    return Err(self.err(
-                        format!("{field}.file"),
-                        format!("{} has no faces", path.display()),
-                    ));
-                }
-                let normals = if ply.normals.is_empty() && keys.smooth_normals.unwrap_or(false) {
-                    shapes::angle_weighted_normals(&ply.positions, &ply.triangles)
-                } else {
-                    ply.normals
-                };
-                (ply.positions, ply.triangles, normals, ply.uvs)
+                self.ply_mesh(&field, &keys)?
             }
             "disk" => {
                 let keys: DiskKeys = self.typed_keys(&field, &s.keys, unknown)?;
@@ -409,6 +331,55 @@ impl Builder<'_> {
             is_virtual,
         });
         Ok(())
+    }
+
+    /// A shape's `emission` (and `two_sided`, which needs it except on OBJ
+    /// and glTF shapes, whose files may emit).
+    fn shape_emission(&self, field: &str, s: &ShapeSection) -> Result<Option<Emission>> {
+        Ok(match s.emission {
+            Some(e) => Some(Emission {
+                radiance: self.colour(&format!("{field}.emission"), e, None)?,
+                two_sided: s.two_sided.unwrap_or(false),
+                cone: None,
+            }),
+            None => {
+                // On OBJ shapes, two_sided also applies to MTL `Ke` emission.
+                if s.two_sided.is_some() && s.kind != "obj" && s.kind != "gltf" {
+                    return Err(self.err(
+                        format!("{field}.two_sided"),
+                        "only used together with `emission`",
+                    ));
+                }
+                None
+            }
+        })
+    }
+
+    /// A `ply` shape's mesh in file coordinates: positions, triangles,
+    /// normals (computed if asked for and missing), texture coordinates.
+    fn ply_mesh(&self, field: &str, keys: &PlyKeys) -> Result<MeshData> {
+        let rel = keys
+            .file
+            .as_ref()
+            .ok_or_else(|| self.err(format!("{field}.file"), "required for a PLY shape"))?;
+        let path = self.base.join(rel);
+        crate::input::check_input_file(&path)
+            .map_err(|e| self.err(format!("{field}.file"), e.to_string()))?;
+        let ply = crate::scene::ply::read_ply(&path)
+            .map_err(|m| self.err(format!("{field}.file"), format!("{}: {m}", path.display())))?;
+        self.read_input(&path);
+        if ply.triangles.is_empty() {
+            return Err(self.err(
+                format!("{field}.file"),
+                format!("{} has no faces", path.display()),
+            ));
+        }
+        let normals = if ply.normals.is_empty() && keys.smooth_normals.unwrap_or(false) {
+            shapes::angle_weighted_normals(&ply.positions, &ply.triangles)
+        } else {
+            ply.normals
+        };
+        Ok((ply.positions, ply.triangles, normals, ply.uvs))
     }
 
     /// The meshes of an `obj` shape: one per object of the file, with the
@@ -675,3 +646,36 @@ pub(super) fn transform_normals(m: &Mat4, normals: Vec<Vec3>) -> Vec<Vec3> {
         .map(|v| (n * v).normalize_or_zero())
         .collect()
 }
+
+/// The message for `key`, not a key of shapes of type `kind`: "not used"
+/// if another shape type has it, else unknown, with the list of keys.
+fn unknown_shape_key(kind: &str, key: &str) -> String {
+    let mut all = SHAPE_KEYS.to_vec();
+    for k in [
+        key_names::<ObjKeys>(),
+        key_names::<RectangleKeys>(),
+        key_names::<SphereKeys>(),
+        key_names::<DiskKeys>(),
+        key_names::<PlyKeys>(),
+        key_names::<CubeKeys>(),
+        key_names::<GltfKeys>(),
+    ]
+    .concat()
+    {
+        if !all.contains(&k) {
+            all.push(k);
+        }
+    }
+    if all.contains(&key) {
+        format!("not used by shapes of type `{kind}`")
+    } else {
+        let list: Vec<String> = std::iter::once("type")
+            .chain(all)
+            .map(|k| format!("`{k}`"))
+            .collect();
+        format!("unknown field `{key}`, expected one of {}", list.join(", "))
+    }
+}
+
+/// A mesh's positions, triangles, normals and texture coordinates.
+type MeshData = (Vec<Vec3>, Vec<[u32; 3]>, Vec<Vec3>, Vec<Vec2>);
