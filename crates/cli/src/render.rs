@@ -130,8 +130,51 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         eprintln!("note: {n}");
     }
     let inputs = contents.inputs;
-    // The frames asked for, checked against the scene's camera path.
-    let frames: Vec<Option<u32>> = match (a.frame, &a.frames, &contents.camera_path) {
+    let frames = frames_asked(a, contents.camera_path.as_ref())?;
+    let outputs_of = outputs_of_frames(a, &frames, &inputs)?;
+    let mut scene = build_scene(a, contents.description)?;
+    let (job, window) = job_and_window(a, &scene)?;
+    let options = RenderOptions {
+        threads: a.threads,
+        tile_size: a.tile_size,
+        vectorised: !a.scalar,
+        ..Default::default()
+    };
+    // Named against the scene file, before anything is allocated.
+    plsr::render::check_memory(&scene, &options)
+        .map_err(|m| Error::input(&a.scene, "camera.resolution", m.to_string()))?;
+    let mut files = vec![a.scene.clone()];
+    files.extend(inputs.iter().cloned());
+    let parts = a.samples.is_some() || window.is_some() || a.resume;
+    let files_hasher = if parts {
+        scene_files_hasher(&files)?
+    } else {
+        StableHasher::default()
+    };
+    let frames_run = FramesRun {
+        a,
+        base_camera: scene.camera().clone(),
+        camera_path: contents.camera_path.as_ref(),
+        job,
+        size: (scene.camera().width(), scene.camera().height()),
+        window,
+        parts,
+        files_hasher,
+        options,
+    };
+    for (frame, (output, png)) in frames.iter().zip(&outputs_of) {
+        frames_run.render_frame(&mut scene, *frame, output, png.as_ref(), &mut exposure)?;
+    }
+    Ok(())
+}
+
+/// The frames asked for, checked against the scene's camera path (`None`:
+/// the scene's own camera).
+fn frames_asked(
+    a: &RenderArgs,
+    camera_path: Option<&plsr::camera_path::CameraPath>,
+) -> Result<Vec<Option<u32>>> {
+    Ok(match (a.frame, &a.frames, camera_path) {
         (None, None, _) => vec![None],
         (_, _, None) => {
             return Err(Error::invalid_argument(format!(
@@ -150,10 +193,18 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             }
             frames.map(Some).collect()
         }
-    };
-    // Every output of every frame is checked before the render, and none
-    // may replace an input (the scene file, its meshes, MTL libraries,
-    // textures, environment image or PLS files) or another output.
+    })
+}
+
+/// Every output of every frame (the OpenEXR file and the PNG), checked
+/// before the render: none may replace an input (the scene file, its
+/// meshes, MTL libraries, textures, environment image or PLS files) or
+/// another output.
+fn outputs_of_frames(
+    a: &RenderArgs,
+    frames: &[Option<u32>],
+    inputs: &[PathBuf],
+) -> Result<Vec<(PathBuf, Option<PathBuf>)>> {
     let many = frames.len() > 1;
     for (flag, path) in std::iter::once(("-o", &a.output)).chain(a.png.iter().map(|p| ("--png", p)))
     {
@@ -164,13 +215,17 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         }
     }
     let mut outputs_of = Vec::with_capacity(frames.len());
-    for frame in &frames {
+    for frame in frames {
         let output = frame_path(&a.output, *frame);
         let png = a.png.as_ref().map(|p| frame_path(p, *frame));
-        check_outputs(a, &output, png.as_ref(), &inputs)?;
+        check_outputs(a, &output, png.as_ref(), inputs)?;
         outputs_of.push((output, png));
     }
-    let mut description = contents.description;
+    Ok(outputs_of)
+}
+
+/// The scene at `--resolution`, with `--light-picking`.
+fn build_scene(a: &RenderArgs, mut description: plsr::scene::SceneDescription) -> Result<Scene> {
     if let Some(r) = &a.resolution {
         let (w, h) = parse_resolution(r)?;
         description.camera = description
@@ -189,6 +244,12 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         }
         scene.set_spatial_light_picking(false);
     }
+    Ok(scene)
+}
+
+/// The scene's job with the command line's overrides, checked, and the
+/// `--crop` window.
+fn job_and_window(a: &RenderArgs, scene: &Scene) -> Result<(RenderJob, Option<Tile>)> {
     let mut job = scene.default_job();
     if let Some(spp) = a.spp {
         if spp == 0 {
@@ -227,49 +288,53 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             other => other.to_string(),
         })
     })?;
-    let options = RenderOptions {
-        threads: a.threads,
-        tile_size: a.tile_size,
-        vectorised: !a.scalar,
-        ..Default::default()
-    };
-    // Named against the scene file, before anything is allocated.
-    plsr::render::check_memory(&scene, &options)
-        .map_err(|m| Error::input(&a.scene, "camera.resolution", m.to_string()))?;
-    let base_camera = scene.camera().clone();
-    let mut files = vec![a.scene.clone()];
-    files.extend(inputs.iter().cloned());
-    let parts = a.samples.is_some() || window.is_some() || a.resume;
-    let files_hasher = if parts {
-        scene_files_hasher(&files)?
-    } else {
-        StableHasher::default()
-    };
-    for (frame, (output, png)) in frames.iter().zip(&outputs_of) {
-        if let (Some(f), Some(path)) = (frame, &contents.camera_path) {
+    Ok((job, window))
+}
+
+/// What every frame of a render shares.
+struct FramesRun<'a> {
+    a: &'a RenderArgs,
+    /// The scene's camera, which each frame of the path moves.
+    base_camera: plsr::camera::Camera,
+    /// The scene's camera path, if it has one.
+    camera_path: Option<&'a plsr::camera_path::CameraPath>,
+    /// The job of every frame (before `--resume`).
+    job: RenderJob,
+    /// The image size (pixels).
+    size: (u32, u32),
+    /// The `--crop` window.
+    window: Option<Tile>,
+    /// Whether the outputs are parts (`--samples`, `--crop`, `--resume`).
+    parts: bool,
+    /// The scene files' hash, for the parts' identity.
+    files_hasher: StableHasher,
+    /// How to render.
+    options: RenderOptions,
+}
+
+impl FramesRun<'_> {
+    /// Renders one frame into its outputs (with `--resume`, only the
+    /// samples the output lacks, or nothing).
+    fn render_frame(
+        &self,
+        scene: &mut Scene,
+        frame: Option<u32>,
+        output: &Path,
+        png: Option<&PathBuf>,
+        exposure: &mut SequenceExposure,
+    ) -> Result<()> {
+        let a = self.a;
+        if let (Some(f), Some(path)) = (frame, self.camera_path) {
             let pose = path
-                .pose_at(*f)
+                .pose_at(f)
                 .map_err(|e| Error::input(&a.scene, "camera.path", e.to_string()))?;
-            scene.set_camera(base_camera.with_pose(pose));
+            scene.set_camera(self.base_camera.with_pose(pose));
         }
+        let (width, height) = self.size;
         // Resuming: the samples the output holds already, and the rest.
-        let mut job = job;
+        let mut job = self.job;
         let previous = if a.resume && output.exists() {
-            let old = Part::read_exr(output)?;
-            let full = old.info.window
-                == Tile {
-                    x0: 0,
-                    y0: 0,
-                    width,
-                    height,
-                };
-            if old.info.sample_start != 0 || !full || old.info.image != (width, height) {
-                return Err(Error::input(
-                    output,
-                    "",
-                    "--resume continues a part of the whole image holding samples 0..N",
-                ));
-            }
+            let old = resumed_part(output, (width, height))?;
             let have = old.info.sample_end;
             if have >= job.spp {
                 eprintln!(
@@ -277,7 +342,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
                     output.display(),
                     job.spp
                 );
-                continue;
+                return Ok(());
             }
             job.sample_start = have;
             job.spp -= have;
@@ -285,10 +350,10 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         } else {
             None
         };
-        let part = parts.then(|| PartInfo {
-            scene_hash: part_hash(files_hasher, &job, *frame),
+        let part = self.parts.then(|| PartInfo {
+            scene_hash: part_hash(self.files_hasher, &job, frame),
             image: (width, height),
-            window: window.unwrap_or(Tile {
+            window: self.window.unwrap_or(Tile {
                 x0: 0,
                 y0: 0,
                 width,
@@ -299,16 +364,36 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         });
         render_one(
             a,
-            &scene,
+            scene,
             &job,
-            &options,
-            (window, part, previous),
-            (output, png.as_ref()),
-            *frame,
-            &mut exposure,
-        )?;
+            &self.options,
+            (self.window, part, previous),
+            (output, png),
+            frame,
+            exposure,
+        )
     }
-    Ok(())
+}
+
+/// The part `--resume` continues: the output, which must hold samples
+/// 0..N of the whole image.
+fn resumed_part(output: &Path, (width, height): (u32, u32)) -> Result<Part> {
+    let old = Part::read_exr(output)?;
+    let full = old.info.window
+        == Tile {
+            x0: 0,
+            y0: 0,
+            width,
+            height,
+        };
+    if old.info.sample_start != 0 || !full || old.info.image != (width, height) {
+        return Err(Error::input(
+            output,
+            "",
+            "--resume continues a part of the whole image holding samples 0..N",
+        ));
+    }
+    Ok(old)
 }
 
 /// What `--frame`/`--frames` replace in output names.

@@ -303,73 +303,190 @@ fn run_in(
     log: &(dyn Fn(&str) + Sync),
 ) -> Result<PaperResults> {
     let start = Instant::now();
-    let settings = options.settings;
-    let room = PaperRoom::new();
-    let render_options = RenderOptions {
-        threads: options.threads,
-        ..Default::default()
-    };
-    let no_progress = |_: usize, _: usize| true;
-    let scenes = dir.join("scenes");
-    let photos = dir.join("photos");
-    let panorama_dir = dir.join("panorama");
-    let composites = dir.join("composites");
-    for d in [&scenes, &photos, &panorama_dir, &composites] {
-        mkdir(d)?;
-    }
-    mkdir(&scenes.join("meshes"))?;
-    for (name, text) in room.meshes() {
-        write_text(&scenes.join("meshes").join(name), &text)?;
-    }
-    let pls = room.pls();
-    let pls_file = scenes.join("lights.pls.toml");
-    write_text(
-        &pls_file,
-        &plsr::light::pls::file::to_string(&pls, &pls_file)?,
-    )?;
-    let windows: Vec<(String, f32, f32)> = pls
-        .lights
-        .iter()
-        .map(|l| (l.name.clone().unwrap_or_default(), l.a_deg, l.penumbra_deg))
-        .collect();
-    for (n, a, w) in &windows {
-        log(&format!(
-            "derived the {n}'s PLS light from its geometry: a = {a:.2}°, soft edge w = {w:.2}°"
-        ));
-    }
-
-    let spec = |title: String, camera: usize, spp: u32, seed: u64| SceneSpec {
-        title,
-        meshes: PathBuf::from("meshes"),
-        bunny: bunny.to_path_buf(),
-        camera,
-        resolution: settings.resolution,
-        spp,
-        seed,
-        surroundings: Surroundings::Room,
-        lighting: Lighting::Fixtures,
-        objects: Vec::new(),
-        photo: None,
-    };
-    let write_scene = |name: &str, spec: &SceneSpec| -> Result<PathBuf> {
-        let path = scenes.join(name);
-        write_text(&path, &room.scene_text(spec))?;
-        Ok(path)
-    };
-    let render_file = |path: &Path| -> Result<Film> {
-        let scene = Scene::build(file::load(path)?)?;
-        let (film, _) = render(&scene, &scene.default_job(), &render_options, &no_progress)?;
-        Ok(film)
-    };
+    let mut run = Run::new(dir, bunny, options, log);
+    let windows = run.prepare()?;
 
     // 1. The ground-truth photos.
-    let mut camera_seed = 100;
-    let mut photograph = |film: &Film, t: f64, path: &Path| -> Result<()> {
-        camera_seed += 1;
-        let tmp = photos.join(".bracket");
+    for position in 0..2 {
+        run.photograph_position(position)?;
+    }
+
+    // 2. The panorama, captured where the flashlight's beam does not reach.
+    let panorama = run.capture_panorama()?;
+
+    // 3 and 4. Composites and scores.
+    let compare_options = CompareOptions {
+        metrics: vec![Metric::CwSsim, Metric::Lpips, Metric::Flip],
+        cwssim: Default::default(),
+        flip: Default::default(),
+    };
+    let mut rows = Vec::new();
+    for position in 0..2 {
+        for object in Object::ALL {
+            run.composite_and_score(object, position, &panorama, &compare_options, &mut rows)?;
+        }
+    }
+
+    let results = PaperResults {
+        rows,
+        windows,
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    run.write_results(&results)?;
+    Ok(results)
+}
+
+/// Progress callback of the experiment's renders: never cancels.
+fn no_progress(_: usize, _: usize) -> bool {
+    true
+}
+
+/// What every step of a run shares: where it writes, what it renders,
+/// how, and where it logs.
+struct Run<'a> {
+    /// The staging folder.
+    dir: &'a Path,
+    /// The Stanford bunny's OBJ (absolute).
+    bunny: &'a Path,
+    /// Sizes and samples.
+    settings: Settings,
+    /// Worker threads (`None`: all cores).
+    threads: Option<usize>,
+    /// The room.
+    room: PaperRoom,
+    /// Options of every render.
+    render_options: RenderOptions,
+    /// The scene files (and their meshes and PLS file).
+    scenes: PathBuf,
+    /// The ground-truth photos.
+    photos: PathBuf,
+    /// The panorama's brackets, merge and response curve.
+    panorama_dir: PathBuf,
+    /// The composites and their masks.
+    composites: PathBuf,
+    /// One line per step.
+    log: &'a (dyn Fn(&str) + Sync),
+    /// Noise seed of the last photo taken (each photo takes the next).
+    camera_seed: u64,
+}
+
+/// The merged panorama and how the 360° camera was oriented.
+struct Panorama {
+    /// The panorama (OpenEXR).
+    file: PathBuf,
+    /// The response curve recovered by the merge (CSV).
+    curve: PathBuf,
+    /// The camera's zenith.
+    up: Vec3,
+    /// Its centre column's direction.
+    forward: Vec3,
+}
+
+impl<'a> Run<'a> {
+    /// The context of a run into `dir`.
+    fn new(
+        dir: &'a Path,
+        bunny: &'a Path,
+        options: &PaperOptions,
+        log: &'a (dyn Fn(&str) + Sync),
+    ) -> Run<'a> {
+        Run {
+            dir,
+            bunny,
+            settings: options.settings,
+            threads: options.threads,
+            room: PaperRoom::new(),
+            render_options: RenderOptions {
+                threads: options.threads,
+                ..Default::default()
+            },
+            scenes: dir.join("scenes"),
+            photos: dir.join("photos"),
+            panorama_dir: dir.join("panorama"),
+            composites: dir.join("composites"),
+            log,
+            camera_seed: 100,
+        }
+    }
+
+    /// Makes the folders, writes the room's meshes and the PLS file
+    /// derived from its fixtures; returns the PLS lights' windows.
+    fn prepare(&self) -> Result<Vec<(String, f32, f32)>> {
+        for d in [
+            &self.scenes,
+            &self.photos,
+            &self.panorama_dir,
+            &self.composites,
+        ] {
+            mkdir(d)?;
+        }
+        mkdir(&self.scenes.join("meshes"))?;
+        for (name, text) in self.room.meshes() {
+            write_text(&self.scenes.join("meshes").join(name), &text)?;
+        }
+        let pls = self.room.pls();
+        let pls_file = self.scenes.join("lights.pls.toml");
+        write_text(
+            &pls_file,
+            &plsr::light::pls::file::to_string(&pls, &pls_file)?,
+        )?;
+        let windows: Vec<(String, f32, f32)> = pls
+            .lights
+            .iter()
+            .map(|l| (l.name.clone().unwrap_or_default(), l.a_deg, l.penumbra_deg))
+            .collect();
+        for (n, a, w) in &windows {
+            (self.log)(&format!(
+                "derived the {n}'s PLS light from its geometry: a = {a:.2}°, soft edge w = {w:.2}°"
+            ));
+        }
+        Ok(windows)
+    }
+
+    /// The room seen by a camera, lit by its fixtures, without objects.
+    fn spec(&self, title: String, camera: usize, spp: u32, seed: u64) -> SceneSpec {
+        SceneSpec {
+            title,
+            meshes: PathBuf::from("meshes"),
+            bunny: self.bunny.to_path_buf(),
+            camera,
+            resolution: self.settings.resolution,
+            spp,
+            seed,
+            surroundings: Surroundings::Room,
+            lighting: Lighting::Fixtures,
+            objects: Vec::new(),
+            photo: None,
+        }
+    }
+
+    /// Writes a scene file into the scenes' folder; returns its path.
+    fn write_scene(&self, name: &str, spec: &SceneSpec) -> Result<PathBuf> {
+        let path = self.scenes.join(name);
+        write_text(&path, &self.room.scene_text(spec))?;
+        Ok(path)
+    }
+
+    /// Renders a scene file.
+    fn render_file(&self, path: &Path) -> Result<Film> {
+        let scene = Scene::build(file::load(path)?)?;
+        let (film, _) = render(
+            &scene,
+            &scene.default_job(),
+            &self.render_options,
+            &no_progress,
+        )?;
+        Ok(film)
+    }
+
+    /// Photographs a film with the simulated camera (the next noise seed)
+    /// at exposure time `t` into the PNG `path`.
+    fn photograph(&mut self, film: &Film, t: f64, path: &Path) -> Result<()> {
+        self.camera_seed += 1;
+        let tmp = self.photos.join(".bracket");
         mkdir(&tmp)?;
         let camera = CameraModel {
-            seed: camera_seed,
+            seed: self.camera_seed,
             ..CameraModel::default()
         };
         let written = write_brackets(
@@ -384,24 +501,27 @@ fn run_in(
         )?;
         std::fs::rename(&written[0], path).map_err(io(path))?;
         std::fs::remove_dir(&tmp).map_err(io(&tmp))
-    };
-    let mut exposure_times = [0.0; 2];
-    for position in 0..2 {
+    }
+
+    /// Step 1 at one position: the photo without objects, then each
+    /// object's photo and second photo, all at the empty room's exposure.
+    fn photograph_position(&mut self, position: usize) -> Result<()> {
         let step = Instant::now();
         let p = position + 1;
-        let path = write_scene(
+        let truth_spp = self.settings.truth_spp;
+        let path = self.write_scene(
             &format!("truth-empty-{p}.toml"),
-            &spec(
+            &self.spec(
                 format!("Ground truth: the room seen by camera {p}, no objects."),
                 position,
-                settings.truth_spp,
+                truth_spp,
                 SEED_EMPTY,
             ),
         )?;
-        let film = render_file(&path)?;
+        let film = self.render_file(&path)?;
         let t = exposure_time(&film);
-        exposure_times[position] = t;
-        photograph(&film, t, &photos.join(format!("empty-{p}.png")))?;
+        let empty = self.photos.join(format!("empty-{p}.png"));
+        self.photograph(&film, t, &empty)?;
         for object in Object::ALL {
             let o = object.name();
             for (seed, suffix, what) in [
@@ -412,215 +532,256 @@ fn run_in(
                     "a second photo (other samples and noise)",
                 ),
             ] {
-                let path = write_scene(
+                let path = self.write_scene(
                     &format!("truth-{o}-{p}{suffix}.toml"),
                     &SceneSpec {
                         objects: vec![(object, position, false)],
-                        ..spec(
+                        ..self.spec(
                             format!("Ground truth: {what} of the real {o} at position {p}."),
                             position,
-                            settings.truth_spp,
+                            truth_spp,
                             seed,
                         )
                     },
                 )?;
-                let film = render_file(&path)?;
-                photograph(&film, t, &photos.join(format!("{o}-{p}{suffix}.png")))?;
+                let film = self.render_file(&path)?;
+                let photo = self.photos.join(format!("{o}-{p}{suffix}.png"));
+                self.photograph(&film, t, &photo)?;
             }
         }
-        log(&format!(
+        (self.log)(&format!(
             "photographed position {}: 5 photos at {} spp, exposure {t:.3} s, {:.1} s",
             POSITION_NAMES[position],
-            settings.truth_spp,
+            truth_spp,
             step.elapsed().as_secs_f64()
         ));
+        Ok(())
     }
 
-    // 2. The panorama, captured where the flashlight's beam does not reach.
-    let step = Instant::now();
-    let capture_scene = write_scene(
-        "capture.toml",
-        &spec(
-            "The room for the 360° capture (the camera is replaced by the panorama's).".into(),
-            0,
-            settings.panorama_spp,
-            SEED_EMPTY,
-        ),
-    )?;
-    let (up, forward) = (Vec3::Z, Vec3::Y);
-    let brackets = capture(
-        &capture_scene,
-        &panorama_dir.join("brackets"),
-        &CaptureOptions {
-            at: room.sensor,
-            up: Some(up),
-            forward: Some(forward),
-            size: settings.panorama_size,
-            spp: Some(settings.panorama_spp),
-            // The paper's ten, as its capture used.
-            exposures: Some(PAPER_EXPOSURES.to_vec()),
-            camera: CameraModel {
-                seed: 7,
-                ..CameraModel::default()
+    /// Step 2: captures the brackets at the sensor and merges them into
+    /// the panorama and the camera's response curve.
+    fn capture_panorama(&self) -> Result<Panorama> {
+        let step = Instant::now();
+        let settings = self.settings;
+        let capture_scene = self.write_scene(
+            "capture.toml",
+            &self.spec(
+                "The room for the 360° capture (the camera is replaced by the panorama's).".into(),
+                0,
+                settings.panorama_spp,
+                SEED_EMPTY,
+            ),
+        )?;
+        let (up, forward) = (Vec3::Z, Vec3::Y);
+        let brackets = capture(
+            &capture_scene,
+            &self.panorama_dir.join("brackets"),
+            &CaptureOptions {
+                at: self.room.sensor,
+                up: Some(up),
+                forward: Some(forward),
+                size: settings.panorama_size,
+                spp: Some(settings.panorama_spp),
+                // The paper's ten, as its capture used.
+                exposures: Some(PAPER_EXPOSURES.to_vec()),
+                camera: CameraModel {
+                    seed: 7,
+                    ..CameraModel::default()
+                },
+                format: "tif".into(),
+                threads: self.threads,
             },
-            format: "tif".into(),
-            threads: options.threads,
-        },
-        &no_progress,
-    )?
-    .paths;
-    let panorama = panorama_dir.join("panorama.exr");
-    let curve = panorama_dir.join("curve.csv");
-    merge(
-        &brackets,
-        &panorama,
-        &MergeOptions {
-            curve_csv: Some(curve.clone()),
-            threads: options.threads,
-            ..Default::default()
-        },
-        &|_, _, _| {},
-    )?;
-    log(&format!(
-        "captured and merged the {}×{} panorama at ({:.2}, {:.2}, {:.2}) from {} brackets, {:.1} s",
-        settings.panorama_size.0,
-        settings.panorama_size.1,
-        room.sensor.x,
-        room.sensor.y,
-        room.sensor.z,
-        brackets.len(),
-        step.elapsed().as_secs_f64()
-    ));
-
-    // 3 and 4. Composites and scores.
-    let compare_options = CompareOptions {
-        metrics: vec![Metric::CwSsim, Metric::Lpips, Metric::Flip],
-        cwssim: Default::default(),
-        flip: Default::default(),
-    };
-    let mut rows = Vec::new();
-    let rel = |p: &Path| Path::new("..").join(p.strip_prefix(dir).expect("inside the run"));
-    for position in 0..2 {
-        let p = position + 1;
-        for object in Object::ALL {
-            let step = Instant::now();
-            let o = object.name();
-            let truth = photos.join(format!("{o}-{p}.png"));
-            let mask = composites.join(format!("mask-{o}-{p}.png"));
-            let mut scored = Vec::new();
-            for method in [Method::Pls, Method::Panorama] {
-                let (surroundings, lighting) = match method {
-                    Method::Pls => (Surroundings::Room, Lighting::Pls("lights.pls.toml".into())),
-                    _ => (
-                        Surroundings::Local,
-                        Lighting::Panorama {
-                            file: rel(&panorama),
-                            up,
-                            forward,
-                        },
-                    ),
-                };
-                let m = method.name();
-                let path = write_scene(
-                    &format!("{m}-{o}-{p}.toml"),
-                    &SceneSpec {
-                        surroundings,
-                        lighting,
-                        objects: vec![(object, position, true)],
-                        photo: Some((rel(&photos.join(format!("empty-{p}.png"))), rel(&curve))),
-                        ..spec(
-                            format!("The virtual {o} composited at position {p}, lit by {m}."),
-                            position,
-                            settings.composite_spp,
-                            SEED_COMPOSITE,
-                        )
-                    },
-                )?;
-                let contents = file::load_contents(&path)?;
-                let (c, transfer, _) = composite_scene(
-                    &path,
-                    contents,
-                    &CompositeOptions {
-                        render: render_options,
-                        ..Default::default()
-                    },
-                    &no_progress,
-                )?;
-                let mut outputs = plsr_base::atomic_write::OutputSet::new();
-                let png = composites.join(format!("{m}-{o}-{p}.png"));
-                c.stage_exr(&mut outputs, &composites.join(format!("{m}-{o}-{p}.exr")))?;
-                c.stage_png(&mut outputs, &png, &transfer)?;
-                outputs.commit()?;
-                if method == Method::Pls {
-                    write_mask(&c.matte, c.width, c.height, &mask)?;
-                }
-                scored.push((method, png));
-            }
-            scored.push((
-                Method::NoiseFloor,
-                photos.join(format!("{o}-{p}-second.png")),
-            ));
-            for (method, test) in scored {
-                let report =
-                    compare_files(&truth, &test, Some(&mask), CropSpec::Auto, &compare_options)?;
-                let score = |metric: Metric| {
-                    report
-                        .scores
-                        .iter()
-                        .find(|s| s.metric == metric)
-                        .map_or(f64::NAN, |s| s.value)
-                };
-                rows.push(Row {
-                    object,
-                    position,
-                    method,
-                    crop: report.crop,
-                    cwssim: score(Metric::CwSsim),
-                    lpips: score(Metric::Lpips),
-                    flip: score(Metric::Flip),
-                });
-            }
-            let line = |m: Method| {
-                let r = rows
-                    .iter()
-                    .rev()
-                    .find(|r| r.method == m)
-                    .expect("just scored");
-                format!("{} CW-SSIM {:.4} LPIPS {:.4}", m.label(), r.cwssim, r.lpips)
-            };
-            log(&format!(
-                "{o} at position {p}: {}; {}; {}; {:.1} s",
-                line(Method::Pls),
-                line(Method::Panorama),
-                line(Method::NoiseFloor),
-                step.elapsed().as_secs_f64()
-            ));
-        }
-    }
-
-    let results = PaperResults {
-        rows,
-        windows,
-        seconds: start.elapsed().as_secs_f64(),
-    };
-    figure(dir, &results)?;
-    write_text(&dir.join("results.json"), &results.json())?;
-    write_text(
-        &dir.join("results.md"),
-        &format!(
-            "# plsr experiment paper\n\n{}\nPhotos {}×{} at {} spp; composites at {} spp; panorama {}×{} at {} spp. {:.0} s.\n",
-            results.table(),
-            settings.resolution.0,
-            settings.resolution.1,
-            settings.truth_spp,
-            settings.composite_spp,
+            &no_progress,
+        )?
+        .paths;
+        let panorama = self.panorama_dir.join("panorama.exr");
+        let curve = self.panorama_dir.join("curve.csv");
+        merge(
+            &brackets,
+            &panorama,
+            &MergeOptions {
+                curve_csv: Some(curve.clone()),
+                threads: self.threads,
+                ..Default::default()
+            },
+            &|_, _, _| {},
+        )?;
+        (self.log)(&format!(
+            "captured and merged the {}×{} panorama at ({:.2}, {:.2}, {:.2}) from {} brackets, {:.1} s",
             settings.panorama_size.0,
             settings.panorama_size.1,
-            settings.panorama_spp,
-            results.seconds
-        ),
-    )?;
-    Ok(results)
+            self.room.sensor.x,
+            self.room.sensor.y,
+            self.room.sensor.z,
+            brackets.len(),
+            step.elapsed().as_secs_f64()
+        ));
+        Ok(Panorama {
+            file: panorama,
+            curve,
+            up,
+            forward,
+        })
+    }
+
+    /// A path inside the run as written into a scene file (relative to
+    /// the scenes' folder).
+    fn rel(&self, p: &Path) -> PathBuf {
+        Path::new("..").join(p.strip_prefix(self.dir).expect("inside the run"))
+    }
+
+    /// Steps 3 and 4 for one object at one position: its two composites,
+    /// then the scores of those and of its second photo, appended to
+    /// `rows`.
+    fn composite_and_score(
+        &self,
+        object: Object,
+        position: usize,
+        panorama: &Panorama,
+        compare_options: &CompareOptions,
+        rows: &mut Vec<Row>,
+    ) -> Result<()> {
+        let step = Instant::now();
+        let p = position + 1;
+        let o = object.name();
+        let truth = self.photos.join(format!("{o}-{p}.png"));
+        let mask = self.composites.join(format!("mask-{o}-{p}.png"));
+        let mut scored = Vec::new();
+        for method in [Method::Pls, Method::Panorama] {
+            let png = self.composite(object, position, method, panorama, &mask)?;
+            scored.push((method, png));
+        }
+        scored.push((
+            Method::NoiseFloor,
+            self.photos.join(format!("{o}-{p}-second.png")),
+        ));
+        for (method, test) in scored {
+            let report =
+                compare_files(&truth, &test, Some(&mask), CropSpec::Auto, compare_options)?;
+            let score = |metric: Metric| {
+                report
+                    .scores
+                    .iter()
+                    .find(|s| s.metric == metric)
+                    .map_or(f64::NAN, |s| s.value)
+            };
+            rows.push(Row {
+                object,
+                position,
+                method,
+                crop: report.crop,
+                cwssim: score(Metric::CwSsim),
+                lpips: score(Metric::Lpips),
+                flip: score(Metric::Flip),
+            });
+        }
+        let line = |m: Method| {
+            let r = rows
+                .iter()
+                .rev()
+                .find(|r| r.method == m)
+                .expect("just scored");
+            format!("{} CW-SSIM {:.4} LPIPS {:.4}", m.label(), r.cwssim, r.lpips)
+        };
+        (self.log)(&format!(
+            "{o} at position {p}: {}; {}; {}; {:.1} s",
+            line(Method::Pls),
+            line(Method::Panorama),
+            line(Method::NoiseFloor),
+            step.elapsed().as_secs_f64()
+        ));
+        Ok(())
+    }
+
+    /// Step 3 for one object, position and method: writes the composite's
+    /// scene file, composites it into the photo without objects, writes
+    /// the composite (and, for PLS, the object's mask); returns its PNG.
+    fn composite(
+        &self,
+        object: Object,
+        position: usize,
+        method: Method,
+        panorama: &Panorama,
+        mask: &Path,
+    ) -> Result<PathBuf> {
+        let p = position + 1;
+        let o = object.name();
+        let (surroundings, lighting) = match method {
+            Method::Pls => (Surroundings::Room, Lighting::Pls("lights.pls.toml".into())),
+            _ => (
+                Surroundings::Local,
+                Lighting::Panorama {
+                    file: self.rel(&panorama.file),
+                    up: panorama.up,
+                    forward: panorama.forward,
+                },
+            ),
+        };
+        let m = method.name();
+        let path = self.write_scene(
+            &format!("{m}-{o}-{p}.toml"),
+            &SceneSpec {
+                surroundings,
+                lighting,
+                objects: vec![(object, position, true)],
+                photo: Some((
+                    self.rel(&self.photos.join(format!("empty-{p}.png"))),
+                    self.rel(&panorama.curve),
+                )),
+                ..self.spec(
+                    format!("The virtual {o} composited at position {p}, lit by {m}."),
+                    position,
+                    self.settings.composite_spp,
+                    SEED_COMPOSITE,
+                )
+            },
+        )?;
+        let contents = file::load_contents(&path)?;
+        let (c, transfer, _) = composite_scene(
+            &path,
+            contents,
+            &CompositeOptions {
+                render: self.render_options,
+                ..Default::default()
+            },
+            &no_progress,
+        )?;
+        let mut outputs = plsr_base::atomic_write::OutputSet::new();
+        let png = self.composites.join(format!("{m}-{o}-{p}.png"));
+        c.stage_exr(
+            &mut outputs,
+            &self.composites.join(format!("{m}-{o}-{p}.exr")),
+        )?;
+        c.stage_png(&mut outputs, &png, &transfer)?;
+        outputs.commit()?;
+        if method == Method::Pls {
+            write_mask(&c.matte, c.width, c.height, mask)?;
+        }
+        Ok(png)
+    }
+
+    /// Writes the figure, `results.json` and `results.md`.
+    fn write_results(&self, results: &PaperResults) -> Result<()> {
+        let settings = self.settings;
+        let dir = self.dir;
+        figure(dir, results)?;
+        write_text(&dir.join("results.json"), &results.json())?;
+        write_text(
+            &dir.join("results.md"),
+            &format!(
+                "# plsr experiment paper\n\n{}\nPhotos {}×{} at {} spp; composites at {} spp; panorama {}×{} at {} spp. {:.0} s.\n",
+                results.table(),
+                settings.resolution.0,
+                settings.resolution.1,
+                settings.truth_spp,
+                settings.composite_spp,
+                settings.panorama_size.0,
+                settings.panorama_size.1,
+                settings.panorama_spp,
+                results.seconds
+            ),
+        )
+    }
 }
 
 /// The exposure time (seconds) that puts the 99.5th percentile of the

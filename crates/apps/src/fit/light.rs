@@ -21,6 +21,7 @@ use super::View;
 use crate::error::{Error, Result};
 use glam::Vec3;
 use plsr::job::RenderJob;
+use plsr::light::pls::{Pls, PlsEmitter};
 use plsr::light::Light;
 use plsr::render::{render_sums, RenderOptions};
 use plsr::scene::Scene;
@@ -142,6 +143,70 @@ pub fn fit_window(
     mesh: usize,
     options: &WindowFitOptions,
 ) -> Result<WindowFit> {
+    let (emitter, range, desc) = checked(scene, desc, mesh, options)?;
+    let start = emitter.light.clone();
+    let all = scene.lights().lights.clone();
+    let (job, half) = jobs(scene, options);
+    let render_options = RenderOptions {
+        threads: options.threads,
+        ..RenderOptions::default()
+    };
+    let rest = render_rest(scene, views, &range, &job, &render_options)?;
+    // U(a, w[, tilt]): the light alone at b = 1.
+    let mut unit = start.clone();
+    unit.b = 1.0;
+    isolate(scene, &range);
+    let frame = plsr::warp::Frame::from_normal(start.normal());
+    let search = Search {
+        mesh,
+        views,
+        options,
+        render_options,
+        half,
+        rest,
+        alone: desc.map(|d| alone(d, mesh)),
+        axes: (frame.s, frame.t),
+        evaluations: std::cell::Cell::new(0u32),
+        terms: 3.0 * views.iter().map(View::pixels).sum::<usize>() as f64,
+        axis_length: (start.g.e2 - start.g.e1).length() as f64,
+        unit,
+        emitter: &emitter,
+        start: &start,
+    };
+    let best = search.search(scene)?;
+    let (loss, b_unit) = search.objective(&best, scene)?;
+    // Back to every light, with the fitted window and brightness (b* was
+    // found for the light's own colour at b = 1).
+    scene.edit_lights(|lights| lights.clone_from_slice(&all));
+    let mut fitted = search.light_at(&best);
+    fitted.b = b_unit as f32;
+    place_fitted(scene, desc, mesh, &emitter, &fitted)?;
+    Ok(WindowFit {
+        a_deg: fitted.a_deg,
+        penumbra_deg: fitted.penumbra_deg,
+        b: fitted.b,
+        n: fitted.n,
+        e: [fitted.g.e1, fitted.g.e2],
+        d: fitted.g.d,
+        size: 2f32.powf(if options.fit_shape { best[5] } else { best[4] } as f32),
+        loss,
+        evaluations: search.evaluations.get(),
+    })
+}
+
+/// The PLS emitter of mesh `mesh`, its range of lights, and the scene's
+/// description when the fit rebuilds the scene (an error if it must and
+/// has none).
+fn checked<'d>(
+    scene: &Scene,
+    desc: Option<&'d plsr::scene::SceneDescription>,
+    mesh: usize,
+    options: &WindowFitOptions,
+) -> Result<(
+    PlsEmitter,
+    std::ops::Range<usize>,
+    Option<&'d plsr::scene::SceneDescription>,
+)> {
     let Some(emitter) = scene.meshes().get(mesh).and_then(|m| m.pls.clone()) else {
         return Err(Error::invalid_argument(format!(
             "mesh {mesh} is not a PLS light"
@@ -163,8 +228,12 @@ pub fn fit_window(
         (true, Some(d)) => Some(d),
         (false, _) => None,
     };
-    let start = emitter.light.clone();
-    let all = scene.lights().lights.clone();
+    Ok((emitter, range, desc))
+}
+
+/// The job of the render of every other light, and the two half jobs of
+/// the light alone.
+fn jobs(scene: &Scene, options: &WindowFitOptions) -> (RenderJob, [RenderJob; 2]) {
     let job = RenderJob {
         spp: options.spp,
         seed: options.seed,
@@ -188,10 +257,18 @@ pub fn fit_window(
             ..job
         },
     ];
-    let render_options = RenderOptions {
-        threads: options.threads,
-        ..RenderOptions::default()
-    };
+    (job, half)
+}
+
+/// R: darkens the light's triangles (`range`) and renders every view by
+/// every other light.
+fn render_rest(
+    scene: &mut Scene,
+    views: &[View],
+    range: &std::ops::Range<usize>,
+    job: &RenderJob,
+    render_options: &RenderOptions,
+) -> Result<Renders> {
     // R: every other light.
     scene.edit_lights(|lights| {
         for l in &mut lights[range.clone()] {
@@ -200,10 +277,11 @@ pub fn fit_window(
             }
         }
     });
-    let rest = render_views(scene, views, &job, &render_options)?;
-    // U(a, w[, tilt]): the light alone at b = 1.
-    let mut unit = start.clone();
-    unit.b = 1.0;
+    render_views(scene, views, job, render_options)
+}
+
+/// Darkens every light outside `range` (the light's triangles).
+fn isolate(scene: &mut Scene, range: &std::ops::Range<usize>) {
     scene.edit_lights(|lights| {
         for (i, l) in lights.iter_mut().enumerate() {
             if range.contains(&i) {
@@ -216,31 +294,97 @@ pub fn fit_window(
             }
         }
     });
-    // The description with only this light, for tilts.
-    let alone = desc.map(|d| {
-        let mut d = d.clone();
-        for p in &mut d.point_lights {
-            p.intensity = Vec3::ZERO;
+}
+
+/// The description with only this light, for tilts.
+fn alone(d: &plsr::scene::SceneDescription, mesh: usize) -> plsr::scene::SceneDescription {
+    let mut d = d.clone();
+    for p in &mut d.point_lights {
+        p.intensity = Vec3::ZERO;
+    }
+    for (i, m) in d.meshes.iter_mut().enumerate() {
+        if i != mesh {
+            m.emission = None;
         }
-        for (i, m) in d.meshes.iter_mut().enumerate() {
-            if i != mesh {
-                m.emission = None;
-            }
+    }
+    d.environment = None;
+    d
+}
+
+/// Puts the fitted light into the scene: rebuilt from the description
+/// (keeping the camera) when there is one, else in place.
+fn place_fitted(
+    scene: &mut Scene,
+    desc: Option<&plsr::scene::SceneDescription>,
+    mesh: usize,
+    emitter: &PlsEmitter,
+    fitted: &Pls,
+) -> Result<()> {
+    match desc {
+        Some(d) => {
+            let mut d = d.clone();
+            let old = &d.meshes[mesh];
+            let (material, name) = (old.material, old.name.clone());
+            d.meshes[mesh] =
+                plsr::scene::pls_mesh(fitted, emitter.mode, emitter.nf, material, name);
+            let camera = scene.camera().clone();
+            *scene = Scene::build(d)?;
+            scene.set_camera(camera);
         }
-        d.environment = None;
-        d
-    });
-    let frame = plsr::warp::Frame::from_normal(start.normal());
-    let axes = (frame.s, frame.t);
-    let evaluations = std::cell::Cell::new(0u32);
-    let terms: f64 = 3.0 * views.iter().map(View::pixels).sum::<usize>() as f64;
-    // Coordinates: a, w (degrees), tilts u, v (degrees), size s (log₂ of
-    // the outline's scale about its centre), and for the shape: the axis
-    // length's scale L (log₂, about the centre), and the half-widths as
-    // their means and half-differences (metres): the middle m = (d2 + d3)/2,
-    // the ends e = (d1 + d4)/2, then δm = (d3 − d2)/2, δe = (d4 − d1)/2.
-    let light_at = |x: &[f64]| {
-        let mut l = tilted(&unit, axes, x[2], x[3]);
+        None => scene.set_pls_window_and_brightness(mesh, fitted)?,
+    }
+    Ok(())
+}
+
+/// Every view's pixel means, one list per view.
+type Renders = Vec<Vec<Vec3>>;
+
+/// Coordinates of the search (see [`Search::light_at`]).
+const DIMS: usize = 10;
+
+/// What every evaluation of a window fit shares: the light, the views,
+/// the render of every other light, and the count of evaluations.
+struct Search<'a> {
+    /// The light's mesh.
+    mesh: usize,
+    /// The photos.
+    views: &'a [View],
+    /// How to search.
+    options: &'a WindowFitOptions,
+    /// Options of every render.
+    render_options: RenderOptions,
+    /// The two half jobs of the light alone.
+    half: [RenderJob; 2],
+    /// R: every view rendered by every other light.
+    rest: Renders,
+    /// The description with only this light, when the scene is rebuilt.
+    alone: Option<plsr::scene::SceneDescription>,
+    /// The directions of the tilts `u` and `v`.
+    axes: (Vec3, Vec3),
+    /// Evaluations so far.
+    evaluations: std::cell::Cell<u32>,
+    /// Terms of the mean squared error (three per pixel).
+    terms: f64,
+    /// Length of the start's outline axis.
+    axis_length: f64,
+    /// The light alone at b = 1.
+    unit: Pls,
+    /// The light's emitter.
+    emitter: &'a PlsEmitter,
+    /// The light as it was.
+    start: &'a Pls,
+}
+
+impl Search<'_> {
+    /// The light at a point of the search.
+    ///
+    /// Coordinates: a, w (degrees), tilts u, v (degrees), size s (log₂ of
+    /// the outline's scale about its centre), and for the shape: the axis
+    /// length's scale L (log₂, about the centre), and the half-widths as
+    /// their means and half-differences (metres): the middle m = (d2 + d3)/2,
+    /// the ends e = (d1 + d4)/2, then δm = (d3 − d2)/2, δe = (d4 − d1)/2.
+    fn light_at(&self, x: &[f64]) -> Pls {
+        let mut l = tilted(&self.unit, self.axes, x[2], x[3]);
         if x[4] != 0.0 {
             let c = l.centre();
             let m = glam::Mat4::from_translation(c)
@@ -250,7 +394,7 @@ pub fn fit_window(
             l = l.transform(&m);
             l.n = n;
         }
-        if options.fit_shape {
+        if self.options.fit_shape {
             let (c, k) = (l.centre(), 2f32.powf(x[5] as f32));
             l.g.e1 = c + k * (l.g.e1 - c);
             l.g.e2 = c + k * (l.g.e2 - c);
@@ -259,40 +403,22 @@ pub fn fit_window(
         l.a_deg = x[0] as f32;
         l.penumbra_deg = x[1] as f32;
         l
-    };
-    let objective = |x: &[f64], scene: &mut Scene| -> Result<(f64, f64)> {
-        evaluations.set(evaluations.get() + 1);
-        let l = light_at(x);
-        let (u1, u2) = match &alone {
-            Some(d) => {
-                let mut d = d.clone();
-                let old = &d.meshes[mesh];
-                let (nf, mode, material, name) =
-                    (emitter.nf, emitter.mode, old.material, old.name.clone());
-                d.meshes[mesh] = plsr::scene::pls_mesh(&l, mode, nf, material, name);
-                let mut s = Scene::build(d)?;
-                (
-                    render_views(&mut s, views, &half[0], &render_options)?,
-                    render_views(&mut s, views, &half[1], &render_options)?,
-                )
-            }
-            None => {
-                scene.set_pls_window_and_brightness(mesh, &l)?;
-                (
-                    render_views(scene, views, &half[0], &render_options)?,
-                    render_views(scene, views, &half[1], &render_options)?,
-                )
-            }
-        };
+    }
+
+    /// One evaluation: renders the light alone at `x` (twice) and returns
+    /// the mean squared error at the best brightness, and that brightness.
+    fn objective(&self, x: &[f64], scene: &mut Scene) -> Result<(f64, f64)> {
+        self.evaluations.set(self.evaluations.get() + 1);
+        let (u1, u2) = self.render_alone(&self.light_at(x), scene)?;
         // With E = T − R: the loss b²·U1·U2 − b·(U1 + U2)·E + E·E, whose
         // expectation is the noise-free loss, is least at
         // b* = Σ (U1 + U2)·E / (2 Σ U1·U2).
         let (mut ue, mut uu, mut ee) = (0.0f64, 0.0f64, 0.0f64);
-        for (k, v) in views.iter().enumerate() {
+        for (k, v) in self.views.iter().enumerate() {
             for i in 0..v.target.len() {
                 if v.mask[i] {
                     let (p, q) = (u1[k][i].as_dvec3(), u2[k][i].as_dvec3());
-                    let e = v.target[i].as_dvec3() - rest[k][i].as_dvec3();
+                    let e = v.target[i].as_dvec3() - self.rest[k][i].as_dvec3();
                     ue += (p + q).dot(e);
                     uu += p.dot(q);
                     ee += e.dot(e);
@@ -305,21 +431,52 @@ pub fn fit_window(
             0.0
         };
         let loss = b * b * uu - b * ue + ee;
-        Ok((loss / terms, b))
-    };
-    // Bounds: a in [0.5°, 89.5°], 0 ≤ w ≤ 2·min(a, 90° − a), tilts within
-    // ±45°, the size and the axis length within 2^±3 of the start, every
-    // d ≥ 0 and at least one of them above 1 % of the axis length (an
-    // outline of no area emits nothing).
-    let dims = 10;
-    let axis_length = (start.g.e2 - start.g.e1).length() as f64;
-    let d_max = start.g.d.iter().fold(0f32, |m, &d| m.max(d)) as f64;
-    let clamp = |x: &[f64]| -> Vec<f64> {
+        Ok((loss / self.terms, b))
+    }
+
+    /// U1 and U2: every view by the light `l` alone, once per half job (in
+    /// a scene rebuilt from the description when there is one).
+    fn render_alone(&self, l: &Pls, scene: &mut Scene) -> Result<(Renders, Renders)> {
+        let (views, half, render_options) = (self.views, &self.half, &self.render_options);
+        Ok(match &self.alone {
+            Some(d) => {
+                let mut d = d.clone();
+                let old = &d.meshes[self.mesh];
+                let (nf, mode, material, name) = (
+                    self.emitter.nf,
+                    self.emitter.mode,
+                    old.material,
+                    old.name.clone(),
+                );
+                d.meshes[self.mesh] = plsr::scene::pls_mesh(l, mode, nf, material, name);
+                let mut s = Scene::build(d)?;
+                (
+                    render_views(&mut s, views, &half[0], render_options)?,
+                    render_views(&mut s, views, &half[1], render_options)?,
+                )
+            }
+            None => {
+                scene.set_pls_window_and_brightness(self.mesh, l)?;
+                (
+                    render_views(scene, views, &half[0], render_options)?,
+                    render_views(scene, views, &half[1], render_options)?,
+                )
+            }
+        })
+    }
+
+    /// A point moved into the bounds.
+    ///
+    /// Bounds: a in [0.5°, 89.5°], 0 ≤ w ≤ 2·min(a, 90° − a), tilts within
+    /// ±45°, the size and the axis length within 2^±3 of the start, every
+    /// d ≥ 0 and at least one of them above 1 % of the axis length (an
+    /// outline of no area emits nothing).
+    fn clamp(&self, x: &[f64]) -> Vec<f64> {
         let a = x[0].clamp(0.5, 89.5);
-        let w = if options.fit_penumbra {
+        let w = if self.options.fit_penumbra {
             x[1].clamp(0.0, 2.0 * a.min(90.0 - a))
         } else {
-            start.penumbra_deg as f64
+            self.start.penumbra_deg as f64
         };
         let mut out = vec![
             a,
@@ -330,7 +487,7 @@ pub fn fit_window(
             x[5].clamp(-3.0, 3.0),
         ];
         let (m, e) = (x[6].max(0.0), x[7].max(0.0));
-        let least = 0.01 * axis_length * 2f64.powf(out[5]);
+        let least = 0.01 * self.axis_length * 2f64.powf(out[5]);
         let (m, e) = if m.max(e) < least {
             (m.max(least), e.max(least))
         } else {
@@ -338,39 +495,84 @@ pub fn fit_window(
         };
         out.extend([m, e, x[8].clamp(-m, m), x[9].clamp(-e, e)]);
         out
-    };
-    let mut x0 = vec![start.a_deg as f64, start.penumbra_deg as f64];
-    x0.resize(6, 0.0);
-    let d0 = start.g.d.map(|d| d as f64);
-    x0.extend([
-        0.5 * (d0[1] + d0[2]),
-        0.5 * (d0[0] + d0[3]),
-        0.5 * (d0[2] - d0[1]),
-        0.5 * (d0[3] - d0[0]),
-    ]);
-    let x0 = clamp(&x0);
-    let step: Vec<f64> = (0..dims)
+    }
+
+    /// The search from the start, stage by stage; its best point.
+    fn search(&self, scene: &mut Scene) -> Result<Vec<f64>> {
+        let start = self.start;
+        let d_max = start.g.d.iter().fold(0f32, |m, &d| m.max(d)) as f64;
+        let mut x0 = vec![start.a_deg as f64, start.penumbra_deg as f64];
+        x0.resize(6, 0.0);
+        let d0 = start.g.d.map(|d| d as f64);
+        x0.extend([
+            0.5 * (d0[1] + d0[2]),
+            0.5 * (d0[0] + d0[3]),
+            0.5 * (d0[2] - d0[1]),
+            0.5 * (d0[3] - d0[0]),
+        ]);
+        let x0 = self.clamp(&x0);
+        let step = first_steps(&x0, d_max);
+        let tolerance = tolerances(d_max);
+        let stages = stages(self.options);
+        let max_evaluations = self.options.max_evaluations;
+        let mut eval = |x: &[f64]| -> Result<(Vec<f64>, f64)> {
+            let x = self.clamp(x);
+            let f = self.objective(&x, scene)?.0;
+            Ok((x, f))
+        };
+        // Restarted from its best point (with fresh steps) while that still
+        // helps: a collapsed simplex is the usual way Nelder–Mead stalls in
+        // more than a few coordinates.
+        // Restarts stop once one gains less than 0.1 % of the starting loss
+        // (the loss is an unbiased estimate and may dip below zero near the
+        // optimum, so no relative test), and after three.
+        let mut best = eval(&x0)?;
+        let gain = 1e-3 * best.1.abs();
+        for moving in &stages {
+            for _ in 0..4 {
+                let before = best.1;
+                best = nelder_mead(best, &step, &tolerance, moving, &mut eval, &|| {
+                    self.evaluations.get() >= max_evaluations
+                })?;
+                if before - best.1 < gain || self.evaluations.get() >= max_evaluations {
+                    break;
+                }
+            }
+        }
+        Ok(best.0)
+    }
+}
+
+/// The search's first steps from `x0`.
+fn first_steps(x0: &[f64], d_max: f64) -> Vec<f64> {
+    (0..DIMS)
         .map(|d| match d {
             0 => (0.1 * x0[0]).clamp(1.0, 5.0),
             4 | 5 => 0.5,
             6.. => 0.25 * d_max,
             _ => 2.0,
         })
-        .collect();
-    // The simplex has converged when it is smaller than this in every
-    // coordinate: 0.02° for angles, 0.02 in log₂ scales, 0.2 % of the
-    // largest half-width for the d's.
-    let tolerance: Vec<f64> = (0..dims)
+        .collect()
+}
+
+/// The simplex has converged when it is smaller than this in every
+/// coordinate: 0.02° for angles, 0.02 in log₂ scales, 0.2 % of the
+/// largest half-width for the d's.
+fn tolerances(d_max: f64) -> Vec<f64> {
+    (0..DIMS)
         .map(|d| match d {
             6.. => 0.002 * d_max,
             _ => 0.02,
         })
-        .collect();
-    // The coordinates the search moves (the others keep their start): the
-    // shape in two stages, first the axis length and the symmetric widths
-    // m and e, then their asymmetries too.
+        .collect()
+}
+
+/// The coordinates each stage of the search moves (the others keep their
+/// start): the shape in two stages, first the axis length and the
+/// symmetric widths m and e, then their asymmetries too.
+fn stages(options: &WindowFitOptions) -> Vec<Vec<usize>> {
     let stage = |shape: usize| -> Vec<usize> {
-        (0..dims)
+        (0..DIMS)
             .filter(|&d| match d {
                 1 => options.fit_penumbra,
                 2 | 3 => options.fit_direction,
@@ -382,66 +584,11 @@ pub fn fit_window(
             })
             .collect()
     };
-    let stages = if options.fit_shape {
+    if options.fit_shape {
         vec![stage(1), stage(2)]
     } else {
         vec![stage(0)]
-    };
-    let mut eval = |x: &[f64]| -> Result<(Vec<f64>, f64)> {
-        let x = clamp(x);
-        let f = objective(&x, scene)?.0;
-        Ok((x, f))
-    };
-    // Restarted from its best point (with fresh steps) while that still
-    // helps: a collapsed simplex is the usual way Nelder–Mead stalls in
-    // more than a few coordinates.
-    // Restarts stop once one gains less than 0.1 % of the starting loss
-    // (the loss is an unbiased estimate and may dip below zero near the
-    // optimum, so no relative test), and after three.
-    let mut best = eval(&x0)?;
-    let gain = 1e-3 * best.1.abs();
-    for moving in &stages {
-        for _ in 0..4 {
-            let before = best.1;
-            best = nelder_mead(best, &step, &tolerance, moving, &mut eval, &|| {
-                evaluations.get() >= options.max_evaluations
-            })?;
-            if before - best.1 < gain || evaluations.get() >= options.max_evaluations {
-                break;
-            }
-        }
     }
-    let best = best.0;
-    let (loss, b_unit) = objective(&best, scene)?;
-    // Back to every light, with the fitted window and brightness (b* was
-    // found for the light's own colour at b = 1).
-    scene.edit_lights(|lights| lights.clone_from_slice(&all));
-    let mut fitted = light_at(&best);
-    fitted.b = b_unit as f32;
-    match desc {
-        Some(d) => {
-            let mut d = d.clone();
-            let old = &d.meshes[mesh];
-            let (material, name) = (old.material, old.name.clone());
-            d.meshes[mesh] =
-                plsr::scene::pls_mesh(&fitted, emitter.mode, emitter.nf, material, name);
-            let camera = scene.camera().clone();
-            *scene = Scene::build(d)?;
-            scene.set_camera(camera);
-        }
-        None => scene.set_pls_window_and_brightness(mesh, &fitted)?,
-    }
-    Ok(WindowFit {
-        a_deg: fitted.a_deg,
-        penumbra_deg: fitted.penumbra_deg,
-        b: fitted.b,
-        n: fitted.n,
-        e: [fitted.g.e1, fitted.g.e2],
-        d: fitted.g.d,
-        size: 2f32.powf(if options.fit_shape { best[5] } else { best[4] } as f32),
-        loss,
-        evaluations: evaluations.get(),
-    })
 }
 
 /// A point of a search and its objective.

@@ -560,10 +560,75 @@ pub fn fit_scene_file(
     } else {
         Vec::new()
     };
-    // The PLS lights whose windows are fitted: (name, mesh, table, index).
-    let pls = params::pls_lights(&scene);
+    let window_lights = window_lights(&scene, &options.windows)?;
+    let fits_lights = params.iter().any(Parameter::relative) || !window_lights.is_empty();
+    let mut warnings = Vec::new();
+    let views = load_views(
+        path,
+        &mut scene,
+        contents.photo,
+        contents.views,
+        fits_lights,
+        options,
+        &mut warnings,
+    )?;
+    let pixels = views.iter().map(View::pixels).sum();
+    if views.iter().all(|v| v.pixels() == 0) {
+        return Err(Error::invalid_argument(
+            "no photo pixel sees a real surface of the scene (every mask is empty)",
+        ));
+    }
+    // The windows first: Adam then starts from their brightness.
+    let (windows, mut written) = fit_windows(
+        &mut scene,
+        description.as_ref(),
+        &views,
+        window_lights,
+        options,
+        rebuilds,
+        &mut params,
+    )?;
+    if !adam {
+        let fitted = write::fitted_files(path, &scene, &written, out)?;
+        let loss = windows.last().map_or(0.0, |w| w.1.loss);
+        return Ok(FitOutcome {
+            parameters: written,
+            losses: vec![loss],
+            warnings,
+            seconds_per_iteration: 0.0,
+            pixels,
+            windows,
+            fitted,
+        });
+    }
+    let (fit, losses, seconds) = run_adam(scene, views, params, options, progress)?;
+    warnings.extend(fit.warnings());
+    // A light's b fitted by Adam replaces the window search's.
+    written.retain(|w| {
+        !fit.parameters()
+            .iter()
+            .any(|p| p.owner == w.owner && p.field == w.field)
+    });
+    let mut parameters = written;
+    parameters.extend(fit.parameters().iter().cloned());
+    let fitted = write::fitted_files(path, fit.scene(), &parameters, out)?;
+    Ok(FitOutcome {
+        windows,
+        parameters,
+        losses,
+        warnings,
+        seconds_per_iteration: seconds / options.iterations.max(1) as f64,
+        pixels,
+        fitted,
+    })
+}
+
+/// The PLS lights whose windows are fitted, by name: (name, mesh, table,
+/// index); an error names the scene's PLS lights if one is not found.
+fn window_lights(scene: &Scene, windows: &[String]) -> Result<Vec<(String, usize, usize, usize)>> {
+    let pls = params::pls_lights(scene);
     let mut window_lights = Vec::new();
-    for name in &options.windows {
+    for name in windows {
         let found = pls.iter().find(|(m, _, _)| {
             let mesh = &scene.meshes()[*m];
             mesh.pls.as_ref().and_then(|p| p.light.name.as_deref()) == Some(name.as_str())
@@ -593,12 +658,26 @@ pub fn fit_scene_file(
             }
         }
     }
-    let fits_lights = params.iter().any(Parameter::relative) || !window_lights.is_empty();
+    Ok(window_lights)
+}
+
+/// The views to fit against: the scene file's `[photo]` (through the
+/// scene's camera) and `[[views]]`, each with its exposure (an `"auto"`
+/// one fitted here, with a warning).
+fn load_views(
+    path: &std::path::Path,
+    scene: &mut Scene,
+    photo: Option<plsr::scene::photo::PhotoSpec>,
+    view_specs: Vec<plsr::scene::photo::ViewSpec>,
+    fits_lights: bool,
+    options: &FitOptions,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<View>> {
     let mut specs = Vec::new();
-    if let Some(photo) = contents.photo {
+    if let Some(photo) = photo {
         specs.push(("photo".to_string(), scene.camera().clone(), photo));
     }
-    for (i, v) in contents.views.into_iter().enumerate() {
+    for (i, v) in view_specs.into_iter().enumerate() {
         specs.push((format!("views[{i}]"), v.camera, v.photo));
     }
     if specs.is_empty() {
@@ -608,7 +687,6 @@ pub fn fit_scene_file(
             "is missing: a fit needs a [photo] (or [[views]]) of the real scene to fit against",
         ));
     }
-    let mut warnings = Vec::new();
     let mut views = Vec::new();
     for (field, camera, spec) in specs {
         let photo = Photo::load(&spec)?;
@@ -624,95 +702,52 @@ pub fn fit_scene_file(
                 ))
             }
             None => {
-                let k = auto_exposure(&mut scene, &camera, &photo, options, &label)?;
+                let k = auto_exposure(scene, &camera, &photo, options, &label)?;
                 warnings.push(format!(
                     "{label}: exposure \"auto\" fitted once at the starting values: k = {k:.6}"
                 ));
                 k
             }
         };
-        views.push(View::new(&scene, &label, camera, &photo, k)?);
+        views.push(View::new(scene, &label, camera, &photo, k)?);
     }
-    let pixels = views.iter().map(View::pixels).sum();
-    if views.iter().all(|v| v.pixels() == 0) {
-        return Err(Error::invalid_argument(
-            "no photo pixel sees a real surface of the scene (every mask is empty)",
-        ));
-    }
-    // The windows first: Adam then starts from their brightness.
+    Ok(views)
+}
+
+/// The windows fitted: each light's name and what its search found.
+type Windows = Vec<(String, light::WindowFit)>;
+
+/// Fits each window light in turn; returns what each search found and
+/// the parameters to write. Adam's parameters of a fitted light start
+/// from its fitted brightness and colour.
+fn fit_windows(
+    scene: &mut Scene,
+    description: Option<&plsr::scene::SceneDescription>,
+    views: &[View],
+    window_lights: Vec<(String, usize, usize, usize)>,
+    options: &FitOptions,
+    rebuilds: bool,
+    params: &mut [Parameter],
+) -> Result<(Windows, Vec<Parameter>)> {
     let mut windows = Vec::new();
     let mut written = Vec::new();
     for (name, mesh, table, index) in window_lights {
         let found = light::fit_window(
-            &mut scene,
-            description.as_ref(),
-            &views,
+            scene,
+            description,
+            views,
             mesh,
-            &light::WindowFitOptions {
-                spp: 4 * options.spp,
-                seed: options.seed ^ 0x9e37,
-                threads: options.threads,
-                fit_direction: options.window_direction,
-                fit_size: options.window_size,
-                fit_shape: options.window_shape,
-                fit_penumbra: !(options.window_size || options.window_shape),
-                max_evaluations: if options.window_shape {
-                    400
-                } else if rebuilds {
-                    160
-                } else {
-                    80
-                },
-            },
+            &window_options(options, rebuilds),
         )?;
         let owner = Owner::Pls {
             mesh,
             table,
             light: index,
         };
-        let mut fields = vec![
-            ("a", vec![found.a_deg]),
-            ("penumbra", vec![found.penumbra_deg]),
-            ("b", vec![found.b]),
-        ];
-        if options.window_direction {
-            fields.push(("n", found.n.to_array().to_vec()));
-        }
-        if rebuilds {
-            fields.push(("e1", found.e[0].to_array().to_vec()));
-            fields.push(("e2", found.e[1].to_array().to_vec()));
-        }
-        if options.window_shape {
-            // The explicit outline (a circle light becomes one).
-            let alpha = scene.meshes()[mesh]
-                .pls
-                .as_ref()
-                .map_or([1.0 / 3.0, 2.0 / 3.0], |p| {
-                    [p.light.g.alpha1, p.light.g.alpha2]
-                });
-            fields.push(("alpha1", vec![alpha[0]]));
-            fields.push(("alpha2", vec![alpha[1]]));
-            fields.push(("d", found.d.to_vec()));
-        } else if options.window_size {
-            fields.push(("d", found.d.to_vec()));
-            // A circle light's radius (its `d2 = d3 = 1.35·r`).
-            fields.push((
-                "circle.radius",
-                vec![found.d[1] / plsr::light::pls::CIRCLE_FACTOR],
-            ));
-        }
-        for (field, v) in fields {
-            written.push(Parameter {
-                name: format!("{name}.{field}"),
-                owner: owner.clone(),
-                field,
-                initial: v.clone(),
-                value: v,
-                bounds: (f32::MIN, f32::MAX),
-                slot: u32::MAX,
-            });
-        }
-        for p in &mut params {
+        written.extend(window_parameters(
+            scene, &name, mesh, &owner, &found, options, rebuilds,
+        ));
+        for p in params.iter_mut() {
             if p.owner == owner {
                 if let Some(pls) = &scene.meshes()[mesh].pls {
                     p.value = match p.field {
@@ -725,19 +760,95 @@ pub fn fit_scene_file(
         }
         windows.push((name, found));
     }
-    if !adam {
-        let fitted = write::fitted_files(path, &scene, &written, out)?;
-        let loss = windows.last().map_or(0.0, |w| w.1.loss);
-        return Ok(FitOutcome {
-            parameters: written,
-            losses: vec![loss],
-            warnings,
-            seconds_per_iteration: 0.0,
-            pixels,
-            windows,
-            fitted,
-        });
+    Ok((windows, written))
+}
+
+/// How a window light is searched, from the fit's options.
+fn window_options(options: &FitOptions, rebuilds: bool) -> light::WindowFitOptions {
+    light::WindowFitOptions {
+        spp: 4 * options.spp,
+        seed: options.seed ^ 0x9e37,
+        threads: options.threads,
+        fit_direction: options.window_direction,
+        fit_size: options.window_size,
+        fit_shape: options.window_shape,
+        fit_penumbra: !(options.window_size || options.window_shape),
+        max_evaluations: if options.window_shape {
+            400
+        } else if rebuilds {
+            160
+        } else {
+            80
+        },
     }
+}
+
+/// The parameters a window search found for light `name`, as written
+/// into the fitted files.
+fn window_parameters(
+    scene: &Scene,
+    name: &str,
+    mesh: usize,
+    owner: &Owner,
+    found: &light::WindowFit,
+    options: &FitOptions,
+    rebuilds: bool,
+) -> Vec<Parameter> {
+    let mut fields = vec![
+        ("a", vec![found.a_deg]),
+        ("penumbra", vec![found.penumbra_deg]),
+        ("b", vec![found.b]),
+    ];
+    if options.window_direction {
+        fields.push(("n", found.n.to_array().to_vec()));
+    }
+    if rebuilds {
+        fields.push(("e1", found.e[0].to_array().to_vec()));
+        fields.push(("e2", found.e[1].to_array().to_vec()));
+    }
+    if options.window_shape {
+        // The explicit outline (a circle light becomes one).
+        let alpha = scene.meshes()[mesh]
+            .pls
+            .as_ref()
+            .map_or([1.0 / 3.0, 2.0 / 3.0], |p| {
+                [p.light.g.alpha1, p.light.g.alpha2]
+            });
+        fields.push(("alpha1", vec![alpha[0]]));
+        fields.push(("alpha2", vec![alpha[1]]));
+        fields.push(("d", found.d.to_vec()));
+    } else if options.window_size {
+        fields.push(("d", found.d.to_vec()));
+        // A circle light's radius (its `d2 = d3 = 1.35·r`).
+        fields.push((
+            "circle.radius",
+            vec![found.d[1] / plsr::light::pls::CIRCLE_FACTOR],
+        ));
+    }
+    fields
+        .into_iter()
+        .map(|(field, v)| Parameter {
+            name: format!("{name}.{field}"),
+            owner: owner.clone(),
+            field,
+            initial: v.clone(),
+            value: v,
+            bounds: (f32::MIN, f32::MAX),
+            slot: u32::MAX,
+        })
+        .collect()
+}
+
+/// Runs Adam's iterations (each shown to `progress`, which may cancel),
+/// then averages; returns the fit, the losses (the last at the fitted
+/// values) and the seconds the iterations took.
+fn run_adam(
+    scene: Scene,
+    views: Vec<View>,
+    params: Vec<Parameter>,
+    options: &FitOptions,
+    progress: &mut dyn FnMut(&Iteration, &[Parameter]) -> bool,
+) -> Result<(Fit, Vec<f64>, f64)> {
     let mut fit = Fit::new(scene, views, params, options.clone())?;
     let mut losses = Vec::with_capacity(options.iterations as usize + 1);
     let mut seconds = 0.0;
@@ -751,25 +862,7 @@ pub fn fit_scene_file(
     }
     fit.finish()?;
     losses.push(fit.loss(options.seed.wrapping_add(2 * options.iterations as u64))?);
-    warnings.extend(fit.warnings());
-    // A light's b fitted by Adam replaces the window search's.
-    written.retain(|w| {
-        !fit.parameters()
-            .iter()
-            .any(|p| p.owner == w.owner && p.field == w.field)
-    });
-    let mut parameters = written;
-    parameters.extend(fit.parameters().iter().cloned());
-    let fitted = write::fitted_files(path, fit.scene(), &parameters, out)?;
-    Ok(FitOutcome {
-        windows,
-        parameters,
-        losses,
-        warnings,
-        seconds_per_iteration: seconds / options.iterations.max(1) as f64,
-        pixels,
-        fitted,
-    })
+    Ok((fit, losses, seconds))
 }
 
 /// The exposure `k` of `photo ≈ k·render` at the starting values, by the

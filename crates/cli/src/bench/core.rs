@@ -18,6 +18,7 @@ use crate::error::{Error, Result};
 use glam::Vec3;
 use plsr::accel::{Ray, RayBatch, RayHit};
 use plsr::film::Film;
+use plsr::job::RenderJob;
 use plsr::render::{render, thread_pool, RenderOptions, RenderStats};
 use plsr::rng::Rng;
 use plsr::scene::Scene;
@@ -198,14 +199,7 @@ pub fn clamped_mean(film: &Film) -> Vec3 {
 
 /// Runs the benchmark and prints its table.
 pub fn run(o: &BenchOptions) -> Result<()> {
-    let mut desc = plsr::scene::file::load(&o.scene)?;
-    let mut job = desc.job;
-    job.spp = o.spp;
-    desc.camera = desc
-        .camera
-        .with_resolution(o.size, o.size)
-        .map_err(|e| Error::invalid_argument(e.to_string()))?;
-    let scene = Scene::build(desc)?;
+    let (scene, job) = load_scene(o)?;
     let threads = thread_pool(o.threads)?.current_num_threads();
     println!(
         "plsr bench: {} ({} triangles), {}×{} at {} spp, max depth {}, {} threads",
@@ -218,30 +212,62 @@ pub fn run(o: &BenchOptions) -> Result<()> {
         threads
     );
 
-    let (raw_single, raw_stream, raw_batch) =
-        random_ray_throughput(&scene, o.random_rays, o.threads)?;
-    let raw = raw_single.max(raw_stream).max(raw_batch);
+    let raw = random_ray_throughput(&scene, o.random_rays, o.threads)?;
+    let ((film, stats), peer) = race_peer(o, &scene, &job)?;
+    let general = general_render(o, &scene, &job, &stats)?;
+    print_plsr_rows(raw, &film, &stats, general.as_ref());
+    print_peer_rows(o, peer, &film, &stats);
+    Ok(())
+}
 
-    // The kernel plsr picks for the scene and Embree's pathtracer take
-    // turns, best of three each, so that the machine's drift (large on a
-    // shared 2-core machine) hits both alike; then the general integrator,
-    // best of two.
-    let options = |vectorised: bool| RenderOptions {
+/// A render and what it measured.
+type Timed = (Film, RenderStats);
+
+/// The scene at the benchmark's size and its job at its spp.
+fn load_scene(o: &BenchOptions) -> Result<(Scene, RenderJob)> {
+    let mut desc = plsr::scene::file::load(&o.scene)?;
+    let mut job = desc.job;
+    job.spp = o.spp;
+    desc.camera = desc
+        .camera
+        .with_resolution(o.size, o.size)
+        .map_err(|e| Error::invalid_argument(e.to_string()))?;
+    let scene = Scene::build(desc)?;
+    Ok((scene, job))
+}
+
+/// plsr's render options, with the vectorised kernel or the general
+/// integrator.
+fn options(o: &BenchOptions, vectorised: bool) -> RenderOptions {
+    RenderOptions {
         threads: o.threads,
         vectorised,
         ..Default::default()
-    };
-    let keep_fastest = |best: &mut Option<(Film, RenderStats)>, r: (Film, RenderStats)| {
-        if best.as_ref().is_none_or(|b| r.1.seconds < b.1.seconds) {
-            *best = Some(r);
-        }
-    };
+    }
+}
+
+/// Keeps the faster of `best` and `r`.
+fn keep_fastest(best: &mut Option<Timed>, r: Timed) {
+    if best.as_ref().is_none_or(|b| r.1.seconds < b.1.seconds) {
+        *best = Some(r);
+    }
+}
+
+/// The kernel plsr picks for the scene and Embree's pathtracer take
+/// turns, best of three each, so that the machine's drift (large on a
+/// shared 2-core machine) hits both alike: plsr's fastest render and the
+/// pathtracer's fastest run (`None`: not asked for).
+fn race_peer(
+    o: &BenchOptions,
+    scene: &Scene,
+    job: &RenderJob,
+) -> Result<(Timed, Option<Result<PeerRun>>)> {
     let mut best = None;
     let mut peer: Option<Result<PeerRun>> = None;
     for _ in 0..3 {
         keep_fastest(
             &mut best,
-            render(&scene, &job, &options(true), &|_, _| true)?,
+            render(scene, job, &options(o, true), &|_, _| true)?,
         );
         let Some(bin) = &o.pathtracer else { continue };
         if matches!(peer, Some(Err(_))) {
@@ -256,20 +282,40 @@ pub fn run(o: &BenchOptions) -> Result<()> {
             peer = Some(run);
         }
     }
-    let (film, stats) = best.expect("three renders ran");
-    let general = match stats.vectorised {
+    Ok((best.expect("three renders ran"), peer))
+}
+
+/// Then the general integrator, best of two, where the scene's kernel is
+/// the vectorised one.
+fn general_render(
+    o: &BenchOptions,
+    scene: &Scene,
+    job: &RenderJob,
+    stats: &RenderStats,
+) -> Result<Option<Timed>> {
+    Ok(match stats.vectorised {
         Some(_) => {
             let mut general = None;
             for _ in 0..2 {
                 keep_fastest(
                     &mut general,
-                    render(&scene, &job, &options(false), &|_, _| true)?,
+                    render(scene, job, &options(o, false), &|_, _| true)?,
                 );
             }
             general
         }
         None => None,
-    };
+    })
+}
+
+/// The table's rows of raw Embree and of plsr.
+fn print_plsr_rows(
+    (raw_single, raw_stream, raw_batch): (f64, f64, f64),
+    film: &Film,
+    stats: &RenderStats,
+    general: Option<&Timed>,
+) {
+    let raw = raw_single.max(raw_stream).max(raw_batch);
     let eff = stats.mrays_per_s() / raw;
     let kernel = match stats.vectorised {
         Some(isa) => format!("vectorised, {}", isa.name()),
@@ -287,7 +333,7 @@ pub fn run(o: &BenchOptions) -> Result<()> {
         "| plsr path tracing, best of 3              | {:8.3} Msamples/s |",
         stats.msamples_per_s()
     );
-    if let Some((general_film, general_stats)) = &general {
+    if let Some((general_film, general_stats)) = general {
         println!(
             "| plsr general integrator (render --scalar) | {:8.3} Msamples/s |",
             general_stats.msamples_per_s()
@@ -319,7 +365,16 @@ pub fn run(o: &BenchOptions) -> Result<()> {
         "| plsr if shading took no time (bound)      | {:8.3} Msamples/s |",
         stats.trace_bound_msamples_per_s()
     );
-    let ours = clamped_mean(&film);
+}
+
+/// The table's rows of Embree's pathtracer against plsr.
+fn print_peer_rows(
+    o: &BenchOptions,
+    peer: Option<Result<PeerRun>>,
+    film: &Film,
+    stats: &RenderStats,
+) {
+    let ours = clamped_mean(film);
 
     match peer {
         None => println!("| Embree pathtracer                         | skipped      |"),
@@ -351,5 +406,4 @@ pub fn run(o: &BenchOptions) -> Result<()> {
             }
         },
     }
-    Ok(())
 }

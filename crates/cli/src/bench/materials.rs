@@ -1,9 +1,14 @@
 //! `plsr bench materials`: what the richer BSDFs cost against Lambert.
 
 use crate::error::{Error, Result};
+use plsr::bsdf::{
+    BlinnPhongParams, Bsdf, CookTorranceParams, DielectricParams, Distribution, Fresnel,
+    Microfacet, PrincipledParams, METALS,
+};
 use plsr::film::Film;
+use plsr::job::RenderJob;
 use plsr::render::{render, RenderOptions, RenderStats};
-use plsr::scene::Scene;
+use plsr::scene::{Scene, SceneDescription};
 use plsr_base::Vocabulary;
 use std::path::Path;
 
@@ -23,10 +28,6 @@ use std::path::Path;
 /// the general integrator what the wavefront gains. Returns each scene's
 /// `(general, vectorised)` Msamples/s.
 pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 10]> {
-    use plsr::bsdf::{
-        BlinnPhongParams, Bsdf, CookTorranceParams, DielectricParams, Distribution, Fresnel,
-        Microfacet, PrincipledParams, METALS,
-    };
     let path = Path::new("assets/scenes/cornell/cornell.toml");
     let mut diffuse = plsr::scene::file::load(path)?;
     diffuse.job.spp = 32;
@@ -35,112 +36,42 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 10]> {
         .camera
         .with_resolution(256, 256)
         .map_err(|e| Error::invalid_argument(e.to_string()))?;
-    let principled = |energy_conserving: bool| {
-        let mut scene = diffuse.clone();
-        for m in &mut scene.materials {
-            m.bsdf = Bsdf::Principled(PrincipledParams {
-                base_color: m.bsdf.albedo(),
-                roughness: 0.5,
-                metallic: 0.0,
-                anisotropic: 0.0,
-                specular: 0.5,
-                spec_tint: 0.0,
-                energy_conserving,
-            });
-        }
-        scene
-    };
-    let gold = |distribution: Distribution| {
-        let mut scene = diffuse.clone();
-        let (_, eta, k) = METALS[0];
-        for m in &mut scene.materials {
-            m.bsdf = Bsdf::CookTorrance(CookTorranceParams {
-                microfacet: Microfacet::isotropic(distribution, 0.2),
-                fresnel: Fresnel::Conductor {
-                    eta: eta.into(),
-                    k: k.into(),
-                    specular_reflectance: glam::Vec3::ONE,
-                },
-            });
-        }
-        scene
-    };
-    let glass = |distribution: Distribution| {
-        let mut scene = diffuse.clone();
-        for m in &mut scene.materials {
-            m.bsdf = Bsdf::Dielectric(DielectricParams {
-                eta: 1.5,
-                microfacet: Some(Microfacet::isotropic(distribution, 0.2)),
-            });
-        }
-        scene
-    };
-    let smooth_glass = {
-        let mut scene = diffuse.clone();
-        for m in &mut scene.materials {
-            m.bsdf = Bsdf::Dielectric(DielectricParams {
-                eta: 1.5,
-                microfacet: None,
-            });
-        }
-        scene
-    };
-    let blinn_phong = {
-        let mut scene = diffuse.clone();
-        for m in &mut scene.materials {
-            m.bsdf = Bsdf::BlinnPhong(BlinnPhongParams {
-                diffuse: m.bsdf.albedo().min(glam::Vec3::splat(0.8)),
-                specular: glam::Vec3::splat(0.2),
-                exponent: 40.0,
-            });
-        }
-        scene
-    };
-    let mapped = {
-        let mut scene = principled(false);
-        // 4×4 maps of values in [0.1, 0.9] (the red channel is read).
-        let map = |seed: u32| {
-            let texels = (0..16u32)
-                .map(|i| glam::Vec3::splat(0.1 + 0.8 * ((i * 7 + seed * 5) % 16) as f32 / 15.0))
-                .collect();
-            std::sync::Arc::new(plsr::texture::ImageTexture::from_texels(4, 4, texels))
-        };
-        for m in &mut scene.materials {
-            m.textures.roughness = Some(map(1));
-            m.textures.metallic = Some(map(2));
-        }
-        scene
-    };
-    let options = |vectorised: bool| RenderOptions {
-        threads,
-        vectorised,
-        ..Default::default()
-    };
-    let scenes = [
+    let scenes = scenes(&diffuse)?;
+    let (best, same) = measure(&scenes, &job, threads)?;
+    print_table(path, &scenes, &best, &same);
+    Ok(best)
+}
+
+/// The benchmark's scenes: the box with each kind of material, by name.
+fn scenes(diffuse: &SceneDescription) -> Result<[(&'static str, Scene); 10]> {
+    let smooth_glass = smooth_glass(diffuse);
+    let blinn_phong = blinn_phong(diffuse);
+    let mapped = mapped(diffuse);
+    Ok([
         ("all diffuse", Scene::build(diffuse.clone())?),
         (
             "all principled (Mitsuba's)",
-            Scene::build(principled(false))?,
+            Scene::build(principled(diffuse, false))?,
         ),
         (
             "all principled, energy-conserving",
-            Scene::build(principled(true))?,
+            Scene::build(principled(diffuse, true))?,
         ),
         (
             "all rough gold (GGX α 0.2)",
-            Scene::build(gold(Distribution::Ggx))?,
+            Scene::build(gold(diffuse, Distribution::Ggx))?,
         ),
         (
             "all rough gold (Beckmann α 0.2)",
-            Scene::build(gold(Distribution::Beckmann))?,
+            Scene::build(gold(diffuse, Distribution::Beckmann))?,
         ),
         (
             "all rough glass (GGX α 0.2, η 1.5)",
-            Scene::build(glass(Distribution::Ggx))?,
+            Scene::build(glass(diffuse, Distribution::Ggx))?,
         ),
         (
             "all rough glass (Beckmann α 0.2, η 1.5)",
-            Scene::build(glass(Distribution::Beckmann))?,
+            Scene::build(glass(diffuse, Distribution::Beckmann))?,
         ),
         ("all smooth glass (η 1.5)", Scene::build(smooth_glass)?),
         ("all Blinn–Phong (exponent 40)", Scene::build(blinn_phong)?),
@@ -148,20 +79,130 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 10]> {
             "all principled, roughness and metallic maps",
             Scene::build(mapped)?,
         ),
-    ];
-    // Interleaved runs, best of three each, so drift hits all alike.
+    ])
+}
+
+/// Every material principled, of the same base colour.
+fn principled(diffuse: &SceneDescription, energy_conserving: bool) -> SceneDescription {
+    let mut scene = diffuse.clone();
+    for m in &mut scene.materials {
+        m.bsdf = Bsdf::Principled(PrincipledParams {
+            base_color: m.bsdf.albedo(),
+            roughness: 0.5,
+            metallic: 0.0,
+            anisotropic: 0.0,
+            specular: 0.5,
+            spec_tint: 0.0,
+            energy_conserving,
+        });
+    }
+    scene
+}
+
+/// Every material a rough gold.
+fn gold(diffuse: &SceneDescription, distribution: Distribution) -> SceneDescription {
+    let mut scene = diffuse.clone();
+    let (_, eta, k) = METALS[0];
+    for m in &mut scene.materials {
+        m.bsdf = Bsdf::CookTorrance(CookTorranceParams {
+            microfacet: Microfacet::isotropic(distribution, 0.2),
+            fresnel: Fresnel::Conductor {
+                eta: eta.into(),
+                k: k.into(),
+                specular_reflectance: glam::Vec3::ONE,
+            },
+        });
+    }
+    scene
+}
+
+/// Every material a rough glass.
+fn glass(diffuse: &SceneDescription, distribution: Distribution) -> SceneDescription {
+    let mut scene = diffuse.clone();
+    for m in &mut scene.materials {
+        m.bsdf = Bsdf::Dielectric(DielectricParams {
+            eta: 1.5,
+            microfacet: Some(Microfacet::isotropic(distribution, 0.2)),
+        });
+    }
+    scene
+}
+
+/// Every material a smooth glass.
+fn smooth_glass(diffuse: &SceneDescription) -> SceneDescription {
+    let mut scene = diffuse.clone();
+    for m in &mut scene.materials {
+        m.bsdf = Bsdf::Dielectric(DielectricParams {
+            eta: 1.5,
+            microfacet: None,
+        });
+    }
+    scene
+}
+
+/// Every material Blinn–Phong.
+fn blinn_phong(diffuse: &SceneDescription) -> SceneDescription {
+    let mut scene = diffuse.clone();
+    for m in &mut scene.materials {
+        m.bsdf = Bsdf::BlinnPhong(BlinnPhongParams {
+            diffuse: m.bsdf.albedo().min(glam::Vec3::splat(0.8)),
+            specular: glam::Vec3::splat(0.2),
+            exponent: 40.0,
+        });
+    }
+    scene
+}
+
+/// Every material Mitsuba's principled, with roughness and metallic maps.
+fn mapped(diffuse: &SceneDescription) -> SceneDescription {
+    let mut scene = principled(diffuse, false);
+    // 4×4 maps of values in [0.1, 0.9] (the red channel is read).
+    let map = |seed: u32| {
+        let texels = (0..16u32)
+            .map(|i| glam::Vec3::splat(0.1 + 0.8 * ((i * 7 + seed * 5) % 16) as f32 / 15.0))
+            .collect();
+        std::sync::Arc::new(plsr::texture::ImageTexture::from_texels(4, 4, texels))
+    };
+    for m in &mut scene.materials {
+        m.textures.roughness = Some(map(1));
+        m.textures.metallic = Some(map(2));
+    }
+    scene
+}
+
+/// Each scene's best `(general, vectorised)` Msamples/s.
+type Rates = [(f64, f64); 10];
+
+/// Interleaved runs, best of three each, so drift hits all alike: each
+/// scene's best `(general, vectorised)` Msamples/s, and whether the two
+/// integrators' images were the same every time.
+fn measure(
+    scenes: &[(&str, Scene); 10],
+    job: &RenderJob,
+    threads: Option<usize>,
+) -> Result<(Rates, [bool; 10])> {
+    let options = |vectorised: bool| RenderOptions {
+        threads,
+        vectorised,
+        ..Default::default()
+    };
     let mut best = [(0.0f64, 0.0f64); 10];
     let mut same = [true; 10];
     for _ in 0..3 {
         for (k, (_, scene)) in scenes.iter().enumerate() {
             let (general, stats): (Film, RenderStats) =
-                render(scene, &job, &options(false), &|_, _| true)?;
+                render(scene, job, &options(false), &|_, _| true)?;
             best[k].0 = best[k].0.max(stats.msamples_per_s());
-            let (fast, stats) = render(scene, &job, &options(true), &|_, _| true)?;
+            let (fast, stats) = render(scene, job, &options(true), &|_, _| true)?;
             best[k].1 = best[k].1.max(stats.msamples_per_s());
             same[k] &= general.color == fast.color;
         }
     }
+    Ok((best, same))
+}
+
+/// The table of the measurements.
+fn print_table(path: &Path, scenes: &[(&str, Scene); 10], best: &Rates, same: &[bool; 10]) {
     println!(
         "plsr bench materials: {} at 256×256, 32 spp, best of 3 interleaved runs",
         path.display()
@@ -181,5 +222,4 @@ pub fn run(threads: Option<usize>) -> Result<[(f64, f64); 10]> {
             if same[k] { "yes" } else { "NO" }
         );
     }
-    Ok(best)
 }

@@ -690,12 +690,63 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
     let seeds = o.seeds.max(1);
     std::fs::create_dir_all(dir).map_err(io_err(dir))?;
     let dir = dir.canonicalize().map_err(io_err(dir))?;
+    let mut scenes = suite(o, &dir)?;
+    let bench = Bench {
+        o,
+        dir: &dir,
+        seeds,
+        options: RenderOptions {
+            threads: o.threads,
+            ..Default::default()
+        },
+        threads: o.threads.unwrap_or_else(|| {
+            std::thread::available_parallelism()
+                .map(|n| n.get())
+                .unwrap_or(1)
+        }),
+    };
+    let threads = bench.threads;
+    // Each scene: plsr, then Mitsuba, then plsr's timing again, so that
+    // Mitsuba's time is bracketed by plsr's and the machine's drift in speed
+    // (±20 % within an hour on shared machines) cancels to first order.
+    let mut plsr_results = Vec::new();
+    let mut prepared = Vec::new();
+    let mut runs = MitsubaRuns::default();
+    for scene in &mut scenes {
+        let (measured, p) = bench.measure(scene, &mut runs)?;
+        prepared.push(p);
+        plsr_results.push(measured);
+    }
+    let mitsuba: Option<std::result::Result<(Vec<Measured>, String), String>> =
+        o.python.as_ref().map(|_| match runs.failure {
+            Some(why) => Err(why),
+            None => Ok((runs.results, runs.version)),
+        });
+
+    println!(
+        "\nplsr bench peers: {} spp, {} seeds each, reference {} spp, {threads} threads\n",
+        o.spp, seeds, o.reference_spp
+    );
+    match &mitsuba {
+        Some(Ok((m, version))) => {
+            print_comparison(&scenes, &plsr_results, m, version);
+            print_error_parts(&scenes, &plsr_results, m, &prepared, seeds);
+            print_raw_tracing(&scenes, &plsr_results, m);
+        }
+        other => print_plsr_only(&scenes, &plsr_results, other),
+    }
+    println!("\nscenes, references and images: {}", dir.display());
+    Ok(())
+}
+
+/// The scenes `o.only` asks for (the glossy one written into `dir`).
+fn suite(o: &PeersBenchOptions, dir: &Path) -> Result<Vec<PeerScene>> {
     let wanted = |name: &str| o.only.is_empty() || o.only.iter().any(|n| n == name);
     let mut scenes = Vec::new();
     if wanted("glossy-env") {
         scenes.push(PeerScene {
             name: "glossy-env",
-            plsr: write_glossy_env(&dir, o.spp)?,
+            plsr: write_glossy_env(dir, o.spp)?,
             mitsuba: dir.join("glossy-env.xml"),
             approximate: false,
         });
@@ -719,61 +770,56 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
             o.only
         )));
     }
-    let options = RenderOptions {
-        threads: o.threads,
-        ..Default::default()
-    };
-    let threads = o.threads.unwrap_or_else(|| {
-        std::thread::available_parallelism()
-            .map(|n| n.get())
-            .unwrap_or(1)
-    });
-    // Each scene: plsr, then Mitsuba, then plsr's timing again, so that
-    // Mitsuba's time is bracketed by plsr's and the machine's drift in speed
-    // (±20 % within an hour on shared machines) cancels to first order.
-    let mut plsr_results = Vec::new();
-    let mut prepared = Vec::new();
-    let mut mitsuba_results = Vec::new();
-    let mut mitsuba_failure = None;
-    let mut version = String::new();
-    for scene in &mut scenes {
+    Ok(scenes)
+}
+
+/// What a scene keeps for the tables: its size, its reference and the
+/// objects it sees.
+type Prepared = (u32, u32, Film, Vec<(f32, String, usize)>);
+
+/// Mitsuba's measurements so far: one per scene, its version, or why it
+/// could not run (then it is not tried again).
+#[derive(Default)]
+struct MitsubaRuns {
+    results: Vec<Measured>,
+    failure: Option<String>,
+    version: String,
+}
+
+/// What every scene of a run shares.
+struct Bench<'a> {
+    o: &'a PeersBenchOptions,
+    /// The work folder (absolute).
+    dir: &'a Path,
+    /// Timed renders per renderer and scene.
+    seeds: u32,
+    /// plsr's render options.
+    options: RenderOptions,
+    /// Worker threads of both renderers.
+    threads: usize,
+}
+
+impl Bench<'_> {
+    /// One scene: plsr's timed renders and scores, then (unless it failed
+    /// before) Mitsuba's, then plsr's timing again.
+    fn measure(
+        &self,
+        scene: &mut PeerScene,
+        mitsuba: &mut MitsubaRuns,
+    ) -> Result<(Measured, Prepared)> {
+        let o = self.o;
         println!("{}:", scene.name);
-        let mut description = plsr::scene::file::load(&scene.plsr)?;
-        if scene.name != "glossy-env" {
-            // The scene files' own resolutions are for viewing; these are
-            // the benchmark's.
-            let (w, h) = if scene.name == "cornell" {
-                (512, 512)
-            } else {
-                (640, 480)
-            };
-            description.camera = description
-                .camera
-                .with_resolution(w, h)
-                .map_err(|e| Error::invalid_argument(e.to_string()))?;
-        }
-        description.job.spp = o.spp;
-        let environment = (scene.name == "glossy-env").then(|| dir.join("sky.exr"));
-        scene.approximate = write_mitsuba(&description, &dir, scene.name, environment.as_deref())?;
-        let built = Scene::build(description.clone())?;
-        let reference = reference(scene, &built, &description, o.reference_spp, &options, &dir)?;
-        // The timed renders: the best of `seeds` (seeds 1, 2, …).
-        let time_plsr = |images: &mut Vec<Vec<glam::Vec3>>| -> Result<(f64, (u32, u32))> {
-            let mut seconds = f64::INFINITY;
-            let mut size = (0, 0);
-            images.clear();
-            for seed in 1..=u64::from(seeds) {
-                let mut job = description.job;
-                job.seed = seed;
-                let (film, stats) = render(&built, &job, &options, &|_, _| true)?;
-                seconds = seconds.min(stats.seconds);
-                size = (film.width, film.height);
-                images.push(film.color);
-            }
-            Ok((seconds, size))
-        };
+        let (description, built) = self.load(scene)?;
+        let reference = reference(
+            scene,
+            &built,
+            &description,
+            o.reference_spp,
+            &self.options,
+            self.dir,
+        )?;
         let mut images = Vec::new();
-        let (before, size) = time_plsr(&mut images)?;
+        let (before, size) = self.time_plsr(&built, &description, &mut images)?;
         let samples = size.0 as u64 * size.1 as u64 * o.spp as u64;
         let objects = objects_seen(&reference, &built);
         let ids: Vec<f32> = objects.iter().map(|o| o.0).collect();
@@ -799,10 +845,18 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
             measured.rel_mse,
             best_raw
         );
-        if let (Some(python), None) = (&o.python, &mitsuba_failure) {
+        if let (Some(python), None) = (&o.python, &mitsuba.failure) {
             println!("  Mitsuba 3 …");
             match run_mitsuba(
-                python, threads, scene, o.spp, seeds, &dir, size, &reference, &ids,
+                python,
+                self.threads,
+                scene,
+                o.spp,
+                self.seeds,
+                self.dir,
+                size,
+                &reference,
+                &ids,
             ) {
                 Ok((m, v)) => {
                     println!(
@@ -811,10 +865,10 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
                         m.msamples_per_s(),
                         m.rel_mse
                     );
-                    version = v;
-                    mitsuba_results.push(m);
+                    mitsuba.version = v;
+                    mitsuba.results.push(m);
                     // plsr's time: the mean of its best before and after.
-                    let (after, _) = time_plsr(&mut images)?;
+                    let (after, _) = self.time_plsr(&built, &description, &mut images)?;
                     measured.seconds = 0.5 * (before + after);
                     measured.bracket = Some((before, after));
                     println!(
@@ -823,122 +877,180 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
                         samples as f64 / before / 1e6
                     );
                 }
-                Err(why) => mitsuba_failure = Some(why),
+                Err(why) => mitsuba.failure = Some(why),
             }
         }
-        prepared.push((size.0, size.1, reference, objects));
-        plsr_results.push(measured);
+        Ok((measured, (size.0, size.1, reference, objects)))
     }
-    let mitsuba: Option<std::result::Result<(Vec<Measured>, String), String>> =
-        o.python.as_ref().map(|_| match mitsuba_failure {
-            Some(why) => Err(why),
-            None => Ok((mitsuba_results, version)),
-        });
 
-    println!(
-        "\nplsr bench peers: {} spp, {} seeds each, reference {} spp, {threads} threads\n",
-        o.spp, seeds, o.reference_spp
-    );
-    match &mitsuba {
-        Some(Ok((m, version))) => {
-            println!("| scene | plsr Msamples/s (before / after Mitsuba) | {version} Msamples/s | speed ratio | plsr relMSE | Mitsuba relMSE | time to equal error, plsr ÷ Mitsuba speed | mean ratio |");
-            println!("| --- | --- | --- | --- | --- | --- | --- | --- |");
-            for ((scene, p), m) in scenes.iter().zip(&plsr_results).zip(m) {
-                let equal_error = (m.seconds * m.rel_mse) / (p.seconds * p.rel_mse);
-                let bracket = p.bracket.map_or_else(String::new, |(before, after)| {
-                    let rate = |s: f64| p.samples as f64 / s / 1e6;
-                    format!(" ({:.3} / {:.3})", rate(before), rate(after))
-                });
-                println!(
-                    "| {}{} | {:.3}{bracket} | {:.3} | {:.2}× | {:.5} | {:.5} | {:.2}× | {:.4} |",
-                    scene.name,
-                    if scene.approximate {
-                        " (Mitsuba's lights approximate)"
-                    } else {
-                        ""
-                    },
-                    p.msamples_per_s(),
-                    m.msamples_per_s(),
-                    p.msamples_per_s() / m.msamples_per_s(),
-                    p.rel_mse,
-                    m.rel_mse,
-                    equal_error,
-                    p.mean / m.mean
-                );
-            }
-            println!(
-                "\nplsr's time is the mean of its best before and its best after Mitsuba's \
-                 renders of the scene (shown in brackets), so that the machine's drift in \
-                 speed cancels to first order. speed ratio: plsr's samples/s over Mitsuba's; time to equal error: \
-                 Mitsuba's time × relMSE over plsr's (> 1: plsr reaches the same error sooner); \
-                 mean ratio: plsr's image mean over Mitsuba's."
-            );
-            println!(
-                "\nWhere the error is: each renderer's relMSE cut into the parts of the pixels \
-                 that see each object (they add up to it; \"rest\": the background and light \
-                 fixtures); plsr's and Mitsuba's each the mean over {} renders with \
-                 different seeds, as are the relMSEs above.\n",
-                seeds
-            );
-            println!("| scene | object | pixels | plsr | Mitsuba | plsr ÷ Mitsuba |");
-            println!("| --- | --- | --- | --- | --- | --- |");
-            for (((scene, p), m), (_, _, _, objects)) in
-                scenes.iter().zip(&plsr_results).zip(m).zip(&prepared)
-            {
-                let names = objects
-                    .iter()
-                    .map(|(_, name, n)| (name.as_str(), Some(*n)))
-                    .chain([("rest", None)]);
-                for ((name, pixels), (a, b)) in
-                    names.zip(p.rel_mse_parts.iter().zip(&m.rel_mse_parts))
-                {
-                    let ratio = if *b > 0.0 {
-                        format!("{:.2}", a / b)
-                    } else {
-                        "—".to_string()
-                    };
-                    println!(
-                        "| {} | {name} | {} | {a:.5} | {b:.5} | {ratio} |",
-                        scene.name,
-                        pixels.map_or_else(|| "".to_string(), |n| n.to_string()),
-                    );
-                }
-            }
-            println!(
-                "\nRaw tracing, {RAW_RAYS} incoherent random rays over each scene's geometry \
-                 (origins uniform in its bounds, directions uniform), closest hit, Mrays/s:\n"
-            );
-            println!("| scene | plsr (Embree, best of rtcIntersect1/1M/Np) | Mitsuba ray_intersect_preliminary (rtcIntersect16 packets) | Mitsuba ray_intersect | plsr ÷ Mitsuba preliminary |");
-            println!("| --- | --- | --- | --- | --- |");
-            for ((scene, p), m) in scenes.iter().zip(&plsr_results).zip(m) {
-                if let (Some((plsr_rate, _)), Some((hit, full))) = (p.raw_mrays, m.raw_mrays) {
-                    println!(
-                        "| {} | {plsr_rate:.2} | {hit:.2} | {full:.2} | {:.2}× |",
-                        scene.name,
-                        plsr_rate / hit
-                    );
-                }
-            }
+    /// The scene's description at the benchmark's resolution and spp, its
+    /// Mitsuba twin written (marking whether its lights only approximate
+    /// plsr's), and the scene built.
+    fn load(&self, scene: &mut PeerScene) -> Result<(SceneDescription, Scene)> {
+        let mut description = plsr::scene::file::load(&scene.plsr)?;
+        if scene.name != "glossy-env" {
+            // The scene files' own resolutions are for viewing; these are
+            // the benchmark's.
+            let (w, h) = if scene.name == "cornell" {
+                (512, 512)
+            } else {
+                (640, 480)
+            };
+            description.camera = description
+                .camera
+                .with_resolution(w, h)
+                .map_err(|e| Error::invalid_argument(e.to_string()))?;
         }
-        other => {
-            println!("| scene | plsr Msamples/s | plsr relMSE |");
-            println!("| --- | --- | --- |");
-            for (scene, p) in scenes.iter().zip(&plsr_results) {
-                println!(
-                    "| {} | {:.3} | {:.5} |",
-                    scene.name,
-                    p.msamples_per_s(),
-                    p.rel_mse
-                );
-            }
-            match other {
-                Some(Err(why)) => println!(
-                    "\nMitsuba 3: not measured ({why}); install it with `pip install mitsuba` and Debian's libllvm19"
-                ),
-                _ => println!("\nMitsuba 3: skipped (--no-peer)"),
-            }
+        description.job.spp = self.o.spp;
+        let environment = (scene.name == "glossy-env").then(|| self.dir.join("sky.exr"));
+        scene.approximate =
+            write_mitsuba(&description, self.dir, scene.name, environment.as_deref())?;
+        let built = Scene::build(description.clone())?;
+        Ok((description, built))
+    }
+
+    /// The timed renders: the best of `seeds` (seeds 1, 2, …), their
+    /// images in `images`; the best time and the image size.
+    fn time_plsr(
+        &self,
+        built: &Scene,
+        description: &SceneDescription,
+        images: &mut Vec<Vec<glam::Vec3>>,
+    ) -> Result<(f64, (u32, u32))> {
+        let mut seconds = f64::INFINITY;
+        let mut size = (0, 0);
+        images.clear();
+        for seed in 1..=u64::from(self.seeds) {
+            let mut job = description.job;
+            job.seed = seed;
+            let (film, stats) = render(built, &job, &self.options, &|_, _| true)?;
+            seconds = seconds.min(stats.seconds);
+            size = (film.width, film.height);
+            images.push(film.color);
+        }
+        Ok((seconds, size))
+    }
+}
+
+/// The table of both renderers' speed and error, and what it means.
+fn print_comparison(
+    scenes: &[PeerScene],
+    plsr_results: &[Measured],
+    m: &[Measured],
+    version: &str,
+) {
+    println!("| scene | plsr Msamples/s (before / after Mitsuba) | {version} Msamples/s | speed ratio | plsr relMSE | Mitsuba relMSE | time to equal error, plsr ÷ Mitsuba speed | mean ratio |");
+    println!("| --- | --- | --- | --- | --- | --- | --- | --- |");
+    for ((scene, p), m) in scenes.iter().zip(plsr_results).zip(m) {
+        let equal_error = (m.seconds * m.rel_mse) / (p.seconds * p.rel_mse);
+        let bracket = p.bracket.map_or_else(String::new, |(before, after)| {
+            let rate = |s: f64| p.samples as f64 / s / 1e6;
+            format!(" ({:.3} / {:.3})", rate(before), rate(after))
+        });
+        println!(
+            "| {}{} | {:.3}{bracket} | {:.3} | {:.2}× | {:.5} | {:.5} | {:.2}× | {:.4} |",
+            scene.name,
+            if scene.approximate {
+                " (Mitsuba's lights approximate)"
+            } else {
+                ""
+            },
+            p.msamples_per_s(),
+            m.msamples_per_s(),
+            p.msamples_per_s() / m.msamples_per_s(),
+            p.rel_mse,
+            m.rel_mse,
+            equal_error,
+            p.mean / m.mean
+        );
+    }
+    println!(
+        "\nplsr's time is the mean of its best before and its best after Mitsuba's \
+         renders of the scene (shown in brackets), so that the machine's drift in \
+         speed cancels to first order. speed ratio: plsr's samples/s over Mitsuba's; time to equal error: \
+         Mitsuba's time × relMSE over plsr's (> 1: plsr reaches the same error sooner); \
+         mean ratio: plsr's image mean over Mitsuba's."
+    );
+}
+
+/// The table of each renderer's relMSE cut by the objects the pixels see.
+fn print_error_parts(
+    scenes: &[PeerScene],
+    plsr_results: &[Measured],
+    m: &[Measured],
+    prepared: &[Prepared],
+    seeds: u32,
+) {
+    println!(
+        "\nWhere the error is: each renderer's relMSE cut into the parts of the pixels \
+         that see each object (they add up to it; \"rest\": the background and light \
+         fixtures); plsr's and Mitsuba's each the mean over {} renders with \
+         different seeds, as are the relMSEs above.\n",
+        seeds
+    );
+    println!("| scene | object | pixels | plsr | Mitsuba | plsr ÷ Mitsuba |");
+    println!("| --- | --- | --- | --- | --- | --- |");
+    for (((scene, p), m), (_, _, _, objects)) in
+        scenes.iter().zip(plsr_results).zip(m).zip(prepared)
+    {
+        let names = objects
+            .iter()
+            .map(|(_, name, n)| (name.as_str(), Some(*n)))
+            .chain([("rest", None)]);
+        for ((name, pixels), (a, b)) in names.zip(p.rel_mse_parts.iter().zip(&m.rel_mse_parts)) {
+            let ratio = if *b > 0.0 {
+                format!("{:.2}", a / b)
+            } else {
+                "—".to_string()
+            };
+            println!(
+                "| {} | {name} | {} | {a:.5} | {b:.5} | {ratio} |",
+                scene.name,
+                pixels.map_or_else(|| "".to_string(), |n| n.to_string()),
+            );
         }
     }
-    println!("\nscenes, references and images: {}", dir.display());
-    Ok(())
+}
+
+/// The table of both renderers' raw tracing rates.
+fn print_raw_tracing(scenes: &[PeerScene], plsr_results: &[Measured], m: &[Measured]) {
+    println!(
+        "\nRaw tracing, {RAW_RAYS} incoherent random rays over each scene's geometry \
+         (origins uniform in its bounds, directions uniform), closest hit, Mrays/s:\n"
+    );
+    println!("| scene | plsr (Embree, best of rtcIntersect1/1M/Np) | Mitsuba ray_intersect_preliminary (rtcIntersect16 packets) | Mitsuba ray_intersect | plsr ÷ Mitsuba preliminary |");
+    println!("| --- | --- | --- | --- | --- |");
+    for ((scene, p), m) in scenes.iter().zip(plsr_results).zip(m) {
+        if let (Some((plsr_rate, _)), Some((hit, full))) = (p.raw_mrays, m.raw_mrays) {
+            println!(
+                "| {} | {plsr_rate:.2} | {hit:.2} | {full:.2} | {:.2}× |",
+                scene.name,
+                plsr_rate / hit
+            );
+        }
+    }
+}
+
+/// plsr's table alone, and why Mitsuba is missing.
+fn print_plsr_only(
+    scenes: &[PeerScene],
+    plsr_results: &[Measured],
+    other: &Option<std::result::Result<(Vec<Measured>, String), String>>,
+) {
+    println!("| scene | plsr Msamples/s | plsr relMSE |");
+    println!("| --- | --- | --- |");
+    for (scene, p) in scenes.iter().zip(plsr_results) {
+        println!(
+            "| {} | {:.3} | {:.5} |",
+            scene.name,
+            p.msamples_per_s(),
+            p.rel_mse
+        );
+    }
+    match other {
+        Some(Err(why)) => println!(
+            "\nMitsuba 3: not measured ({why}); install it with `pip install mitsuba` and Debian's libllvm19"
+        ),
+        _ => println!("\nMitsuba 3: skipped (--no-peer)"),
+    }
 }
