@@ -448,7 +448,7 @@ impl<M: PrincipledMode> MaterialPass for PrincipledPass<'_, M> {
 /// lookup), for scenes with (`TRIANGLES`) or without emitting triangles,
 /// with (`CONES`) or without emission cones among them, and with (`ENV`) or
 /// without an environment (vertex normals: each lane's own flag).
-/// Only the selected lanes' results are written back.
+/// Only the selected lanes' results are written back ([`ChunkOut::store`]).
 #[inline(always)]
 pub(super) fn shade_chunks<
     P: MaterialPass,
@@ -462,49 +462,14 @@ pub(super) fn shade_chunks<
     u: Uniform,
 ) {
     let n = lanes.rays.len();
-    let last = kernel.albedo[0].len() - 1;
     // One light: the same for every lane, so no per-lane arrays.
     let single = kernel.single_light.map(LightChunk::splat);
     for start in (0..n).step_by(W) {
-        let rays = &lanes.rays;
-        let geom = load_or(rays.geom_id.as_slice(), start, INVALID_ID);
+        let geom = load_or(lanes.rays.geom_id.as_slice(), start, INVALID_ID);
         let Some((owned, chunk)) = pass.select(kernel, lanes, start, &geom) else {
             continue;
         };
-        let (ox, oy, oz) = (
-            load(rays.org_x.as_slice(), start),
-            load(rays.org_y.as_slice(), start),
-            load(rays.org_z.as_slice(), start),
-        );
-        let (dx, dy, dz) = (
-            load(rays.dir_x.as_slice(), start),
-            load(rays.dir_y.as_slice(), start),
-            load(rays.dir_z.as_slice(), start),
-        );
-        let t = load(rays.tfar.as_slice(), start);
-        let (nx, ny, nz) = (
-            load(rays.ng_x.as_slice(), start),
-            load(rays.ng_y.as_slice(), start),
-            load(rays.ng_z.as_slice(), start),
-        );
-        let mut albedo = [[0.0f32; W]; 3];
-        if kernel.any_textured {
-            for (c, albedo) in albedo.iter_mut().enumerate() {
-                *albedo = load(&lanes.albedo[c], start);
-            }
-        } else {
-            for k in 0..W {
-                let g = (geom[k] as usize).min(last);
-                for (c, albedo) in albedo.iter_mut().enumerate() {
-                    albedo[k] = kernel.albedo[c][g];
-                }
-            }
-        }
-        let (br, bg, bb) = (
-            load(&lanes.beta[0], start),
-            load(&lanes.beta[1], start),
-            load(&lanes.beta[2], start),
-        );
+        let c = ChunkIn::load::<TRIANGLES, ENV>(kernel, lanes, start, geom);
         let loaded;
         let lights = match &single {
             Some(chunk) => chunk,
@@ -514,11 +479,89 @@ pub(super) fn shade_chunks<
                 &loaded
             }
         };
-        let rng_in = load(&lanes.rng_dim, start);
-        let mut rng = rng_in;
-        let stream = load_streams(&lanes.rng_stream, start);
-        let eta_scale_in = load(&lanes.eta_scale, start);
-        let mut eta_scale = eta_scale_in;
+        let aniso = c.tangent_valid.contains(&true);
+        let mut out = ChunkOut::starting_from(&c);
+        // Each lane's input to `shade_lane` (the state loaded above, before
+        // any loop below changed it).
+        let lane_in = |k: usize| c.lane(k, lights.lane(k));
+        // Lane `k`'s results into the chunk's outputs.
+        let mut put = |k: usize, hit: bool, o: LaneOut| out.put::<TRIANGLES, ENV>(k, hit, o);
+        pass.shade::<TRIANGLES, CONES, ENV>(&chunk, &c.albedo, aniso, &lane_in, &mut put, u);
+        out.store::<TRIANGLES, ENV>(lanes, start, &owned);
+    }
+}
+
+/// One chunk's state, loaded from the lane arrays: what `shade_lane`
+/// reads. The environment's and the previous vertex's are loaded only
+/// where the scene needs them (`ENV`, `TRIANGLES`), the shading normals
+/// and tangents only where some material has them.
+struct ChunkIn {
+    geom: [u32; W],
+    org: [[f32; W]; 3],
+    dir: [[f32; W]; 3],
+    t: [f32; W],
+    ng: [[f32; W]; 3],
+    albedo: [[f32; W]; 3],
+    beta: [[f32; W]; 3],
+    rng: [u32; W],
+    stream: [SampleStream; W],
+    eta_scale: [f32; W],
+    ns: [[f32; W]; 3],
+    ns_valid: [bool; W],
+    tangent: [[f32; W]; 3],
+    tangent_valid: [bool; W],
+    env_valid: [bool; W],
+    env_wi: [[f32; W]; 3],
+    env_radiance: [[f32; W]; 3],
+    env_pdf: [f32; W],
+    prev_pdf: [f32; W],
+    prev_point: [[f32; W]; 3],
+}
+
+impl ChunkIn {
+    #[inline(always)]
+    fn load<const TRIANGLES: bool, const ENV: bool>(
+        kernel: &SoaScene,
+        lanes: &SoaLanes,
+        start: usize,
+        geom: [u32; W],
+    ) -> ChunkIn {
+        let rays = &lanes.rays;
+        let org = [
+            load(rays.org_x.as_slice(), start),
+            load(rays.org_y.as_slice(), start),
+            load(rays.org_z.as_slice(), start),
+        ];
+        let dir = [
+            load(rays.dir_x.as_slice(), start),
+            load(rays.dir_y.as_slice(), start),
+            load(rays.dir_z.as_slice(), start),
+        ];
+        let t = load(rays.tfar.as_slice(), start);
+        let ng = [
+            load(rays.ng_x.as_slice(), start),
+            load(rays.ng_y.as_slice(), start),
+            load(rays.ng_z.as_slice(), start),
+        ];
+        let mut albedo = [[0.0f32; W]; 3];
+        if kernel.any_textured {
+            for (c, albedo) in albedo.iter_mut().enumerate() {
+                *albedo = load(&lanes.albedo[c], start);
+            }
+        } else {
+            let last = kernel.albedo[0].len() - 1;
+            for k in 0..W {
+                let g = (geom[k] as usize).min(last);
+                for (c, albedo) in albedo.iter_mut().enumerate() {
+                    albedo[k] = kernel.albedo[c][g];
+                }
+            }
+        }
+        let beta = [
+            load(&lanes.beta[0], start),
+            load(&lanes.beta[1], start),
+            load(&lanes.beta[2], start),
+        ];
         let (mut ns, mut ns_valid) = ([[0.0f32; W]; 3], [false; W]);
         if kernel.any_smooth {
             ns_valid = load(&lanes.ns_valid, start);
@@ -526,7 +569,6 @@ pub(super) fn shade_chunks<
                 ns[c] = load(&lanes.ns[c], start);
             }
         }
-
         let (mut tangent, mut tangent_valid) = ([[0.0f32; W]; 3], [false; W]);
         if kernel.any_anisotropic {
             tangent_valid = load(&lanes.tangent_valid, start);
@@ -534,15 +576,6 @@ pub(super) fn shade_chunks<
                 tangent[c] = load(&lanes.tangent[c], start);
             }
         }
-        let aniso = tangent_valid.contains(&true);
-
-        let mut next = [[0.0f32; W]; 6];
-        let mut next_tfar = [f32::NEG_INFINITY; W];
-        let mut shadow_ray = [[0.0f32; W]; 6];
-        let mut shadow_tfar = [f32::NEG_INFINITY; W];
-        let mut pending = [[0.0f32; W]; 3];
-        let mut beta = [br, bg, bb];
-        let (mut prev_pdf, mut prev_point) = ([0.0f32; W], [[0.0f32; W]; 3]);
         let (mut env_valid, mut env_wi, mut env_radiance, mut env_pdf) =
             ([false; W], [[0.0f32; W]; 3], [[0.0f32; W]; 3], [0.0f32; W]);
         if ENV {
@@ -553,104 +586,183 @@ pub(super) fn shade_chunks<
                 env_radiance[c] = load(&lanes.env_radiance[c], start);
             }
         }
+        let (mut prev_pdf, mut prev_point) = ([0.0f32; W], [[0.0f32; W]; 3]);
         if TRIANGLES || ENV {
             prev_pdf = load(&lanes.prev_pdf, start);
             for c in 0..3 {
                 prev_point[c] = load(&lanes.prev_point[c], start);
             }
         }
-        // Each lane's input to `shade_lane` (the state loaded above, before
-        // any loop below changed it).
-        let lane_in = |k: usize| LaneIn {
-            org: Vec3::new(ox[k], oy[k], oz[k]),
-            dir: Vec3::new(dx[k], dy[k], dz[k]),
-            t: t[k],
-            ng: Vec3::new(nx[k], ny[k], nz[k]),
-            hit: geom[k] != INVALID_ID,
-            ns: Vec3::new(ns[0][k], ns[1][k], ns[2][k]),
-            smooth: ns_valid[k],
-            tangent: Vec3::new(tangent[0][k], tangent[1][k], tangent[2][k]),
-            anisotropic: tangent_valid[k],
-            beta: Vec3::new(br[k], bg[k], bb[k]),
-            eta_scale: eta_scale_in[k],
-            rng: rng_in[k],
-            stream: stream[k],
-            light: lights.lane(k),
-            env_valid: env_valid[k],
-            env_wi: Vec3::new(env_wi[0][k], env_wi[1][k], env_wi[2][k]),
-            env_radiance: Vec3::new(env_radiance[0][k], env_radiance[1][k], env_radiance[2][k]),
-            env_pdf: env_pdf[k],
-        };
-        // Lane `k`'s results into the chunk's outputs.
-        let mut put = |k: usize, hit: bool, out: LaneOut| {
-            // A lane without a hit keeps its state: its path has ended.
-            if hit {
-                rng[k] = out.rng;
-                eta_scale[k] = out.eta_scale;
-                for c in 0..3 {
-                    beta[c][k] = out.beta[c];
-                }
-            }
-            // Only emission found later needs them (for its MIS weight).
-            if (TRIANGLES || ENV) && hit {
-                prev_pdf[k] = out.pdf;
-                for c in 0..3 {
-                    prev_point[c][k] = out.point[c];
-                }
-            }
-            for c in 0..3 {
-                pending[c][k] = out.pending[c];
-                shadow_ray[c][k] = out.shadow_org[c];
-                shadow_ray[3 + c][k] = out.shadow_dir[c];
-                next[c][k] = out.next_org[c];
-                next[3 + c][k] = out.next_dir[c];
-            }
-            shadow_tfar[k] = if out.shadow {
-                out.shadow_tfar
-            } else {
-                f32::NEG_INFINITY
-            };
-            next_tfar[k] = if out.alive {
-                f32::INFINITY
-            } else {
-                f32::NEG_INFINITY
-            };
-        };
-        pass.shade::<TRIANGLES, CONES, ENV>(&chunk, &albedo, aniso, &lane_in, &mut put, u);
+        ChunkIn {
+            geom,
+            org,
+            dir,
+            t,
+            ng,
+            albedo,
+            beta,
+            rng: load(&lanes.rng_dim, start),
+            stream: load_streams(&lanes.rng_stream, start),
+            eta_scale: load(&lanes.eta_scale, start),
+            ns,
+            ns_valid,
+            tangent,
+            tangent_valid,
+            env_valid,
+            env_wi,
+            env_radiance,
+            env_pdf,
+            prev_pdf,
+            prev_point,
+        }
+    }
 
-        // The selected lanes' results back into the lane arrays (the other
-        // lanes' are another pass's).
-        let all = owned == [true; W];
-        store_owned(&mut lanes.rng_dim, start, &rng, &owned, all);
-        store_owned(&mut lanes.eta_scale, start, &eta_scale, &owned, all);
-        if TRIANGLES || ENV {
-            store_owned(&mut lanes.prev_pdf, start, &prev_pdf, &owned, all);
+    /// Lane `k`'s input to `shade_lane`, with its light sample `light`.
+    #[inline(always)]
+    fn lane(&self, k: usize, light: LightIn) -> LaneIn {
+        let v = |a: &[[f32; W]; 3]| Vec3::new(a[0][k], a[1][k], a[2][k]);
+        LaneIn {
+            org: v(&self.org),
+            dir: v(&self.dir),
+            t: self.t[k],
+            ng: v(&self.ng),
+            hit: self.geom[k] != INVALID_ID,
+            ns: v(&self.ns),
+            smooth: self.ns_valid[k],
+            tangent: v(&self.tangent),
+            anisotropic: self.tangent_valid[k],
+            beta: v(&self.beta),
+            eta_scale: self.eta_scale[k],
+            rng: self.rng[k],
+            stream: self.stream[k],
+            light,
+            env_valid: self.env_valid[k],
+            env_wi: v(&self.env_wi),
+            env_radiance: v(&self.env_radiance),
+            env_pdf: self.env_pdf[k],
+        }
+    }
+}
+
+/// One chunk's results: the path state `shade_lane` changes and the rays
+/// it spawns, written back for the lanes the pass owns.
+struct ChunkOut {
+    rng: [u32; W],
+    eta_scale: [f32; W],
+    beta: [[f32; W]; 3],
+    prev_pdf: [f32; W],
+    prev_point: [[f32; W]; 3],
+    pending: [[f32; W]; 3],
+    /// The next ray: origin x, y, z, direction x, y, z.
+    next: [[f32; W]; 6],
+    next_tfar: [f32; W],
+    /// The shadow ray: origin x, y, z, direction x, y, z.
+    shadow_ray: [[f32; W]; 6],
+    shadow_tfar: [f32; W],
+}
+
+impl ChunkOut {
+    /// The outputs before shading: the path state as loaded (a lane without
+    /// a hit keeps it), no rays.
+    #[inline(always)]
+    fn starting_from(c: &ChunkIn) -> ChunkOut {
+        ChunkOut {
+            rng: c.rng,
+            eta_scale: c.eta_scale,
+            beta: c.beta,
+            prev_pdf: c.prev_pdf,
+            prev_point: c.prev_point,
+            pending: [[0.0f32; W]; 3],
+            next: [[0.0f32; W]; 6],
+            next_tfar: [f32::NEG_INFINITY; W],
+            shadow_ray: [[0.0f32; W]; 6],
+            shadow_tfar: [f32::NEG_INFINITY; W],
+        }
+    }
+
+    /// Lane `k`'s results (`hit`: whether its ray hit something).
+    #[inline(always)]
+    fn put<const TRIANGLES: bool, const ENV: bool>(&mut self, k: usize, hit: bool, out: LaneOut) {
+        // A lane without a hit keeps its state: its path has ended.
+        if hit {
+            self.rng[k] = out.rng;
+            self.eta_scale[k] = out.eta_scale;
             for c in 0..3 {
-                store_owned(&mut lanes.prev_point[c], start, &prev_point[c], &owned, all);
+                self.beta[c][k] = out.beta[c];
+            }
+        }
+        // Only emission found later needs them (for its MIS weight).
+        if (TRIANGLES || ENV) && hit {
+            self.prev_pdf[k] = out.pdf;
+            for c in 0..3 {
+                self.prev_point[c][k] = out.point[c];
             }
         }
         for c in 0..3 {
-            store_owned(&mut lanes.beta[c], start, &beta[c], &owned, all);
-            store_owned(&mut lanes.pending[c], start, &pending[c], &owned, all);
+            self.pending[c][k] = out.pending[c];
+            self.shadow_ray[c][k] = out.shadow_org[c];
+            self.shadow_ray[3 + c][k] = out.shadow_dir[c];
+            self.next[c][k] = out.next_org[c];
+            self.next[3 + c][k] = out.next_dir[c];
+        }
+        self.shadow_tfar[k] = if out.shadow {
+            out.shadow_tfar
+        } else {
+            f32::NEG_INFINITY
+        };
+        self.next_tfar[k] = if out.alive {
+            f32::INFINITY
+        } else {
+            f32::NEG_INFINITY
+        };
+    }
+
+    /// The owned lanes' results back into the lane arrays (the other lanes'
+    /// are another pass's).
+    #[inline(always)]
+    fn store<const TRIANGLES: bool, const ENV: bool>(
+        &self,
+        lanes: &mut SoaLanes,
+        start: usize,
+        owned: &[bool; W],
+    ) {
+        let all = *owned == [true; W];
+        store_owned(&mut lanes.rng_dim, start, &self.rng, owned, all);
+        store_owned(&mut lanes.eta_scale, start, &self.eta_scale, owned, all);
+        if TRIANGLES || ENV {
+            store_owned(&mut lanes.prev_pdf, start, &self.prev_pdf, owned, all);
+            for c in 0..3 {
+                store_owned(
+                    &mut lanes.prev_point[c],
+                    start,
+                    &self.prev_point[c],
+                    owned,
+                    all,
+                );
+            }
+        }
+        for c in 0..3 {
+            store_owned(&mut lanes.beta[c], start, &self.beta[c], owned, all);
+            store_owned(&mut lanes.pending[c], start, &self.pending[c], owned, all);
         }
         let (rays, shadow) = (&mut lanes.rays, &mut lanes.shadow);
         for (dst, src) in [
-            (&mut rays.org_x, &next[0]),
-            (&mut rays.org_y, &next[1]),
-            (&mut rays.org_z, &next[2]),
-            (&mut rays.dir_x, &next[3]),
-            (&mut rays.dir_y, &next[4]),
-            (&mut rays.dir_z, &next[5]),
-            (&mut rays.tfar, &next_tfar),
-            (&mut shadow.org_x, &shadow_ray[0]),
-            (&mut shadow.org_y, &shadow_ray[1]),
-            (&mut shadow.org_z, &shadow_ray[2]),
-            (&mut shadow.dir_x, &shadow_ray[3]),
-            (&mut shadow.dir_y, &shadow_ray[4]),
-            (&mut shadow.dir_z, &shadow_ray[5]),
-            (&mut shadow.tfar, &shadow_tfar),
+            (&mut rays.org_x, &self.next[0]),
+            (&mut rays.org_y, &self.next[1]),
+            (&mut rays.org_z, &self.next[2]),
+            (&mut rays.dir_x, &self.next[3]),
+            (&mut rays.dir_y, &self.next[4]),
+            (&mut rays.dir_z, &self.next[5]),
+            (&mut rays.tfar, &self.next_tfar),
+            (&mut shadow.org_x, &self.shadow_ray[0]),
+            (&mut shadow.org_y, &self.shadow_ray[1]),
+            (&mut shadow.org_z, &self.shadow_ray[2]),
+            (&mut shadow.dir_x, &self.shadow_ray[3]),
+            (&mut shadow.dir_y, &self.shadow_ray[4]),
+            (&mut shadow.dir_z, &self.shadow_ray[5]),
+            (&mut shadow.tfar, &self.shadow_tfar),
         ] {
-            store_owned(dst.as_mut_slice(), start, src, &owned, all);
+            store_owned(dst.as_mut_slice(), start, src, owned, all);
         }
     }
 }
