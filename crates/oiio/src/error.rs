@@ -9,7 +9,8 @@ pub enum Error {
     /// Bad input, an unreadable file, an invalid argument.
     #[error(transparent)]
     Base(#[from] plsr_base::Error),
-    /// OpenImageIO (through plsr's shim) could not be loaded to handle `file`.
+    /// OpenImageIO (through plsr's shim) could not be loaded to read `file`
+    /// (an output it cannot write is a [`Error::Write`]).
     #[error("{}: {reason}", file.display())]
     Unavailable {
         /// The image plsr was about to read.

@@ -687,10 +687,9 @@ impl ImageWriter {
             Ok(api) => api,
             Err(why) => {
                 discard(&tmp);
-                return Err(Error::Unavailable {
-                    file: path.to_path_buf(),
-                    reason: why.clone(),
-                });
+                // An output that cannot be written (as before the typed
+                // errors: the C ABI reports it as an I/O failure).
+                return Err(out_err(why.to_string()));
             }
         };
         // SAFETY: the path and every attribute name/string are NUL-terminated
