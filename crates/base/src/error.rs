@@ -41,23 +41,6 @@ pub enum Error {
 }
 
 impl Error {
-    /// The same error with `field` named where none was: for helpers that
-    /// know the file but not which field of the caller's input named it.
-    pub fn in_field(self, field: impl Into<String>) -> Error {
-        match self {
-            Error::Input {
-                file,
-                field: f,
-                message,
-            } if f.is_empty() => Error::Input {
-                file,
-                field: field.into(),
-                message,
-            },
-            other => other,
-        }
-    }
-
     /// An [`Error::Input`] for `file`, `field`, `message`.
     pub fn input(
         file: impl Into<PathBuf>,
