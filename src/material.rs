@@ -64,6 +64,12 @@ pub struct Material {
     pub bsdf: Bsdf,
     /// Textured parameters, if any.
     pub textures: MaterialTextures,
+    /// Whether an opaque BSDF scatters on both sides of the surface (plsr's
+    /// default); `false`: the surface is black seen from behind its
+    /// geometric normal (the side its triangles' winding faces away from),
+    /// as Mitsuba renders a BSDF without `twosided`. Transmissive BSDFs
+    /// have two sides whatever this says.
+    pub two_sided: bool,
 }
 
 impl Material {
@@ -73,6 +79,7 @@ impl Material {
             name: name.into(),
             bsdf,
             textures: MaterialTextures::default(),
+            two_sided: true,
         }
     }
 
@@ -85,6 +92,14 @@ impl Material {
             Bsdf::CookTorrance(_) if self.textures.roughness.is_some() => false,
             bsdf => bsdf.is_anisotropic(),
         }
+    }
+
+    /// Whether a hit whose geometric normal is `ng` (unnormalised), seen
+    /// along `dir` (towards the surface), is the black back of a one-sided
+    /// surface: the path ends there.
+    #[inline(always)]
+    pub fn black_from(&self, ng: glam::Vec3, dir: glam::Vec3) -> bool {
+        !self.two_sided && !self.bsdf.transmits() && ng.dot(dir) > 0.0
     }
 
     /// The BSDF at surface coordinates `uv`: the constant BSDF with its

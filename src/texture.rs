@@ -2,12 +2,19 @@
 //! UV coordinates.
 //!
 //! Conventions (those of OBJ and OpenGL): `u` runs left to right across the
-//! image and `v` from the *bottom* row (`v = 0`) to the top row (`v = 1`);
-//! coordinates outside `[0, 1)` repeat. Lookups are bilinear between texel
-//! centres. Colour textures (base colour) are decoded from sRGB to linear
-//! RGB on load; data textures (roughness, metallic) are read as stored
-//! (8-bit values map to `[0, 1]`), and a scalar parameter reads the red
-//! channel.
+//! image and `v` from the *bottom* row (`v = 0`) to the top row (`v = 1`).
+//! How a texture is looked up ([`Sampling`]): the surface's UV first goes
+//! through an affine map (`to_uv`, Mitsuba's parameter of that name), then
+//! the lookup is bilinear between texel centres or takes the nearest texel,
+//! and coordinates outside `[0, 1)` repeat, mirror or clamp to the edge
+//! (bilinear, repeating, no map by default). Colour textures (base colour)
+//! are decoded from sRGB to linear RGB on load; data textures (roughness,
+//! metallic) are read as stored (8-bit values map to `[0, 1]`), and a
+//! scalar parameter reads the red channel. Floating-point images (OpenEXR,
+//! Radiance HDR) are linear already and never decoded.
+//!
+//! A checkerboard ([`ImageTexture::checkerboard`], Mitsuba's
+//! `checkerboard`) is a 2 × 2 texture looked up by the nearest texel.
 //!
 //! ```toml
 //! [[materials]]
@@ -59,6 +66,41 @@ pub enum Encoding {
     Linear,
 }
 
+/// How texels are combined at a lookup.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Filter {
+    /// Bilinear between the four nearest texel centres.
+    #[default]
+    Bilinear,
+    /// The texel the point falls in.
+    Nearest,
+}
+
+/// What lies outside the image's `[0, 1)²`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Wrap {
+    /// The image again (tiling).
+    #[default]
+    Repeat,
+    /// The image mirrored, every other tile.
+    Mirror,
+    /// The edge texels, stretched.
+    Clamp,
+}
+
+/// How a texture is looked up.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Sampling {
+    /// Bilinear or nearest.
+    pub filter: Filter,
+    /// Outside `[0, 1)`.
+    pub wrap: Wrap,
+    /// An affine map of the surface's UV, `[[a, b, c], [d, e, f]]`: the
+    /// lookup is at `(a·u + b·v + c, d·u + e·v + f)`; `None` is the
+    /// identity.
+    pub to_uv: Option<[[f32; 3]; 2]>,
+}
+
 /// An RGB image sampled by UV, linear values.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ImageTexture {
@@ -68,6 +110,8 @@ pub struct ImageTexture {
     pub height: u32,
     /// Linear texels, row-major from the top row.
     texels: Vec<Vec3>,
+    /// How it is looked up.
+    pub sampling: Sampling,
 }
 
 /// sRGB transfer function, decoded: encoded value in `[0, 1]` to linear.
@@ -89,7 +133,24 @@ impl ImageTexture {
             width,
             height,
             texels,
+            sampling: Sampling::default(),
         }
+    }
+
+    /// Mitsuba's `checkerboard`: `color0` where the fractional parts of `u`
+    /// and `v` are both below ½ or both above, `color1` elsewhere (a 2 × 2
+    /// texture looked up by the nearest texel, repeating).
+    pub fn checkerboard(color0: Vec3, color1: Vec3) -> ImageTexture {
+        // Row 0 is the top (v in [½, 1)): u < ½ there is color1.
+        let mut t = ImageTexture::from_texels(2, 2, vec![color1, color0, color0, color1]);
+        t.sampling.filter = Filter::Nearest;
+        t
+    }
+
+    /// The texture looked up as `sampling` says.
+    pub fn with_sampling(mut self, sampling: Sampling) -> ImageTexture {
+        self.sampling = sampling;
+        self
     }
 
     /// Loads a PNG or JPEG file. The error message names the file and the
@@ -107,14 +168,19 @@ impl ImageTexture {
             path: at.clone(),
             source,
         })?;
+        // Floating-point images hold linear values already.
+        let float = matches!(
+            image.color(),
+            image::ColorType::Rgb32F | image::ColorType::Rgba32F
+        );
         let rgb = image.to_rgb32f();
         let (width, height) = rgb.dimensions();
         if width == 0 || height == 0 {
             return Err(TextureError::Empty(at));
         }
         let decode = |c: f32| match encoding {
-            Encoding::Srgb => srgb_to_linear(c.clamp(0.0, 1.0)),
-            Encoding::Linear => c,
+            Encoding::Srgb if !float => srgb_to_linear(c.clamp(0.0, 1.0)),
+            _ => c,
         };
         let texels = rgb
             .pixels()
@@ -127,6 +193,7 @@ impl ImageTexture {
             width,
             height,
             texels,
+            sampling: Sampling::default(),
         })
     }
 
@@ -147,14 +214,41 @@ impl ImageTexture {
     }
 
     fn texel(&self, x: i64, y: i64) -> Vec3 {
-        let x = x.rem_euclid(self.width as i64) as usize;
-        let y = y.rem_euclid(self.height as i64) as usize;
-        self.texels[y * self.width as usize + x]
+        let wrap = |i: i64, n: u32| -> usize {
+            let n = n as i64;
+            (match self.sampling.wrap {
+                Wrap::Repeat => i.rem_euclid(n),
+                Wrap::Mirror => {
+                    let m = i.rem_euclid(2 * n);
+                    if m >= n {
+                        2 * n - 1 - m
+                    } else {
+                        m
+                    }
+                }
+                Wrap::Clamp => i.clamp(0, n - 1),
+            }) as usize
+        };
+        self.texels[wrap(y, self.height) * self.width as usize + wrap(x, self.width)]
     }
 
     /// The bilinearly filtered value at `uv` (repeating outside `[0, 1)`).
     #[inline]
     pub fn eval(&self, uv: Vec2) -> Vec3 {
+        let uv = match self.sampling.to_uv {
+            None => uv,
+            Some([[a, b, c], [d, e, f]]) => {
+                Vec2::new(a * uv.x + b * uv.y + c, d * uv.x + e * uv.y + f)
+            }
+        };
+        if self.sampling.filter == Filter::Nearest {
+            let x = (uv.x * self.width as f32).floor();
+            let y = ((1.0 - uv.y) * self.height as f32).floor();
+            if !(x.is_finite() && y.is_finite()) {
+                return self.texels[0];
+            }
+            return self.texel(x as i64, y as i64);
+        }
         // Continuous texel coordinates; texel (i, j) has its centre at
         // (i + ½, j + ½), and row 0 is the top (v = 1).
         let x = uv.x * self.width as f32 - 0.5;
@@ -208,6 +302,63 @@ mod tests {
             t.eval(Vec2::new(1.25, -0.25)),
             t.eval(Vec2::new(0.25, 0.75))
         );
+    }
+
+    #[test]
+    fn nearest_lookups_wrap_modes_and_uv_maps() {
+        let nearest = |wrap| {
+            checker().with_sampling(Sampling {
+                filter: Filter::Nearest,
+                wrap,
+                to_uv: None,
+            })
+        };
+        let t = nearest(Wrap::Repeat);
+        // Anywhere in a texel: that texel, no blending.
+        assert_eq!(t.eval(Vec2::new(0.49, 0.51)), Vec3::X);
+        assert_eq!(t.eval(Vec2::new(0.51, 0.51)), Vec3::Y);
+        assert_eq!(t.eval(Vec2::new(1.1, 0.9)), Vec3::X);
+        // Mirror: the tile to the right is flipped left to right.
+        let m = nearest(Wrap::Mirror);
+        assert_eq!(m.eval(Vec2::new(1.1, 0.9)), Vec3::Y);
+        assert_eq!(m.eval(Vec2::new(1.9, 0.9)), Vec3::X);
+        assert_eq!(m.eval(Vec2::new(-0.1, 0.1)), Vec3::Z);
+        // Clamp: the edge texel beyond the edge.
+        let c = nearest(Wrap::Clamp);
+        assert_eq!(c.eval(Vec2::new(7.0, 0.9)), Vec3::Y);
+        assert_eq!(c.eval(Vec2::new(-3.0, -3.0)), Vec3::Z);
+        // A map of UV: scaled by 2, the texture repeats twice.
+        let s = nearest(Wrap::Repeat).with_sampling(Sampling {
+            filter: Filter::Nearest,
+            wrap: Wrap::Repeat,
+            to_uv: Some([[2.0, 0.0, 0.0], [0.0, 2.0, 0.0]]),
+        });
+        assert_eq!(s.eval(Vec2::new(0.3, 0.3)), t.eval(Vec2::new(0.6, 0.6)));
+        // Bilinear clamping blends nothing beyond the edge.
+        let b = checker().with_sampling(Sampling {
+            wrap: Wrap::Clamp,
+            ..Sampling::default()
+        });
+        assert_eq!(b.eval(Vec2::new(0.0, 0.75)), Vec3::X);
+    }
+
+    #[test]
+    fn a_checkerboard_is_mitsubas() {
+        // Mitsuba: color0 where frac(u) > ½ and frac(v) > ½ agree.
+        let (c0, c1) = (Vec3::splat(0.2), Vec3::splat(0.4));
+        let t = ImageTexture::checkerboard(c0, c1);
+        for (u, v) in [
+            (0.1, 0.2),
+            (0.7, 0.9),
+            (3.6, -0.2),
+            (-0.3, 0.4),
+            (0.2, 0.8),
+            (0.8, 0.1),
+        ] {
+            let (mu, mv) = (u - f32::floor(u) > 0.5, v - f32::floor(v) > 0.5);
+            let want = if mu == mv { c0 } else { c1 };
+            assert_eq!(t.eval(Vec2::new(u, v)), want, "({u}, {v})");
+        }
     }
 
     #[test]

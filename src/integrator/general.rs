@@ -382,7 +382,9 @@ fn shade(
         }
     }
 
-    if path.depth >= max_depth {
+    // The back of a one-sided surface is black: the path ends (after its
+    // layers and any emission were recorded).
+    if path.depth >= max_depth || material.black_from(hit.ng, ray.dir) {
         path.alive = false;
         return;
     }

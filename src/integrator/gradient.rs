@@ -446,7 +446,7 @@ fn step(
         }
     }
 
-    if depth >= max_depth {
+    if depth >= max_depth || material.black_from(hit.ng, ray.dir) {
         path.alive = false;
         return;
     }

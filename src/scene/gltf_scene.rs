@@ -334,6 +334,7 @@ fn read_material(
             name,
             bsdf: Bsdf::Principled(params),
             textures: t,
+            two_sided: true,
         },
         e,
     ))

@@ -11,6 +11,7 @@ pub mod gltf_scene;
 pub mod mitsuba;
 pub mod photo;
 pub mod ply;
+pub mod serialized;
 pub mod shapes;
 
 use crate::accel::{Accel, Device, SceneOptions};

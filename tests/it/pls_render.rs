@@ -29,11 +29,13 @@ fn floor_radiance(light: &Pls, mode: BrightnessMode, target: Vec3, spp: u32) -> 
             name: "floor".into(),
             bsdf: Bsdf::diffuse(Vec3::splat(ALBEDO)),
             textures: Default::default(),
+            two_sided: true,
         },
         Material {
             name: "black".into(),
             bsdf: Bsdf::diffuse(Vec3::ZERO),
             textures: Default::default(),
+            two_sided: true,
         },
     ];
     let eye = target + Vec3::new(0.0, -0.3, 0.3);
@@ -167,11 +169,13 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
                 name: "floor".into(),
                 bsdf: Bsdf::diffuse(Vec3::splat(0.5)),
                 textures: Default::default(),
+                two_sided: true,
             },
             Material {
                 name: "black".into(),
                 bsdf: Bsdf::diffuse(Vec3::ZERO),
                 textures: Default::default(),
+                two_sided: true,
             },
         ],
         point_lights: vec![],

@@ -15,6 +15,7 @@ fn material(name: &str, albedo: f32) -> Material {
         name: name.into(),
         bsdf: Bsdf::diffuse(Vec3::splat(albedo)),
         textures: Default::default(),
+        two_sided: true,
     }
 }
 
@@ -313,6 +314,7 @@ fn glass_sphere_in_a_furnace(spp: u32, rr_depth: u32) -> (Film, Vec<usize>) {
             microfacet: None,
         }),
         textures: Default::default(),
+        two_sided: true,
     };
     let sphere = mesh("sphere", icosphere(Vec3::ZERO, 1.0, 4), 0, None);
     let film = render_scene(SceneDescription {

@@ -543,3 +543,85 @@ fn bad_normal_map_keys_are_refused() {
         assert!(err.contains(wanted) && err.contains("bad.toml"), "{err}");
     }
 }
+
+/// A rectangle facing +z (or −z, `flip`) between the camera at +z and a
+/// point light beside the camera, with `two_sided` as given: the pixel at
+/// the image's centre.
+fn centre_of_a_lit_panel(two_sided: bool, flip: bool) -> Vec3 {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("panel.toml");
+    std::fs::write(
+        &path,
+        format!(
+            r#"
+[render]
+spp = 4
+max_depth = 2
+
+[camera]
+position = [0, 0, 3]
+look_at = [0, 0, 0]
+up = [0, 1, 0]
+vfov = 30
+resolution = [9, 9]
+
+[[materials]]
+name = "panel"
+type = "diffuse"
+reflectance = [0.5, 0.5, 0.5]
+two_sided = {two_sided}
+
+[[shapes]]
+type = "rectangle"
+flip_normals = {flip}
+material = "panel"
+
+[[lights]]
+type = "point"
+position = [0.5, 0.5, 3]
+intensity = [9, 9, 9]
+"#
+        ),
+    )
+    .unwrap();
+    let scene = Scene::load(&path).unwrap();
+    let film = render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap()
+    .0;
+    film.color[4 * 9 + 4]
+}
+
+#[test]
+fn a_one_sided_surface_is_black_from_behind() {
+    let front = centre_of_a_lit_panel(false, false);
+    assert!(front.min_element() > 0.1, "lit from the front: {front}");
+    // Two-sided (the default), its back is lit just as its front.
+    assert_eq!(centre_of_a_lit_panel(true, true), front);
+    // One-sided and turned round: black, exactly.
+    assert_eq!(centre_of_a_lit_panel(false, true), Vec3::ZERO);
+}
+
+#[test]
+fn a_dielectric_cannot_be_one_sided() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("glass.toml");
+    std::fs::write(
+        &path,
+        "[camera]\nposition = [0, 0, 3]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nresolution = [4, 4]\nvfov = 30\n\n[[materials]]\nname = \"g\"\n\
+         type = \"dielectric\"\ntwo_sided = false\n\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"g\"\n",
+    )
+    .unwrap();
+    let e = match Scene::load(&path) {
+        Ok(_) => panic!("a one-sided dielectric was accepted"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        e.contains("materials[0].two_sided") && e.contains("opaque"),
+        "{e}"
+    );
+}

@@ -1354,3 +1354,36 @@ fn virtual_objects_are_bit_identical() {
         "hiding the virtual objects changes the image"
     );
 }
+
+#[test]
+fn one_sided_surfaces_are_bit_identical() {
+    // The Cornell box with every material one-sided: the walls' backs face
+    // away from the camera, but light and paths reach the boxes' and the
+    // light panel's backs, where paths end.
+    let mut desc = load(Path::new("tests/data/cornell-64.toml")).unwrap();
+    desc.camera = desc.camera.with_resolution(40, 40).unwrap();
+    desc.job.spp = 3;
+    for m in &mut desc.materials {
+        m.two_sided = false;
+    }
+    let mut cornell = Case::new(Scene::build(desc).unwrap());
+    assert_identical("one-sided Cornell box", &cornell);
+    cornell.job.max_depth = 1;
+    assert_identical("one-sided Cornell box, max_depth 1", &cornell);
+    let run = |vectorised| {
+        let o = RenderOptions {
+            threads: Some(1),
+            vectorised,
+            ..Default::default()
+        };
+        render(&cornell.scene, &cornell.job, &o, &|_, _| true)
+            .unwrap()
+            .1
+            .rays
+    };
+    let (a, b) = (run(false), run(true));
+    assert_eq!(
+        (a.camera, a.bounce, a.shadow),
+        (b.camera, b.bounce, b.shadow)
+    );
+}

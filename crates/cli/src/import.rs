@@ -17,6 +17,8 @@ pub struct ImportArgs {
     /// names in it are rewritten to name the same files from its folder.
     #[arg(short, long, value_name = "OUT.toml")]
     pub output: Option<PathBuf>,
+    #[command(flatten)]
+    pub params: crate::scene_params::SceneParams,
 }
 
 /// Runs `plsr import`.
@@ -39,7 +41,7 @@ pub fn run(a: &ImportArgs) -> Result<()> {
     })?;
     // Building the scene checks everything the translation names (meshes,
     // textures, values) before anything is written.
-    let contents = plsr::scene::file::load_contents(&a.input)?;
+    let contents = plsr::scene::file::load_contents_with(&a.input, &a.params.options())?;
     let translation = match &a.output {
         Some(out) => {
             check_extension(out, "toml", "a plsr scene (TOML)")
@@ -54,9 +56,9 @@ pub fn run(a: &ImportArgs) -> Result<()> {
                 Some(d) if !d.as_os_str().is_empty() => d,
                 _ => Path::new("."),
             };
-            plsr::scene::mitsuba::translate_for(&a.input, &text, dir)?
+            plsr::scene::mitsuba::translate_for(&a.input, &text, &a.params.options(), dir)?
         }
-        None => plsr::scene::mitsuba::translate(&a.input, &text)?,
+        None => plsr::scene::mitsuba::translate_with(&a.input, &text, &a.params.options())?,
     };
     for n in &translation.notes {
         eprintln!("note: {n}");

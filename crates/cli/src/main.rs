@@ -15,6 +15,7 @@ mod merge;
 mod pls;
 mod progress;
 mod render;
+mod scene_params;
 mod tonemap;
 
 use crate::error::Result;

@@ -18,6 +18,8 @@ use std::path::{Path, PathBuf};
 pub struct RenderArgs {
     /// The scene file.
     pub scene: PathBuf,
+    #[command(flatten)]
+    pub params: crate::scene_params::SceneParams,
     /// Output OpenEXR file (linear float, all layers).
     #[arg(short, long, value_name = "OUT.exr")]
     pub output: PathBuf,
@@ -125,7 +127,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             a.tile_size
         )));
     }
-    let contents = plsr::scene::file::load_contents(&a.scene)?;
+    let contents = plsr::scene::file::load_contents_with(&a.scene, &a.params.options())?;
     for n in &contents.notes {
         eprintln!("note: {n}");
     }
@@ -147,7 +149,12 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     files.extend(inputs.iter().cloned());
     let parts = a.samples.is_some() || window.is_some() || a.resume;
     let files_hasher = if parts {
-        scene_files_hasher(&files)?
+        let mut h = scene_files_hasher(&files)?;
+        // A Mitsuba scene's -D parameters are part of the scene.
+        for (name, value) in &a.params.define {
+            h.field(format!("-D {name}={value}").as_bytes());
+        }
+        h
     } else {
         StableHasher::default()
     };

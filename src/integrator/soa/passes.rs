@@ -484,8 +484,15 @@ pub(super) fn shade_chunks<
         // Each lane's input to `shade_lane` (the state loaded above, before
         // any loop below changed it).
         let lane_in = |k: usize| c.lane(k, lights.lane(k));
-        // Lane `k`'s results into the chunk's outputs.
-        let mut put = |k: usize, hit: bool, o: LaneOut| out.put::<TRIANGLES, ENV>(k, hit, o);
+        // Lane `k`'s results into the chunk's outputs; behind a one-sided
+        // surface, the path ends with nothing from this bounce.
+        let mut put = |k: usize, hit: bool, mut o: LaneOut| {
+            if c.black[k] {
+                o.alive = false;
+                o.shadow = false;
+            }
+            out.put::<TRIANGLES, ENV>(k, hit, o)
+        };
         pass.shade::<TRIANGLES, CONES, ENV>(&chunk, &c.albedo, aniso, &lane_in, &mut put, u);
         out.store::<TRIANGLES, ENV>(lanes, start, &owned);
     }
@@ -516,6 +523,9 @@ struct ChunkIn {
     env_pdf: [f32; W],
     prev_pdf: [f32; W],
     prev_point: [[f32; W]; 3],
+    /// Whether each lane hit the back of a one-sided surface, which is
+    /// black: its path ends there.
+    black: [bool; W],
 }
 
 impl ChunkIn {
@@ -586,6 +596,18 @@ impl ChunkIn {
                 env_radiance[c] = load(&lanes.env_radiance[c], start);
             }
         }
+        let mut black = [false; W];
+        if kernel.any_one_sided {
+            let last = kernel.one_sided.len() - 1;
+            for k in 0..W {
+                let g = (geom[k] as usize).min(last);
+                let ng = Vec3::new(ng[0][k], ng[1][k], ng[2][k]);
+                let dir = Vec3::new(dir[0][k], dir[1][k], dir[2][k]);
+                // As `Material::black_from` decides it for the general
+                // integrator.
+                black[k] = kernel.one_sided[g] && ng.dot(dir) > 0.0;
+            }
+        }
         let (mut prev_pdf, mut prev_point) = ([0.0f32; W], [[0.0f32; W]; 3]);
         if TRIANGLES || ENV {
             prev_pdf = load(&lanes.prev_pdf, start);
@@ -614,6 +636,7 @@ impl ChunkIn {
             env_pdf,
             prev_pdf,
             prev_point,
+            black,
         }
     }
 

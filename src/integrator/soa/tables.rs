@@ -56,6 +56,12 @@ pub struct SoaScene {
     pub(super) transmits: Vec<bool>,
     /// Whether any geometry's does.
     pub(super) any_transmits: bool,
+    /// Whether each geometry's material is opaque and one-sided (black
+    /// seen from behind: [`crate::material::Material::black_from`]), with
+    /// one extra `false`.
+    pub(super) one_sided: Vec<bool>,
+    /// Whether any geometry's is.
+    pub(super) any_one_sided: bool,
     /// Whether each geometry (by Embree id) is a virtual object (inserted
     /// into a photograph; counted in the compositing matte), with one extra
     /// `false`.
@@ -100,6 +106,7 @@ impl SoaScene {
         let mut textured = Vec::new();
         let mut mapped = Vec::new();
         let mut transmits = Vec::new();
+        let mut one_sided = Vec::new();
         let mut smooth = Vec::new();
         let mut anisotropic = Vec::new();
         let mut is_virtual = Vec::new();
@@ -147,6 +154,7 @@ impl SoaScene {
                 return None;
             }
             transmits.push(material.bsdf.transmits());
+            one_sided.push(!material.two_sided && !material.bsdf.transmits());
             anisotropic.push(material.is_anisotropic());
             emissive.push(scene.light_index(g as u32, 0).is_some());
             textured.push(!material.textures.is_empty());
@@ -167,6 +175,7 @@ impl SoaScene {
         let all_lambert = lambert.iter().all(|&l| l);
         lambert.push(false);
         transmits.push(false);
+        one_sided.push(false);
         smooth.push(false);
         anisotropic.push(false);
         is_virtual.push(false);
@@ -207,6 +216,8 @@ impl SoaScene {
             all_lambert,
             any_transmits: transmits.contains(&true),
             transmits,
+            any_one_sided: one_sided.contains(&true),
+            one_sided,
             any_smooth: smooth.contains(&true),
             smooth,
             any_anisotropic: anisotropic.contains(&true),

@@ -2,6 +2,7 @@
 //! the materials of OBJ files' MTL libraries.
 
 use super::keys::key_names;
+use super::map::{MapKey, MapSource};
 use super::Builder;
 use crate::bsdf::METALS;
 use crate::bsdf::{
@@ -28,6 +29,8 @@ pub(super) struct MaterialSection {
     pub(super) name: String,
     #[serde(rename = "type")]
     pub(super) kind: String,
+    /// `false`: black seen from behind (see [`Material::two_sided`]).
+    pub(super) two_sided: Option<bool>,
     #[serde(flatten)]
     pub(super) keys: toml::Table,
 }
@@ -38,7 +41,7 @@ pub(super) struct MaterialSection {
 pub(super) struct DiffuseKeys {
     #[serde(default, deserialize_with = "crate::input::exact::option")]
     reflectance: Option<[f32; 3]>,
-    base_color_map: Option<PathBuf>,
+    base_color_map: Option<MapKey>,
     normal_map: Option<PathBuf>,
     normal_scale: Option<f32>,
 }
@@ -52,7 +55,7 @@ pub(super) struct BlinnPhongKeys {
     #[serde(default, deserialize_with = "crate::input::exact::option")]
     specular: Option<[f32; 3]>,
     exponent: Option<f32>,
-    base_color_map: Option<PathBuf>,
+    base_color_map: Option<MapKey>,
     normal_map: Option<PathBuf>,
     normal_scale: Option<f32>,
 }
@@ -77,7 +80,7 @@ pub(super) struct CookTorranceKeys {
     k: Option<[f32; 3]>,
     #[serde(default, deserialize_with = "crate::input::exact::option")]
     specular_reflectance: Option<[f32; 3]>,
-    roughness_map: Option<PathBuf>,
+    roughness_map: Option<MapKey>,
     normal_map: Option<PathBuf>,
     normal_scale: Option<f32>,
 }
@@ -108,9 +111,9 @@ pub(super) struct PrincipledKeys {
     specular: Option<f32>,
     spec_tint: Option<f32>,
     energy_conserving: Option<bool>,
-    base_color_map: Option<PathBuf>,
-    roughness_map: Option<PathBuf>,
-    metallic_map: Option<PathBuf>,
+    base_color_map: Option<MapKey>,
+    roughness_map: Option<MapKey>,
+    metallic_map: Option<MapKey>,
     normal_map: Option<PathBuf>,
     normal_scale: Option<f32>,
 }
@@ -154,9 +157,9 @@ macro_rules! microfacet_keys {
 /// The texture keys of a material.
 #[derive(Default)]
 struct TextureKeys<'a> {
-    base_color_map: Option<&'a PathBuf>,
-    roughness_map: Option<&'a PathBuf>,
-    metallic_map: Option<&'a PathBuf>,
+    base_color_map: Option<&'a MapKey>,
+    roughness_map: Option<&'a MapKey>,
+    metallic_map: Option<&'a MapKey>,
     normal_map: Option<&'a PathBuf>,
     normal_scale: Option<f32>,
 }
@@ -465,9 +468,9 @@ impl Builder<'_> {
         let m = keys.textures();
         let mut textures = self.textures(
             field,
-            m.base_color_map.map(|p| self.base.join(p)),
-            m.roughness_map.map(|p| self.base.join(p)),
-            m.metallic_map.map(|p| self.base.join(p)),
+            m.base_color_map.map(|k| k.clone().rebased(self.base)),
+            m.roughness_map.map(|k| k.clone().rebased(self.base)),
+            m.metallic_map.map(|k| k.clone().rebased(self.base)),
             ["base_color_map", "roughness_map", "metallic_map"],
         )?;
         if m.normal_scale.is_some() && m.normal_map.is_none() {
@@ -498,30 +501,55 @@ impl Builder<'_> {
         Ok(textures)
     }
 
-    /// Loads base colour (sRGB), roughness and metallic (linear) textures;
-    /// `keys` name them in errors, under `field`.
+    /// Loads base colour (sRGB unless said otherwise), roughness and
+    /// metallic (linear unless said otherwise) textures; `keys` name them in
+    /// errors, under `field`.
     pub(super) fn textures(
         &self,
         field: &str,
-        base_color: Option<PathBuf>,
-        roughness: Option<PathBuf>,
-        metallic: Option<PathBuf>,
+        base_color: Option<MapKey>,
+        roughness: Option<MapKey>,
+        metallic: Option<MapKey>,
         keys: [&str; 3],
     ) -> Result<MaterialTextures> {
-        let load = |path: Option<PathBuf>,
+        let load = |map: Option<MapKey>,
                     key: &str,
                     encoding: Encoding|
          -> Result<Option<Arc<ImageTexture>>> {
-            let Some(path) = path else {
+            let Some(map) = map else {
                 return Ok(None);
             };
             let f = format!("{field}.{key}");
-            let t = texture::load_for(self.file, &f, &path, encoding)?;
-            self.read_input(&path);
-            if encoding == Encoding::Linear && t.max_value() > 1.0 {
-                return Err(self.err(f, format!("{}: values must be in [0, 1]", path.display())));
-            }
-            Ok(Some(Arc::new(t)))
+            let encoding = map.encoding.unwrap_or(encoding);
+            let t = match &map.source {
+                MapSource::File(path) => {
+                    let t = texture::load_for(self.file, &f, path, encoding)?;
+                    self.read_input(path);
+                    if encoding == Encoding::Linear && t.max_value() > 1.0 {
+                        return Err(
+                            self.err(f, format!("{}: values must be in [0, 1]", path.display()))
+                        );
+                    }
+                    t
+                }
+                MapSource::Checkerboard([a, b]) => {
+                    let decode = |c: [f32; 3]| match encoding {
+                        Encoding::Srgb => Vec3::from(c.map(texture::srgb_to_linear)),
+                        Encoding::Linear => Vec3::from(c),
+                    };
+                    // The colours are linear already unless `encoding`
+                    // says they are sRGB-encoded.
+                    let (a, b) = match map.encoding {
+                        Some(_) => (decode(*a), decode(*b)),
+                        None => (Vec3::from(*a), Vec3::from(*b)),
+                    };
+                    if key != "base_color_map" && a.max(b).max_element() > 1.0 {
+                        return Err(self.err(f, "checkerboard values must be in [0, 1]"));
+                    }
+                    ImageTexture::checkerboard(a, b)
+                }
+            };
+            Ok(Some(Arc::new(t.with_sampling(map.sampling()))))
         };
         Ok(MaterialTextures {
             base_color: load(base_color, keys[0], Encoding::Srgb)?,
@@ -570,15 +598,24 @@ impl Builder<'_> {
         };
         let textures = self.textures(
             &format!("{field} (MTL `{}`)", mtl.name),
-            mtl.diffuse_map.clone(),
-            if pbr { mtl.roughness_map.clone() } else { None },
-            if pbr { mtl.metallic_map.clone() } else { None },
+            mtl.diffuse_map.clone().map(MapKey::file),
+            if pbr {
+                mtl.roughness_map.clone().map(MapKey::file)
+            } else {
+                None
+            },
+            if pbr {
+                mtl.metallic_map.clone().map(MapKey::file)
+            } else {
+                None
+            },
             ["map_Kd", "map_Pr", "map_Pm"],
         )?;
         Ok(Material {
             name,
             bsdf,
             textures,
+            two_sided: true,
         })
     }
 }

@@ -11,6 +11,7 @@ mod environment;
 mod film;
 mod keys;
 mod light;
+mod map;
 mod material;
 mod photo;
 mod render;
@@ -110,9 +111,19 @@ struct ViewSection {
 /// A Mitsuba 3 XML file (by its `.xml` name or its leading `<`) is first
 /// translated into a plsr scene ([`crate::scene::mitsuba`]).
 pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
+    load_contents_with(path, &crate::scene::mitsuba::Options::default())
+}
+
+/// [`load_contents`] with the options of a Mitsuba scene (`-D name=value`
+/// parameters); refused for other scene files when any is given.
+pub fn load_contents_with(
+    path: &Path,
+    options: &crate::scene::mitsuba::Options,
+) -> Result<SceneFileContents> {
     crate::input::check_input_file(path)?;
     let bytes = std::fs::read(path).map_err(|source| Error::io(path.to_path_buf(), source))?;
     if crate::scene::gltf_scene::looks_like_gltf(path, &bytes) {
+        refuse_defines(path, options)?;
         let wrapper = crate::scene::gltf_scene::scene_toml(path)?;
         let mut contents = from_text(path, &wrapper.toml, false)?;
         let mut notes = wrapper.notes;
@@ -130,7 +141,7 @@ pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
         )
     })?;
     if crate::scene::mitsuba::looks_like_xml(path, text.as_bytes()) {
-        let translation = crate::scene::mitsuba::translate(path, &text)?;
+        let translation = crate::scene::mitsuba::translate_with(path, &text, options)?;
         // What the builder finds wrong is in the translation, not the XML.
         let mut contents = from_text(path, &translation.toml, false).map_err(|e| match e {
             Error::Base(plsr_base::Error::Input {
@@ -154,12 +165,27 @@ pub fn load_contents(path: &Path) -> Result<SceneFileContents> {
         let mut notes = translation.notes;
         notes.append(&mut contents.notes);
         contents.notes = notes;
+        let mut inputs = translation.included;
+        inputs.append(&mut contents.inputs);
+        contents.inputs = inputs;
         return Ok(contents);
     }
+    refuse_defines(path, options)?;
     let is_json = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"));
     from_text(path, &text, is_json)
+}
+
+/// `-D` parameters given for a scene that is not Mitsuba XML are refused.
+fn refuse_defines(path: &Path, options: &crate::scene::mitsuba::Options) -> Result<()> {
+    match options.defines.first() {
+        Some((name, value)) => Err(Error::invalid_argument(format!(
+            "-D {name}={value}: parameters are for Mitsuba XML scenes, and {} is not one",
+            path.display()
+        ))),
+        None => Ok(()),
+    }
 }
 
 /// [`load_contents`] of a scene file's text (TOML, or JSON if `is_json`).
@@ -393,16 +419,32 @@ impl Builder<'_> {
             let bsdf = self.material(&field, &keys)?;
             by_name.insert(m.name.clone(), materials.len() as u32);
             let textures = self.material_textures(&field, &keys)?;
+            if m.two_sided == Some(false) && bsdf.transmits() {
+                return Err(self.err(
+                    format!("{field}.two_sided"),
+                    "a dielectric has two sides by nature: two_sided = false is for \
+                     opaque materials",
+                ));
+            }
             materials.push(Material {
                 name: m.name.clone(),
                 bsdf,
                 textures,
+                two_sided: m.two_sided.unwrap_or(true),
             });
         }
 
         let mut meshes = Vec::new();
         for (i, s) in f.shapes.iter().enumerate() {
+            let first = meshes.len();
             self.shape(i, s, &by_name, &mut materials, &mut meshes)?;
+            if s.flip_v == Some(true) {
+                // `flip_v`: texture coordinates (u, 1 − v), the shape's
+                // meshes as they come from the file or the built-in shape.
+                for m in &mut meshes[first..] {
+                    m.uvs.iter_mut().for_each(|uv| uv.y = 1.0 - uv.y);
+                }
+            }
         }
 
         let mut point_lights = Vec::new();

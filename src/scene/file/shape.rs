@@ -25,6 +25,9 @@ pub(super) struct ShapeSection {
     #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) emission: Option<[f32; 3]>,
     pub(super) two_sided: Option<bool>,
+    /// Texture coordinates `(u, 1 − v)` instead of the file's or the
+    /// shape's `(u, v)` (for textures laid out with `v` running down).
+    pub(super) flip_v: Option<bool>,
     /// A virtual object, inserted into the photograph (`plsr composite`).
     #[serde(rename = "virtual")]
     pub(super) is_virtual: Option<bool>,
@@ -61,6 +64,18 @@ struct RectangleKeys {
 struct PlyKeys {
     file: Option<PathBuf>,
     smooth_normals: Option<bool>,
+    face_normals: Option<bool>,
+    flip_normals: Option<bool>,
+}
+
+/// The keys of a `serialized` shape (Mitsuba's mesh format).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SerializedKeys {
+    file: Option<PathBuf>,
+    shape_index: Option<u32>,
+    smooth_normals: Option<bool>,
+    face_normals: Option<bool>,
     flip_normals: Option<bool>,
 }
 
@@ -277,6 +292,11 @@ impl Builder<'_> {
                 flip = keys.flip_normals.unwrap_or(false);
                 self.ply_mesh(&field, &keys)?
             }
+            "serialized" => {
+                let keys: SerializedKeys = self.typed_keys(&field, &s.keys, unknown)?;
+                flip = keys.flip_normals.unwrap_or(false);
+                self.serialized_mesh(&field, &keys)?
+            }
             "disk" => {
                 let keys: DiskKeys = self.typed_keys(&field, &s.keys, unknown)?;
                 flip = keys.flip_normals.unwrap_or(false);
@@ -300,7 +320,7 @@ impl Builder<'_> {
                 return Err(self.err(
                     format!("{field}.type"),
                     format!(
-                    "unknown shape type `{other}` (known: obj, ply, gltf, rectangle, sphere, disk, cube)"
+                    "unknown shape type `{other}` (known: obj, ply, serialized, gltf, rectangle, sphere, disk, cube)"
                 ),
                 ))
             }
@@ -374,12 +394,48 @@ impl Builder<'_> {
                 format!("{} has no faces", path.display()),
             ));
         }
-        let normals = if ply.normals.is_empty() && keys.smooth_normals.unwrap_or(false) {
-            shapes::angle_weighted_normals(&ply.positions, &ply.triangles)
-        } else {
-            ply.normals
-        };
+        let normals = mesh_normals(
+            ply.normals,
+            keys.face_normals,
+            keys.smooth_normals,
+            (&ply.positions, &ply.triangles),
+        );
         Ok((ply.positions, ply.triangles, normals, ply.uvs))
+    }
+
+    /// The mesh of a `serialized` shape: shape `shape_index` (default 0)
+    /// of a file in Mitsuba's `serialized` format.
+    fn serialized_mesh(&self, field: &str, keys: &SerializedKeys) -> Result<MeshData> {
+        let rel = keys
+            .file
+            .as_ref()
+            .ok_or_else(|| self.err(format!("{field}.file"), "required for a serialized shape"))?;
+        let path = self.base.join(rel);
+        crate::input::check_input_file(&path)
+            .map_err(|e| self.err(format!("{field}.file"), e.to_string()))?;
+        let index = keys.shape_index.unwrap_or(0);
+        let mesh = crate::scene::serialized::read_serialized(&path, index).map_err(|m| {
+            let key = if m.to_string().contains("shape_index") {
+                "shape_index"
+            } else {
+                "file"
+            };
+            self.err(format!("{field}.{key}"), format!("{}: {m}", path.display()))
+        })?;
+        self.read_input(&path);
+        if mesh.triangles.is_empty() {
+            return Err(self.err(
+                format!("{field}.file"),
+                format!("{} has no faces in shape {index}", path.display()),
+            ));
+        }
+        let normals = mesh_normals(
+            mesh.normals,
+            keys.face_normals,
+            keys.smooth_normals,
+            (&mesh.positions, &mesh.triangles),
+        );
+        Ok((mesh.positions, mesh.triangles, normals, mesh.uvs))
     }
 
     /// The meshes of an `obj` shape: one per object of the file, with the
@@ -679,3 +735,21 @@ fn unknown_shape_key(kind: &str, key: &str) -> String {
 
 /// A mesh's positions, triangles, normals and texture coordinates.
 type MeshData = (Vec<Vec3>, Vec<[u32; 3]>, Vec<Vec3>, Vec<Vec2>);
+
+/// A mesh's vertex normals: none with `face_normals` (flat shading);
+/// else the file's, or with `smooth_normals` and none in the file,
+/// angle-weighted ones.
+fn mesh_normals(
+    from_file: Vec<Vec3>,
+    face_normals: Option<bool>,
+    smooth_normals: Option<bool>,
+    (positions, triangles): (&[Vec3], &[[u32; 3]]),
+) -> Vec<Vec3> {
+    if face_normals.unwrap_or(false) {
+        Vec::new()
+    } else if from_file.is_empty() && smooth_normals.unwrap_or(false) {
+        shapes::angle_weighted_normals(positions, triangles)
+    } else {
+        from_file
+    }
+}

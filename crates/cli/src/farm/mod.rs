@@ -292,6 +292,7 @@ fn piece(a: &PieceArgs) -> Result<()> {
     }
     crate::render::run(&RenderArgs {
         scene: plan.scene_path(&dir),
+        params: Default::default(),
         output,
         png: None,
         spp: None,

@@ -18,6 +18,7 @@ mod hdr;
 mod hdr_capture;
 mod metrics;
 mod mitsuba_import;
+mod mitsuba_structure;
 mod pls_cli;
 mod slurm;
 mod tonemap;

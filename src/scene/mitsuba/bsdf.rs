@@ -1,0 +1,348 @@
+//! BSDFs: each Mitsuba plugin as a plsr material.
+
+use super::document::Element;
+use super::spectrum::SpectrumUse;
+use super::table::{float, set, vec3, Table};
+use super::texture::Colour;
+use super::translator::{Params, Translator};
+use crate::error::Result;
+use toml::Value;
+
+/// Indices of refraction of Mitsuba's named materials (its
+/// `dielectric` `int_ior`/`ext_ior` strings), at 589 nm.
+const NAMED_IORS: [(&str, f64); 23] = [
+    ("vacuum", 1.0),
+    ("helium", 1.000036),
+    ("hydrogen", 1.000132),
+    ("air", 1.000277),
+    ("carbon dioxide", 1.00045),
+    ("water", 1.333),
+    ("acetone", 1.36),
+    ("ethanol", 1.361),
+    ("carbon tetrachloride", 1.461),
+    ("glycerol", 1.4729),
+    ("benzene", 1.501),
+    ("silicone oil", 1.52045),
+    ("bromine", 1.661),
+    ("water ice", 1.31),
+    ("fused quartz", 1.458),
+    ("pyrex", 1.47),
+    ("acrylic glass", 1.49),
+    ("polypropylene", 1.49),
+    ("bk7", 1.5046),
+    ("sodium chloride", 1.544),
+    ("amber", 1.55),
+    ("pet", 1.575),
+    ("diamond", 2.419),
+];
+
+/// The metal presets plsr has, by Mitsuba's names for them.
+const METAL_NAMES: [&str; 5] = ["none", "Au", "Ag", "Cu", "Al"];
+
+impl<'a> Translator<'a> {
+    /// Translates a BSDF element into a `[[materials]]` entry (once per
+    /// element) and returns its name.
+    pub(super) fn material(&mut self, node: &'a Element) -> Result<String> {
+        let key = node.key;
+        if let Some(name) = self.material_names.get(&key) {
+            return Ok(name.clone());
+        }
+        let kind = self.required_attr(node, "type")?;
+        let (inner, twosided) = if kind == "twosided" {
+            let mut bsdfs = node.children.iter();
+            let inner = bsdfs
+                .next()
+                .ok_or_else(|| self.err(node, "twosided needs a BSDF inside"))?;
+            if bsdfs.next().is_some() {
+                return Err(self.err(
+                    node,
+                    "a twosided with two BSDFs (one per side) is not supported",
+                ));
+            }
+            let inner = if inner.tag.as_str() == "ref" {
+                let id = self.required_attr(inner, "id")?;
+                *self.ids.get(&id).ok_or_else(|| {
+                    self.err(inner, format!("no element with id=\"{id}\" before it"))
+                })?
+            } else {
+                inner
+            };
+            if inner.tag.as_str() != "bsdf" {
+                return Err(self.err(inner, "twosided needs a <bsdf> inside"));
+            }
+            (inner, true)
+        } else {
+            (node, false)
+        };
+        let mut table = self.bsdf(inner, twosided)?;
+        let name = match self.attr(node, "id")? {
+            Some(id) => id,
+            None => format!("bsdf-line-{}", node.line),
+        };
+        if self
+            .materials
+            .iter()
+            .any(|m| m.get("name") == Some(&Value::String(name.clone())))
+        {
+            return Err(self.err(node, format!("a material named `{name}` exists already")));
+        }
+        let mut entry = Table::new();
+        entry.insert("name", Value::String(name.clone()));
+        entry.0.append(&mut table.0);
+        self.materials.push(entry);
+        self.material_names.insert(key, name.clone());
+        Ok(name)
+    }
+
+    /// The plsr keys (with `type`) of one BSDF.
+    pub(super) fn bsdf(&mut self, node: &'a Element, twosided: bool) -> Result<Table> {
+        let kind = self.required_attr(node, "type")?;
+        let mut p = self.params(node)?;
+        let mut t = Table::new();
+        let opaque = !matches!(kind.as_str(), "dielectric" | "roughdielectric");
+        match kind.as_str() {
+            "diffuse" => self.bsdf_diffuse(&mut p, &mut t)?,
+            "roughconductor" | "conductor" => self.bsdf_conductor(node, &kind, &mut p, &mut t)?,
+            "roughdielectric" | "dielectric" => {
+                self.bsdf_dielectric(node, &kind, &mut p, &mut t)?
+            }
+            "principled" => self.bsdf_principled(node, &mut p, &mut t)?,
+            "twosided" => return Err(self.err(node, "a twosided inside a twosided")),
+            other => {
+                return Err(self.err(
+                    node,
+                    format!(
+                        "the `{other}` BSDF is not supported (supported: diffuse, conductor, \
+                         roughconductor, dielectric, roughdielectric, principled, twosided)"
+                    ),
+                ))
+            }
+        }
+        self.leftovers(&p)?;
+        if let Some(c) = node.children.iter().find(|c| c.attribute("name").is_none()) {
+            return Err(self.err(c, "not supported inside a BSDF"));
+        }
+        // Mitsuba's opaque BSDFs are black from behind unless `twosided`.
+        if opaque && !twosided {
+            set(&mut t, "two_sided", Value::Boolean(false));
+        }
+        Ok(t)
+    }
+
+    /// `diffuse`: plsr's diffuse, its reflectance a colour or a bitmap.
+    pub(super) fn bsdf_diffuse(&mut self, p: &mut Params<'a>, t: &mut Table) -> Result<()> {
+        set(t, "type", Value::String("diffuse".into()));
+        match self
+            .take_colour(p, "reflectance", SpectrumUse::Reflectance)?
+            .unwrap_or(Colour::Rgb([0.5; 3]))
+        {
+            Colour::Rgb(v) => set(t, "reflectance", vec3(v)),
+            Colour::Map(m) => set(t, "base_color_map", m),
+        }
+        Ok(())
+    }
+
+    /// `conductor` and `roughconductor`: Cook–Torrance with a conductor's
+    /// Fresnel (a preset metal, or `eta` and `k`).
+    pub(super) fn bsdf_conductor(
+        &mut self,
+        node: &'a Element,
+        kind: &str,
+        p: &mut Params<'a>,
+        t: &mut Table,
+    ) -> Result<()> {
+        set(t, "type", Value::String("cook_torrance".into()));
+        set(t, "fresnel", Value::String("conductor".into()));
+        if kind == "conductor" {
+            self.note(
+                node,
+                "a smooth conductor is rendered as GGX with α = 0.001 (numerically a mirror)",
+            );
+            set(t, "alpha", float(0.0));
+        } else {
+            self.roughness(p, t, node)?;
+        }
+        let eta = self.take_rgb(p, "eta", SpectrumUse::Unbounded)?;
+        let k = self.take_rgb(p, "k", SpectrumUse::Unbounded)?;
+        let preset = self.take_string(p, "material")?;
+        match (preset, eta, k) {
+            (Some(_), Some(_), _) | (Some(_), _, Some(_)) => {
+                return Err(self.err(node, "give `material` or `eta` and `k`, not both"))
+            }
+            (Some(m), None, None) => {
+                if !METAL_NAMES.contains(&m.as_str()) {
+                    return Err(self.err(
+                        node,
+                        format!(
+                            "material `{m}`: plsr has the presets {} (or give eta and k)",
+                            METAL_NAMES.join(", ")
+                        ),
+                    ));
+                }
+                set(t, "metal", Value::String(m));
+            }
+            (None, None, None) => set(t, "metal", Value::String("none".into())),
+            (None, eta, k) => {
+                set(t, "eta", vec3(eta.unwrap_or([0.0; 3])));
+                set(t, "k", vec3(k.unwrap_or([1.0; 3])));
+            }
+        }
+        if let Some(s) = self.take_rgb(p, "specular_reflectance", SpectrumUse::Reflectance)? {
+            set(t, "specular_reflectance", vec3(s));
+        }
+        Ok(())
+    }
+
+    /// `dielectric` and `roughdielectric`: plsr's dielectric of relative
+    /// index `int_ior / ext_ior` (numbers or named materials).
+    pub(super) fn bsdf_dielectric(
+        &mut self,
+        node: &'a Element,
+        kind: &str,
+        p: &mut Params<'a>,
+        t: &mut Table,
+    ) -> Result<()> {
+        set(t, "type", Value::String("dielectric".into()));
+        let ior = |this: &Self, p: &mut Params<'a>, name: &str, default: f64| {
+            let Some(c) = this.take(p, name) else {
+                return Ok(default);
+            };
+            match c.tag.as_str() {
+                "float" => this.number(c, &this.required_attr(c, "value")?),
+                "string" => {
+                    let v = this.required_attr(c, "value")?;
+                    NAMED_IORS
+                        .iter()
+                        .find(|(n, _)| *n == v)
+                        .map(|(_, i)| *i)
+                        .ok_or_else(|| {
+                            this.err(c, format!("`{v}` is not a known material's index"))
+                        })
+                }
+                _ => Err(this.err(c, format!("`{name}` must be a <float> or <string>"))),
+            }
+        };
+        let int_ior = ior(self, p, "int_ior", 1.5046)?;
+        let ext_ior = ior(self, p, "ext_ior", 1.000277)?;
+        if !(int_ior > 0.0 && ext_ior > 0.0) || int_ior == ext_ior {
+            return Err(self.err(
+                node,
+                format!("int_ior {int_ior} and ext_ior {ext_ior} must be positive and differ"),
+            ));
+        }
+        set(t, "ior", float(int_ior / ext_ior));
+        if kind == "roughdielectric" {
+            self.roughness(p, t, node)?;
+        }
+        for s in ["specular_reflectance", "specular_transmittance"] {
+            if let Some(v) = self.take_rgb(p, s, SpectrumUse::Reflectance)? {
+                if v != [1.0; 3] {
+                    return Err(self.err(node, format!("`{s}` other than 1 is not supported")));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `principled`: plsr's principled; the lobes plsr does not model must
+    /// be 0.
+    pub(super) fn bsdf_principled(
+        &mut self,
+        node: &'a Element,
+        p: &mut Params<'a>,
+        t: &mut Table,
+    ) -> Result<()> {
+        set(t, "type", Value::String("principled".into()));
+        match self.take_colour(p, "base_color", SpectrumUse::Reflectance)? {
+            Some(Colour::Rgb(v)) => set(t, "base_color", vec3(v)),
+            Some(Colour::Map(m)) => set(t, "base_color_map", m),
+            None => {}
+        }
+        for (name, map) in [("roughness", "roughness_map"), ("metallic", "metallic_map")] {
+            match self.take_colour(p, name, SpectrumUse::Unbounded)? {
+                Some(Colour::Rgb([a, b, c])) if a == b && b == c => set(t, name, float(a)),
+                Some(Colour::Rgb(_)) => {
+                    return Err(self.err(node, format!("`{name}` must be one number")))
+                }
+                Some(Colour::Map(m)) => {
+                    self.note(
+                        node,
+                        format!("`{name}` texture: plsr reads its red channel"),
+                    );
+                    set(t, map, m)
+                }
+                None => {}
+            }
+        }
+        for name in ["anisotropic", "specular", "spec_tint"] {
+            if let Some(v) = self.take_float(p, name)? {
+                set(t, name, float(v));
+            }
+        }
+        for name in [
+            "sheen",
+            "sheen_tint",
+            "clearcoat",
+            "clearcoat_gloss",
+            "spec_trans",
+            "flatness",
+        ] {
+            if let Some(v) = self.take_float(p, name)? {
+                if v != 0.0 {
+                    return Err(self.err(
+                        node,
+                        format!(
+                            "`{name}` = {v}: principled's {name} is not modelled by plsr \
+                             (only 0 is accepted)"
+                        ),
+                    ));
+                }
+            }
+        }
+        if let Some(eta) = self.take_float(p, "eta")? {
+            // Mitsuba: η given instead of `specular`.
+            let s = ((eta - 1.0) / (eta + 1.0)).powi(2) / 0.08;
+            if !(0.0..=1.0).contains(&s) {
+                return Err(self.err(node, format!("eta = {eta} is outside plsr's range")));
+            }
+            set(t, "specular", float(s));
+        }
+        Ok(())
+    }
+
+    /// `distribution` and `alpha` / `alpha_u`, `alpha_v` (Mitsuba's default:
+    /// Beckmann, α 0.1).
+    pub(super) fn roughness(
+        &self,
+        p: &mut Params<'a>,
+        t: &mut Table,
+        node: &Element,
+    ) -> Result<()> {
+        let d = self
+            .take_string(p, "distribution")?
+            .unwrap_or_else(|| "beckmann".into());
+        if !matches!(d.as_str(), "ggx" | "beckmann") {
+            return Err(self.err(node, format!("distribution `{d}` is not ggx or beckmann")));
+        }
+        t.insert("distribution", Value::String(d));
+        let alpha = self.take_float(p, "alpha")?;
+        let u = self.take_float(p, "alpha_u")?;
+        let v = self.take_float(p, "alpha_v")?;
+        match (alpha, u, v) {
+            (Some(_), Some(_), _) | (Some(_), _, Some(_)) => {
+                return Err(self.err(node, "give alpha or alpha_u with alpha_v, not both"))
+            }
+            (_, Some(u), Some(v)) => {
+                t.insert("alpha_u", float(u));
+                t.insert("alpha_v", float(v));
+            }
+            (_, Some(_), None) | (_, None, Some(_)) => {
+                return Err(self.err(node, "alpha_u and alpha_v go together"))
+            }
+            (a, None, None) => {
+                t.insert("alpha", float(a.unwrap_or(0.1)));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,88 @@
+//! Emitters outside shapes: `point`, `envmap`, `constant`.
+
+use super::document::Element;
+use super::spectrum::SpectrumUse;
+use super::table::{dvec, float, vec3, Table};
+use super::translator::Translator;
+use crate::error::Result;
+use glam::{DMat4, DVec3};
+use toml::Value;
+
+impl<'a> Translator<'a> {
+    pub(super) fn emitter(&mut self, node: &'a Element) -> Result<()> {
+        let kind = self.required_attr(node, "type")?;
+        let mut p = self.params(node)?;
+        match kind.as_str() {
+            "point" => {
+                let position = self.take_point(&mut p, "position")?;
+                let m = self.take_transform(&mut p, "to_world")?;
+                let position = match (position, m) {
+                    (Some(_), Some(_)) => {
+                        return Err(self.err(node, "give position or to_world, not both"))
+                    }
+                    (Some(pos), None) => DVec3::from(pos),
+                    (None, Some(m)) => m.transform_point3(DVec3::ZERO),
+                    (None, None) => DVec3::ZERO,
+                };
+                let intensity = self
+                    .take_rgb(&mut p, "intensity", SpectrumUse::Emission)?
+                    .unwrap_or([1.0; 3]);
+                let mut l = Table::new();
+                l.insert("type", Value::String("point".into()));
+                l.insert("position", dvec(position));
+                l.insert("intensity", vec3(intensity));
+                self.lights.push(l);
+            }
+            "envmap" | "constant" => {
+                if self.environment.is_some() {
+                    return Err(self.err(
+                        node,
+                        "plsr has one environment: this is the second envmap/constant emitter",
+                    ));
+                }
+                let mut e = Table::new();
+                if kind == "envmap" {
+                    let file = self
+                        .take_string(&mut p, "filename")?
+                        .ok_or_else(|| self.err(node, "an envmap needs `filename`"))?;
+                    e.insert("file", Value::String(self.file_name(node, file)));
+                    let m = self
+                        .take_transform(&mut p, "to_world")?
+                        .unwrap_or(DMat4::IDENTITY);
+                    let up = m.transform_vector3(DVec3::Y);
+                    let forward = m.transform_vector3(DVec3::Z);
+                    if up.cross(forward).length_squared()
+                        < 1e-12 * up.length_squared() * forward.length_squared()
+                    {
+                        return Err(self.err(node, "the envmap's to_world is degenerate"));
+                    }
+                    e.insert("up", dvec(up.normalize()));
+                    e.insert("forward", dvec(forward.normalize()));
+                    e.insert("filter", Value::String("bilinear".into()));
+                    if let Some(s) = self.take_float(&mut p, "scale")? {
+                        e.insert("scale", float(s));
+                    }
+                } else {
+                    let r = self
+                        .take_rgb(&mut p, "radiance", SpectrumUse::Emission)?
+                        .unwrap_or([1.0; 3]);
+                    e.insert("radiance", vec3(r));
+                }
+                self.environment = Some(e);
+            }
+            "area" => {
+                return Err(self.err(node, "an area emitter belongs inside a <shape>"));
+            }
+            other => {
+                return Err(self.err(
+                    node,
+                    format!(
+                        "the `{other}` emitter is not supported (supported: point, envmap, \
+                         constant, and area inside a shape)"
+                    ),
+                ))
+            }
+        }
+        self.leftovers(&p)
+    }
+}

@@ -1,0 +1,156 @@
+//! Shapes: meshes and Mitsuba's built-in shapes, with their BSDF and area
+//! emitter.
+
+use super::document::Element;
+use super::spectrum::SpectrumUse;
+use super::table::{float, vec3, vec3_row, Table};
+use super::translator::Translator;
+use crate::error::Result;
+use toml::Value;
+
+impl<'a> Translator<'a> {
+    pub(super) fn shape(&mut self, node: &'a Element) -> Result<()> {
+        let kind = self.required_attr(node, "type")?;
+        let mut p = self.params(node)?;
+        let mut s = Table::new();
+        match kind.as_str() {
+            "obj" | "ply" | "serialized" => {
+                s.insert("type", Value::String(kind.clone()));
+                let file = self
+                    .take_string(&mut p, "filename")?
+                    .ok_or_else(|| self.err(node, "a mesh needs `filename`"))?;
+                s.insert("file", Value::String(self.file_name(node, file)));
+                if kind == "serialized" {
+                    if let Some(i) = self.take_int(&mut p, "shape_index")? {
+                        let i = u32::try_from(i).map_err(|_| {
+                            self.err(node, format!("shape_index = {i} must be 0 or more"))
+                        })?;
+                        s.insert("shape_index", Value::Integer(i.into()));
+                    }
+                }
+                let face_normals = self.take_bool(&mut p, "face_normals")?.unwrap_or(false);
+                if face_normals && kind == "obj" {
+                    self.note(
+                        node,
+                        "face_normals = true: plsr keeps an OBJ file's own normals, if it has any",
+                    );
+                } else if face_normals {
+                    s.insert("face_normals", Value::Boolean(true));
+                } else {
+                    // Mitsuba gives meshes without normals smooth ones.
+                    s.insert("smooth_normals", Value::Boolean(true));
+                }
+                if self.take_bool(&mut p, "flip_normals")? == Some(true) {
+                    if kind == "obj" {
+                        return Err(self.err(node, "flip_normals is not supported for obj in plsr"));
+                    }
+                    s.insert("flip_normals", Value::Boolean(true));
+                }
+                // Mitsuba's images run down from v = 0: its OBJ reader flips
+                // v (`flip_tex_coords`, default true), which plsr's
+                // convention already is; every other shape is flipped
+                // (see `texture::to_uv`).
+                let flip_tex = self.take_bool(&mut p, "flip_tex_coords")?.unwrap_or(true);
+                if kind != "obj" || !flip_tex {
+                    s.insert("flip_v", Value::Boolean(true));
+                }
+            }
+            "rectangle" | "disk" | "cube" | "sphere" => {
+                s.insert("type", Value::String(kind.clone()));
+                s.insert("flip_v", Value::Boolean(true));
+                if self.take_bool(&mut p, "flip_normals")? == Some(true) {
+                    s.insert("flip_normals", Value::Boolean(true));
+                }
+                if kind == "sphere" {
+                    if let Some(c) = self.take_point(&mut p, "center")? {
+                        s.insert("center", vec3(c));
+                    }
+                    if let Some(r) = self.take_float(&mut p, "radius")? {
+                        s.insert("radius", float(r));
+                    }
+                }
+            }
+            other => {
+                return Err(self.err(
+                    node,
+                    format!(
+                        "the `{other}` shape is not supported (supported: obj, ply, serialized, \
+                         rectangle, sphere, disk, cube)"
+                    ),
+                ))
+            }
+        }
+        if let Some(m) = self.take_transform(&mut p, "to_world")? {
+            let rows: Vec<Value> = (0..4).map(|r| vec3_row(m.row(r))).collect();
+            s.insert("transform.matrix", Value::Array(rows));
+        }
+        let mut bsdf = None;
+        for c in node.children.iter() {
+            let name = c.attribute("name");
+            let target = if c.tag == "ref" { self.deref(c)? } else { c };
+            match target.tag.as_str() {
+                "bsdf" => {
+                    if bsdf.is_some() {
+                        return Err(self.err(c, "a shape has one BSDF: this is the second"));
+                    }
+                    bsdf = Some(self.material(target)?);
+                }
+                "emitter" => {
+                    if s.get("emission").is_some() {
+                        return Err(self.err(c, "a shape has one emitter: this is the second"));
+                    }
+                    let radiance = self.area_emitter(target)?;
+                    s.insert("emission", vec3(radiance));
+                }
+                _ if name.is_some() => continue,
+                other => {
+                    return Err(self.err(c, format!("<{other}> is not supported inside a shape")))
+                }
+            }
+            if let Some(n) = name {
+                p.used.insert(n.to_string());
+            }
+        }
+        let material = match bsdf {
+            Some(m) => m,
+            None => self.default_material(),
+        };
+        s.insert("material", Value::String(material));
+        self.leftovers(&p)?;
+        self.shapes.push(s);
+        Ok(())
+    }
+
+    /// An `area` emitter's radiance (linear sRGB, W/(m²·sr)).
+    fn area_emitter(&mut self, e: &'a Element) -> Result<[f64; 3]> {
+        let kind = self.required_attr(e, "type")?;
+        if kind != "area" {
+            return Err(self.err(e, format!("a shape's emitter must be `area`, not `{kind}`")));
+        }
+        let mut ep = self.params(e)?;
+        let radiance = self
+            .take_rgb(&mut ep, "radiance", SpectrumUse::Emission)?
+            .unwrap_or([1.0; 3]);
+        self.leftovers(&ep)?;
+        Ok(radiance)
+    }
+
+    /// Mitsuba's BSDF for shapes without one: diffuse, 0.5 grey.
+    pub(super) fn default_material(&mut self) -> String {
+        let name = "mitsuba-default-diffuse".to_string();
+        if !self
+            .materials
+            .iter()
+            .any(|m| m.get("name") == Some(&Value::String(name.clone())))
+        {
+            let mut m = Table::new();
+            m.insert("name", Value::String(name.clone()));
+            m.insert("type", Value::String("diffuse".into()));
+            m.insert("reflectance", vec3([0.5; 3]));
+            // One-sided, as all Mitsuba's opaque BSDFs without `twosided`.
+            m.insert("two_sided", Value::Boolean(false));
+            self.materials.push(m);
+        }
+        name
+    }
+}
