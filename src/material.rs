@@ -117,6 +117,8 @@ impl Material {
                 Bsdf::Diffuse(p) => p.reflectance = c,
                 Bsdf::BlinnPhong(p) => p.diffuse = c.min(glam::Vec3::ONE - p.specular),
                 Bsdf::Principled(p) => p.base_color = c,
+                Bsdf::Plastic(p) => p.diffuse_reflectance = c,
+                Bsdf::RoughPlastic(p) => p.diffuse_reflectance = c,
                 _ => {}
             }
         }

@@ -83,6 +83,9 @@ impl Bsdf {
             Bsdf::BlinnPhong(_) => Err("blinn_phong materials cannot be fitted"),
             Bsdf::CookTorrance(_) => Err("cook_torrance materials cannot be fitted"),
             Bsdf::Dielectric(_) => Err("dielectric materials cannot be fitted"),
+            Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) => {
+                Err("plastic and rough_plastic materials cannot be fitted")
+            }
         }
     }
 

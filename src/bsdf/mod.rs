@@ -38,6 +38,7 @@
 //! | `cook_torrance` | microfacet reflection, GGX or Beckmann, Smith G, Schlick / dielectric / conductor Fresnel |
 //! | `dielectric` | smooth or rough (Walter et al. 2007) glass-like interface |
 //! | `principled` | Burley's principled BSDF with Mitsuba 3's parameters; optionally energy-conserving |
+//! | `plastic`, `rough_plastic` | Mitsuba 3's `plastic` and `roughplastic`: a diffuse substrate under a smooth or rough dielectric coating ([`plastic`]) |
 //!
 //! ```toml
 //! [[materials]]
@@ -51,6 +52,7 @@ pub mod fresnel;
 pub mod gradient;
 pub mod microfacet;
 pub mod models;
+pub mod plastic;
 
 pub use fresnel::METALS;
 pub use gradient::{BsdfGradient, BsdfParam, ALL_PARAMS, BSDF_PARAMS};
@@ -59,6 +61,7 @@ pub use models::{
     lambert_eval, lambert_pdf, lambert_sample, BlinnPhongParams, CookTorranceParams,
     DielectricParams, DiffuseParams, Fresnel, ParamError, PrincipledParams,
 };
+pub use plastic::{PlasticParams, RoughPlasticParams};
 
 use glam::{Vec2, Vec3};
 
@@ -75,6 +78,12 @@ pub enum Bsdf {
     Dielectric(DielectricParams),
     /// Burley's principled BSDF (Mitsuba 3's parameters).
     Principled(PrincipledParams),
+    /// A diffuse substrate under a smooth dielectric coating (Mitsuba's
+    /// `plastic`).
+    Plastic(PlasticParams),
+    /// A diffuse substrate under a rough dielectric coating (Mitsuba's
+    /// `roughplastic`).
+    RoughPlastic(RoughPlasticParams),
 }
 
 /// A direction drawn by [`Bsdf::sample`].
@@ -107,6 +116,8 @@ impl Bsdf {
             Bsdf::CookTorrance(p) => p.eval(wo, wi),
             Bsdf::Dielectric(p) => p.eval(wo, wi),
             Bsdf::Principled(p) => p.eval(wo, wi),
+            Bsdf::Plastic(p) => p.eval(wo, wi),
+            Bsdf::RoughPlastic(p) => p.eval(wo, wi),
         }
     }
 
@@ -120,6 +131,8 @@ impl Bsdf {
             Bsdf::CookTorrance(p) => p.sample(wo, u),
             Bsdf::Dielectric(p) => p.sample(wo, uc, u),
             Bsdf::Principled(p) => p.sample(wo, uc, u),
+            Bsdf::Plastic(p) => p.sample(wo, uc, u),
+            Bsdf::RoughPlastic(p) => p.sample(wo, uc, u),
         }
     }
 
@@ -132,6 +145,8 @@ impl Bsdf {
             Bsdf::CookTorrance(p) => p.pdf(wo, wi),
             Bsdf::Dielectric(p) => p.pdf(wo, wi),
             Bsdf::Principled(p) => p.pdf(wo, wi),
+            Bsdf::Plastic(p) => p.pdf(wo, wi),
+            Bsdf::RoughPlastic(p) => p.pdf(wo, wi),
         }
     }
 
@@ -143,6 +158,8 @@ impl Bsdf {
             Bsdf::Principled(p) => p.eval_pdf(wo, wi),
             Bsdf::CookTorrance(p) => p.eval_pdf(wo, wi),
             Bsdf::Dielectric(p) => p.eval_pdf(wo, wi),
+            Bsdf::Plastic(p) => p.eval_pdf(wo, wi),
+            Bsdf::RoughPlastic(p) => p.eval_pdf(wo, wi),
             _ => (self.eval(wo, wi), self.pdf(wo, wi)),
         }
     }
@@ -192,7 +209,9 @@ impl Bsdf {
             Bsdf::CookTorrance(p) => aniso(&p.microfacet),
             Bsdf::Dielectric(p) => p.microfacet.as_ref().is_some_and(aniso),
             Bsdf::Principled(p) => p.anisotropic > 0.0,
-            Bsdf::Diffuse(_) | Bsdf::BlinnPhong(_) => false,
+            Bsdf::Diffuse(_) | Bsdf::BlinnPhong(_) | Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) => {
+                false
+            }
         }
     }
 
@@ -204,6 +223,8 @@ impl Bsdf {
             Bsdf::CookTorrance(p) => p.fresnel.eval(1.0),
             Bsdf::Dielectric(_) => Vec3::ONE,
             Bsdf::Principled(p) => p.base_color,
+            Bsdf::Plastic(p) => p.albedo(),
+            Bsdf::RoughPlastic(p) => p.albedo(),
         }
     }
 }

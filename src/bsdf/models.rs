@@ -17,7 +17,7 @@ use std::f32::consts::{FRAC_1_PI, PI};
 
 /// Both directions on the upper (outside) side.
 #[inline(always)]
-fn both_above(wo: Vec3, wi: Vec3) -> bool {
+pub(super) fn both_above(wo: Vec3, wi: Vec3) -> bool {
     wo.z > 0.0 && wi.z > 0.0
 }
 
@@ -186,7 +186,7 @@ impl BlinnPhongParams {
 /// Builds a non-delta sample from its value and density, or `None` where the
 /// density vanishes (the direction cannot be produced).
 #[inline(always)]
-fn finish_sample(wi: Vec3, f: Vec3, pdf: f32) -> Option<BsdfSample> {
+pub(super) fn finish_sample(wi: Vec3, f: Vec3, pdf: f32) -> Option<BsdfSample> {
     if pdf.is_nan() || pdf <= 0.0 || !wi.is_finite() {
         return None;
     }

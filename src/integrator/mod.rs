@@ -16,8 +16,9 @@
 //! stream ([`PathSampler::for_sample`]) and every pixel adds its samples in sample
 //! order, so an image is bit-identical whatever the number of threads.
 //!
-//! Every scene runs on a vectorised version of the same wavefront
-//! ([`soa`]): structure-of-arrays lanes, compiled for AVX-512, AVX2 and
+//! Every scene whose materials the kernel has passes for (all models but
+//! `plastic` and `rough_plastic`, which the general integrator renders)
+//! runs on a vectorised version of the same wavefront ([`soa`]): structure-of-arrays lanes, compiled for AVX-512, AVX2 and
 //! the baseline and picked at run time ([`Isa`]), each material kind
 //! shaded in a branch-free loop of its own. It performs the same
 //! floating-point operations in the same order with the same random

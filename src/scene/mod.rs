@@ -349,6 +349,13 @@ impl Scene {
                 })?;
                 p.prepare();
             }
+            // The rough plastic's transmittance table, likewise.
+            if let crate::bsdf::Bsdf::RoughPlastic(p) = &m.bsdf {
+                p.validate().map_err(|e| {
+                    Error::invalid_argument(format!("material {i} ({}): {e}", m.name))
+                })?;
+                p.prepare();
+            }
         }
         for (i, m) in meshes.iter().enumerate() {
             m.validate()
@@ -482,6 +489,12 @@ impl Scene {
             return Err(Error::invalid_argument(format!("no material {index}")));
         };
         if let crate::bsdf::Bsdf::Principled(p) = &bsdf {
+            p.validate().map_err(|e| {
+                Error::invalid_argument(format!("material {index} ({}): {e}", material.name))
+            })?;
+            p.prepare();
+        }
+        if let crate::bsdf::Bsdf::RoughPlastic(p) = &bsdf {
             p.validate().map_err(|e| {
                 Error::invalid_argument(format!("material {index} ({}): {e}", material.name))
             })?;

@@ -98,8 +98,9 @@ pub struct SoaScene {
 
 impl SoaScene {
     /// The kernel's view of `scene`, or `None` where a material of it is one
-    /// no pass of the kernel shades (none is today: every BSDF model, mapped
-    /// or not, has a pass; the general integrator then renders the scene).
+    /// no pass of the kernel shades (`plastic` and `rough_plastic`; every
+    /// other model, mapped or not, has a pass): the general integrator then
+    /// renders the scene.
     pub fn new(scene: &Scene) -> Option<SoaScene> {
         let mut albedo = [Vec::new(), Vec::new(), Vec::new()];
         let mut emissive = Vec::new();
@@ -164,6 +165,9 @@ impl SoaScene {
                 Bsdf::Principled(_) => t.roughness.is_some() || t.metallic.is_some(),
                 Bsdf::BlinnPhong(_) => t.base_color.is_some(),
                 Bsdf::Diffuse(_) | Bsdf::Dielectric(_) => false,
+                // Not reached: no pass shades them (the scene is rendered by
+                // the general integrator).
+                Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) => false,
             });
         }
         for a in &mut albedo {
@@ -245,7 +249,9 @@ pub(super) fn mapped_params(bsdf: &Bsdf) -> [f32; 3] {
         Bsdf::CookTorrance(p) => [p.microfacet.alpha_x, p.microfacet.alpha_y, 0.0],
         Bsdf::Principled(p) => [p.roughness, p.metallic, 0.0],
         Bsdf::BlinnPhong(p) => p.diffuse.to_array(),
-        Bsdf::Diffuse(_) | Bsdf::Dielectric(_) => [0.0; 3],
+        Bsdf::Diffuse(_) | Bsdf::Dielectric(_) | Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) => {
+            [0.0; 3]
+        }
     }
 }
 

@@ -118,6 +118,26 @@ pub(super) struct PrincipledKeys {
     normal_scale: Option<f32>,
 }
 
+/// The keys of a `plastic` and a `rough_plastic` material (Mitsuba's
+/// `plastic` and `roughplastic`; the rough one's microfacet keys only).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct PlasticKeys {
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
+    diffuse_reflectance: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
+    specular_reflectance: Option<[f32; 3]>,
+    int_ior: Option<f32>,
+    ext_ior: Option<f32>,
+    nonlinear: Option<bool>,
+    distribution: Option<String>,
+    alpha: Option<f32>,
+    sample_visible: Option<bool>,
+    base_color_map: Option<MapKey>,
+    normal_map: Option<PathBuf>,
+    normal_scale: Option<f32>,
+}
+
 /// A material's keys, by its type (the `type` key is the tag).
 #[derive(Debug)]
 pub(super) enum MaterialKeys {
@@ -126,10 +146,13 @@ pub(super) enum MaterialKeys {
     CookTorrance(CookTorranceKeys),
     Dielectric(DielectricKeys),
     Principled(PrincipledKeys),
+    Plastic(PlasticKeys),
+    RoughPlastic(PlasticKeys),
 }
 
 /// The material types, by their `type` names.
-const MATERIAL_TYPES: &str = "diffuse, blinn_phong, cook_torrance, dielectric, principled";
+const MATERIAL_TYPES: &str =
+    "diffuse, blinn_phong, cook_torrance, dielectric, principled, plastic, rough_plastic";
 
 /// The keys of a microfacet distribution, shared by several types.
 struct MicrofacetKeys<'a> {
@@ -186,6 +209,12 @@ impl MaterialKeys {
                 ..Default::default()
             },
             MaterialKeys::Dielectric(k) => TextureKeys {
+                normal_map: k.normal_map.as_ref(),
+                normal_scale: k.normal_scale,
+                ..Default::default()
+            },
+            MaterialKeys::Plastic(k) | MaterialKeys::RoughPlastic(k) => TextureKeys {
+                base_color_map: k.base_color_map.as_ref(),
                 normal_map: k.normal_map.as_ref(),
                 normal_scale: k.normal_scale,
                 ..Default::default()
@@ -294,6 +323,23 @@ impl Builder<'_> {
             "cook_torrance" => MaterialKeys::CookTorrance(parse(self, field, kind, keys)?),
             "dielectric" => MaterialKeys::Dielectric(parse(self, field, kind, keys)?),
             "principled" => MaterialKeys::Principled(parse(self, field, kind, keys)?),
+            "plastic" => {
+                let k: PlasticKeys = parse(self, field, kind, keys)?;
+                for (given, key) in [
+                    (k.distribution.is_some(), "distribution"),
+                    (k.alpha.is_some(), "alpha"),
+                    (k.sample_visible.is_some(), "sample_visible"),
+                ] {
+                    if given {
+                        return Err(self.err(
+                            format!("{field}.{key}"),
+                            "a smooth `plastic` has no roughness: use `rough_plastic`",
+                        ));
+                    }
+                }
+                MaterialKeys::Plastic(k)
+            }
+            "rough_plastic" => MaterialKeys::RoughPlastic(parse(self, field, kind, keys)?),
             other => {
                 return Err(self.err(
                     format!("{field}.type"),
@@ -432,6 +478,9 @@ impl Builder<'_> {
                     microfacet: self.microfacet(field, &facets, None)?,
                 })
             }
+            MaterialKeys::Plastic(m) | MaterialKeys::RoughPlastic(m) => {
+                self.plastic(field, m, matches!(keys, MaterialKeys::RoughPlastic(_)))?
+            }
             MaterialKeys::Principled(m) => {
                 // The parser checks that each value is a finite number; the
                 // ranges are the material's own rule.
@@ -455,6 +504,66 @@ impl Builder<'_> {
                 })?)
             }
         })
+    }
+
+    /// A `plastic` (or, `rough`, a `rough_plastic`) with Mitsuba's defaults:
+    /// substrate 0.5, coating 1, polypropylene (1.49) in air, linear; rough:
+    /// Beckmann, α 0.1, visible normals sampled.
+    fn plastic(&self, field: &str, m: &PlasticKeys, rough: bool) -> Result<Bsdf> {
+        use crate::bsdf::plastic::{AIR_IOR, POLYPROPYLENE_IOR};
+        use crate::bsdf::{PlasticParams, RoughPlasticParams};
+        let colour = |name: &str, v: Option<[f32; 3]>, default: f32| {
+            self.colour(
+                &format!("{field}.{name}"),
+                v.unwrap_or([default; 3]),
+                Some(1.0),
+            )
+        };
+        let number = |name: &str, v: Option<f32>, default: f32| {
+            self.finite(&format!("{field}.{name}"), v.unwrap_or(default))
+        };
+        let checked = |e: crate::bsdf::ParamError| {
+            self.err(
+                format!("{field}.{}", e.parameter),
+                format!("must be in {}, got {}", e.range, e.value),
+            )
+        };
+        let diffuse_reflectance = colour("diffuse_reflectance", m.diffuse_reflectance, 0.5)?;
+        let specular_reflectance = colour("specular_reflectance", m.specular_reflectance, 1.0)?;
+        let int_ior = number("int_ior", m.int_ior, POLYPROPYLENE_IOR)?;
+        let ext_ior = number("ext_ior", m.ext_ior, AIR_IOR)?;
+        let nonlinear = m.nonlinear.unwrap_or(false);
+        if !rough {
+            let p = PlasticParams {
+                diffuse_reflectance,
+                specular_reflectance,
+                int_ior,
+                ext_ior,
+                nonlinear,
+            };
+            return Ok(Bsdf::Plastic(p.validate().map_err(checked)?));
+        }
+        let distribution = match m.distribution.as_deref().unwrap_or("beckmann") {
+            "ggx" => Distribution::Ggx,
+            "beckmann" => Distribution::Beckmann,
+            other => {
+                return Err(self.err(
+                    format!("{field}.distribution"),
+                    format!("unknown distribution `{other}` (known: ggx, beckmann)"),
+                ))
+            }
+        };
+        let p = RoughPlasticParams {
+            diffuse_reflectance,
+            specular_reflectance,
+            int_ior,
+            ext_ior,
+            nonlinear,
+            distribution,
+            alpha: number("alpha", m.alpha, 0.1)?,
+            sample_visible: m.sample_visible.unwrap_or(true),
+        };
+        Ok(Bsdf::RoughPlastic(p.validate().map_err(checked)?))
     }
 
     /// Loads the textures a material names (`*_map`, relative to the scene

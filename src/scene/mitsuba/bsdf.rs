@@ -107,13 +107,15 @@ impl<'a> Translator<'a> {
                 self.bsdf_dielectric(node, &kind, &mut p, &mut t)?
             }
             "principled" => self.bsdf_principled(node, &mut p, &mut t)?,
+            "plastic" | "roughplastic" => self.bsdf_plastic(node, &kind, &mut p, &mut t)?,
             "twosided" => return Err(self.err(node, "a twosided inside a twosided")),
             other => {
                 return Err(self.err(
                     node,
                     format!(
                         "the `{other}` BSDF is not supported (supported: diffuse, conductor, \
-                         roughconductor, dielectric, roughdielectric, principled, twosided)"
+                         roughconductor, dielectric, roughdielectric, plastic, roughplastic, \
+                         principled, twosided)"
                     ),
                 ))
             }
@@ -203,27 +205,8 @@ impl<'a> Translator<'a> {
         t: &mut Table,
     ) -> Result<()> {
         set(t, "type", Value::String("dielectric".into()));
-        let ior = |this: &Self, p: &mut Params<'a>, name: &str, default: f64| {
-            let Some(c) = this.take(p, name) else {
-                return Ok(default);
-            };
-            match c.tag.as_str() {
-                "float" => this.number(c, &this.required_attr(c, "value")?),
-                "string" => {
-                    let v = this.required_attr(c, "value")?;
-                    NAMED_IORS
-                        .iter()
-                        .find(|(n, _)| *n == v)
-                        .map(|(_, i)| *i)
-                        .ok_or_else(|| {
-                            this.err(c, format!("`{v}` is not a known material's index"))
-                        })
-                }
-                _ => Err(this.err(c, format!("`{name}` must be a <float> or <string>"))),
-            }
-        };
-        let int_ior = ior(self, p, "int_ior", 1.5046)?;
-        let ext_ior = ior(self, p, "ext_ior", 1.000277)?;
+        let int_ior = self.ior(p, "int_ior", 1.5046)?;
+        let ext_ior = self.ior(p, "ext_ior", 1.000277)?;
         if !(int_ior > 0.0 && ext_ior > 0.0) || int_ior == ext_ior {
             return Err(self.err(
                 node,
@@ -239,6 +222,74 @@ impl<'a> Translator<'a> {
                 if v != [1.0; 3] {
                     return Err(self.err(node, format!("`{s}` other than 1 is not supported")));
                 }
+            }
+        }
+        Ok(())
+    }
+
+    /// An index of refraction: a number or one of Mitsuba's named materials
+    /// (`"bk7"`, `"water"`, …).
+    fn ior(&self, p: &mut Params<'a>, name: &str, default: f64) -> Result<f64> {
+        let Some(c) = self.take(p, name) else {
+            return Ok(default);
+        };
+        match c.tag.as_str() {
+            "float" => self.number(c, &self.required_attr(c, "value")?),
+            "string" => {
+                let v = self.required_attr(c, "value")?;
+                NAMED_IORS
+                    .iter()
+                    .find(|(n, _)| *n == v)
+                    .map(|(_, i)| *i)
+                    .ok_or_else(|| self.err(c, format!("`{v}` is not a known material's index")))
+            }
+            _ => Err(self.err(c, format!("`{name}` must be a <float> or <string>"))),
+        }
+    }
+
+    /// `plastic` and `roughplastic`: plsr's `plastic` and `rough_plastic`,
+    /// with Mitsuba's parameters (the substrate's colour may be a texture).
+    pub(super) fn bsdf_plastic(
+        &mut self,
+        node: &'a Element,
+        kind: &str,
+        p: &mut Params<'a>,
+        t: &mut Table,
+    ) -> Result<()> {
+        let rough = kind == "roughplastic";
+        set(
+            t,
+            "type",
+            Value::String(if rough { "rough_plastic" } else { "plastic" }.into()),
+        );
+        match self.take_colour(p, "diffuse_reflectance", SpectrumUse::Reflectance)? {
+            Some(Colour::Rgb(v)) => set(t, "diffuse_reflectance", vec3(v)),
+            Some(Colour::Map(m)) => set(t, "base_color_map", m),
+            None => {}
+        }
+        if let Some(v) = self.take_rgb(p, "specular_reflectance", SpectrumUse::Reflectance)? {
+            set(t, "specular_reflectance", vec3(v));
+        }
+        let int_ior = self.ior(p, "int_ior", 1.49)?;
+        let ext_ior = self.ior(p, "ext_ior", 1.000277)?;
+        set(t, "int_ior", float(int_ior));
+        set(t, "ext_ior", float(ext_ior));
+        if let Some(n) = self.take_bool(p, "nonlinear")? {
+            set(t, "nonlinear", Value::Boolean(n));
+        }
+        if rough {
+            let d = self
+                .take_string(p, "distribution")?
+                .unwrap_or_else(|| "beckmann".into());
+            if !matches!(d.as_str(), "ggx" | "beckmann") {
+                return Err(self.err(node, format!("distribution `{d}` is not ggx or beckmann")));
+            }
+            set(t, "distribution", Value::String(d));
+            if let Some(a) = self.take_float(p, "alpha")? {
+                set(t, "alpha", float(a));
+            }
+            if let Some(v) = self.take_bool(p, "sample_visible")? {
+                set(t, "sample_visible", Value::Boolean(v));
             }
         }
         Ok(())

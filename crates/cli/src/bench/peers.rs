@@ -280,7 +280,44 @@ fn mitsuba_bsdf(bsdf: &Bsdf) -> std::result::Result<String, String> {
         )),
         Bsdf::Principled(_) => return Err("the energy-conserving principled mode".into()),
         Bsdf::BlinnPhong(_) => return Err("Blinn–Phong".into()),
+        Bsdf::Plastic(p) => twosided(format!(
+            "<bsdf type=\"plastic\">{}</bsdf>",
+            plastic_params(
+                p.diffuse_reflectance,
+                p.specular_reflectance,
+                (p.int_ior, p.ext_ior),
+                p.nonlinear
+            )
+        )),
+        Bsdf::RoughPlastic(p) => twosided(format!(
+            "<bsdf type=\"roughplastic\">{}{}<boolean name=\"sample_visible\" value=\"{}\"/></bsdf>",
+            alpha(&p.microfacet())?,
+            plastic_params(
+                p.diffuse_reflectance,
+                p.specular_reflectance,
+                (p.int_ior, p.ext_ior),
+                p.nonlinear
+            ),
+            p.sample_visible
+        )),
     })
+}
+
+/// The parameters `plastic` and `roughplastic` share, as Mitsuba XML.
+fn plastic_params(
+    diffuse: glam::Vec3,
+    specular: glam::Vec3,
+    (int_ior, ext_ior): (f32, f32),
+    nonlinear: bool,
+) -> String {
+    format!(
+        "<rgb name=\"diffuse_reflectance\" value=\"{}\"/>\
+         <rgb name=\"specular_reflectance\" value=\"{}\"/>\
+         <float name=\"int_ior\" value=\"{int_ior}\"/><float name=\"ext_ior\" value=\"{ext_ior}\"/>\
+         <boolean name=\"nonlinear\" value=\"{nonlinear}\"/>",
+        rgb(diffuse),
+        rgb(specular)
+    )
 }
 
 /// Writes `description` as Mitsuba 3 XML (`name.xml`, meshes under

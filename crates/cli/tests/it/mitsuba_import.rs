@@ -408,8 +408,8 @@ fn error_of(xml: &str) -> String {
 fn unsupported_elements_are_refused_by_name_and_line() {
     let cases: [(&str, &[&str]); 12] = [
         (
-            "<scene version=\"3.0.0\">\n<shape type=\"sphere\">\n<bsdf type=\"plastic\"/></shape></scene>",
-            &["line 3", "<bsdf type=\"plastic\">", "`plastic` BSDF is not supported"],
+            "<scene version=\"3.0.0\">\n<shape type=\"sphere\">\n<bsdf type=\"pplastic\"/></shape></scene>",
+            &["line 3", "<bsdf type=\"pplastic\">", "`pplastic` BSDF is not supported"],
         ),
         (
             "<scene version=\"3.0.0\"><emitter type=\"spot\"/></scene>",
