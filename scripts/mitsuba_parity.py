@@ -14,6 +14,10 @@ Usage:
                           2e6 // pixels, at least 1)
     --seed S              plsr's seed and the Mitsuba self-check's (default 0)
     --ref-seed S          reference seed (default 1; passes use S*2^20 + i)
+    -D NAME=VALUE         scene parameter for both renderers (repeatable;
+                          `spp` is set to the spp of each render when the
+                          scene uses $spp; -D goes to plsr only if it has -D)
+    --pass-samples N      samples per reference pass (default 2^22; memory)
     --mitsuba-self-check  also render the test image with Mitsuba and z-test it
     --check-moment        also render the reference plainly (same seeds) and
                           compare its mean with the moment integrator's
@@ -34,6 +38,7 @@ Usage:
                           pixels (RGB EXR) for every judged scene
     --json FILE           also write the rows as JSON
     --keep-temp           keep the temporary folders (resized scenes, outputs)
+    --verbose             show Mitsuba's warnings (hidden: log level Error)
 
 Method (as in mitsuba3's test_renders.py, read at commit b45b0a930):
 
@@ -92,7 +97,10 @@ Fixtures (--write-fixtures DIR, scenes of at most --fixture-max-pixels):
 DIR/<scene>.ref.exr (reference mean) and DIR/<scene>.var.exr (per-sample
 variance), both float32 CIE XYZ (channels X, Y, Z), and DIR/<scene>.json
 with the scene, spp, seeds, Mitsuba's version and the test's constants; a
-self-contained scene (no include, path or file names) is copied too.
+copy of the scene as rendered: DIR/<scene>.xml when self-contained (no
+include, path or file names), else DIR/<scene>.scene/ (the root file and, when
+resized, the rewritten includes), its <path>s naming the original folders
+relative to the copy (so it only works where those folders are).
 """
 import argparse
 import datetime
@@ -517,18 +525,18 @@ def mitsuba_test_image(info, spp, seed):
     return pick(ch, ["R", "G", "B"], "film"), time.perf_counter() - t0
 
 
-def cache_key(info, size, spp, seed, variant):
+def cache_key(info, spp, seed, variant):
     h = hashlib.sha256()
     h.update(json.dumps({
         "format": CACHE_FORMAT, "text": info.text_hash(), "size": list(info.pixel_size),
-        "max_side": size, "spp": spp, "seed": seed, "variant": variant,
+        "spp": spp, "seed": seed, "variant": variant,
         "mitsuba": mi.__version__, "params": sorted(info.cli_params.items()),
     }, sort_keys=True).encode())
     return h.hexdigest()[:24]
 
 
 def get_reference(info, args, variant):
-    key = cache_key(info, args.size, args.ref_spp, args.ref_seed, variant)
+    key = cache_key(info, args.ref_spp, args.ref_seed, variant)
     cdir = Path(args.cache)
     npz, meta = cdir / f"{key}.npz", cdir / f"{key}.json"
     if not args.no_cache and npz.exists() and meta.exists() and not args.check_moment:
@@ -610,16 +618,50 @@ def default_plsr():
 # --------------------------------------------------------------------------
 # Fixtures
 
+def _relativize(xml_file):
+    """Absolute <path> values and include names -> relative to xml_file."""
+    tree = ET.parse(xml_file)
+    here = Path(xml_file).resolve().parent
+    for el in tree.iter():
+        attr = {"path": "value", "include": "filename"}.get(el.tag)
+        if attr and Path(el.get(attr, "")).is_absolute():
+            el.set(attr, os.path.relpath(el.get(attr), here))
+    ET.indent(tree, space="    ")
+    tree.write(xml_file, encoding="unicode")
+
+
+def fixture_scene(d, name, info):
+    """The scene as rendered, next to the fixture: a self-contained scene
+    as <name>.xml; otherwise <name>.scene/ holding the root (and, when
+    resized, the rewritten includes) whose <path>s name the original folders
+    relative to the copy. Returns the name relative to d."""
+    if info.self_contained and not info.resized:
+        shutil.copyfile(info.scene, d / f"{name}.xml")
+        return f"{name}.xml"
+    dest = d / f"{name}.scene"
+    shutil.rmtree(dest, ignore_errors=True)
+    if info.resized:
+        shutil.copytree(info.out_root, dest)
+    else:
+        dest.mkdir(parents=True)
+        tree = ET.parse(info.scene)
+        tree.getroot().insert(0, ET.Element("path", {"value": str(info.root_dir)}))
+        for el in tree.getroot():
+            if el.tag == "path" and not Path(el.get("value", "")).is_absolute():
+                el.set("value", str((info.root_dir / el.get("value")).resolve()))
+        tree.write(dest / info.scene.name, encoding="unicode")
+    for f in dest.rglob("*.xml"):
+        _relativize(f)
+    return str(Path(dest.name) / info.scene.name)
+
+
 def write_fixture(dirpath, name, info, ref, args, variant, test_spp):
     d = Path(dirpath)
     d.mkdir(parents=True, exist_ok=True)
     w, h = info.pixel_size
     write_exr(d / f"{name}.ref.exr", ref["xyz"], mi.Bitmap.PixelFormat.XYZ)
     write_exr(d / f"{name}.var.exr", ref["var"], mi.Bitmap.PixelFormat.XYZ)
-    scene_copy = None
-    if info.self_contained and not info.resized:
-        scene_copy = f"{name}.xml"
-        shutil.copyfile(info.scene, d / scene_copy)
+    scene_copy = fixture_scene(d, name, info)
     pixels = w * h
     (d / f"{name}.json").write_text(json.dumps({
         "scene": name,
@@ -705,9 +747,12 @@ def main():
     ap.add_argument("--save-images", metavar="DIR")
     ap.add_argument("--json", metavar="FILE")
     ap.add_argument("--keep-temp", action="store_true")
+    ap.add_argument("--verbose", action="store_true", help="Mitsuba's warnings too")
     args = ap.parse_args()
 
     variant = setup_mitsuba(args.variant, max(1, args.threads))
+    if not args.verbose:   # e.g. the samplers' "sample count rounded" warnings
+        mi.set_log_level(mi.LogLevel.Error)
     defines = {}
     for d in args.defines:
         k, _, v = d.partition("=")
@@ -804,10 +849,14 @@ def main():
                       f"{[round(x, 5) for x in mc['mean_moment']]} vs "
                       f"{[round(x, 5) for x in mc['mean_plain']]}", flush=True)
         except Exception as e:  # noqa: BLE001
-            msg = str(e).strip().splitlines()
-            msg = msg[0] if msg else type(e).__name__
-            row.update(result="error", error=msg)
-            print(f"{name:{NW}} {'':>9} {'':>5} ERROR   {msg}", flush=True)
+            msg = " ".join(l.strip() for l in str(e).strip().splitlines()) or type(e).__name__
+            msg = msg.replace(str((tmp / "scene").resolve()), str(Path(scene).resolve().parent))
+            if row.get("result") in ("refused", "crashed"):
+                row["mitsuba_error"] = msg
+                print(f"  mitsuba error: {msg[:400]}", flush=True)
+            else:
+                row.update(result="error", error=msg)
+                print(f"{name:{NW}} {'':>9} {'':>5} ERROR   {msg[:400]}", flush=True)
         finally:
             if not args.keep_temp:
                 shutil.rmtree(tmp, ignore_errors=True)
