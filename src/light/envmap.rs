@@ -10,8 +10,10 @@
 //!
 //! Radiance is piecewise constant over texels (no filtering), times `scale`,
 //! or with `filter = "bilinear"` interpolated between the four nearest texel
-//! centres (wrapping round in azimuth, clamped at the poles), as Mitsuba's
-//! `envmap` looks it up. Sampling stays by texel either way. Directions are
+//! centres (wrapping round in azimuth, clamped at the poles). Rows cover
+//! `1/height` of the image each, or with `rows = "poles"` (Mitsuba's
+//! `envmap`) the first and last rows' centres sit on the zenith and nadir,
+//! row `y` at `v = y/(height − 1)`. Sampling stays by texel either way. Directions are
 //! importance-sampled in proportion to a texel weight × solid angle of the
 //! texel (∝ sin θ), uniformly in `(u, v)` within a texel. The weight is the
 //! texel's luminance, looked up by nearest texel; looked up bilinearly, it
@@ -67,6 +69,11 @@ pub struct EnvironmentLight {
     integral: f32,
     /// Bilinear interpolation between texel centres instead of nearest.
     bilinear: bool,
+    /// Rows laid out pole to pole (Mitsuba's `envmap`): the first row's
+    /// centre is the zenith and the last row's the nadir, row `y` at
+    /// `v = y / (height − 1)`. Otherwise (the default) row `y` covers
+    /// `[y, y + 1) / height`. Only with `bilinear`.
+    rows_at_poles: bool,
 }
 
 /// One texel of the map, with what a lookup needs of it in one 16-byte
@@ -297,6 +304,7 @@ impl EnvironmentLight {
             column_guide,
             integral,
             bilinear,
+            rows_at_poles: false,
         }
     }
 
@@ -306,8 +314,26 @@ impl EnvironmentLight {
         if bilinear == self.bilinear {
             return self;
         }
+        assert!(!self.rows_at_poles, "set the lookup before the row layout");
         let texels = self.texels.iter().map(|t| t.radiance).collect();
         EnvironmentLight::build(self.width, self.height, texels, self.frame, bilinear)
+    }
+
+    /// The same environment with its rows laid out pole to pole (`true`, as
+    /// Mitsuba's `envmap`: the first row's centre is the zenith, the last
+    /// row's the nadir) or each row covering `1 / height` of the image
+    /// (`false`, the default). Pole-to-pole rows need bilinear lookup
+    /// ([`EnvironmentLight::with_bilinear`] first): its sampling weights
+    /// (the largest of each texel's 3 × 3 neighbours) cover the rows a
+    /// lookup blends in either layout, since `v·(h − 1)` lies within one
+    /// row of `v·h − ½`.
+    pub fn with_rows_at_poles(mut self, rows_at_poles: bool) -> EnvironmentLight {
+        assert!(
+            !rows_at_poles || self.bilinear,
+            "pole-to-pole rows need bilinear lookup"
+        );
+        self.rows_at_poles = rows_at_poles;
+        self
     }
 
     /// The radiance at image position `uv`, which lies in texel `(x, y)`:
@@ -331,7 +357,11 @@ impl EnvironmentLight {
     fn bilinear_corners(&self, uv: Vec2) -> ([usize; 4], f32, f32) {
         let (w, h) = (self.width as usize, self.height as usize);
         let fx = uv.x * w as f32 - 0.5;
-        let fy = (uv.y * h as f32 - 0.5).clamp(0.0, (h - 1) as f32);
+        let fy = if self.rows_at_poles {
+            (uv.y * (h - 1) as f32).clamp(0.0, (h - 1) as f32)
+        } else {
+            (uv.y * h as f32 - 0.5).clamp(0.0, (h - 1) as f32)
+        };
         let (x0, y0) = (elementary::floor(fx), elementary::floor(fy));
         let (tx, ty) = (fx - x0, fy - y0);
         let x0 = (x0 as i64).rem_euclid(w as i64) as usize;

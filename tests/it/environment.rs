@@ -77,15 +77,79 @@ fn sampling_matches_the_density_chi_square() {
     }
 }
 
-/// Maps looked up bilinearly: one lit texel, and the random 16×8 map.
+/// Maps looked up bilinearly: one lit texel, and the random 16×8 map, with
+/// rows at texel centres and pole to pole (Mitsuba's layout).
 fn bilinear_maps() -> Vec<(&'static str, EnvironmentLight)> {
     let mut maps = maps();
     let random = maps.pop().expect("four maps").1;
     let one = maps.swap_remove(0).1;
     vec![
-        ("one texel, bilinear", one.with_bilinear(true)),
-        ("random 16×8, bilinear", random.with_bilinear(true)),
+        ("one texel, bilinear", one.clone().with_bilinear(true)),
+        ("random 16×8, bilinear", random.clone().with_bilinear(true)),
+        (
+            "one texel, bilinear, rows at the poles",
+            one.with_bilinear(true).with_rows_at_poles(true),
+        ),
+        (
+            "random 16×8, bilinear, rows at the poles",
+            random.with_bilinear(true).with_rows_at_poles(true),
+        ),
     ]
+}
+
+/// `rows = "poles"`: the first and last rows' centres are the zenith and
+/// the nadir, row `y` at `v = y/(h − 1)`, as Mitsuba's `envmap` reads its
+/// image; between rows the lookup interpolates, and samples carry what a
+/// lookup of their direction gives.
+#[test]
+fn rows_at_the_poles_put_the_first_and_last_rows_on_the_poles() {
+    let (w, h) = (4u32, 3u32);
+    let texels: Vec<Vec3> = (0..w * h).map(|i| Vec3::splat(1.0 + i as f32)).collect();
+    let env = EnvironmentLight::from_image(w, h, texels, 1.0, SphereFrame::Z_UP)
+        .with_bilinear(true)
+        .with_rows_at_poles(true);
+    let at = |u: f32, v: f32| env.radiance(equirect_direction(Vec2::new(u, v), &SphereFrame::Z_UP));
+    let close = |a: Vec3, b: f32| (a - Vec3::splat(b)).abs().max_element() < 1e-4;
+    // Column 0 holds 1, 5, 9 from the top: row 0 at v = 0 (just below the
+    // zenith), row 1 at v = ½, row 2 at v = 1; a quarter of the way is a
+    // quarter of the way between rows 0 and 1.
+    assert!(close(at(0.125, 1e-6), 1.0), "{}", at(0.125, 1e-6));
+    assert!(close(at(0.125, 0.5), 5.0), "{}", at(0.125, 0.5));
+    assert!(
+        close(at(0.125, 1.0 - 1e-6), 9.0),
+        "{}",
+        at(0.125, 1.0 - 1e-6)
+    );
+    assert!(close(at(0.125, 0.25), 3.0), "{}", at(0.125, 0.25));
+    // With rows at texel centres, v = ¼ is row 0's lower half: row 0 and
+    // a quarter of row 1 (v·h − ½ = 0.25).
+    let centred = EnvironmentLight::from_image(
+        w,
+        h,
+        (0..w * h).map(|i| Vec3::splat(1.0 + i as f32)).collect(),
+        1.0,
+        SphereFrame::Z_UP,
+    )
+    .with_bilinear(true);
+    let c = centred.radiance(equirect_direction(
+        Vec2::new(0.125, 0.25),
+        &SphereFrame::Z_UP,
+    ));
+    assert!(close(c, 2.0), "{c}");
+    let mut rng = Rng::new(3, 9);
+    for _ in 0..2000 {
+        let (l, d, pdf) = env.sample(rng.next_2d()).unwrap();
+        let r = env.radiance(d);
+        assert!(
+            (l - r).abs().max_element() <= 1e-3 * r.max_element(),
+            "{l} vs {r}"
+        );
+        assert!(
+            (pdf - env.pdf(d)).abs() <= 1e-3 * pdf,
+            "{pdf} vs {}",
+            env.pdf(d)
+        );
+    }
 }
 
 /// Looked up bilinearly, a lit texel's radiance reaches into its

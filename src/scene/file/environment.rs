@@ -22,6 +22,10 @@ pub(super) struct EnvironmentSection {
     pub(super) scale: Option<f32>,
     /// `"nearest"` (default) or `"bilinear"`.
     pub(super) filter: Option<String>,
+    /// `"centres"` (default: row `y` covers `[y, y+1)/height`) or
+    /// `"poles"` (Mitsuba's `envmap`: the first and last rows' centres are
+    /// the zenith and nadir; needs `filter = "bilinear"`).
+    pub(super) rows: Option<String>,
 }
 
 impl Builder<'_> {
@@ -42,6 +46,25 @@ impl Builder<'_> {
         };
         if bilinear && e.file.is_none() {
             return Err(self.err("environment.filter", "only used with an image file"));
+        }
+        let rows_at_poles = match e.rows.as_deref() {
+            None | Some("centres") => false,
+            Some("poles") => true,
+            Some(other) => {
+                return Err(self.err(
+                    "environment.rows",
+                    format!("unknown row layout `{other}` (known: centres, poles)"),
+                ))
+            }
+        };
+        if e.rows.is_some() && e.file.is_none() {
+            return Err(self.err("environment.rows", "only used with an image file"));
+        }
+        if rows_at_poles && !bilinear {
+            return Err(self.err(
+                "environment.rows",
+                "`poles` needs filter = \"bilinear\" (rows at the poles are interpolated)",
+            ));
         }
         if scale < 0.0 {
             return Err(self.err(
@@ -102,7 +125,10 @@ impl Builder<'_> {
                 let path = self.base.join(rel);
                 self.read_input(&path);
                 checked_environment(&path, frame, scale)
-                    .map(|env| env.with_bilinear(bilinear))
+                    .map(|env| {
+                        env.with_bilinear(bilinear)
+                            .with_rows_at_poles(rows_at_poles)
+                    })
                     .map_err(|m| self.err("environment.file", m.to_string()))
             }
         }

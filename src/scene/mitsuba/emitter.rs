@@ -59,6 +59,9 @@ impl<'a> Translator<'a> {
                     e.insert("up", dvec(up.normalize()));
                     e.insert("forward", dvec(forward.normalize()));
                     e.insert("filter", Value::String("bilinear".into()));
+                    // Mitsuba's envmap puts its first and last rows on the
+                    // poles (a row is 1/(h−1) of π tall).
+                    e.insert("rows", Value::String("poles".into()));
                     if let Some(s) = self.take_float(&mut p, "scale")? {
                         e.insert("scale", float(s));
                     }

@@ -382,6 +382,7 @@ fn mitsuba_conventions_are_converted() {
     }
     assert_eq!(num(&t, "environment", "scale"), 2.0);
     assert_eq!(t["environment"]["filter"].as_str(), Some("bilinear"));
+    assert_eq!(t["environment"]["rows"].as_str(), Some("poles"));
 
     // A camera given by a matrix: position, viewing direction and up.
     let t = translated(&sensor(
