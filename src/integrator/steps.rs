@@ -101,7 +101,17 @@ impl SurfacePoint {
         let (b1, b2) = (hit.u, hit.v);
         let b0 = 1.0 - b1 - b2;
         let uv = if has_uv {
-            mesh.uvs[i0] * b0 + mesh.uvs[i1] * b1 + mesh.uvs[i2] * b2
+            let interpolated = || mesh.uvs[i0] * b0 + mesh.uvs[i1] * b1 + mesh.uvs[i2] * b2;
+            match mesh.uv_map {
+                crate::scene::uv_map::UvMap::Vertices => interpolated(),
+                // The round shapes' exact coordinates, from the point on the
+                // facet (the same direction from the centre as the sphere's).
+                map => {
+                    let p =
+                        mesh.positions[i0] * b0 + mesh.positions[i1] * b1 + mesh.positions[i2] * b2;
+                    map.at(p).unwrap_or_else(interpolated)
+                }
+            }
         } else {
             Vec2::ZERO
         };

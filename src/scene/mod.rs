@@ -13,6 +13,7 @@ pub mod photo;
 pub mod ply;
 pub mod serialized;
 pub mod shapes;
+pub mod uv_map;
 
 use crate::accel::{Accel, Device, SceneOptions};
 use crate::camera::Camera;
@@ -75,6 +76,9 @@ pub struct Mesh {
     /// the real scene (the rest of the scene stands for the real one). A
     /// job with [`RenderJob::hide_virtual`] renders as if it were absent.
     pub is_virtual: bool,
+    /// How texture coordinates are found at a hit: interpolated from
+    /// `uvs`, or computed from the hit point (the built-in sphere and disk).
+    pub uv_map: uv_map::UvMap,
 }
 
 /// Why a mesh is invalid.
@@ -184,6 +188,7 @@ impl Mesh {
             object_id,
             pls: None,
             is_virtual: false,
+            uv_map: uv_map::UvMap::Vertices,
         };
         mesh.validate()?;
         Ok(mesh)
@@ -264,6 +269,7 @@ pub fn pls_mesh(light: &Pls, mode: BrightnessMode, nf: u32, material: u32, name:
         object_id: u32::MAX,
         pls: Some(emitter),
         is_virtual: false,
+        uv_map: uv_map::UvMap::Vertices,
     }
 }
 

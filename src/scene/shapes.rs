@@ -32,19 +32,31 @@ pub fn rectangle() -> TriangleSoup {
 }
 
 /// The unit disk at `z = 0`, facing `+z`: a fan of `segments` triangles
-/// round its centre (vertex 0), with texture coordinates `(x+1)/2, (y+1)/2`.
+/// round its centre, with Mitsuba's polar texture coordinates `(r, φ/2π)`
+/// (`φ` from `+x` towards `+y`). Each triangle has its own centre vertex
+/// (at its middle azimuth) and the rim's first vertex is repeated at
+/// `φ = 2π`, so that coordinates interpolate without wrapping round.
 pub fn disk(segments: u32) -> (Vec<Vec3>, Vec<[u32; 3]>, Vec<Vec2>) {
-    let mut p = vec![Vec3::ZERO];
+    let n = segments as usize;
+    let mut p = Vec::with_capacity(2 * n + 1);
+    let mut uv = Vec::with_capacity(2 * n + 1);
+    for i in 0..=segments {
+        let turns = i as f32 / segments as f32;
+        let (sin, cos) = (std::f32::consts::TAU * turns).sin_cos();
+        let rim = if i == segments {
+            p[0]
+        } else {
+            Vec3::new(cos, sin, 0.0)
+        };
+        p.push(rim);
+        uv.push(Vec2::new(1.0, turns));
+    }
     for i in 0..segments {
-        let phi = std::f32::consts::TAU * i as f32 / segments as f32;
-        p.push(Vec3::new(phi.cos(), phi.sin(), 0.0));
+        p.push(Vec3::ZERO);
+        uv.push(Vec2::new(0.0, (i as f32 + 0.5) / segments as f32));
     }
     let t = (0..segments)
-        .map(|i| [0, 1 + i, 1 + (i + 1) % segments])
-        .collect();
-    let uv = p
-        .iter()
-        .map(|q| Vec2::new(0.5 * (q.x + 1.0), 0.5 * (q.y + 1.0)))
+        .map(|i| [segments + 1 + i, i, i + 1])
         .collect();
     (p, t, uv)
 }
@@ -166,6 +178,67 @@ pub fn icosphere(center: Vec3, radius: f32, subdivisions: u32) -> TriangleSoup {
     }
     let p = p.into_iter().map(|v| center + radius * v).collect();
     (p, tris)
+}
+
+/// An [`icosphere`] with Mitsuba's spherical texture coordinates
+/// `(φ/2π, θ/π)` at its vertices (`φ` the azimuth from `+x` towards `+y`,
+/// `θ` the angle from `+z`). Triangles across the seam `φ = 0` get copies
+/// of their vertices at `u + 1`, and a vertex on a pole one copy per
+/// triangle at the mean `u` of the other two, so that coordinates
+/// interpolate without wrapping round; exact coordinates at a hit come from
+/// [`crate::scene::uv_map::UvMap::Sphere`].
+pub fn icosphere_with_uvs(
+    center: Vec3,
+    radius: f32,
+    subdivisions: u32,
+) -> (Vec<Vec3>, Vec<[u32; 3]>, Vec<Vec2>) {
+    let (p, t) = icosphere(Vec3::ZERO, 1.0, subdivisions);
+    let uv_of = |q: Vec3| {
+        Vec2::new(
+            crate::scene::uv_map::azimuth_turns(q),
+            q.z.clamp(-1.0, 1.0).acos() * std::f32::consts::FRAC_1_PI,
+        )
+    };
+    let on_pole = |q: Vec3| q.x.hypot(q.y) < 1e-6;
+    let mut out_p: Vec<Vec3> = p.iter().map(|&q| center + radius * q).collect();
+    let mut out_uv: Vec<Vec2> = p.iter().map(|&q| uv_of(q)).collect();
+    // Copies of a vertex by (index, bits of its u).
+    let mut copies: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut tris = Vec::with_capacity(t.len());
+    for tri in t {
+        let mut u = tri.map(|i| out_uv[i as usize].x);
+        let poles = tri.map(|i| on_pole(p[i as usize]));
+        let off_pole: Vec<f32> = (0..3).filter(|&k| !poles[k]).map(|k| u[k]).collect();
+        let (lo, hi) = off_pole
+            .iter()
+            .fold((f32::MAX, f32::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+        if hi - lo > 0.5 {
+            for k in 0..3 {
+                if !poles[k] && u[k] < 0.5 {
+                    u[k] += 1.0;
+                }
+            }
+        }
+        let mean =
+            (0..3).filter(|&k| !poles[k]).map(|k| u[k]).sum::<f32>() / off_pole.len().max(1) as f32;
+        let mut out = tri;
+        for k in 0..3 {
+            if poles[k] {
+                u[k] = mean;
+            }
+            let i = tri[k];
+            if u[k] != out_uv[i as usize].x {
+                let v = out_uv[i as usize].y;
+                out[k] = *copies.entry((i, u[k].to_bits())).or_insert_with(|| {
+                    out_p.push(out_p[i as usize]);
+                    out_uv.push(Vec2::new(u[k], v));
+                    (out_p.len() - 1) as u32
+                });
+            }
+        }
+        tris.push(out);
+    }
+    (out_p, tris, out_uv)
 }
 
 /// Reverses the winding of every triangle (flips geometric normals).
@@ -645,6 +718,34 @@ fn obj_material(
 mod tests {
     use super::*;
 
+    /// The sphere's vertex coordinates are Mitsuba's `(φ/2π, θ/π)` of
+    /// their position (up to a whole turn in `u` on the seam, any `u` on a
+    /// pole) and never wrap round within a triangle.
+    #[test]
+    fn icosphere_coordinates_are_spherical_and_do_not_wrap() {
+        let (p, t, uv) = icosphere_with_uvs(Vec3::new(1.0, 2.0, 3.0), 2.0, 3);
+        assert_eq!(t.len(), 20 * 64);
+        let mut seam_copies = 0;
+        for (q, c) in p.iter().zip(&uv) {
+            let d = (*q - Vec3::new(1.0, 2.0, 3.0)) / 2.0;
+            assert!(
+                ((std::f32::consts::PI * c.y).cos() - d.z).abs() < 1e-5,
+                "{c} at {d}"
+            );
+            if d.x.hypot(d.y) > 1e-6 {
+                let phi = crate::scene::uv_map::azimuth_turns(d);
+                let off = c.x - phi;
+                assert!(off.abs() < 1e-5 || (off - 1.0).abs() < 1e-5, "{c} vs {phi}");
+                seam_copies += (off > 0.5) as usize;
+            }
+        }
+        assert!(seam_copies > 0);
+        for tri in &t {
+            let [a, b, c] = tri.map(|i| uv[i as usize].x);
+            assert!(a.max(b).max(c) - a.min(b).min(c) < 0.5, "{a} {b} {c}");
+        }
+    }
+
     #[test]
     fn disk_and_cube_have_their_area_and_face_outwards() {
         let area = |p: &[Vec3], t: &[[u32; 3]]| -> (f32, Vec<Vec3>) {
@@ -663,6 +764,15 @@ mod tests {
         assert!((a - std::f32::consts::PI).abs() < 2e-3, "{a}");
         assert!(n.iter().all(|n| (*n - Vec3::Z).length() < 1e-5));
         assert_eq!(uv.len(), p.len());
+        // Polar coordinates: u the radius, v the azimuth (turns), within a
+        // triangle no wrap round.
+        for (q, c) in p.iter().zip(&uv) {
+            assert!((c.x - q.truncate().length()).abs() < 1e-6, "{q} {c}");
+        }
+        for tri in &t {
+            let [a, b, c] = tri.map(|i| uv[i as usize].y);
+            assert!(a.max(b).max(c) - a.min(b).min(c) < 1.5 / 128.0);
+        }
         let (p, t, uv) = cube();
         let (a, n) = area(&p, &t);
         assert!((a - 24.0).abs() < 1e-4, "{a}");

@@ -443,6 +443,7 @@ impl Builder<'_> {
                 // meshes as they come from the file or the built-in shape.
                 for m in &mut meshes[first..] {
                     m.uvs.iter_mut().for_each(|uv| uv.y = 1.0 - uv.y);
+                    m.uv_map = m.uv_map.flipped_v();
                 }
             }
         }

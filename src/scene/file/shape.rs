@@ -6,6 +6,7 @@ use super::{Builder, DEFAULT_REFLECTANCE};
 use crate::bsdf::Bsdf;
 use crate::error::Result;
 use crate::scene::shapes::{self, flip_winding, transform_mesh};
+use crate::scene::uv_map::UvMap;
 use crate::scene::{Emission, Material, Mesh};
 use glam::{Mat4, Quat, Vec2, Vec3};
 use serde::Deserialize;
@@ -251,6 +252,9 @@ impl Builder<'_> {
         }
 
         let flip;
+        // For the sphere and the disk: the unit shape's frame in the
+        // shape's own coordinates, for exact texture coordinates at hits.
+        let mut round: Option<(Mat4, bool)> = None;
         let (mut positions, mut triangles, normals, uvs) = match s.kind.as_str() {
             "obj" | "gltf" => {
                 let shape = Common {
@@ -285,7 +289,9 @@ impl Builder<'_> {
             "sphere" => {
                 let keys: SphereKeys = self.typed_keys(&field, &s.keys, unknown)?;
                 flip = keys.flip_normals.unwrap_or(false);
-                self.sphere_mesh(&field, &keys)?
+                let (mesh, frame) = self.sphere_mesh(&field, &keys)?;
+                round = Some((frame, true));
+                mesh
             }
             "ply" => {
                 let keys: PlyKeys = self.typed_keys(&field, &s.keys, unknown)?;
@@ -308,6 +314,7 @@ impl Builder<'_> {
                     ));
                 }
                 let (p, t, uv) = shapes::disk(segments);
+                round = Some((Mat4::IDENTITY, false));
                 (p, t, Vec::new(), uv)
             }
             "cube" => {
@@ -328,6 +335,24 @@ impl Builder<'_> {
         if flip {
             flip_winding(&mut triangles);
         }
+        let uv_map = match round {
+            None => UvMap::Vertices,
+            Some((frame, sphere)) => {
+                // The transform is invertible (checked when read).
+                let to_local = glam::Affine3A::from_mat4((matrix * frame).inverse());
+                if sphere {
+                    UvMap::Sphere {
+                        to_local,
+                        flip_v: false,
+                    }
+                } else {
+                    UvMap::Disk {
+                        to_local,
+                        flip_v: false,
+                    }
+                }
+            }
+        };
         transform_mesh(&matrix, &mut positions, &mut triangles);
         let mut normals = transform_normals(&matrix, normals);
         if flip {
@@ -349,6 +374,7 @@ impl Builder<'_> {
             object_id,
             pls: None,
             is_virtual,
+            uv_map,
         });
         Ok(())
     }
@@ -516,6 +542,7 @@ impl Builder<'_> {
                 object_id: shape.object_id,
                 pls: None,
                 is_virtual: shape.is_virtual,
+                uv_map: crate::scene::uv_map::UvMap::Vertices,
             });
         }
         Ok(())
@@ -630,13 +657,16 @@ impl Builder<'_> {
                 object_id: shape.object_id,
                 pls: None,
                 is_virtual: shape.is_virtual,
+                uv_map: crate::scene::uv_map::UvMap::Vertices,
             });
         }
         Ok(())
     }
 
-    /// The icosphere of a `sphere` shape, with its smooth normals.
-    fn sphere_mesh(&self, field: &str, keys: &SphereKeys) -> Result<MeshParts> {
+    /// The icosphere of a `sphere` shape, with its smooth normals and
+    /// spherical texture coordinates, and the unit sphere's frame (centre
+    /// and radius) in the shape's coordinates.
+    fn sphere_mesh(&self, field: &str, keys: &SphereKeys) -> Result<(MeshParts, Mat4)> {
         let center = self.vec3(&format!("{field}.center"), keys.center.unwrap_or([0.0; 3]))?;
         let radius = self.finite(&format!("{field}.radius"), keys.radius.unwrap_or(1.0))?;
         if radius <= 0.0 {
@@ -652,10 +682,11 @@ impl Builder<'_> {
                 format!("must be at most 8 (20·4^8 triangles), got {subdivisions}"),
             ));
         }
-        let (p, t) = shapes::icosphere(center, radius, subdivisions);
+        let (p, t, uv) = shapes::icosphere_with_uvs(center, radius, subdivisions);
         // The smooth sphere's normals shade the facets.
         let normals = p.iter().map(|q| (*q - center) / radius).collect();
-        Ok((p, t, normals, Vec::new()))
+        let frame = Mat4::from_translation(center) * Mat4::from_scale(Vec3::splat(radius));
+        Ok(((p, t, normals, uv), frame))
     }
 }
 
