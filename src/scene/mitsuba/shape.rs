@@ -113,6 +113,8 @@ impl<'a> Translator<'a> {
         }
         let material = match bsdf {
             Some(m) => m,
+            // Mitsuba's default BSDF is black on an emitter.
+            None if s.get("emission").is_some() => self.default_diffuse(0.0),
             None => self.default_material(),
         };
         s.insert("material", Value::String(material));
@@ -137,7 +139,18 @@ impl<'a> Translator<'a> {
 
     /// Mitsuba's BSDF for shapes without one: diffuse, 0.5 grey.
     pub(super) fn default_material(&mut self) -> String {
-        let name = "mitsuba-default-diffuse".to_string();
+        self.default_diffuse(0.5)
+    }
+
+    /// The BSDF Mitsuba gives a shape without one: a one-sided diffuse of
+    /// reflectance `reflectance` (0.5, or 0 on an emitter: a light without
+    /// a BSDF reflects nothing).
+    pub(super) fn default_diffuse(&mut self, reflectance: f64) -> String {
+        let name = if reflectance == 0.0 {
+            "mitsuba-default-emitter-black".to_string()
+        } else {
+            "mitsuba-default-diffuse".to_string()
+        };
         if !self
             .materials
             .iter()
@@ -146,7 +159,7 @@ impl<'a> Translator<'a> {
             let mut m = Table::new();
             m.insert("name", Value::String(name.clone()));
             m.insert("type", Value::String("diffuse".into()));
-            m.insert("reflectance", vec3([0.5; 3]));
+            m.insert("reflectance", vec3([reflectance; 3]));
             // One-sided, as all Mitsuba's opaque BSDFs without `twosided`.
             m.insert("two_sided", Value::Boolean(false));
             self.materials.push(m);

@@ -551,3 +551,26 @@ fn a_checkerboard_lands_where_mitsuba_puts_it() {
         }
     }
 }
+
+/// A shape without a BSDF gets Mitsuba's default: a one-sided diffuse 0.5
+/// grey, black on a shape that emits (Mitsuba's `Shape` sets the default's
+/// reflectance to 0 there: its sphere-light scenes show no reflection on
+/// the light).
+#[test]
+fn shapes_without_a_bsdf_get_mitsubas_default_black_on_lights() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.xml");
+    std::fs::write(
+        &scene,
+        "<scene version=\"3.0.0\">\n<shape type=\"sphere\"/>\n\
+         <shape type=\"sphere\"><emitter type=\"area\"><rgb name=\"radiance\" value=\"20\"/></emitter></shape>\n\
+         </scene>",
+    )
+    .unwrap();
+    let (t, _) = translation(&scene, &[]);
+    let shapes = array(&t, "shapes");
+    let of = |i: usize| material(&t, shapes[i]["material"].as_str().unwrap());
+    assert_eq!(floats(&of(0)["reflectance"]), vec![0.5; 3]);
+    assert_eq!(floats(&of(1)["reflectance"]), vec![0.0; 3]);
+    assert_eq!(of(1)["two_sided"].as_bool(), Some(false));
+}
