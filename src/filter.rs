@@ -14,13 +14,17 @@
 //! - [`PixelFilter::Gaussian`]: `exp(−r²/(2σ²))`, separable, truncated to
 //!   `[−radius, radius]²` around the pixel centre (σ and radius in pixels;
 //!   pbrt's defaults σ = 0.5, radius = 1.5). Each axis is drawn by inverting
-//!   the truncated normal's distribution function.
+//!   the truncated normal's distribution function. With
+//!   `filter_border = "clip"` (Mitsuba's films: samples are only taken
+//!   on the film), a pixel near the edge draws its offsets from the
+//!   Gaussian restricted to the film, `[−x − ½, width − x − ½]` across.
 //!
 //! ```toml
 //! [film]
 //! filter = "gaussian"   # or "box" (the default)
 //! filter_sigma = 0.5    # pixels
 //! filter_radius = 1.5   # pixels
+//! filter_border = "extend"  # or "clip": keep samples on the film
 //! ```
 
 use glam::Vec2;
@@ -49,6 +53,9 @@ pub struct GaussianFilter {
     pub radius: f32,
     /// `erf(radius / (σ√2))`: the mass of `[−radius, radius]`.
     erf_radius: f32,
+    /// Whether a pixel's samples stay on the film (`filter_border =
+    /// "clip"`): near an edge the Gaussian is restricted to the film.
+    pub clip_at_border: bool,
 }
 
 /// Parameters no Gaussian filter can have.
@@ -79,7 +86,36 @@ impl GaussianFilter {
             sigma,
             radius,
             erf_radius,
+            clip_at_border: false,
         })
+    }
+
+    /// The same filter keeping every pixel's samples on the film (`true`,
+    /// as Mitsuba's films do) or letting them fall beyond its edges.
+    pub fn clipped_at_border(self, clip: bool) -> GaussianFilter {
+        GaussianFilter {
+            clip_at_border: clip,
+            ..self
+        }
+    }
+
+    /// One axis of pixel `x` of `size`: the full truncated normal, or near
+    /// an edge of a clipped filter the normal restricted to
+    /// `[max(−radius, −x − ½), min(radius, size − x − ½)]` (inverting its
+    /// distribution function: `erf` in double precision).
+    #[inline]
+    fn sample_axis(&self, u: f32, x: u32, size: u32) -> f32 {
+        let centre = x as f32 + 0.5;
+        let (lo, hi) = (-centre, size as f32 - centre);
+        if !self.clip_at_border || (lo <= -self.radius && hi >= self.radius) {
+            return self.sample_1d(u);
+        }
+        let (lo, hi) = (lo.max(-self.radius), hi.min(self.radius));
+        let k = 1.0 / (self.sigma as f64 * std::f64::consts::SQRT_2);
+        let (e_lo, e_hi) = (erf(lo as f64 * k), erf(hi as f64 * k));
+        let e = (e_lo + u as f64 * (e_hi - e_lo)).clamp(-1.0 + 1e-7, 1.0 - 1e-7);
+        let t = self.sigma * std::f32::consts::SQRT_2 * erfinv(e as f32);
+        t.clamp(lo, hi)
     }
 
     /// One axis: the inverse distribution function of the truncated normal at `u ∈ [0, 1)`.
@@ -101,14 +137,18 @@ impl GaussianFilter {
 }
 
 impl PixelFilter {
-    /// Film offset from the pixel's top-left corner for a sample drawn with
-    /// `u ∈ [0, 1)²`: `u` itself for the box filter, `(½, ½)` plus a
-    /// Gaussian offset for the Gaussian filter.
+    /// Film offset from the top-left corner of pixel `pixel` of a film of
+    /// `size` pixels for a sample drawn with `u ∈ [0, 1)²`: `u` itself for
+    /// the box filter, `(½, ½)` plus a Gaussian offset for the Gaussian
+    /// filter (kept on the film if it is clipped at the border).
     #[inline]
-    pub fn sample(&self, u: Vec2) -> Vec2 {
+    pub fn sample(&self, u: Vec2, pixel: [u32; 2], size: [u32; 2]) -> Vec2 {
         match self {
             PixelFilter::Box => u,
-            PixelFilter::Gaussian(g) => Vec2::new(0.5 + g.sample_1d(u.x), 0.5 + g.sample_1d(u.y)),
+            PixelFilter::Gaussian(g) => Vec2::new(
+                0.5 + g.sample_axis(u.x, pixel[0], size[0]),
+                0.5 + g.sample_axis(u.y, pixel[1], size[1]),
+            ),
         }
     }
 
@@ -212,15 +252,22 @@ mod tests {
         let g = GaussianFilter::new(0.5, 1.5).unwrap();
         let f = PixelFilter::Gaussian(g);
         for u in [0.0, 1e-7, 0.25, 0.5, 0.75, 0.999_999_94] {
-            let s = f.sample(Vec2::splat(u));
+            let s = f.sample(Vec2::splat(u), [5, 5], [10, 10]);
             assert!((s.x - 0.5).abs() <= 1.5, "{s}");
         }
-        assert!((f.sample(Vec2::splat(0.5)) - Vec2::splat(0.5)).length() < 1e-6);
+        assert!((f.sample(Vec2::splat(0.5), [5, 5], [10, 10]) - Vec2::splat(0.5)).length() < 1e-6);
         // The median of each axis sits at the centre, the quartiles at ±0.6745σ
         // (essentially unaffected by the truncation at 3σ).
-        let q = f.sample(Vec2::splat(0.75)).x - 0.5;
+        let q = f.sample(Vec2::splat(0.75), [5, 5], [10, 10]).x - 0.5;
         assert!((q - 0.6745 * 0.5).abs() < 2e-3, "{q}");
         assert!(GaussianFilter::new(0.0, 1.0).is_err());
         assert!(GaussianFilter::new(0.5, -1.0).is_err());
+        // Clipped, the corner pixel's samples stay on the film, even at the
+        // extremes of u.
+        let c = PixelFilter::Gaussian(g.clipped_at_border(true));
+        for u in [0.0, 1e-7, 0.5, 0.999_999_94] {
+            let s = c.sample(Vec2::splat(u), [0, 0], [10, 10]);
+            assert!(s.min_element() >= 0.0 && s.max_element() <= 2.0, "{s}");
+        }
     }
 }

@@ -540,6 +540,9 @@ impl Film {
         if let PixelFilter::Gaussian(g) = &s.filter {
             out.push((t("plsrFilterSigma"), F32(g.sigma)));
             out.push((t("plsrFilterRadius"), F32(g.radius)));
+            if g.clip_at_border {
+                out.push((t("plsrFilterBorder"), T(t("clip"))));
+            }
         }
         if let Some(k) = s.white_balance_k {
             out.push((t("plsrWhiteBalance"), F32(k)));
@@ -612,7 +615,11 @@ fn settings_from_header(layer: &exrp::LayerAttributes) -> FilmSettings {
                 (f32_of("plsrFilterSigma"), f32_of("plsrFilterRadius"))
             {
                 if let Ok(g) = GaussianFilter::new(sigma, radius) {
-                    s.filter = PixelFilter::Gaussian(g);
+                    let clip = matches!(
+                        attrs.get(&exrp::Text::from("plsrFilterBorder")),
+                        Some(exrp::AttributeValue::Text(b)) if b == "clip"
+                    );
+                    s.filter = PixelFilter::Gaussian(g.clipped_at_border(clip));
                 }
             }
         }

@@ -283,12 +283,17 @@ pub(crate) fn camera_sample(
     let mut rng = PathSampler::for_sample(seed, x, y, sample);
     // Filter importance sampling: the filter places the sample, which keeps
     // weight 1 (see `crate::filter`).
-    let film = Vec2::new(x as f32, y as f32) + scene.film().filter.sample(rng.next_2d());
+    let camera = scene.camera();
+    let film = Vec2::new(x as f32, y as f32)
+        + scene
+            .film()
+            .filter
+            .sample(rng.next_2d(), [x, y], [camera.width(), camera.height()]);
     let lens = if lens_sample {
         rng.next_2d()
     } else {
         Vec2::ZERO
     };
-    let ray = scene.camera().generate_ray(film, lens);
+    let ray = camera.generate_ray(film, lens);
     (rng, ray)
 }

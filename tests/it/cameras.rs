@@ -459,43 +459,82 @@ fn bad_camera_and_film_input_names_the_field() {
 
 /// Pearson's test of the Gaussian filter's sample positions against the
 /// truncated Gaussian, integrated numerically (independently of the erf and
-/// erfinv the sampler uses) over a grid of cells.
+/// erfinv the sampler uses) over a grid of cells; clipped at the film's
+/// border (`filter_border = "clip"`), a pixel near an edge samples the
+/// Gaussian restricted to the film.
 #[test]
 fn gaussian_filter_sampling_matches_its_density() {
     const N: usize = 400_000;
     const BINS: usize = 23;
-    for (sigma, radius, seed) in [(0.5f32, 1.5f32, 1u64), (1.0, 1.6, 2), (0.3, 2.0, 3)] {
-        let filter = PixelFilter::Gaussian(GaussianFilter::new(sigma, radius).unwrap());
+    // σ, radius, seed, clipped, pixel, film size.
+    let cases = [
+        (0.5f32, 1.5f32, 1u64, false, [0u32, 0u32], [1u32, 1u32]),
+        (1.0, 1.6, 2, false, [0, 0], [1, 1]),
+        (0.3, 2.0, 3, false, [0, 0], [1, 1]),
+        // A corner pixel and one a pixel in from the right edge.
+        (0.5, 2.0, 4, true, [0, 0], [32, 24]),
+        (1.0, 2.5, 5, true, [30, 1], [32, 3]),
+        // Far from the edges, clipping changes nothing.
+        (0.5, 2.0, 6, true, [10, 10], [32, 24]),
+    ];
+    for (sigma, radius, seed, clip, pixel, size) in cases {
+        let g = GaussianFilter::new(sigma, radius)
+            .unwrap()
+            .clipped_at_border(clip);
+        let filter = PixelFilter::Gaussian(g);
+        // The interval of offsets from the pixel centre along each axis.
+        let interval = |axis: usize| {
+            let c = pixel[axis] as f64 + 0.5;
+            let r = radius as f64;
+            if clip {
+                ((-c).max(-r), (size[axis] as f64 - c).min(r))
+            } else {
+                (-r, r)
+            }
+        };
+        let (ix, iy) = (interval(0), interval(1));
         let mut observed = vec![0.0f64; BINS * BINS];
         let mut rng = Rng::new(seed, 9);
-        let width = 2.0 * radius as f64 / BINS as f64;
+        let cell = |x: f32, (lo, hi): (f64, f64)| {
+            (((x as f64 - lo) / (hi - lo) * BINS as f64) as usize).min(BINS - 1)
+        };
         for _ in 0..N {
-            let o = filter.sample(rng.next_2d()) - Vec2::splat(0.5);
+            let o = filter.sample(rng.next_2d(), pixel, size) - Vec2::splat(0.5);
             assert!(o.abs().max_element() <= radius, "{o}");
-            let cell = |x: f32| (((x as f64 + radius as f64) / width) as usize).min(BINS - 1);
-            observed[cell(o.y) * BINS + cell(o.x)] += 1.0;
-        }
-        // 1D cell masses of exp(−x²/2σ²) on [−r, r] by the midpoint rule.
-        let sub = 200;
-        let mut mass = [0.0f64; BINS];
-        for (i, m) in mass.iter_mut().enumerate() {
-            for k in 0..sub {
-                let x = -radius as f64 + width * (i as f64 + (k as f64 + 0.5) / sub as f64);
-                *m += (-x * x / (2.0 * (sigma as f64).powi(2))).exp();
+            for (v, (lo, hi)) in [(o.x, ix), (o.y, iy)] {
+                assert!(
+                    v as f64 >= lo - 1e-6 && v as f64 <= hi + 1e-6,
+                    "{o} off the film"
+                );
             }
+            observed[cell(o.y, iy) * BINS + cell(o.x, ix)] += 1.0;
         }
-        let total: f64 = mass.iter().sum();
+        // 1D cell masses of exp(−x²/2σ²) on the interval by the midpoint rule.
+        let masses = |(lo, hi): (f64, f64)| {
+            let sub = 200;
+            let width = (hi - lo) / BINS as f64;
+            let mut mass = [0.0f64; BINS];
+            for (i, m) in mass.iter_mut().enumerate() {
+                for k in 0..sub {
+                    let x = lo + width * (i as f64 + (k as f64 + 0.5) / sub as f64);
+                    *m += (-x * x / (2.0 * (sigma as f64).powi(2))).exp();
+                }
+            }
+            let total: f64 = mass.iter().sum();
+            mass.map(|m| m / total)
+        };
+        let (mx, my) = (masses(ix), masses(iy));
         let mut expected = vec![0.0f64; BINS * BINS];
         for j in 0..BINS {
             for i in 0..BINS {
-                expected[j * BINS + i] = N as f64 * mass[j] * mass[i] / (total * total);
+                expected[j * BINS + i] = N as f64 * my[j] * mx[i];
             }
         }
         let (chi2, dof) = chi2_from_counts(&observed, &expected, 5.0);
         let p = 1.0 - regularized_gamma_p(dof as f64 / 2.0, chi2 / 2.0);
         assert!(
-            p > 0.01 / 3.0,
-            "σ = {sigma}, r = {radius}: chi2 = {chi2:.1}, dof = {dof}, p = {p:.2e}"
+            p > 0.01 / cases.len() as f64,
+            "σ = {sigma}, r = {radius}, clip {clip} at {pixel:?}: chi2 = {chi2:.1}, dof = {dof}, p = {p:.2e}"
         );
     }
 }

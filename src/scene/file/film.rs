@@ -14,6 +14,8 @@ pub(super) struct FilmSection {
     pub(super) filter: Option<String>,
     pub(super) filter_sigma: Option<f32>,
     pub(super) filter_radius: Option<f32>,
+    /// `"extend"` (default) or `"clip"`: keep samples on the film.
+    pub(super) filter_border: Option<String>,
     pub(super) exposure_ev: Option<f32>,
     pub(super) shutter: Option<f32>,
     pub(super) iso: Option<f32>,
@@ -34,6 +36,7 @@ impl Builder<'_> {
                 for (name, present) in [
                     ("filter_sigma", f.filter_sigma.is_some()),
                     ("filter_radius", f.filter_radius.is_some()),
+                    ("filter_border", f.filter_border.is_some()),
                 ] {
                     if present {
                         return Err(self.err(
@@ -55,7 +58,17 @@ impl Builder<'_> {
                 )?;
                 let g = GaussianFilter::new(sigma, radius)
                     .map_err(|e| self.err("film.filter_radius", e.to_string()))?;
-                PixelFilter::Gaussian(g)
+                let clip = match f.filter_border.as_deref() {
+                    None | Some("extend") => false,
+                    Some("clip") => true,
+                    Some(other) => {
+                        return Err(self.err(
+                            "film.filter_border",
+                            format!("unknown border `{other}` (known: extend, clip)"),
+                        ))
+                    }
+                };
+                PixelFilter::Gaussian(g.clipped_at_border(clip))
             }
             other => {
                 return Err(self.err(

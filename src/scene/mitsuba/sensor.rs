@@ -51,6 +51,7 @@ impl<'a> Translator<'a> {
             filter,
             spp,
             seed,
+            sample_border,
         } = settings;
         if !(1..=65536).contains(&width) || !(1..=65536).contains(&height) {
             return Err(self.err(
@@ -72,6 +73,11 @@ impl<'a> Translator<'a> {
             // Mitsuba cuts its Gaussian at 4 σ.
             self.film
                 .insert("filter_radius", float((4.0 * sigma).min(64.0)));
+            // Mitsuba's films take samples on the film only unless
+            // `sample_border` is set: edge pixels average what is inside.
+            let border = if sample_border { "extend" } else { "clip" };
+            self.film
+                .insert("filter_border", Value::String(border.into()));
         }
 
         self.sensor_pose(node, &mut p, &mut camera)?;
@@ -139,7 +145,7 @@ impl<'a> Translator<'a> {
                 ));
             }
         }
-        self.take_bool(&mut f, "sample_border")?;
+        settings.sample_border = self.take_bool(&mut f, "sample_border")?.unwrap_or(false);
         self.leftovers(&f)?;
         for r in c.children.iter().filter(|r| r.attribute("name").is_none()) {
             if r.tag.as_str() != "rfilter" {
@@ -312,6 +318,8 @@ pub(super) struct SensorSettings {
     spp: i64,
     /// The sampler's seed, if given.
     seed: Option<i64>,
+    /// The film's `sample_border`: samples may fall beyond the film's edge.
+    sample_border: bool,
 }
 
 impl Default for SensorSettings {
@@ -322,6 +330,7 @@ impl Default for SensorSettings {
             filter: Some(0.5), // Mitsuba's default: Gaussian, σ 0.5 px
             spp: 4,
             seed: None,
+            sample_border: false,
         }
     }
 }
