@@ -39,7 +39,7 @@ mod triangle;
 pub use bounds::LightBounds;
 pub use envmap::EnvironmentLight;
 pub use pls::{Cone, Reach};
-pub use point::{point_light_sample, PointLight};
+pub use point::{point_light_sample, spot_cone, PointLight};
 pub use triangle::{triangle_light_sample, TriangleLight, TrianglePoint};
 
 use crate::color::luminance;
@@ -674,6 +674,7 @@ mod tests {
                 Light::Point(PointLight {
                     position: Vec3::new(i as f32 * 0.5, 0.0, h),
                     intensity: Vec3::ONE,
+                    cone: None,
                 })
             })
             .collect();
@@ -699,6 +700,7 @@ mod tests {
             Light::Point(PointLight {
                 position: Vec3::Z,
                 intensity: Vec3::ONE,
+                cone: None,
             }),
             Light::Environment {
                 light: Box::new(EnvironmentLight::constant(Vec3::splat(0.1))),

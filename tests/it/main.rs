@@ -10,6 +10,7 @@ mod environment;
 mod fuzz_parsers;
 mod gltf_import;
 mod materials;
+mod mitsuba_parity;
 mod plastic;
 mod pls;
 mod pls_render;

@@ -276,6 +276,7 @@ fn point_light_inverse_square_law() {
             point_lights: vec![plsr::light::PointLight {
                 position: Vec3::new(0.0, 0.0, height),
                 intensity: Vec3::splat(5.0),
+                cone: None,
             }],
             camera: camera.into(),
             film: Default::default(),
@@ -297,6 +298,114 @@ fn point_light_inverse_square_law() {
         assert!(
             (got - want).abs() < 0.005 * want,
             "h={height}, x={px}: {got} vs {want}"
+        );
+    }
+}
+
+/// A spot light as Mitsuba 3.9.1's `spot` computes it (`sample_direction`
+/// in `scalar_rgb`: cutoff 30°, beam 10°, intensity (2, 3, 4), at (1, 2, 3)
+/// looking at (1, 2, 0)): `I·falloff/r²`, full inside the beam, linear in
+/// angle to the cutoff, nothing beyond.
+#[test]
+fn spot_light_matches_mitsubas_numbers() {
+    let light = plsr::light::PointLight {
+        position: Vec3::new(1.0, 2.0, 3.0),
+        intensity: Vec3::new(2.0, 3.0, 4.0),
+        cone: Some(plsr::light::spot_cone(
+            -Vec3::Z,
+            30f32.to_radians(),
+            10f32.to_radians(),
+        )),
+    };
+    for (p, want) in [
+        ([1.0, 2.0, 0.0], [0.222_222_24, 0.333_333_37, 0.444_444_48]),
+        ([1.2, 2.1, 0.0], [0.220_994_49, 0.331_491_74, 0.441_988_97]),
+        ([2.0, 2.0, 0.5], [0.113_084_02, 0.169_626_03, 0.226_168_04]),
+    ] {
+        let s = light.sample_li(Vec3::from_array(p)).unwrap();
+        let got = s.radiance.to_array();
+        for k in 0..3 {
+            assert!(
+                (got[k] - want[k]).abs() < 2e-6 * want[k].max(1.0),
+                "{p:?}: {got:?} vs {want:?}"
+            );
+        }
+        assert!(s.delta && s.pdf == 1.0);
+    }
+    // Beyond the cutoff (31° and 34° off the axis): no light.
+    assert!(light.sample_li(Vec3::new(1.0, 3.2, 1.0)).is_none());
+    assert!(light.sample_li(Vec3::new(3.0, 2.0, 0.0)).is_none());
+    // Its power is I·∫ window dω: numerically, 2π ∫ W(θ) sin θ dθ.
+    let cone = light.cone.unwrap();
+    let n = 200_000;
+    let integral: f64 = (0..n)
+        .map(|i| {
+            let theta = std::f64::consts::PI * (i as f64 + 0.5) / n as f64;
+            let u = Vec3::new(theta.sin() as f32, 0.0, -theta.cos() as f32);
+            cone.window(u) as f64 * theta.sin() * std::f64::consts::PI / n as f64
+        })
+        .sum::<f64>()
+        * std::f64::consts::TAU;
+    let lum = plsr::color::luminance(light.intensity) as f64;
+    assert!(
+        (light.power() as f64 - integral * lum).abs() < 1e-4 * integral * lum,
+        "{} vs {}",
+        light.power(),
+        integral * lum
+    );
+}
+
+/// A spot light over a diffuse floor, rendered: inside the beam the floor
+/// is lit as by a point light, on the edge by the linear fall-off, beyond
+/// the cutoff not at all.
+#[test]
+fn spot_light_lights_the_floor_inside_its_cone() {
+    let (mut fp, mut ft) = rectangle();
+    transform_mesh(&Mat4::from_scale(Vec3::splat(20.0)), &mut fp, &mut ft);
+    let height = 2.0f32;
+    let (cutoff, beam) = (40f32, 20f32);
+    for px in [0.3f32, 1.2, 2.5] {
+        let target = Vec3::new(px, 0.0, 0.0);
+        let camera = PinholeCamera::look_at(
+            target + Vec3::new(0.0, -0.5, 0.5),
+            target,
+            Vec3::Z,
+            0.5,
+            3,
+            3,
+        )
+        .unwrap();
+        let film = render_scene(SceneDescription {
+            meshes: vec![mesh("floor", (fp.clone(), ft.clone()), 0, None)],
+            materials: vec![material("floor", 0.7)],
+            point_lights: vec![plsr::light::PointLight {
+                position: Vec3::new(0.0, 0.0, height),
+                intensity: Vec3::splat(5.0),
+                cone: Some(plsr::light::spot_cone(
+                    -Vec3::Z,
+                    cutoff.to_radians(),
+                    beam.to_radians(),
+                )),
+            }],
+            camera: camera.into(),
+            film: Default::default(),
+            environment: None,
+            job: RenderJob {
+                spp: 4,
+                max_depth: 1,
+                ..Default::default()
+            },
+            robust: false,
+        });
+        let r2 = height * height + px * px;
+        let cos = height / r2.sqrt();
+        let theta = (px / height).atan().to_degrees();
+        let falloff = ((cutoff - theta) / (cutoff - beam)).clamp(0.0, 1.0);
+        let want = 0.7 / std::f32::consts::PI * 5.0 * falloff * cos / r2;
+        let got = film.color[film.index(1, 1)].x;
+        assert!(
+            (got - want).abs() <= 0.005 * want + 1e-7,
+            "x={px} ({theta:.1}°): {got} vs {want}"
         );
     }
 }

@@ -280,6 +280,7 @@ pub extern "C" fn plsr_scene_builder_add_point_light(
         b.point_lights.push(PointLight {
             position,
             intensity,
+            cone: None,
         });
         Ok(())
     })

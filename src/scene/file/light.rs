@@ -1,5 +1,5 @@
-//! `[[lights]]` (point lights) and `[[pls]]` (parametric light sources
-//! from PLS files).
+//! `[[lights]]` (point and spot lights) and `[[pls]]` (parametric light
+//! sources from PLS files).
 
 use super::shape::TransformSection;
 use super::Builder;
@@ -19,6 +19,13 @@ pub(super) struct LightSection {
     pub(super) position: Option<[f32; 3]>,
     #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) intensity: Option<[f32; 3]>,
+    /// A spot light's beam axis.
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
+    pub(super) direction: Option<[f32; 3]>,
+    /// A spot light's cutoff, degrees (default 20).
+    pub(super) cutoff_angle: Option<f32>,
+    /// A spot light's full-intensity width, degrees (default ¾ cutoff).
+    pub(super) beam_width: Option<f32>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -30,6 +37,63 @@ pub(super) struct PlsSection {
 }
 
 impl Builder<'_> {
+    /// A `spot` light: `position`, `direction` (the beam's axis),
+    /// `intensity` on the axis (W/sr), `cutoff_angle` (degrees, default 20,
+    /// at most 180) and `beam_width` (degrees, default ¾ of the cutoff, at
+    /// most the cutoff), as Mitsuba's `spot`.
+    pub(super) fn spot_light(
+        &self,
+        field: &str,
+        l: &LightSection,
+    ) -> Result<crate::light::PointLight> {
+        let required = |key: &str, v: Option<[f32; 3]>, what: &str| {
+            v.ok_or_else(|| {
+                self.err(
+                    format!("{field}.{key}"),
+                    format!("required for a spot light: {what}"),
+                )
+            })
+        };
+        let position = required("position", l.position, "where it is")?;
+        let direction = required("direction", l.direction, "the beam's axis")?;
+        let intensity = required("intensity", l.intensity, "W/sr on the axis")?;
+        let position = self.vec3(&format!("{field}.position"), position)?;
+        let direction = self.vec3(&format!("{field}.direction"), direction)?;
+        let axis = direction
+            .try_normalize()
+            .ok_or_else(|| self.err(format!("{field}.direction"), "must not be the zero vector"))?;
+        let intensity = self.colour(&format!("{field}.intensity"), intensity, None)?;
+        let cutoff = self.finite(
+            &format!("{field}.cutoff_angle"),
+            l.cutoff_angle.unwrap_or(20.0),
+        )?;
+        if !(cutoff > 0.0 && cutoff <= 180.0) {
+            return Err(self.err(
+                format!("{field}.cutoff_angle"),
+                format!("must be in (0, 180] degrees, got {cutoff}"),
+            ));
+        }
+        let beam = self.finite(
+            &format!("{field}.beam_width"),
+            l.beam_width.unwrap_or(0.75 * cutoff),
+        )?;
+        if !(0.0..=cutoff).contains(&beam) {
+            return Err(self.err(
+                format!("{field}.beam_width"),
+                format!("must be between 0 and the cutoff angle {cutoff} degrees, got {beam}"),
+            ));
+        }
+        Ok(crate::light::PointLight {
+            position,
+            intensity,
+            cone: Some(crate::light::spot_cone(
+                axis,
+                cutoff.to_radians(),
+                beam.to_radians(),
+            )),
+        })
+    }
+
     /// Adds the lights of a PLS file as cone-limited emissive meshes.
     pub(super) fn pls(
         &self,

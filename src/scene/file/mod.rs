@@ -459,15 +459,28 @@ impl Builder<'_> {
                     let intensity = l.intensity.ok_or_else(|| {
                         self.err(format!("{field}.intensity"), "required for a point light")
                     })?;
-                    point_lights.push(PointLight {
-                        position: self.vec3(&format!("{field}.position"), position)?,
-                        intensity: self.colour(&format!("{field}.intensity"), intensity, None)?,
-                    });
+                    for (key, present) in [
+                        ("direction", l.direction.is_some()),
+                        ("cutoff_angle", l.cutoff_angle.is_some()),
+                        ("beam_width", l.beam_width.is_some()),
+                    ] {
+                        if present {
+                            return Err(self.err(
+                                format!("{field}.{key}"),
+                                "only used by spot lights (type = \"spot\")",
+                            ));
+                        }
+                    }
+                    point_lights.push(PointLight::isotropic(
+                        self.vec3(&format!("{field}.position"), position)?,
+                        self.colour(&format!("{field}.intensity"), intensity, None)?,
+                    ));
                 }
+                "spot" => point_lights.push(self.spot_light(&field, l)?),
                 other => {
                     return Err(self.err(
                         format!("{field}.type"),
-                        format!("unknown light type `{other}` (known: point)"),
+                        format!("unknown light type `{other}` (known: point, spot)"),
                     ))
                 }
             }

@@ -1,4 +1,4 @@
-//! Emitters outside shapes: `point`, `envmap`, `constant`.
+//! Emitters outside shapes: `point`, `spot`, `envmap`, `constant`.
 
 use super::document::Element;
 use super::spectrum::SpectrumUse;
@@ -31,6 +31,39 @@ impl<'a> Translator<'a> {
                 l.insert("type", Value::String("point".into()));
                 l.insert("position", dvec(position));
                 l.insert("intensity", vec3(intensity));
+                self.lights.push(l);
+            }
+            "spot" => {
+                if let Some(t) = self.take(&mut p, "texture") {
+                    return Err(self.err(
+                        t,
+                        "a spot light's `texture` is not supported (plsr's spot lights \
+                         have a uniform beam)",
+                    ));
+                }
+                // The light sits at to_world's origin, its beam along to_world's +z.
+                let m = self
+                    .take_transform(&mut p, "to_world")?
+                    .unwrap_or(DMat4::IDENTITY);
+                let position = m.transform_point3(DVec3::ZERO);
+                let direction = m.transform_vector3(DVec3::Z);
+                if direction.length_squared() == 0.0 {
+                    return Err(self.err(node, "the spot light's to_world is degenerate"));
+                }
+                let intensity = self
+                    .take_rgb(&mut p, "intensity", SpectrumUse::Emission)?
+                    .unwrap_or([1.0; 3]);
+                let cutoff = self.take_float(&mut p, "cutoff_angle")?.unwrap_or(20.0);
+                let beam = self
+                    .take_float(&mut p, "beam_width")?
+                    .unwrap_or(0.75 * cutoff);
+                let mut l = Table::new();
+                l.insert("type", Value::String("spot".into()));
+                l.insert("position", dvec(position));
+                l.insert("direction", dvec(direction.normalize()));
+                l.insert("intensity", vec3(intensity));
+                l.insert("cutoff_angle", float(cutoff));
+                l.insert("beam_width", float(beam));
                 self.lights.push(l);
             }
             "envmap" | "constant" => {
@@ -80,8 +113,8 @@ impl<'a> Translator<'a> {
                 return Err(self.err(
                     node,
                     format!(
-                        "the `{other}` emitter is not supported (supported: point, envmap, \
-                         constant, and area inside a shape)"
+                        "the `{other}` emitter is not supported (supported: point, spot, \
+                         envmap, constant, and area inside a shape)"
                     ),
                 ))
             }

@@ -184,6 +184,7 @@ fn host_scene_in_rust() -> plsr::scene::Scene {
         point_lights: vec![plsr::light::PointLight {
             position: Vec3::new(1.5, -1.5, 2.0),
             intensity: Vec3::splat(0.5),
+            cone: None,
         }],
         environment: None,
         camera: PinholeCamera::look_at(

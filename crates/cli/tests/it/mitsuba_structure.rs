@@ -574,3 +574,38 @@ fn shapes_without_a_bsdf_get_mitsubas_default_black_on_lights() {
     assert_eq!(floats(&of(1)["reflectance"]), vec![0.0; 3]);
     assert_eq!(of(1)["two_sided"].as_bool(), Some(false));
 }
+
+/// Mitsuba's `spot`: at `to_world`'s origin, its beam along `to_world`'s
+/// +z, `beam_width` ¾ of the cutoff by default; a `texture` is refused
+/// naming its line.
+#[test]
+fn spot_lights_are_placed_and_aimed_as_mitsuba_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.xml");
+    std::fs::write(
+        &scene,
+        "<scene version=\"3.0.0\">\n<emitter type=\"spot\">\n\
+         <rgb name=\"intensity\" value=\"200, 0, 0\"/>\n<float name=\"cutoff_angle\" value=\"20\"/>\n\
+         <transform name=\"to_world\"><lookat origin=\"4, 0, 3.5\" target=\"0, 0, 1\" up=\"-1, 0, 0\"/></transform>\n\
+         </emitter>\n</scene>",
+    )
+    .unwrap();
+    let (t, _) = translation(&scene, &[]);
+    let l = array(&t, "lights")[0].as_table().unwrap();
+    assert_eq!(l["type"].as_str(), Some("spot"));
+    assert_rgb(&floats(&l["position"]), [4.0, 0.0, 3.5], "position");
+    let d = floats(&l["direction"]);
+    let want = [-4.0, 0.0, -2.5].map(|x: f64| x / (16.0f64 + 6.25).sqrt());
+    assert_rgb(&d, want, "direction");
+    assert_eq!(l["cutoff_angle"].as_float(), Some(20.0));
+    assert_eq!(l["beam_width"].as_float(), Some(15.0));
+    std::fs::write(
+        &scene,
+        "<scene version=\"3.0.0\">\n<emitter type=\"spot\">\n\
+         <texture type=\"bitmap\" name=\"texture\"><string name=\"filename\" value=\"x.png\"/></texture>\n\
+         </emitter>\n</scene>",
+    )
+    .unwrap();
+    let e = error_of(&scene, &[]);
+    assert!(e.contains("line 3") && e.contains("texture"), "{e}");
+}
