@@ -209,6 +209,12 @@ reflectance = [0.5, 0.5, 0.5]
 two_sided = false
 
 [[materials]]
+name = "emitter-default"
+type = "diffuse"
+reflectance = [0, 0, 0]
+two_sided = false
+
+[[materials]]
 name = "glass"
 type = "dielectric"
 ior = {bk7}
@@ -227,7 +233,7 @@ transform.matrix = [[4, 0, 0, 0], [0, 0, 4, 0], [0, -4, 0, 0], [0, 0, 0, 1]]
 
 [[shapes]]
 type = "rectangle"
-material = "default"
+material = "emitter-default"
 emission = [8, 8, 6]
 transform.matrix = [[0.5, 0, 0, 0], [0, 0, -0.5, 3], [0, 0.5, 0, 0], [0, 0, 0, 1]]
 
@@ -413,8 +419,8 @@ fn unsupported_elements_are_refused_by_name_and_line() {
             &["line 3", "<bsdf type=\"pplastic\">", "`pplastic` BSDF is not supported"],
         ),
         (
-            "<scene version=\"3.0.0\"><emitter type=\"spot\"/></scene>",
-            &["<emitter type=\"spot\">", "not supported"],
+            "<scene version=\"3.0.0\"><emitter type=\"directional\"/></scene>",
+            &["<emitter type=\"directional\">", "not supported"],
         ),
         (
             "<scene version=\"3.0.0\"><shape type=\"sphere\"><bsdf type=\"principled\">\n\
