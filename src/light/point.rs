@@ -57,9 +57,19 @@ impl PointLight {
         (valid && sample.radiance != Vec3::ZERO).then_some(sample)
     }
 
-    /// Emitted power (luminance): `4π·I`, or for a spot light
-    /// `I·∫ window dω`.
+    /// The weight lights are picked by (luminance): `4π·I`, for a spot
+    /// light too. Wherever a spot's beam reaches, a point receives its full
+    /// intensity, so a narrow beam must not be picked less often than a wide
+    /// one (as a parametric light is weighed without its window): picked by
+    /// its emitted power, a spot next to an environment was sampled a tenth
+    /// as often as Mitsuba samples it, and its pool of light was noise.
     pub fn power(&self) -> f32 {
+        4.0 * std::f32::consts::PI * luminance(self.intensity)
+    }
+
+    /// The power the light emits (luminance): `4π·I`, or for a spot light
+    /// `I·∫ window dω`.
+    pub fn emitted_power(&self) -> f32 {
         let solid_angle = match &self.cone {
             None => 4.0 * std::f32::consts::PI,
             Some(cone) => spot_solid_angle(cone),
