@@ -31,12 +31,14 @@
 //! [`LightSet::pick_pmf`] for MIS.
 
 mod bounds;
+mod directional;
 mod envmap;
 pub mod pls;
 mod point;
 mod triangle;
 
 pub use bounds::LightBounds;
+pub use directional::DirectionalLight;
 pub use envmap::EnvironmentLight;
 pub use pls::{Cone, Reach};
 pub use point::{point_light_sample, spot_cone, PointLight};
@@ -61,6 +63,14 @@ pub enum Light {
     Environment {
         /// The emitter.
         light: Box<EnvironmentLight>,
+        /// Radius of the scene's bounding sphere (scene units).
+        scene_radius: f32,
+    },
+    /// Parallel light from one direction (a delta distribution); its
+    /// selection power uses `scene_radius`, as the environment's does.
+    Directional {
+        /// The emitter.
+        light: DirectionalLight,
         /// Radius of the scene's bounding sphere (scene units).
         scene_radius: f32,
     },
@@ -90,6 +100,7 @@ impl Light {
             Light::Point(l) => l.sample_li(p),
             Light::Triangle(l) => l.sample_li(p, u),
             Light::Environment { light, .. } => light.sample_li(u),
+            Light::Directional { light, .. } => light.sample_li(),
         }
     }
 
@@ -98,7 +109,7 @@ impl Light {
     #[inline]
     pub fn pdf_li(&self, p: Vec3, x: Vec3, wi: Vec3) -> f32 {
         match self {
-            Light::Point(_) => 0.0,
+            Light::Point(_) | Light::Directional { .. } => 0.0,
             Light::Triangle(l) => l.pdf_li(p, x, wi),
             Light::Environment { light, .. } => light.pdf(wi),
         }
@@ -110,6 +121,10 @@ impl Light {
             Light::Point(l) => l.power(),
             Light::Triangle(l) => l.power(),
             Light::Environment {
+                light,
+                scene_radius,
+            } => light.power(*scene_radius),
+            Light::Directional {
                 light,
                 scene_radius,
             } => light.power(*scene_radius),
@@ -258,7 +273,10 @@ impl LightSet {
             let range = group.range.start as usize..group.range.end as usize;
             if group.bounds.is_some() {
                 local_groups.push((g as u32, k));
-            } else if matches!(lights[range], [Light::Environment { .. }]) {
+            } else if matches!(
+                lights[range],
+                [Light::Environment { .. } | Light::Directional { .. }]
+            ) {
                 env_groups.push(g as u32);
             } else {
                 unplaced += 1;
@@ -300,6 +318,7 @@ impl LightSet {
                     Light::Point(l) => l.intensity *= factor,
                     Light::Triangle(l) => l.radiance *= factor,
                     Light::Environment { light, .. } => light.scale_radiance(factor.x),
+                    Light::Directional { light, .. } => light.irradiance *= factor,
                 }
             }
         });

@@ -21,7 +21,9 @@ use crate::error::{Error, Result};
 use crate::film::FilmSettings;
 use crate::job::RenderJob;
 use crate::light::pls::{BrightnessMode, Pls, PlsEmitter};
-use crate::light::{Cone, EnvironmentLight, Light, LightSet, PointLight, Reach, TriangleLight};
+use crate::light::{
+    Cone, DirectionalLight, EnvironmentLight, Light, LightSet, PointLight, Reach, TriangleLight,
+};
 use glam::{Vec2, Vec3};
 use plsr_base::Vocabulary;
 use std::path::Path;
@@ -280,8 +282,10 @@ pub struct SceneDescription {
     pub meshes: Vec<Mesh>,
     /// Materials, indexed by `Mesh::material`.
     pub materials: Vec<Material>,
-    /// Point lights.
+    /// Point and spot lights.
     pub point_lights: Vec<PointLight>,
+    /// Directional lights (parallel light from one direction).
+    pub directional_lights: Vec<DirectionalLight>,
     /// The environment at infinity, if any (HDR panorama or constant sky).
     pub environment: Option<EnvironmentLight>,
     /// The camera.
@@ -335,6 +339,7 @@ impl Scene {
             meshes,
             materials,
             point_lights,
+            directional_lights,
             environment,
             camera,
             film,
@@ -433,22 +438,45 @@ impl Scene {
                 _ => first_light.push(None),
             }
         }
-        let environment = environment.map(|env| {
-            // The bounding sphere of the geometry sets the environment's
-            // selection power against the scene's other lights.
+        // The bounding sphere of the geometry sets the selection power of
+        // the lights at infinity against the scene's other lights.
+        let scene_radius = {
             let (lo, hi) = meshes.iter().flat_map(|m| &m.positions).fold(
                 (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
                 |(lo, hi), p| (lo.min(*p), hi.max(*p)),
             );
-            let scene_radius = if lo.x <= hi.x {
+            let r = if lo.x <= hi.x {
                 0.5 * (hi - lo).length()
             } else {
                 1.0
             };
+            r.max(1e-3)
+        };
+        for (i, light) in directional_lights.into_iter().enumerate() {
+            let d = light.direction;
+            if !(d.is_finite() && (d.length() - 1.0).abs() < 1e-3) {
+                return Err(Error::invalid_argument(format!(
+                    "directional light {i}: direction {d} must be a unit vector"
+                )));
+            }
+            if !(light.irradiance.is_finite() && light.irradiance.min_element() >= 0.0) {
+                return Err(Error::invalid_argument(format!(
+                    "directional light {i}: irradiance {} must be finite and not negative",
+                    light.irradiance
+                )));
+            }
+            let index = lights.len() as u32;
+            lights.push(Light::Directional {
+                light,
+                scene_radius,
+            });
+            groups.push((index..index + 1, None));
+        }
+        let environment = environment.map(|env| {
             let index = lights.len();
             lights.push(Light::Environment {
                 light: Box::new(env),
-                scene_radius: scene_radius.max(1e-3),
+                scene_radius,
             });
             groups.push((index as u32..index as u32 + 1, None));
             index

@@ -47,6 +47,7 @@ fn floor_radiance(light: &Pls, mode: BrightnessMode, target: Vec3, spp: u32) -> 
             .unwrap()
             .into(),
         film: Default::default(),
+        directional_lights: Vec::new(),
         environment: None,
         job: RenderJob {
             spp,
@@ -181,6 +182,7 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
         point_lights: vec![],
         camera: camera.clone().into(),
         film: Default::default(),
+        directional_lights: Vec::new(),
         environment: None,
         job: RenderJob {
             spp: 16,
@@ -311,6 +313,7 @@ fn meshes_and_materials_check_their_own_rules() {
         meshes,
         materials,
         point_lights: vec![],
+        directional_lights: Vec::new(),
         environment: None,
         camera: PinholeCamera::look_at(Vec3::Z, Vec3::ZERO, Vec3::Y, 40.0, 4, 4)
             .unwrap()

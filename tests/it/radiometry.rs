@@ -76,6 +76,7 @@ fn white_furnace() {
         .unwrap()
         .into(),
         film: Default::default(),
+        directional_lights: Vec::new(),
         environment: None,
         job: RenderJob {
             spp: 64,
@@ -161,6 +162,7 @@ fn floor_under_emitter(
         point_lights: vec![],
         camera: camera.into(),
         film: Default::default(),
+        directional_lights: Vec::new(),
         environment: None,
         job: RenderJob {
             spp: 2048,
@@ -280,6 +282,7 @@ fn point_light_inverse_square_law() {
             }],
             camera: camera.into(),
             film: Default::default(),
+            directional_lights: Vec::new(),
             environment: None,
             job: RenderJob {
                 spp: 4,
@@ -389,6 +392,7 @@ fn spot_light_lights_the_floor_inside_its_cone() {
             }],
             camera: camera.into(),
             film: Default::default(),
+            directional_lights: Vec::new(),
             environment: None,
             job: RenderJob {
                 spp: 4,
@@ -407,6 +411,47 @@ fn spot_light_lights_the_floor_inside_its_cone() {
             (got - want).abs() <= 0.005 * want + 1e-7,
             "x={px} ({theta:.1}°): {got} vs {want}"
         );
+    }
+}
+
+/// A directional light over a diffuse floor, from a scene file: the
+/// floor's radiance is `ρ/π · E · cos θ` everywhere, whatever the distance.
+#[test]
+fn directional_light_lights_a_floor_by_the_cosine_law() {
+    let dir = tempfile::tempdir().unwrap();
+    for (angle, seed) in [(0.0f32, 1u64), (50.0, 2)] {
+        let (s, c) = angle.to_radians().sin_cos();
+        let scene = dir.path().join(format!("d{seed}.toml"));
+        std::fs::write(
+            &scene,
+            format!(
+                "[render]\nspp = 4\nmax_depth = 1\nseed = {seed}\n\
+                 [camera]\nposition = [0, -1, 4]\nlook_at = [0, 0, 0]\nup = [0, 0, 1]\nvfov = 20\nresolution = [8, 8]\n\
+                 [[materials]]\nname = \"floor\"\ntype = \"diffuse\"\nreflectance = [0.7, 0.7, 0.7]\n\
+                 [[shapes]]\ntype = \"rectangle\"\nmaterial = \"floor\"\ntransform = {{ scale = 20 }}\n\
+                 [[lights]]\ntype = \"directional\"\ndirection = [{s}, 0, {m}]\nirradiance = [2, 3, 4]\n",
+                m = -c
+            ),
+        )
+        .unwrap();
+        let scene = Scene::load(&scene).unwrap();
+        let (film, _) = render(
+            &scene,
+            &scene.default_job(),
+            &RenderOptions::default(),
+            &|_, _| true,
+        )
+        .unwrap();
+        for (k, e) in [2.0f32, 3.0, 4.0].into_iter().enumerate() {
+            let want = 0.7 / std::f32::consts::PI * e * c;
+            for px in &film.color {
+                let got = px.to_array()[k];
+                assert!(
+                    (got - want).abs() < 1e-4 * want,
+                    "{angle}°: {got} vs {want}"
+                );
+            }
+        }
     }
 }
 
@@ -441,6 +486,7 @@ fn glass_sphere_in_a_furnace(spp: u32, rr_depth: u32) -> (Film, Vec<usize>) {
         .unwrap()
         .into(),
         film: Default::default(),
+        directional_lights: Vec::new(),
         environment: Some(EnvironmentLight::constant(Vec3::ONE)),
         job: RenderJob {
             spp,

@@ -417,6 +417,7 @@ pub extern "C" fn plsr_scene_builder_build(
             meshes: b.meshes.clone(),
             materials: b.materials.clone(),
             point_lights: b.point_lights.clone(),
+            directional_lights: Vec::new(),
             environment: b.environment.clone(),
             camera,
             film: Default::default(),

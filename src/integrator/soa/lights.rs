@@ -108,6 +108,9 @@ impl LightIn {
                 pmf,
                 ..Default::default()
             },
+            // Not reached: scenes with directional lights are rendered by
+            // the general integrator (`SoaScene::new`).
+            Light::Directional { .. } => LightIn::default(),
         }
     }
 

@@ -99,11 +99,15 @@ pub struct SoaScene {
 impl SoaScene {
     /// The kernel's view of `scene`, or `None` where a material of it is one
     /// no pass of the kernel shades (`plastic` and `rough_plastic`; every
-    /// other model, mapped or not, has a pass) or it has a spot light: the
-    /// general integrator then renders the scene.
+    /// other model, mapped or not, has a pass) or it has a spot or a
+    /// directional light: the general integrator then renders the scene.
     pub fn new(scene: &Scene) -> Option<SoaScene> {
-        // Spot lights are sampled by the general integrator only.
-        let spot = |l: &crate::light::Light| matches!(l, crate::light::Light::Point(p) if p.cone.is_some());
+        // Spot and directional lights are sampled by the general
+        // integrator only.
+        let spot = |l: &crate::light::Light| {
+            matches!(l, crate::light::Light::Point(p) if p.cone.is_some())
+                || matches!(l, crate::light::Light::Directional { .. })
+        };
         if scene.lights().lights.iter().any(spot) {
             return None;
         }

@@ -26,6 +26,9 @@ pub(super) struct LightSection {
     pub(super) cutoff_angle: Option<f32>,
     /// A spot light's full-intensity width, degrees (default ¾ cutoff).
     pub(super) beam_width: Option<f32>,
+    /// A directional light's irradiance, W/m².
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
+    pub(super) irradiance: Option<[f32; 3]>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -37,6 +40,49 @@ pub(super) struct PlsSection {
 }
 
 impl Builder<'_> {
+    /// A `directional` light: `direction` (the way the light travels) and
+    /// `irradiance` (W/m² on a surface facing it), as Mitsuba's
+    /// `directional`.
+    pub(super) fn directional_light(
+        &self,
+        field: &str,
+        l: &LightSection,
+    ) -> Result<crate::light::DirectionalLight> {
+        for (key, present) in [
+            ("position", l.position.is_some()),
+            ("intensity", l.intensity.is_some()),
+            ("cutoff_angle", l.cutoff_angle.is_some()),
+            ("beam_width", l.beam_width.is_some()),
+        ] {
+            if present {
+                return Err(self.err(
+                    format!("{field}.{key}"),
+                    "not used by a directional light (direction, irradiance)",
+                ));
+            }
+        }
+        let direction = l.direction.ok_or_else(|| {
+            self.err(
+                format!("{field}.direction"),
+                "required for a directional light: the way the light travels",
+            )
+        })?;
+        let irradiance = l.irradiance.ok_or_else(|| {
+            self.err(
+                format!("{field}.irradiance"),
+                "required for a directional light: W/m² on a surface facing it",
+            )
+        })?;
+        let direction = self
+            .vec3(&format!("{field}.direction"), direction)?
+            .try_normalize()
+            .ok_or_else(|| self.err(format!("{field}.direction"), "must not be the zero vector"))?;
+        Ok(crate::light::DirectionalLight {
+            direction,
+            irradiance: self.colour(&format!("{field}.irradiance"), irradiance, None)?,
+        })
+    }
+
     /// A `spot` light: `position`, `direction` (the beam's axis),
     /// `intensity` on the axis (W/sr), `cutoff_angle` (degrees, default 20,
     /// at most 180) and `beam_width` (degrees, default ¾ of the cutoff, at
@@ -54,6 +100,12 @@ impl Builder<'_> {
                 )
             })
         };
+        if l.irradiance.is_some() {
+            return Err(self.err(
+                format!("{field}.irradiance"),
+                "not used by a spot light (its intensity is in W/sr)",
+            ));
+        }
         let position = required("position", l.position, "where it is")?;
         let direction = required("direction", l.direction, "the beam's axis")?;
         let intensity = required("intensity", l.intensity, "W/sr on the axis")?;

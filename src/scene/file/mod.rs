@@ -449,6 +449,7 @@ impl Builder<'_> {
         }
 
         let mut point_lights = Vec::new();
+        let mut directional_lights = Vec::new();
         for (i, l) in f.lights.iter().enumerate() {
             let field = format!("lights[{i}]");
             match l.kind.as_str() {
@@ -463,11 +464,12 @@ impl Builder<'_> {
                         ("direction", l.direction.is_some()),
                         ("cutoff_angle", l.cutoff_angle.is_some()),
                         ("beam_width", l.beam_width.is_some()),
+                        ("irradiance", l.irradiance.is_some()),
                     ] {
                         if present {
                             return Err(self.err(
                                 format!("{field}.{key}"),
-                                "only used by spot lights (type = \"spot\")",
+                                "not used by a point light (position, intensity)",
                             ));
                         }
                     }
@@ -477,10 +479,11 @@ impl Builder<'_> {
                     ));
                 }
                 "spot" => point_lights.push(self.spot_light(&field, l)?),
+                "directional" => directional_lights.push(self.directional_light(&field, l)?),
                 other => {
                     return Err(self.err(
                         format!("{field}.type"),
-                        format!("unknown light type `{other}` (known: point, spot)"),
+                        format!("unknown light type `{other}` (known: point, spot, directional)"),
                     ))
                 }
             }
@@ -499,6 +502,7 @@ impl Builder<'_> {
             meshes,
             materials,
             point_lights,
+            directional_lights,
             environment,
             camera,
             film,

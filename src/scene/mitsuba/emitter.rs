@@ -1,4 +1,5 @@
-//! Emitters outside shapes: `point`, `spot`, `envmap`, `constant`.
+//! Emitters outside shapes: `point`, `spot`, `directional`, `envmap`,
+//! `constant`.
 
 use super::document::Element;
 use super::spectrum::SpectrumUse;
@@ -66,6 +67,30 @@ impl<'a> Translator<'a> {
                 l.insert("beam_width", float(beam));
                 self.lights.push(l);
             }
+            "directional" => {
+                // It emits along `direction`, or along to_world's +z.
+                let direction = self.take_point(&mut p, "direction")?;
+                let m = self.take_transform(&mut p, "to_world")?;
+                let direction = match (direction, m) {
+                    (Some(_), Some(_)) => {
+                        return Err(self.err(node, "give direction or to_world, not both"))
+                    }
+                    (Some(d), None) => DVec3::from(d),
+                    (None, Some(m)) => m.transform_vector3(DVec3::Z),
+                    (None, None) => DVec3::Z,
+                };
+                if !(direction.length_squared() > 0.0 && direction.is_finite()) {
+                    return Err(self.err(node, "the directional light's direction is zero"));
+                }
+                let irradiance = self
+                    .take_rgb(&mut p, "irradiance", SpectrumUse::Emission)?
+                    .unwrap_or([1.0; 3]);
+                let mut l = Table::new();
+                l.insert("type", Value::String("directional".into()));
+                l.insert("direction", dvec(direction.normalize()));
+                l.insert("irradiance", vec3(irradiance));
+                self.lights.push(l);
+            }
             "envmap" | "constant" => {
                 if self.environment.is_some() {
                     return Err(self.err(
@@ -114,7 +139,7 @@ impl<'a> Translator<'a> {
                     node,
                     format!(
                         "the `{other}` emitter is not supported (supported: point, spot, \
-                         envmap, constant, and area inside a shape)"
+                         directional, envmap, constant, and area inside a shape)"
                     ),
                 ))
             }

@@ -291,6 +291,7 @@ fn isolate(scene: &mut Scene, range: &std::ops::Range<usize>) {
                 Light::Point(p) => p.intensity = Vec3::ZERO,
                 Light::Triangle(t) => t.radiance = Vec3::ZERO,
                 Light::Environment { light, .. } => light.scale_radiance(0.0),
+                Light::Directional { light, .. } => light.irradiance = Vec3::ZERO,
             }
         }
     });
@@ -308,6 +309,7 @@ fn alone(d: &plsr::scene::SceneDescription, mesh: usize) -> plsr::scene::SceneDe
         }
     }
     d.environment = None;
+    d.directional_lights.clear();
     d
 }
 

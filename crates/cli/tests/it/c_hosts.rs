@@ -186,6 +186,7 @@ fn host_scene_in_rust() -> plsr::scene::Scene {
             intensity: Vec3::splat(0.5),
             cone: None,
         }],
+        directional_lights: Vec::new(),
         environment: None,
         camera: PinholeCamera::look_at(
             Vec3::new(0.0, -3.0, 1.5),

@@ -609,3 +609,35 @@ fn spot_lights_are_placed_and_aimed_as_mitsuba_does() {
     let e = error_of(&scene, &[]);
     assert!(e.contains("line 3") && e.contains("texture"), "{e}");
 }
+
+/// Mitsuba's `directional`: along `direction`, or along `to_world`'s +z,
+/// with its irradiance.
+#[test]
+fn directional_lights_shine_along_their_direction() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.xml");
+    for (body, want) in [
+        (
+            "<vector name=\"direction\" x=\"0\" y=\"0\" z=\"-2\"/>",
+            [0.0, 0.0, -1.0],
+        ),
+        (
+            "<transform name=\"to_world\"><rotate x=\"1\" angle=\"90\"/></transform>",
+            [0.0, -1.0, 0.0],
+        ),
+    ] {
+        std::fs::write(
+            &scene,
+            format!(
+                "<scene version=\"3.0.0\"><emitter type=\"directional\">\n{body}\n\
+                 <rgb name=\"irradiance\" value=\"3, 2, 1\"/></emitter></scene>"
+            ),
+        )
+        .unwrap();
+        let (t, _) = translation(&scene, &[]);
+        let l = array(&t, "lights")[0].as_table().unwrap();
+        assert_eq!(l["type"].as_str(), Some("directional"));
+        assert_rgb(&floats(&l["direction"]), want, "direction");
+        assert_rgb(&floats(&l["irradiance"]), [3.0, 2.0, 1.0], "irradiance");
+    }
+}
