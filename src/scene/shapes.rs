@@ -61,6 +61,54 @@ pub fn disk(segments: u32) -> (Vec<Vec3>, Vec<[u32; 3]>, Vec<Vec2>) {
     (p, t, uv)
 }
 
+/// The unit cylinder `x² + y² = 1, 0 ≤ z ≤ 1`, open at both ends (no
+/// caps), facing outwards: `segments` quads round the axis, with Mitsuba's
+/// texture coordinates `(φ/2π, z)` and outward vertex normals. The seam
+/// column is repeated at `u = 1`, so coordinates interpolate without
+/// wrapping round.
+pub fn cylinder(segments: u32) -> (Vec<Vec3>, Vec<[u32; 3]>, Vec<Vec3>, Vec<Vec2>) {
+    let n = segments as usize;
+    let (mut p, mut normals, mut uv) = (
+        Vec::with_capacity(2 * n + 2),
+        Vec::with_capacity(2 * n + 2),
+        Vec::with_capacity(2 * n + 2),
+    );
+    for i in 0..=segments {
+        let turns = i as f32 / segments as f32;
+        let (sin, cos) = if i == segments {
+            (0.0, 1.0)
+        } else {
+            (std::f32::consts::TAU * turns).sin_cos()
+        };
+        for z in [0.0, 1.0] {
+            p.push(Vec3::new(cos, sin, z));
+            normals.push(Vec3::new(cos, sin, 0.0));
+            uv.push(Vec2::new(turns, z));
+        }
+    }
+    let mut t = Vec::with_capacity(2 * n);
+    for i in 0..segments {
+        let (a, b) = (2 * i, 2 * i + 2);
+        // Counter-clockwise seen from outside: bottom i, bottom i+1, top i+1.
+        t.push([a, b, b + 1]);
+        t.push([a, b + 1, a + 1]);
+    }
+    (p, t, normals, uv)
+}
+
+/// Mitsuba's `coordinate_system(n)` (Duff et al. 2017): two unit vectors
+/// `(s, t)` completing unit `n` to an orthonormal frame, the same as
+/// Mitsuba's for the same `n` (the cylinder's `u = 0` lies along `s`).
+pub fn coordinate_system(n: Vec3) -> (Vec3, Vec3) {
+    let sign = if n.z >= 0.0 { 1.0f32 } else { -1.0 };
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        Vec3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}
+
 /// The cube `[-1, 1]³`, facing outwards: four vertices per face (so that
 /// each face has its own texture coordinates, `[0, 1]²`), two triangles each.
 pub fn cube() -> (Vec<Vec3>, Vec<[u32; 3]>, Vec<Vec2>) {
@@ -743,6 +791,50 @@ mod tests {
         for tri in &t {
             let [a, b, c] = tri.map(|i| uv[i as usize].x);
             assert!(a.max(b).max(c) - a.min(b).min(c) < 0.5, "{a} {b} {c}");
+        }
+    }
+
+    /// The open unit cylinder: its area `2π` (to the polygon's), outward
+    /// normals and faces, `(φ/2π, z)` at its vertices; and Mitsuba's
+    /// `coordinate_system`, which puts the cylinder's `u = 0`: axis `+x`
+    /// gives `s = −z`, `+y` gives `s = +x`, `−z` gives `s = +x, t = −y`.
+    #[test]
+    fn cylinder_is_open_outward_and_parameterised_as_mitsubas() {
+        let (p, t, n, uv) = cylinder(64);
+        let mut area = 0.0;
+        for tri in &t {
+            let [a, b, c] = tri.map(|i| p[i as usize]);
+            let face = (b - a).cross(c - a);
+            area += 0.5 * face.length();
+            let centre = (a + b + c) / 3.0;
+            assert!(
+                face.dot(Vec3::new(centre.x, centre.y, 0.0)) > 0.0,
+                "inward face"
+            );
+        }
+        let polygon = 128.0 * (std::f32::consts::PI / 64.0).sin();
+        assert!((area - polygon).abs() < 1e-4, "{area} vs {polygon}");
+        for ((q, n), c) in p.iter().zip(&n).zip(&uv) {
+            assert!((*n - Vec3::new(q.x, q.y, 0.0)).length() < 1e-6);
+            assert_eq!(c.y, q.z);
+            let phi = crate::scene::uv_map::azimuth_turns(*q);
+            assert!(
+                (c.x - phi).abs() < 1e-6 || (c.x - 1.0).abs() < 1e-6,
+                "{c} at {q}"
+            );
+        }
+        let close = |a: Vec3, b: Vec3| (a - b).length() < 1e-6;
+        assert!(close(coordinate_system(Vec3::X).0, -Vec3::Z));
+        assert!(close(coordinate_system(Vec3::Y).0, Vec3::X));
+        let (s, t) = coordinate_system(-Vec3::Z);
+        assert!(close(s, Vec3::X) && close(t, -Vec3::Y), "{s} {t}");
+        for axis in [
+            Vec3::new(0.3, -0.5, 0.8).normalize(),
+            Vec3::new(-0.6, 0.0, -0.8),
+        ] {
+            let (s, t) = coordinate_system(axis);
+            assert!(s.dot(t).abs() < 1e-6 && s.dot(axis).abs() < 1e-6 && t.dot(axis).abs() < 1e-6);
+            assert!(close(s.cross(t), axis), "right-handed");
         }
     }
 

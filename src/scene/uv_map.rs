@@ -11,7 +11,9 @@
 //! - sphere: `u = φ/2π` (the azimuth `atan2(y, x)` in `[0, 2π)`, from `+x`
 //!   towards `+y`), `v = θ/π` (the polar angle from `+z`);
 //! - disk: `u = r` (the distance from the centre, 1 on the rim),
-//!   `v = φ/2π` (the azimuth in `[0, 2π)`).
+//!   `v = φ/2π` (the azimuth in `[0, 2π)`);
+//! - cylinder: `u = φ/2π` (the azimuth about the axis), `v = z` (0 at the
+//!   first end, 1 at the second).
 //!
 //! `flip_v` (the scene file's key, set for shapes imported from Mitsuba)
 //! gives `(u, 1 − v)`, as it does to per-vertex coordinates.
@@ -41,6 +43,14 @@ pub enum UvMap {
         /// `v` is `1 − φ/2π`.
         flip_v: bool,
     },
+    /// Cylindrical coordinates of the point in the unit cylinder's frame
+    /// (`x² + y² = 1`, `0 ≤ z ≤ 1`).
+    Cylinder {
+        /// World space to the unit cylinder's frame.
+        to_local: Affine3A,
+        /// `v` is `1 − z`.
+        flip_v: bool,
+    },
 }
 
 impl UvMap {
@@ -54,6 +64,10 @@ impl UvMap {
                 flip_v: !flip_v,
             },
             UvMap::Disk { to_local, flip_v } => UvMap::Disk {
+                to_local,
+                flip_v: !flip_v,
+            },
+            UvMap::Cylinder { to_local, flip_v } => UvMap::Cylinder {
                 to_local,
                 flip_v: !flip_v,
             },
@@ -82,6 +96,10 @@ impl UvMap {
             UvMap::Disk { to_local, flip_v } => {
                 let q = to_local.transform_point3(p);
                 (Vec2::new(q.x.hypot(q.y), azimuth_turns(q)), flip_v)
+            }
+            UvMap::Cylinder { to_local, flip_v } => {
+                let q = to_local.transform_point3(p);
+                (Vec2::new(azimuth_turns(q), q.z.clamp(0.0, 1.0)), flip_v)
             }
         };
         Some(if flip_v {

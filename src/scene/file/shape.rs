@@ -88,6 +88,19 @@ struct DiskKeys {
     flip_normals: Option<bool>,
 }
 
+/// The keys of a `cylinder` shape (Mitsuba's: open at both ends).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CylinderKeys {
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
+    p0: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
+    p1: Option<[f32; 3]>,
+    radius: Option<f32>,
+    segments: Option<u32>,
+    flip_normals: Option<bool>,
+}
+
 /// The keys of a `cube` shape.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -254,7 +267,7 @@ impl Builder<'_> {
         let flip;
         // For the sphere and the disk: the unit shape's frame in the
         // shape's own coordinates, for exact texture coordinates at hits.
-        let mut round: Option<(Mat4, bool)> = None;
+        let mut round: Option<(Mat4, Round)> = None;
         let (mut positions, mut triangles, normals, uvs) = match s.kind.as_str() {
             "obj" | "gltf" => {
                 let shape = Common {
@@ -290,7 +303,7 @@ impl Builder<'_> {
                 let keys: SphereKeys = self.typed_keys(&field, &s.keys, unknown)?;
                 flip = keys.flip_normals.unwrap_or(false);
                 let (mesh, frame) = self.sphere_mesh(&field, &keys)?;
-                round = Some((frame, true));
+                round = Some((frame, Round::Sphere));
                 mesh
             }
             "ply" => {
@@ -314,8 +327,15 @@ impl Builder<'_> {
                     ));
                 }
                 let (p, t, uv) = shapes::disk(segments);
-                round = Some((Mat4::IDENTITY, false));
+                round = Some((Mat4::IDENTITY, Round::Disk));
                 (p, t, Vec::new(), uv)
+            }
+            "cylinder" => {
+                let keys: CylinderKeys = self.typed_keys(&field, &s.keys, unknown)?;
+                flip = keys.flip_normals.unwrap_or(false);
+                let (mesh, frame) = self.cylinder_mesh(&field, &keys)?;
+                round = Some((frame, Round::Cylinder));
+                mesh
             }
             "cube" => {
                 let keys: CubeKeys = self.typed_keys(&field, &s.keys, unknown)?;
@@ -327,7 +347,7 @@ impl Builder<'_> {
                 return Err(self.err(
                     format!("{field}.type"),
                     format!(
-                    "unknown shape type `{other}` (known: obj, ply, serialized, gltf, rectangle, sphere, disk, cube)"
+                    "unknown shape type `{other}` (known: obj, ply, serialized, gltf, rectangle, sphere, disk, cylinder, cube)"
                 ),
                 ))
             }
@@ -337,19 +357,14 @@ impl Builder<'_> {
         }
         let uv_map = match round {
             None => UvMap::Vertices,
-            Some((frame, sphere)) => {
+            Some((frame, kind)) => {
                 // The transform is invertible (checked when read).
                 let to_local = glam::Affine3A::from_mat4((matrix * frame).inverse());
-                if sphere {
-                    UvMap::Sphere {
-                        to_local,
-                        flip_v: false,
-                    }
-                } else {
-                    UvMap::Disk {
-                        to_local,
-                        flip_v: false,
-                    }
+                let flip_v = false;
+                match kind {
+                    Round::Sphere => UvMap::Sphere { to_local, flip_v },
+                    Round::Disk => UvMap::Disk { to_local, flip_v },
+                    Round::Cylinder => UvMap::Cylinder { to_local, flip_v },
                 }
             }
         };
@@ -663,6 +678,54 @@ impl Builder<'_> {
         Ok(())
     }
 
+    /// The tube of a `cylinder` shape in its unit frame, with its outward
+    /// normals and texture coordinates, and that frame in the shape's
+    /// coordinates: Mitsuba's `translate(p0) · frame(axis) · scale(r, r,
+    /// |p1 − p0|)`, the frame's first axis Mitsuba's `coordinate_system`
+    /// of the axis (where `u = 0` lies).
+    fn cylinder_mesh(&self, field: &str, keys: &CylinderKeys) -> Result<(MeshParts, Mat4)> {
+        let p0 = self.vec3(&format!("{field}.p0"), keys.p0.unwrap_or([0.0; 3]))?;
+        let p1 = self.vec3(&format!("{field}.p1"), keys.p1.unwrap_or([0.0, 0.0, 1.0]))?;
+        let radius = self.finite(&format!("{field}.radius"), keys.radius.unwrap_or(1.0))?;
+        if radius <= 0.0 {
+            return Err(self.err(
+                format!("{field}.radius"),
+                format!("must be positive, got {radius}"),
+            ));
+        }
+        let length = (p1 - p0).length();
+        if length == 0.0 || !length.is_finite() {
+            return Err(self.err(format!("{field}.p1"), "must differ from p0"));
+        }
+        let segments = keys.segments.unwrap_or(DEFAULT_DISK_SEGMENTS);
+        if !(3..=MAX_DISK_SEGMENTS).contains(&segments) {
+            return Err(self.err(
+                format!("{field}.segments"),
+                format!("must be between 3 and {MAX_DISK_SEGMENTS}, got {segments}"),
+            ));
+        }
+        let axis = (p1 - p0) / length;
+        let (s, t) = shapes::coordinate_system(axis);
+        let frame = Mat4::from_translation(p0)
+            * Mat4::from_cols(
+                s.extend(0.0),
+                t.extend(0.0),
+                axis.extend(0.0),
+                Vec3::ZERO.extend(1.0),
+            )
+            * Mat4::from_scale(Vec3::new(radius, radius, length));
+        let (mut p, tris, n, uv) = shapes::cylinder(segments);
+        let normal_matrix = glam::Mat3::from_mat4(frame).inverse().transpose();
+        for q in &mut p {
+            *q = frame.transform_point3(*q);
+        }
+        let n = n
+            .into_iter()
+            .map(|v| (normal_matrix * v).normalize())
+            .collect();
+        Ok(((p, tris, n, uv), frame))
+    }
+
     /// The icosphere of a `sphere` shape, with its smooth normals and
     /// spherical texture coordinates, and the unit sphere's frame (centre
     /// and radius) in the shape's coordinates.
@@ -688,6 +751,14 @@ impl Builder<'_> {
         let frame = Mat4::from_translation(center) * Mat4::from_scale(Vec3::splat(radius));
         Ok(((p, t, normals, uv), frame))
     }
+}
+
+/// The built-in shapes whose texture coordinates are computed at hits.
+#[derive(Debug, Clone, Copy)]
+enum Round {
+    Sphere,
+    Disk,
+    Cylinder,
 }
 
 /// Positions, triangles, normals and texture coordinates of a shape.
@@ -743,6 +814,7 @@ fn unknown_shape_key(kind: &str, key: &str) -> String {
         key_names::<RectangleKeys>(),
         key_names::<SphereKeys>(),
         key_names::<DiskKeys>(),
+        key_names::<CylinderKeys>(),
         key_names::<PlyKeys>(),
         key_names::<CubeKeys>(),
         key_names::<GltfKeys>(),

@@ -55,11 +55,21 @@ impl<'a> Translator<'a> {
                     s.insert("flip_v", Value::Boolean(true));
                 }
             }
-            "rectangle" | "disk" | "cube" | "sphere" => {
+            "rectangle" | "disk" | "cube" | "sphere" | "cylinder" => {
                 s.insert("type", Value::String(kind.clone()));
                 s.insert("flip_v", Value::Boolean(true));
                 if self.take_bool(&mut p, "flip_normals")? == Some(true) {
                     s.insert("flip_normals", Value::Boolean(true));
+                }
+                if kind == "cylinder" {
+                    for end in ["p0", "p1"] {
+                        if let Some(c) = self.take_point(&mut p, end)? {
+                            s.insert(end, vec3(c));
+                        }
+                    }
+                    if let Some(r) = self.take_float(&mut p, "radius")? {
+                        s.insert("radius", float(r));
+                    }
                 }
                 if kind == "sphere" {
                     if let Some(c) = self.take_point(&mut p, "center")? {
@@ -75,7 +85,7 @@ impl<'a> Translator<'a> {
                     node,
                     format!(
                         "the `{other}` shape is not supported (supported: obj, ply, serialized, \
-                         rectangle, sphere, disk, cube)"
+                         rectangle, sphere, disk, cylinder, cube)"
                     ),
                 ))
             }
