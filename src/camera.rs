@@ -97,6 +97,8 @@ pub enum CameraError {
     BadFocusDistance(f32),
     /// A fisheye field of view outside [180°, 360°).
     BadFisheyeFov(f32),
+    /// An orthographic view size that is not a positive number.
+    BadViewSize(f32),
     /// A position beyond [`MAX_COORDINATE`](crate::accel::MAX_COORDINATE).
     TooFar(Vec3),
 }
@@ -129,6 +131,9 @@ impl std::fmt::Display for CameraError {
             ),
             CameraError::BadFisheyeFov(v) => {
                 write!(f, "must be in [180, 360) degrees, got {v}")
+            }
+            CameraError::BadViewSize(v) => {
+                write!(f, "must be a positive number of scene units, got {v}")
             }
         }
     }
@@ -393,6 +398,78 @@ impl PinholeCamera {
     }
 }
 
+/// An orthographic camera: parallel rays along `forward`, from a
+/// rectangle of `view_width × view_height` scene units centred on
+/// `position` (Mitsuba's `orthographic`: the view spans `[−1, 1]` across
+/// times its `to_world` scale). Film position `(x, y)` starts its ray at
+/// `position + right·(2x/W − 1)·view_width/2 + up·(1 − 2y/H)·view_height/2`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OrthographicCamera {
+    /// Where the view rectangle's centre is and which way it looks.
+    pub pose: Pose,
+    /// Width of the view, scene units.
+    pub view_width: f32,
+    /// Height of the view, scene units.
+    pub view_height: f32,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+}
+
+impl OrthographicCamera {
+    /// An orthographic camera of `width × height` pixels seeing a
+    /// `view_width × view_height` rectangle (scene units, positive).
+    pub fn new(
+        pose: Pose,
+        view_width: f32,
+        view_height: f32,
+        width: u32,
+        height: u32,
+    ) -> Result<OrthographicCamera, CameraError> {
+        if width == 0 || height == 0 {
+            return Err(CameraError::EmptyImage);
+        }
+        for v in [view_width, view_height] {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(CameraError::BadViewSize(v));
+            }
+        }
+        Ok(OrthographicCamera {
+            pose,
+            view_width,
+            view_height,
+            width,
+            height,
+        })
+    }
+
+    /// The ray through film position `film`.
+    #[inline]
+    pub fn generate_ray(&self, film: Vec2) -> Ray {
+        let sx = 2.0 * film.x / self.width as f32 - 1.0;
+        let sy = 1.0 - 2.0 * film.y / self.height as f32;
+        let origin = self.pose.position
+            + self.pose.right * (sx * 0.5 * self.view_width)
+            + self.pose.up * (sy * 0.5 * self.view_height);
+        Ray::new(origin, self.pose.forward)
+    }
+
+    /// Film position of world point `p`, or `None` behind the view plane.
+    pub fn project(&self, p: Vec3) -> Option<Vec2> {
+        let d = self.pose.local(p - self.pose.position);
+        if d.z < 0.0 {
+            return None;
+        }
+        let sx = d.x / (0.5 * self.view_width);
+        let sy = d.y / (0.5 * self.view_height);
+        Some(Vec2::new(
+            (sx + 1.0) * 0.5 * self.width as f32,
+            (1.0 - sy) * 0.5 * self.height as f32,
+        ))
+    }
+}
+
 /// A thin-lens camera: a pinhole camera's projection with a circular
 /// aperture of radius `aperture_radius` in the plane through `position`
 /// perpendicular to `forward`; points at depth `focus_distance` (measured
@@ -614,6 +691,8 @@ pub enum Camera {
     Equirect(EquirectCamera),
     /// 360° as two fisheye circles.
     DualFisheye(DualFisheyeCamera),
+    /// Parallel projection.
+    Orthographic(OrthographicCamera),
 }
 
 impl From<PinholeCamera> for Camera {
@@ -631,6 +710,7 @@ impl Camera {
             Camera::ThinLens(c) => &c.pinhole.pose,
             Camera::Equirect(c) => &c.pose,
             Camera::DualFisheye(c) => &c.pose,
+            Camera::Orthographic(c) => &c.pose,
         }
     }
 
@@ -643,6 +723,7 @@ impl Camera {
             Camera::ThinLens(c) => c.pinhole.pose = pose,
             Camera::Equirect(c) => c.pose = pose,
             Camera::DualFisheye(c) => c.pose = pose,
+            Camera::Orthographic(c) => c.pose = pose,
         }
         c
     }
@@ -661,6 +742,7 @@ impl Camera {
             Camera::ThinLens(c) => c.pinhole.width,
             Camera::Equirect(c) => c.width,
             Camera::DualFisheye(c) => c.width,
+            Camera::Orthographic(c) => c.width,
         }
     }
 
@@ -672,6 +754,7 @@ impl Camera {
             Camera::ThinLens(c) => c.pinhole.height,
             Camera::Equirect(c) => c.height,
             Camera::DualFisheye(c) => c.height,
+            Camera::Orthographic(c) => c.height,
         }
     }
 
@@ -682,6 +765,7 @@ impl Camera {
             Camera::ThinLens(_) => "thin_lens",
             Camera::Equirect(_) => "equirectangular",
             Camera::DualFisheye(_) => "dual_fisheye",
+            Camera::Orthographic(_) => "orthographic",
         }
     }
 
@@ -704,6 +788,7 @@ impl Camera {
             Camera::ThinLens(c) => Some(c.generate_ray(film, lens)),
             Camera::Equirect(c) => Some(c.generate_ray(film)),
             Camera::DualFisheye(c) => c.generate_ray(film),
+            Camera::Orthographic(c) => Some(c.generate_ray(film)),
         }
     }
 
@@ -716,6 +801,7 @@ impl Camera {
             Camera::ThinLens(c) => c.pinhole.project(p),
             Camera::Equirect(c) => c.project(p),
             Camera::DualFisheye(c) => c.project(p),
+            Camera::Orthographic(c) => c.project(p),
         }
     }
 
@@ -725,7 +811,9 @@ impl Camera {
     #[inline]
     pub fn depth(&self, dir: Vec3, t: f32) -> f32 {
         match self {
-            Camera::Pinhole(_) | Camera::ThinLens(_) => t * dir.dot(self.pose().forward),
+            Camera::Pinhole(_) | Camera::ThinLens(_) | Camera::Orthographic(_) => {
+                t * dir.dot(self.pose().forward)
+            }
             Camera::Equirect(_) | Camera::DualFisheye(_) => t,
         }
     }
@@ -750,6 +838,13 @@ impl Camera {
             Camera::DualFisheye(c) => Camera::DualFisheye(DualFisheyeCamera {
                 width,
                 height,
+                ..c.clone()
+            }),
+            // The view keeps its width; its height follows the image's.
+            Camera::Orthographic(c) => Camera::Orthographic(OrthographicCamera {
+                width,
+                height,
+                view_height: c.view_width * height as f32 / width as f32,
                 ..c.clone()
             }),
         })

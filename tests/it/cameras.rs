@@ -749,3 +749,59 @@ fn scene_format_camera_and_film_examples_load() {
         );
     }
 }
+
+/// The orthographic camera: parallel rays along the view, from a
+/// `view_width × view_height` rectangle whose left edge is image left and
+/// top edge image top; `project` inverts `generate_ray`; and a sphere of
+/// radius r covers π r² of the view's area in the rendered mask.
+#[test]
+fn orthographic_rays_are_parallel_and_project_back() {
+    use plsr::camera::{OrthographicCamera, Pose};
+    let pose = Pose::look_at(Vec3::new(0.0, -5.0, 1.0), Vec3::new(0.0, 0.0, 1.0), Vec3::Z).unwrap();
+    let cam = OrthographicCamera::new(pose, 4.0, 2.0, 40, 20).unwrap();
+    let top_left = cam.generate_ray(Vec2::ZERO);
+    assert!(
+        (top_left.org - Vec3::new(-2.0, -5.0, 2.0)).length() < 1e-5,
+        "{}",
+        top_left.org
+    );
+    assert!((top_left.dir - Vec3::Y).length() < 1e-6);
+    let bottom_right = cam.generate_ray(Vec2::new(40.0, 20.0));
+    assert!((bottom_right.org - Vec3::new(2.0, -5.0, 0.0)).length() < 1e-5);
+    for film in [Vec2::new(3.5, 7.25), Vec2::new(39.0, 0.5)] {
+        let r = cam.generate_ray(film);
+        let back = cam.project(r.org + r.dir * 3.0).unwrap();
+        assert!((back - film).length() < 1e-4, "{film} → {back}");
+    }
+    assert!(OrthographicCamera::new(pose, 0.0, 1.0, 4, 4).is_err());
+    // A black sphere of radius 0.5 against a white sky, seen in a 4 × 2
+    // view: it covers π/4 of the 8 units², the image's mean is 1 − that.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("o.toml");
+    std::fs::write(
+        &path,
+        "[render]\nspp = 64\nmax_depth = 1\n[camera]\ntype = \"orthographic\"\nposition = [0, -5, 1]\n\
+         look_at = [0, 0, 1]\nup = [0, 0, 1]\nview_width = 4\nresolution = [80, 40]\n\
+         [environment]\nradiance = [1, 1, 1]\n[[shapes]]\ntype = \"sphere\"\ncenter = [0, 0, 1]\nradius = 0.5\nsubdivisions = 6\n\
+         [[materials]]\nname = \"black\"\ntype = \"diffuse\"\nreflectance = [0, 0, 0]\n",
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(&path).unwrap().replace(
+        "subdivisions = 6\n",
+        "subdivisions = 6\nmaterial = \"black\"\n",
+    );
+    std::fs::write(&path, text).unwrap();
+    let scene = Scene::load(&path).unwrap();
+    let (film, _) = render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap();
+    // Sky is 1, the black sphere 0: the mean is 1 − covered share.
+    let mean = film.color.iter().map(|c| c.x as f64).sum::<f64>() / film.color.len() as f64;
+    let covered = 1.0 - mean;
+    let want = std::f64::consts::PI * 0.25 / 8.0;
+    assert!((covered - want).abs() < 0.01 * want, "{covered} vs {want}");
+}

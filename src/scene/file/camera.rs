@@ -4,8 +4,8 @@ use super::keys::key_names;
 use super::Builder;
 use crate::camera::{
     fov_from_focal_length, preset as camera_preset, Camera, CameraError, CameraPreset,
-    DualFisheyeCamera, EquirectCamera, Fov, PinholeCamera, Pose, ThinLensCamera,
-    DEFAULT_FISHEYE_FOV_DEG, DEFAULT_SENSOR_HEIGHT_MM, PRESETS,
+    DualFisheyeCamera, EquirectCamera, Fov, OrthographicCamera, PinholeCamera, Pose,
+    ThinLensCamera, DEFAULT_FISHEYE_FOV_DEG, DEFAULT_SENSOR_HEIGHT_MM, PRESETS,
 };
 use crate::camera_path::{CameraPath, CameraPathError, PathKey, MAX_FRAME};
 use crate::error::Result;
@@ -72,6 +72,14 @@ struct FisheyeKeys {
     fov: Option<f32>,
 }
 
+/// The keys of an `orthographic` camera: the size of its view.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct OrthoKeys {
+    view_width: Option<f32>,
+    view_height: Option<f32>,
+}
+
 /// The keys of an `equirectangular` camera: none of its own.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -106,18 +114,18 @@ impl Builder<'_> {
         &self,
         c: &CameraSection,
     ) -> Result<(Camera, Option<&'static CameraPreset>)> {
-        const TYPES: &str = "pinhole, thin_lens, equirectangular, dual_fisheye";
+        const TYPES: &str = "pinhole, thin_lens, equirectangular, dual_fisheye, orthographic";
         let kind = c.kind.as_str();
         if !matches!(
             kind,
-            "pinhole" | "thin_lens" | "equirectangular" | "dual_fisheye"
+            "pinhole" | "thin_lens" | "equirectangular" | "dual_fisheye" | "orthographic"
         ) {
             return Err(self.err(
                 "camera.type",
                 format!("unknown camera type `{kind}` (known: {TYPES})"),
             ));
         }
-        let (lens, fisheye) = self.camera_type_keys(c, kind)?;
+        let (lens, fisheye, ortho) = self.camera_type_keys(c, kind)?;
         let preset = self.camera_preset_named(lens.as_ref())?;
         let pose = self.camera_pose(c)?;
         let (w, h) = self.camera_size(c, preset)?;
@@ -126,6 +134,21 @@ impl Builder<'_> {
                 EquirectCamera::new(pose, w, h)
                     .map_err(|e| self.err(camera_field(&e, "camera"), e.to_string()))?,
             ),
+            "orthographic" => {
+                let ortho = ortho.expect("orthographic cameras read their keys");
+                let view_width =
+                    self.positive("camera.view_width", ortho.view_width.unwrap_or(2.0))?;
+                let view_height = self.positive(
+                    "camera.view_height",
+                    ortho
+                        .view_height
+                        .unwrap_or(view_width * h as f32 / w as f32),
+                )?;
+                Camera::Orthographic(
+                    OrthographicCamera::new(pose, view_width, view_height, w, h)
+                        .map_err(|e| self.err(camera_field(&e, "camera"), e.to_string()))?,
+                )
+            }
             "dual_fisheye" => {
                 let fov = fisheye.and_then(|f| f.fov);
                 let fov = self.finite("camera.fov", fov.unwrap_or(DEFAULT_FISHEYE_FOV_DEG))?;
@@ -149,11 +172,12 @@ impl Builder<'_> {
         &self,
         c: &CameraSection,
         kind: &str,
-    ) -> Result<(Option<LensKeys>, Option<FisheyeKeys>)> {
+    ) -> Result<(Option<LensKeys>, Option<FisheyeKeys>, Option<OrthoKeys>)> {
         let unknown = |key: &str| {
             let mut all = CAMERA_KEYS.to_vec();
             all.extend(key_names::<LensKeys>());
             all.extend(key_names::<FisheyeKeys>());
+            all.extend(key_names::<OrthoKeys>());
             if all.contains(&key) {
                 format!("not used by cameras of type `{kind}`")
             } else {
@@ -181,15 +205,19 @@ impl Builder<'_> {
                         }
                     }
                 }
-                (Some(lens), None)
+                (Some(lens), None, None)
             }
             "dual_fisheye" => {
                 let fisheye: FisheyeKeys = self.typed_keys("camera", &c.keys, unknown)?;
-                (None, Some(fisheye))
+                (None, Some(fisheye), None)
+            }
+            "orthographic" => {
+                let ortho: OrthoKeys = self.typed_keys("camera", &c.keys, unknown)?;
+                (None, None, Some(ortho))
             }
             _ => {
                 let _: EquirectKeys = self.typed_keys("camera", &c.keys, unknown)?;
-                (None, None)
+                (None, None, None)
             }
         })
     }
@@ -481,6 +509,7 @@ fn camera_field(e: &CameraError, default: &'static str) -> &'static str {
         CameraError::BadAperture(_) => "camera.aperture_radius",
         CameraError::BadFocusDistance(_) => "camera.focus_distance",
         CameraError::BadFisheyeFov(_) => "camera.fov",
+        CameraError::BadViewSize(_) => "camera.view_width",
         CameraError::TooFar(_) => "camera.position",
         _ => default,
     }

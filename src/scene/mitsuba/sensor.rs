@@ -1,5 +1,5 @@
-//! Sensors: `perspective` and `thinlens` cameras with their `hdrfilm`,
-//! pixel filter and sampler.
+//! Sensors: `perspective`, `thinlens` and `orthographic` cameras with
+//! their `hdrfilm`, pixel filter and sampler.
 
 use super::document::Element;
 use super::table::{dvec, float, Table};
@@ -21,11 +21,15 @@ impl<'a> Translator<'a> {
             "thinlens" => {
                 camera.insert("type", Value::String("thin_lens".into()));
             }
+            "orthographic" => {
+                camera.insert("type", Value::String("orthographic".into()));
+            }
             other => {
                 return Err(self.err(
                     node,
                     format!(
-                        "the `{other}` sensor is not supported (supported: perspective, thinlens)"
+                        "the `{other}` sensor is not supported (supported: perspective, \
+                         thinlens, orthographic)"
                     ),
                 ))
             }
@@ -80,8 +84,23 @@ impl<'a> Translator<'a> {
                 .insert("filter_border", Value::String(border.into()));
         }
 
-        self.sensor_pose(node, &mut p, &mut camera)?;
-        self.sensor_fov(node, &mut p, (width as f64, height as f64), &mut camera)?;
+        let to_world = self.sensor_pose(node, &mut p, &mut camera)?;
+        if kind == "orthographic" {
+            // The view spans [−1, 1] across and [−1/a, 1/a] down, times
+            // to_world's scale; rays start on the near plane.
+            let near = self.take_float(&mut p, "near_clip")?.unwrap_or(1e-2);
+            let sx = to_world.transform_vector3(DVec3::X).length();
+            let sy = to_world.transform_vector3(DVec3::Y).length();
+            let aspect = width as f64 / height as f64;
+            camera.insert("view_width", float(2.0 * sx));
+            camera.insert("view_height", float(2.0 * sy / aspect));
+            let start = to_world.transform_point3(DVec3::new(0.0, 0.0, near));
+            let forward = to_world.transform_vector3(DVec3::Z).normalize();
+            camera.insert("position", dvec(start));
+            camera.insert("look_at", dvec(start + forward));
+        } else {
+            self.sensor_fov(node, &mut p, (width as f64, height as f64), &mut camera)?;
+        }
         for s in ["principal_point_offset_x", "principal_point_offset_y"] {
             if let Some(v) = self.take_float(&mut p, s)? {
                 if v != 0.0 {
@@ -219,13 +238,14 @@ impl<'a> Translator<'a> {
         Ok(())
     }
 
-    /// The sensor's pose from its `to_world`: position, look-at point, up.
+    /// The sensor's pose from its `to_world`: position, look-at point, up;
+    /// returns `to_world`.
     pub(super) fn sensor_pose(
         &mut self,
         node: &'a Element,
         p: &mut Params<'a>,
         camera: &mut Table,
-    ) -> Result<()> {
+    ) -> Result<DMat4> {
         let m = self
             .take_transform(p, "to_world")?
             .unwrap_or(DMat4::IDENTITY);
@@ -245,8 +265,7 @@ impl<'a> Translator<'a> {
         camera.insert("position", dvec(position));
         camera.insert("look_at", dvec(position + forward.normalize()));
         camera.insert("up", dvec(up.normalize()));
-
-        Ok(())
+        Ok(m)
     }
 
     /// The field of view from `fov` and `fov_axis` or `focal_length`, for a
