@@ -35,7 +35,7 @@ pub struct BenchArgs {
     /// `prb` when it is installed) or `compare` (CW-SSIM and LPIPS on a
     /// 400×300 crop and a panorama, against pyiqa and the lpips package).
     /// `peers` (plsr against Mitsuba 3 on a glossy scene lit by an HDR sky,
-    /// the Cornell box and the PLS room: samples/s, error at equal spp and
+    /// the Cornell box, the PLS room and Mitsuba's material preview: samples/s, error at equal spp and
     /// time to equal error). `farm` (one render of the Cornell box against
     /// the same render in `--parts` parts plus `plsr merge`).
     #[arg(default_value = "core", value_parser = ["core", "pls", "materials", "hdr", "composite", "fit", "compare", "peers", "farm"])]
@@ -85,7 +85,7 @@ pub struct BenchArgs {
     #[arg(long, default_value = "out/bench-peers")]
     pub peers_dir: PathBuf,
     /// Only these scenes of `plsr bench peers` (comma-separated:
-    /// glossy-env, cornell, pls-room).
+    /// glossy-env, cornell, pls-room, matpreview).
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
     /// Timed renders per renderer and scene in `plsr bench peers` (seeds

@@ -2,7 +2,7 @@
 //! users render, in one run: samples per second, the error at equal samples
 //! against a converged reference, and the time each needs for equal error.
 //!
-//! Three scenes, each written in plsr's format and as Mitsuba 3 XML into the
+//! Four scenes, each written in plsr's format and as Mitsuba 3 XML into the
 //! work folder (`--dir`, default `out/bench-peers`, kept for inspection):
 //!
 //! - `glossy-env`: four identical 81,920-triangle spheres (Lambert, rough
@@ -13,7 +13,17 @@
 //! - `pls-room`: `make demo`'s room, lit by the paper's two PLS lights,
 //!   which Mitsuba cannot express: it gets a spot light for the narrow one
 //!   and the emitting outline for the wide one, so its image differs and
-//!   only its speed is comparable.
+//!   only its speed is comparable;
+//! - `matpreview`: Mitsuba's material-preview scene as Mitsuba's own
+//!   documentation writes it (its `serialized` meshes and the museum
+//!   environment from `tests/data/realworld/mitsuba/`, Mitsuba's default
+//!   Gaussian pixel filter), the object in a rough plastic (GGX) and its
+//!   stand in a principled material whose base colour is a checkerboard,
+//!   384×288, path tracer without a depth limit. It is written as Mitsuba
+//!   XML only: plsr renders it through its importer, as a user would.
+//!   (Mitsuba splats each sample into the pixels its filter reaches, plsr
+//!   places samples by the filter: at equal spp Mitsuba's pixels average
+//!   about π pixels' worth of samples, with correlated noise.)
 //!
 //! Mitsuba reads the geometry plsr built, written as OBJ files (world
 //! space, exact float round trip), and the same environment EXR. Both
@@ -720,6 +730,98 @@ fn run_mitsuba(
     Ok((measured, version))
 }
 
+/// Mitsuba's material-preview scene (`matpreview.xml` of its documentation
+/// scenes, 384×288) with a rough plastic object on a stand in a principled
+/// material with a checkerboard base colour, written into `dir`; its meshes
+/// and environment are read from `tests/data/realworld/mitsuba/`.
+fn write_matpreview(dir: &Path) -> Result<PathBuf> {
+    let data = Path::new("tests/data/realworld/mitsuba/common");
+    let common = data.canonicalize().map_err(|e| {
+        Error::invalid_argument(format!(
+            "bench peers: matpreview needs {} (run from plsr's source folder): {e}",
+            data.display()
+        ))
+    })?;
+    let xml = format!(
+        r#"<scene version="3.0.0">
+    <path value="{common}"/>
+    <default name="spp" value="64"/>
+    <integrator type="path"/>
+    <bsdf type="roughplastic" id="object_bsdf">
+        <string name="distribution" value="ggx"/>
+        <float name="alpha" value="0.15"/>
+        <rgb name="diffuse_reflectance" value="0.55, 0.12, 0.08"/>
+        <float name="int_ior" value="1.5"/>
+    </bsdf>
+    <bsdf type="principled" id="stand_bsdf">
+        <texture type="checkerboard" name="base_color">
+            <rgb name="color0" value="0.8, 0.7, 0.3"/>
+            <rgb name="color1" value="0.1, 0.1, 0.15"/>
+            <transform name="to_uv"><scale x="6" y="6"/></transform>
+        </texture>
+        <float name="metallic" value="0.3"/>
+        <float name="roughness" value="0.35"/>
+    </bsdf>
+    <texture type="checkerboard" id="planetex">
+        <rgb name="color0" value="0.2"/>
+        <rgb name="color1" value="0.4"/>
+        <transform name="to_uv"><scale x="8" y="8"/></transform>
+    </texture>
+    <bsdf type="diffuse" id="planemat"><ref name="reflectance" id="planetex"/></bsdf>
+    <shape type="serialized">
+        <string name="filename" value="meshes/matpreview.serialized"/>
+        <integer name="shape_index" value="2"/>
+        <transform name="to_world">
+            <matrix value="0.614046 0.614047 0 -1.78814e-07 -0.614047 0.614046 0 2.08616e-07 0 0 0.868393 1.02569 0 0 0 1"/>
+            <translate z="0.01"/>
+        </transform>
+        <ref id="object_bsdf"/>
+    </shape>
+    <shape type="serialized">
+        <string name="filename" value="meshes/matpreview.serialized"/>
+        <integer name="shape_index" value="1"/>
+        <transform name="to_world"><translate z="0.0252155"/></transform>
+        <ref id="stand_bsdf"/>
+    </shape>
+    <shape type="serialized">
+        <string name="filename" value="meshes/matpreview.serialized"/>
+        <integer name="shape_index" value="0"/>
+        <transform name="to_world">
+            <rotate z="1" angle="-4.3"/>
+            <matrix value="3.38818 -4.06354 0 -1.74958 4.06354 3.38818 0 1.43683 0 0 5.29076 -0.0120714 0 0 0 1"/>
+        </transform>
+        <ref id="planemat"/>
+    </shape>
+    <sensor type="perspective">
+        <string name="fov_axis" value="smaller"/>
+        <float name="fov" value="28.8415"/>
+        <transform name="to_world">
+            <lookat target="3.04072, -2.85176, 2.80939" origin="3.69558, -3.46243, 3.25463" up="-0.317366, 0.312466, 0.895346"/>
+        </transform>
+        <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+        <film type="hdrfilm">
+            <integer name="width" value="384"/>
+            <integer name="height" value="288"/>
+            <rfilter type="gaussian"/>
+        </film>
+    </sensor>
+    <emitter type="envmap">
+        <string name="filename" value="textures/museum.exr"/>
+        <transform name="to_world">
+            <rotate y="1" angle="-180"/>
+            <matrix value="-0.224951 -0.000001 -0.974370 0.000000 -0.974370 0.000000 0.224951 0.000000 0.000000 1.000000 -0.000001 8.870000 0.000000 0.000000 0.000000 1.000000"/>
+        </transform>
+        <float name="scale" value="3"/>
+    </emitter>
+</scene>
+"#,
+        common = common.display()
+    );
+    let path = dir.join("matpreview.xml");
+    write(&path, &xml)?;
+    Ok(path)
+}
+
 /// `plsr bench peers`.
 pub fn run(o: &PeersBenchOptions) -> Result<()> {
     let dir = &o.dir;
@@ -801,9 +903,18 @@ fn suite(o: &PeersBenchOptions, dir: &Path) -> Result<Vec<PeerScene>> {
             });
         }
     }
+    if wanted("matpreview") {
+        let xml = write_matpreview(dir)?;
+        scenes.push(PeerScene {
+            name: "matpreview",
+            plsr: xml.clone(),
+            mitsuba: xml,
+            approximate: false,
+        });
+    }
     if scenes.is_empty() {
         return Err(Error::invalid_argument(format!(
-            "bench peers: no scene named {:?} (known: glossy-env, cornell, pls-room)",
+            "bench peers: no scene named {:?} (known: glossy-env, cornell, pls-room, matpreview)",
             o.only
         )));
     }
@@ -925,6 +1036,12 @@ impl Bench<'_> {
     /// plsr's), and the scene built.
     fn load(&self, scene: &mut PeerScene) -> Result<(SceneDescription, Scene)> {
         let mut description = plsr::scene::file::load(&scene.plsr)?;
+        if scene.plsr == scene.mitsuba {
+            // A Mitsuba scene both renderers read as it is.
+            description.job.spp = self.o.spp;
+            let built = Scene::build(description.clone())?;
+            return Ok((description, built));
+        }
         if scene.name != "glossy-env" {
             // The scene files' own resolutions are for viewing; these are
             // the benchmark's.
