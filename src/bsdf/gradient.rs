@@ -86,6 +86,7 @@ impl Bsdf {
             Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) => {
                 Err("plastic and rough_plastic materials cannot be fitted")
             }
+            Bsdf::ThinDielectric(_) => Err("thin_dielectric materials cannot be fitted"),
         }
     }
 

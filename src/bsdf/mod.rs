@@ -53,6 +53,7 @@ pub mod gradient;
 pub mod microfacet;
 pub mod models;
 pub mod plastic;
+pub mod thin_dielectric;
 
 pub use fresnel::METALS;
 pub use gradient::{BsdfGradient, BsdfParam, ALL_PARAMS, BSDF_PARAMS};
@@ -62,6 +63,7 @@ pub use models::{
     DielectricParams, DiffuseParams, Fresnel, ParamError, PrincipledParams,
 };
 pub use plastic::{PlasticParams, RoughPlasticParams};
+pub use thin_dielectric::ThinDielectricParams;
 
 use glam::{Vec2, Vec3};
 
@@ -84,6 +86,9 @@ pub enum Bsdf {
     /// A diffuse substrate under a rough dielectric coating (Mitsuba's
     /// `roughplastic`).
     RoughPlastic(RoughPlasticParams),
+    /// A thin dielectric sheet: mirror and straight-through transmission
+    /// (Mitsuba's `thindielectric`).
+    ThinDielectric(ThinDielectricParams),
 }
 
 /// A direction drawn by [`Bsdf::sample`].
@@ -118,6 +123,7 @@ impl Bsdf {
             Bsdf::Principled(p) => p.eval(wo, wi),
             Bsdf::Plastic(p) => p.eval(wo, wi),
             Bsdf::RoughPlastic(p) => p.eval(wo, wi),
+            Bsdf::ThinDielectric(p) => p.eval(wo, wi),
         }
     }
 
@@ -133,6 +139,7 @@ impl Bsdf {
             Bsdf::Principled(p) => p.sample(wo, uc, u),
             Bsdf::Plastic(p) => p.sample(wo, uc, u),
             Bsdf::RoughPlastic(p) => p.sample(wo, uc, u),
+            Bsdf::ThinDielectric(p) => p.sample(wo, uc),
         }
     }
 
@@ -147,6 +154,7 @@ impl Bsdf {
             Bsdf::Principled(p) => p.pdf(wo, wi),
             Bsdf::Plastic(p) => p.pdf(wo, wi),
             Bsdf::RoughPlastic(p) => p.pdf(wo, wi),
+            Bsdf::ThinDielectric(p) => p.pdf(wo, wi),
         }
     }
 
@@ -168,7 +176,7 @@ impl Bsdf {
     /// the geometric normal as the outside instead of facing it to the viewer.
     #[inline]
     pub fn transmits(&self) -> bool {
-        matches!(self, Bsdf::Dielectric(_))
+        matches!(self, Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_))
     }
 
     /// `η²` of a scattering from `wo` to `wi` (local frame): the square of
@@ -196,7 +204,7 @@ impl Bsdf {
             Bsdf::Dielectric(DielectricParams {
                 microfacet: None,
                 ..
-            })
+            }) | Bsdf::ThinDielectric(_)
         )
     }
 
@@ -209,9 +217,11 @@ impl Bsdf {
             Bsdf::CookTorrance(p) => aniso(&p.microfacet),
             Bsdf::Dielectric(p) => p.microfacet.as_ref().is_some_and(aniso),
             Bsdf::Principled(p) => p.anisotropic > 0.0,
-            Bsdf::Diffuse(_) | Bsdf::BlinnPhong(_) | Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) => {
-                false
-            }
+            Bsdf::Diffuse(_)
+            | Bsdf::BlinnPhong(_)
+            | Bsdf::Plastic(_)
+            | Bsdf::RoughPlastic(_)
+            | Bsdf::ThinDielectric(_) => false,
         }
     }
 
@@ -225,6 +235,7 @@ impl Bsdf {
             Bsdf::Principled(p) => p.base_color,
             Bsdf::Plastic(p) => p.albedo(),
             Bsdf::RoughPlastic(p) => p.albedo(),
+            Bsdf::ThinDielectric(_) => Vec3::ONE,
         }
     }
 }

@@ -12,7 +12,7 @@
 //! renders each scene at the fixture's spp and seed and is judged by the
 //! same test. One scene per plugin family: diffuse with an area light and
 //! measured spectra, one-sided BSDFs, conductor, rough conductor,
-//! dielectric, rough plastic, a checkerboard on Mitsuba's sphere
+//! dielectric, thin dielectric, rough plastic, a checkerboard on Mitsuba's sphere
 //! parameterisation, a sphere light, the thin lens, the orthographic
 //! camera, the cylinder and spot lights.
 
@@ -164,7 +164,7 @@ fn fixtures() -> Vec<PathBuf> {
 #[test]
 fn plsr_passes_mitsubas_z_test_on_its_documentation_scenes() {
     let all = fixtures();
-    assert!(all.len() >= 12, "{} fixtures", all.len());
+    assert!(all.len() >= 13, "{} fixtures", all.len());
     let mut failures = Vec::new();
     for json in all {
         let f = fixture(&json);

@@ -455,6 +455,52 @@ fn directional_light_lights_a_floor_by_the_cosine_law() {
     }
 }
 
+/// A thin dielectric sheet with untinted lobes reflects `R′` and transmits
+/// `1 − R′`: in a uniform sky every path ends in the sky with weight 1, so
+/// a sphere of it (two sheets on every line of sight) is invisible; tinted
+/// transmission darkens it by the tint twice where both walls are seen.
+#[test]
+fn thin_dielectric_sphere_in_a_furnace_is_invisible() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = |transmittance: f32| {
+        format!(
+            "[render]\nspp = 16\nmax_depth = 16\nrr_depth = 100\n\
+             [camera]\nposition = [0, -4, 0]\nlook_at = [0, 0, 0]\nup = [0, 0, 1]\nvfov = 20\nresolution = [8, 8]\n\
+             [environment]\nradiance = [1, 1, 1]\n\
+             [[materials]]\nname = \"sheet\"\ntype = \"thin_dielectric\"\nior = 1.5\n\
+             specular_transmittance = [{transmittance}, {transmittance}, {transmittance}]\n\
+             [[shapes]]\ntype = \"sphere\"\nmaterial = \"sheet\"\n"
+        )
+    };
+    let path = dir.path().join("t.toml");
+    std::fs::write(&path, text(1.0)).unwrap();
+    let scene = Scene::load(&path).unwrap();
+    let (film, _) = render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap();
+    for c in &film.color {
+        assert!((c.x - 1.0).abs() < 1e-5, "{c}");
+    }
+    // Through the centre, a ray passes both walls or is mirrored by the
+    // first: with transmittance 0.5 the centre pixel is R′ + (1 − R′)·(…)
+    // < 1, and never below 0.25.
+    std::fs::write(&path, text(0.5)).unwrap();
+    let scene = Scene::load(&path).unwrap();
+    let (film, _) = render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap();
+    let centre = film.color[film.index(4, 4)].x;
+    assert!(centre < 0.9 && centre > 0.25, "{centre}");
+}
+
 /// A smooth glass sphere under a uniform sky of radiance 1, rendered with
 /// Russian roulette from `rr_depth` on: the film, and the pixels the sphere
 /// covers.

@@ -98,7 +98,8 @@ pub struct SoaScene {
 
 impl SoaScene {
     /// The kernel's view of `scene`, or `None` where a material of it is one
-    /// no pass of the kernel shades (`plastic` and `rough_plastic`; every
+    /// no pass of the kernel shades (`plastic`, `rough_plastic` and
+    /// `thin_dielectric`; every
     /// other model, mapped or not, has a pass) or it has a spot or a
     /// directional light: the general integrator then renders the scene.
     pub fn new(scene: &Scene) -> Option<SoaScene> {
@@ -176,7 +177,7 @@ impl SoaScene {
                 Bsdf::Diffuse(_) | Bsdf::Dielectric(_) => false,
                 // Not reached: no pass shades them (the scene is rendered by
                 // the general integrator).
-                Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) => false,
+                Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) | Bsdf::ThinDielectric(_) => false,
             });
         }
         for a in &mut albedo {
@@ -258,9 +259,11 @@ pub(super) fn mapped_params(bsdf: &Bsdf) -> [f32; 3] {
         Bsdf::CookTorrance(p) => [p.microfacet.alpha_x, p.microfacet.alpha_y, 0.0],
         Bsdf::Principled(p) => [p.roughness, p.metallic, 0.0],
         Bsdf::BlinnPhong(p) => p.diffuse.to_array(),
-        Bsdf::Diffuse(_) | Bsdf::Dielectric(_) | Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) => {
-            [0.0; 3]
-        }
+        Bsdf::Diffuse(_)
+        | Bsdf::Dielectric(_)
+        | Bsdf::Plastic(_)
+        | Bsdf::RoughPlastic(_)
+        | Bsdf::ThinDielectric(_) => [0.0; 3],
     }
 }
 

@@ -99,6 +99,17 @@ pub(super) struct DielectricKeys {
     normal_scale: Option<f32>,
 }
 
+/// The keys of a `thin_dielectric` material (Mitsuba's `thindielectric`).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct ThinDielectricKeys {
+    ior: Option<f32>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
+    specular_reflectance: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
+    specular_transmittance: Option<[f32; 3]>,
+}
+
 /// The keys of a `principled` material.
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -148,11 +159,13 @@ pub(super) enum MaterialKeys {
     Principled(PrincipledKeys),
     Plastic(PlasticKeys),
     RoughPlastic(PlasticKeys),
+    ThinDielectric(ThinDielectricKeys),
 }
 
 /// The material types, by their `type` names.
 const MATERIAL_TYPES: &str =
-    "diffuse, blinn_phong, cook_torrance, dielectric, principled, plastic, rough_plastic";
+    "diffuse, blinn_phong, cook_torrance, dielectric, thin_dielectric, principled, plastic, \
+     rough_plastic";
 
 /// The keys of a microfacet distribution, shared by several types.
 struct MicrofacetKeys<'a> {
@@ -219,6 +232,7 @@ impl MaterialKeys {
                 normal_scale: k.normal_scale,
                 ..Default::default()
             },
+            MaterialKeys::ThinDielectric(_) => TextureKeys::default(),
             MaterialKeys::Principled(k) => TextureKeys {
                 base_color_map: k.base_color_map.as_ref(),
                 roughness_map: k.roughness_map.as_ref(),
@@ -322,6 +336,7 @@ impl Builder<'_> {
             "blinn_phong" => MaterialKeys::BlinnPhong(parse(self, field, kind, keys)?),
             "cook_torrance" => MaterialKeys::CookTorrance(parse(self, field, kind, keys)?),
             "dielectric" => MaterialKeys::Dielectric(parse(self, field, kind, keys)?),
+            "thin_dielectric" => MaterialKeys::ThinDielectric(parse(self, field, kind, keys)?),
             "principled" => MaterialKeys::Principled(parse(self, field, kind, keys)?),
             "plastic" => {
                 let k: PlasticKeys = parse(self, field, kind, keys)?;
@@ -480,6 +495,14 @@ impl Builder<'_> {
             }
             MaterialKeys::Plastic(m) | MaterialKeys::RoughPlastic(m) => {
                 self.plastic(field, m, matches!(keys, MaterialKeys::RoughPlastic(_)))?
+            }
+            MaterialKeys::ThinDielectric(m) => {
+                let params = crate::bsdf::ThinDielectricParams {
+                    eta: ior(m.ior, 1.5)?,
+                    reflectance: colour("specular_reflectance", m.specular_reflectance, 1.0)?,
+                    transmittance: colour("specular_transmittance", m.specular_transmittance, 1.0)?,
+                };
+                Bsdf::ThinDielectric(params.validate().map_err(|e| self.err(field, e))?)
             }
             MaterialKeys::Principled(m) => {
                 // The parser checks that each value is a finite number; the

@@ -99,7 +99,10 @@ impl<'a> Translator<'a> {
         let kind = self.required_attr(node, "type")?;
         let mut p = self.params(node)?;
         let mut t = Table::new();
-        let opaque = !matches!(kind.as_str(), "dielectric" | "roughdielectric");
+        let opaque = !matches!(
+            kind.as_str(),
+            "dielectric" | "roughdielectric" | "thindielectric"
+        );
         match kind.as_str() {
             "diffuse" => self.bsdf_diffuse(&mut p, &mut t)?,
             "roughconductor" | "conductor" => self.bsdf_conductor(node, &kind, &mut p, &mut t)?,
@@ -107,6 +110,7 @@ impl<'a> Translator<'a> {
                 self.bsdf_dielectric(node, &kind, &mut p, &mut t)?
             }
             "principled" => self.bsdf_principled(node, &mut p, &mut t)?,
+            "thindielectric" => self.bsdf_thin_dielectric(node, &mut p, &mut t)?,
             "plastic" | "roughplastic" => self.bsdf_plastic(node, &kind, &mut p, &mut t)?,
             "twosided" => return Err(self.err(node, "a twosided inside a twosided")),
             other => {
@@ -114,8 +118,8 @@ impl<'a> Translator<'a> {
                     node,
                     format!(
                         "the `{other}` BSDF is not supported (supported: diffuse, conductor, \
-                         roughconductor, dielectric, roughdielectric, plastic, roughplastic, \
-                         principled, twosided)"
+                         roughconductor, dielectric, roughdielectric, thindielectric, plastic, \
+                         roughplastic, principled, twosided)"
                     ),
                 ))
             }
@@ -222,6 +226,32 @@ impl<'a> Translator<'a> {
                 if v != [1.0; 3] {
                     return Err(self.err(node, format!("`{s}` other than 1 is not supported")));
                 }
+            }
+        }
+        Ok(())
+    }
+
+    /// `thindielectric`: plsr's `thin_dielectric` with `int_ior / ext_ior`
+    /// and the two tints.
+    pub(super) fn bsdf_thin_dielectric(
+        &mut self,
+        node: &'a Element,
+        p: &mut Params<'a>,
+        t: &mut Table,
+    ) -> Result<()> {
+        set(t, "type", Value::String("thin_dielectric".into()));
+        let int_ior = self.ior(p, "int_ior", 1.5046)?;
+        let ext_ior = self.ior(p, "ext_ior", 1.000277)?;
+        if !(int_ior > 0.0 && ext_ior > 0.0) || int_ior == ext_ior {
+            return Err(self.err(
+                node,
+                format!("int_ior {int_ior} and ext_ior {ext_ior} must be positive and differ"),
+            ));
+        }
+        set(t, "ior", float(int_ior / ext_ior));
+        for s in ["specular_reflectance", "specular_transmittance"] {
+            if let Some(v) = self.take_rgb(p, s, SpectrumUse::Reflectance)? {
+                set(t, s, vec3(v));
             }
         }
         Ok(())

@@ -290,6 +290,15 @@ fn mitsuba_bsdf(bsdf: &Bsdf) -> std::result::Result<String, String> {
         )),
         Bsdf::Principled(_) => return Err("the energy-conserving principled mode".into()),
         Bsdf::BlinnPhong(_) => return Err("Blinn–Phong".into()),
+        Bsdf::ThinDielectric(p) => format!(
+            "<bsdf type=\"thindielectric\"><float name=\"int_ior\" value=\"{}\"/>\
+             <float name=\"ext_ior\" value=\"1\"/>\
+             <rgb name=\"specular_reflectance\" value=\"{}\"/>\
+             <rgb name=\"specular_transmittance\" value=\"{}\"/></bsdf>",
+            p.eta,
+            rgb(p.reflectance),
+            rgb(p.transmittance)
+        ),
         Bsdf::Plastic(p) => twosided(format!(
             "<bsdf type=\"plastic\">{}</bsdf>",
             plastic_params(
