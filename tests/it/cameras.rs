@@ -355,9 +355,9 @@ fn bad_camera_and_film_input_names_the_field() {
             "positive",
         ),
         (
-            &format!("[camera]\ntype = \"orthographic\"\n{POSE}resolution = [8, 8]\n"),
+            &format!("[camera]\ntype = \"fisheye\"\n{POSE}resolution = [8, 8]\n"),
             "scene.toml: camera.type:",
-            "unknown camera type `orthographic`",
+            "unknown camera type `fisheye`",
         ),
         (
             &format!("[camera]\ntype = \"dual_fisheye\"\nfov = 170\n{POSE}resolution = [8, 4]\n"),
