@@ -1377,3 +1377,38 @@ fn one_sided_surfaces_are_bit_identical() {
     assert_identical("one-sided Cornell box, max_depth 1", &cornell);
     assert_same_ray_counts(&cornell);
 }
+
+/// `max_depth = 0` (Mitsuba's 1): the camera sees the emitters and nothing
+/// else, the same in both integrators; every pixel is the light's radiance
+/// or black.
+#[test]
+fn depth_zero_shows_only_emitters_in_both_integrators() {
+    let mut desc = load(Path::new("tests/data/cornell-64.toml")).unwrap();
+    desc.camera = desc.camera.with_resolution(40, 40).unwrap();
+    desc.job.spp = 2;
+    desc.job.max_depth = 0;
+    let radiance: Vec<glam::Vec3> = desc
+        .meshes
+        .iter()
+        .filter_map(|m| m.emission.map(|e| e.radiance))
+        .collect();
+    let cornell = Case::new(Scene::build(desc).unwrap());
+    assert_identical("Cornell box, max_depth 0", &cornell);
+    let (film, _) = render(
+        &cornell.scene,
+        &cornell.job,
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap();
+    let mut lit = 0;
+    for c in &film.color {
+        // A pixel on the light's edge averages light and black.
+        let on_light = radiance
+            .iter()
+            .any(|r| (c.x / r.x - c.y / r.y).abs() < 1e-4);
+        assert!(*c == glam::Vec3::ZERO || on_light, "{c}");
+        lit += (*c != glam::Vec3::ZERO) as usize;
+    }
+    assert!(lit > 0, "the light is in view");
+}

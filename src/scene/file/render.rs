@@ -24,8 +24,15 @@ impl Builder<'_> {
                 Some(v) => self.positive_count("render.spp", v, 1 << 24)?,
                 None => d.spp,
             },
+            // 0: only what the camera sees emit (Mitsuba's max_depth 1).
             max_depth: match r.max_depth {
-                Some(v) => self.positive_count("render.max_depth", v, 1024)?,
+                Some(v) if (0..=1024).contains(&v) => v as u32,
+                Some(v) => {
+                    return Err(self.err(
+                        "render.max_depth",
+                        format!("must be between 0 and 1024, got {v}"),
+                    ))
+                }
                 None => d.max_depth,
             },
             seed: r.seed.unwrap_or(d.seed),

@@ -197,13 +197,13 @@ impl<'a> Translator<'a> {
                 );
                 1024
             }
-            d if d >= 2 => (d - 1).min(1024),
+            d if d >= 1 => (d - 1).min(1024),
             d => {
                 return Err(self.err(
                     node,
                     format!(
-                        "max_depth = {d}: plsr renders at least one scattering event \
-                         (Mitsuba's max_depth 2); plsr's max_depth is Mitsuba's − 1"
+                        "max_depth = {d}: an image of nothing; plsr's max_depth is \
+                         Mitsuba's − 1 (Mitsuba's 1: only the emitters the camera sees)"
                     ),
                 ))
             }
