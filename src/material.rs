@@ -34,6 +34,26 @@ pub struct MaterialTextures {
     pub metallic: Option<Arc<ImageTexture>>,
     /// Tangent-space normals, decoded (see [`decode_normal`]).
     pub normal: Option<Arc<ImageTexture>>,
+    /// The tangent frame the normal map's directions are in.
+    pub normal_frame: NormalFrame,
+    /// Whether light reaching a normal-mapped surface at grazing angles is
+    /// attenuated by Estevez et al.'s shadowing term (Mitsuba's
+    /// `normalmap` does by default; see `integrator::general`).
+    pub normal_shadowing: bool,
+}
+
+/// The tangent frame of a normal map: its x axis is always along ∂p/∂u
+/// (made orthogonal to the normal); its y axis follows the texture
+/// coordinates or the normal.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum NormalFrame {
+    /// y along ∂p/∂v (glTF's and OpenGL's convention, as MikkTSpace bakes
+    /// it): mirrored texture coordinates mirror the tilt.
+    #[default]
+    Uv,
+    /// y = normal × x (Mitsuba's `normalmap`, in its shading frame),
+    /// whichever way v runs.
+    Tangent,
 }
 
 /// A normal map's texel decoded to a tangent-space direction: `2c − 1`,

@@ -342,6 +342,16 @@ pub fn render_gradient(
             "the gradient map was made for another scene",
         ));
     }
+    if let Some(m) = scene
+        .materials()
+        .iter()
+        .find(|m| m.textures.normal_shadowing && m.textures.normal.is_some())
+    {
+        return Err(Error::invalid_argument(format!(
+            "material `{}`: normal_shadowing is not differentiated (fit without it)",
+            m.name
+        )));
+    }
     check_memory(scene, options)
         .map_err(|m| Error::invalid_argument(format!("camera.resolution: {m}")))?;
     let tiles = tiles(width, height, options.tile_size.max(1));

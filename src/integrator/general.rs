@@ -427,6 +427,13 @@ fn shade(
 
 /// A path's hit as scattering sees it: the point, the directions and
 /// normals, and the BSDF of the material there.
+/// `tan²θ` for `cos θ` (infinite at 0).
+#[inline]
+fn tan2(cos: f32) -> f32 {
+    let c2 = (cos * cos).max(1e-12);
+    (1.0 - c2).max(0.0) / c2
+}
+
 struct SurfaceHit<'a> {
     /// The hit point (scene units).
     p: Vec3,
@@ -446,6 +453,10 @@ struct SurfaceHit<'a> {
     guard: bool,
     /// The material's BSDF at the hit (its textures looked up).
     bsdf: Bsdf,
+    /// The normal before the normal map tilted it and `α²` of the shadow
+    /// terminator's microfacets (0: no attenuation), see
+    /// [`SurfaceHit::terminator`].
+    terminator: (Vec3, f32),
     mesh: &'a crate::scene::Mesh,
     hit: crate::accel::Hit,
 }
@@ -473,13 +484,29 @@ impl<'a> SurfaceHit<'a> {
         // Opaque surfaces are two-sided: shade in the frame facing the viewer.
         // Transmissive ones keep the geometric normal as their outside.
         let n = if bsdf.transmits() { ng } else { facing };
+        let shading_n = surface.shading_normal(n, wo);
+        let terminator = if material.textures.normal_shadowing && material.textures.normal.is_some()
+        {
+            // Estevez et al. 2019: the tilt of the mapped normal from the
+            // unmapped one sets the roughness of a microfacet surface,
+            // `α² = min(tan²θ / 8, 1)`.
+            let base = match surface.base_normal {
+                Some(b) => crate::integrator::steps::shading_normal_towards(b, n, wo),
+                None => n,
+            };
+            let cos = shading_n.dot(base).clamp(-1.0, 1.0);
+            (base, (0.125 * tan2(cos)).min(1.0))
+        } else {
+            (n, 0.0)
+        };
         SurfaceHit {
             p,
             wo,
             ng,
             facing,
             n,
-            shading_n: surface.shading_normal(n, wo),
+            shading_n,
+            terminator,
             // Without shading normals the frame's normal is ±ng and the
             // light-leak guard cannot fail.
             guard: surface.normal.is_some(),
@@ -487,6 +514,19 @@ impl<'a> SurfaceHit<'a> {
             mesh,
             hit: *hit,
         }
+    }
+
+    /// The shadow terminator's attenuation of light arriving along `w`
+    /// (Estevez et al. 2019, as Mitsuba's `normalmap` applies it): Smith's
+    /// `G1 = 2 / (1 + √(1 + α²·tan²θ))`, `θ` the angle of `w` from the
+    /// unmapped normal; 1 where the material does not ask for it.
+    #[inline]
+    fn terminator(&self, w: Vec3) -> f32 {
+        let (base, alpha2) = self.terminator;
+        if alpha2 == 0.0 {
+            return 1.0;
+        }
+        2.0 / (1.0 + (1.0 + alpha2 * tan2(w.dot(base))).sqrt())
     }
 
     /// The normal the normal layer records: the shading normal, or for a
@@ -583,7 +623,7 @@ fn scatter(
             } else {
                 bsdf.eval_pdf(wo_local, wi_local)
             };
-            let f = f * wi_local.z.abs();
+            let f = f * (wi_local.z.abs() * at.terminator(ls.wi));
             if f != Vec3::ZERO {
                 let light_pdf = pick_pmf * ls.pdf;
                 let weight = if ls.delta {
@@ -622,7 +662,7 @@ fn scatter(
     if at.guard && !sides_agree(wo, wi, ng, wo_local, bs.wi) {
         return out;
     }
-    *beta *= bs.weight;
+    *beta *= bs.weight * at.terminator(wi);
     *eta_scale *= bsdf.eta_scale(wo_local, bs.wi);
     let rr_beta = *beta * *eta_scale;
     if roulette_spins(rr_beta, bounce.roulette) {

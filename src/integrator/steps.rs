@@ -78,6 +78,9 @@ pub(crate) struct SurfacePoint {
     /// tilted by the material's normal map where it has one and the mesh
     /// has texture coordinates.
     pub(crate) normal: Option<Vec3>,
+    /// The interpolated vertex normal before any normal map tilted it (for
+    /// the shadow terminator), or `None` without vertex normals.
+    pub(crate) base_normal: Option<Vec3>,
 }
 
 impl SurfacePoint {
@@ -95,6 +98,7 @@ impl SurfacePoint {
             return SurfacePoint {
                 uv: Vec2::ZERO,
                 normal: None,
+                base_normal: None,
             };
         }
         let [i0, i1, i2] = mesh.triangles[hit.prim_id as usize].map(|i| i as usize);
@@ -120,13 +124,24 @@ impl SurfacePoint {
         } else {
             (mesh.normals[i0] * b0 + mesh.normals[i1] * b1 + mesh.normals[i2] * b2).try_normalize()
         };
+        let base_normal = normal;
         let normal = match &material.textures.normal {
-            Some(map) if has_uv => {
-                Self::normal_mapped(mesh, [i0, i1, i2], [b0, b1, b2], uv, normal, map)
-            }
+            Some(map) if has_uv => Self::normal_mapped(
+                mesh,
+                [i0, i1, i2],
+                [b0, b1, b2],
+                uv,
+                normal,
+                map,
+                material.textures.normal_frame,
+            ),
             _ => normal,
         };
-        SurfacePoint { uv, normal }
+        SurfacePoint {
+            uv,
+            normal,
+            base_normal,
+        }
     }
 
     /// The shading normal tilted by a normal map at `uv`: the map's
@@ -136,7 +151,9 @@ impl SurfacePoint {
     /// interpolated tangent, made orthogonal to the normal, and the
     /// bitangent `w·(n × t)`; otherwise the triangle's ∂p/∂u and ∂p/∂v
     /// (Gram–Schmidt against the normal, so mirrored texture coordinates
-    /// mirror the tilt). The untilted normal where the frame is degenerate.
+    /// mirror the tilt), or with [`NormalFrame::Tangent`](crate::material::NormalFrame)
+    /// ∂p/∂u and `normal × ∂p/∂u` (Mitsuba's). The untilted normal where
+    /// the frame is degenerate.
     #[cold]
     pub(crate) fn normal_mapped(
         mesh: &crate::scene::Mesh,
@@ -145,6 +162,7 @@ impl SurfacePoint {
         uv: Vec2,
         normal: Option<Vec3>,
         map: &crate::texture::ImageTexture,
+        frame: crate::material::NormalFrame,
     ) -> Option<Vec3> {
         let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
         let (dp1, dp2) = (p1 - p0, p2 - p0);
@@ -169,8 +187,14 @@ impl SurfacePoint {
         let Some(t) = (dpdu - n * n.dot(dpdu)).try_normalize() else {
             return Some(n);
         };
-        let Some(b) = (dpdv - n * n.dot(dpdv) - t * t.dot(dpdv)).try_normalize() else {
-            return Some(n);
+        let b = match frame {
+            crate::material::NormalFrame::Uv => {
+                match (dpdv - n * n.dot(dpdv) - t * t.dot(dpdv)).try_normalize() {
+                    Some(b) => b,
+                    None => return Some(n),
+                }
+            }
+            crate::material::NormalFrame::Tangent => n.cross(t),
         };
         let m = map.eval(uv);
         (t * m.x + b * m.y + n * m.z).try_normalize().or(Some(n))

@@ -14,7 +14,8 @@
 //! measured spectra, one-sided BSDFs, conductor, rough conductor,
 //! dielectric, thin dielectric, rough plastic, a checkerboard on Mitsuba's sphere
 //! parameterisation, a sphere light, the thin lens, the orthographic
-//! camera, the cylinder and spot lights.
+//! camera, the cylinder, spot lights, and normal maps tilted along u and
+//! along v (Mitsuba's tangent frame and shadow terminator).
 
 use plsr::render::{render, RenderOptions};
 use plsr::scene::mitsuba::Options;
@@ -164,7 +165,7 @@ fn fixtures() -> Vec<PathBuf> {
 #[test]
 fn plsr_passes_mitsubas_z_test_on_its_documentation_scenes() {
     let all = fixtures();
-    assert!(all.len() >= 13, "{} fixtures", all.len());
+    assert!(all.len() >= 15, "{} fixtures", all.len());
     let mut failures = Vec::new();
     for json in all {
         let f = fixture(&json);

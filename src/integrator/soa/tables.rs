@@ -100,8 +100,9 @@ impl SoaScene {
     /// The kernel's view of `scene`, or `None` where a material of it is one
     /// no pass of the kernel shades (`plastic`, `rough_plastic` and
     /// `thin_dielectric`; every
-    /// other model, mapped or not, has a pass) or it has a spot or a
-    /// directional light: the general integrator then renders the scene.
+    /// other model, mapped or not, has a pass), it has a spot or a
+    /// directional light, or a normal map with the shadow terminator: the
+    /// general integrator then renders the scene.
     pub fn new(scene: &Scene) -> Option<SoaScene> {
         // Spot and directional lights are sampled by the general
         // integrator only.
@@ -110,6 +111,14 @@ impl SoaScene {
                 || matches!(l, crate::light::Light::Directional { .. })
         };
         if scene.lights().lights.iter().any(spot) {
+            return None;
+        }
+        // So are normal maps with the shadow terminator.
+        if scene
+            .materials()
+            .iter()
+            .any(|m| m.textures.normal_shadowing && m.textures.normal.is_some())
+        {
             return None;
         }
         let mut albedo = [Vec::new(), Vec::new(), Vec::new()];

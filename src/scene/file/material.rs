@@ -10,7 +10,7 @@ use crate::bsdf::{
     Microfacet, PrincipledParams,
 };
 use crate::error::Result;
-use crate::material::decode_normal;
+use crate::material::{decode_normal, NormalFrame};
 use crate::scene::shapes::{self};
 use crate::scene::{Material, MaterialTextures};
 use crate::texture::{self, Encoding, ImageTexture};
@@ -44,6 +44,8 @@ pub(super) struct DiffuseKeys {
     base_color_map: Option<MapKey>,
     normal_map: Option<PathBuf>,
     normal_scale: Option<f32>,
+    normal_frame: Option<String>,
+    normal_shadowing: Option<bool>,
 }
 
 /// The keys of a `blinn_phong` material.
@@ -58,6 +60,8 @@ pub(super) struct BlinnPhongKeys {
     base_color_map: Option<MapKey>,
     normal_map: Option<PathBuf>,
     normal_scale: Option<f32>,
+    normal_frame: Option<String>,
+    normal_shadowing: Option<bool>,
 }
 
 /// The keys of a `cook_torrance` material.
@@ -83,6 +87,8 @@ pub(super) struct CookTorranceKeys {
     roughness_map: Option<MapKey>,
     normal_map: Option<PathBuf>,
     normal_scale: Option<f32>,
+    normal_frame: Option<String>,
+    normal_shadowing: Option<bool>,
 }
 
 /// The keys of a `dielectric` material.
@@ -97,6 +103,8 @@ pub(super) struct DielectricKeys {
     alpha_v: Option<f32>,
     normal_map: Option<PathBuf>,
     normal_scale: Option<f32>,
+    normal_frame: Option<String>,
+    normal_shadowing: Option<bool>,
 }
 
 /// The keys of a `thin_dielectric` material (Mitsuba's `thindielectric`).
@@ -127,6 +135,8 @@ pub(super) struct PrincipledKeys {
     metallic_map: Option<MapKey>,
     normal_map: Option<PathBuf>,
     normal_scale: Option<f32>,
+    normal_frame: Option<String>,
+    normal_shadowing: Option<bool>,
 }
 
 /// The keys of a `plastic` and a `rough_plastic` material (Mitsuba's
@@ -147,6 +157,8 @@ pub(super) struct PlasticKeys {
     base_color_map: Option<MapKey>,
     normal_map: Option<PathBuf>,
     normal_scale: Option<f32>,
+    normal_frame: Option<String>,
+    normal_shadowing: Option<bool>,
 }
 
 /// A material's keys, by its type (the `type` key is the tag).
@@ -198,6 +210,8 @@ struct TextureKeys<'a> {
     metallic_map: Option<&'a MapKey>,
     normal_map: Option<&'a PathBuf>,
     normal_scale: Option<f32>,
+    normal_frame: Option<&'a str>,
+    normal_shadowing: Option<bool>,
 }
 
 impl MaterialKeys {
@@ -207,29 +221,39 @@ impl MaterialKeys {
                 base_color_map: k.base_color_map.as_ref(),
                 normal_map: k.normal_map.as_ref(),
                 normal_scale: k.normal_scale,
+                normal_frame: k.normal_frame.as_deref(),
+                normal_shadowing: k.normal_shadowing,
                 ..Default::default()
             },
             MaterialKeys::BlinnPhong(k) => TextureKeys {
                 base_color_map: k.base_color_map.as_ref(),
                 normal_map: k.normal_map.as_ref(),
                 normal_scale: k.normal_scale,
+                normal_frame: k.normal_frame.as_deref(),
+                normal_shadowing: k.normal_shadowing,
                 ..Default::default()
             },
             MaterialKeys::CookTorrance(k) => TextureKeys {
                 roughness_map: k.roughness_map.as_ref(),
                 normal_map: k.normal_map.as_ref(),
                 normal_scale: k.normal_scale,
+                normal_frame: k.normal_frame.as_deref(),
+                normal_shadowing: k.normal_shadowing,
                 ..Default::default()
             },
             MaterialKeys::Dielectric(k) => TextureKeys {
                 normal_map: k.normal_map.as_ref(),
                 normal_scale: k.normal_scale,
+                normal_frame: k.normal_frame.as_deref(),
+                normal_shadowing: k.normal_shadowing,
                 ..Default::default()
             },
             MaterialKeys::Plastic(k) | MaterialKeys::RoughPlastic(k) => TextureKeys {
                 base_color_map: k.base_color_map.as_ref(),
                 normal_map: k.normal_map.as_ref(),
                 normal_scale: k.normal_scale,
+                normal_frame: k.normal_frame.as_deref(),
+                normal_shadowing: k.normal_shadowing,
                 ..Default::default()
             },
             MaterialKeys::ThinDielectric(_) => TextureKeys::default(),
@@ -239,6 +263,8 @@ impl MaterialKeys {
                 metallic_map: k.metallic_map.as_ref(),
                 normal_map: k.normal_map.as_ref(),
                 normal_scale: k.normal_scale,
+                normal_frame: k.normal_frame.as_deref(),
+                normal_shadowing: k.normal_shadowing,
             },
         }
     }
@@ -621,6 +647,29 @@ impl Builder<'_> {
                 format!("must be in [0, 10], got {scale}"),
             ));
         }
+        if m.normal_frame.is_some() && m.normal_map.is_none() {
+            return Err(self.err(
+                format!("{field}.normal_frame"),
+                "only used with a normal_map",
+            ));
+        }
+        if m.normal_shadowing.is_some() && m.normal_map.is_none() {
+            return Err(self.err(
+                format!("{field}.normal_shadowing"),
+                "only used with a normal_map",
+            ));
+        }
+        textures.normal_shadowing = m.normal_shadowing.unwrap_or(false);
+        textures.normal_frame = match m.normal_frame {
+            None | Some("uv") => NormalFrame::Uv,
+            Some("tangent") => NormalFrame::Tangent,
+            Some(other) => {
+                return Err(self.err(
+                    format!("{field}.normal_frame"),
+                    format!("unknown frame `{other}` (known: uv, tangent)"),
+                ))
+            }
+        };
         if let Some(path) = m.normal_map.map(|p| self.base.join(p)) {
             let f = format!("{field}.normal_map");
             let t = texture::load_for(self.file, &f, &path, Encoding::Linear)?;
@@ -688,6 +737,8 @@ impl Builder<'_> {
             roughness: load(roughness, keys[1], Encoding::Linear)?,
             metallic: load(metallic, keys[2], Encoding::Linear)?,
             normal: None,
+            normal_frame: NormalFrame::Uv,
+            normal_shadowing: false,
         })
     }
 

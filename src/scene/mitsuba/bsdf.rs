@@ -47,8 +47,11 @@ impl<'a> Translator<'a> {
         if let Some(name) = self.material_names.get(&key) {
             return Ok(name.clone());
         }
-        let kind = self.required_attr(node, "type")?;
+        // A `normalmap` around the BSDF: the BSDF with plsr's `normal_map`.
+        let (outer, normal_map, shadowing) = self.peel_normalmap(node)?;
+        let kind = self.required_attr(outer, "type")?;
         let (inner, twosided) = if kind == "twosided" {
+            let node = outer;
             let mut bsdfs = node.children.iter();
             let inner = bsdfs
                 .next()
@@ -72,9 +75,17 @@ impl<'a> Translator<'a> {
             }
             (inner, true)
         } else {
-            (node, false)
+            (outer, false)
         };
         let mut table = self.bsdf(inner, twosided)?;
+        if let Some(file) = normal_map {
+            set(&mut table, "normal_map", Value::String(file));
+            // Mitsuba's frame: y = n × ∂p/∂u, whichever way v runs.
+            set(&mut table, "normal_frame", Value::String("tangent".into()));
+            if shadowing {
+                set(&mut table, "normal_shadowing", Value::Boolean(true));
+            }
+        }
         let name = match self.attr(node, "id")? {
             Some(id) => id,
             None => format!("bsdf-line-{}", node.line),
@@ -92,6 +103,75 @@ impl<'a> Translator<'a> {
         self.materials.push(entry);
         self.material_names.insert(key, name.clone());
         Ok(name)
+    }
+
+    /// Mitsuba's `normalmap` BSDF: the BSDF inside it, the file of its
+    /// `normalmap` texture (a `bitmap`, read raw: `2·rgb − 1` in the
+    /// shading frame, as plsr's `normal_map`) and whether it attenuates
+    /// grazing light (`use_shadowing_function`); any other element as it is.
+    fn peel_normalmap(&mut self, node: &'a Element) -> Result<(&'a Element, Option<String>, bool)> {
+        if self.required_attr(node, "type")? != "normalmap" {
+            return Ok((node, None, false));
+        }
+        let mut p = self.params(node)?;
+        // Mitsuba attenuates grazing light by Estevez et al.'s term unless
+        // told not to.
+        let shadowing = self
+            .take_bool(&mut p, "use_shadowing_function")?
+            .unwrap_or(true);
+        let tex = self
+            .take(&mut p, "normalmap")
+            .ok_or_else(|| self.err(node, "a normalmap needs a <texture name=\"normalmap\">"))?;
+        let tex = if tex.tag == "ref" {
+            self.deref(tex)?
+        } else {
+            tex
+        };
+        if tex.tag != "texture" || self.required_attr(tex, "type")? != "bitmap" {
+            return Err(self.err(tex, "a normalmap's texture must be a bitmap"));
+        }
+        let mut tp = self.params(tex)?;
+        let file = self
+            .take_string(&mut tp, "filename")?
+            .ok_or_else(|| self.err(tex, "a bitmap needs `filename`"))?;
+        if self.take_bool(&mut tp, "raw")? == Some(false) {
+            return Err(self.err(
+                tex,
+                "a normal map read as sRGB (raw = false) is not supported: give raw = true",
+            ));
+        }
+        for (key, default) in [("filter_type", "bilinear"), ("wrap_mode", "repeat")] {
+            if let Some(v) = self.take_string(&mut tp, key)? {
+                if v != default {
+                    return Err(self.err(
+                        tex,
+                        format!("a normal map's {key} `{v}` is not supported (only {default})"),
+                    ));
+                }
+            }
+        }
+        self.leftovers(&tp)?;
+        let file = self.file_name(tex, file);
+        let mut inner = node
+            .children
+            .iter()
+            .filter(|c| c.attribute("name").is_none());
+        let bsdf = inner
+            .next()
+            .ok_or_else(|| self.err(node, "a normalmap needs a BSDF inside"))?;
+        if let Some(extra) = inner.next() {
+            return Err(self.err(extra, "a normalmap holds one BSDF"));
+        }
+        let bsdf = if bsdf.tag == "ref" {
+            self.deref(bsdf)?
+        } else {
+            bsdf
+        };
+        if bsdf.tag != "bsdf" {
+            return Err(self.err(bsdf, "a normalmap needs a <bsdf> inside"));
+        }
+        self.leftovers(&p)?;
+        Ok((bsdf, Some(file), shadowing))
     }
 
     /// The plsr keys (with `type`) of one BSDF.

@@ -454,8 +454,8 @@ fn unsupported_elements_are_refused_by_name_and_line() {
         ),
         (
             "<scene version=\"3.0.0\"><integrator type=\"path\">\
-             <integer name=\"max_depth\" value=\"1\"/></integrator></scene>",
-            &["max_depth = 1", "Mitsuba's − 1"],
+             <integer name=\"max_depth\" value=\"0\"/></integrator></scene>",
+            &["max_depth = 0", "Mitsuba's − 1"],
         ),
         (
             "<scene version=\"3.0.0\"><shape type=\"sphere\"><ref id=\"nowhere\"/></shape></scene>",
