@@ -288,38 +288,17 @@ impl DielectricAlbedo {
     pub fn for_specular(specular: f32) -> &'static DielectricAlbedo {
         /// Tables computed so far, shared by all threads.
         static ALL: Mutex<Vec<&'static DielectricAlbedo>> = Mutex::new(Vec::new());
-        /// The last few tables this thread used.
-        const RECENT_LEN: usize = 16;
         thread_local! {
+            /// The last few tables this thread used.
             static RECENT: RefCell<Vec<&'static DielectricAlbedo>> = const { RefCell::new(Vec::new()) };
         }
         let bits = specular.to_bits();
-        let same = |t: &&&'static DielectricAlbedo| t.specular.to_bits() == bits;
-        if let Some(t) = RECENT.with(|r| r.borrow().iter().find(same).copied()) {
-            return t;
-        }
-        let table = {
-            // A panic while computing leaves nothing half-inserted, so a
-            // poisoned list is still consistent.
-            let mut all = ALL.lock().unwrap_or_else(|e| e.into_inner());
-            match all.iter().find(same) {
-                Some(t) => t,
-                None => {
-                    let t: &'static DielectricAlbedo =
-                        Box::leak(Box::new(DielectricAlbedo::compute(specular)));
-                    all.push(t);
-                    t
-                }
-            }
-        };
-        RECENT.with(|r| {
-            let mut r = r.borrow_mut();
-            if r.len() == RECENT_LEN {
-                r.remove(0);
-            }
-            r.push(table);
-        });
-        table
+        super::table_cache::interned(
+            &ALL,
+            &RECENT,
+            |t| t.specular.to_bits() == bits,
+            || DielectricAlbedo::compute(specular),
+        )
     }
 
     fn compute(specular: f32) -> DielectricAlbedo {

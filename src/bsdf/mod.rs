@@ -53,6 +53,7 @@ pub mod gradient;
 pub mod microfacet;
 pub mod models;
 pub mod plastic;
+mod table_cache;
 pub mod thin_dielectric;
 
 pub use fresnel::METALS;

@@ -802,43 +802,22 @@ impl RoughPlasticTable {
     pub fn of(kind: Distribution, alpha: f32, eta: f32) -> &'static RoughPlasticTable {
         /// Tables computed so far, shared by all threads.
         static ALL: Mutex<Vec<&'static RoughPlasticTable>> = Mutex::new(Vec::new());
-        /// The last few tables this thread used.
-        const RECENT_LEN: usize = 16;
         thread_local! {
+            /// The last few tables this thread used.
             static RECENT: RefCell<Vec<&'static RoughPlasticTable>> =
                 const { RefCell::new(Vec::new()) };
         }
         let alpha = alpha.max(MIN_ALPHA);
-        let same = |t: &&&'static RoughPlasticTable| {
-            t.kind == kind
-                && t.alpha.to_bits() == alpha.to_bits()
-                && t.eta.to_bits() == eta.to_bits()
-        };
-        if let Some(t) = RECENT.with(|r| r.borrow().iter().find(same).copied()) {
-            return t;
-        }
-        let table = {
-            // A panic while computing leaves nothing half-inserted, so a
-            // poisoned list is still consistent.
-            let mut all = ALL.lock().unwrap_or_else(|e| e.into_inner());
-            match all.iter().find(same) {
-                Some(t) => t,
-                None => {
-                    let t: &'static RoughPlasticTable =
-                        Box::leak(Box::new(RoughPlasticTable::compute(kind, alpha, eta)));
-                    all.push(t);
-                    t
-                }
-            }
-        };
-        RECENT.with(|r| {
-            let mut r = r.borrow_mut();
-            if r.len() == RECENT_LEN {
-                r.remove(0);
-            }
-            r.push(table);
-        });
-        table
+        super::table_cache::interned(
+            &ALL,
+            &RECENT,
+            |t| {
+                t.kind == kind
+                    && t.alpha.to_bits() == alpha.to_bits()
+                    && t.eta.to_bits() == eta.to_bits()
+            },
+            || RoughPlasticTable::compute(kind, alpha, eta),
+        )
     }
 
     /// Computes the table of `(kind, alpha, eta)` (`alpha` ≥ [`MIN_ALPHA`])

@@ -259,50 +259,53 @@ fn closed_form_irradiance_on_the_axis_of_a_disk_emitter() {
 /// law, which Embree's demo scene relies on.
 #[test]
 fn point_light_inverse_square_law() {
-    let (mut fp, mut ft) = rectangle();
-    transform_mesh(&Mat4::from_scale(Vec3::splat(20.0)), &mut fp, &mut ft);
     for (height, px) in [(1.0f32, 0.0f32), (2.0, 0.0), (2.0, 1.5)] {
-        let target = Vec3::new(px, 0.0, 0.0);
-        let camera = PinholeCamera::look_at(
-            target + Vec3::new(0.0, -0.5, 0.5),
-            target,
-            Vec3::Z,
-            0.5,
-            3,
-            3,
-        )
-        .unwrap();
-        let film = render_scene(SceneDescription {
-            meshes: vec![mesh("floor", (fp.clone(), ft.clone()), 0, None)],
-            materials: vec![material("floor", 0.7)],
-            point_lights: vec![plsr::light::PointLight {
-                position: Vec3::new(0.0, 0.0, height),
-                intensity: Vec3::splat(5.0),
-                cone: None,
-            }],
-            camera: camera.into(),
-            film: Default::default(),
-            directional_lights: Vec::new(),
-            environment: None,
-            job: RenderJob {
-                spp: 4,
-                max_depth: 1,
-                seed: 0,
-                sample_start: 0,
-                hide_virtual: false,
-                ..Default::default()
-            },
-            robust: false,
-        });
+        let got = floor_lit_by(
+            plsr::light::PointLight::isotropic(Vec3::new(0.0, 0.0, height), Vec3::splat(5.0)),
+            px,
+        );
         let r2 = height * height + px * px;
         let cos = height / r2.sqrt();
         let want = 0.7 / std::f32::consts::PI * 5.0 * cos / r2;
-        let got = film.color[film.index(1, 1)].x;
         assert!(
             (got - want).abs() < 0.005 * want,
             "h={height}, x={px}: {got} vs {want}"
         );
     }
+}
+
+/// The radiance of a diffuse floor (albedo 0.7, `z = 0`) lit by `light`
+/// alone, seen at `(px, 0, 0)` by a narrow camera (the red channel of the
+/// centre of 3 × 3 pixels, 4 spp, direct light only).
+fn floor_lit_by(light: plsr::light::PointLight, px: f32) -> f32 {
+    let (mut fp, mut ft) = rectangle();
+    transform_mesh(&Mat4::from_scale(Vec3::splat(20.0)), &mut fp, &mut ft);
+    let target = Vec3::new(px, 0.0, 0.0);
+    let camera = PinholeCamera::look_at(
+        target + Vec3::new(0.0, -0.5, 0.5),
+        target,
+        Vec3::Z,
+        0.5,
+        3,
+        3,
+    )
+    .unwrap();
+    let film = render_scene(SceneDescription {
+        meshes: vec![mesh("floor", (fp, ft), 0, None)],
+        materials: vec![material("floor", 0.7)],
+        point_lights: vec![light],
+        camera: camera.into(),
+        film: Default::default(),
+        directional_lights: Vec::new(),
+        environment: None,
+        job: RenderJob {
+            spp: 4,
+            max_depth: 1,
+            ..Default::default()
+        },
+        robust: false,
+    });
+    film.color[film.index(1, 1)].x
 }
 
 /// A spot light as Mitsuba 3.9.1's `spot` computes it (`sample_direction`
@@ -363,25 +366,11 @@ fn spot_light_matches_mitsubas_numbers() {
 /// the cutoff not at all.
 #[test]
 fn spot_light_lights_the_floor_inside_its_cone() {
-    let (mut fp, mut ft) = rectangle();
-    transform_mesh(&Mat4::from_scale(Vec3::splat(20.0)), &mut fp, &mut ft);
     let height = 2.0f32;
     let (cutoff, beam) = (40f32, 20f32);
     for px in [0.3f32, 1.2, 2.5] {
-        let target = Vec3::new(px, 0.0, 0.0);
-        let camera = PinholeCamera::look_at(
-            target + Vec3::new(0.0, -0.5, 0.5),
-            target,
-            Vec3::Z,
-            0.5,
-            3,
-            3,
-        )
-        .unwrap();
-        let film = render_scene(SceneDescription {
-            meshes: vec![mesh("floor", (fp.clone(), ft.clone()), 0, None)],
-            materials: vec![material("floor", 0.7)],
-            point_lights: vec![plsr::light::PointLight {
+        let got = floor_lit_by(
+            plsr::light::PointLight {
                 position: Vec3::new(0.0, 0.0, height),
                 intensity: Vec3::splat(5.0),
                 cone: Some(plsr::light::spot_cone(
@@ -389,24 +378,14 @@ fn spot_light_lights_the_floor_inside_its_cone() {
                     cutoff.to_radians(),
                     beam.to_radians(),
                 )),
-            }],
-            camera: camera.into(),
-            film: Default::default(),
-            directional_lights: Vec::new(),
-            environment: None,
-            job: RenderJob {
-                spp: 4,
-                max_depth: 1,
-                ..Default::default()
             },
-            robust: false,
-        });
+            px,
+        );
         let r2 = height * height + px * px;
         let cos = height / r2.sqrt();
         let theta = (px / height).atan().to_degrees();
         let falloff = ((cutoff - theta) / (cutoff - beam)).clamp(0.0, 1.0);
         let want = 0.7 / std::f32::consts::PI * 5.0 * falloff * cos / r2;
-        let got = film.color[film.index(1, 1)].x;
         assert!(
             (got - want).abs() <= 0.005 * want + 1e-7,
             "x={px} ({theta:.1}°): {got} vs {want}"
@@ -434,14 +413,7 @@ fn directional_light_lights_a_floor_by_the_cosine_law() {
             ),
         )
         .unwrap();
-        let scene = Scene::load(&scene).unwrap();
-        let (film, _) = render(
-            &scene,
-            &scene.default_job(),
-            &RenderOptions::default(),
-            &|_, _| true,
-        )
-        .unwrap();
+        let film = render_scene(plsr::scene::file::load(&scene).unwrap());
         for (k, e) in [2.0f32, 3.0, 4.0].into_iter().enumerate() {
             let want = 0.7 / std::f32::consts::PI * e * c;
             for px in &film.color {
@@ -474,14 +446,7 @@ fn thin_dielectric_sphere_in_a_furnace_is_invisible() {
     };
     let path = dir.path().join("t.toml");
     std::fs::write(&path, text(1.0)).unwrap();
-    let scene = Scene::load(&path).unwrap();
-    let (film, _) = render(
-        &scene,
-        &scene.default_job(),
-        &RenderOptions::default(),
-        &|_, _| true,
-    )
-    .unwrap();
+    let film = render_scene(plsr::scene::file::load(&path).unwrap());
     for c in &film.color {
         assert!((c.x - 1.0).abs() < 1e-5, "{c}");
     }
@@ -489,14 +454,7 @@ fn thin_dielectric_sphere_in_a_furnace_is_invisible() {
     // first: with transmittance 0.5 the centre pixel is R′ + (1 − R′)·(…)
     // < 1, and never below 0.25.
     std::fs::write(&path, text(0.5)).unwrap();
-    let scene = Scene::load(&path).unwrap();
-    let (film, _) = render(
-        &scene,
-        &scene.default_job(),
-        &RenderOptions::default(),
-        &|_, _| true,
-    )
-    .unwrap();
+    let film = render_scene(plsr::scene::file::load(&path).unwrap());
     let centre = film.color[film.index(4, 4)].x;
     assert!(centre < 0.9 && centre > 0.25, "{centre}");
 }

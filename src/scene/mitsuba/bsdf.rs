@@ -289,15 +289,7 @@ impl<'a> Translator<'a> {
         t: &mut Table,
     ) -> Result<()> {
         set(t, "type", Value::String("dielectric".into()));
-        let int_ior = self.ior(p, "int_ior", 1.5046)?;
-        let ext_ior = self.ior(p, "ext_ior", 1.000277)?;
-        if !(int_ior > 0.0 && ext_ior > 0.0) || int_ior == ext_ior {
-            return Err(self.err(
-                node,
-                format!("int_ior {int_ior} and ext_ior {ext_ior} must be positive and differ"),
-            ));
-        }
-        set(t, "ior", float(int_ior / ext_ior));
+        set(t, "ior", float(self.relative_ior(node, p)?));
         if kind == "roughdielectric" {
             self.roughness(p, t, node)?;
         }
@@ -320,6 +312,18 @@ impl<'a> Translator<'a> {
         t: &mut Table,
     ) -> Result<()> {
         set(t, "type", Value::String("thin_dielectric".into()));
+        set(t, "ior", float(self.relative_ior(node, p)?));
+        for s in ["specular_reflectance", "specular_transmittance"] {
+            if let Some(v) = self.take_rgb(p, s, SpectrumUse::Reflectance)? {
+                set(t, s, vec3(v));
+            }
+        }
+        Ok(())
+    }
+
+    /// `int_ior / ext_ior` of a dielectric (defaults bk7 inside, air
+    /// outside), refused unless both are positive and they differ.
+    fn relative_ior(&self, node: &'a Element, p: &mut Params<'a>) -> Result<f64> {
         let int_ior = self.ior(p, "int_ior", 1.5046)?;
         let ext_ior = self.ior(p, "ext_ior", 1.000277)?;
         if !(int_ior > 0.0 && ext_ior > 0.0) || int_ior == ext_ior {
@@ -328,13 +332,7 @@ impl<'a> Translator<'a> {
                 format!("int_ior {int_ior} and ext_ior {ext_ior} must be positive and differ"),
             ));
         }
-        set(t, "ior", float(int_ior / ext_ior));
-        for s in ["specular_reflectance", "specular_transmittance"] {
-            if let Some(v) = self.take_rgb(p, s, SpectrumUse::Reflectance)? {
-                set(t, s, vec3(v));
-            }
-        }
-        Ok(())
+        Ok(int_ior / ext_ior)
     }
 
     /// An index of refraction: a number or one of Mitsuba's named materials
