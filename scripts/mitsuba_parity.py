@@ -318,7 +318,10 @@ def _walk(info, path, out_path, path_dirs, depth, including_dir=None):
                     if sub_out is None:
                         tag_ = hashlib.sha1(str(found).encode()).hexdigest()[:10]
                         sub_out = info.out_root / "_included" / tag_ / found.name
-                        child.set("filename", str(sub_out))
+                        # Relative to the including copy, so that the copy
+                        # still finds it once moved into a fixture folder.
+                        child.set("filename",
+                                  os.path.relpath(sub_out, Path(out_path).parent))
                     sub_out.parent.mkdir(parents=True, exist_ok=True)
                 _walk(info, found, sub_out, paths, depth + 1, including_dir=str(here))
             elif tag == "sensor":

@@ -18,12 +18,16 @@
 //!   `filter_border = "clip"` (Mitsuba's films: samples are only taken
 //!   on the film), a pixel near the edge draws its offsets from the
 //!   Gaussian restricted to the film, `[−x − ½, width − x − ½]` across.
+//! - [`PixelFilter::Tent`]: `max(0, 1 − |t|/radius)` per axis, separable
+//!   (Mitsuba's `tent`, radius 1 pixel by default), drawn by inverting its
+//!   piecewise-quadratic distribution function exactly; clipped at the
+//!   border like the Gaussian.
 //!
 //! ```toml
 //! [film]
-//! filter = "gaussian"   # or "box" (the default)
-//! filter_sigma = 0.5    # pixels
-//! filter_radius = 1.5   # pixels
+//! filter = "gaussian"   # or "box" (the default), or "tent"
+//! filter_sigma = 0.5    # pixels (Gaussian only)
+//! filter_radius = 1.5   # pixels (Gaussian: 1.5, tent: 1)
 //! filter_border = "extend"  # or "clip": keep samples on the film
 //! ```
 
@@ -34,6 +38,9 @@ pub const DEFAULT_GAUSSIAN_SIGMA: f32 = 0.5;
 /// Default radius of the Gaussian filter, pixels.
 pub const DEFAULT_GAUSSIAN_RADIUS: f32 = 1.5;
 
+/// Default radius of the tent filter, pixels (Mitsuba's).
+pub const DEFAULT_TENT_RADIUS: f32 = 1.0;
+
 /// A pixel reconstruction filter.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum PixelFilter {
@@ -42,6 +49,86 @@ pub enum PixelFilter {
     Box,
     /// Truncated Gaussian around the pixel centre.
     Gaussian(GaussianFilter),
+    /// Separable tent (triangle) around the pixel centre.
+    Tent(TentFilter),
+}
+
+/// A separable tent filter, `max(0, 1 − |t|/radius)` on each axis; build it
+/// with [`TentFilter::new`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TentFilter {
+    /// Where the tent reaches 0, pixels from the centre.
+    pub radius: f32,
+    /// Whether a pixel's samples stay on the film (`filter_border = "clip"`).
+    pub clip_at_border: bool,
+}
+
+/// A tent radius outside (0, 64] pixels.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("radius must be in (0, 64] pixels, got {0}")]
+pub struct BadTent(pub f32);
+
+impl TentFilter {
+    /// A tent reaching 0 at `radius` pixels (in `(0, 64]`).
+    pub fn new(radius: f32) -> Result<TentFilter, BadTent> {
+        if !(radius > 0.0 && radius <= 64.0) {
+            return Err(BadTent(radius));
+        }
+        Ok(TentFilter {
+            radius,
+            clip_at_border: false,
+        })
+    }
+
+    /// The same filter keeping every pixel's samples on the film (`true`)
+    /// or letting them fall beyond its edges.
+    pub fn clipped_at_border(self, clip: bool) -> TentFilter {
+        TentFilter {
+            clip_at_border: clip,
+            ..self
+        }
+    }
+
+    /// The tent's distribution function at `t` (pixels from the centre).
+    #[inline]
+    fn cdf(&self, t: f32) -> f32 {
+        let s = (t / self.radius).clamp(-1.0, 1.0);
+        if s < 0.0 {
+            0.5 * (1.0 + s) * (1.0 + s)
+        } else {
+            1.0 - 0.5 * (1.0 - s) * (1.0 - s)
+        }
+    }
+
+    /// The inverse of [`TentFilter::cdf`] at `c ∈ [0, 1]`.
+    #[inline]
+    fn inverse_cdf(&self, c: f32) -> f32 {
+        let s = if c < 0.5 {
+            (2.0 * c).sqrt() - 1.0
+        } else {
+            1.0 - (2.0 * (1.0 - c)).max(0.0).sqrt()
+        };
+        s * self.radius
+    }
+
+    /// One axis of pixel `x` of `size`: the tent, or near an edge of a
+    /// clipped filter the tent restricted to the film.
+    #[inline]
+    fn sample_axis(&self, u: f32, x: u32, size: u32) -> f32 {
+        let centre = x as f32 + 0.5;
+        let (lo, hi) = (-centre, size as f32 - centre);
+        if !self.clip_at_border || (lo <= -self.radius && hi >= self.radius) {
+            return self.inverse_cdf(u).clamp(-self.radius, self.radius);
+        }
+        let (lo, hi) = (lo.max(-self.radius), hi.min(self.radius));
+        let (c_lo, c_hi) = (self.cdf(lo), self.cdf(hi));
+        self.inverse_cdf(c_lo + u * (c_hi - c_lo)).clamp(lo, hi)
+    }
+
+    /// Normalised 1D density at offset `t` from the pixel centre (pixels).
+    pub fn pdf_1d(&self, t: f32) -> f32 {
+        (1.0 - t.abs() / self.radius).max(0.0) / self.radius
+    }
 }
 
 /// A truncated Gaussian filter; build it with [`GaussianFilter::new`].
@@ -149,6 +236,19 @@ impl PixelFilter {
                 0.5 + g.sample_axis(u.x, pixel[0], size[0]),
                 0.5 + g.sample_axis(u.y, pixel[1], size[1]),
             ),
+            PixelFilter::Tent(t) => Vec2::new(
+                0.5 + t.sample_axis(u.x, pixel[0], size[0]),
+                0.5 + t.sample_axis(u.y, pixel[1], size[1]),
+            ),
+        }
+    }
+
+    /// Whether edge pixels keep their samples on the film.
+    pub fn clips_at_border(&self) -> bool {
+        match self {
+            PixelFilter::Box => true,
+            PixelFilter::Gaussian(g) => g.clip_at_border,
+            PixelFilter::Tent(t) => t.clip_at_border,
         }
     }
 
@@ -157,6 +257,7 @@ impl PixelFilter {
         match self {
             PixelFilter::Box => 0.5,
             PixelFilter::Gaussian(g) => g.radius,
+            PixelFilter::Tent(t) => t.radius,
         }
     }
 
@@ -165,6 +266,7 @@ impl PixelFilter {
         match self {
             PixelFilter::Box => "box",
             PixelFilter::Gaussian(_) => "gaussian",
+            PixelFilter::Tent(_) => "tent",
         }
     }
 }
@@ -245,6 +347,24 @@ mod tests {
             assert!((erf(y) - x).abs() < 2e-6 * (1.0 + x.abs()), "{x}: {y}");
         }
         assert!((erf(erfinv(0.999_99) as f64) - 0.999_99).abs() < 1e-6);
+    }
+
+    #[test]
+    fn tent_inverse_cdf_inverts_cdf_and_clips() {
+        let t = TentFilter::new(1.5).unwrap();
+        for i in 0..=1000 {
+            let c = i as f32 / 1000.0;
+            let x = t.inverse_cdf(c);
+            assert!((t.cdf(x) - c).abs() < 2e-6, "{c}: {x}");
+            assert!(x.abs() <= 1.5);
+        }
+        assert_eq!(t.inverse_cdf(0.5), 0.0);
+        assert!(TentFilter::new(0.0).is_err() && TentFilter::new(65.0).is_err());
+        let c = PixelFilter::Tent(t.clipped_at_border(true));
+        for u in [0.0, 1e-7, 0.5, 0.999_999_94] {
+            let s = c.sample(Vec2::splat(u), [0, 0], [10, 10]);
+            assert!(s.min_element() >= 0.0 && s.max_element() <= 2.0, "{s}");
+        }
     }
 
     #[test]

@@ -10,6 +10,7 @@
 //! | `roughness` (linear, red channel) | roughness (α = r²) | `principled`, `cook_torrance` |
 //! | `metallic` (linear, red channel) | metallic | `principled` |
 //! | `normal` (linear, tangent space) | the shading normal | all |
+//! | `bump` (linear height, luminance) | the shading normal, by its slopes | all |
 //!
 //! A normal map holds tangent-space normals (OpenGL and glTF convention:
 //! red +x along increasing u, green +y along increasing v, blue +z along
@@ -18,7 +19,7 @@
 //! coordinates, the integrators tilt the shading normal by it
 //! (`SurfacePoint` in `integrator/mod.rs`); elsewhere it is ignored.
 
-use crate::bsdf::{microfacet::alpha_from_roughness, Bsdf, Microfacet};
+use crate::bsdf::{microfacet::alpha_from_roughness, Bsdf, Microfacet, Mixture, Scatter};
 use crate::texture::ImageTexture;
 use glam::Vec2;
 use std::sync::Arc;
@@ -36,10 +37,16 @@ pub struct MaterialTextures {
     pub normal: Option<Arc<ImageTexture>>,
     /// The tangent frame the normal map's directions are in.
     pub normal_frame: NormalFrame,
-    /// Whether light reaching a normal-mapped surface at grazing angles is
-    /// attenuated by Estevez et al.'s shadowing term (Mitsuba's
-    /// `normalmap` does by default; see `integrator::general`).
+    /// Whether light reaching a normal- or bump-mapped surface at grazing
+    /// angles is attenuated by Estevez et al.'s shadowing term (Mitsuba's
+    /// `normalmap` and `bumpmap` do by default; see `integrator::general`).
     pub normal_shadowing: bool,
+    /// A height field whose slopes tilt the shading normal (Mitsuba's
+    /// `bumpmap`): its luminance, in scene units per unit of `uv`, times
+    /// `bump_scale`.
+    pub bump: Option<Arc<ImageTexture>>,
+    /// The height field's scale (Mitsuba's `scale`).
+    pub bump_scale: f32,
 }
 
 /// The tangent frame of a normal map: its x axis is always along ∂p/∂u
@@ -72,6 +79,13 @@ impl MaterialTextures {
             && self.roughness.is_none()
             && self.metallic.is_none()
             && self.normal.is_none()
+            && self.bump.is_none()
+    }
+
+    /// Whether the shadow terminator applies: a normal or bump map with
+    /// `normal_shadowing`.
+    pub fn terminator(&self) -> bool {
+        self.normal_shadowing && (self.normal.is_some() || self.bump.is_some())
     }
 }
 
@@ -90,6 +104,146 @@ pub struct Material {
     /// as Mitsuba renders a BSDF without `twosided`. Transmissive BSDFs
     /// have two sides whatever this says.
     pub two_sided: bool,
+    /// A mixture of materials and a pass-through (`blend`, `mask`, `null`,
+    /// or another material behind: see [`Composite`]); then `bsdf` and
+    /// `textures` are its first part's and only the surface's normal map
+    /// applies from `textures`.
+    pub composite: Option<Arc<Composite>>,
+}
+
+/// A material made of others: per side of the surface, layers each of
+/// which is a leaf material or a straight pass-through, with weights that
+/// sum to 1 (see [`crate::bsdf::mixture`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Composite {
+    /// The layers seen from the front (the side the geometric normal
+    /// faces), and from behind unless `back` is given.
+    pub front: Vec<Layer>,
+    /// The layers seen from behind, where the two sides differ.
+    pub back: Option<Vec<Layer>>,
+}
+
+/// One layer of a [`Composite`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Layer {
+    /// The leaf material (its own textures; never a composite), or `None`
+    /// for a straight pass-through (Mitsuba's `null`).
+    pub material: Option<Material>,
+    /// Its weight: a product of constants and scalar maps.
+    pub weight: Weight,
+}
+
+/// A layer's weight at a surface point: the product of its factors.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Weight(pub Vec<WeightFactor>);
+
+/// One factor of a [`Weight`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum WeightFactor {
+    /// A constant in `[0, 1]`.
+    Constant(f32),
+    /// A map's luminance at the point, clamped to `[0, 1]`, or one minus
+    /// it (`complement`).
+    Map {
+        /// The map (linear values).
+        map: Arc<ImageTexture>,
+        /// Whether the factor is `1 − value`.
+        complement: bool,
+    },
+}
+
+impl Weight {
+    /// The weight at surface coordinates `uv`.
+    #[inline]
+    pub fn at(&self, uv: Vec2) -> f32 {
+        self.0.iter().fold(1.0, |w, f| {
+            w * match f {
+                WeightFactor::Constant(c) => *c,
+                WeightFactor::Map { map, complement } => {
+                    let v = crate::color::luminance(map.eval(uv)).clamp(0.0, 1.0);
+                    if *complement {
+                        1.0 - v
+                    } else {
+                        v
+                    }
+                }
+            }
+        })
+    }
+
+    /// Whether a factor is a map (the weight needs texture coordinates).
+    pub fn is_mapped(&self) -> bool {
+        self.0.iter().any(|f| matches!(f, WeightFactor::Map { .. }))
+    }
+
+    /// This weight times `factor`.
+    pub fn times(&self, factor: WeightFactor) -> Weight {
+        let mut w = self.clone();
+        w.0.push(factor);
+        w
+    }
+}
+
+impl Composite {
+    /// Every leaf material, front then back.
+    pub fn leaves(&self) -> impl Iterator<Item = &Material> {
+        self.front
+            .iter()
+            .chain(self.back.iter().flatten())
+            .filter_map(|l| l.material.as_ref())
+    }
+
+    /// Whether light can pass through the surface: a pass-through layer or
+    /// a transmissive leaf.
+    pub fn transmits(&self) -> bool {
+        self.front
+            .iter()
+            .chain(self.back.iter().flatten())
+            .any(|l| l.material.as_ref().is_none_or(|m| m.bsdf.transmits()))
+    }
+
+    /// Whether some weight or leaf needs texture coordinates.
+    pub fn needs_uv(&self) -> bool {
+        self.front
+            .iter()
+            .chain(self.back.iter().flatten())
+            .any(|l| {
+                l.weight.is_mapped() || l.material.as_ref().is_some_and(|m| !m.textures.is_empty())
+            })
+    }
+
+    /// The mixture at `uv` seen from the front or from `behind`: the side's
+    /// layers with their weights; on the back, a leaf without two sides is
+    /// black (its weight absorbed), and where the mixture transmits (the
+    /// frame is the geometric outside) the others are mirrored. `None` if
+    /// the side has more parts than a [`Mixture`] holds.
+    pub fn scatter_at(&self, uv: Vec2, behind: bool) -> Option<Scatter> {
+        let layers = match (&self.back, behind) {
+            (Some(back), true) => back,
+            _ => &self.front,
+        };
+        let transmits = self.transmits();
+        let mut mix = Mixture::new();
+        for layer in layers {
+            let w = layer.weight.at(uv);
+            match &layer.material {
+                None => mix.pass_through(w),
+                Some(m) => {
+                    let opaque = !m.bsdf.transmits();
+                    // A separate back side's leaves face the viewer there.
+                    let own_side = behind && self.back.is_some();
+                    if behind && opaque && !own_side && !m.two_sided {
+                        continue;
+                    }
+                    let flip = behind && opaque && transmits;
+                    if !mix.push(m.bsdf_at(uv), w, flip) {
+                        return None;
+                    }
+                }
+            }
+        }
+        Some(Scatter::Mix(mix))
+    }
 }
 
 impl Material {
@@ -100,6 +254,33 @@ impl Material {
             bsdf,
             textures: MaterialTextures::default(),
             two_sided: true,
+            composite: None,
+        }
+    }
+
+    /// Whether light can pass through the surface.
+    pub fn transmits(&self) -> bool {
+        match &self.composite {
+            Some(c) => c.transmits(),
+            None => self.bsdf.transmits(),
+        }
+    }
+
+    /// Whether shading needs the texture coordinates at the hit.
+    pub fn needs_uv(&self) -> bool {
+        !self.textures.is_empty() || self.composite.as_ref().is_some_and(|c| c.needs_uv())
+    }
+
+    /// The scattering at `uv`, seen from the front or from `behind` the
+    /// geometric normal: [`Material::bsdf_at`], or a composite's mixture.
+    #[inline]
+    pub fn scatter_at(&self, uv: Vec2, behind: bool) -> Scatter {
+        match &self.composite {
+            None => Scatter::One(self.bsdf_at(uv)),
+            // A side with too many parts is refused when the scene is built.
+            Some(c) => c
+                .scatter_at(uv, behind)
+                .unwrap_or(Scatter::Mix(Mixture::new())),
         }
     }
 
@@ -119,7 +300,7 @@ impl Material {
     /// surface: the path ends there.
     #[inline(always)]
     pub fn black_from(&self, ng: glam::Vec3, dir: glam::Vec3) -> bool {
-        !self.two_sided && !self.bsdf.transmits() && ng.dot(dir) > 0.0
+        !self.two_sided && self.composite.is_none() && !self.bsdf.transmits() && ng.dot(dir) > 0.0
     }
 
     /// The BSDF at surface coordinates `uv`: the constant BSDF with its

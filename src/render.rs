@@ -342,13 +342,16 @@ pub fn render_gradient(
             "the gradient map was made for another scene",
         ));
     }
-    if let Some(m) = scene
-        .materials()
-        .iter()
-        .find(|m| m.textures.normal_shadowing && m.textures.normal.is_some())
-    {
+    if let Some(m) = scene.materials().iter().find(|m| m.textures.terminator()) {
         return Err(Error::invalid_argument(format!(
             "material `{}`: normal_shadowing is not differentiated (fit without it)",
+            m.name
+        )));
+    }
+    if let Some(m) = scene.materials().iter().find(|m| m.composite.is_some()) {
+        return Err(Error::invalid_argument(format!(
+            "material `{}`: blends, masks and two-faced materials are not differentiated \
+             (fit a scene without them)",
             m.name
         )));
     }

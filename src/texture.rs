@@ -265,6 +265,41 @@ impl ImageTexture {
     }
 }
 
+impl ImageTexture {
+    /// The derivatives `(∂T/∂u, ∂T/∂v)` of the bilinear lookup at `uv`
+    /// (per unit of the surface's texture coordinates, through `to_uv`):
+    /// the bilinear interpolant's own slopes, constant across a cell, as
+    /// Mitsuba's `bitmap` differentiates for `bumpmap`. Zero for nearest
+    /// lookups (a step function).
+    pub fn eval_gradient(&self, uv: Vec2) -> [Vec3; 2] {
+        let ([a, b, c], [d, e, f]) = match self.sampling.to_uv {
+            None => ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+            Some([r0, r1]) => (r0, r1),
+        };
+        let st = Vec2::new(a * uv.x + b * uv.y + c, d * uv.x + e * uv.y + f);
+        if self.sampling.filter == Filter::Nearest {
+            return [Vec3::ZERO; 2];
+        }
+        let (w, h) = (self.width as f32, self.height as f32);
+        let x = st.x * w - 0.5;
+        let y = (1.0 - st.y) * h - 0.5;
+        if !(x.is_finite() && y.is_finite()) {
+            return [Vec3::ZERO; 2];
+        }
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let (t00, t10) = (self.texel(x0, y0), self.texel(x0 + 1, y0));
+        let (t01, t11) = (self.texel(x0, y0 + 1), self.texel(x0 + 1, y0 + 1));
+        // Slopes per texel along x (right) and y (down the rows).
+        let dx = (t10 - t00) * (1.0 - fy) + (t11 - t01) * fy;
+        let dy = (t01 - t00) * (1.0 - fx) + (t11 - t10) * fx;
+        // Per unit of the looked-up (s, t): x = s·w − ½, y = (1 − t)·h − ½.
+        let (ds, dt) = (dx * w, -dy * h);
+        [ds * a + dt * d, ds * b + dt * e]
+    }
+}
+
 /// Loads a texture for a scene field, turning failures into input errors.
 pub fn load_for(
     scene_file: &Path,
@@ -282,6 +317,38 @@ mod tests {
     fn checker() -> ImageTexture {
         // Top row red, green; bottom row blue, white.
         ImageTexture::from_texels(2, 2, vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE])
+    }
+
+    #[test]
+    fn the_gradient_is_the_bilinear_lookups_slope() {
+        // A ramp along u and a ramp down v, through a to_uv map.
+        let texels = (0..16)
+            .map(|i| Vec3::new((i % 4) as f32 * 0.1, (i / 4) as f32 * 0.2, 0.0))
+            .collect();
+        let t = ImageTexture::from_texels(4, 4, texels).with_sampling(Sampling {
+            to_uv: Some([[2.0, 0.5, 0.0], [0.0, 1.0, 0.0]]),
+            ..Sampling::default()
+        });
+        let uv = Vec2::new(0.2, 0.4);
+        let [du, dv] = t.eval_gradient(uv);
+        let h = 1e-3;
+        let fd = |d: Vec2| (t.eval(uv + d * h) - t.eval(uv - d * h)) / (2.0 * h);
+        assert!(
+            (du - fd(Vec2::X)).abs().max_element() < 1e-2,
+            "{du} vs {}",
+            fd(Vec2::X)
+        );
+        assert!(
+            (dv - fd(Vec2::Y)).abs().max_element() < 1e-2,
+            "{dv} vs {}",
+            fd(Vec2::Y)
+        );
+        assert!(du.x > 0.0 && dv.y < 0.0, "rows run down: {du} {dv}");
+        let nearest = t.clone().with_sampling(Sampling {
+            filter: Filter::Nearest,
+            ..t.sampling
+        });
+        assert_eq!(nearest.eval_gradient(uv), [Vec3::ZERO; 2]);
     }
 
     #[test]

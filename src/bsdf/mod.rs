@@ -51,6 +51,7 @@ pub mod albedo;
 pub mod fresnel;
 pub mod gradient;
 pub mod microfacet;
+pub mod mixture;
 pub mod models;
 pub mod plastic;
 mod table_cache;
@@ -59,6 +60,7 @@ pub mod thin_dielectric;
 pub use fresnel::METALS;
 pub use gradient::{BsdfGradient, BsdfParam, ALL_PARAMS, BSDF_PARAMS};
 pub use microfacet::{Distribution, Microfacet};
+pub use mixture::{Mixture, Scatter};
 pub use models::{
     lambert_eval, lambert_pdf, lambert_sample, BlinnPhongParams, CookTorranceParams,
     DielectricParams, DiffuseParams, Fresnel, ParamError, PrincipledParams,

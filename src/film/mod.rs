@@ -52,7 +52,7 @@ pub use sums::{FilmSums, PixelSums, Tile};
 
 use crate::color::white_balance_matrix;
 use crate::error::{Error, Result};
-use crate::filter::{GaussianFilter, PixelFilter};
+use crate::filter::{GaussianFilter, PixelFilter, TentFilter};
 use exr::prelude::{self as exrp, AnyChannel, AnyChannels, FlatSamples, WritableImage};
 use glam::{Mat3, Vec3};
 use std::path::Path;
@@ -540,9 +540,12 @@ impl Film {
         if let PixelFilter::Gaussian(g) = &s.filter {
             out.push((t("plsrFilterSigma"), F32(g.sigma)));
             out.push((t("plsrFilterRadius"), F32(g.radius)));
-            if g.clip_at_border {
-                out.push((t("plsrFilterBorder"), T(t("clip"))));
-            }
+        }
+        if let PixelFilter::Tent(f) = &s.filter {
+            out.push((t("plsrFilterRadius"), F32(f.radius)));
+        }
+        if !matches!(s.filter, PixelFilter::Box) && s.filter.clips_at_border() {
+            out.push((t("plsrFilterBorder"), T(t("clip"))));
         }
         if let Some(k) = s.white_balance_k {
             out.push((t("plsrWhiteBalance"), F32(k)));
@@ -609,18 +612,22 @@ fn settings_from_header(layer: &exrp::LayerAttributes) -> FilmSettings {
         _ => None,
     };
     let mut s = FilmSettings::default();
+    let clip = matches!(
+        attrs.get(&exrp::Text::from("plsrFilterBorder")),
+        Some(exrp::AttributeValue::Text(b)) if b == "clip"
+    );
     if let Some(exrp::AttributeValue::Text(name)) = attrs.get(&exrp::Text::from("plsrFilter")) {
         if name == "gaussian" {
             if let (Some(sigma), Some(radius)) =
                 (f32_of("plsrFilterSigma"), f32_of("plsrFilterRadius"))
             {
                 if let Ok(g) = GaussianFilter::new(sigma, radius) {
-                    let clip = matches!(
-                        attrs.get(&exrp::Text::from("plsrFilterBorder")),
-                        Some(exrp::AttributeValue::Text(b)) if b == "clip"
-                    );
                     s.filter = PixelFilter::Gaussian(g.clipped_at_border(clip));
                 }
+            }
+        } else if name == "tent" {
+            if let Some(Ok(f)) = f32_of("plsrFilterRadius").map(TentFilter::new) {
+                s.filter = PixelFilter::Tent(f.clipped_at_border(clip));
             }
         }
     }

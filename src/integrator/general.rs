@@ -6,7 +6,7 @@
 use super::spawn::{ray_epsilon, shadow_segment, spawn_origin};
 use super::steps::*;
 use crate::accel::{Ray, RayHit, ShadowRay};
-use crate::bsdf::Bsdf;
+use crate::bsdf::Scatter;
 use crate::film::{PixelSums, Tile};
 use crate::job::RenderJob;
 use crate::light::{Light, LightSample};
@@ -451,8 +451,8 @@ struct SurfaceHit<'a> {
     /// Whether the mesh has vertex normals (then the light-leak guard
     /// applies, see [`sides_agree`]).
     guard: bool,
-    /// The material's BSDF at the hit (its textures looked up).
-    bsdf: Bsdf,
+    /// The material's scattering at the hit (its textures looked up).
+    bsdf: Scatter,
     /// The normal before the normal map tilted it and `α²` of the shadow
     /// terminator's microfacets (0: no attenuation), see
     /// [`SurfaceHit::terminator`].
@@ -476,17 +476,16 @@ impl<'a> SurfaceHit<'a> {
         let wo = -ray.dir;
         let ng = hit.ng.normalize_or_zero();
         let facing = if ng.dot(wo) >= 0.0 { ng } else { -ng };
-        let bsdf = if material.textures.is_empty() {
-            material.bsdf
+        let bsdf = if material.textures.is_empty() && material.composite.is_none() {
+            Scatter::One(material.bsdf)
         } else {
-            material.bsdf_at(surface.uv)
+            material.scatter_at(surface.uv, ng.dot(wo) < 0.0)
         };
         // Opaque surfaces are two-sided: shade in the frame facing the viewer.
         // Transmissive ones keep the geometric normal as their outside.
         let n = if bsdf.transmits() { ng } else { facing };
         let shading_n = surface.shading_normal(n, wo);
-        let terminator = if material.textures.normal_shadowing && material.textures.normal.is_some()
-        {
+        let terminator = if material.textures.terminator() {
             // Estevez et al. 2019: the tilt of the mapped normal from the
             // unmapped one sets the roughness of a microfacet surface,
             // `α² = min(tan²θ / 8, 1)`.

@@ -93,7 +93,7 @@ impl SurfacePoint {
         hit: &crate::accel::Hit,
         material: &crate::scene::Material,
     ) -> SurfacePoint {
-        let has_uv = !material.textures.is_empty() && !mesh.uvs.is_empty();
+        let has_uv = material.needs_uv() && !mesh.uvs.is_empty();
         if !has_uv && mesh.normals.is_empty() {
             return SurfacePoint {
                 uv: Vec2::ZERO,
@@ -125,16 +125,20 @@ impl SurfacePoint {
             (mesh.normals[i0] * b0 + mesh.normals[i1] * b1 + mesh.normals[i2] * b2).try_normalize()
         };
         let base_normal = normal;
-        let normal = match &material.textures.normal {
-            Some(map) if has_uv => Self::normal_mapped(
+        let t = &material.textures;
+        let normal = match (&t.normal, &t.bump) {
+            (Some(map), _) if has_uv => Self::normal_mapped(
                 mesh,
                 [i0, i1, i2],
                 [b0, b1, b2],
                 uv,
                 normal,
                 map,
-                material.textures.normal_frame,
+                t.normal_frame,
             ),
+            (None, Some(height)) if has_uv => {
+                Self::bump_mapped(mesh, [i0, i1, i2], uv, normal, height, t.bump_scale)
+            }
             _ => normal,
         };
         SurfacePoint {
@@ -209,6 +213,48 @@ impl SurfacePoint {
             Some(ns) => shading_normal_towards(ns, n, wo),
             None => n,
         }
+    }
+
+    /// The shading normal tilted by a height field at `uv` (Mitsuba's
+    /// `bumpmap`): with `g = scale·∇h` the height's slopes per unit of u
+    /// and v, the surface's derivatives `∂p/∂u`, `∂p/∂v` (the triangle's)
+    /// get `g` as their component along the normal `n` (the interpolated
+    /// normal, or the triangle's), `∂p/∂u' = ∂p/∂u + n·(g_u − n·∂p/∂u)`,
+    /// and the tilted normal is `∂p/∂u' × ∂p/∂v'`, on the triangle's side.
+    /// The untilted normal where the texture coordinates are degenerate.
+    #[cold]
+    pub(crate) fn bump_mapped(
+        mesh: &crate::scene::Mesh,
+        [i0, i1, i2]: [usize; 3],
+        uv: Vec2,
+        normal: Option<Vec3>,
+        height: &crate::texture::ImageTexture,
+        scale: f32,
+    ) -> Option<Vec3> {
+        let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
+        let (dp1, dp2) = (p1 - p0, p2 - p0);
+        let ng = dp1.cross(dp2).try_normalize()?;
+        let n = normal.unwrap_or(ng);
+        let (d1, d2) = (mesh.uvs[i1] - mesh.uvs[i0], mesh.uvs[i2] - mesh.uvs[i0]);
+        let det = d1.x * d2.y - d1.y * d2.x;
+        if det.abs() <= 1e-20 {
+            return Some(n);
+        }
+        let dpdu = (dp1 * d2.y - dp2 * d1.y) / det;
+        let dpdv = (dp2 * d1.x - dp1 * d2.x) / det;
+        let [gu, gv] = height.eval_gradient(uv);
+        let (gu, gv) = (
+            scale * crate::color::luminance(gu),
+            scale * crate::color::luminance(gv),
+        );
+        let dpdu = dpdu + n * (gu - n.dot(dpdu));
+        let dpdv = dpdv + n * (gv - n.dot(dpdv));
+        let tilted = dpdu.cross(dpdv).try_normalize()?;
+        Some(if tilted.dot(ng) < 0.0 {
+            -tilted
+        } else {
+            tilted
+        })
     }
 
     /// The first tangent for anisotropic BSDFs: ∂p/∂u where the mesh has

@@ -335,6 +335,7 @@ fn read_material(
             bsdf: Bsdf::Principled(params),
             textures: t,
             two_sided: true,
+            composite: None,
         },
         e,
     ))

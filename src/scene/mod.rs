@@ -354,18 +354,34 @@ impl Scene {
         // Tabulate the albedos energy-conserving materials need now rather
         // than in the middle of the render.
         for (i, m) in materials.iter().enumerate() {
-            if let crate::bsdf::Bsdf::Principled(p) = &m.bsdf {
-                p.validate().map_err(|e| {
-                    Error::invalid_argument(format!("material {i} ({}): {e}", m.name))
-                })?;
-                p.prepare();
+            let leaves = m.composite.iter().flat_map(|c| c.leaves());
+            for leaf in std::iter::once(m).chain(leaves) {
+                if let crate::bsdf::Bsdf::Principled(p) = &leaf.bsdf {
+                    p.validate().map_err(|e| {
+                        Error::invalid_argument(format!("material {i} ({}): {e}", m.name))
+                    })?;
+                    p.prepare();
+                }
+                // The rough plastic's transmittance table, likewise.
+                if let crate::bsdf::Bsdf::RoughPlastic(p) = &leaf.bsdf {
+                    p.validate().map_err(|e| {
+                        Error::invalid_argument(format!("material {i} ({}): {e}", m.name))
+                    })?;
+                    p.prepare();
+                }
             }
-            // The rough plastic's transmittance table, likewise.
-            if let crate::bsdf::Bsdf::RoughPlastic(p) = &m.bsdf {
-                p.validate().map_err(|e| {
-                    Error::invalid_argument(format!("material {i} ({}): {e}", m.name))
-                })?;
-                p.prepare();
+            if let Some(c) = &m.composite {
+                for (side, layers) in [("front", Some(&c.front)), ("back", c.back.as_ref())] {
+                    let parts =
+                        layers.map_or(0, |l| l.iter().filter(|l| l.material.is_some()).count());
+                    if parts > crate::bsdf::mixture::MAX_PARTS {
+                        return Err(Error::invalid_argument(format!(
+                            "material {i} ({}): its {side} mixes {parts} materials (at most {})",
+                            m.name,
+                            crate::bsdf::mixture::MAX_PARTS
+                        )));
+                    }
+                }
             }
         }
         for (i, m) in meshes.iter().enumerate() {

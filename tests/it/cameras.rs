@@ -13,7 +13,7 @@ use plsr::camera::{Camera, Pose, PAPER_TABLE1};
 use plsr::color::{planckian_xy, white_balance_matrix, xy_to_xyz, xyz_to_rec709};
 use plsr::equirect::{equirect_direction, equirect_uv, SphereFrame};
 use plsr::film::Film;
-use plsr::filter::{GaussianFilter, PixelFilter};
+use plsr::filter::{GaussianFilter, PixelFilter, TentFilter};
 use plsr::render::{render, RenderOptions};
 use plsr::rng::Rng;
 use plsr::scene::file::load;
@@ -457,15 +457,80 @@ fn bad_camera_and_film_input_names_the_field() {
     }
 }
 
-/// Pearson's test of the Gaussian filter's sample positions against the
-/// truncated Gaussian, integrated numerically (independently of the erf and
-/// erfinv the sampler uses) over a grid of cells; clipped at the film's
-/// border (`filter_border = "clip"`), a pixel near an edge samples the
-/// Gaussian restricted to the film.
-#[test]
-fn gaussian_filter_sampling_matches_its_density() {
+/// Pearson's test of a filter's sample positions against its density
+/// `weight(offset)` per axis, integrated numerically (independently of the
+/// inverse distribution functions the sampler uses) over a grid of cells;
+/// clipped at the film's border (`filter_border = "clip"`), a pixel near an
+/// edge samples the filter restricted to the film.
+fn check_filter_sampling(
+    filter: PixelFilter,
+    weight: &dyn Fn(f64) -> f64,
+    seed: u64,
+    pixel: [u32; 2],
+    size: [u32; 2],
+    trials: usize,
+) {
     const N: usize = 400_000;
     const BINS: usize = 23;
+    let (radius, clip) = (filter.radius(), filter.clips_at_border());
+    // The interval of offsets from the pixel centre along each axis.
+    let interval = |axis: usize| {
+        let c = pixel[axis] as f64 + 0.5;
+        let r = radius as f64;
+        if clip {
+            ((-c).max(-r), (size[axis] as f64 - c).min(r))
+        } else {
+            (-r, r)
+        }
+    };
+    let (ix, iy) = (interval(0), interval(1));
+    let mut observed = vec![0.0f64; BINS * BINS];
+    let mut rng = Rng::new(seed, 9);
+    let cell = |x: f32, (lo, hi): (f64, f64)| {
+        (((x as f64 - lo) / (hi - lo) * BINS as f64) as usize).min(BINS - 1)
+    };
+    for _ in 0..N {
+        let o = filter.sample(rng.next_2d(), pixel, size) - Vec2::splat(0.5);
+        assert!(o.abs().max_element() <= radius, "{o}");
+        for (v, (lo, hi)) in [(o.x, ix), (o.y, iy)] {
+            assert!(
+                v as f64 >= lo - 1e-6 && v as f64 <= hi + 1e-6,
+                "{o} off the film"
+            );
+        }
+        observed[cell(o.y, iy) * BINS + cell(o.x, ix)] += 1.0;
+    }
+    // 1D cell masses of the weight on the interval by the midpoint rule.
+    let masses = |(lo, hi): (f64, f64)| {
+        let sub = 200;
+        let width = (hi - lo) / BINS as f64;
+        let mut mass = [0.0f64; BINS];
+        for (i, m) in mass.iter_mut().enumerate() {
+            for k in 0..sub {
+                *m += weight(lo + width * (i as f64 + (k as f64 + 0.5) / sub as f64));
+            }
+        }
+        let total: f64 = mass.iter().sum();
+        mass.map(|m| m / total)
+    };
+    let (mx, my) = (masses(ix), masses(iy));
+    let mut expected = vec![0.0f64; BINS * BINS];
+    for j in 0..BINS {
+        for i in 0..BINS {
+            expected[j * BINS + i] = N as f64 * my[j] * mx[i];
+        }
+    }
+    let (chi2, dof) = chi2_from_counts(&observed, &expected, 5.0);
+    let p = 1.0 - regularized_gamma_p(dof as f64 / 2.0, chi2 / 2.0);
+    assert!(
+        p > 0.01 / trials as f64,
+        "{filter:?} at {pixel:?}: chi2 = {chi2:.1}, dof = {dof}, p = {p:.2e}"
+    );
+}
+
+/// The Gaussian filter's samples follow the truncated Gaussian.
+#[test]
+fn gaussian_filter_sampling_matches_its_density() {
     // σ, radius, seed, clipped, pixel, film size.
     let cases = [
         (0.5f32, 1.5f32, 1u64, false, [0u32, 0u32], [1u32, 1u32]),
@@ -481,60 +546,42 @@ fn gaussian_filter_sampling_matches_its_density() {
         let g = GaussianFilter::new(sigma, radius)
             .unwrap()
             .clipped_at_border(clip);
-        let filter = PixelFilter::Gaussian(g);
-        // The interval of offsets from the pixel centre along each axis.
-        let interval = |axis: usize| {
-            let c = pixel[axis] as f64 + 0.5;
-            let r = radius as f64;
-            if clip {
-                ((-c).max(-r), (size[axis] as f64 - c).min(r))
-            } else {
-                (-r, r)
-            }
-        };
-        let (ix, iy) = (interval(0), interval(1));
-        let mut observed = vec![0.0f64; BINS * BINS];
-        let mut rng = Rng::new(seed, 9);
-        let cell = |x: f32, (lo, hi): (f64, f64)| {
-            (((x as f64 - lo) / (hi - lo) * BINS as f64) as usize).min(BINS - 1)
-        };
-        for _ in 0..N {
-            let o = filter.sample(rng.next_2d(), pixel, size) - Vec2::splat(0.5);
-            assert!(o.abs().max_element() <= radius, "{o}");
-            for (v, (lo, hi)) in [(o.x, ix), (o.y, iy)] {
-                assert!(
-                    v as f64 >= lo - 1e-6 && v as f64 <= hi + 1e-6,
-                    "{o} off the film"
-                );
-            }
-            observed[cell(o.y, iy) * BINS + cell(o.x, ix)] += 1.0;
-        }
-        // 1D cell masses of exp(−x²/2σ²) on the interval by the midpoint rule.
-        let masses = |(lo, hi): (f64, f64)| {
-            let sub = 200;
-            let width = (hi - lo) / BINS as f64;
-            let mut mass = [0.0f64; BINS];
-            for (i, m) in mass.iter_mut().enumerate() {
-                for k in 0..sub {
-                    let x = lo + width * (i as f64 + (k as f64 + 0.5) / sub as f64);
-                    *m += (-x * x / (2.0 * (sigma as f64).powi(2))).exp();
-                }
-            }
-            let total: f64 = mass.iter().sum();
-            mass.map(|m| m / total)
-        };
-        let (mx, my) = (masses(ix), masses(iy));
-        let mut expected = vec![0.0f64; BINS * BINS];
-        for j in 0..BINS {
-            for i in 0..BINS {
-                expected[j * BINS + i] = N as f64 * my[j] * mx[i];
-            }
-        }
-        let (chi2, dof) = chi2_from_counts(&observed, &expected, 5.0);
-        let p = 1.0 - regularized_gamma_p(dof as f64 / 2.0, chi2 / 2.0);
-        assert!(
-            p > 0.01 / cases.len() as f64,
-            "σ = {sigma}, r = {radius}, clip {clip} at {pixel:?}: chi2 = {chi2:.1}, dof = {dof}, p = {p:.2e}"
+        let s = sigma as f64;
+        let weight = move |x: f64| (-x * x / (2.0 * s * s)).exp();
+        check_filter_sampling(
+            PixelFilter::Gaussian(g),
+            &weight,
+            seed,
+            pixel,
+            size,
+            cases.len(),
+        );
+    }
+}
+
+/// The tent filter's samples follow `max(0, 1 − |t|/radius)` on each axis,
+/// whole or clipped at the film's border.
+#[test]
+fn tent_filter_sampling_matches_its_density() {
+    // radius, seed, clipped, pixel, film size.
+    let cases = [
+        (1.0f32, 11u64, false, [0u32, 0u32], [1u32, 1u32]),
+        (2.5, 12, false, [0, 0], [1, 1]),
+        (1.0, 13, true, [0, 0], [32, 24]),
+        (2.0, 14, true, [31, 1], [32, 3]),
+        (1.5, 15, true, [10, 10], [32, 24]),
+    ];
+    for (radius, seed, clip, pixel, size) in cases {
+        let t = TentFilter::new(radius).unwrap().clipped_at_border(clip);
+        let r = radius as f64;
+        let weight = move |x: f64| (1.0 - x.abs() / r).max(0.0);
+        check_filter_sampling(
+            PixelFilter::Tent(t),
+            &weight,
+            seed,
+            pixel,
+            size,
+            cases.len(),
         );
     }
 }

@@ -4,6 +4,7 @@
 
 mod bsdf;
 mod cameras;
+mod composite;
 mod determinism;
 mod embree_layer;
 mod environment;

@@ -30,12 +30,14 @@ fn floor_radiance(light: &Pls, mode: BrightnessMode, target: Vec3, spp: u32) -> 
             bsdf: Bsdf::diffuse(Vec3::splat(ALBEDO)),
             textures: Default::default(),
             two_sided: true,
+            composite: None,
         },
         Material {
             name: "black".into(),
             bsdf: Bsdf::diffuse(Vec3::ZERO),
             textures: Default::default(),
             two_sided: true,
+            composite: None,
         },
     ];
     let eye = target + Vec3::new(0.0, -0.3, 0.3);
@@ -171,12 +173,14 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
                 bsdf: Bsdf::diffuse(Vec3::splat(0.5)),
                 textures: Default::default(),
                 two_sided: true,
+                composite: None,
             },
             Material {
                 name: "black".into(),
                 bsdf: Bsdf::diffuse(Vec3::ZERO),
                 textures: Default::default(),
                 two_sided: true,
+                composite: None,
             },
         ],
         point_lights: vec![],

@@ -16,6 +16,7 @@ fn material(name: &str, albedo: f32) -> Material {
         bsdf: Bsdf::diffuse(Vec3::splat(albedo)),
         textures: Default::default(),
         two_sided: true,
+        composite: None,
     }
 }
 
@@ -473,6 +474,7 @@ fn glass_sphere_in_a_furnace(spp: u32, rr_depth: u32) -> (Film, Vec<usize>) {
         }),
         textures: Default::default(),
         two_sided: true,
+        composite: None,
     };
     let sphere = mesh("sphere", icosphere(Vec3::ZERO, 1.0, 4), 0, None);
     let film = render_scene(SceneDescription {

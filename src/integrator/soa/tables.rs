@@ -98,8 +98,8 @@ pub struct SoaScene {
 
 impl SoaScene {
     /// The kernel's view of `scene`, or `None` where a material of it is one
-    /// no pass of the kernel shades (`plastic`, `rough_plastic` and
-    /// `thin_dielectric`; every
+    /// no pass of the kernel shades (`plastic`, `rough_plastic`,
+    /// `thin_dielectric` and composites; every
     /// other model, mapped or not, has a pass), it has a spot or a
     /// directional light, or a normal map with the shadow terminator: the
     /// general integrator then renders the scene.
@@ -113,11 +113,11 @@ impl SoaScene {
         if scene.lights().lights.iter().any(spot) {
             return None;
         }
-        // So are normal maps with the shadow terminator.
+        // So are normal maps with the shadow terminator, and composites.
         if scene
             .materials()
             .iter()
-            .any(|m| m.textures.normal_shadowing && m.textures.normal.is_some())
+            .any(|m| (m.textures.terminator()) || m.composite.is_some())
         {
             return None;
         }

@@ -5,7 +5,10 @@ use crate::camera::CameraPreset;
 use crate::color::{MAX_TEMPERATURE_K, MIN_TEMPERATURE_K};
 use crate::error::Result;
 use crate::film::{CameraExposure, FilmSettings};
-use crate::filter::{GaussianFilter, PixelFilter, DEFAULT_GAUSSIAN_RADIUS, DEFAULT_GAUSSIAN_SIGMA};
+use crate::filter::{
+    GaussianFilter, PixelFilter, TentFilter, DEFAULT_GAUSSIAN_RADIUS, DEFAULT_GAUSSIAN_SIGMA,
+    DEFAULT_TENT_RADIUS,
+};
 use serde::Deserialize;
 
 #[derive(Debug, Default, Deserialize)]
@@ -31,52 +34,7 @@ impl Builder<'_> {
         f: &FilmSection,
         preset: Option<&CameraPreset>,
     ) -> Result<FilmSettings> {
-        let filter = match f.filter.as_deref().unwrap_or("box") {
-            "box" => {
-                for (name, present) in [
-                    ("filter_sigma", f.filter_sigma.is_some()),
-                    ("filter_radius", f.filter_radius.is_some()),
-                    ("filter_border", f.filter_border.is_some()),
-                ] {
-                    if present {
-                        return Err(self.err(
-                            format!("film.{name}"),
-                            "only used with filter = \"gaussian\"",
-                        ));
-                    }
-                }
-                PixelFilter::Box
-            }
-            "gaussian" => {
-                let sigma = self.positive(
-                    "film.filter_sigma",
-                    f.filter_sigma.unwrap_or(DEFAULT_GAUSSIAN_SIGMA),
-                )?;
-                let radius = self.positive(
-                    "film.filter_radius",
-                    f.filter_radius.unwrap_or(DEFAULT_GAUSSIAN_RADIUS),
-                )?;
-                let g = GaussianFilter::new(sigma, radius)
-                    .map_err(|e| self.err("film.filter_radius", e.to_string()))?;
-                let clip = match f.filter_border.as_deref() {
-                    None | Some("extend") => false,
-                    Some("clip") => true,
-                    Some(other) => {
-                        return Err(self.err(
-                            "film.filter_border",
-                            format!("unknown border `{other}` (known: extend, clip)"),
-                        ))
-                    }
-                };
-                PixelFilter::Gaussian(g.clipped_at_border(clip))
-            }
-            other => {
-                return Err(self.err(
-                    "film.filter",
-                    format!("unknown filter `{other}` (known: box, gaussian)"),
-                ))
-            }
-        };
+        let filter = self.pixel_filter(f)?;
         let exposure_ev = self.finite("film.exposure_ev", f.exposure_ev.unwrap_or(0.0))?;
         let exposure_ev = crate::film::check_exposure_stops(exposure_ev)
             .map_err(|m| self.err("film.exposure_ev", m.to_string()))?;
@@ -128,6 +86,71 @@ impl Builder<'_> {
             exposure_ev,
             camera_exposure,
             white_balance_k,
+        })
+    }
+
+    /// `filter` and its keys: `filter_sigma` (Gaussian), `filter_radius`
+    /// (Gaussian, tent) and `filter_border` (both).
+    fn pixel_filter(&self, f: &FilmSection) -> Result<PixelFilter> {
+        let kind = f.filter.as_deref().unwrap_or("box");
+        let allowed: &[&str] = match kind {
+            "box" => &[],
+            "gaussian" => &["filter_sigma", "filter_radius", "filter_border"],
+            "tent" => &["filter_radius", "filter_border"],
+            other => {
+                return Err(self.err(
+                    "film.filter",
+                    format!("unknown filter `{other}` (known: box, gaussian, tent)"),
+                ))
+            }
+        };
+        for (name, present) in [
+            ("filter_sigma", f.filter_sigma.is_some()),
+            ("filter_radius", f.filter_radius.is_some()),
+            ("filter_border", f.filter_border.is_some()),
+        ] {
+            if present && !allowed.contains(&name) {
+                let users = match name {
+                    "filter_sigma" => "filter = \"gaussian\"",
+                    _ => "filter = \"gaussian\" or \"tent\"",
+                };
+                return Err(self.err(format!("film.{name}"), format!("only used with {users}")));
+            }
+        }
+        let clip = match f.filter_border.as_deref() {
+            None | Some("extend") => false,
+            Some("clip") => true,
+            Some(other) => {
+                return Err(self.err(
+                    "film.filter_border",
+                    format!("unknown border `{other}` (known: extend, clip)"),
+                ))
+            }
+        };
+        Ok(match kind {
+            "gaussian" => {
+                let sigma = self.positive(
+                    "film.filter_sigma",
+                    f.filter_sigma.unwrap_or(DEFAULT_GAUSSIAN_SIGMA),
+                )?;
+                let radius = self.positive(
+                    "film.filter_radius",
+                    f.filter_radius.unwrap_or(DEFAULT_GAUSSIAN_RADIUS),
+                )?;
+                let g = GaussianFilter::new(sigma, radius)
+                    .map_err(|e| self.err("film.filter_radius", e.to_string()))?;
+                PixelFilter::Gaussian(g.clipped_at_border(clip))
+            }
+            "tent" => {
+                let radius = self.positive(
+                    "film.filter_radius",
+                    f.filter_radius.unwrap_or(DEFAULT_TENT_RADIUS),
+                )?;
+                let t = TentFilter::new(radius)
+                    .map_err(|e| self.err("film.filter_radius", e.to_string()))?;
+                PixelFilter::Tent(t.clipped_at_border(clip))
+            }
+            _ => PixelFilter::Box,
         })
     }
 }

@@ -31,6 +31,12 @@ pub(super) struct MaterialSection {
     pub(super) kind: String,
     /// `false`: black seen from behind (see [`Material::two_sided`]).
     pub(super) two_sided: Option<bool>,
+    /// The material seen from behind (see `composite.rs`).
+    pub(super) back: Option<String>,
+    /// A height field tilting the shading normal (any type).
+    pub(super) bump_map: Option<MapKey>,
+    /// The height field's scale (default 1).
+    pub(super) bump_scale: Option<f32>,
     #[serde(flatten)]
     pub(super) keys: toml::Table,
 }
@@ -384,7 +390,10 @@ impl Builder<'_> {
             other => {
                 return Err(self.err(
                     format!("{field}.type"),
-                    format!("unknown material type `{other}` (known: {MATERIAL_TYPES})"),
+                    format!(
+                        "unknown material type `{other}` (known: {MATERIAL_TYPES}, {})",
+                        super::composite::COMPOSITE_TYPES
+                    ),
                 ))
             }
         })
@@ -622,6 +631,7 @@ impl Builder<'_> {
         &self,
         field: &str,
         keys: &MaterialKeys,
+        section: &MaterialSection,
     ) -> Result<MaterialTextures> {
         let m = keys.textures();
         let mut textures = self.textures(
@@ -653,11 +663,29 @@ impl Builder<'_> {
                 "only used with a normal_map",
             ));
         }
-        if m.normal_shadowing.is_some() && m.normal_map.is_none() {
+        if m.normal_shadowing.is_some() && m.normal_map.is_none() && section.bump_map.is_none() {
             return Err(self.err(
                 format!("{field}.normal_shadowing"),
-                "only used with a normal_map",
+                "only used with a normal_map or a bump_map",
             ));
+        }
+        if let Some(map) = &section.bump_map {
+            if m.normal_map.is_some() {
+                return Err(self.err(
+                    format!("{field}.bump_map"),
+                    "a material has a normal_map or a bump_map, not both",
+                ));
+            }
+            let key = ["", "bump_map", ""];
+            let t = self.textures(field, None, Some(map.clone().rebased(self.base)), None, key)?;
+            textures.bump = t.roughness;
+            let scale = self.finite(
+                &format!("{field}.bump_scale"),
+                section.bump_scale.unwrap_or(1.0),
+            )?;
+            textures.bump_scale = scale;
+        } else if section.bump_scale.is_some() {
+            return Err(self.err(format!("{field}.bump_scale"), "only used with a bump_map"));
         }
         textures.normal_shadowing = m.normal_shadowing.unwrap_or(false);
         textures.normal_frame = match m.normal_frame {
@@ -739,6 +767,8 @@ impl Builder<'_> {
             normal: None,
             normal_frame: NormalFrame::Uv,
             normal_shadowing: false,
+            bump: None,
+            bump_scale: 1.0,
         })
     }
 
@@ -795,6 +825,7 @@ impl Builder<'_> {
             ["map_Kd", "map_Pr", "map_Pm"],
         )?;
         Ok(Material {
+            composite: None,
             name,
             bsdf,
             textures,

@@ -7,6 +7,7 @@
 //! the file's directory.
 
 mod camera;
+mod composite;
 mod environment;
 mod film;
 mod keys;
@@ -398,6 +399,7 @@ impl Builder<'_> {
 
         let mut materials = Vec::new();
         let mut by_name = HashMap::new();
+        let mut pending = composite::PendingComposites::default();
         for (i, m) in f.materials.iter().enumerate() {
             let field = format!("materials[{i}]");
             if m.name.is_empty() || m.name.starts_with('(') {
@@ -415,10 +417,23 @@ impl Builder<'_> {
                     format!("duplicate material name `{}`", m.name),
                 ));
             }
+            if let Some(keys) = self.composite_keys(&field, m)? {
+                // A placeholder until every material it names is read.
+                pending.composites.insert(materials.len(), keys);
+                by_name.insert(m.name.clone(), materials.len() as u32);
+                materials.push(Material::new(
+                    m.name.clone(),
+                    crate::bsdf::Bsdf::diffuse(Vec3::ZERO),
+                ));
+                continue;
+            }
             let keys = self.material_keys(&field, m)?;
             let bsdf = self.material(&field, &keys)?;
+            if let Some(back) = &m.back {
+                pending.backs.insert(materials.len(), back.clone());
+            }
             by_name.insert(m.name.clone(), materials.len() as u32);
-            let textures = self.material_textures(&field, &keys)?;
+            let textures = self.material_textures(&field, &keys, m)?;
             if m.two_sided == Some(false) && bsdf.transmits() {
                 return Err(self.err(
                     format!("{field}.two_sided"),
@@ -431,8 +446,10 @@ impl Builder<'_> {
                 bsdf,
                 textures,
                 two_sided: m.two_sided.unwrap_or(true),
+                composite: None,
             });
         }
+        self.resolve_composites(&mut materials, &by_name, &pending)?;
 
         let mut meshes = Vec::new();
         for (i, s) in f.shapes.iter().enumerate() {

@@ -47,37 +47,61 @@ impl<'a> Translator<'a> {
         if let Some(name) = self.material_names.get(&key) {
             return Ok(name.clone());
         }
-        // A `normalmap` around the BSDF: the BSDF with plsr's `normal_map`.
-        let (outer, normal_map, shadowing) = self.peel_normalmap(node)?;
+        // A `bumpmap` or `normalmap` around the BSDF: the BSDF with plsr's
+        // `bump_map` or `normal_map`.
+        let (outer, bump, bump_shadowing) = self.peel_bumpmap(node)?;
+        let (outer, normal_map, shadowing) = self.peel_normalmap(outer)?;
+        if bump.is_some() && normal_map.is_some() {
+            return Err(self.err(
+                node,
+                "a bumpmap and a normalmap on one BSDF are not supported",
+            ));
+        }
+        let shadowing = shadowing || bump_shadowing;
         let kind = self.required_attr(outer, "type")?;
-        let (inner, twosided) = if kind == "twosided" {
+        let composite = matches!(kind.as_str(), "blendbsdf" | "mask" | "null");
+        if composite && (normal_map.is_some() || bump.is_some()) {
+            return Err(self.err(
+                node,
+                format!("a normalmap or bumpmap around a {kind} is not supported: put it inside"),
+            ));
+        }
+        let (inner, twosided, back) = if composite {
+            (outer, false, None)
+        } else if kind == "twosided" {
             let node = outer;
-            let mut bsdfs = node.children.iter();
-            let inner = bsdfs
-                .next()
-                .ok_or_else(|| self.err(node, "twosided needs a BSDF inside"))?;
-            if bsdfs.next().is_some() {
-                return Err(self.err(
-                    node,
-                    "a twosided with two BSDFs (one per side) is not supported",
-                ));
+            let mut p = self.params(node)?;
+            if let Some(true) = self.take_bool(&mut p, "allow_transmission")? {
+                return Err(self.err(node, "a twosided with allow_transmission is not supported"));
             }
-            let inner = if inner.tag.as_str() == "ref" {
-                let id = self.required_attr(inner, "id")?;
-                *self.ids.get(&id).ok_or_else(|| {
-                    self.err(inner, format!("no element with id=\"{id}\" before it"))
-                })?
-            } else {
-                inner
-            };
-            if inner.tag.as_str() != "bsdf" {
-                return Err(self.err(inner, "twosided needs a <bsdf> inside"));
+            self.leftovers(&p)?;
+            let bsdfs = self.nested_bsdfs(node)?;
+            match bsdfs.as_slice() {
+                [one] => (*one, true, None),
+                [front, back] => {
+                    let back = self.material(back)?;
+                    (*front, false, Some(back))
+                }
+                _ => return Err(self.err(node, "twosided needs one or two BSDFs inside")),
             }
-            (inner, true)
         } else {
-            (outer, false)
+            (outer, false, None)
         };
-        let mut table = self.bsdf(inner, twosided)?;
+        let mut table = if composite {
+            self.composite(inner, &kind)?
+        } else {
+            self.bsdf(inner, twosided)?
+        };
+        if let Some(back) = back {
+            set(&mut table, "back", Value::String(back));
+        }
+        if let Some((map, scale)) = bump {
+            set(&mut table, "bump_map", map);
+            set(&mut table, "bump_scale", float(scale));
+            if shadowing {
+                set(&mut table, "normal_shadowing", Value::Boolean(true));
+            }
+        }
         if let Some(file) = normal_map {
             set(&mut table, "normal_map", Value::String(file));
             // Mitsuba's frame: y = n × ∂p/∂u, whichever way v runs.
@@ -86,23 +110,88 @@ impl<'a> Translator<'a> {
                 set(&mut table, "normal_shadowing", Value::Boolean(true));
             }
         }
-        let name = match self.attr(node, "id")? {
-            Some(id) => id,
-            None => format!("bsdf-line-{}", node.line),
+        let taken = |name: &str| {
+            self.materials
+                .iter()
+                .any(|m| m.get("name").and_then(Value::as_str) == Some(name))
         };
-        if self
-            .materials
-            .iter()
-            .any(|m| m.get("name") == Some(&Value::String(name.clone())))
-        {
-            return Err(self.err(node, format!("a material named `{name}` exists already")));
-        }
+        let name = match self.attr(node, "id")? {
+            Some(id) => {
+                if taken(&id) {
+                    return Err(self.err(node, format!("a material named `{id}` exists already")));
+                }
+                id
+            }
+            // Anonymous BSDFs are named by their line (and, several on one
+            // line, a count).
+            None => {
+                let base = format!("bsdf-line-{}", node.line);
+                let mut name = base.clone();
+                let mut k = 1;
+                while taken(&name) {
+                    k += 1;
+                    name = format!("{base}-{k}");
+                }
+                name
+            }
+        };
         let mut entry = Table::new();
         entry.insert("name", Value::String(name.clone()));
         entry.0.append(&mut table.0);
         self.materials.push(entry);
         self.material_names.insert(key, name.clone());
         Ok(name)
+    }
+
+    /// Mitsuba's `bumpmap` BSDF: the BSDF inside it, its height texture as
+    /// a plsr map (a bitmap's luminance, sRGB-decoded unless `raw`) with
+    /// its `scale`, and whether it attenuates grazing light
+    /// (`use_shadowing_function`); any other element as it is.
+    #[allow(clippy::type_complexity)]
+    fn peel_bumpmap(
+        &mut self,
+        node: &'a Element,
+    ) -> Result<(&'a Element, Option<(Value, f64)>, bool)> {
+        if self.required_attr(node, "type")? != "bumpmap" {
+            return Ok((node, None, false));
+        }
+        let mut p = self.params(node)?;
+        let shadowing = self
+            .take_bool(&mut p, "use_shadowing_function")?
+            .unwrap_or(true);
+        let scale = self.take_float(&mut p, "scale")?.unwrap_or(1.0);
+        if self.take_bool(&mut p, "flip_invalid_normals")? == Some(false) {
+            self.note(
+                node,
+                "flip_invalid_normals = false: plsr shades a surface seen from below its \
+                 bumped normal with the unbumped one either way",
+            );
+        }
+        // The height: the one texture (of any name) among the parameters.
+        let textures: Vec<&'a Element> = p
+            .named
+            .iter()
+            .map(|(_, e)| *e)
+            .filter(|e| matches!(e.tag.as_str(), "texture" | "ref"))
+            .collect();
+        let [tex] = textures.as_slice() else {
+            return Err(self.err(node, "a bumpmap needs one height <texture>"));
+        };
+        let name = tex.attribute("name").unwrap_or_default().to_string();
+        p.used.insert(name);
+        let map = match self.colour_of(tex, SpectrumUse::Unbounded)? {
+            Colour::Map(m) => Some((m, scale)),
+            Colour::Rgb(_) => {
+                self.note(node, "a bumpmap of a constant height has no slope: ignored");
+                None
+            }
+        };
+        let inner = self.nested_bsdfs(node)?;
+        let [bsdf] = inner.as_slice() else {
+            return Err(self.err(node, "a bumpmap holds one BSDF"));
+        };
+        self.leftovers(&p)?;
+        Ok((bsdf, map, shadowing))
     }
 
     /// Mitsuba's `normalmap` BSDF: the BSDF inside it, the file of its
@@ -174,6 +263,90 @@ impl<'a> Translator<'a> {
         Ok((bsdf, Some(file), shadowing))
     }
 
+    /// The BSDFs nested in `node` (unnamed children, `<ref>`s followed).
+    fn nested_bsdfs(&self, node: &'a Element) -> Result<Vec<&'a Element>> {
+        let mut out = Vec::new();
+        for c in node
+            .children
+            .iter()
+            .filter(|c| c.attribute("name").is_none())
+        {
+            let c = self.deref(c)?;
+            if c.tag != "bsdf" {
+                return Err(self.err(c, format!("<{}> is not a BSDF", c.tag)));
+            }
+            out.push(c);
+        }
+        Ok(out)
+    }
+
+    /// `blendbsdf` (two BSDFs and their `weight`), `mask` (a BSDF and its
+    /// `opacity`, default 0.5) and `null`, as plsr's `blend`, `mask` and
+    /// `null` materials naming the materials they are made of.
+    fn composite(&mut self, node: &'a Element, kind: &str) -> Result<Table> {
+        let mut p = self.params(node)?;
+        let bsdfs = self.nested_bsdfs(node)?;
+        let mut t = Table::new();
+        match kind {
+            "null" => {
+                if let Some(b) = bsdfs.first() {
+                    return Err(self.err(b, "a null BSDF holds nothing"));
+                }
+                set(&mut t, "type", Value::String("null".into()));
+            }
+            "mask" => {
+                let [inner] = bsdfs.as_slice() else {
+                    return Err(self.err(node, "a mask holds one BSDF"));
+                };
+                let inner = self.material(inner)?;
+                set(&mut t, "type", Value::String("mask".into()));
+                set(&mut t, "material", Value::String(inner));
+                self.scalar(&mut p, &mut t, "opacity", Some(0.5))?;
+            }
+            _ => {
+                let [a, b] = bsdfs.as_slice() else {
+                    return Err(self.err(node, "a blendbsdf holds two BSDFs"));
+                };
+                let names = vec![
+                    Value::String(self.material(a)?),
+                    Value::String(self.material(b)?),
+                ];
+                set(&mut t, "type", Value::String("blend".into()));
+                set(&mut t, "materials", Value::Array(names));
+                // Mitsuba requires the weight (its documentation's default
+                // of 0.5 is not in the code).
+                self.scalar(&mut p, &mut t, "weight", None)?;
+            }
+        }
+        self.leftovers(&p)?;
+        Ok(t)
+    }
+
+    /// A scalar texture parameter `name` as `name` (a constant: a float, or
+    /// the mean of an RGB value, as Mitsuba's `eval_1`) or `name_map` (a
+    /// bitmap's luminance, sRGB-decoded unless `raw`).
+    fn scalar(
+        &self,
+        p: &mut Params<'a>,
+        t: &mut Table,
+        name: &str,
+        default: Option<f64>,
+    ) -> Result<()> {
+        let node = p.node;
+        match self.take_colour(p, name, SpectrumUse::Unbounded)? {
+            Some(Colour::Rgb(v)) => {
+                let mean = (v[0] + v[1] + v[2]) / 3.0;
+                set(t, name, float(mean.clamp(0.0, 1.0)));
+            }
+            Some(Colour::Map(m)) => set(t, &format!("{name}_map"), m),
+            None => match default {
+                Some(d) => set(t, name, float(d)),
+                None => return Err(self.err(node, format!("`{name}` is required"))),
+            },
+        }
+        Ok(())
+    }
+
     /// The plsr keys (with `type`) of one BSDF.
     pub(super) fn bsdf(&mut self, node: &'a Element, twosided: bool) -> Result<Table> {
         let kind = self.required_attr(node, "type")?;
@@ -199,7 +372,8 @@ impl<'a> Translator<'a> {
                     format!(
                         "the `{other}` BSDF is not supported (supported: diffuse, conductor, \
                          roughconductor, dielectric, roughdielectric, thindielectric, plastic, \
-                         roughplastic, principled, twosided)"
+                         roughplastic, principled, twosided, blendbsdf, mask, null, bumpmap, \
+                         normalmap)"
                     ),
                 ))
             }

@@ -71,17 +71,27 @@ impl<'a> Translator<'a> {
         if let Some(seed) = seed {
             self.render.insert("seed", Value::Integer(seed));
         }
-        if let Some(sigma) = filter {
-            self.film.insert("filter", Value::String("gaussian".into()));
-            self.film.insert("filter_sigma", float(sigma));
-            // Mitsuba cuts its Gaussian at 4 σ.
-            self.film
-                .insert("filter_radius", float((4.0 * sigma).min(64.0)));
+        let border = |film: &mut Table| {
             // Mitsuba's films take samples on the film only unless
             // `sample_border` is set: edge pixels average what is inside.
             let border = if sample_border { "extend" } else { "clip" };
-            self.film
-                .insert("filter_border", Value::String(border.into()));
+            film.insert("filter_border", Value::String(border.into()));
+        };
+        match filter {
+            SensorFilter::Box => {}
+            SensorFilter::Gaussian(sigma) => {
+                self.film.insert("filter", Value::String("gaussian".into()));
+                self.film.insert("filter_sigma", float(sigma));
+                // Mitsuba cuts its Gaussian at 4 σ.
+                self.film
+                    .insert("filter_radius", float((4.0 * sigma).min(64.0)));
+                border(&mut self.film);
+            }
+            SensorFilter::Tent(radius) => {
+                self.film.insert("filter", Value::String("tent".into()));
+                self.film.insert("filter_radius", float(radius));
+                border(&mut self.film);
+            }
         }
 
         let to_world = self.sensor_pose(node, &mut p, &mut camera)?;
@@ -175,7 +185,7 @@ impl<'a> Translator<'a> {
         Ok(())
     }
 
-    /// A film's `<rfilter>`: box, or a Gaussian of its σ (others become the
+    /// A film's `<rfilter>`: box, Gaussian or tent (others become the
     /// default Gaussian, with a note).
     pub(super) fn sensor_filter(
         &mut self,
@@ -185,16 +195,33 @@ impl<'a> Translator<'a> {
         let rk = self.required_attr(r, "type")?;
         let mut rp = self.params(r)?;
         match rk.as_str() {
-            "box" => settings.filter = None,
+            "box" => settings.filter = SensorFilter::Box,
             "gaussian" => {
-                settings.filter = Some(self.take_float(&mut rp, "stddev")?.unwrap_or(0.5));
+                let sigma = self.take_float(&mut rp, "stddev")?.unwrap_or(0.5);
+                if !(sigma > 0.0 && sigma <= 16.0) {
+                    return Err(self.err(
+                        r,
+                        format!("`stddev` must be in (0, 16] pixels, got {sigma}"),
+                    ));
+                }
+                settings.filter = SensorFilter::Gaussian(sigma);
+            }
+            "tent" => {
+                let radius = self.take_float(&mut rp, "radius")?.unwrap_or(1.0);
+                if !(radius > 0.0 && radius <= 64.0) {
+                    return Err(self.err(
+                        r,
+                        format!("`radius` must be in (0, 64] pixels, got {radius}"),
+                    ));
+                }
+                settings.filter = SensorFilter::Tent(radius);
             }
             other => {
                 self.note(
                     r,
                     format!(
                         "the `{other}` pixel filter is rendered with a Gaussian \
-                         of σ 0.5 px (plsr has box and gaussian)"
+                         of σ 0.5 px (plsr has box, gaussian and tent)"
                     ),
                 );
                 rp.used.extend(rp.named.iter().map(|(n, _)| n.clone()));
@@ -325,14 +352,25 @@ impl<'a> Translator<'a> {
     }
 }
 
+/// A film's `<rfilter>`, with its size in pixels.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum SensorFilter {
+    /// `box`.
+    Box,
+    /// `gaussian` of this σ.
+    Gaussian(f64),
+    /// `tent` of this radius.
+    Tent(f64),
+}
+
 /// What a sensor's film and sampler set, with Mitsuba's defaults.
 pub(super) struct SensorSettings {
     /// Film width, pixels.
     width: i64,
     /// Film height, pixels.
     height: i64,
-    /// The Gaussian pixel filter's σ (pixels), or `None` for a box.
-    filter: Option<f64>,
+    /// The pixel filter.
+    filter: SensorFilter,
     /// Samples per pixel.
     spp: i64,
     /// The sampler's seed, if given.
@@ -346,7 +384,7 @@ impl Default for SensorSettings {
         SensorSettings {
             width: 768,
             height: 576,
-            filter: Some(0.5), // Mitsuba's default: Gaussian, σ 0.5 px
+            filter: SensorFilter::Gaussian(0.5), // Mitsuba's default
             spp: 4,
             seed: None,
             sample_border: false,

@@ -537,3 +537,77 @@ fn plsr_import_writes_a_scene_that_renders_as_the_xml() {
         "scene.xml, twin.toml and the two meshes only"
     );
 }
+
+/// The `[[materials]]` entry named `name` of a translated scene.
+fn material<'t>(t: &'t toml::Table, name: &str) -> &'t toml::Table {
+    t["materials"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m.as_table().unwrap())
+        .find(|m| m["name"].as_str() == Some(name))
+        .unwrap_or_else(|| panic!("no material `{name}` in {t}"))
+}
+
+#[test]
+fn wrapper_bsdfs_become_materials_made_of_materials() {
+    let t = translated(
+        r#"<scene version="3.0.0">
+        <bsdf type="blendbsdf" id="mix"><float name="weight" value="0.3"/>
+          <bsdf type="diffuse" id="a"/><bsdf type="roughconductor" id="b"/></bsdf>
+        <bsdf type="mask" id="leaf"><rgb name="opacity" value="0.2, 0.4, 0.6"/>
+          <bsdf type="twosided" id="card"><bsdf type="diffuse" id="front"/>
+          <bsdf type="diffuse" id="behind"><rgb name="reflectance" value="0.1"/></bsdf></bsdf></bsdf>
+        <bsdf type="bumpmap" id="bumpy"><float name="scale" value="0.5"/>
+          <texture type="bitmap" name="h"><string name="filename" value="h.png"/>
+          <boolean name="raw" value="true"/></texture>
+          <bsdf type="diffuse"/></bsdf>
+        <bsdf type="null" id="nothing"/>
+        <shape type="sphere"><ref id="mix"/></shape>
+        <shape type="sphere"><ref id="leaf"/></shape>
+        <shape type="sphere"><ref id="bumpy"/></shape>
+        <shape type="sphere"><ref id="nothing"/></shape>
+        </scene>"#,
+    );
+    let mix = material(&t, "mix");
+    assert_eq!(mix["type"].as_str(), Some("blend"));
+    assert_eq!(mix["materials"].as_array().unwrap().len(), 2);
+    assert_eq!(mix["weight"].as_float(), Some(0.3));
+    let leaf = material(&t, "leaf");
+    assert_eq!(leaf["type"].as_str(), Some("mask"));
+    assert_eq!(leaf["material"].as_str(), Some("card"));
+    // Mitsuba's eval_1 of an RGB constant: the mean.
+    assert!((leaf["opacity"].as_float().unwrap() - 0.4).abs() < 1e-9);
+    let card = material(&t, "card");
+    assert_eq!(card["back"].as_str(), Some("behind"));
+    assert_eq!(card["type"].as_str(), Some("diffuse"));
+    let bumpy = material(&t, "bumpy");
+    assert_eq!(bumpy["bump_scale"].as_float(), Some(0.5));
+    assert_eq!(bumpy["normal_shadowing"].as_bool(), Some(true));
+    assert!(bumpy["bump_map"].as_str().unwrap().ends_with("h.png"));
+    assert_eq!(material(&t, "nothing")["type"].as_str(), Some("null"));
+
+    for (xml, wanted) in [
+        (
+            r#"<bsdf type="blendbsdf"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#,
+            "`weight` is required",
+        ),
+        (
+            r#"<bsdf type="mask"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#,
+            "a mask holds one BSDF",
+        ),
+        (
+            r#"<bsdf type="bumpmap"><bsdf type="diffuse"/></bsdf>"#,
+            "one height <texture>",
+        ),
+        (
+            r#"<bsdf type="twosided"><bsdf type="diffuse"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#,
+            "one or two BSDFs",
+        ),
+    ] {
+        let e = error_of(&format!(
+            "<scene version=\"3.0.0\"><shape type=\"sphere\">{xml}</shape></scene>"
+        ));
+        assert!(e.contains(wanted), "`{wanted}` not in: {e}");
+    }
+}
