@@ -11,6 +11,7 @@
 //! | `metallic` (linear, red channel) | metallic | `principled` |
 //! | `normal` (linear, tangent space) | the shading normal | all |
 //! | `bump` (linear height, luminance) | the shading normal, by its slopes | all |
+//! | `alpha_u`, `alpha_v` (linear, luminance) | microfacet α along each tangent | `cook_torrance`, rough `dielectric` |
 //!
 //! A normal map holds tangent-space normals (OpenGL and glTF convention:
 //! red +x along increasing u, green +y along increasing v, blue +z along
@@ -47,6 +48,13 @@ pub struct MaterialTextures {
     pub bump: Option<Arc<ImageTexture>>,
     /// The height field's scale (Mitsuba's `scale`).
     pub bump_scale: f32,
+    /// Microfacet α along the first tangent (luminance; Mitsuba's
+    /// textured `alpha_u`, or `alpha` for both), replacing the constant
+    /// one of a `cook_torrance` or rough `dielectric`.
+    pub alpha_u: Option<Arc<ImageTexture>>,
+    /// Microfacet α along the second tangent (the same map as `alpha_u`
+    /// for an isotropic `alpha_map`).
+    pub alpha_v: Option<Arc<ImageTexture>>,
 }
 
 /// The tangent frame of a normal map: its x axis is always along ∂p/∂u
@@ -80,6 +88,7 @@ impl MaterialTextures {
             && self.metallic.is_none()
             && self.normal.is_none()
             && self.bump.is_none()
+            && self.alpha_u.is_none()
     }
 
     /// Whether the shadow terminator applies: a normal or bump map with
@@ -289,6 +298,9 @@ impl Material {
     /// everywhere: a roughness map makes a Cook–Torrance surface isotropic,
     /// and no map changes the other models' anisotropy).
     pub fn is_anisotropic(&self) -> bool {
+        if let (Some(u), Some(v)) = (&self.textures.alpha_u, &self.textures.alpha_v) {
+            return !Arc::ptr_eq(u, v);
+        }
         match self.bsdf {
             Bsdf::CookTorrance(_) if self.textures.roughness.is_some() => false,
             bsdf => bsdf.is_anisotropic(),
@@ -337,6 +349,23 @@ impl Material {
         if let Some(tex) = &t.metallic {
             if let Bsdf::Principled(p) = &mut bsdf {
                 p.metallic = tex.eval(uv).x.clamp(0.0, 1.0);
+            }
+        }
+        if let (Some(u), Some(v)) = (&t.alpha_u, &t.alpha_v) {
+            let au = crate::color::luminance(u.eval(uv)).max(0.0);
+            let av = if Arc::ptr_eq(u, v) {
+                au
+            } else {
+                crate::color::luminance(v.eval(uv)).max(0.0)
+            };
+            match &mut bsdf {
+                Bsdf::CookTorrance(p) => p.microfacet = Microfacet::new(p.microfacet.kind, au, av),
+                Bsdf::Dielectric(p) => {
+                    if let Some(m) = &mut p.microfacet {
+                        *m = Microfacet::new(m.kind, au, av);
+                    }
+                }
+                _ => {}
             }
         }
         bsdf

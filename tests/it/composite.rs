@@ -388,3 +388,88 @@ fn documented_composite_example_loads() {
         assert!(m.composite.is_some(), "{name}");
     }
 }
+
+/// An alpha map replaces a microfacet material's α at each point: a map
+/// whose every texel is 0.3 renders exactly as `alpha = 0.3`, along one
+/// tangent or both; maps that cannot go together are refused.
+#[test]
+fn alpha_maps_replace_the_constant_alpha() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = |material: &str| {
+        format!(
+            "[render]\nspp = 8\nmax_depth = 3\nseed = 4\n\
+             [camera]\nposition = [0, -3, 1]\nlook_at = [0, 0, 0]\nup = [0, 0, 1]\nvfov = 40\n\
+             resolution = [12, 10]\n[environment]\nradiance = [0.5, 0.6, 0.7]\n\
+             [[lights]]\ntype = \"point\"\nposition = [1, -2, 3]\nintensity = [20, 20, 20]\n\
+             [[materials]]\nname = \"m\"\n{material}\n\
+             [[shapes]]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"m\"\n"
+        )
+    };
+    let render_bits = |text: String| -> Vec<u32> {
+        let path = dir.path().join("scene.toml");
+        std::fs::write(&path, text).unwrap();
+        let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let options = RenderOptions {
+            vectorised: false,
+            ..Default::default()
+        };
+        let film = render(&scene, &scene.default_job(), &options, &|_, _| true)
+            .unwrap()
+            .0;
+        film.color
+            .iter()
+            .flat_map(|c| c.to_array())
+            .map(f32::to_bits)
+            .collect()
+    };
+    let flat = "{ checkerboard = [[0.3, 0.3, 0.3], [0.3, 0.3, 0.3]] }";
+    let other = "{ checkerboard = [[0.05, 0.05, 0.05], [0.05, 0.05, 0.05]] }";
+    for (constant, mapped) in [
+        (
+            "type = \"cook_torrance\"\nmetal = \"Cu\"\nalpha = 0.3".to_string(),
+            format!("type = \"cook_torrance\"\nmetal = \"Cu\"\nalpha_map = {flat}"),
+        ),
+        (
+            "type = \"cook_torrance\"\nmetal = \"Cu\"\nalpha_u = 0.3\nalpha_v = 0.05".to_string(),
+            format!(
+                "type = \"cook_torrance\"\nmetal = \"Cu\"\nalpha_u_map = {flat}\nalpha_v_map = {other}"
+            ),
+        ),
+        (
+            "type = \"dielectric\"\nior = 1.5\nalpha = 0.3".to_string(),
+            format!("type = \"dielectric\"\nior = 1.5\nalpha_map = {flat}"),
+        ),
+    ] {
+        assert_eq!(
+            render_bits(scene(&constant)),
+            render_bits(scene(&mapped)),
+            "{mapped}"
+        );
+    }
+    for (material, words) in [
+        (
+            format!("type = \"cook_torrance\"\nalpha_u_map = {flat}"),
+            "alpha_u_map and alpha_v_map go together",
+        ),
+        (
+            format!("type = \"cook_torrance\"\nalpha_map = {flat}\nalpha_u_map = {flat}\nalpha_v_map = {flat}"),
+            "not both",
+        ),
+        (
+            format!("type = \"cook_torrance\"\nalpha_map = {flat}\nroughness_map = {flat}"),
+            "give roughness_map or alpha maps, not both",
+        ),
+        (
+            format!("type = \"principled\"\nalpha_map = {flat}"),
+            "alpha_map",
+        ),
+    ] {
+        let path = dir.path().join("bad.toml");
+        std::fs::write(&path, scene(&material)).unwrap();
+        let e = match Scene::load(&path) {
+            Ok(_) => panic!("accepted: {material}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(e.contains(words), "{material}\n→ {e}");
+    }
+}

@@ -619,6 +619,11 @@ fn every_material_kind_is_bit_identical() {
         ("bumpy_gold", &format!(
             "type = \"cook_torrance\"\nmetal = \"Au\"\nroughness = 0.3\nnormal_map = \"{texture}\""
         )),
+        // A bump map: its slopes tilt a Lambert lane's shading normal.
+        ("ridged", &format!(
+            "type = \"diffuse\"\nreflectance = [0.6, 0.6, 0.7]\nbump_map = \"{texture}\"\n\
+             bump_scale = 0.3"
+        )),
     ];
     let mut text = String::from(
         "[render]\nspp = 3\nmax_depth = 7\nrr_depth = 2\nseed = 12\n\n\

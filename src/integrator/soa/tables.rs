@@ -101,8 +101,8 @@ impl SoaScene {
     /// no pass of the kernel shades (`plastic`, `rough_plastic`,
     /// `thin_dielectric` and composites; every
     /// other model, mapped or not, has a pass), it has a spot or a
-    /// directional light, or a normal map with the shadow terminator: the
-    /// general integrator then renders the scene.
+    /// directional light, a normal map with the shadow terminator, or alpha
+    /// maps: the general integrator then renders the scene.
     pub fn new(scene: &Scene) -> Option<SoaScene> {
         // Spot and directional lights are sampled by the general
         // integrator only.
@@ -113,12 +113,11 @@ impl SoaScene {
         if scene.lights().lights.iter().any(spot) {
             return None;
         }
-        // So are normal maps with the shadow terminator, and composites.
-        if scene
-            .materials()
-            .iter()
-            .any(|m| (m.textures.terminator()) || m.composite.is_some())
-        {
+        // So are normal maps with the shadow terminator, composites and
+        // roughness maps along two tangents.
+        if scene.materials().iter().any(|m| {
+            m.textures.terminator() || m.composite.is_some() || m.textures.alpha_u.is_some()
+        }) {
             return None;
         }
         let mut albedo = [Vec::new(), Vec::new(), Vec::new()];
@@ -146,7 +145,9 @@ impl SoaScene {
         for (g, mesh) in scene.meshes().iter().enumerate() {
             let material = &scene.materials()[mesh.material as usize];
             // Shading normals: interpolated, or from a normal map.
-            let normal_mapped = material.textures.normal.is_some() && !mesh.uvs.is_empty();
+            let normal_mapped = (material.textures.normal.is_some()
+                || material.textures.bump.is_some())
+                && !mesh.uvs.is_empty();
             smooth.push(!mesh.normals.is_empty() || normal_mapped);
             is_virtual.push(mesh.is_virtual);
             // Lambert's albedo is its reflectance; for the other models it

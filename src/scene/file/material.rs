@@ -91,6 +91,9 @@ pub(super) struct CookTorranceKeys {
     #[serde(default, deserialize_with = "crate::input::exact::option")]
     specular_reflectance: Option<[f32; 3]>,
     roughness_map: Option<MapKey>,
+    alpha_map: Option<MapKey>,
+    alpha_u_map: Option<MapKey>,
+    alpha_v_map: Option<MapKey>,
     normal_map: Option<PathBuf>,
     normal_scale: Option<f32>,
     normal_frame: Option<String>,
@@ -107,6 +110,9 @@ pub(super) struct DielectricKeys {
     alpha: Option<f32>,
     alpha_u: Option<f32>,
     alpha_v: Option<f32>,
+    alpha_map: Option<MapKey>,
+    alpha_u_map: Option<MapKey>,
+    alpha_v_map: Option<MapKey>,
     normal_map: Option<PathBuf>,
     normal_scale: Option<f32>,
     normal_frame: Option<String>,
@@ -214,6 +220,9 @@ struct TextureKeys<'a> {
     base_color_map: Option<&'a MapKey>,
     roughness_map: Option<&'a MapKey>,
     metallic_map: Option<&'a MapKey>,
+    alpha_map: Option<&'a MapKey>,
+    alpha_u_map: Option<&'a MapKey>,
+    alpha_v_map: Option<&'a MapKey>,
     normal_map: Option<&'a PathBuf>,
     normal_scale: Option<f32>,
     normal_frame: Option<&'a str>,
@@ -241,6 +250,9 @@ impl MaterialKeys {
             },
             MaterialKeys::CookTorrance(k) => TextureKeys {
                 roughness_map: k.roughness_map.as_ref(),
+                alpha_map: k.alpha_map.as_ref(),
+                alpha_u_map: k.alpha_u_map.as_ref(),
+                alpha_v_map: k.alpha_v_map.as_ref(),
                 normal_map: k.normal_map.as_ref(),
                 normal_scale: k.normal_scale,
                 normal_frame: k.normal_frame.as_deref(),
@@ -248,6 +260,9 @@ impl MaterialKeys {
                 ..Default::default()
             },
             MaterialKeys::Dielectric(k) => TextureKeys {
+                alpha_map: k.alpha_map.as_ref(),
+                alpha_u_map: k.alpha_u_map.as_ref(),
+                alpha_v_map: k.alpha_v_map.as_ref(),
                 normal_map: k.normal_map.as_ref(),
                 normal_scale: k.normal_scale,
                 normal_frame: k.normal_frame.as_deref(),
@@ -271,6 +286,7 @@ impl MaterialKeys {
                 normal_scale: k.normal_scale,
                 normal_frame: k.normal_frame.as_deref(),
                 normal_shadowing: k.normal_shadowing,
+                ..Default::default()
             },
         }
     }
@@ -523,9 +539,11 @@ impl Builder<'_> {
             }
             MaterialKeys::Dielectric(m) => {
                 let facets = microfacet_keys!(m);
+                // Alpha maps make a rough interface (their α at each point).
+                let mapped = m.alpha_map.is_some() || m.alpha_u_map.is_some();
                 Bsdf::Dielectric(DielectricParams {
                     eta: ior(m.ior, 1.5)?,
-                    microfacet: self.microfacet(field, &facets, None)?,
+                    microfacet: self.microfacet(field, &facets, mapped.then_some(0.1))?,
                 })
             }
             MaterialKeys::Plastic(m) | MaterialKeys::RoughPlastic(m) => {
@@ -669,6 +687,49 @@ impl Builder<'_> {
                 "only used with a normal_map or a bump_map",
             ));
         }
+        textures.alpha_u = None;
+        let alpha = |key: &str, map: Option<&MapKey>| -> Result<Option<Arc<ImageTexture>>> {
+            let Some(map) = map else { return Ok(None) };
+            let keys = ["", key, ""];
+            let t = self.textures(
+                field,
+                None,
+                Some(map.clone().rebased(self.base)),
+                None,
+                keys,
+            )?;
+            Ok(t.roughness)
+        };
+        match (m.alpha_map, m.alpha_u_map, m.alpha_v_map) {
+            (None, None, None) => {}
+            (Some(map), None, None) => {
+                let a = alpha("alpha_map", Some(map))?;
+                textures.alpha_v = a.clone();
+                textures.alpha_u = a;
+            }
+            (None, Some(u), Some(v)) => {
+                textures.alpha_u = alpha("alpha_u_map", Some(u))?;
+                textures.alpha_v = alpha("alpha_v_map", Some(v))?;
+            }
+            (Some(_), _, _) => {
+                return Err(self.err(
+                    format!("{field}.alpha_map"),
+                    "give alpha_map, or alpha_u_map with alpha_v_map, not both",
+                ))
+            }
+            (None, _, _) => {
+                return Err(self.err(
+                    format!("{field}.alpha_u_map"),
+                    "alpha_u_map and alpha_v_map go together",
+                ))
+            }
+        }
+        if textures.alpha_u.is_some() && m.roughness_map.is_some() {
+            return Err(self.err(
+                format!("{field}.roughness_map"),
+                "give roughness_map or alpha maps, not both",
+            ));
+        }
         if let Some(map) = &section.bump_map {
             if m.normal_map.is_some() {
                 return Err(self.err(
@@ -769,6 +830,8 @@ impl Builder<'_> {
             normal_shadowing: false,
             bump: None,
             bump_scale: 1.0,
+            alpha_u: None,
+            alpha_v: None,
         })
     }
 

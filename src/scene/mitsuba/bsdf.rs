@@ -1,5 +1,6 @@
 //! BSDFs: each Mitsuba plugin as a plsr material.
 
+use super::conductors::CONDUCTORS;
 use super::document::Element;
 use super::spectrum::SpectrumUse;
 use super::table::{float, set, vec3, Table};
@@ -338,7 +339,7 @@ impl<'a> Translator<'a> {
                 let mean = (v[0] + v[1] + v[2]) / 3.0;
                 set(t, name, float(mean.clamp(0.0, 1.0)));
             }
-            Some(Colour::Map(m)) => set(t, &format!("{name}_map"), m),
+            Some(Colour::Map(m)) => set(t, &format!("{name}_map"), scalar_map(m)),
             None => match default {
                 Some(d) => set(t, name, float(d)),
                 None => return Err(self.err(node, format!("`{name}` is required"))),
@@ -420,7 +421,7 @@ impl<'a> Translator<'a> {
             );
             set(t, "alpha", float(0.0));
         } else {
-            self.roughness(p, t, node)?;
+            self.roughness(p, t, node, true)?;
         }
         let eta = self.take_rgb(p, "eta", SpectrumUse::Unbounded)?;
         let k = self.take_rgb(p, "k", SpectrumUse::Unbounded)?;
@@ -430,16 +431,19 @@ impl<'a> Translator<'a> {
                 return Err(self.err(node, "give `material` or `eta` and `k`, not both"))
             }
             (Some(m), None, None) => {
-                if !METAL_NAMES.contains(&m.as_str()) {
+                if METAL_NAMES.contains(&m.as_str()) {
+                    set(t, "metal", Value::String(m));
+                } else if let Some((_, eta, k)) = CONDUCTORS.iter().find(|(n, _, _)| *n == m) {
+                    // Mitsuba's other named conductors, as its RGB
+                    // variants see them.
+                    set(t, "eta", vec3(*eta));
+                    set(t, "k", vec3(*k));
+                } else {
                     return Err(self.err(
                         node,
-                        format!(
-                            "material `{m}`: plsr has the presets {} (or give eta and k)",
-                            METAL_NAMES.join(", ")
-                        ),
+                        format!("material `{m}` is not one of Mitsuba's named conductors"),
                     ));
                 }
-                set(t, "metal", Value::String(m));
             }
             (None, None, None) => set(t, "metal", Value::String("none".into())),
             (None, eta, k) => {
@@ -465,7 +469,7 @@ impl<'a> Translator<'a> {
         set(t, "type", Value::String("dielectric".into()));
         set(t, "ior", float(self.relative_ior(node, p)?));
         if kind == "roughdielectric" {
-            self.roughness(p, t, node)?;
+            self.roughness(p, t, node, true)?;
         }
         for s in ["specular_reflectance", "specular_transmittance"] {
             if let Some(v) = self.take_rgb(p, s, SpectrumUse::Reflectance)? {
@@ -650,6 +654,7 @@ impl<'a> Translator<'a> {
         p: &mut Params<'a>,
         t: &mut Table,
         node: &Element,
+        maps: bool,
     ) -> Result<()> {
         let d = self
             .take_string(p, "distribution")?
@@ -658,24 +663,82 @@ impl<'a> Translator<'a> {
             return Err(self.err(node, format!("distribution `{d}` is not ggx or beckmann")));
         }
         t.insert("distribution", Value::String(d));
-        let alpha = self.take_float(p, "alpha")?;
-        let u = self.take_float(p, "alpha_u")?;
-        let v = self.take_float(p, "alpha_v")?;
+        // Each α a number or (where `maps`) a texture, as plsr's
+        // `alpha_map`, `alpha_u_map` and `alpha_v_map`.
+        let mut take = |name: &str| -> Result<Option<Result<f64, Value>>> {
+            let Some(e) = self.take(p, name) else {
+                return Ok(None);
+            };
+            let e = self.deref(e)?;
+            if e.tag == "texture" {
+                if !maps {
+                    return Err(self.err(e, format!("`{name}` of this BSDF must be a <float>")));
+                }
+                return match self.colour_of(e, SpectrumUse::Unbounded)? {
+                    Colour::Map(m) => Ok(Some(Err(scalar_map(m)))),
+                    Colour::Rgb(v) => Ok(Some(Ok((v[0] + v[1] + v[2]) / 3.0))),
+                };
+            }
+            let v = self.required_attr(e, "value")?;
+            Ok(Some(Ok(self.number(e, &v)?)))
+        };
+        let alpha = take("alpha")?;
+        let u = take("alpha_u")?;
+        let v = take("alpha_v")?;
+        let mut put = |key: &str, a: Result<f64, Value>| match a {
+            Ok(x) => {
+                t.insert(key, float(x));
+            }
+            Err(m) => {
+                t.insert(format!("{key}_map"), m);
+            }
+        };
         match (alpha, u, v) {
             (Some(_), Some(_), _) | (Some(_), _, Some(_)) => {
                 return Err(self.err(node, "give alpha or alpha_u with alpha_v, not both"))
             }
             (_, Some(u), Some(v)) => {
-                t.insert("alpha_u", float(u));
-                t.insert("alpha_v", float(v));
+                // plsr pairs constants with constants and maps with maps.
+                match (u, v) {
+                    (Ok(u), Ok(v)) => {
+                        put("alpha_u", Ok(u));
+                        put("alpha_v", Ok(v));
+                    }
+                    (Err(u), Err(v)) => {
+                        put("alpha_u", Err(u));
+                        put("alpha_v", Err(v));
+                    }
+                    _ => {
+                        return Err(self.err(
+                            node,
+                            "alpha_u and alpha_v: both numbers or both textures in plsr",
+                        ))
+                    }
+                }
             }
             (_, Some(_), None) | (_, None, Some(_)) => {
                 return Err(self.err(node, "alpha_u and alpha_v go together"))
             }
-            (a, None, None) => {
-                t.insert("alpha", float(a.unwrap_or(0.1)));
-            }
+            (a, None, None) => put("alpha", a.unwrap_or(Ok(0.1))),
         }
         Ok(())
+    }
+}
+
+/// A map that Mitsuba reads as a scalar (`eval_1`: blend weights,
+/// opacities, roughness): a `checkerboard`'s scalar lookup takes `color1`
+/// where its colour lookup takes `color0` and the other way round (Mitsuba
+/// 3's `checkerboard` tests the squares' parity the other way in
+/// `eval_1`), so its two values are swapped to land where Mitsuba puts
+/// them.
+fn scalar_map(map: Value) -> Value {
+    match map {
+        Value::Table(mut t) => {
+            if let Some(Value::Array(colours)) = t.get_mut("checkerboard") {
+                colours.reverse();
+            }
+            Value::Table(t)
+        }
+        other => other,
     }
 }

@@ -26,6 +26,7 @@
 //!   +y (zenith) and +z (image centre) to plsr's `up` and `forward`.
 
 mod bsdf;
+mod conductors;
 mod document;
 mod emitter;
 mod params;

@@ -611,3 +611,33 @@ fn wrapper_bsdfs_become_materials_made_of_materials() {
         assert!(e.contains(wanted), "`{wanted}` not in: {e}");
     }
 }
+
+#[test]
+fn textured_roughness_and_named_conductors_are_mitsubas() {
+    let t = translated(
+        r#"<scene version="3.0.0">
+        <bsdf type="roughconductor" id="carbon"><string name="material" value="a-C"/>
+          <texture name="alpha_u" type="checkerboard"><float name="color0" value="0.05"/>
+          <float name="color1" value="0.3"/></texture>
+          <texture name="alpha_v" type="checkerboard"><float name="color0" value="0.3"/>
+          <float name="color1" value="0.05"/></texture></bsdf>
+        <shape type="sphere"><ref id="carbon"/></shape></scene>"#,
+    );
+    let m = material(&t, "carbon");
+    // Mitsuba's own RGB value of its amorphous carbon data.
+    let eta = m["eta"].as_array().unwrap();
+    assert!((eta[0].as_float().unwrap() - 2.94405).abs() < 1e-5, "{m}");
+    // A checkerboard read as a scalar has its colours the other way round
+    // in Mitsuba (eval_1 against eval): color1 first.
+    let first = |key: &str| m[key]["checkerboard"][0][0].as_float().unwrap();
+    assert_eq!(
+        (first("alpha_u_map"), first("alpha_v_map")),
+        (0.3, 0.05),
+        "{m}"
+    );
+    let e = error_of(
+        r#"<scene version="3.0.0"><shape type="sphere"><bsdf type="roughconductor">
+        <string name="material" value="unobtainium"/></bsdf></shape></scene>"#,
+    );
+    assert!(e.contains("not one of Mitsuba's named conductors"), "{e}");
+}
