@@ -111,12 +111,12 @@ impl TentFilter {
         s * self.radius
     }
 
-    /// One axis of pixel `x` of `size`: the tent, or near an edge of a
-    /// clipped filter the tent restricted to the film.
+    /// One axis of pixel `x` of a film spanning `[start, end)`: the tent,
+    /// or near an edge of a clipped filter the tent restricted to the film.
     #[inline]
-    fn sample_axis(&self, u: f32, x: u32, size: u32) -> f32 {
+    fn sample_axis(&self, u: f32, x: u32, [start, end]: [u32; 2]) -> f32 {
         let centre = x as f32 + 0.5;
-        let (lo, hi) = (-centre, size as f32 - centre);
+        let (lo, hi) = (start as f32 - centre, end as f32 - centre);
         if !self.clip_at_border || (lo <= -self.radius && hi >= self.radius) {
             return self.inverse_cdf(u).clamp(-self.radius, self.radius);
         }
@@ -186,14 +186,14 @@ impl GaussianFilter {
         }
     }
 
-    /// One axis of pixel `x` of `size`: the full truncated normal, or near
-    /// an edge of a clipped filter the normal restricted to
-    /// `[max(−radius, −x − ½), min(radius, size − x − ½)]` (inverting its
-    /// distribution function: `erf` in double precision).
+    /// One axis of pixel `x` of a film spanning `[start, end)`: the full
+    /// truncated normal, or near an edge of a clipped filter the normal
+    /// restricted to `[max(−radius, start − x − ½), min(radius, end − x − ½)]`
+    /// (inverting its distribution function: `erf` in double precision).
     #[inline]
-    fn sample_axis(&self, u: f32, x: u32, size: u32) -> f32 {
+    fn sample_axis(&self, u: f32, x: u32, [start, end]: [u32; 2]) -> f32 {
         let centre = x as f32 + 0.5;
-        let (lo, hi) = (-centre, size as f32 - centre);
+        let (lo, hi) = (start as f32 - centre, end as f32 - centre);
         if !self.clip_at_border || (lo <= -self.radius && hi >= self.radius) {
             return self.sample_1d(u);
         }
@@ -224,21 +224,23 @@ impl GaussianFilter {
 }
 
 impl PixelFilter {
-    /// Film offset from the top-left corner of pixel `pixel` of a film of
-    /// `size` pixels for a sample drawn with `u ∈ [0, 1)²`: `u` itself for
-    /// the box filter, `(½, ½)` plus a Gaussian offset for the Gaussian
-    /// filter (kept on the film if it is clipped at the border).
+    /// Film offset from the top-left corner of pixel `pixel` for a sample
+    /// drawn with `u ∈ [0, 1)²`: `u` itself for the box filter, `(½, ½)`
+    /// plus the filter's offset for the others (kept on the film, the
+    /// pixels `[x0, x1) × [y0, y1)` of `film = [x0, y0, x1, y1]`, if the
+    /// filter is clipped at the border).
     #[inline]
-    pub fn sample(&self, u: Vec2, pixel: [u32; 2], size: [u32; 2]) -> Vec2 {
+    pub fn sample(&self, u: Vec2, pixel: [u32; 2], film: [u32; 4]) -> Vec2 {
+        let (xs, ys) = ([film[0], film[2]], [film[1], film[3]]);
         match self {
             PixelFilter::Box => u,
             PixelFilter::Gaussian(g) => Vec2::new(
-                0.5 + g.sample_axis(u.x, pixel[0], size[0]),
-                0.5 + g.sample_axis(u.y, pixel[1], size[1]),
+                0.5 + g.sample_axis(u.x, pixel[0], xs),
+                0.5 + g.sample_axis(u.y, pixel[1], ys),
             ),
             PixelFilter::Tent(t) => Vec2::new(
-                0.5 + t.sample_axis(u.x, pixel[0], size[0]),
-                0.5 + t.sample_axis(u.y, pixel[1], size[1]),
+                0.5 + t.sample_axis(u.x, pixel[0], xs),
+                0.5 + t.sample_axis(u.y, pixel[1], ys),
             ),
         }
     }
@@ -362,7 +364,7 @@ mod tests {
         assert!(TentFilter::new(0.0).is_err() && TentFilter::new(65.0).is_err());
         let c = PixelFilter::Tent(t.clipped_at_border(true));
         for u in [0.0, 1e-7, 0.5, 0.999_999_94] {
-            let s = c.sample(Vec2::splat(u), [0, 0], [10, 10]);
+            let s = c.sample(Vec2::splat(u), [0, 0], [0, 0, 10, 10]);
             assert!(s.min_element() >= 0.0 && s.max_element() <= 2.0, "{s}");
         }
     }
@@ -372,13 +374,15 @@ mod tests {
         let g = GaussianFilter::new(0.5, 1.5).unwrap();
         let f = PixelFilter::Gaussian(g);
         for u in [0.0, 1e-7, 0.25, 0.5, 0.75, 0.999_999_94] {
-            let s = f.sample(Vec2::splat(u), [5, 5], [10, 10]);
+            let s = f.sample(Vec2::splat(u), [5, 5], [0, 0, 10, 10]);
             assert!((s.x - 0.5).abs() <= 1.5, "{s}");
         }
-        assert!((f.sample(Vec2::splat(0.5), [5, 5], [10, 10]) - Vec2::splat(0.5)).length() < 1e-6);
+        assert!(
+            (f.sample(Vec2::splat(0.5), [5, 5], [0, 0, 10, 10]) - Vec2::splat(0.5)).length() < 1e-6
+        );
         // The median of each axis sits at the centre, the quartiles at ±0.6745σ
         // (essentially unaffected by the truncation at 3σ).
-        let q = f.sample(Vec2::splat(0.75), [5, 5], [10, 10]).x - 0.5;
+        let q = f.sample(Vec2::splat(0.75), [5, 5], [0, 0, 10, 10]).x - 0.5;
         assert!((q - 0.6745 * 0.5).abs() < 2e-3, "{q}");
         assert!(GaussianFilter::new(0.0, 1.0).is_err());
         assert!(GaussianFilter::new(0.5, -1.0).is_err());
@@ -386,7 +390,7 @@ mod tests {
         // extremes of u.
         let c = PixelFilter::Gaussian(g.clipped_at_border(true));
         for u in [0.0, 1e-7, 0.5, 0.999_999_94] {
-            let s = c.sample(Vec2::splat(u), [0, 0], [10, 10]);
+            let s = c.sample(Vec2::splat(u), [0, 0], [0, 0, 10, 10]);
             assert!(s.min_element() >= 0.0 && s.max_element() <= 2.0, "{s}");
         }
     }

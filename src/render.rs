@@ -220,11 +220,20 @@ pub fn render_window_sums(
     }
     let cam = scene.camera();
     let (width, height) = (cam.width(), cam.height());
-    let window = window.unwrap_or(Tile {
-        x0: 0,
-        y0: 0,
-        width,
-        height,
+    // The whole image, or the scene's crop window.
+    let window = window.unwrap_or(match scene.film().crop {
+        Some(c) => Tile {
+            x0: c.x0,
+            y0: c.y0,
+            width: c.width,
+            height: c.height,
+        },
+        None => Tile {
+            x0: 0,
+            y0: 0,
+            width,
+            height,
+        },
     });
     if window.width == 0
         || window.height == 0

@@ -90,6 +90,23 @@ pub struct FilmSettings {
     pub camera_exposure: Option<CameraExposure>,
     /// White balance, kelvin (the colour temperature made neutral).
     pub white_balance_k: Option<f32>,
+    /// The window of the camera's image that is rendered and developed
+    /// (Mitsuba's `crop_*`): the film is this window's size, its pixels
+    /// those of the whole image; `None` for the whole image.
+    pub crop: Option<Crop>,
+}
+
+/// A window of the camera's image, pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Crop {
+    /// Left column.
+    pub x0: u32,
+    /// Top row.
+    pub y0: u32,
+    /// Width (≥ 1).
+    pub width: u32,
+    /// Height (≥ 1).
+    pub height: u32,
 }
 
 impl FilmSettings {
@@ -550,6 +567,10 @@ impl Film {
         if let Some(k) = s.white_balance_k {
             out.push((t("plsrWhiteBalance"), F32(k)));
         }
+        if let Some(c) = s.crop {
+            let crop = format!("{} {} {} {}", c.x0, c.y0, c.width, c.height);
+            out.push((t("plsrCrop"), T(t(&crop))));
+        }
         out
     }
 
@@ -632,6 +653,23 @@ fn settings_from_header(layer: &exrp::LayerAttributes) -> FilmSettings {
         }
     }
     s.exposure_ev = f32_of("plsrExposureEv").unwrap_or(0.0);
+    if let Some(exrp::AttributeValue::Text(c)) = attrs.get(&exrp::Text::from("plsrCrop")) {
+        let v: Vec<u32> = c
+            .to_string()
+            .split(' ')
+            .filter_map(|x| x.parse().ok())
+            .collect();
+        if let [x0, y0, width, height] = v[..] {
+            if width > 0 && height > 0 {
+                s.crop = Some(Crop {
+                    x0,
+                    y0,
+                    width,
+                    height,
+                });
+            }
+        }
+    }
     s.white_balance_k = f32_of("plsrWhiteBalance");
     if let (Some(shutter_s), Some(f_number), Some(iso)) =
         (layer.exposure, layer.aperture, layer.iso_speed)
@@ -733,6 +771,13 @@ mod tests {
                 f_number: 4.0,
             }),
             white_balance_k: Some(4400.0),
+            // The crop of a larger image this film is (read back as given).
+            crop: Some(Crop {
+                x0: 3,
+                y0: 1,
+                width: 5,
+                height: 3,
+            }),
         };
         for i in 0..15 {
             let f = i as f32;

@@ -230,33 +230,48 @@ impl FilmSums {
     }
 
     /// The image: per pixel the mean of its samples, the variance of that
-    /// mean, coverage, and the mean first-hit layers. `spp` is recorded as
-    /// the film's samples per pixel.
+    /// mean, coverage, and the mean first-hit layers, over the settings'
+    /// crop window if there is one. `spp` is recorded as the film's
+    /// samples per pixel.
     pub fn develop(&self, spp: u32) -> Film {
-        let mut film = Film::new(self.width, self.height);
+        let crop = self
+            .settings
+            .crop
+            .filter(|c| c.x0 + c.width <= self.width && c.y0 + c.height <= self.height)
+            .unwrap_or(crate::film::Crop {
+                x0: 0,
+                y0: 0,
+                width: self.width,
+                height: self.height,
+            });
+        let mut film = Film::new(crop.width, crop.height);
         film.spp = spp;
         film.settings = self.settings;
-        for (i, s) in self.pixels.iter().enumerate() {
-            if s.samples == 0 {
-                continue;
-            }
-            let n = s.samples as f64;
-            let mean = s.sum / n;
-            film.color[i] = mean.as_vec3();
-            film.variance[i] = if s.samples > 1 {
-                ((s.sum_sq - s.sum * mean) / (n * (n - 1.0)))
-                    .max(DVec3::ZERO)
-                    .as_vec3()
-            } else {
-                Vec3::ZERO
-            };
-            film.alpha[i] = s.hits as f32 / s.samples as f32;
-            film.object_id[i] = s.object_id;
-            if s.hits > 0 {
-                let h = s.hits as f32;
-                film.depth[i] = (s.depth / s.hits as f64) as f32;
-                film.normal[i] = s.normal / h;
-                film.albedo[i] = s.albedo / h;
+        for fy in 0..crop.height {
+            for fx in 0..crop.width {
+                let i = (fy * crop.width + fx) as usize;
+                let s = &self.pixels[((crop.y0 + fy) * self.width + crop.x0 + fx) as usize];
+                if s.samples == 0 {
+                    continue;
+                }
+                let n = s.samples as f64;
+                let mean = s.sum / n;
+                film.color[i] = mean.as_vec3();
+                film.variance[i] = if s.samples > 1 {
+                    ((s.sum_sq - s.sum * mean) / (n * (n - 1.0)))
+                        .max(DVec3::ZERO)
+                        .as_vec3()
+                } else {
+                    Vec3::ZERO
+                };
+                film.alpha[i] = s.hits as f32 / s.samples as f32;
+                film.object_id[i] = s.object_id;
+                if s.hits > 0 {
+                    let h = s.hits as f32;
+                    film.depth[i] = (s.depth / s.hits as f64) as f32;
+                    film.normal[i] = s.normal / h;
+                    film.albedo[i] = s.albedo / h;
+                }
             }
         }
         film

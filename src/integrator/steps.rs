@@ -354,11 +354,14 @@ pub(crate) fn camera_sample(
     // Filter importance sampling: the filter places the sample, which keeps
     // weight 1 (see `crate::filter`).
     let camera = scene.camera();
-    let film = Vec2::new(x as f32, y as f32)
-        + scene
-            .film()
-            .filter
-            .sample(rng.next_2d(), [x, y], [camera.width(), camera.height()]);
+    // Filters clipped at the border keep samples on the film: the camera's
+    // image, or the scene's crop window of it (as Mitsuba's crop does).
+    let window = match scene.film().crop {
+        Some(c) => [c.x0, c.y0, c.x0 + c.width, c.y0 + c.height],
+        None => [0, 0, camera.width(), camera.height()],
+    };
+    let film =
+        Vec2::new(x as f32, y as f32) + scene.film().filter.sample(rng.next_2d(), [x, y], window);
     let lens = if lens_sample {
         rng.next_2d()
     } else {

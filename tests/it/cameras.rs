@@ -490,7 +490,7 @@ fn check_filter_sampling(
         (((x as f64 - lo) / (hi - lo) * BINS as f64) as usize).min(BINS - 1)
     };
     for _ in 0..N {
-        let o = filter.sample(rng.next_2d(), pixel, size) - Vec2::splat(0.5);
+        let o = filter.sample(rng.next_2d(), pixel, [0, 0, size[0], size[1]]) - Vec2::splat(0.5);
         assert!(o.abs().max_element() <= radius, "{o}");
         for (v, (lo, hi)) in [(o.x, ix), (o.y, iy)] {
             assert!(
@@ -851,4 +851,66 @@ fn orthographic_rays_are_parallel_and_project_back() {
     let covered = 1.0 - mean;
     let want = std::f64::consts::PI * 0.25 / 8.0;
     assert!((covered - want).abs() < 0.01 * want, "{covered} vs {want}");
+}
+
+/// `[film] crop`: the film is the window's size and holds the whole
+/// image's pixels there (bit for bit with the box filter); a clipped
+/// Gaussian keeps the window's edge pixels' samples inside the window, so
+/// only pixels within its radius of the window's edge differ; windows
+/// outside the image are refused.
+#[test]
+fn a_film_crop_renders_its_window_of_the_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let film_of = |film: &str| -> plsr::Result<Film> {
+        let path = dir.path().join("scene.toml");
+        let text = format!(
+            "[render]\nspp = 4\nseed = 3\n[film]\n{film}\n\
+             [camera]\nposition = [0, -3, 1]\nlook_at = [0, 0, 0.3]\nup = [0, 0, 1]\nvfov = 45\n\
+             resolution = [32, 24]\n[environment]\nradiance = [0.2, 0.3, 0.4]\n\
+             [[lights]]\ntype = \"point\"\nposition = [1, -1, 3]\nintensity = [10, 10, 10]\n\
+             [[shapes]]\ntype = \"sphere\"\ncenter = [0, 0, 0.5]\nradius = 0.5\n\
+             [[shapes]]\ntype = \"rectangle\"\ntransform = {{ scale = 3 }}\n"
+        );
+        std::fs::write(&path, text).unwrap();
+        let scene = Scene::load(&path)?;
+        Ok(render(
+            &scene,
+            &scene.default_job(),
+            &RenderOptions::default(),
+            &|_, _| true,
+        )?
+        .0)
+    };
+    let window = |f: &Film, [x0, y0, x1, y1]: [u32; 4]| -> Vec<u32> {
+        (y0..y1)
+            .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+            .flat_map(|(x, y)| f.color[(y * f.width + x) as usize].to_array())
+            .map(f32::to_bits)
+            .collect()
+    };
+    let whole = film_of("").unwrap();
+    let crop = film_of("crop = [5, 4, 21, 15]").unwrap();
+    assert_eq!((crop.width, crop.height), (16, 11));
+    assert_eq!(
+        window(&crop, [0, 0, 16, 11]),
+        window(&whole, [5, 4, 21, 15])
+    );
+    // Gaussian of radius 2, clipped: 2 pixels in from the window's edges,
+    // the pixels are the whole image's; at its edges they differ.
+    let g = "filter = \"gaussian\"\nfilter_radius = 2\nfilter_border = \"clip\"";
+    let whole = film_of(g).unwrap();
+    let crop = film_of(&format!("{g}\ncrop = [5, 4, 21, 15]")).unwrap();
+    assert_eq!(window(&crop, [2, 2, 14, 9]), window(&whole, [7, 6, 19, 13]));
+    assert_ne!(window(&crop, [0, 0, 16, 1]), window(&whole, [5, 4, 21, 5]));
+    for bad in [
+        "crop = [5, 4, 5, 15]",
+        "crop = [5, 4, 33, 15]",
+        "crop = [-1, 0, 4, 4]",
+    ] {
+        let e = film_of(bad)
+            .err()
+            .unwrap_or_else(|| panic!("{bad} accepted"))
+            .to_string();
+        assert!(e.contains("film.crop") && e.contains("32×24"), "{e}");
+    }
 }

@@ -514,6 +514,11 @@ pub fn composite_scene(
     }
     let photo = Photo::load(&spec)?;
     let scene = plsr::scene::Scene::build(contents.description)?;
+    if scene.film().crop.is_some() {
+        return Err(Error::invalid_argument(
+            "film.crop: a composite covers the whole photo (remove the crop)",
+        ));
+    }
     let (cw, ch) = (scene.camera().width(), scene.camera().height());
     if (photo.width, photo.height) != (cw, ch) {
         return Err(Error::input(
@@ -551,6 +556,11 @@ pub fn composite_built(
     if !scene.meshes().iter().any(|m| m.is_virtual) {
         return Err(Error::invalid_argument(
             "no shape is virtual: mark the objects to insert with `virtual = true`",
+        ));
+    }
+    if scene.film().crop.is_some() {
+        return Err(Error::invalid_argument(
+            "film.crop: a composite covers the whole photo (remove the crop)",
         ));
     }
     let (cw, ch) = (scene.camera().width(), scene.camera().height());

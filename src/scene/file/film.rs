@@ -1,10 +1,10 @@
-//! `[film]`: pixel filter, exposure and white balance.
+//! `[film]`: pixel filter, exposure, white balance and crop window.
 
 use super::Builder;
 use crate::camera::CameraPreset;
 use crate::color::{MAX_TEMPERATURE_K, MIN_TEMPERATURE_K};
 use crate::error::Result;
-use crate::film::{CameraExposure, FilmSettings};
+use crate::film::{CameraExposure, Crop, FilmSettings};
 use crate::filter::{
     GaussianFilter, PixelFilter, TentFilter, DEFAULT_GAUSSIAN_RADIUS, DEFAULT_GAUSSIAN_SIGMA,
     DEFAULT_TENT_RADIUS,
@@ -24,6 +24,8 @@ pub(super) struct FilmSection {
     pub(super) iso: Option<f32>,
     pub(super) f_number: Option<f32>,
     pub(super) white_balance: Option<f32>,
+    /// `[x0, y0, x1, y1]`: the window of the image rendered.
+    pub(super) crop: Option<[i64; 4]>,
 }
 
 impl Builder<'_> {
@@ -33,6 +35,7 @@ impl Builder<'_> {
         &self,
         f: &FilmSection,
         preset: Option<&CameraPreset>,
+        (width, height): (u32, u32),
     ) -> Result<FilmSettings> {
         let filter = self.pixel_filter(f)?;
         let exposure_ev = self.finite("film.exposure_ev", f.exposure_ev.unwrap_or(0.0))?;
@@ -81,11 +84,38 @@ impl Builder<'_> {
             }
             None => None,
         };
+        let crop = match f.crop {
+            None => None,
+            Some([x0, y0, x1, y1]) => {
+                if !(0 <= x0
+                    && x0 < x1
+                    && x1 <= width as i64
+                    && 0 <= y0
+                    && y0 < y1
+                    && y1 <= height as i64)
+                {
+                    return Err(self.err(
+                        "film.crop",
+                        format!(
+                            "[{x0}, {y0}, {x1}, {y1}] is not a window [x0, y0, x1, y1] of the \
+                             {width}×{height} image (0 ≤ x0 < x1 ≤ width, 0 ≤ y0 < y1 ≤ height)"
+                        ),
+                    ));
+                }
+                Some(Crop {
+                    x0: x0 as u32,
+                    y0: y0 as u32,
+                    width: (x1 - x0) as u32,
+                    height: (y1 - y0) as u32,
+                })
+            }
+        };
         Ok(FilmSettings {
             filter,
             exposure_ev,
             camera_exposure,
             white_balance_k,
+            crop,
         })
     }
 

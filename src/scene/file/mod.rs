@@ -395,7 +395,7 @@ impl Builder<'_> {
         let job = self.job(&f.render)?;
         let robust = f.render.robust.unwrap_or(false);
         let (camera, preset) = self.camera(&f.camera)?;
-        let film = self.film(&f.film, preset)?;
+        let film = self.film(&f.film, preset, (camera.width(), camera.height()))?;
 
         let mut materials = Vec::new();
         let mut by_name = HashMap::new();

@@ -56,6 +56,7 @@ impl<'a> Translator<'a> {
             spp,
             seed,
             sample_border,
+            crop,
         } = settings;
         if !(1..=65536).contains(&width) || !(1..=65536).contains(&height) {
             return Err(self.err(
@@ -67,6 +68,12 @@ impl<'a> Translator<'a> {
             "resolution",
             Value::Array(vec![Value::Integer(width), Value::Integer(height)]),
         );
+        if let Some(c) = crop {
+            self.film.insert(
+                "crop",
+                Value::Array(c.iter().map(|&v| Value::Integer(v)).collect()),
+            );
+        }
         self.render.insert("spp", Value::Integer(spp));
         if let Some(seed) = seed {
             self.render.insert("seed", Value::Integer(seed));
@@ -158,22 +165,30 @@ impl<'a> Translator<'a> {
         let mut f = self.params(c)?;
         settings.width = self.take_int(&mut f, "width")?.unwrap_or(settings.width);
         settings.height = self.take_int(&mut f, "height")?.unwrap_or(settings.height);
-        for crop in [
-            "crop_offset_x",
-            "crop_offset_y",
-            "crop_width",
-            "crop_height",
-        ] {
-            if self.take(&mut f, crop).is_some() {
+        // Mitsuba's crop window: offset and size, within the film.
+        let crop = [
+            self.take_int(&mut f, "crop_offset_x")?,
+            self.take_int(&mut f, "crop_offset_y")?,
+            self.take_int(&mut f, "crop_width")?,
+            self.take_int(&mut f, "crop_height")?,
+        ];
+        settings.crop = if crop.iter().all(Option::is_none) {
+            None
+        } else {
+            let (w, h) = (settings.width, settings.height);
+            let [ox, oy] = [crop[0].unwrap_or(0), crop[1].unwrap_or(0)];
+            let [cw, ch] = [crop[2].unwrap_or(w), crop[3].unwrap_or(h)];
+            if ox < 0 || oy < 0 || cw < 1 || ch < 1 || ox + cw > w || oy + ch > h {
                 return Err(self.err(
                     c,
                     format!(
-                        "`{crop}` is not supported here: render the whole image, \
-                         or a window with `plsr render --crop`"
+                        "the crop window {cw} × {ch} at ({ox}, {oy}) does not lie inside the \
+                         {w} × {h} film"
                     ),
                 ));
             }
-        }
+            Some([ox, oy, ox + cw, oy + ch])
+        };
         settings.sample_border = self.take_bool(&mut f, "sample_border")?.unwrap_or(false);
         self.leftovers(&f)?;
         for r in c.children.iter().filter(|r| r.attribute("name").is_none()) {
@@ -377,6 +392,8 @@ pub(super) struct SensorSettings {
     seed: Option<i64>,
     /// The film's `sample_border`: samples may fall beyond the film's edge.
     sample_border: bool,
+    /// The crop window `[x0, y0, x1, y1]`, if any.
+    crop: Option<[i64; 4]>,
 }
 
 impl Default for SensorSettings {
@@ -388,6 +405,7 @@ impl Default for SensorSettings {
             spp: 4,
             seed: None,
             sample_border: false,
+            crop: None,
         }
     }
 }

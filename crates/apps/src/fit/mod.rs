@@ -109,6 +109,11 @@ impl View {
     /// surfaces; see [`surface_mask`]). The photo must have the camera's
     /// size.
     pub fn new(scene: &Scene, label: &str, camera: Camera, photo: &Photo, k: f32) -> Result<View> {
+        if scene.film().crop.is_some() {
+            return Err(Error::invalid_argument(format!(
+                "{label}: film.crop: a fit compares whole images (remove the crop)"
+            )));
+        }
         let (w, h) = (camera.width(), camera.height());
         if (photo.width, photo.height) != (w, h) {
             return Err(Error::invalid_argument(format!(
