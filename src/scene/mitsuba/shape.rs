@@ -11,6 +11,11 @@ use toml::Value;
 impl<'a> Translator<'a> {
     pub(super) fn shape(&mut self, node: &'a Element) -> Result<()> {
         let kind = self.required_attr(node, "type")?;
+        match kind.as_str() {
+            "shapegroup" => return self.shapegroup(node),
+            "instance" => return self.instance(node),
+            _ => {}
+        }
         let mut p = self.params(node)?;
         let mut s = Table::new();
         match kind.as_str() {
@@ -85,12 +90,17 @@ impl<'a> Translator<'a> {
                     node,
                     format!(
                         "the `{other}` shape is not supported (supported: obj, ply, serialized, \
-                         rectangle, sphere, disk, cylinder, cube)"
+                         rectangle, sphere, disk, cylinder, cube, shapegroup, instance)"
                     ),
                 ))
             }
         }
-        if let Some(m) = self.take_transform(&mut p, "to_world")? {
+        let own = self.take_transform(&mut p, "to_world")?;
+        let to_world = match (self.instance_to_world, own) {
+            (Some(i), Some(m)) => Some(i * m),
+            (i, m) => i.or(m),
+        };
+        if let Some(m) = to_world {
             let rows: Vec<Value> = (0..4).map(|r| vec3_row(m.row(r))).collect();
             s.insert("transform.matrix", Value::Array(rows));
         }
@@ -104,6 +114,9 @@ impl<'a> Translator<'a> {
                         return Err(self.err(c, "a shape has one BSDF: this is the second"));
                     }
                     bsdf = Some(self.material(target)?);
+                }
+                "emitter" if self.instance_to_world.is_some() => {
+                    return Err(self.err(c, "a shape in a shapegroup cannot emit (as in Mitsuba)"));
                 }
                 "emitter" => {
                     if s.get("emission").is_some() {
@@ -131,6 +144,72 @@ impl<'a> Translator<'a> {
         self.leftovers(&p)?;
         self.shapes.push(s);
         Ok(())
+    }
+
+    /// A `shapegroup` where it is defined: nothing is drawn (its shapes
+    /// are placed by instances); its children are checked to be shapes.
+    fn shapegroup(&mut self, node: &'a Element) -> Result<()> {
+        if self.instance_to_world.is_some() {
+            return Err(self.err(
+                node,
+                "a shapegroup inside a shapegroup (as in Mitsuba, refused)",
+            ));
+        }
+        for c in &node.children {
+            let target = if c.tag == "ref" { self.deref(c)? } else { c };
+            if target.tag != "shape" {
+                return Err(self.err(c, format!("<{}> in a shapegroup: only shapes", target.tag)));
+            }
+            let kind = self.required_attr(target, "type")?;
+            if matches!(kind.as_str(), "shapegroup" | "instance") {
+                return Err(self.err(target, format!("a {kind} inside a shapegroup is refused")));
+            }
+        }
+        Ok(())
+    }
+
+    /// An `instance`: the shapes of its `shapegroup`, each with the
+    /// instance's `to_world` applied after its own. plsr places a copy of
+    /// each shape (its meshes are not shared between instances).
+    fn instance(&mut self, node: &'a Element) -> Result<()> {
+        if self.instance_to_world.is_some() {
+            return Err(self.err(
+                node,
+                "an instance inside a shapegroup (as in Mitsuba, refused)",
+            ));
+        }
+        let mut p = self.params(node)?;
+        let to_world = self
+            .take_transform(&mut p, "to_world")?
+            .unwrap_or(glam::DMat4::IDENTITY);
+        let mut group = None;
+        for c in node
+            .children
+            .iter()
+            .filter(|c| c.attribute("name").is_none())
+        {
+            let target = if c.tag == "ref" { self.deref(c)? } else { c };
+            let is_group =
+                target.tag == "shape" && self.required_attr(target, "type")? == "shapegroup";
+            if !is_group || group.is_some() {
+                return Err(self.err(
+                    c,
+                    "an instance holds one shapegroup (by <ref>) and nothing else",
+                ));
+            }
+            group = Some(target);
+        }
+        let group =
+            group.ok_or_else(|| self.err(node, "an instance needs a <ref> to a shapegroup"))?;
+        self.leftovers(&p)?;
+        self.shapegroup(group)?;
+        self.instance_to_world = Some(to_world);
+        let placed = group.children.iter().try_for_each(|c| {
+            let target = if c.tag == "ref" { self.deref(c)? } else { c };
+            self.shape(target)
+        });
+        self.instance_to_world = None;
+        placed
     }
 
     /// An `area` emitter's radiance (linear sRGB, W/(m²·sr)).

@@ -41,6 +41,9 @@ pub(super) struct Translator<'a> {
     pub film: Table,
     /// Whether the scene's integrator was read.
     pub integrated: bool,
+    /// While a `shapegroup`'s shapes are placed by an `instance`: the
+    /// instance's `to_world`, applied after each shape's own.
+    pub instance_to_world: Option<glam::DMat4>,
     pub notes: Vec<String>,
     noted: HashSet<String>,
 }
@@ -69,6 +72,7 @@ impl<'a> Translator<'a> {
             camera: None,
             film: Table::new(),
             integrated: false,
+            instance_to_world: None,
             notes: Vec::new(),
             noted: HashSet::new(),
         }

@@ -641,3 +641,46 @@ fn textured_roughness_and_named_conductors_are_mitsubas() {
     );
     assert!(e.contains("not one of Mitsuba's named conductors"), "{e}");
 }
+
+#[test]
+fn instances_place_their_shapegroups_shapes() {
+    let t = translated(
+        r#"<scene version="3.0.0">
+        <shape type="shapegroup" id="g">
+          <shape type="sphere"><transform name="to_world"><translate x="1"/></transform></shape>
+          <shape type="cube"/></shape>
+        <shape type="instance"><ref id="g"/>
+          <transform name="to_world"><scale value="2"/></transform></shape>
+        <shape type="instance"><ref id="g"/></shape>
+        </scene>"#,
+    );
+    let shapes = t["shapes"].as_array().unwrap();
+    assert_eq!(shapes.len(), 4, "two shapes, twice");
+    // The instance's scale after the sphere's own translation: x = 2.
+    let m = shapes[0]["transform"]["matrix"].as_array().unwrap();
+    assert_eq!(m[0].as_array().unwrap()[3].as_float(), Some(2.0), "{m:?}");
+    assert_eq!(m[0].as_array().unwrap()[0].as_float(), Some(2.0), "{m:?}");
+    for (xml, wanted) in [
+        (
+            r#"<shape type="shapegroup" id="g"><shape type="sphere"><emitter type="area"/></shape></shape>
+               <shape type="instance"><ref id="g"/></shape>"#,
+            "cannot emit",
+        ),
+        (
+            r#"<shape type="shapegroup" id="g"><shape type="sphere"/></shape>
+               <shape type="instance"><ref id="g"/><bsdf type="diffuse"/></shape>"#,
+            "one shapegroup (by <ref>) and nothing else",
+        ),
+        (
+            r#"<shape type="shapegroup" id="g"><shape type="shapegroup"/></shape>"#,
+            "inside a shapegroup is refused",
+        ),
+        (
+            r#"<shape type="instance"/>"#,
+            "needs a <ref> to a shapegroup",
+        ),
+    ] {
+        let e = error_of(&format!("<scene version=\"3.0.0\">{xml}</scene>"));
+        assert!(e.contains(wanted), "`{wanted}` not in: {e}");
+    }
+}
