@@ -30,8 +30,9 @@ pub enum Distribution {
     Beckmann,
 }
 
-/// Smallest alpha used: below it the lobe is numerically a mirror.
-pub const MIN_ALPHA: f32 = 1e-3;
+/// Smallest alpha used (Mitsuba 3 clamps its microfacets there too): below
+/// it the lobe is numerically a mirror.
+pub const MIN_ALPHA: f32 = 1e-4;
 
 /// `alpha = roughness²` (the usual artist mapping), clamped to [`MIN_ALPHA`].
 #[inline]

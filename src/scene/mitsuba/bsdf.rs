@@ -417,7 +417,7 @@ impl<'a> Translator<'a> {
         if kind == "conductor" {
             self.note(
                 node,
-                "a smooth conductor is rendered as GGX with α = 0.001 (numerically a mirror)",
+                "a smooth conductor is rendered as GGX with α = 1e-4 (numerically a mirror)",
             );
             set(t, "alpha", float(0.0));
         } else {
