@@ -43,6 +43,8 @@ pub enum FarmCommand {
 pub struct PlanArgs {
     /// The scene file (on a folder every node sees).
     pub scene: PathBuf,
+    #[command(flatten)]
+    pub params: crate::scene_params::SceneParams,
     /// Parts per frame: each renders spp/parts of the samples.
     #[arg(long)]
     pub parts: u32,
@@ -118,7 +120,7 @@ pub fn run(c: FarmCommand) -> Result<()> {
 /// files the caller will write into the folder: none of them, nor the plan,
 /// may be the scene or a file it reads.
 pub fn make_plan(a: &PlanArgs, writes: &[&str]) -> Result<(FarmPlan, PathBuf, PathBuf)> {
-    let contents = plsr::scene::file::load_contents(&a.scene)?;
+    let contents = plsr::scene::file::load_contents_with(&a.scene, &a.params.options())?;
     let spp = a.spp.unwrap_or(contents.description.job.spp);
     if spp == 0 {
         return Err(Error::invalid_argument("--spp must be at least 1"));
@@ -158,6 +160,12 @@ pub fn make_plan(a: &PlanArgs, writes: &[&str]) -> Result<(FarmPlan, PathBuf, Pa
         frames,
         name: a.name.clone(),
         png: !a.no_png,
+        defines: a
+            .params
+            .define
+            .iter()
+            .map(|(n, v)| [n.clone(), v.clone()])
+            .collect(),
     };
     plan.check().map_err(|(field, m)| {
         let flag = match field {
@@ -292,7 +300,7 @@ fn piece(a: &PieceArgs) -> Result<()> {
     }
     crate::render::run(&RenderArgs {
         scene: plan.scene_path(&dir),
-        params: Default::default(),
+        params: plan.scene_params(),
         output,
         png: None,
         spp: None,

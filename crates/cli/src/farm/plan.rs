@@ -40,6 +40,10 @@ pub struct FarmPlan {
     pub name: String,
     /// Whether the merge writes a PNG beside each EXR.
     pub png: bool,
+    /// A Mitsuba scene's `-D NAME=VALUE` parameters, in order, as
+    /// `[name, value]` pairs.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub defines: Vec<[String; 2]>,
 }
 
 /// One piece of a plan: a sample range of one frame.
@@ -92,6 +96,14 @@ impl FarmPlan {
         }
         if self.name.is_empty() || self.name.contains(['/', '\\']) || self.name.starts_with('.') {
             return Err(("name", format!("{:?} is not a plain file name", self.name)));
+        }
+        if let Some([n, _]) = self.defines.iter().find(|[n, _]| {
+            n.is_empty() || !n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+        }) {
+            return Err((
+                "defines",
+                format!("`{n}` is not a parameter name (letters, digits and `_`)"),
+            ));
         }
         if self.piece_count_u64() > u32::MAX as u64 {
             return Err(("parts", "too many pieces (frames × parts)".into()));
@@ -156,6 +168,17 @@ impl FarmPlan {
         dir.join(&self.scene)
     }
 
+    /// The `-D` parameters the scene is read with.
+    pub fn scene_params(&self) -> crate::scene_params::SceneParams {
+        crate::scene_params::SceneParams {
+            define: self
+                .defines
+                .iter()
+                .map(|[n, v]| (n.clone(), v.clone()))
+                .collect(),
+        }
+    }
+
     /// The part file piece `p` writes.
     pub fn part_path(&self, dir: &Path, p: &Piece) -> PathBuf {
         let file = format!("samples-{:06}-{:06}.exr", p.samples.start, p.samples.end);
@@ -192,12 +215,18 @@ impl DoneCheck {
     /// acceleration structure).
     pub fn new(plan: &FarmPlan, dir: &Path) -> Result<DoneCheck> {
         let scene = plan.scene_path(dir);
-        let contents = plsr::scene::file::load_contents(&scene)?;
+        let params = plan.scene_params();
+        let contents = plsr::scene::file::load_contents_with(&scene, &params.options())?;
         let mut files = vec![scene];
         files.extend(contents.inputs);
         let camera = &contents.description.camera;
+        // As `plsr render` hashes a part's scene: its files, then its -D.
+        let mut files_hasher = scene_files_hasher(&files)?;
+        for (name, value) in &params.define {
+            files_hasher.field(format!("-D {name}={value}").as_bytes());
+        }
         Ok(DoneCheck {
-            files_hasher: scene_files_hasher(&files)?,
+            files_hasher,
             job: contents.description.job,
             image: (camera.width(), camera.height()),
         })
@@ -284,6 +313,7 @@ mod tests {
             frames,
             name: "image".into(),
             png: false,
+            defines: Vec::new(),
         }
     }
 

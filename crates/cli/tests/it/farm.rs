@@ -657,3 +657,43 @@ fn resume_adds_samples_to_a_part() {
         "the refused resume left it"
     );
 }
+
+/// A Mitsuba scene's `-D` parameters go into the plan: every piece reads
+/// the scene with them (here `spp`, which sets the plan's samples), status
+/// finds the parts done, and the merge is the image of 8 samples.
+#[test]
+fn a_plan_keeps_a_mitsuba_scenes_d_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let plsr = |args: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_plsr"))
+            .args(args)
+            .output()
+            .unwrap();
+        let text =
+            String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+        (o.status.success(), text)
+    };
+    let scene = "tests/data/realworld/mitsuba/docs/scenes/variants_cbox_rgb.xml";
+    let out_s = out.display().to_string();
+    let (ok, e) = plsr(&[
+        "farm", "slurm", scene, "-D", "spp=8", "--parts", "2", "-o", &out_s,
+    ]);
+    assert!(ok, "{e}");
+    let plan = std::fs::read_to_string(out.join("farm.toml")).unwrap();
+    assert!(
+        plan.contains("defines = [[\"spp\", \"8\"]]") && plan.contains("spp = 8"),
+        "{plan}"
+    );
+    let plan_s = out.join("farm.toml").display().to_string();
+    for i in ["0", "1"] {
+        let (ok, e) = plsr(&["farm", "piece", &plan_s, i]);
+        assert!(ok, "{e}");
+    }
+    let (ok, e) = plsr(&["farm", "status", &plan_s]);
+    assert!(ok && e.contains("2 of 2 pieces done"), "{e}");
+    let (ok, e) = plsr(&["farm", "merge", &plan_s]);
+    assert!(ok, "{e}");
+    let film = Film::read_exr(&out.join("image.exr")).unwrap();
+    assert_eq!(film.spp, 8);
+}
