@@ -100,13 +100,8 @@ impl Mixture {
     }
 
     /// The parts with their weights and flips.
-    pub fn parts(&self) -> impl Iterator<Item = (&Bsdf, f32, bool)> {
+    fn parts(&self) -> impl Iterator<Item = (&Bsdf, f32, bool)> {
         (0..self.len).map(|i| (&self.parts[i], self.weights[i], self.flips[i]))
-    }
-
-    /// The pass-through's probability.
-    pub fn pass_probability(&self) -> f32 {
-        self.pass
     }
 
     /// Part `i`'s directions: mirrored if it is flipped.

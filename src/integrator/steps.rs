@@ -181,13 +181,9 @@ impl SurfacePoint {
             let m = map.eval(uv);
             return (t * m.x + b * m.y + n * m.z).try_normalize().or(Some(n));
         }
-        let (d1, d2) = (mesh.uvs[i1] - mesh.uvs[i0], mesh.uvs[i2] - mesh.uvs[i0]);
-        let det = d1.x * d2.y - d1.y * d2.x;
-        if det.abs() <= 1e-20 {
+        let Some((dpdu, dpdv)) = Self::uv_derivatives(mesh, [i0, i1, i2], dp1, dp2) else {
             return Some(n);
-        }
-        let dpdu = (dp1 * d2.y - dp2 * d1.y) / det;
-        let dpdv = (dp2 * d1.x - dp1 * d2.x) / det;
+        };
         let Some(t) = (dpdu - n * n.dot(dpdu)).try_normalize() else {
             return Some(n);
         };
@@ -235,13 +231,9 @@ impl SurfacePoint {
         let (dp1, dp2) = (p1 - p0, p2 - p0);
         let ng = dp1.cross(dp2).try_normalize()?;
         let n = normal.unwrap_or(ng);
-        let (d1, d2) = (mesh.uvs[i1] - mesh.uvs[i0], mesh.uvs[i2] - mesh.uvs[i0]);
-        let det = d1.x * d2.y - d1.y * d2.x;
-        if det.abs() <= 1e-20 {
+        let Some((dpdu, dpdv)) = Self::uv_derivatives(mesh, [i0, i1, i2], dp1, dp2) else {
             return Some(n);
-        }
-        let dpdu = (dp1 * d2.y - dp2 * d1.y) / det;
-        let dpdv = (dp2 * d1.x - dp1 * d2.x) / det;
+        };
         let [gu, gv] = height.eval_gradient(uv);
         let (gu, gv) = (
             scale * crate::color::luminance(gu),
@@ -255,6 +247,27 @@ impl SurfacePoint {
         } else {
             tilted
         })
+    }
+
+    /// The triangle's `(∂p/∂u, ∂p/∂v)` from its edges `dp1 = p1 − p0`,
+    /// `dp2 = p2 − p0` and its texture coordinates; `None` where these are
+    /// degenerate.
+    #[inline]
+    fn uv_derivatives(
+        mesh: &crate::scene::Mesh,
+        [i0, i1, i2]: [usize; 3],
+        dp1: Vec3,
+        dp2: Vec3,
+    ) -> Option<(Vec3, Vec3)> {
+        let (d1, d2) = (mesh.uvs[i1] - mesh.uvs[i0], mesh.uvs[i2] - mesh.uvs[i0]);
+        let det = d1.x * d2.y - d1.y * d2.x;
+        if det.abs() <= 1e-20 {
+            return None;
+        }
+        Some((
+            (dp1 * d2.y - dp2 * d1.y) / det,
+            (dp2 * d1.x - dp1 * d2.x) / det,
+        ))
     }
 
     /// The first tangent for anisotropic BSDFs: ∂p/∂u where the mesh has

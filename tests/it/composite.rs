@@ -11,6 +11,8 @@ use plsr::rng::Rng;
 use plsr::scene::Scene;
 use plsr_testkit::chi2::{chi2_test, SphereBinning};
 
+use crate::materials::load;
+
 fn rough_gold(alpha: f32) -> Bsdf {
     Bsdf::CookTorrance(CookTorranceParams {
         microfacet: Microfacet::new(Distribution::Ggx, alpha, alpha),
@@ -160,13 +162,6 @@ fn a_blend_of_delta_and_smooth_lobes_conserves_energy() {
     }
     let mean = sum / n as f64;
     assert!((mean - 1.0).abs() < 2e-3, "mean weight {mean}");
-}
-
-fn load(text: &str) -> plsr::Result<Scene> {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("scene.toml");
-    std::fs::write(&path, text).unwrap();
-    Scene::load(&path)
 }
 
 /// A 2 × 2 rectangle facing the camera (or facing away, `flip`) beyond

@@ -17,7 +17,8 @@ vfov = 60
 resolution = [24, 24]
 "#;
 
-fn load(text: &str) -> plsr::Result<Scene> {
+/// A scene from TOML text (written to a temporary file and loaded).
+pub(crate) fn load(text: &str) -> plsr::Result<Scene> {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("scene.toml");
     std::fs::write(&path, text).unwrap();

@@ -106,25 +106,12 @@ impl Builder<'_> {
         field: &str,
         m: &MaterialSection,
     ) -> Result<Option<CompositeKeys>> {
-        fn parse<T: serde::de::DeserializeOwned>(
-            b: &Builder<'_>,
-            field: &str,
-            kind: &str,
-            keys: &toml::Table,
-        ) -> Result<T> {
-            b.typed_keys::<T>(field, keys, |_| {
-                format!(
-                    "not a parameter of a `{kind}` material (its keys: {})",
-                    super::keys::key_names::<T>().join(", ")
-                )
-            })
-        }
         let (kind, keys) = (m.kind.as_str(), &m.keys);
         let k = match kind {
-            "blend" => CompositeKeys::Blend(parse(self, field, kind, keys)?),
-            "mask" => CompositeKeys::Mask(parse(self, field, kind, keys)?),
+            "blend" => CompositeKeys::Blend(self.type_keys(field, kind, keys)?),
+            "mask" => CompositeKeys::Mask(self.type_keys(field, kind, keys)?),
             "null" => {
-                let _: NullKeys = parse(self, field, kind, keys)?;
+                let _: NullKeys = self.type_keys(field, kind, keys)?;
                 CompositeKeys::Null
             }
             _ => return Ok(None),

@@ -361,33 +361,37 @@ impl Builder<'_> {
         Ok(Some(Microfacet::new(kind, ax, ay)))
     }
 
+    /// The keys `T` of a material of type `kind`: a key `T` lacks, or a
+    /// value of the wrong kind, is an error naming the key and listing the
+    /// type's keys.
+    pub(super) fn type_keys<T: serde::de::DeserializeOwned>(
+        &self,
+        field: &str,
+        kind: &str,
+        keys: &toml::Table,
+    ) -> Result<T> {
+        self.typed_keys::<T>(field, keys, |_| {
+            format!(
+                "not a parameter of a `{kind}` material (its keys: {})",
+                key_names::<T>().join(", ")
+            )
+        })
+    }
+
     /// The keys of `materials[i]`, checked against its type: an unknown
     /// type, a key the type does not have, or a value of the wrong kind is
     /// an error naming the key.
     pub(super) fn material_keys(&self, field: &str, m: &MaterialSection) -> Result<MaterialKeys> {
-        fn parse<T: serde::de::DeserializeOwned>(
-            b: &Builder<'_>,
-            field: &str,
-            kind: &str,
-            keys: &toml::Table,
-        ) -> Result<T> {
-            b.typed_keys::<T>(field, keys, |_| {
-                format!(
-                    "not a parameter of a `{kind}` material (its keys: {})",
-                    key_names::<T>().join(", ")
-                )
-            })
-        }
         let (kind, keys) = (m.kind.as_str(), &m.keys);
         Ok(match kind {
-            "diffuse" => MaterialKeys::Diffuse(parse(self, field, kind, keys)?),
-            "blinn_phong" => MaterialKeys::BlinnPhong(parse(self, field, kind, keys)?),
-            "cook_torrance" => MaterialKeys::CookTorrance(parse(self, field, kind, keys)?),
-            "dielectric" => MaterialKeys::Dielectric(parse(self, field, kind, keys)?),
-            "thin_dielectric" => MaterialKeys::ThinDielectric(parse(self, field, kind, keys)?),
-            "principled" => MaterialKeys::Principled(parse(self, field, kind, keys)?),
+            "diffuse" => MaterialKeys::Diffuse(self.type_keys(field, kind, keys)?),
+            "blinn_phong" => MaterialKeys::BlinnPhong(self.type_keys(field, kind, keys)?),
+            "cook_torrance" => MaterialKeys::CookTorrance(self.type_keys(field, kind, keys)?),
+            "dielectric" => MaterialKeys::Dielectric(self.type_keys(field, kind, keys)?),
+            "thin_dielectric" => MaterialKeys::ThinDielectric(self.type_keys(field, kind, keys)?),
+            "principled" => MaterialKeys::Principled(self.type_keys(field, kind, keys)?),
             "plastic" => {
-                let k: PlasticKeys = parse(self, field, kind, keys)?;
+                let k: PlasticKeys = self.type_keys(field, kind, keys)?;
                 for (given, key) in [
                     (k.distribution.is_some(), "distribution"),
                     (k.alpha.is_some(), "alpha"),
@@ -402,7 +406,7 @@ impl Builder<'_> {
                 }
                 MaterialKeys::Plastic(k)
             }
-            "rough_plastic" => MaterialKeys::RoughPlastic(parse(self, field, kind, keys)?),
+            "rough_plastic" => MaterialKeys::RoughPlastic(self.type_keys(field, kind, keys)?),
             other => {
                 return Err(self.err(
                     format!("{field}.type"),
