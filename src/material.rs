@@ -6,7 +6,8 @@
 //!
 //! | texture | replaces | models |
 //! | --- | --- | --- |
-//! | `base_color` (sRGB) | the albedo / base colour | `diffuse` (reflectance), `blinn_phong` (diffuse), `principled` (base_color) |
+//! | `base_color` (sRGB) | the albedo / base colour | `diffuse` (reflectance), `blinn_phong` (diffuse), `principled` (base_color), plastics (diffuse_reflectance) |
+//! | `base_color_attribute` (the mesh's colours) | multiplies the base colour | as `base_color` |
 //! | `roughness` (linear, red channel) | roughness (α = r²) | `principled`, `cook_torrance` |
 //! | `metallic` (linear, red channel) | metallic | `principled` |
 //! | `normal` (linear, tangent space) | the shading normal | all |
@@ -22,7 +23,7 @@
 
 use crate::bsdf::{microfacet::alpha_from_roughness, Bsdf, Microfacet, Mixture, Scatter};
 use crate::texture::ImageTexture;
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 use std::sync::Arc;
 
 /// Textures that replace BSDF parameters over a surface.
@@ -55,6 +56,11 @@ pub struct MaterialTextures {
     /// Microfacet α along the second tangent (the same map as `alpha_u`
     /// for an isotropic `alpha_map`).
     pub alpha_v: Option<Arc<ImageTexture>>,
+    /// The name of the mesh colours (`vertex_color`, `face_color`, …) that
+    /// multiply the base colour (Mitsuba's `mesh_attribute`, glTF's
+    /// `COLOR_0`); the shape's loader finds them in its file and stores
+    /// them in [`Mesh::colors`](crate::scene::Mesh::colors).
+    pub base_color_attribute: Option<String>,
 }
 
 /// The tangent frame of a normal map: its x axis is always along ∂p/∂u
@@ -89,6 +95,7 @@ impl MaterialTextures {
             && self.normal.is_none()
             && self.bump.is_none()
             && self.alpha_u.is_none()
+            && self.base_color_attribute.is_none()
     }
 
     /// Whether the shadow terminator applies: a normal or bump map with
@@ -221,12 +228,13 @@ impl Composite {
             })
     }
 
-    /// The mixture at `uv` seen from the front or from `behind`: the side's
+    /// The mixture at `uv` (the mesh's colour `color` there) seen from the
+    /// front or from `behind`: the side's
     /// layers with their weights; on the back, a leaf without two sides is
     /// black (its weight absorbed), and where the mixture transmits (the
     /// frame is the geometric outside) the others are mirrored. `None` if
     /// the side has more parts than a [`Mixture`] holds.
-    pub fn scatter_at(&self, uv: Vec2, behind: bool) -> Option<Scatter> {
+    pub fn scatter_at(&self, uv: Vec2, color: Vec3, behind: bool) -> Option<Scatter> {
         let layers = match (&self.back, behind) {
             (Some(back), true) => back,
             _ => &self.front,
@@ -245,7 +253,7 @@ impl Composite {
                         continue;
                     }
                     let flip = behind && opaque && transmits;
-                    if !mix.push(m.bsdf_at(uv), w, flip) {
+                    if !mix.push(m.bsdf_at(uv, color), w, flip) {
                         return None;
                     }
                 }
@@ -280,15 +288,16 @@ impl Material {
         !self.textures.is_empty() || self.composite.as_ref().is_some_and(|c| c.needs_uv())
     }
 
-    /// The scattering at `uv`, seen from the front or from `behind` the
-    /// geometric normal: [`Material::bsdf_at`], or a composite's mixture.
+    /// The scattering at `uv` (where the mesh's colour is `color`), seen
+    /// from the front or from `behind` the geometric normal:
+    /// [`Material::bsdf_at`], or a composite's mixture.
     #[inline]
-    pub fn scatter_at(&self, uv: Vec2, behind: bool) -> Scatter {
+    pub fn scatter_at(&self, uv: Vec2, color: Vec3, behind: bool) -> Scatter {
         match &self.composite {
-            None => Scatter::One(self.bsdf_at(uv)),
+            None => Scatter::One(self.bsdf_at(uv, color)),
             // A side with too many parts is refused when the scene is built.
             Some(c) => c
-                .scatter_at(uv, behind)
+                .scatter_at(uv, color, behind)
                 .unwrap_or(Scatter::Mix(Mixture::new())),
         }
     }
@@ -315,24 +324,30 @@ impl Material {
         !self.two_sided && self.composite.is_none() && !self.bsdf.transmits() && ng.dot(dir) > 0.0
     }
 
-    /// The BSDF at surface coordinates `uv`: the constant BSDF with its
-    /// textured parameters looked up.
+    /// The BSDF at surface coordinates `uv` where the mesh's colour is
+    /// `color` (`Vec3::ONE` where it has none): the constant BSDF with its
+    /// textured parameters looked up. A base colour from a map or the
+    /// mesh is clamped to `[0, 1]`.
     #[inline]
-    pub fn bsdf_at(&self, uv: Vec2) -> Bsdf {
+    pub fn bsdf_at(&self, uv: Vec2, color: Vec3) -> Bsdf {
         let mut bsdf = self.bsdf;
         if self.textures.is_empty() {
             return bsdf;
         }
         let t = &self.textures;
-        if let Some(tex) = &t.base_color {
-            let c = tex.eval(uv).clamp(glam::Vec3::ZERO, glam::Vec3::ONE);
-            match &mut bsdf {
-                Bsdf::Diffuse(p) => p.reflectance = c,
-                Bsdf::BlinnPhong(p) => p.diffuse = c.min(glam::Vec3::ONE - p.specular),
-                Bsdf::Principled(p) => p.base_color = c,
-                Bsdf::Plastic(p) => p.diffuse_reflectance = c,
-                Bsdf::RoughPlastic(p) => p.diffuse_reflectance = c,
-                _ => {}
+        let base = t
+            .base_color
+            .as_ref()
+            .map(|tex| tex.eval(uv).clamp(Vec3::ZERO, Vec3::ONE));
+        if base.is_some() || t.base_color_attribute.is_some() {
+            // The map's colour (or the constant one) times the mesh's.
+            let tint = match t.base_color_attribute {
+                Some(_) => color,
+                None => Vec3::ONE,
+            };
+            if let Some(constant) = bsdf.base_color() {
+                let c = base.unwrap_or(constant) * tint;
+                bsdf = bsdf.with_base_color(c.clamp(Vec3::ZERO, Vec3::ONE));
             }
         }
         if let Some(tex) = &t.roughness {

@@ -153,7 +153,7 @@ impl ImageTexture {
         self
     }
 
-    /// Loads a PNG or JPEG file. The error message names the file and the
+    /// Loads a PNG, JPEG, BMP or Radiance HDR file. The error message names the file and the
     /// decoder's complaint; callers add the scene field.
     pub fn load(
         path: &Path,
@@ -204,6 +204,15 @@ impl ImageTexture {
             *t = f(*t);
         }
         self
+    }
+
+    /// The mean texel (linear RGB).
+    pub fn mean(&self) -> Vec3 {
+        let sum = self
+            .texels
+            .iter()
+            .fold(glam::DVec3::ZERO, |s, t| s + t.as_dvec3());
+        (sum / self.texels.len().max(1) as f64).as_vec3()
     }
 
     /// The largest value of any channel (for range checks of parameters).

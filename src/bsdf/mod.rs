@@ -228,6 +228,36 @@ impl Bsdf {
         }
     }
 
+    /// The base colour a colour map or the mesh's colours replace or
+    /// scale (Lambert's reflectance, Blinn–Phong's diffuse colour, the
+    /// principled base colour, a plastic's diffuse reflectance), if the
+    /// model has one.
+    pub fn base_color(&self) -> Option<Vec3> {
+        match self {
+            Bsdf::Diffuse(p) => Some(p.reflectance),
+            Bsdf::BlinnPhong(p) => Some(p.diffuse),
+            Bsdf::Principled(p) => Some(p.base_color),
+            Bsdf::Plastic(p) => Some(p.diffuse_reflectance),
+            Bsdf::RoughPlastic(p) => Some(p.diffuse_reflectance),
+            Bsdf::CookTorrance(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => None,
+        }
+    }
+
+    /// The BSDF with base colour `c` in `[0, 1]` (see [`Bsdf::base_color`];
+    /// Blinn–Phong's is lowered to leave room for its specular colour);
+    /// unchanged for a model without one.
+    pub fn with_base_color(mut self, c: Vec3) -> Bsdf {
+        match &mut self {
+            Bsdf::Diffuse(p) => p.reflectance = c,
+            Bsdf::BlinnPhong(p) => p.diffuse = c.min(Vec3::ONE - p.specular),
+            Bsdf::Principled(p) => p.base_color = c,
+            Bsdf::Plastic(p) => p.diffuse_reflectance = c,
+            Bsdf::RoughPlastic(p) => p.diffuse_reflectance = c,
+            Bsdf::CookTorrance(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => {}
+        }
+        self
+    }
+
     /// Directional albedo proxy for the albedo AOV (linear RGB).
     pub fn albedo(&self) -> Vec3 {
         match self {

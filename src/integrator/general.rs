@@ -479,7 +479,7 @@ impl<'a> SurfaceHit<'a> {
         let bsdf = if material.textures.is_empty() && material.composite.is_none() {
             Scatter::One(material.bsdf)
         } else {
-            material.scatter_at(surface.uv, ng.dot(wo) < 0.0)
+            material.scatter_at(surface.uv, surface.color, ng.dot(wo) < 0.0)
         };
         // Opaque surfaces are two-sided: shade in the frame facing the viewer.
         // Transmissive ones keep the geometric normal as their outside.

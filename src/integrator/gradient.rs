@@ -421,7 +421,7 @@ fn step(
     let bsdf = if material.textures.is_empty() {
         &material.bsdf
     } else {
-        textured = material.bsdf_at(surface.uv);
+        textured = material.bsdf_at(surface.uv, surface.color);
         &textured
     };
     let guard = surface.normal.is_some();

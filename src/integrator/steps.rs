@@ -81,6 +81,9 @@ pub(crate) struct SurfacePoint {
     /// The interpolated vertex normal before any normal map tilted it (for
     /// the shadow terminator), or `None` without vertex normals.
     pub(crate) base_normal: Option<Vec3>,
+    /// The mesh's colour at the hit where the material takes its base
+    /// colour from it ([`crate::scene::Mesh::colors`]), else one.
+    pub(crate) color: Vec3,
 }
 
 impl SurfacePoint {
@@ -94,11 +97,18 @@ impl SurfacePoint {
         material: &crate::scene::Material,
     ) -> SurfacePoint {
         let has_uv = material.needs_uv() && !mesh.uvs.is_empty();
+        let color = match &mesh.colors {
+            Some(c) if material.textures.base_color_attribute.is_some() => {
+                c.at(&mesh.triangles, hit.prim_id as usize, hit.u, hit.v)
+            }
+            _ => Vec3::ONE,
+        };
         if !has_uv && mesh.normals.is_empty() {
             return SurfacePoint {
                 uv: Vec2::ZERO,
                 normal: None,
                 base_normal: None,
+                color,
             };
         }
         let [i0, i1, i2] = mesh.triangles[hit.prim_id as usize].map(|i| i as usize);
@@ -145,6 +155,7 @@ impl SurfacePoint {
             uv,
             normal,
             base_normal,
+            color,
         }
     }
 

@@ -35,6 +35,7 @@ mod directional;
 mod envmap;
 pub mod pls;
 mod point;
+mod projection;
 mod triangle;
 
 pub use bounds::LightBounds;
@@ -42,6 +43,7 @@ pub use directional::DirectionalLight;
 pub use envmap::EnvironmentLight;
 pub use pls::{Cone, Reach};
 pub use point::{point_light_sample, spot_cone, PointLight};
+pub use projection::{Projection, ProjectionKind};
 pub use triangle::{triangle_light_sample, TriangleLight, TrianglePoint};
 
 use crate::color::luminance;
@@ -694,6 +696,7 @@ mod tests {
                     position: Vec3::new(i as f32 * 0.5, 0.0, h),
                     intensity: Vec3::ONE,
                     cone: None,
+                    projection: None,
                 })
             })
             .collect();
@@ -720,6 +723,7 @@ mod tests {
                 position: Vec3::Z,
                 intensity: Vec3::ONE,
                 cone: None,
+                projection: None,
             }),
             Light::Environment {
                 light: Box::new(EnvironmentLight::constant(Vec3::splat(0.1))),

@@ -16,11 +16,15 @@
 //! ```
 //!
 //! A spot light's intensity falls linearly in angle from the beam width to
-//! the cutoff, `(θc − θ)/(θc − θb)`, as Mitsuba's `spot` does.
+//! the cutoff, `(θc − θ)/(θc − θb)`, as Mitsuba's `spot` does. A spot light
+//! may project an image over its beam, and a projector is a point light
+//! whose intensity is an image ([`Projection`]).
 
 use super::pls::{Cone, SoftEdge};
+use super::projection::Projection;
 use super::{luminance, LightSample};
 use glam::Vec3;
+use std::sync::Arc;
 
 /// A point light of radiant intensity `intensity`, in every direction or,
 /// for a spot light, times the window of its `cone`.
@@ -34,6 +38,9 @@ pub struct PointLight {
     /// A spot light's beam: its axis and how its intensity falls off with
     /// the angle from it; `None` for an isotropic light.
     pub cone: Option<Cone>,
+    /// An image the light projects, which multiplies its intensity by
+    /// direction (a spot light's texture, or a projector's slide).
+    pub projection: Option<Arc<Projection>>,
 }
 
 impl PointLight {
@@ -43,6 +50,7 @@ impl PointLight {
             position,
             intensity,
             cone: None,
+            projection: None,
         }
     }
 
@@ -54,6 +62,9 @@ impl PointLight {
         if let Some(cone) = &self.cone {
             sample.radiance *= cone.window(-sample.wi);
         }
+        if let Some(projection) = &self.projection {
+            sample.radiance *= projection.factor(-sample.wi);
+        }
         (valid && sample.radiance != Vec3::ZERO).then_some(sample)
     }
 
@@ -63,18 +74,34 @@ impl PointLight {
     /// one (as a parametric light is weighed without its window): picked by
     /// its emitted power, a spot next to an environment was sampled a tenth
     /// as often as Mitsuba samples it, and its pool of light was noise.
+    /// With a projected image, the intensity is weighed by the image's
+    /// mean ([`Projection::mean_factor`]).
     pub fn power(&self) -> f32 {
-        4.0 * std::f32::consts::PI * luminance(self.intensity)
+        let intensity = match &self.projection {
+            Some(p) => self.intensity * p.mean_factor(),
+            None => self.intensity,
+        };
+        4.0 * std::f32::consts::PI * luminance(intensity)
     }
 
     /// The power the light emits (luminance): `4π·I`, or for a spot light
-    /// `I·∫ window dω`.
+    /// `I·∫ window dω` (times the mean texel of a projected image, an
+    /// approximation), for a projector `I·∫ factor dω`.
     pub fn emitted_power(&self) -> f32 {
+        if let Some(p) = &self.projection {
+            if let Some(integral) = p.projector_integral() {
+                return luminance(self.intensity * integral);
+            }
+        }
+        let image = self
+            .projection
+            .as_ref()
+            .map_or(1.0, |p| luminance(p.mean_factor()));
         let solid_angle = match &self.cone {
             None => 4.0 * std::f32::consts::PI,
             Some(cone) => spot_solid_angle(cone),
         };
-        solid_angle * luminance(self.intensity)
+        solid_angle * luminance(self.intensity) * image
     }
 }
 

@@ -81,6 +81,35 @@ pub struct Mesh {
     /// How texture coordinates are found at a hit: interpolated from
     /// `uvs`, or computed from the hit point (the built-in sphere and disk).
     pub uv_map: uv_map::UvMap,
+    /// Colours stored with the mesh (a PLY's `vertex_color`, glTF's
+    /// `COLOR_0`), which multiply the base colour of a material whose
+    /// `base_color_attribute` is set; `None` leaves it as it is.
+    pub colors: Option<MeshColors>,
+}
+
+/// Linear RGB colours stored with a mesh, per vertex (interpolated over
+/// each triangle) or per triangle (constant over it).
+#[derive(Debug, Clone, PartialEq)]
+pub enum MeshColors {
+    /// One colour per vertex.
+    Vertex(Vec<Vec3>),
+    /// One colour per triangle.
+    Face(Vec<Vec3>),
+}
+
+impl MeshColors {
+    /// The colour on triangle `prim` at barycentrics `(b1, b2)` (Embree's:
+    /// `p = (1 − b1 − b2)·p0 + b1·p1 + b2·p2`).
+    #[inline]
+    pub fn at(&self, triangles: &[[u32; 3]], prim: usize, b1: f32, b2: f32) -> Vec3 {
+        match self {
+            MeshColors::Vertex(c) => {
+                let [i0, i1, i2] = triangles[prim].map(|i| i as usize);
+                c[i0] * (1.0 - b1 - b2) + c[i1] * b1 + c[i2] * b2
+            }
+            MeshColors::Face(c) => c[prim],
+        }
+    }
 }
 
 /// Why a mesh is invalid.
@@ -110,6 +139,15 @@ pub enum MeshError {
     TooManyVertices(usize),
     /// Vertex `i` lies beyond [`MAX_COORDINATE`](crate::accel::MAX_COORDINATE).
     PositionTooFar(usize),
+    /// Face colours that are not one per triangle.
+    FaceColorCount {
+        /// How many were given.
+        given: usize,
+        /// How many triangles there are.
+        triangles: usize,
+    },
+    /// Colour `i` is not finite.
+    NonFiniteColor(usize),
 }
 
 impl std::fmt::Display for MeshError {
@@ -130,6 +168,11 @@ impl std::fmt::Display for MeshError {
                 "{given} {attribute} for {vertices} vertices (give one per vertex, or none)"
             ),
             MeshError::TooManyVertices(n) => write!(f, "{n} vertices: at most 2^32"),
+            MeshError::FaceColorCount { given, triangles } => write!(
+                f,
+                "{given} face colours for {triangles} triangles (give one per triangle, or none)"
+            ),
+            MeshError::NonFiniteColor(i) => write!(f, "colour {i} is not finite"),
             MeshError::PositionTooFar(i) => write!(
                 f,
                 "position {i} is beyond ±{:e} scene units",
@@ -191,6 +234,7 @@ impl Mesh {
             pls: None,
             is_virtual: false,
             uv_map: uv_map::UvMap::Vertices,
+            colors: None,
         };
         mesh.validate()?;
         Ok(mesh)
@@ -238,6 +282,27 @@ impl Mesh {
                 });
             }
         }
+        match &self.colors {
+            Some(MeshColors::Vertex(c)) if c.len() != n => {
+                return Err(MeshError::AttributeCount {
+                    attribute: "vertex colours",
+                    given: c.len(),
+                    vertices: n,
+                })
+            }
+            Some(MeshColors::Face(c)) if c.len() != self.triangles.len() => {
+                return Err(MeshError::FaceColorCount {
+                    given: c.len(),
+                    triangles: self.triangles.len(),
+                })
+            }
+            Some(MeshColors::Vertex(c) | MeshColors::Face(c)) => {
+                if let Some(i) = c.iter().position(|v| !v.is_finite()) {
+                    return Err(MeshError::NonFiniteColor(i));
+                }
+            }
+            None => {}
+        }
         Ok(())
     }
 }
@@ -272,6 +337,7 @@ pub fn pls_mesh(light: &Pls, mode: BrightnessMode, nf: u32, material: u32, name:
         pls: Some(emitter),
         is_virtual: false,
         uv_map: uv_map::UvMap::Vertices,
+        colors: None,
     }
 }
 

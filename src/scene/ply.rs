@@ -4,7 +4,10 @@
 //! Read: the `vertex` element's `x y z`, its normals `nx ny nz` and texture
 //! coordinates (`u v`, `s t` or `texture_u texture_v`) when present, and
 //! the `face` element's index list (`vertex_indices` or `vertex_index`),
-//! polygons split into fans. Every other element and property is skipped.
+//! polygons split into fans. Colours and other three-component
+//! properties become named attributes, grouped as Mitsuba's `ply` shape
+//! groups them (see [`PlyAttribute`]). Every other element and property is
+//! skipped.
 //! Errors name the file and what is wrong (with the header line).
 
 use crate::error::FormatError;
@@ -22,6 +25,31 @@ pub struct PlyMesh {
     pub normals: Vec<Vec3>,
     /// Per-vertex texture coordinates, or empty.
     pub uvs: Vec<Vec2>,
+    /// Three-component attributes of vertices and faces (colours first).
+    pub attributes: Vec<PlyAttribute>,
+}
+
+/// A three-component property group of the vertices or faces, named as
+/// Mitsuba names it: `r g b` or `red green blue` (an alpha after them is
+/// dropped) are `vertex_color` / `face_color`; `P_x P_y P_z`, `P_0 P_1 P_2`
+/// or `P_1 P_2 P_3` are `vertex_P`, and `P_r P_g P_b` `vertex_P_color`.
+/// Integer components are divided by their type's maximum and decoded from
+/// sRGB (as Mitsuba's loader does); floating-point ones are taken as they
+/// are (linear).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlyAttribute {
+    /// `vertex_…` or `face_…`.
+    pub name: String,
+    /// One value per vertex, or per triangle for a face attribute (a
+    /// polygon's value repeated over its fan).
+    pub values: Vec<Vec3>,
+}
+
+impl PlyMesh {
+    /// The attribute called `name`, if the file has it.
+    pub fn attribute(&self, name: &str) -> Option<&PlyAttribute> {
+        self.attributes.iter().find(|a| a.name == name)
+    }
 }
 
 /// The most vertices or faces a file may declare (beyond, the counts are
@@ -53,6 +81,20 @@ impl Scalar {
             "double" | "float64" => Scalar::F64,
             _ => return None,
         })
+    }
+
+    /// The largest value of an integer type (what a normalised component
+    /// is divided by); `None` for floating point.
+    fn integer_max(self) -> Option<f64> {
+        match self {
+            Scalar::I8 => Some(i8::MAX as f64),
+            Scalar::U8 => Some(u8::MAX as f64),
+            Scalar::I16 => Some(i16::MAX as f64),
+            Scalar::U16 => Some(u16::MAX as f64),
+            Scalar::I32 => Some(i32::MAX as f64),
+            Scalar::U32 => Some(u32::MAX as f64),
+            Scalar::F32 | Scalar::F64 => None,
+        }
     }
 
     fn size(self) -> usize {
@@ -239,6 +281,55 @@ fn parse_header(lines: &[String]) -> Result<(Encoding, Vec<Element>), FormatErro
     Ok((encoding, elements))
 }
 
+/// The three-component groups among an element's scalar properties (see
+/// [`PlyAttribute`]): each group's name without the element prefix and
+/// its three property slots.
+fn attribute_groups(e: &Element) -> Vec<(String, [usize; 3])> {
+    let names: Vec<Option<&str>> = e
+        .properties
+        .iter()
+        .map(|p| match p {
+            Property::Scalar(n, _) => Some(n.as_str()),
+            Property::List(..) => None,
+        })
+        .collect();
+    let mut groups = Vec::new();
+    let mut k = 0;
+    while k + 2 < names.len() {
+        let run = [names[k], names[k + 1], names[k + 2]];
+        let found = if let [Some(a), Some(b), Some(c)] = run {
+            if [a, b, c] == ["r", "g", "b"] || [a, b, c] == ["red", "green", "blue"] {
+                Some("color".to_string())
+            } else {
+                [
+                    (["_x", "_y", "_z"], ""),
+                    (["_r", "_g", "_b"], "_color"),
+                    (["_0", "_1", "_2"], ""),
+                    (["_1", "_2", "_3"], ""),
+                ]
+                .iter()
+                .find_map(|(suffixes, tail)| {
+                    let prefix = a.strip_suffix(suffixes[0])?;
+                    (!prefix.is_empty()
+                        && b.strip_suffix(suffixes[1]) == Some(prefix)
+                        && c.strip_suffix(suffixes[2]) == Some(prefix))
+                    .then(|| format!("{prefix}{tail}"))
+                })
+            }
+        } else {
+            None
+        };
+        match found {
+            Some(name) => {
+                groups.push((name, [k, k + 1, k + 2]));
+                k += 3;
+            }
+            None => k += 1,
+        }
+    }
+    groups
+}
+
 /// Reads every item of element `e` from `r`: vertices (positions, normals,
 /// texture coordinates) and faces (fan-triangulated) go into `mesh`, any
 /// other element is read past.
@@ -275,9 +366,32 @@ fn read_element(r: &mut Reader, e: &Element, mesh: &mut PlyMesh) -> Result<(), F
     if faces && list.is_none() {
         return Err("the face element has no vertex_indices list".into());
     }
+    let groups = if is_vertex || faces {
+        attribute_groups(e)
+    } else {
+        Vec::new()
+    };
+    let first_attribute = mesh.attributes.len();
+    for (name, _) in &groups {
+        mesh.attributes.push(PlyAttribute {
+            name: format!("{}_{name}", if is_vertex { "vertex" } else { "face" }),
+            values: Vec::new(),
+        });
+    }
+    let component = |values: &[f64], slot: usize| -> f32 {
+        let v = values[slot];
+        match &e.properties[slot] {
+            Property::Scalar(_, t) => match t.integer_max() {
+                Some(max) => crate::texture::srgb_to_linear((v / max) as f32),
+                None => v as f32,
+            },
+            Property::List(..) => 0.0,
+        }
+    };
     let mut values = vec![0.0f64; e.properties.len()];
     let mut polygon: Vec<u32> = Vec::new();
     for item in 0..e.count {
+        let triangles_before = mesh.triangles.len();
         let err = |m: String| FormatError::Content(format!("{} {item}: {m}", e.name));
         let at = |f: FormatError| err(f.to_string());
         for (k, p) in e.properties.iter().enumerate() {
@@ -319,6 +433,17 @@ fn read_element(r: &mut Reader, e: &Element, mesh: &mut PlyMesh) -> Result<(), F
                 mesh.uvs.push(Vec2::new(v(a), v(b)));
             }
         }
+        // A vertex's value once; a face's once per triangle of its fan.
+        let repeat = if is_vertex {
+            1
+        } else {
+            mesh.triangles.len() - triangles_before
+        };
+        for (g, (_, slots)) in groups.iter().enumerate() {
+            let value = Vec3::from(slots.map(|k| component(&values, k)));
+            let a = &mut mesh.attributes[first_attribute + g].values;
+            a.extend(std::iter::repeat_n(value, repeat));
+        }
     }
     Ok(())
 }
@@ -336,6 +461,11 @@ fn check_mesh(mesh: &mut PlyMesh) -> Result<(), FormatError> {
     }
     if mesh.positions.iter().any(|p| !p.is_finite()) {
         return Err("a vertex position is not a finite number".into());
+    }
+    for a in &mesh.attributes {
+        if let Some(i) = a.values.iter().position(|v| !v.is_finite()) {
+            return Err(format!("{} of item {i} is not a finite number", a.name).into());
+        }
     }
     // Normals: unit length where given, or none at all if any is unusable.
     if mesh
@@ -422,6 +552,41 @@ mod tests {
                 (a.normals.clone(), a.uvs.clone())
             );
         }
+    }
+
+    #[test]
+    fn colours_and_grouped_properties_become_attributes() {
+        // uchar colours with alpha on the vertices, float `color_0..2` and
+        // a `dir_x..z` group on a quad face (two triangles), a lone `w`.
+        let text = "ply\nformat ascii 1.0\nelement vertex 4\n\
+            property float x\nproperty float y\nproperty float z\n\
+            property uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar alpha\n\
+            element face 1\nproperty list uchar int vertex_indices\n\
+            property float color_0\nproperty float color_1\nproperty float color_2\n\
+            property float w\nproperty double dir_x\nproperty double dir_y\nproperty double dir_z\n\
+            end_header\n\
+            0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n1 1 0 0 0 188 255\n0 1 0 10 10 10 0\n\
+            4 0 1 2 3 0.25 0.5 2.0 9 1 2 3\n";
+        let m = parse_ply(text.as_bytes()).unwrap();
+        let names: Vec<&str> = m.attributes.iter().map(|a| a.name.as_str()).collect();
+        assert_eq!(names, ["vertex_color", "face_color", "face_dir"]);
+        let vc = &m.attribute("vertex_color").unwrap().values;
+        assert_eq!(vc[0], Vec3::X);
+        assert_eq!(vc[1], Vec3::Y);
+        // 188/255 decoded from sRGB.
+        assert!((vc[2].z - crate::texture::srgb_to_linear(188.0 / 255.0)).abs() < 1e-7);
+        assert!((vc[2].z - 0.5029).abs() < 1e-3, "{}", vc[2].z);
+        assert_eq!(vc[3], Vec3::splat(10.0f32 / 255.0 / 12.92));
+        // Floating-point components are linear, one per triangle.
+        let fc = &m.attribute("face_color").unwrap().values;
+        assert_eq!(fc, &vec![Vec3::new(0.25, 0.5, 2.0); 2]);
+        assert_eq!(
+            m.attribute("face_dir").unwrap().values[1],
+            Vec3::new(1.0, 2.0, 3.0)
+        );
+        let nan = text.replace("0.25 0.5 2.0", "0.25 nan 2.0");
+        let e = parse_ply(nan.as_bytes()).unwrap_err();
+        assert!(e.to_string().contains("face_color of item 0"), "{e}");
     }
 
     #[test]

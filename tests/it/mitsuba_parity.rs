@@ -14,8 +14,9 @@
 //! measured spectra, one-sided BSDFs, conductor, rough conductor,
 //! dielectric, thin dielectric, rough plastic, a checkerboard on Mitsuba's sphere
 //! parameterisation, a sphere light, the thin lens, the orthographic
-//! camera, the cylinder, spot lights, and normal maps tilted along u and
-//! along v (Mitsuba's tangent frame and shadow terminator).
+//! camera, the cylinder, spot lights, normal maps tilted along u and
+//! along v (Mitsuba's tangent frame and shadow terminator), and mesh
+//! colours per vertex and per face (`mesh_attribute`).
 
 use plsr::render::{render, RenderOptions};
 use plsr::scene::mitsuba::Options;

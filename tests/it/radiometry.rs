@@ -323,6 +323,7 @@ fn spot_light_matches_mitsubas_numbers() {
             30f32.to_radians(),
             10f32.to_radians(),
         )),
+        projection: None,
     };
     for (p, want) in [
         ([1.0, 2.0, 0.0], [0.222_222_24, 0.333_333_37, 0.444_444_48]),
@@ -379,6 +380,7 @@ fn spot_light_lights_the_floor_inside_its_cone() {
                     cutoff.to_radians(),
                     beam.to_radians(),
                 )),
+                projection: None,
             },
             px,
         );
@@ -559,4 +561,141 @@ fn glass_sphere_in_a_furnace_is_invisible_and_the_roulette_spares_it() {
         "the roulette from the first bounce makes a sample's variance {noise}, \
          against {free_noise} without it"
     );
+}
+
+/// A projector `h` above the floor, pointing down with `+y` up in its
+/// image (`hfov` 60°, the image's width along `x`), scaled by `scale`.
+fn projector(h: f32, scale: f32, image: plsr::texture::ImageTexture) -> plsr::light::PointLight {
+    let aspect = image.width as f32 / image.height as f32;
+    plsr::light::PointLight {
+        position: Vec3::new(0.0, 0.0, h),
+        intensity: Vec3::splat(scale),
+        cone: None,
+        projection: Some(std::sync::Arc::new(plsr::light::Projection {
+            frame: plsr::light::Projection::frame_from(-Vec3::Z, Vec3::Y).unwrap(),
+            image: std::sync::Arc::new(image),
+            kind: plsr::light::ProjectionKind::Projector {
+                cot_half_fov: 1.0 / 30f32.to_radians().tan(),
+                aspect,
+            },
+        })),
+    }
+}
+
+/// Mitsuba's `projector` makes the irradiance on a plane facing it at
+/// distance `h` the same everywhere in its frustum, `π·scale·image / h²`:
+/// on a Lambertian floor of albedo 0.7 the radiance is `0.7·scale / h²`
+/// under the axis and off it alike, and nothing falls outside the frustum
+/// (`h·tan 30°` = 1.155 across at `h` = 2).
+#[test]
+fn a_projector_lights_a_facing_plane_evenly() {
+    let white = || plsr::texture::ImageTexture::from_texels(1, 1, vec![Vec3::ONE]);
+    let want = 0.7 * 3.0 / 4.0;
+    for px in [0.0f32, 0.3, 1.0] {
+        let got = floor_lit_by(projector(2.0, 3.0, white()), px);
+        assert!(
+            (got - want).abs() < 1e-4 * want,
+            "at x = {px}: {got}, want {want}"
+        );
+    }
+    assert_eq!(floor_lit_by(projector(2.0, 3.0, white()), 1.3), 0.0);
+    // The image's right half (blue) lands on +x, its left (red) on −x.
+    let halves = plsr::texture::ImageTexture::from_texels(2, 1, vec![Vec3::X, Vec3::Z])
+        .with_sampling(plsr::texture::Sampling {
+            filter: plsr::texture::Filter::Nearest,
+            ..Default::default()
+        });
+    let red = |px: f32| floor_lit_by(projector(2.0, 1.0, halves.clone()), px);
+    assert!((red(-0.5) - 0.7 / 4.0).abs() < 1e-4, "red on the left");
+    assert_eq!(red(0.5), 0.0, "blue on the right has no red");
+}
+
+/// The scene file's `projector`: `irradiance` scales the image, and the
+/// floor below it is lit as [`a_projector_lights_a_facing_plane_evenly`]
+/// computes; a spot light's `intensity_map` and a projector's keys are
+/// checked by name.
+#[test]
+fn projector_and_spot_images_in_the_scene_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.toml");
+    let floor_under = |light: &str| -> Result<Vec3, String> {
+        std::fs::write(
+            &path,
+            format!(
+                "[render]\nspp = 1\nmax_depth = 1\n[camera]\nposition = [0.3, -0.5, 0.5]\n\
+                 look_at = [0.3, 0, 0]\nup = [0, 0, 1]\nhfov = 0.5\nresolution = [3, 3]\n\
+                 [[materials]]\nname = \"floor\"\ntype = \"diffuse\"\nreflectance = [0.7, 0.7, 0.7]\n\
+                 [[shapes]]\ntype = \"rectangle\"\nmaterial = \"floor\"\ntransform.scale = 20\n\
+                 [[lights]]\n{light}\n"
+            ),
+        )
+        .unwrap();
+        let scene = Scene::load(&path).map_err(|e| e.to_string())?;
+        let (film, _) = render(
+            &scene,
+            &scene.default_job(),
+            &RenderOptions::default(),
+            &|_, _| true,
+        )
+        .unwrap();
+        Ok(film.color[film.index(1, 1)])
+    };
+    let lit = floor_under(
+        "type = \"projector\"\nposition = [0, 0, 2]\ndirection = [0, 0, -1]\nup = [0, 1, 0]\n\
+         hfov = 60\nirradiance = [3, 3, 3]",
+    )
+    .unwrap();
+    assert!(
+        (lit - Vec3::splat(0.7 * 3.0 / 4.0)).abs().max_element() < 1e-4,
+        "{lit}"
+    );
+    // The same frustum by its vertical field of view (a square image).
+    let by_vfov = floor_under(
+        "type = \"projector\"\nposition = [0, 0, 2]\ndirection = [0, 0, -1]\nup = [0, 1, 0]\n\
+         vfov = 60\nirradiance = [3, 3, 3]",
+    )
+    .unwrap();
+    assert_eq!(by_vfov, lit);
+    std::fs::write(dir.path().join("white.png"), {
+        let mut png = Vec::new();
+        image::RgbImage::from_pixel(2, 2, image::Rgb([255, 255, 255]))
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .unwrap();
+        png
+    })
+    .unwrap();
+    let spot =
+        "type = \"spot\"\nposition = [0, 0, 2]\ndirection = [0, 0, -1]\nintensity = [4, 4, 4]\n\
+                cutoff_angle = 30\nbeam_width = 30";
+    let plain = floor_under(spot).unwrap();
+    let white_image = floor_under(&format!(
+        "{spot}\nup = [0, 1, 0]\nintensity_map = \"white.png\""
+    ));
+    assert_eq!(white_image.unwrap(), plain, "a white image changes nothing");
+    for (light, says) in [
+        (
+            format!("{spot}\nintensity_map = \"white.png\""),
+            "lights[0].up: required with a projected image",
+        ),
+        (format!("{spot}\nup = [0, 1, 0]"), "lights[0].up: only used with an intensity_map"),
+        (
+            format!("{spot}\nup = [0, 0, 1]\nintensity_map = \"white.png\""),
+            "lights[0].up: must not be zero or parallel",
+        ),
+        (
+            "type = \"projector\"\nposition = [0, 0, 2]\ndirection = [0, 0, -1]\nup = [0, 1, 0]\nhfov = 30\nvfov = 30".into(),
+            "lights[0].vfov: give hfov or vfov, not both",
+        ),
+        (
+            "type = \"projector\"\nposition = [0, 0, 2]\ndirection = [0, 0, -1]\nup = [0, 1, 0]\ncutoff_angle = 30".into(),
+            "lights[0].cutoff_angle: not used by a projector",
+        ),
+        (
+            "type = \"point\"\nposition = [0, 0, 2]\nintensity = [1, 1, 1]\nintensity_map = \"white.png\"".into(),
+            "lights[0].intensity_map: not used by a point light (position, intensity)",
+        ),
+    ] {
+        let e = floor_under(&light).unwrap_err();
+        assert!(e.contains(says), "{light}: {e}");
+    }
 }

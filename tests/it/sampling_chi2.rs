@@ -143,16 +143,19 @@ fn light_selection_is_proportional_to_power() {
             position: Vec3::ZERO,
             intensity: Vec3::splat(1.0),
             cone: None,
+            projection: None,
         }),
         Light::Point(PointLight {
             position: Vec3::ZERO,
             intensity: Vec3::splat(3.0),
             cone: None,
+            projection: None,
         }),
         Light::Point(PointLight {
             position: Vec3::ZERO,
             intensity: Vec3::ZERO,
             cone: None,
+            projection: None,
         }),
         Light::Triangle(
             TriangleLight::new([Vec3::ZERO, Vec3::X, Vec3::Y], Vec3::splat(2.0), false).unwrap(),
@@ -204,11 +207,13 @@ fn spatial_light_selection_matches_its_pmf() {
             position: Vec3::new(0.0, 0.0, 3.0),
             intensity: Vec3::splat(1.0),
             cone: None,
+            projection: None,
         }),
         Light::Point(PointLight {
             position: Vec3::new(4.0, 0.0, 1.0),
             intensity: Vec3::splat(3.0),
             cone: None,
+            projection: None,
         }),
         t0,
         t1,

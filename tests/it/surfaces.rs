@@ -197,7 +197,7 @@ fn mtl_roughness_map_varies_the_material() {
         "newmtl m\nKd 0.5 0.5 0.5\nPm 1\nmap_Pr rough.png\n",
     )
     .unwrap();
-    let r = |u: f32| match m.bsdf_at(glam::Vec2::new(u, 0.5)) {
+    let r = |u: f32| match m.bsdf_at(glam::Vec2::new(u, 0.5), glam::Vec3::ONE) {
         Bsdf::Principled(p) => p.roughness,
         other => panic!("{other:?}"),
     };
@@ -624,4 +624,127 @@ fn a_dielectric_cannot_be_one_sided() {
         e.contains("materials[0].two_sided") && e.contains("opaque"),
         "{e}"
     );
+}
+
+/// A PLY square (±1 in x and y, facing +z) of two triangles, with linear
+/// vertex colours `(0.5 + 0.4x, 0.5, 0.5 − 0.4x)` (linear in x, so
+/// interpolation over either triangle gives exactly that) and one float
+/// colour per face.
+const COLOURED_SQUARE: &str = "ply\nformat ascii 1.0\nelement vertex 4\n\
+    property float x\nproperty float y\nproperty float z\n\
+    property float r\nproperty float g\nproperty float b\n\
+    element face 2\nproperty list uchar int vertex_indices\n\
+    property float color_0\nproperty float color_1\nproperty float color_2\nend_header\n\
+    -1 -1 0 0.1 0.5 0.9\n1 -1 0 0.9 0.5 0.1\n1 1 0 0.9 0.5 0.1\n-1 1 0 0.1 0.5 0.9\n\
+    3 0 1 2 0.8 0.2 0.1\n3 0 2 3 0.1 0.3 0.7\n";
+
+fn coloured_square(dir: &Path, material: &str, file: &str) -> Result<Film, String> {
+    std::fs::write(dir.join("square.ply"), COLOURED_SQUARE).unwrap();
+    std::fs::write(
+        dir.join("square.obj"),
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    let path = dir.join("scene.toml");
+    std::fs::write(
+        &path,
+        format!(
+            "[render]\nspp = 4\nmax_depth = 1\n[camera]\nposition = [0, 0, 4]\nlook_at = [0, 0, 0]\n\
+             up = [0, 1, 0]\nvfov = 20\nresolution = [16, 16]\n[environment]\nradiance = [1, 1, 1]\n\
+             [[materials]]\nname = \"m\"\n{material}\n\
+             [[shapes]]\ntype = \"{}\"\nfile = \"{file}\"\nmaterial = \"m\"\n",
+            if file.ends_with(".ply") { "ply" } else { "obj" }
+        ),
+    )
+    .unwrap();
+    let scene = Scene::load(&path).map_err(|e| e.to_string())?;
+    Ok(render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap()
+    .0)
+}
+
+#[test]
+fn mesh_colours_give_the_base_colour() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Vertex colours: red + blue = 1 everywhere, green 0.5, red rising
+    // from left to right across the square (it fills the frame).
+    let film = coloured_square(
+        d,
+        "type = \"diffuse\"\nbase_color_map = { attribute = \"vertex_color\" }",
+        "square.ply",
+    )
+    .unwrap();
+    let reds: Vec<f32> = (0..16).map(|x| film.albedo[film.index(x, 8)].x).collect();
+    for a in &film.albedo {
+        assert!(
+            (a.x + a.z - 1.0).abs() < 1e-5 && (a.y - 0.5).abs() < 1e-5,
+            "{a}"
+        );
+    }
+    assert!(reds.windows(2).all(|w| w[1] > w[0]), "{reds:?}");
+    assert!(reds[0] < 0.25 && reds[15] > 0.75, "{reds:?}");
+    // The colour replaces the constant: a principled material's too.
+    let principled = coloured_square(
+        d,
+        "type = \"principled\"\nbase_color = [0.2, 0.2, 0.2]\nbase_color_map = { attribute = \"vertex_color\" }",
+        "square.ply",
+    )
+    .unwrap();
+    assert_eq!(principled.albedo, film.albedo);
+    // Face colours: one per triangle, split along the diagonal y = x.
+    let film = coloured_square(
+        d,
+        "type = \"diffuse\"\nbase_color_map = { attribute = \"face_color\" }",
+        "square.ply",
+    )
+    .unwrap();
+    let below = film.albedo[film.index(12, 12)];
+    let above = film.albedo[film.index(3, 3)];
+    assert_eq!(
+        (below, above),
+        (Vec3::new(0.8, 0.2, 0.1), Vec3::new(0.1, 0.3, 0.7))
+    );
+}
+
+#[test]
+fn missing_or_misplaced_mesh_colours_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (material, file, says) in [
+        (
+            "type = \"diffuse\"\nbase_color_map = { attribute = \"vertex_normal_color\" }",
+            "square.ply",
+            "shapes[0].material: material `m` takes its base colour from the mesh's `vertex_normal_color`, but its file has vertex_color, face_color",
+        ),
+        (
+            "type = \"diffuse\"\nbase_color_map = { attribute = \"vertex_color\" }",
+            "square.obj",
+            "shapes[0].material: obj shapes carry none (PLY and serialized files do)",
+        ),
+        (
+            "type = \"principled\"\nroughness_map = { attribute = \"vertex_color\" }",
+            "square.ply",
+            "materials[0].roughness_map: attribute `vertex_color`: only base_color_map",
+        ),
+        (
+            "type = \"diffuse\"\nbase_color_map = { attribute = \"colour\" }",
+            "square.ply",
+            "named vertex_… or face_…",
+        ),
+        (
+            "type = \"diffuse\"\nbase_color_map = { attribute = \"vertex_color\", wrap = \"clamp\" }",
+            "square.ply",
+            "an `attribute` map takes no filter",
+        ),
+    ] {
+        let e = coloured_square(d, material, file).unwrap_err();
+        let (field, fault) = says.split_once(": ").unwrap_or(("", says));
+        assert!(e.contains(field) && e.contains(fault), "{material}: {e}");
+    }
 }

@@ -277,11 +277,8 @@ pub extern "C" fn plsr_scene_builder_add_point_light(
         let b = handle_mut(builder, "builder")?;
         let position = vec3_arg(position, "position")?;
         let intensity = colour_arg(intensity, "intensity", None)?;
-        b.point_lights.push(PointLight {
-            position,
-            intensity,
-            cone: None,
-        });
+        b.point_lights
+            .push(PointLight::isotropic(position, intensity));
         Ok(())
     })
 }

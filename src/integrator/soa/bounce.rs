@@ -203,7 +203,7 @@ pub(super) fn lane_surfaces(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLan
                 let material = &scene.materials()[mesh.material as usize];
                 let surface = SurfacePoint::new(mesh, &hit, material);
                 if kernel.textured[g] {
-                    let bsdf = material.bsdf_at(surface.uv);
+                    let bsdf = material.bsdf_at(surface.uv, surface.color);
                     albedo = bsdf.albedo();
                     if kernel.mapped[g] {
                         let mapped = mapped_params(&bsdf);

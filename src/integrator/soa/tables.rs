@@ -104,10 +104,10 @@ impl SoaScene {
     /// directional light, a normal map with the shadow terminator, or alpha
     /// maps: the general integrator then renders the scene.
     pub fn new(scene: &Scene) -> Option<SoaScene> {
-        // Spot and directional lights are sampled by the general
+        // Spot, projector and directional lights are sampled by the general
         // integrator only.
         let spot = |l: &crate::light::Light| {
-            matches!(l, crate::light::Light::Point(p) if p.cone.is_some())
+            matches!(l, crate::light::Light::Point(p) if p.cone.is_some() || p.projection.is_some())
                 || matches!(l, crate::light::Light::Directional { .. })
         };
         if scene.lights().lights.iter().any(spot) {
@@ -183,7 +183,7 @@ impl SoaScene {
             mapped.push(match material.bsdf {
                 Bsdf::CookTorrance(_) => t.roughness.is_some(),
                 Bsdf::Principled(_) => t.roughness.is_some() || t.metallic.is_some(),
-                Bsdf::BlinnPhong(_) => t.base_color.is_some(),
+                Bsdf::BlinnPhong(_) => t.base_color.is_some() || t.base_color_attribute.is_some(),
                 Bsdf::Diffuse(_) | Bsdf::Dielectric(_) => false,
                 // Not reached: no pass shades them (the scene is rendered by
                 // the general integrator).

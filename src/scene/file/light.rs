@@ -1,6 +1,7 @@
 //! `[[lights]]` (point and spot lights) and `[[pls]]` (parametric light
 //! sources from PLS files).
 
+use super::map::MapKey;
 use super::shape::TransformSection;
 use super::Builder;
 use crate::bsdf::Bsdf;
@@ -9,6 +10,10 @@ use crate::scene::{Material, Mesh};
 use glam::Vec3;
 use serde::Deserialize;
 use std::path::PathBuf;
+
+/// A projector's field of view without `hfov` or `vfov` (Mitsuba's 50 mm
+/// lens, `2·atan(18/50)`), degrees.
+const DEFAULT_PROJECTOR_HFOV: f32 = 39.597_75;
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -26,9 +31,43 @@ pub(super) struct LightSection {
     pub(super) cutoff_angle: Option<f32>,
     /// A spot light's full-intensity width, degrees (default ¾ cutoff).
     pub(super) beam_width: Option<f32>,
-    /// A directional light's irradiance, W/m².
+    /// A directional light's irradiance, W/m²; a projector's scale.
     #[serde(default, deserialize_with = "crate::input::exact::option")]
     pub(super) irradiance: Option<[f32; 3]>,
+    /// A projected image's up direction (spot with `intensity_map`,
+    /// projector).
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
+    pub(super) up: Option<[f32; 3]>,
+    /// A spot light's projected image.
+    pub(super) intensity_map: Option<MapKey>,
+    /// A projector's image.
+    pub(super) irradiance_map: Option<MapKey>,
+    /// A projector's field of view along the image's width, degrees.
+    pub(super) hfov: Option<f32>,
+    /// A projector's field of view along the image's height, degrees.
+    pub(super) vfov: Option<f32>,
+}
+
+impl LightSection {
+    /// The optional keys given.
+    pub(super) fn keys_given(&self) -> Vec<&'static str> {
+        [
+            ("position", self.position.is_some()),
+            ("intensity", self.intensity.is_some()),
+            ("direction", self.direction.is_some()),
+            ("cutoff_angle", self.cutoff_angle.is_some()),
+            ("beam_width", self.beam_width.is_some()),
+            ("irradiance", self.irradiance.is_some()),
+            ("up", self.up.is_some()),
+            ("intensity_map", self.intensity_map.is_some()),
+            ("irradiance_map", self.irradiance_map.is_some()),
+            ("hfov", self.hfov.is_some()),
+            ("vfov", self.vfov.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(k, given)| given.then_some(k))
+        .collect()
+    }
 }
 
 #[derive(Debug, Deserialize)]
@@ -40,6 +79,24 @@ pub(super) struct PlsSection {
 }
 
 impl Builder<'_> {
+    /// Refuses the keys of `l` that a light of kind `what` does not take
+    /// (those not in `takes`).
+    pub(super) fn light_keys(
+        &self,
+        field: &str,
+        l: &LightSection,
+        what: &str,
+        takes: &[&str],
+    ) -> Result<()> {
+        match l.keys_given().into_iter().find(|k| !takes.contains(k)) {
+            Some(key) => Err(self.err(
+                format!("{field}.{key}"),
+                format!("not used by a {what} ({})", takes.join(", ")),
+            )),
+            None => Ok(()),
+        }
+    }
+
     /// A `directional` light: `direction` (the way the light travels) and
     /// `irradiance` (W/m² on a surface facing it), as Mitsuba's
     /// `directional`.
@@ -48,19 +105,7 @@ impl Builder<'_> {
         field: &str,
         l: &LightSection,
     ) -> Result<crate::light::DirectionalLight> {
-        for (key, present) in [
-            ("position", l.position.is_some()),
-            ("intensity", l.intensity.is_some()),
-            ("cutoff_angle", l.cutoff_angle.is_some()),
-            ("beam_width", l.beam_width.is_some()),
-        ] {
-            if present {
-                return Err(self.err(
-                    format!("{field}.{key}"),
-                    "not used by a directional light (direction, irradiance)",
-                ));
-            }
-        }
+        self.light_keys(field, l, "directional light", &["direction", "irradiance"])?;
         let direction = l.direction.ok_or_else(|| {
             self.err(
                 format!("{field}.direction"),
@@ -100,12 +145,20 @@ impl Builder<'_> {
                 )
             })
         };
-        if l.irradiance.is_some() {
-            return Err(self.err(
-                format!("{field}.irradiance"),
-                "not used by a spot light (its intensity is in W/sr)",
-            ));
-        }
+        self.light_keys(
+            field,
+            l,
+            "spot light",
+            &[
+                "position",
+                "direction",
+                "intensity",
+                "cutoff_angle",
+                "beam_width",
+                "intensity_map",
+                "up",
+            ],
+        )?;
         let position = required("position", l.position, "where it is")?;
         let direction = required("direction", l.direction, "the beam's axis")?;
         let intensity = required("intensity", l.intensity, "W/sr on the axis")?;
@@ -135,6 +188,32 @@ impl Builder<'_> {
                 format!("must be between 0 and the cutoff angle {cutoff} degrees, got {beam}"),
             ));
         }
+        let projection = match &l.intensity_map {
+            None => {
+                if l.up.is_some() {
+                    return Err(self.err(format!("{field}.up"), "only used with an intensity_map"));
+                }
+                None
+            }
+            Some(map) => {
+                if cutoff >= 90.0 {
+                    return Err(self.err(
+                        format!("{field}.intensity_map"),
+                        format!(
+                            "a projected image needs a cutoff_angle below 90 degrees, got {cutoff}"
+                        ),
+                    ));
+                }
+                let image = self.light_image(field, "intensity_map", map)?;
+                Some(std::sync::Arc::new(crate::light::Projection {
+                    frame: self.light_frame(field, axis, l.up)?,
+                    image,
+                    kind: crate::light::ProjectionKind::Spot {
+                        tan_cutoff: cutoff.to_radians().tan(),
+                    },
+                }))
+            }
+        };
         Ok(crate::light::PointLight {
             position,
             intensity,
@@ -143,6 +222,138 @@ impl Builder<'_> {
                 cutoff.to_radians(),
                 beam.to_radians(),
             )),
+            projection,
+        })
+    }
+
+    /// A projected image (`key`, sRGB unless its map says otherwise).
+    fn light_image(
+        &self,
+        field: &str,
+        key: &str,
+        map: &MapKey,
+    ) -> Result<std::sync::Arc<crate::texture::ImageTexture>> {
+        let t = self.textures(
+            field,
+            Some(map.clone().rebased(self.base)),
+            None,
+            None,
+            [key, "", ""],
+        )?;
+        if t.base_color_attribute.is_some() {
+            return Err(self.err(
+                format!("{field}.{key}"),
+                "a light's image is a file or a checkerboard, not a mesh attribute",
+            ));
+        }
+        t.base_color
+            .ok_or_else(|| self.err(format!("{field}.{key}"), "no image"))
+    }
+
+    /// The frame of a projected image from the light's unit `axis` and
+    /// its `up` key (required).
+    fn light_frame(&self, field: &str, axis: Vec3, up: Option<[f32; 3]>) -> Result<[Vec3; 3]> {
+        let up = up.ok_or_else(|| {
+            self.err(
+                format!("{field}.up"),
+                "required with a projected image: which way is up in it",
+            )
+        })?;
+        let up = self.vec3(&format!("{field}.up"), up)?;
+        crate::light::Projection::frame_from(axis, up).ok_or_else(|| {
+            self.err(
+                format!("{field}.up"),
+                "must not be zero or parallel to the direction",
+            )
+        })
+    }
+
+    /// A `projector` (Mitsuba's): a point light at `position` projecting
+    /// `irradiance_map` (or a constant) along `direction`, with `up` up in
+    /// the image and `hfov` (along its width) or `vfov` (degrees; default
+    /// Mitsuba's 39.6 across); `irradiance` scales it (W/m² on a plane
+    /// facing it at distance 1 is `π` times `irradiance` times the image).
+    pub(super) fn projector(
+        &self,
+        field: &str,
+        l: &LightSection,
+    ) -> Result<crate::light::PointLight> {
+        self.light_keys(
+            field,
+            l,
+            "projector",
+            &[
+                "position",
+                "direction",
+                "up",
+                "irradiance",
+                "irradiance_map",
+                "hfov",
+                "vfov",
+            ],
+        )?;
+        let position = l.position.ok_or_else(|| {
+            self.err(
+                format!("{field}.position"),
+                "required for a projector: where it is",
+            )
+        })?;
+        let position = self.vec3(&format!("{field}.position"), position)?;
+        let direction = l.direction.ok_or_else(|| {
+            self.err(
+                format!("{field}.direction"),
+                "required for a projector: where it points",
+            )
+        })?;
+        let axis = self
+            .vec3(&format!("{field}.direction"), direction)?
+            .try_normalize()
+            .ok_or_else(|| self.err(format!("{field}.direction"), "must not be the zero vector"))?;
+        let frame = self.light_frame(field, axis, l.up)?;
+        let scale = self.colour(
+            &format!("{field}.irradiance"),
+            l.irradiance.unwrap_or([1.0; 3]),
+            None,
+        )?;
+        let image = match &l.irradiance_map {
+            Some(map) => self.light_image(field, "irradiance_map", map)?,
+            None => std::sync::Arc::new(crate::texture::ImageTexture::from_texels(
+                1,
+                1,
+                vec![Vec3::ONE],
+            )),
+        };
+        let aspect = image.width as f32 / image.height as f32;
+        let half_tan = |key: &str, deg: f32| -> Result<f32> {
+            let deg = self.finite(&format!("{field}.{key}"), deg)?;
+            if !(deg > 0.0 && deg < 180.0) {
+                return Err(self.err(
+                    format!("{field}.{key}"),
+                    format!("must be in (0, 180) degrees, got {deg}"),
+                ));
+            }
+            Ok((deg.to_radians() / 2.0).tan())
+        };
+        let tan_x = match (l.hfov, l.vfov) {
+            (Some(_), Some(_)) => {
+                return Err(self.err(format!("{field}.vfov"), "give hfov or vfov, not both"))
+            }
+            (Some(h), None) => half_tan("hfov", h)?,
+            (None, Some(v)) => half_tan("vfov", v)? * aspect,
+            (None, None) => half_tan("hfov", DEFAULT_PROJECTOR_HFOV)?,
+        };
+        Ok(crate::light::PointLight {
+            position,
+            intensity: scale,
+            cone: None,
+            projection: Some(std::sync::Arc::new(crate::light::Projection {
+                frame,
+                image,
+                kind: crate::light::ProjectionKind::Projector {
+                    cot_half_fov: 1.0 / tan_x,
+                    aspect,
+                },
+            })),
         })
     }
 

@@ -1,12 +1,14 @@
 //! A material's `*_map` key: an image file's name, or a table that says
-//! where the texels come from (an image `file` or a `checkerboard`) and how
-//! they are looked up (`filter`, `wrap`, `encoding`, `to_uv`).
+//! where the texels come from (an image `file`, a `checkerboard`, or for a
+//! base colour the mesh's own colours, `attribute`) and how they are looked
+//! up (`filter`, `wrap`, `encoding`, `to_uv`).
 //!
 //! ```toml
 //! base_color_map = "wood.jpg"
 //! base_color_map = { file = "wood.jpg", filter = "nearest", wrap = "mirror" }
 //! base_color_map = { checkerboard = [[0.2, 0.2, 0.2], [0.4, 0.4, 0.4]], to_uv = [[8, 0, 0], [0, 8, 0]] }
 //! roughness_map = { file = "rough.png", encoding = "srgb" }
+//! base_color_map = { attribute = "vertex_color" }
 //! ```
 
 use crate::texture::{Encoding, Filter, Sampling, Wrap};
@@ -21,6 +23,9 @@ pub(crate) enum MapSource {
     File(PathBuf),
     /// Mitsuba's checkerboard of two colours (linear RGB).
     Checkerboard([[f32; 3]; 2]),
+    /// Colours the shape's mesh file stores, by name (`vertex_color`,
+    /// `face_color`, …; Mitsuba's `mesh_attribute`).
+    Attribute(String),
 }
 
 /// A `*_map` key as the scene file gives it.
@@ -63,7 +68,7 @@ impl MapKey {
     /// unless `filter` says otherwise).
     pub fn sampling(&self) -> Sampling {
         let default_filter = match self.source {
-            MapSource::File(_) => Filter::Bilinear,
+            MapSource::File(_) | MapSource::Attribute(_) => Filter::Bilinear,
             MapSource::Checkerboard(_) => Filter::Nearest,
         };
         Sampling {
@@ -80,6 +85,7 @@ impl MapKey {
 struct MapTable {
     file: Option<PathBuf>,
     checkerboard: Option<[toml::Value; 2]>,
+    attribute: Option<String>,
     filter: Option<String>,
     wrap: Option<String>,
     encoding: Option<String>,
@@ -95,20 +101,33 @@ impl<'de> Deserialize<'de> for MapKey {
         }
         let t = MapTable::deserialize(value).map_err(|e| {
             D::Error::custom(format!(
-                "a map is a file name or a table of file or checkerboard, filter, wrap, \
-                 encoding, to_uv: {}",
+                "a map is a file name or a table of file, checkerboard or attribute, filter, \
+                 wrap, encoding, to_uv: {}",
                 e.message()
             ))
         })?;
-        let source = match (t.file, t.checkerboard) {
-            (Some(f), None) => MapSource::File(f),
-            (None, Some([a, b])) => MapSource::Checkerboard([
+        let source = match (t.file, t.checkerboard, t.attribute) {
+            (Some(f), None, None) => MapSource::File(f),
+            (None, Some([a, b]), None) => MapSource::Checkerboard([
                 colour(&a).map_err(D::Error::custom)?,
                 colour(&b).map_err(D::Error::custom)?,
             ]),
+            (None, None, Some(name)) => {
+                if t.filter.is_some()
+                    || t.wrap.is_some()
+                    || t.encoding.is_some()
+                    || t.to_uv.is_some()
+                {
+                    return Err(D::Error::custom(
+                        "an `attribute` map takes no filter, wrap, encoding or to_uv \
+                         (the mesh's colours are linear, interpolated over each triangle)",
+                    ));
+                }
+                MapSource::Attribute(name)
+            }
             _ => {
                 return Err(D::Error::custom(
-                    "give `file` or `checkerboard` (one of them)",
+                    "give `file`, `checkerboard` or `attribute` (one of them)",
                 ))
             }
         };

@@ -796,6 +796,14 @@ impl Builder<'_> {
             let f = format!("{field}.{key}");
             let encoding = map.encoding.unwrap_or(encoding);
             let t = match &map.source {
+                MapSource::Attribute(name) => {
+                    return Err(self.err(
+                        f,
+                        format!(
+                            "attribute `{name}`: only base_color_map can take the mesh's colours"
+                        ),
+                    ))
+                }
                 MapSource::File(path) => {
                     let t = texture::load_for(self.file, &f, path, encoding)?;
                     self.read_input(path);
@@ -825,7 +833,26 @@ impl Builder<'_> {
             };
             Ok(Some(Arc::new(t.with_sampling(map.sampling()))))
         };
+        let (base_color, base_color_attribute) = match base_color {
+            Some(MapKey {
+                source: MapSource::Attribute(name),
+                ..
+            }) => {
+                if !(name.starts_with("vertex_") || name.starts_with("face_")) {
+                    return Err(self.err(
+                        format!("{field}.{}", keys[0]),
+                        format!(
+                            "attribute `{name}`: mesh colours are named vertex_… or face_… \
+                             (vertex_color, face_color)"
+                        ),
+                    ));
+                }
+                (None, Some(name))
+            }
+            other => (other, None),
+        };
         Ok(MaterialTextures {
+            base_color_attribute,
             base_color: load(base_color, keys[0], Encoding::Srgb)?,
             roughness: load(roughness, keys[1], Encoding::Linear)?,
             metallic: load(metallic, keys[2], Encoding::Linear)?,

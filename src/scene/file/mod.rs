@@ -434,6 +434,12 @@ impl Builder<'_> {
             }
             by_name.insert(m.name.clone(), materials.len() as u32);
             let textures = self.material_textures(&field, &keys, m)?;
+            // Like an image map, the mesh's colours replace the constant
+            // base colour (which they multiply, see `Material::bsdf_at`).
+            let bsdf = match textures.base_color_attribute {
+                Some(_) => bsdf.with_base_color(Vec3::ONE),
+                None => bsdf,
+            };
             if m.two_sided == Some(false) && bsdf.transmits() {
                 return Err(self.err(
                     format!("{field}.two_sided"),
@@ -477,30 +483,21 @@ impl Builder<'_> {
                     let intensity = l.intensity.ok_or_else(|| {
                         self.err(format!("{field}.intensity"), "required for a point light")
                     })?;
-                    for (key, present) in [
-                        ("direction", l.direction.is_some()),
-                        ("cutoff_angle", l.cutoff_angle.is_some()),
-                        ("beam_width", l.beam_width.is_some()),
-                        ("irradiance", l.irradiance.is_some()),
-                    ] {
-                        if present {
-                            return Err(self.err(
-                                format!("{field}.{key}"),
-                                "not used by a point light (position, intensity)",
-                            ));
-                        }
-                    }
+                    self.light_keys(&field, l, "point light", &["position", "intensity"])?;
                     point_lights.push(PointLight::isotropic(
                         self.vec3(&format!("{field}.position"), position)?,
                         self.colour(&format!("{field}.intensity"), intensity, None)?,
                     ));
                 }
                 "spot" => point_lights.push(self.spot_light(&field, l)?),
+                "projector" => point_lights.push(self.projector(&field, l)?),
                 "directional" => directional_lights.push(self.directional_light(&field, l)?),
                 other => {
                     return Err(self.err(
                         format!("{field}.type"),
-                        format!("unknown light type `{other}` (known: point, spot, directional)"),
+                        format!(
+                        "unknown light type `{other}` (known: point, spot, directional, projector)"
+                    ),
                     ))
                 }
             }

@@ -268,6 +268,8 @@ impl Builder<'_> {
         // For the sphere and the disk: the unit shape's frame in the
         // shape's own coordinates, for exact texture coordinates at hits.
         let mut round: Option<(Mat4, Round)> = None;
+        // Colours and other attributes the mesh file stores.
+        let mut attributes: Vec<crate::scene::ply::PlyAttribute> = Vec::new();
         let (mut positions, mut triangles, normals, uvs) = match s.kind.as_str() {
             "obj" | "gltf" => {
                 let shape = Common {
@@ -280,6 +282,10 @@ impl Builder<'_> {
                     object_id,
                     is_virtual,
                 };
+                // Their files carry no colours a named material could take.
+                if let Some(m) = material {
+                    self.mesh_colors(&field, s, &materials[m as usize], Vec::new())?;
+                }
                 return if s.kind == "obj" {
                     let keys: ObjKeys = self.typed_keys(&field, &s.keys, unknown)?;
                     self.obj_meshes(&shape, &keys, materials, meshes)
@@ -309,12 +315,16 @@ impl Builder<'_> {
             "ply" => {
                 let keys: PlyKeys = self.typed_keys(&field, &s.keys, unknown)?;
                 flip = keys.flip_normals.unwrap_or(false);
-                self.ply_mesh(&field, &keys)?
+                let (mesh, a) = self.ply_mesh(&field, &keys)?;
+                attributes = a;
+                mesh
             }
             "serialized" => {
                 let keys: SerializedKeys = self.typed_keys(&field, &s.keys, unknown)?;
                 flip = keys.flip_normals.unwrap_or(false);
-                self.serialized_mesh(&field, &keys)?
+                let (mesh, a) = self.serialized_mesh(&field, &keys)?;
+                attributes = a;
+                mesh
             }
             "disk" => {
                 let keys: DiskKeys = self.typed_keys(&field, &s.keys, unknown)?;
@@ -377,6 +387,7 @@ impl Builder<'_> {
             Some(m) => m,
             None => default_material(materials),
         };
+        let colors = self.mesh_colors(&field, s, &materials[material as usize], attributes)?;
         meshes.push(Mesh {
             name: shape_name,
             positions,
@@ -390,6 +401,7 @@ impl Builder<'_> {
             pls: None,
             is_virtual,
             uv_map,
+            colors,
         });
         Ok(())
     }
@@ -416,9 +428,73 @@ impl Builder<'_> {
         })
     }
 
+    /// The colours a shape's mesh keeps: those its material takes its base
+    /// colour from (`base_color_map = { attribute = … }`, also in a
+    /// composite's parts), found among the file's `attributes`. Refused,
+    /// naming what the file has, when the file lacks them or the parts
+    /// ask for different ones.
+    fn mesh_colors(
+        &self,
+        field: &str,
+        s: &ShapeSection,
+        material: &Material,
+        attributes: Vec<crate::scene::ply::PlyAttribute>,
+    ) -> Result<Option<crate::scene::MeshColors>> {
+        let mut wanted: Vec<&str> = std::iter::once(material)
+            .chain(material.composite.iter().flat_map(|c| c.leaves()))
+            .filter_map(|m| m.textures.base_color_attribute.as_deref())
+            .collect();
+        wanted.dedup();
+        let name = match wanted.as_slice() {
+            [] => return Ok(None),
+            [one] => *one,
+            [a, b, ..] => {
+                return Err(self.err(
+                    format!("{field}.material"),
+                    format!(
+                        "material `{}` takes its colours from both `{a}` and `{b}`: \
+                         a mesh gives one",
+                        material.name
+                    ),
+                ))
+            }
+        };
+        let have: Vec<&str> = attributes.iter().map(|a| a.name.as_str()).collect();
+        let Some(found) = attributes.iter().position(|a| a.name == name) else {
+            let has = if !have.is_empty() {
+                format!("its file has {}", have.join(", "))
+            } else if s.kind == "ply" || s.kind == "serialized" {
+                "its file has none".to_string()
+            } else {
+                format!("{} shapes carry none (PLY and serialized files do)", s.kind)
+            };
+            return Err(self.err(
+                format!("{field}.material"),
+                format!(
+                    "material `{}` takes its base colour from the mesh's `{name}`, \
+                     but {has}",
+                    material.name
+                ),
+            ));
+        };
+        let values = attributes.into_iter().nth(found).map(|a| a.values);
+        Ok(values.map(|v| {
+            if name.starts_with("face_") {
+                crate::scene::MeshColors::Face(v)
+            } else {
+                crate::scene::MeshColors::Vertex(v)
+            }
+        }))
+    }
+
     /// A `ply` shape's mesh in file coordinates: positions, triangles,
-    /// normals (computed if asked for and missing), texture coordinates.
-    fn ply_mesh(&self, field: &str, keys: &PlyKeys) -> Result<MeshData> {
+    /// normals (computed if asked for and missing), texture coordinates;
+    /// and the file's attributes.
+    fn ply_mesh(
+        &self,
+        field: &str,
+        keys: &PlyKeys,
+    ) -> Result<(MeshData, Vec<crate::scene::ply::PlyAttribute>)> {
         let rel = keys
             .file
             .as_ref()
@@ -441,12 +517,20 @@ impl Builder<'_> {
             keys.smooth_normals,
             (&ply.positions, &ply.triangles),
         );
-        Ok((ply.positions, ply.triangles, normals, ply.uvs))
+        Ok((
+            (ply.positions, ply.triangles, normals, ply.uvs),
+            ply.attributes,
+        ))
     }
 
     /// The mesh of a `serialized` shape: shape `shape_index` (default 0)
-    /// of a file in Mitsuba's `serialized` format.
-    fn serialized_mesh(&self, field: &str, keys: &SerializedKeys) -> Result<MeshData> {
+    /// of a file in Mitsuba's `serialized` format, with its vertex colours
+    /// as the attribute `vertex_color` (Mitsuba's name).
+    fn serialized_mesh(
+        &self,
+        field: &str,
+        keys: &SerializedKeys,
+    ) -> Result<(MeshData, Vec<crate::scene::ply::PlyAttribute>)> {
         let rel = keys
             .file
             .as_ref()
@@ -476,7 +560,18 @@ impl Builder<'_> {
             keys.smooth_normals,
             (&mesh.positions, &mesh.triangles),
         );
-        Ok((mesh.positions, mesh.triangles, normals, mesh.uvs))
+        let attributes = if mesh.colors.is_empty() {
+            Vec::new()
+        } else {
+            vec![crate::scene::ply::PlyAttribute {
+                name: "vertex_color".into(),
+                values: mesh.colors,
+            }]
+        };
+        Ok((
+            (mesh.positions, mesh.triangles, normals, mesh.uvs),
+            attributes,
+        ))
     }
 
     /// The meshes of an `obj` shape: one per object of the file, with the
@@ -558,6 +653,7 @@ impl Builder<'_> {
                 pls: None,
                 is_virtual: shape.is_virtual,
                 uv_map: crate::scene::uv_map::UvMap::Vertices,
+                colors: None,
             });
         }
         Ok(())
@@ -673,6 +769,7 @@ impl Builder<'_> {
                 pls: None,
                 is_virtual: shape.is_virtual,
                 uv_map: crate::scene::uv_map::UvMap::Vertices,
+                colors: None,
             });
         }
         Ok(())

@@ -1,9 +1,10 @@
-//! Emitters outside shapes: `point`, `spot`, `directional`, `envmap`,
-//! `constant`.
+//! Emitters outside shapes: `point`, `spot` (with its `texture`),
+//! `projector`, `directional`, `envmap`, `constant`.
 
 use super::document::Element;
 use super::spectrum::SpectrumUse;
 use super::table::{dvec, float, vec3, Table};
+use super::texture::Colour;
 use super::translator::Translator;
 use crate::error::Result;
 use glam::{DMat4, DVec3};
@@ -35,13 +36,19 @@ impl<'a> Translator<'a> {
                 self.lights.push(l);
             }
             "spot" => {
-                if let Some(t) = self.take(&mut p, "texture") {
-                    return Err(self.err(
-                        t,
-                        "a spot light's `texture` is not supported (plsr's spot lights \
-                         have a uniform beam)",
-                    ));
-                }
+                let texture = match self.take(&mut p, "texture") {
+                    None => None,
+                    Some(t) => match self.colour_of(t, SpectrumUse::Reflectance)? {
+                        Colour::Map(m) => Some(m),
+                        Colour::Rgb(_) => {
+                            return Err(self.err(
+                                t,
+                                "a spot light's `texture` must vary (a bitmap), as Mitsuba \
+                                 requires",
+                            ))
+                        }
+                    },
+                };
                 // The light sits at to_world's origin, its beam along to_world's +z.
                 let m = self
                     .take_transform(&mut p, "to_world")?
@@ -65,6 +72,60 @@ impl<'a> Translator<'a> {
                 l.insert("intensity", vec3(intensity));
                 l.insert("cutoff_angle", float(cutoff));
                 l.insert("beam_width", float(beam));
+                if let Some(map) = texture {
+                    if cutoff >= 90.0 {
+                        return Err(self.err(
+                            node,
+                            format!("a textured spot light's cutoff_angle {cutoff} must be below 90 degrees"),
+                        ));
+                    }
+                    l.insert("up", dvec(self.rigid_up(node, &m, "spot light")?));
+                    l.insert("intensity_map", map);
+                }
+                self.lights.push(l);
+            }
+            "projector" => {
+                let m = self
+                    .take_transform(&mut p, "to_world")?
+                    .unwrap_or(DMat4::IDENTITY);
+                let up = self.rigid_up(node, &m, "projector")?;
+                let scale = self.take_float(&mut p, "scale")?.unwrap_or(1.0);
+                let mut l = Table::new();
+                l.insert("type", Value::String("projector".into()));
+                l.insert("position", dvec(m.transform_point3(DVec3::ZERO)));
+                l.insert("direction", dvec(m.transform_vector3(DVec3::Z).normalize()));
+                l.insert("up", dvec(up));
+                // The image's size sets the frustum's aspect (a constant is
+                // one texel: square).
+                let mut size = (1.0, 1.0);
+                match self.take_colour(&mut p, "irradiance", SpectrumUse::Emission)? {
+                    None => l.insert("irradiance", vec3([scale; 3])),
+                    Some(Colour::Rgb(v)) => l.insert("irradiance", vec3(v.map(|c| c * scale))),
+                    Some(Colour::Map(map)) => {
+                        let file = match &map {
+                            Value::String(f) => Some(f.clone()),
+                            Value::Table(t) => {
+                                t.get("file").and_then(|f| f.as_str()).map(String::from)
+                            }
+                            _ => None,
+                        };
+                        let Some(file) = file else {
+                            return Err(self
+                                .err(node, "a projector's irradiance is a bitmap or a constant"));
+                        };
+                        let path = self.doc.base_path(&file);
+                        let (w, h) = image::image_dimensions(&path)
+                            .map_err(|e| self.err(node, format!("{}: {e}", path.display())))?;
+                        size = (w as f64, h as f64);
+                        l.insert("irradiance", vec3([scale; 3]));
+                        l.insert("irradiance_map", map);
+                    }
+                }
+                let mut fov = Table::new();
+                self.sensor_fov(node, &mut p, size, &mut fov)?;
+                for (k, v) in fov.0 {
+                    l.insert(k, v);
+                }
                 self.lights.push(l);
             }
             "directional" => {
@@ -139,11 +200,40 @@ impl<'a> Translator<'a> {
                     node,
                     format!(
                         "the `{other}` emitter is not supported (supported: point, spot, \
-                         directional, envmap, constant, and area inside a shape)"
+                         projector, directional, envmap, constant, and area inside a shape)"
                     ),
                 ))
             }
         }
         self.leftovers(&p)
+    }
+
+    /// The up direction (`+y`) of a light's `to_world`, which must be a
+    /// rotation and translation (plsr's projected images have a rigid
+    /// frame; Mitsuba's `look_at` builds one).
+    fn rigid_up(&self, node: &'a Element, m: &DMat4, what: &str) -> Result<DVec3> {
+        let (x, y, z) = (
+            m.transform_vector3(DVec3::X),
+            m.transform_vector3(DVec3::Y),
+            m.transform_vector3(DVec3::Z),
+        );
+        let unit = |v: DVec3| (v.length() - 1.0).abs() < 1e-4;
+        let rigid = unit(x)
+            && unit(y)
+            && unit(z)
+            && x.dot(y).abs() < 1e-4
+            && y.dot(z).abs() < 1e-4
+            && z.dot(x).abs() < 1e-4
+            && x.dot(y.cross(z)) > 0.0;
+        if !rigid {
+            return Err(self.err(
+                node,
+                format!(
+                    "the {what}'s to_world must be a rotation and a translation (no scale, \
+                     shear or mirror) for plsr to place its image"
+                ),
+            ));
+        }
+        Ok(y)
     }
 }

@@ -41,9 +41,9 @@ impl<'a> Translator<'a> {
     }
 
     /// A `<texture>`: `bitmap` (`filename`, `filter_type`, `wrap_mode`,
-    /// `raw`, `to_uv`) or `checkerboard` (`color0`, `color1`, `to_uv`), as
-    /// a plsr map: the file name alone where Mitsuba's defaults hold, else
-    /// a table.
+    /// `raw`, `to_uv`), `checkerboard` (`color0`, `color1`, `to_uv`) or
+    /// `mesh_attribute` (`name`), as a plsr map: the file name alone where
+    /// Mitsuba's defaults hold, else a table.
     fn texture(&self, c: &'a Element, usage: SpectrumUse) -> Result<Colour> {
         let kind = self.required_attr(c, "type")?;
         let mut p = self.params(c)?;
@@ -104,11 +104,39 @@ impl<'a> Translator<'a> {
                 let (c0, c1) = (colour("color0", 0.4)?, colour("color1", 0.2)?);
                 map.insert("checkerboard".into(), toml::Value::Array(vec![c0, c1]));
             }
+            "mesh_attribute" => {
+                let name = self
+                    .take_string(&mut p, "name")?
+                    .ok_or_else(|| self.err(c, "a mesh_attribute needs `name`"))?;
+                if !(name.starts_with("vertex_") || name.starts_with("face_")) {
+                    return Err(self.err(
+                        c,
+                        format!("mesh_attribute `{name}`: the name must start with vertex_ or face_"),
+                    ));
+                }
+                if usage != SpectrumUse::Reflectance {
+                    return Err(self.err(
+                        c,
+                        "a mesh_attribute gives plsr a reflectance (a base colour) only",
+                    ));
+                }
+                if let Some(s) = self.take_float(&mut p, "scale")? {
+                    if s != 1.0 {
+                        return Err(self.err(
+                            c,
+                            format!("mesh_attribute `scale` {s}: plsr takes the colours as stored (scale 1)"),
+                        ));
+                    }
+                }
+                self.leftovers(&p)?;
+                map.insert("attribute".into(), string(name));
+                return Ok(Colour::Map(toml::Value::Table(map)));
+            }
             other => {
                 return Err(self.err(
                     c,
                     format!(
-                        "texture type `{other}` is not supported (supported: bitmap, checkerboard)"
+                        "texture type `{other}` is not supported (supported: bitmap, checkerboard, mesh_attribute)"
                     ),
                 ))
             }

@@ -181,11 +181,10 @@ fn host_scene_in_rust() -> plsr::scene::Scene {
             Material::new("box", Bsdf::diffuse(Vec3::new(0.2, 0.4, 0.8))),
             Material::new("(pls)", Bsdf::diffuse(Vec3::ZERO)),
         ],
-        point_lights: vec![plsr::light::PointLight {
-            position: Vec3::new(1.5, -1.5, 2.0),
-            intensity: Vec3::splat(0.5),
-            cone: None,
-        }],
+        point_lights: vec![plsr::light::PointLight::isotropic(
+            Vec3::new(1.5, -1.5, 2.0),
+            Vec3::splat(0.5),
+        )],
         directional_lights: Vec::new(),
         environment: None,
         camera: PinholeCamera::look_at(

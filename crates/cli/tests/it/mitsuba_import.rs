@@ -419,8 +419,8 @@ fn unsupported_elements_are_refused_by_name_and_line() {
             &["line 3", "<bsdf type=\"pplastic\">", "`pplastic` BSDF is not supported"],
         ),
         (
-            "<scene version=\"3.0.0\"><emitter type=\"projector\"/></scene>",
-            &["<emitter type=\"projector\">", "not supported"],
+            "<scene version=\"3.0.0\"><emitter type=\"directionalarea\"/></scene>",
+            &["<emitter type=\"directionalarea\">", "not supported"],
         ),
         (
             "<scene version=\"3.0.0\"><shape type=\"sphere\"><bsdf type=\"principled\">\n\

@@ -599,15 +599,37 @@ fn spot_lights_are_placed_and_aimed_as_mitsuba_does() {
     assert_rgb(&d, want, "direction");
     assert_eq!(l["cutoff_angle"].as_float(), Some(20.0));
     assert_eq!(l["beam_width"].as_float(), Some(15.0));
+    // A texture: the image, with the frame's +y as its up.
     std::fs::write(
         &scene,
         "<scene version=\"3.0.0\">\n<emitter type=\"spot\">\n\
          <texture type=\"bitmap\" name=\"texture\"><string name=\"filename\" value=\"x.png\"/></texture>\n\
+         <transform name=\"to_world\"><lookat origin=\"0, 0, 3\" target=\"0, 0, 0\" up=\"0, 1, 0\"/></transform>\n\
          </emitter>\n</scene>",
     )
     .unwrap();
-    let e = error_of(&scene, &[]);
-    assert!(e.contains("line 3") && e.contains("texture"), "{e}");
+    let (t, _) = translation(&scene, &[]);
+    let l = array(&t, "lights")[0].as_table().unwrap();
+    assert!(l["intensity_map"].as_str().unwrap().ends_with("x.png"));
+    assert_rgb(&floats(&l["up"]), [0.0, 1.0, 0.0], "up");
+    // A constant is refused (Mitsuba wants a varying texture), and so is a
+    // frame with a scale.
+    for (inner, says) in [
+        ("<rgb name=\"texture\" value=\"0.5\"/>", "must vary"),
+        (
+            "<texture type=\"bitmap\" name=\"texture\"><string name=\"filename\" value=\"x.png\"/></texture>\n\
+             <transform name=\"to_world\"><scale value=\"2\"/></transform>",
+            "rotation and a translation",
+        ),
+    ] {
+        std::fs::write(
+            &scene,
+            format!("<scene version=\"3.0.0\">\n<emitter type=\"spot\">\n{inner}\n</emitter>\n</scene>"),
+        )
+        .unwrap();
+        let e = error_of(&scene, &[]);
+        assert!(e.contains("line ") && e.contains(says), "{e}");
+    }
 }
 
 /// Mitsuba's `directional`: along `direction`, or along `to_world`'s +z,
