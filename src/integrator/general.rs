@@ -404,7 +404,7 @@ fn shade(
         |p, u| lights.pick(p, u),
         |li, p, u| match env_ahead {
             Some(ahead) if scene.environment_index() == Some(li) && ahead.u == u => ahead.sample,
-            _ => lights.lights[li].sample_li(p, u),
+            _ => super::steps::sample_light(scene, li, p, u, pass.job.ray_mask()),
         },
     );
     if let Some((shadow, radiance)) = scattered.shadow {

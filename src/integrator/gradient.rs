@@ -575,7 +575,7 @@ fn next_event(
     };
     if let Some((li, pick_pmf)) = light_pick {
         let u = path.rng.next_2d();
-        if let Some(ls) = scene.lights().lights[li].sample_li(v.p, u) {
+        if let Some(ls) = super::steps::sample_light(scene, li, v.p, u, mask) {
             let wi_local = v.frame.to_local(ls.wi);
             let leaks = v.guard && !sides_agree(v.wo, ls.wi, v.ng, v.wo_local, wi_local);
             // A zero BSDF value may still have a derivative (a black

@@ -10,6 +10,69 @@ use crate::scene::Scene;
 use crate::warp::power_heuristic;
 use glam::{Vec2, Vec3};
 
+/// A sample of light `li` from `p` with the square sample `u`: the light's
+/// own [`Light::sample_li`](crate::light::Light::sample_li), except for a
+/// sphere light's triangle ([`crate::light::SphereCap`]), whose sample is a
+/// direction in the sphere's cone and the point where that ray (with the
+/// job's ray `mask`) first meets the sphere's mesh: `None` where it meets
+/// something else first or the mesh's side that does not emit.
+#[inline]
+pub(crate) fn sample_light(
+    scene: &Scene,
+    li: usize,
+    p: Vec3,
+    u: Vec2,
+    mask: u32,
+) -> Option<crate::light::LightSample> {
+    let light = &scene.lights().lights[li];
+    let crate::light::Light::Triangle(crate::light::TriangleLight {
+        sphere: Some(cap), ..
+    }) = light
+    else {
+        return light.sample_li(p, u);
+    };
+    sample_sphere(scene, cap, p, u, mask)
+}
+
+/// [`sample_light`] for a sphere light.
+#[cold]
+fn sample_sphere(
+    scene: &Scene,
+    cap: &crate::light::SphereCap,
+    p: Vec3,
+    u: Vec2,
+    mask: u32,
+) -> Option<crate::light::LightSample> {
+    if cap.share <= 0.0 {
+        return None;
+    }
+    let (wi, pdf) = cap.sample_direction(p, u);
+    let ray = Ray {
+        org: p,
+        dir: wi,
+        tnear: super::spawn::ray_epsilon(p),
+        tfar: f32::INFINITY,
+    };
+    let mut query = [crate::accel::RayHit::masked(ray, mask)];
+    scene.accel().intersect_each(&mut query);
+    let hit = query[0].hit()?;
+    if hit.geom_id != cap.geom {
+        return None;
+    }
+    let li = scene.light_index(hit.geom_id, hit.prim_id)?;
+    let crate::light::Light::Triangle(t) = &scene.lights().lights[li] else {
+        return None;
+    };
+    let radiance = t.emitted(-wi);
+    (radiance != Vec3::ZERO).then_some(crate::light::LightSample {
+        radiance,
+        wi,
+        dist: hit.t,
+        pdf: pdf / cap.share,
+        delta: false,
+    })
+}
+
 /// Whether Russian roulette spins for a path that has reached
 /// [`RenderJob::rr_depth`] (`at_depth`), judged by `rr_beta`, its
 /// throughput `β` times `η²` of the refractions it went through (see

@@ -44,7 +44,7 @@ pub use envmap::EnvironmentLight;
 pub use pls::{Cone, Reach};
 pub use point::{point_light_sample, spot_cone, PointLight};
 pub use projection::{Projection, ProjectionKind};
-pub use triangle::{triangle_light_sample, TriangleLight, TrianglePoint};
+pub use triangle::{triangle_light_sample, SphereCap, TriangleLight, TrianglePoint};
 
 use crate::color::luminance;
 

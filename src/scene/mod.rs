@@ -341,6 +341,32 @@ pub fn pls_mesh(light: &Pls, mode: BrightnessMode, nf: u32, material: u32, name:
     }
 }
 
+/// The centre and radius of the sphere a mesh tessellates, when it is the
+/// built-in sphere shape under a transform that keeps it round (rotation,
+/// uniform scale, translation); its vertices then lie on that sphere.
+fn exact_sphere(m: &Mesh) -> Option<(Vec3, f32)> {
+    let uv_map::UvMap::Sphere { to_local, .. } = m.uv_map else {
+        return None;
+    };
+    let world = to_local.inverse();
+    let axes = [
+        world.matrix3.x_axis,
+        world.matrix3.y_axis,
+        world.matrix3.z_axis,
+    ];
+    let r = axes[0].length();
+    let round = axes.iter().all(|a| (a.length() - r).abs() <= 1e-4 * r)
+        && axes[0].dot(axes[1]).abs() <= 1e-4 * r * r
+        && axes[1].dot(axes[2]).abs() <= 1e-4 * r * r
+        && axes[2].dot(axes[0]).abs() <= 1e-4 * r * r;
+    (round && r > 0.0 && r.is_finite()).then(|| (Vec3::from(world.translation), r))
+}
+
+/// A triangle's area.
+fn triangle_area(p: [Vec3; 3]) -> f32 {
+    0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
+}
+
 /// Everything needed to build a scene, before Embree sees it.
 #[derive(Debug, Clone)]
 pub struct SceneDescription {
@@ -483,11 +509,22 @@ impl Scene {
             groups.push((i..i + 1, None));
         }
         let mut first_light = Vec::with_capacity(meshes.len());
-        for m in &meshes {
+        for (geom, m) in meshes.iter().enumerate() {
             match m.emission {
                 Some(e) if e.radiance.max_element() > 0.0 => {
                     let first = lights.len() as u32;
                     first_light.push(Some(first));
+                    // A sphere light's triangles are sampled together by
+                    // the cone of its exact sphere.
+                    let sphere = match (e.cone, &m.pls) {
+                        (None, None) => exact_sphere(m),
+                        _ => None,
+                    };
+                    let total_area: f64 = m
+                        .triangles
+                        .iter()
+                        .map(|t| triangle_area(t.map(|i| m.positions[i as usize])) as f64)
+                        .sum();
                     for t in &m.triangles {
                         let p = t.map(|i| m.positions[i as usize]);
                         // Zero-area triangles keep their slot (with zero power,
@@ -500,12 +537,23 @@ impl Scene {
                                 radiance: Vec3::ZERO,
                                 two_sided: false,
                                 cone: None,
+                                sphere: None,
                             },
                         );
-                        let light = match e.cone {
+                        let mut light = match e.cone {
                             Some(c) => light.with_cone(c),
                             None => light,
                         };
+                        if let Some((center, radius)) = sphere {
+                            if light.area > 0.0 {
+                                light.sphere = Some(crate::light::SphereCap {
+                                    center,
+                                    radius,
+                                    geom: geom as u32,
+                                    share: (light.area as f64 / total_area) as f32,
+                                });
+                            }
+                        }
                         lights.push(Light::Triangle(light));
                     }
                     let reach = e.cone.map(|c| {

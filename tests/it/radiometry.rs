@@ -699,3 +699,37 @@ fn projector_and_spot_images_in_the_scene_file() {
         assert!(e.contains(says), "{light}: {e}");
     }
 }
+
+/// A sphere light of radiance `L` and radius `R` whose centre is `d` above
+/// a floor point gives it irradiance `π·L·(R/d)²`: on a Lambertian floor
+/// of albedo ρ the radiance is `ρ·L·(R/d)²`, here 0.5 · 2 / 9. The sphere's
+/// triangles are sampled by its cone; its mesh is inscribed in the sphere,
+/// which the tolerance allows for.
+#[test]
+fn a_sphere_light_gives_its_analytic_irradiance() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.toml");
+    std::fs::write(
+        &path,
+        "[render]\nspp = 256\nmax_depth = 1\n[camera]\nposition = [0, -0.5, 0.5]\n\
+         look_at = [0, 0, 0]\nup = [0, 0, 1]\nhfov = 0.5\nresolution = [3, 3]\n\
+         [[materials]]\nname = \"floor\"\ntype = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n\
+         [[shapes]]\ntype = \"rectangle\"\nmaterial = \"floor\"\ntransform.scale = 20\n\
+         [[shapes]]\ntype = \"sphere\"\ncenter = [0, 0, 3]\nradius = 1\nemission = [2, 2, 2]\n",
+    )
+    .unwrap();
+    let scene = Scene::load(&path).unwrap();
+    let (film, _) = render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap();
+    let got = film.color[film.index(1, 1)];
+    let want = 0.5 * 2.0 / 9.0;
+    assert!(
+        (got - Vec3::splat(want)).abs().max_element() < 0.004 * want,
+        "{got}, want {want}"
+    );
+}

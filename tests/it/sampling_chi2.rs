@@ -1,6 +1,7 @@
 //! Chi-square goodness-of-fit tests for every sampling routine of the core:
 //! cosine-weighted hemisphere, uniform sphere, the Lambertian BSDF, triangle
-//! area lights (solid-angle pdf), and light selection.
+//! area lights (solid-angle pdf), sphere lights (their cone), and light
+//! selection.
 
 use plsr_testkit as common;
 
@@ -389,4 +390,43 @@ fn spherical_triangle_sampling() {
         SIGNIFICANCE,
     );
     assert!(r.passed, "{}", r.summary);
+}
+
+/// A sphere light's cone sampling ([`plsr::light::SphereCap`]): directions
+/// uniform in the cone the sphere subtends from outside (near and far),
+/// uniform over all directions from inside, each as its pdf says.
+#[test]
+fn sphere_cone_sampling_matches_its_pdf() {
+    let cap = plsr::light::SphereCap {
+        center: Vec3::new(0.3, -0.2, 1.5),
+        radius: 1.0,
+        geom: 0,
+        share: 1.0,
+    };
+    for (seed, p) in [
+        (31, Vec3::ZERO),
+        (32, Vec3::new(0.0, 0.5, -2.0)),
+        (33, Vec3::new(0.2, 0.0, 1.2)),
+    ] {
+        let mut rng = Rng::new(seed, 1);
+        // The pdf steps at the cone's edge: a fine sub-grid integrates it.
+        let r = chi2_test(
+            SphereBinning {
+                subdivisions: 32,
+                ..Default::default()
+            },
+            DRAWS,
+            |_| Some(cap.sample_direction(p, rng.next_2d()).0),
+            &|w| cap.pdf(p, w) as f64,
+            SIGNIFICANCE,
+        );
+        assert!(r.passed, "from {p}: {}", r.summary);
+    }
+    // Every direction sampled reports the density it was drawn with.
+    let mut rng = Rng::new(34, 1);
+    for _ in 0..1000 {
+        let p = Vec3::new(0.0, 0.5, -2.0);
+        let (w, pdf) = cap.sample_direction(p, rng.next_2d());
+        assert!((cap.pdf(p, w) - pdf).abs() <= 1e-5 * pdf, "{w}: {pdf}");
+    }
 }

@@ -100,15 +100,17 @@ impl SoaScene {
     /// The kernel's view of `scene`, or `None` where a material of it is one
     /// no pass of the kernel shades (`plastic`, `rough_plastic`,
     /// `thin_dielectric` and composites; every
-    /// other model, mapped or not, has a pass), it has a spot or a
-    /// directional light, a normal map with the shadow terminator, or alpha
-    /// maps: the general integrator then renders the scene.
+    /// other model, mapped or not, has a pass), it has a spot, projector,
+    /// directional or sphere light, a normal map with the shadow
+    /// terminator, or alpha maps: the general integrator then renders the
+    /// scene.
     pub fn new(scene: &Scene) -> Option<SoaScene> {
-        // Spot, projector and directional lights are sampled by the general
-        // integrator only.
+        // Spot, projector, directional and sphere lights are sampled by the
+        // general integrator only.
         let spot = |l: &crate::light::Light| {
             matches!(l, crate::light::Light::Point(p) if p.cone.is_some() || p.projection.is_some())
                 || matches!(l, crate::light::Light::Directional { .. })
+                || matches!(l, crate::light::Light::Triangle(t) if t.sphere.is_some())
         };
         if scene.lights().lights.iter().any(spot) {
             return None;
