@@ -73,7 +73,10 @@
 //! numerically inverted routine for Beckmann) or by `D(h) cos θh`.
 
 use super::fresnel::{self, reflect};
-use super::microfacet::{erf, Distribution, Microfacet};
+use super::microfacet::{
+    beckmann_slope_normal, beckmann_visible_slope, erfinv, sample_visible_beckmann, stretched,
+    Distribution, Microfacet,
+};
 use super::models::{both_above, finish_sample};
 use super::{BsdfSample, ParamError};
 use crate::elementary;
@@ -584,14 +587,15 @@ impl RoughPlasticParams {
     }
 
     /// A microfacet normal for `wo` (above the surface): visible normals
-    /// (plsr's Heitz 2018 sampler for GGX, [`sample_visible_beckmann`]) or
-    /// `D(h) cos θh` (plsr's Beckmann sampler, [`sample_ggx_distribution`]).
+    /// (plsr's samplers, [`Microfacet::sample_h`]) or `D(h) cos θh`
+    /// ([`sample_beckmann_distribution`], [`sample_ggx_distribution`]).
     #[inline(always)]
     fn sample_h(&self, wo: Vec3, u: Vec2) -> Vec3 {
         let m = self.microfacet();
         match (self.distribution, self.sample_visible) {
-            (Distribution::Ggx, true) | (Distribution::Beckmann, false) => m.sample_h(wo, u),
-            (Distribution::Beckmann, true) => sample_visible_beckmann(m.alpha_x, wo, u),
+            (Distribution::Ggx, true) => m.sample_h(wo, u),
+            (Distribution::Beckmann, true) => sample_visible_beckmann(m.alpha_x, m.alpha_x, wo, u),
+            (Distribution::Beckmann, false) => sample_beckmann_distribution(m.alpha_x, u),
             (Distribution::Ggx, false) => sample_ggx_distribution(m.alpha_x, u),
         }
     }
@@ -626,109 +630,16 @@ pub fn mitsuba_smith_g1(m: &Microfacet, w: Vec3, h: Vec3) -> f32 {
     }
 }
 
-/// The inverse error function, Giles 2010's single-precision fit (as Dr.Jit
-/// computes it), with plsr's vectorising logarithm; `x` in `(−1, 1)`.
+/// A microfacet normal drawn from `D(h) cos θh` of the isotropic Beckmann
+/// distribution of roughness `alpha` (Walter et al. 2007):
+/// `tan² θ = −α² ln(1 − u)`.
 #[inline(always)]
-pub fn erfinv(x: f32) -> f32 {
-    let w = -elementary::ln(((1.0 - x) * (1.0 + x)).max(f32::MIN_POSITIVE));
-    let p = if w < 5.0 {
-        let w = w - 2.5;
-        let mut p = 2.810_226_4e-8;
-        p = 3.432_739_4e-7 + p * w;
-        p = -3.523_387_7e-6 + p * w;
-        p = -4.391_506_5e-6 + p * w;
-        p = 2.185_808_7e-4 + p * w;
-        p = -1.253_725e-3 + p * w;
-        p = -4.177_681_6e-3 + p * w;
-        p = 2.466_407_3e-1 + p * w;
-        1.501_409_4 + p * w
-    } else {
-        let w = w.sqrt() - 3.0;
-        let mut p = -2.002_142_6e-4;
-        p = 1.009_505_6e-4 + p * w;
-        p = 1.349_343_2e-3 + p * w;
-        p = -3.673_428_4e-3 + p * w;
-        p = 5.739_507_7e-3 + p * w;
-        p = -7.622_461_3e-3 + p * w;
-        p = 9.438_870_5e-3 + p * w;
-        p = 1.001_674 + p * w;
-        2.832_976_8 + p * w
-    };
-    p * x
-}
-
-/// `1/√π`.
-const FRAC_1_SQRT_PI: f32 = 0.5 * std::f32::consts::FRAC_2_SQRT_PI;
-
-/// A microfacet normal from the Beckmann distribution of normals visible
-/// from `wo` (above the surface), roughness `alpha`: Mitsuba's routine
-/// (Jakob 2014, "An improved visible normal sampling routine for the
-/// Beckmann distribution"): `wo` stretched to unit roughness, the slope
-/// along its azimuth by three Newton steps on its CDF
-/// ([`beckmann_visible_slope`]), the other slope `erfinv(2u.y − 1)`, both
-/// rotated to `wo`'s azimuth and unstretched (`beckmann_slope_normal`).
-/// Elementary functions from [`elementary`] (so that a vectorised loop may
-/// call it).
-#[inline(always)]
-pub fn sample_visible_beckmann(alpha: f32, wo: Vec3, u: Vec2) -> Vec3 {
-    let (cos, cos_phi, sin_phi) = stretched(alpha, wo);
-    let u = u.clamp(Vec2::splat(1e-6), Vec2::splat(1.0 - 1e-6));
-    let slopes = Vec2::new(beckmann_visible_slope(cos, u.x), erfinv(2.0 * u.y - 1.0));
-    beckmann_slope_normal(alpha, cos_phi, sin_phi, slopes)
-}
-
-/// `wo` (above the surface) stretched to the configuration of unit
-/// roughness: `(cos θ, cos φ, sin φ)` of the stretched direction
-/// (`φ = 0` at the pole), as Mitsuba's `Frame::sincos_phi`.
-#[inline(always)]
-fn stretched(alpha: f32, wo: Vec3) -> (f32, f32, f32) {
-    let w = Vec3::new(alpha * wo.x, alpha * wo.y, wo.z).normalize();
-    let sin2 = 1.0 - w.z * w.z;
-    let inv = 1.0 / sin2.sqrt();
-    if sin2 <= 4.0 * f32::EPSILON {
-        (w.z, 1.0, 0.0)
-    } else {
-        (
-            w.z,
-            (w.x * inv).clamp(-1.0, 1.0),
-            (w.y * inv).clamp(-1.0, 1.0),
-        )
-    }
-}
-
-/// The slope along the (stretched) viewing azimuth of a visible Beckmann
-/// normal of unit roughness for a direction of cosine `cos` and the
-/// uniform number `u` (in `[10⁻⁶, 1 − 10⁻⁶]`): Mitsuba's inversion of the
-/// visible slopes' CDF, `1 + x + tan θ·exp(−erfinv(x)²)/√π = u·(1 + erf(cot
-/// θ) + tan θ·exp(−cot² θ)/√π)` in `x = erf(slope)`, from the exact
-/// solution at grazing incidence and by three Newton steps.
-#[inline(always)]
-pub fn beckmann_visible_slope(cos: f32, u: f32) -> f32 {
-    let tan = (1.0 - cos * cos).max(0.0).sqrt() / cos;
-    let cot = 1.0 / tan;
-    let max = erf(cot);
-    let mut x = max - (max + 1.0) * erf((-elementary::ln(u)).sqrt());
-    let u = u * (1.0 + max + FRAC_1_SQRT_PI * tan * elementary::exp(-cot * cot));
-    for _ in 0..3 {
-        let slope = erfinv(x);
-        let value = 1.0 + x + FRAC_1_SQRT_PI * tan * elementary::exp(-slope * slope) - u;
-        let derivative = 1.0 - slope * tan;
-        x -= value / derivative;
-    }
-    erfinv(x)
-}
-
-/// The microfacet normal of the unit-roughness `slopes` (along and across
-/// the stretched viewing azimuth `(cos φ, sin φ)`), rotated to that azimuth
-/// and unstretched to roughness `alpha`.
-#[inline(always)]
-fn beckmann_slope_normal(alpha: f32, cos_phi: f32, sin_phi: f32, slopes: Vec2) -> Vec3 {
-    let (sx, sy) = (slopes.x, slopes.y);
-    let (mx, my) = (
-        (cos_phi * sx - sin_phi * sy) * alpha,
-        (sin_phi * sx + cos_phi * sy) * alpha,
-    );
-    Vec3::new(-mx, -my, 1.0).normalize()
+pub fn sample_beckmann_distribution(alpha: f32, u: Vec2) -> Vec3 {
+    let (s, c) = elementary::sin_cos_turns(u.y);
+    let tan2 = -alpha * alpha * elementary::ln(1.0 - u.x);
+    let cos = 1.0 / (1.0 + tan2).sqrt();
+    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+    Vec3::new(sin * c, sin * s, cos)
 }
 
 /// A microfacet normal drawn from `D(h) cos θh` of the isotropic GGX
@@ -893,7 +804,7 @@ fn interface_integral(m: &Microfacet, wi: Vec3, eta: f32, part: Scattering) -> f
     // Beckmann's sampler in its parts: the slope along the azimuth depends
     // on u.x alone, the one across on u.y alone (the same values as
     // `sample_visible_beckmann` of each node, computed n times, not n²).
-    let (cos, cos_phi, sin_phi) = stretched(m.alpha_x, wi);
+    let (cos, cos_phi, sin_phi) = stretched(m.alpha_x, m.alpha_x, wi);
     let clamped = |u: f32| u.clamp(1e-6, 1.0 - 1e-6);
     let (along, across): (Vec<f32>, Vec<f32>) = if m.kind == Distribution::Beckmann {
         (
@@ -912,6 +823,7 @@ fn interface_integral(m: &Microfacet, wi: Vec3, eta: f32, part: Scattering) -> f
         let h = match m.kind {
             Distribution::Ggx => m.sample_h(wi, Vec2::new(us[ix], us[iy])),
             Distribution::Beckmann => beckmann_slope_normal(
+                m.alpha_x,
                 m.alpha_x,
                 cos_phi,
                 sin_phi,
@@ -1001,15 +913,6 @@ mod tests {
                 .sum();
             assert!((m4 - 0.4).abs() < 1e-5, "{n}: {m4}");
             assert!(x.windows(2).all(|p| p[0] < p[1]));
-        }
-    }
-
-    #[test]
-    fn erfinv_inverts_erf() {
-        for i in 1..200 {
-            let x = -0.995 + 1.99 * i as f32 / 200.0;
-            let y = erfinv(x);
-            assert!((erf(y) - x).abs() < 2e-6, "erf(erfinv({x})) = {}", erf(y));
         }
     }
 

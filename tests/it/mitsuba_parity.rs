@@ -12,7 +12,8 @@
 //! renders each scene at the fixture's spp and seed and is judged by the
 //! same test. One scene per plugin family: diffuse with an area light and
 //! measured spectra, one-sided BSDFs, conductor, rough conductor,
-//! dielectric, thin dielectric, rough plastic, a checkerboard on Mitsuba's sphere
+//! dielectric, rough (Beckmann) dielectric, thin dielectric, rough plastic,
+//! a checkerboard on Mitsuba's sphere
 //! parameterisation, a sphere light, the thin lens, the orthographic
 //! camera, the cylinder, spot lights, normal maps tilted along u and
 //! along v (Mitsuba's tangent frame and shadow terminator), and mesh
