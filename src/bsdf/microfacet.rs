@@ -419,6 +419,26 @@ mod tests {
         }
     }
 
+    /// `∫ g(h) dω` over the upper hemisphere, by a midpoint rule in
+    /// (θ, φ) on a 1000 × 400 grid.
+    fn over_hemisphere(g: impl Fn(Vec3) -> f64) -> f64 {
+        let (nt, np) = (1000, 400);
+        let mut sum = 0.0f64;
+        for i in 0..nt {
+            let theta = 0.5 * std::f64::consts::PI * (i as f64 + 0.5) / nt as f64;
+            for j in 0..np {
+                let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / np as f64;
+                let h = Vec3::new(
+                    (theta.sin() * phi.cos()) as f32,
+                    (theta.sin() * phi.sin()) as f32,
+                    theta.cos() as f32,
+                );
+                sum += g(h) * theta.sin();
+            }
+        }
+        sum * 0.5 * std::f64::consts::PI / nt as f64 * 2.0 * std::f64::consts::PI / np as f64
+    }
+
     #[test]
     fn sampled_normals_follow_the_visible_density() {
         // The mean of a test function over sampled normals equals its
@@ -441,22 +461,7 @@ mod tests {
                     }
                 }
                 mean /= (n * n) as f64;
-                let (nt, np) = (1000, 400);
-                let mut integral = 0.0f64;
-                for i in 0..nt {
-                    let theta = 0.5 * std::f64::consts::PI * (i as f64 + 0.5) / nt as f64;
-                    for j in 0..np {
-                        let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / np as f64;
-                        let h = Vec3::new(
-                            (theta.sin() * phi.cos()) as f32,
-                            (theta.sin() * phi.sin()) as f32,
-                            theta.cos() as f32,
-                        );
-                        integral += f(h) * m.pdf_h(wo, h) as f64 * theta.sin();
-                    }
-                }
-                integral *=
-                    0.5 * std::f64::consts::PI / nt as f64 * 2.0 * std::f64::consts::PI / np as f64;
+                let integral = over_hemisphere(|h| f(h) * m.pdf_h(wo, h) as f64);
                 assert!(
                     (mean - integral).abs() < 2e-3,
                     "{kind:?} wo={wo}: {mean} against {integral}"
@@ -475,22 +480,7 @@ mod tests {
                 Vec3::new(0.8, 0.0, 0.6),
                 Vec3::new(0.0, -0.98, 0.199).normalize(),
             ] {
-                let (nt, np) = (1000, 400);
-                let mut sum = 0.0f64;
-                for i in 0..nt {
-                    let theta = 0.5 * std::f64::consts::PI * (i as f64 + 0.5) / nt as f64;
-                    for j in 0..np {
-                        let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / np as f64;
-                        let h = Vec3::new(
-                            (theta.sin() * phi.cos()) as f32,
-                            (theta.sin() * phi.sin()) as f32,
-                            theta.cos() as f32,
-                        );
-                        sum += m.pdf_h(wo, h) as f64 * theta.sin();
-                    }
-                }
-                sum *=
-                    0.5 * std::f64::consts::PI / nt as f64 * 2.0 * std::f64::consts::PI / np as f64;
+                let sum = over_hemisphere(|h| m.pdf_h(wo, h) as f64);
                 assert!((sum - 1.0).abs() < 5e-3, "{kind:?} wo={wo}: {sum}");
             }
         }

@@ -34,8 +34,9 @@ pub(crate) fn sample_light(
     sample_sphere(scene, cap, p, u, mask)
 }
 
-/// [`sample_light`] for a sphere light.
-#[cold]
+/// [`sample_light`] for a sphere light (kept out of line: most lights
+/// are not spheres).
+#[inline(never)]
 fn sample_sphere(
     scene: &Scene,
     cap: &crate::light::SphereCap,

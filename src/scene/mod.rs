@@ -362,11 +362,6 @@ fn exact_sphere(m: &Mesh) -> Option<(Vec3, f32)> {
     (round && r > 0.0 && r.is_finite()).then(|| (Vec3::from(world.translation), r))
 }
 
-/// A triangle's area.
-fn triangle_area(p: [Vec3; 3]) -> f32 {
-    0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
-}
-
 /// Everything needed to build a scene, before Embree sees it.
 #[derive(Debug, Clone)]
 pub struct SceneDescription {
@@ -520,11 +515,6 @@ impl Scene {
                         (None, None) => exact_sphere(m),
                         _ => None,
                     };
-                    let total_area: f64 = m
-                        .triangles
-                        .iter()
-                        .map(|t| triangle_area(t.map(|i| m.positions[i as usize])) as f64)
-                        .sum();
                     for t in &m.triangles {
                         let p = t.map(|i| m.positions[i as usize]);
                         // Zero-area triangles keep their slot (with zero power,
@@ -540,21 +530,35 @@ impl Scene {
                                 sphere: None,
                             },
                         );
-                        let mut light = match e.cone {
+                        let light = match e.cone {
                             Some(c) => light.with_cone(c),
                             None => light,
                         };
-                        if let Some((center, radius)) = sphere {
-                            if light.area > 0.0 {
-                                light.sphere = Some(crate::light::SphereCap {
-                                    center,
-                                    radius,
-                                    geom: geom as u32,
-                                    share: (light.area as f64 / total_area) as f32,
-                                });
+                        lights.push(Light::Triangle(light));
+                    }
+                    if let Some((center, radius)) = sphere {
+                        // Each triangle's share of the group's area (its
+                        // radiance is the group's).
+                        let group = &mut lights[first as usize..];
+                        let total: f64 = group
+                            .iter()
+                            .map(|l| match l {
+                                Light::Triangle(t) => t.area as f64,
+                                _ => 0.0,
+                            })
+                            .sum();
+                        for l in group {
+                            if let Light::Triangle(t) = l {
+                                if t.area > 0.0 {
+                                    t.sphere = Some(crate::light::SphereCap {
+                                        center,
+                                        radius,
+                                        geom: geom as u32,
+                                        share: (t.area as f64 / total) as f32,
+                                    });
+                                }
                             }
                         }
-                        lights.push(Light::Triangle(light));
                     }
                     let reach = e.cone.map(|c| {
                         let tris = m

@@ -610,6 +610,21 @@ fn a_projector_lights_a_facing_plane_evenly() {
     assert_eq!(red(0.5), 0.0, "blue on the right has no red");
 }
 
+/// Writes `text` as the scene file `path`, renders it and returns its
+/// middle pixel (a 3 × 3 film), or the loader's error.
+fn middle_pixel_of_file(path: &std::path::Path, text: &str) -> Result<Vec3, String> {
+    std::fs::write(path, text).unwrap();
+    let scene = Scene::load(path).map_err(|e| e.to_string())?;
+    let (film, _) = render(
+        &scene,
+        &scene.default_job(),
+        &RenderOptions::default(),
+        &|_, _| true,
+    )
+    .unwrap();
+    Ok(film.color[film.index(1, 1)])
+}
+
 /// The scene file's `projector`: `irradiance` scales the image, and the
 /// floor below it is lit as [`a_projector_lights_a_facing_plane_evenly`]
 /// computes; a spot light's `intensity_map` and a projector's keys are
@@ -618,10 +633,10 @@ fn a_projector_lights_a_facing_plane_evenly() {
 fn projector_and_spot_images_in_the_scene_file() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("scene.toml");
-    let floor_under = |light: &str| -> Result<Vec3, String> {
-        std::fs::write(
+    let floor_under = |light: &str| {
+        middle_pixel_of_file(
             &path,
-            format!(
+            &format!(
                 "[render]\nspp = 1\nmax_depth = 1\n[camera]\nposition = [0.3, -0.5, 0.5]\n\
                  look_at = [0.3, 0, 0]\nup = [0, 0, 1]\nhfov = 0.5\nresolution = [3, 3]\n\
                  [[materials]]\nname = \"floor\"\ntype = \"diffuse\"\nreflectance = [0.7, 0.7, 0.7]\n\
@@ -629,16 +644,6 @@ fn projector_and_spot_images_in_the_scene_file() {
                  [[lights]]\n{light}\n"
             ),
         )
-        .unwrap();
-        let scene = Scene::load(&path).map_err(|e| e.to_string())?;
-        let (film, _) = render(
-            &scene,
-            &scene.default_job(),
-            &RenderOptions::default(),
-            &|_, _| true,
-        )
-        .unwrap();
-        Ok(film.color[film.index(1, 1)])
     };
     let lit = floor_under(
         "type = \"projector\"\nposition = [0, 0, 2]\ndirection = [0, 0, -1]\nup = [0, 1, 0]\n\
@@ -709,7 +714,7 @@ fn projector_and_spot_images_in_the_scene_file() {
 fn a_sphere_light_gives_its_analytic_irradiance() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("scene.toml");
-    std::fs::write(
+    let got = middle_pixel_of_file(
         &path,
         "[render]\nspp = 256\nmax_depth = 1\n[camera]\nposition = [0, -0.5, 0.5]\n\
          look_at = [0, 0, 0]\nup = [0, 0, 1]\nhfov = 0.5\nresolution = [3, 3]\n\
@@ -718,15 +723,6 @@ fn a_sphere_light_gives_its_analytic_irradiance() {
          [[shapes]]\ntype = \"sphere\"\ncenter = [0, 0, 3]\nradius = 1\nemission = [2, 2, 2]\n",
     )
     .unwrap();
-    let scene = Scene::load(&path).unwrap();
-    let (film, _) = render(
-        &scene,
-        &scene.default_job(),
-        &RenderOptions::default(),
-        &|_, _| true,
-    )
-    .unwrap();
-    let got = film.color[film.index(1, 1)];
     let want = 0.5 * 2.0 / 9.0;
     assert!(
         (got - Vec3::splat(want)).abs().max_element() < 0.004 * want,

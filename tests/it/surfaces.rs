@@ -56,17 +56,23 @@ resolution = [16, 16]
 "#;
 
 fn render_in(dir: &Path, scene: &str) -> Film {
+    try_render_in(dir, scene).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Writes `scene` as `scene.toml` in `dir` and renders it, or returns the
+/// loader's error.
+fn try_render_in(dir: &Path, scene: &str) -> Result<Film, String> {
     let path = dir.join("scene.toml");
     std::fs::write(&path, scene).unwrap();
-    let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
-    render(
+    let scene = Scene::load(&path).map_err(|e| e.to_string())?;
+    Ok(render(
         &scene,
         &scene.default_job(),
         &RenderOptions::default(),
         &|_, _| true,
     )
     .unwrap()
-    .0
+    .0)
 }
 
 fn assert_quadrants(film: &Film, what: &str) {
@@ -352,27 +358,16 @@ fn ply_meshes_render_as_the_same_obj() {
     std::fs::write(d.join("ascii.ply"), ascii).unwrap();
     std::fs::write(d.join("binary.ply"), &binary).unwrap();
     std::fs::write(d.join("broken.ply"), &binary[..binary.len() - 5]).unwrap();
-    let render_with = |kind: &str, file: &str| -> Result<Film, String> {
-        let scene_path = d.join("scene.toml");
-        std::fs::write(
-            &scene_path,
-            format!(
+    let render_with = |kind: &str, file: &str| {
+        try_render_in(
+            d,
+            &format!(
                 "[render]\nspp = 2\n[camera]\nposition = [0, 0, 4]\nlook_at = [0, 0, 0]\n\
                  up = [0, 1, 0]\nvfov = 30\nresolution = [24, 24]\n[[shapes]]\ntype = \"{kind}\"\n\
                  file = \"{file}\"\n[[lights]]\ntype = \"point\"\nposition = [2, 2, 3]\n\
                  intensity = [20, 20, 20]\n"
             ),
         )
-        .unwrap();
-        let scene = Scene::load(&scene_path).map_err(|e| e.to_string())?;
-        Ok(render(
-            &scene,
-            &scene.default_job(),
-            &RenderOptions::default(),
-            &|_, _| true,
-        )
-        .unwrap()
-        .0)
     };
     let reference = render_with("obj", "ball.obj").unwrap();
     assert!(reference.color.iter().any(|c| c.x > 0.0));
@@ -645,10 +640,9 @@ fn coloured_square(dir: &Path, material: &str, file: &str) -> Result<Film, Strin
         "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nf 1 2 3\n",
     )
     .unwrap();
-    let path = dir.join("scene.toml");
-    std::fs::write(
-        &path,
-        format!(
+    try_render_in(
+        dir,
+        &format!(
             "[render]\nspp = 4\nmax_depth = 1\n[camera]\nposition = [0, 0, 4]\nlook_at = [0, 0, 0]\n\
              up = [0, 1, 0]\nvfov = 20\nresolution = [16, 16]\n[environment]\nradiance = [1, 1, 1]\n\
              [[materials]]\nname = \"m\"\n{material}\n\
@@ -656,16 +650,6 @@ fn coloured_square(dir: &Path, material: &str, file: &str) -> Result<Film, Strin
             if file.ends_with(".ply") { "ply" } else { "obj" }
         ),
     )
-    .unwrap();
-    let scene = Scene::load(&path).map_err(|e| e.to_string())?;
-    Ok(render(
-        &scene,
-        &scene.default_job(),
-        &RenderOptions::default(),
-        &|_, _| true,
-    )
-    .unwrap()
-    .0)
 }
 
 #[test]

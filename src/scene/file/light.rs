@@ -97,6 +97,13 @@ impl Builder<'_> {
         }
     }
 
+    /// A light's `direction` as a unit vector (refused if zero).
+    fn light_direction(&self, field: &str, direction: [f32; 3]) -> Result<Vec3> {
+        self.vec3(&format!("{field}.direction"), direction)?
+            .try_normalize()
+            .ok_or_else(|| self.err(format!("{field}.direction"), "must not be the zero vector"))
+    }
+
     /// A `directional` light: `direction` (the way the light travels) and
     /// `irradiance` (W/m² on a surface facing it), as Mitsuba's
     /// `directional`.
@@ -118,10 +125,7 @@ impl Builder<'_> {
                 "required for a directional light: W/m² on a surface facing it",
             )
         })?;
-        let direction = self
-            .vec3(&format!("{field}.direction"), direction)?
-            .try_normalize()
-            .ok_or_else(|| self.err(format!("{field}.direction"), "must not be the zero vector"))?;
+        let direction = self.light_direction(field, direction)?;
         Ok(crate::light::DirectionalLight {
             direction,
             irradiance: self.colour(&format!("{field}.irradiance"), irradiance, None)?,
@@ -163,10 +167,7 @@ impl Builder<'_> {
         let direction = required("direction", l.direction, "the beam's axis")?;
         let intensity = required("intensity", l.intensity, "W/sr on the axis")?;
         let position = self.vec3(&format!("{field}.position"), position)?;
-        let direction = self.vec3(&format!("{field}.direction"), direction)?;
-        let axis = direction
-            .try_normalize()
-            .ok_or_else(|| self.err(format!("{field}.direction"), "must not be the zero vector"))?;
+        let axis = self.light_direction(field, direction)?;
         let intensity = self.colour(&format!("{field}.intensity"), intensity, None)?;
         let cutoff = self.finite(
             &format!("{field}.cutoff_angle"),
@@ -305,10 +306,7 @@ impl Builder<'_> {
                 "required for a projector: where it points",
             )
         })?;
-        let axis = self
-            .vec3(&format!("{field}.direction"), direction)?
-            .try_normalize()
-            .ok_or_else(|| self.err(format!("{field}.direction"), "must not be the zero vector"))?;
+        let axis = self.light_direction(field, direction)?;
         let frame = self.light_frame(field, axis, l.up)?;
         let scale = self.colour(
             &format!("{field}.irradiance"),
