@@ -31,6 +31,7 @@
 //! filter_border = "extend"  # or "clip": keep samples on the film
 //! ```
 
+use crate::elementary::erfinv;
 use glam::Vec2;
 
 /// Default standard deviation of the Gaussian filter, pixels.
@@ -293,37 +294,6 @@ pub fn erf(x: f64) -> f64 {
     r.min(1.0).copysign(x)
 }
 
-/// The inverse error function on `(−1, 1)` (Giles 2010, single precision;
-/// relative error below about 4e-7).
-#[inline]
-pub fn erfinv(x: f32) -> f32 {
-    let mut w = -((1.0 - x) * (1.0 + x)).ln();
-    let p = if w < 5.0 {
-        w -= 2.5;
-        let mut p = 2.810_226_4e-8;
-        p = 3.432_739_4e-7 + p * w;
-        p = -3.523_387_7e-6 + p * w;
-        p = -4.391_506_5e-6 + p * w;
-        p = 0.000_218_580_87 + p * w;
-        p = -0.001_253_725 + p * w;
-        p = -0.004_177_681_6 + p * w;
-        p = 0.246_640_73 + p * w;
-        1.501_409_4 + p * w
-    } else {
-        w = w.sqrt() - 3.0;
-        let mut p = -0.000_200_214_26;
-        p = 0.000_100_950_56 + p * w;
-        p = 0.001_349_343_2 + p * w;
-        p = -0.003_673_428_4 + p * w;
-        p = 0.005_739_507_7 + p * w;
-        p = -0.007_622_461_3 + p * w;
-        p = 0.009_438_870_5 + p * w;
-        p = 1.001_674 + p * w;
-        2.832_976_8 + p * w
-    };
-    p * x
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -339,16 +309,6 @@ mod tests {
         ] {
             assert!((erf(x) - want).abs() < 1e-14, "erf({x}) = {}", erf(x));
         }
-    }
-
-    #[test]
-    fn erfinv_inverts_erf() {
-        for i in 1..2000 {
-            let x = -1.0 + i as f64 / 1000.0;
-            let y = erfinv(x as f32) as f64;
-            assert!((erf(y) - x).abs() < 2e-6 * (1.0 + x.abs()), "{x}: {y}");
-        }
-        assert!((erf(erfinv(0.999_99) as f64) - 0.999_99).abs() < 1e-6);
     }
 
     #[test]

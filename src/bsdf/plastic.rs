@@ -74,12 +74,13 @@
 
 use super::fresnel::{self, reflect};
 use super::microfacet::{
-    beckmann_slope_normal, beckmann_visible_slope, erfinv, sample_visible_beckmann, stretched,
+    beckmann_slope_normal, beckmann_visible_slope, sample_visible_beckmann, stretched,
     Distribution, Microfacet,
 };
 use super::models::{both_above, finish_sample};
 use super::{BsdfSample, ParamError};
 use crate::elementary;
+use crate::elementary::erfinv;
 use crate::warp::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 use glam::{Vec2, Vec3};
 use std::cell::RefCell;
