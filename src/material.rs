@@ -13,6 +13,7 @@
 //! | `normal` (linear, tangent space) | the shading normal | all |
 //! | `bump` (linear height, luminance) | the shading normal, by its slopes | all |
 //! | `alpha_u`, `alpha_v` (linear, luminance) | microfacet α along each tangent | `cook_torrance`, rough `dielectric` |
+//! | `scalars` (linear, luminance; [`ScalarParam`]) | one named weight each (`anisotropic`, `specular`, `spec_tint`, `spec_trans`, `sheen`, `sheen_tint`, `flatness`) | `principled`, `principled_thin` |
 //!
 //! A normal map holds tangent-space normals (OpenGL and glTF convention:
 //! red +x along increasing u, green +y along increasing v, blue +z along
@@ -61,6 +62,83 @@ pub struct MaterialTextures {
     /// `COLOR_0`); the shape's loader finds them in its file and stores
     /// them in [`Mesh::colors`](crate::scene::Mesh::colors).
     pub base_color_attribute: Option<String>,
+    /// Maps of the principled models' weights, one per parameter (none
+    /// twice), each replacing the constant where the model has it.
+    pub scalars: Vec<ScalarMap>,
+}
+
+/// A weight in `[0, 1]` of the principled models that a map may replace
+/// (Mitsuba textures every parameter of `principled` and
+/// `principledthin`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ScalarParam {
+    /// `anisotropic` (`principled`, `principled_thin`).
+    Anisotropic,
+    /// `specular` (`principled`).
+    Specular,
+    /// `spec_tint` (`principled`, `principled_thin`).
+    SpecTint,
+    /// `spec_trans` (`principled_thin`).
+    SpecTrans,
+    /// `sheen` (`principled_thin`).
+    Sheen,
+    /// `sheen_tint` (`principled_thin`).
+    SheenTint,
+    /// `flatness` (`principled_thin`).
+    Flatness,
+}
+
+impl ScalarParam {
+    /// Every parameter, in the order the scene file lists their keys.
+    pub const ALL: [ScalarParam; 7] = [
+        ScalarParam::Anisotropic,
+        ScalarParam::Specular,
+        ScalarParam::SpecTint,
+        ScalarParam::SpecTrans,
+        ScalarParam::Sheen,
+        ScalarParam::SheenTint,
+        ScalarParam::Flatness,
+    ];
+
+    /// The parameter's name (its map's key is the name and `_map`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ScalarParam::Anisotropic => "anisotropic",
+            ScalarParam::Specular => "specular",
+            ScalarParam::SpecTint => "spec_tint",
+            ScalarParam::SpecTrans => "spec_trans",
+            ScalarParam::Sheen => "sheen",
+            ScalarParam::SheenTint => "sheen_tint",
+            ScalarParam::Flatness => "flatness",
+        }
+    }
+
+    /// `bsdf` with this parameter set to `v` (clamped to `[0, 1]`);
+    /// unchanged for a model without it.
+    pub fn set(self, bsdf: &mut Bsdf, v: f32) {
+        let v = v.clamp(0.0, 1.0);
+        match (bsdf, self) {
+            (Bsdf::Principled(p), ScalarParam::Anisotropic) => p.anisotropic = v,
+            (Bsdf::Principled(p), ScalarParam::Specular) => p.specular = v,
+            (Bsdf::Principled(p), ScalarParam::SpecTint) => p.spec_tint = v,
+            (Bsdf::PrincipledThin(p), ScalarParam::Anisotropic) => p.anisotropic = v,
+            (Bsdf::PrincipledThin(p), ScalarParam::SpecTint) => p.spec_tint = v,
+            (Bsdf::PrincipledThin(p), ScalarParam::SpecTrans) => p.spec_trans = v,
+            (Bsdf::PrincipledThin(p), ScalarParam::Sheen) => p.sheen = v,
+            (Bsdf::PrincipledThin(p), ScalarParam::SheenTint) => p.sheen_tint = v,
+            (Bsdf::PrincipledThin(p), ScalarParam::Flatness) => p.flatness = v,
+            _ => {}
+        }
+    }
+}
+
+/// A map of one [`ScalarParam`] (its luminance, linear).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScalarMap {
+    /// The parameter it replaces.
+    pub param: ScalarParam,
+    /// Its values in `[0, 1]`.
+    pub texture: Arc<ImageTexture>,
 }
 
 /// The tangent frame of a normal map: its x axis is always along ∂p/∂u
@@ -96,6 +174,7 @@ impl MaterialTextures {
             && self.bump.is_none()
             && self.alpha_u.is_none()
             && self.base_color_attribute.is_none()
+            && self.scalars.is_empty()
     }
 
     /// Whether the shadow terminator applies: a normal or bump map with
@@ -310,8 +389,14 @@ impl Material {
         if let (Some(u), Some(v)) = (&self.textures.alpha_u, &self.textures.alpha_v) {
             return !Arc::ptr_eq(u, v);
         }
+        let anisotropy_mapped = self
+            .textures
+            .scalars
+            .iter()
+            .any(|m| m.param == ScalarParam::Anisotropic);
         match self.bsdf {
             Bsdf::CookTorrance(_) if self.textures.roughness.is_some() => false,
+            Bsdf::Principled(_) | Bsdf::PrincipledThin(_) if anisotropy_mapped => true,
             bsdf => bsdf.is_anisotropic(),
         }
     }
@@ -354,6 +439,7 @@ impl Material {
             let r = tex.eval(uv).x.clamp(0.0, 1.0);
             match &mut bsdf {
                 Bsdf::Principled(p) => p.roughness = r,
+                Bsdf::PrincipledThin(p) => p.roughness = r,
                 Bsdf::CookTorrance(p) => {
                     let a = alpha_from_roughness(r);
                     p.microfacet = Microfacet::new(p.microfacet.kind, a, a);
@@ -382,6 +468,10 @@ impl Material {
                 }
                 _ => {}
             }
+        }
+        for map in &t.scalars {
+            map.param
+                .set(&mut bsdf, crate::color::luminance(map.texture.eval(uv)));
         }
         bsdf
     }

@@ -87,6 +87,7 @@ impl Bsdf {
                 Err("plastic and rough_plastic materials cannot be fitted")
             }
             Bsdf::ThinDielectric(_) => Err("thin_dielectric materials cannot be fitted"),
+            Bsdf::PrincipledThin(_) => Err("principled_thin materials cannot be fitted"),
         }
     }
 

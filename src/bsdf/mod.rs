@@ -38,6 +38,7 @@
 //! | `cook_torrance` | microfacet reflection, GGX or Beckmann, Smith G, Schlick / dielectric / conductor Fresnel |
 //! | `dielectric` | smooth or rough (Walter et al. 2007) glass-like interface |
 //! | `principled` | Burley's principled BSDF with Mitsuba 3's parameters; optionally energy-conserving |
+//! | `principled_thin` | Burley's thin sheet with Mitsuba 3's `principledthin` parameters ([`principled_thin`]) |
 //! | `plastic`, `rough_plastic` | Mitsuba 3's `plastic` and `roughplastic`: a diffuse substrate under a smooth or rough dielectric coating ([`plastic`]) |
 //!
 //! ```toml
@@ -54,6 +55,7 @@ pub mod microfacet;
 pub mod mixture;
 pub mod models;
 pub mod plastic;
+pub mod principled_thin;
 mod table_cache;
 pub mod thin_dielectric;
 
@@ -66,6 +68,7 @@ pub use models::{
     DielectricParams, DiffuseParams, Fresnel, ParamError, PrincipledParams,
 };
 pub use plastic::{PlasticParams, RoughPlasticParams};
+pub use principled_thin::PrincipledThinParams;
 pub use thin_dielectric::ThinDielectricParams;
 
 use glam::{Vec2, Vec3};
@@ -92,6 +95,9 @@ pub enum Bsdf {
     /// A thin dielectric sheet: mirror and straight-through transmission
     /// (Mitsuba's `thindielectric`).
     ThinDielectric(ThinDielectricParams),
+    /// Burley's thin principled sheet: glossy and diffuse reflection and
+    /// transmission (Mitsuba's `principledthin`).
+    PrincipledThin(PrincipledThinParams),
 }
 
 /// A direction drawn by [`Bsdf::sample`].
@@ -127,6 +133,7 @@ impl Bsdf {
             Bsdf::Plastic(p) => p.eval(wo, wi),
             Bsdf::RoughPlastic(p) => p.eval(wo, wi),
             Bsdf::ThinDielectric(p) => p.eval(wo, wi),
+            Bsdf::PrincipledThin(p) => p.eval(wo, wi),
         }
     }
 
@@ -143,6 +150,7 @@ impl Bsdf {
             Bsdf::Plastic(p) => p.sample(wo, uc, u),
             Bsdf::RoughPlastic(p) => p.sample(wo, uc, u),
             Bsdf::ThinDielectric(p) => p.sample(wo, uc),
+            Bsdf::PrincipledThin(p) => p.sample(wo, uc, u),
         }
     }
 
@@ -158,6 +166,7 @@ impl Bsdf {
             Bsdf::Plastic(p) => p.pdf(wo, wi),
             Bsdf::RoughPlastic(p) => p.pdf(wo, wi),
             Bsdf::ThinDielectric(p) => p.pdf(wo, wi),
+            Bsdf::PrincipledThin(p) => p.pdf(wo, wi),
         }
     }
 
@@ -177,9 +186,14 @@ impl Bsdf {
 
     /// Whether light passes through the surface: the integrator then keeps
     /// the geometric normal as the outside instead of facing it to the viewer.
+    /// A thin principled sheet counts as transmissive even with its
+    /// transmission at 0: it has two sides as Mitsuba's has.
     #[inline]
     pub fn transmits(&self) -> bool {
-        matches!(self, Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_))
+        matches!(
+            self,
+            Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::PrincipledThin(_)
+        )
     }
 
     /// `η²` of a scattering from `wo` to `wi` (local frame): the square of
@@ -220,6 +234,7 @@ impl Bsdf {
             Bsdf::CookTorrance(p) => aniso(&p.microfacet),
             Bsdf::Dielectric(p) => p.microfacet.as_ref().is_some_and(aniso),
             Bsdf::Principled(p) => p.anisotropic > 0.0,
+            Bsdf::PrincipledThin(p) => p.anisotropic > 0.0,
             Bsdf::Diffuse(_)
             | Bsdf::BlinnPhong(_)
             | Bsdf::Plastic(_)
@@ -237,6 +252,7 @@ impl Bsdf {
             Bsdf::Diffuse(p) => Some(p.reflectance),
             Bsdf::BlinnPhong(p) => Some(p.diffuse),
             Bsdf::Principled(p) => Some(p.base_color),
+            Bsdf::PrincipledThin(p) => Some(p.base_color),
             Bsdf::Plastic(p) => Some(p.diffuse_reflectance),
             Bsdf::RoughPlastic(p) => Some(p.diffuse_reflectance),
             Bsdf::CookTorrance(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => None,
@@ -251,6 +267,7 @@ impl Bsdf {
             Bsdf::Diffuse(p) => p.reflectance = c,
             Bsdf::BlinnPhong(p) => p.diffuse = c.min(Vec3::ONE - p.specular),
             Bsdf::Principled(p) => p.base_color = c,
+            Bsdf::PrincipledThin(p) => p.base_color = c,
             Bsdf::Plastic(p) => p.diffuse_reflectance = c,
             Bsdf::RoughPlastic(p) => p.diffuse_reflectance = c,
             Bsdf::CookTorrance(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => {}
@@ -266,6 +283,7 @@ impl Bsdf {
             Bsdf::CookTorrance(p) => p.fresnel.eval(1.0),
             Bsdf::Dielectric(_) => Vec3::ONE,
             Bsdf::Principled(p) => p.base_color,
+            Bsdf::PrincipledThin(p) => p.base_color,
             Bsdf::Plastic(p) => p.albedo(),
             Bsdf::RoughPlastic(p) => p.albedo(),
             Bsdf::ThinDielectric(_) => Vec3::ONE,

@@ -109,6 +109,65 @@ fn every_material_type_parses() {
         ),
         (Vec3::new(0.8, 0.2, 0.1), 0.3, 1.0, 0.5, 0.6, 0.1)
     );
+
+    let Bsdf::PrincipledThin(t) = bsdf_of(
+        "type = \"principled_thin\"\nbase_color = [0.7, 0.5, 0.3]\nroughness = 0.2\nanisotropic = 0.3\n\
+         spec_trans = 0.4\neta = 1.33\nspec_tint = 0.1\nsheen = 0.6\nsheen_tint = 0.2\n\
+         flatness = 0.5\ndiff_trans = 1.5",
+    ) else {
+        panic!("not principled_thin")
+    };
+    assert_eq!(
+        (
+            t.base_color,
+            t.roughness,
+            t.anisotropic,
+            t.spec_trans,
+            t.eta
+        ),
+        (Vec3::new(0.7, 0.5, 0.3), 0.2, 0.3, 0.4, 1.33)
+    );
+    assert_eq!(
+        (t.spec_tint, t.sheen, t.sheen_tint, t.flatness, t.diff_trans),
+        (0.1, 0.6, 0.2, 0.5, 1.5)
+    );
+    // Mitsuba's defaults.
+    let Bsdf::PrincipledThin(t) = bsdf_of("type = \"principled_thin\"") else {
+        panic!("not principled_thin")
+    };
+    assert_eq!(t, plsr::bsdf::PrincipledThinParams::default());
+}
+
+#[test]
+fn weight_maps_replace_the_principled_weights() {
+    // A checkerboard of 0.2 and 0.8 for `sheen`: the BSDF at a point of
+    // each square takes that value; the constant is kept where no map is.
+    let scene = load(&material_scene(
+        "type = \"principled_thin\"\nsheen = 0.5\nspec_trans = 0.3\n\
+         sheen_map = { checkerboard = [0.2, 0.8] }",
+    ))
+    .unwrap_or_else(|e| panic!("{e}"));
+    let m = scene.materials().iter().find(|m| m.name == "m").unwrap();
+    for (uv, want) in [
+        (glam::Vec2::new(0.25, 0.25), 0.2),
+        (glam::Vec2::new(0.75, 0.25), 0.8),
+    ] {
+        let Bsdf::PrincipledThin(t) = m.bsdf_at(uv, Vec3::ONE) else {
+            panic!("not principled_thin")
+        };
+        assert!((t.sheen - want).abs() < 1e-6, "{uv}: {}", t.sheen);
+        assert_eq!(t.spec_trans, 0.3);
+    }
+    let scene = load(&material_scene(
+        "type = \"principled\"\nroughness = 0.4\nanisotropic_map = { checkerboard = [0.0, 0.9] }",
+    ))
+    .unwrap_or_else(|e| panic!("{e}"));
+    let m = scene.materials().iter().find(|m| m.name == "m").unwrap();
+    assert!(m.is_anisotropic());
+    let Bsdf::Principled(p) = m.bsdf_at(glam::Vec2::new(0.75, 0.25), Vec3::ONE) else {
+        panic!("not principled")
+    };
+    assert!((p.anisotropic - 0.9).abs() < 1e-6);
 }
 
 #[test]
@@ -183,6 +242,21 @@ fn bad_material_keys_name_the_field() {
             "type = \"dielectric\"\ndistribution = \"ggx\"",
             "materials[0].distribution",
             "only used with a roughness",
+        ),
+        (
+            "type = \"principled_thin\"\ndiff_trans = 2.5",
+            "materials[0].diff_trans",
+            "[0, 2]",
+        ),
+        (
+            "type = \"principled_thin\"\nmetallic = 0.5",
+            "materials[0].metallic",
+            "not a parameter of a `principled_thin` material",
+        ),
+        (
+            "type = \"principled_thin\"\nsheen_map = { checkerboard = [0.2, 1.5] }",
+            "materials[0].sheen_map",
+            "[0, 1]",
         ),
     ];
     for (material, field, fault) in cases {

@@ -115,10 +115,13 @@ impl SoaScene {
         if scene.lights().lights.iter().any(spot) {
             return None;
         }
-        // So are normal maps with the shadow terminator, composites and
-        // roughness maps along two tangents.
+        // So are normal maps with the shadow terminator, composites,
+        // roughness maps along two tangents and maps of principled weights.
         if scene.materials().iter().any(|m| {
-            m.textures.terminator() || m.composite.is_some() || m.textures.alpha_u.is_some()
+            m.textures.terminator()
+                || m.composite.is_some()
+                || m.textures.alpha_u.is_some()
+                || !m.textures.scalars.is_empty()
         }) {
             return None;
         }
@@ -189,7 +192,10 @@ impl SoaScene {
                 Bsdf::Diffuse(_) | Bsdf::Dielectric(_) => false,
                 // Not reached: no pass shades them (the scene is rendered by
                 // the general integrator).
-                Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) | Bsdf::ThinDielectric(_) => false,
+                Bsdf::Plastic(_)
+                | Bsdf::RoughPlastic(_)
+                | Bsdf::ThinDielectric(_)
+                | Bsdf::PrincipledThin(_) => false,
             });
         }
         for a in &mut albedo {
@@ -275,7 +281,8 @@ pub(super) fn mapped_params(bsdf: &Bsdf) -> [f32; 3] {
         | Bsdf::Dielectric(_)
         | Bsdf::Plastic(_)
         | Bsdf::RoughPlastic(_)
-        | Bsdf::ThinDielectric(_) => [0.0; 3],
+        | Bsdf::ThinDielectric(_)
+        | Bsdf::PrincipledThin(_) => [0.0; 3],
     }
 }
 

@@ -7,10 +7,10 @@ use super::Builder;
 use crate::bsdf::METALS;
 use crate::bsdf::{
     BlinnPhongParams, Bsdf, CookTorranceParams, DielectricParams, Distribution, Fresnel,
-    Microfacet, PrincipledParams,
+    Microfacet, PrincipledParams, PrincipledThinParams,
 };
 use crate::error::Result;
-use crate::material::{decode_normal, NormalFrame};
+use crate::material::{decode_normal, NormalFrame, ScalarMap, ScalarParam};
 use crate::scene::shapes::{self};
 use crate::scene::{Material, MaterialTextures};
 use crate::texture::{self, Encoding, ImageTexture};
@@ -145,6 +145,38 @@ pub(super) struct PrincipledKeys {
     base_color_map: Option<MapKey>,
     roughness_map: Option<MapKey>,
     metallic_map: Option<MapKey>,
+    anisotropic_map: Option<MapKey>,
+    specular_map: Option<MapKey>,
+    spec_tint_map: Option<MapKey>,
+    normal_map: Option<PathBuf>,
+    normal_scale: Option<f32>,
+    normal_frame: Option<String>,
+    normal_shadowing: Option<bool>,
+}
+
+/// The keys of a `principled_thin` material (Mitsuba's `principledthin`).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct PrincipledThinKeys {
+    #[serde(default, deserialize_with = "crate::input::exact::option")]
+    base_color: Option<[f32; 3]>,
+    roughness: Option<f32>,
+    anisotropic: Option<f32>,
+    spec_trans: Option<f32>,
+    eta: Option<f32>,
+    spec_tint: Option<f32>,
+    sheen: Option<f32>,
+    sheen_tint: Option<f32>,
+    flatness: Option<f32>,
+    diff_trans: Option<f32>,
+    base_color_map: Option<MapKey>,
+    roughness_map: Option<MapKey>,
+    anisotropic_map: Option<MapKey>,
+    spec_trans_map: Option<MapKey>,
+    spec_tint_map: Option<MapKey>,
+    sheen_map: Option<MapKey>,
+    sheen_tint_map: Option<MapKey>,
+    flatness_map: Option<MapKey>,
     normal_map: Option<PathBuf>,
     normal_scale: Option<f32>,
     normal_frame: Option<String>,
@@ -181,6 +213,7 @@ pub(super) enum MaterialKeys {
     CookTorrance(CookTorranceKeys),
     Dielectric(DielectricKeys),
     Principled(PrincipledKeys),
+    PrincipledThin(PrincipledThinKeys),
     Plastic(PlasticKeys),
     RoughPlastic(PlasticKeys),
     ThinDielectric(ThinDielectricKeys),
@@ -188,8 +221,8 @@ pub(super) enum MaterialKeys {
 
 /// The material types, by their `type` names.
 const MATERIAL_TYPES: &str =
-    "diffuse, blinn_phong, cook_torrance, dielectric, thin_dielectric, principled, plastic, \
-     rough_plastic";
+    "diffuse, blinn_phong, cook_torrance, dielectric, thin_dielectric, principled, \
+     principled_thin, plastic, rough_plastic";
 
 /// The keys of a microfacet distribution, shared by several types.
 struct MicrofacetKeys<'a> {
@@ -227,6 +260,17 @@ struct TextureKeys<'a> {
     normal_scale: Option<f32>,
     normal_frame: Option<&'a str>,
     normal_shadowing: Option<bool>,
+    /// Maps of the principled models' weights.
+    scalars: Vec<(ScalarParam, &'a MapKey)>,
+}
+
+/// The maps among `maps` that are given.
+fn given_maps<const N: usize>(
+    maps: [(ScalarParam, &Option<MapKey>); N],
+) -> Vec<(ScalarParam, &MapKey)> {
+    maps.into_iter()
+        .filter_map(|(p, m)| m.as_ref().map(|m| (p, m)))
+        .collect()
 }
 
 impl MaterialKeys {
@@ -286,6 +330,28 @@ impl MaterialKeys {
                 normal_scale: k.normal_scale,
                 normal_frame: k.normal_frame.as_deref(),
                 normal_shadowing: k.normal_shadowing,
+                scalars: given_maps([
+                    (ScalarParam::Anisotropic, &k.anisotropic_map),
+                    (ScalarParam::Specular, &k.specular_map),
+                    (ScalarParam::SpecTint, &k.spec_tint_map),
+                ]),
+                ..Default::default()
+            },
+            MaterialKeys::PrincipledThin(k) => TextureKeys {
+                base_color_map: k.base_color_map.as_ref(),
+                roughness_map: k.roughness_map.as_ref(),
+                normal_map: k.normal_map.as_ref(),
+                normal_scale: k.normal_scale,
+                normal_frame: k.normal_frame.as_deref(),
+                normal_shadowing: k.normal_shadowing,
+                scalars: given_maps([
+                    (ScalarParam::Anisotropic, &k.anisotropic_map),
+                    (ScalarParam::SpecTrans, &k.spec_trans_map),
+                    (ScalarParam::SpecTint, &k.spec_tint_map),
+                    (ScalarParam::Sheen, &k.sheen_map),
+                    (ScalarParam::SheenTint, &k.sheen_tint_map),
+                    (ScalarParam::Flatness, &k.flatness_map),
+                ]),
                 ..Default::default()
             },
         }
@@ -390,6 +456,7 @@ impl Builder<'_> {
             "dielectric" => MaterialKeys::Dielectric(self.type_keys(field, kind, keys)?),
             "thin_dielectric" => MaterialKeys::ThinDielectric(self.type_keys(field, kind, keys)?),
             "principled" => MaterialKeys::Principled(self.type_keys(field, kind, keys)?),
+            "principled_thin" => MaterialKeys::PrincipledThin(self.type_keys(field, kind, keys)?),
             "plastic" => {
                 let k: PlasticKeys = self.type_keys(field, kind, keys)?;
                 for (given, key) in [
@@ -583,6 +650,29 @@ impl Builder<'_> {
                     )
                 })?)
             }
+            MaterialKeys::PrincipledThin(m) => {
+                let number = |name: &str, v: Option<f32>, default: f32| {
+                    self.finite(&format!("{field}.{name}"), v.unwrap_or(default))
+                };
+                let params = PrincipledThinParams {
+                    base_color: colour("base_color", m.base_color, 0.5)?,
+                    roughness: number("roughness", m.roughness, 0.5)?,
+                    anisotropic: number("anisotropic", m.anisotropic, 0.0)?,
+                    spec_trans: number("spec_trans", m.spec_trans, 0.0)?,
+                    eta: number("eta", m.eta, 1.5)?,
+                    spec_tint: number("spec_tint", m.spec_tint, 0.0)?,
+                    sheen: number("sheen", m.sheen, 0.0)?,
+                    sheen_tint: number("sheen_tint", m.sheen_tint, 0.0)?,
+                    flatness: number("flatness", m.flatness, 0.0)?,
+                    diff_trans: number("diff_trans", m.diff_trans, 0.0)?,
+                };
+                Bsdf::PrincipledThin(params.validate().map_err(|e| {
+                    self.err(
+                        format!("{field}.{}", e.parameter),
+                        format!("must be in {}, got {}", e.range, e.value),
+                    )
+                })?)
+            }
         })
     }
 
@@ -752,6 +842,23 @@ impl Builder<'_> {
         } else if section.bump_scale.is_some() {
             return Err(self.err(format!("{field}.bump_scale"), "only used with a bump_map"));
         }
+        for (param, map) in &m.scalars {
+            let key = format!("{}_map", param.name());
+            let keys = ["", key.as_str(), ""];
+            let t = self.textures(
+                field,
+                None,
+                Some((*map).clone().rebased(self.base)),
+                None,
+                keys,
+            )?;
+            // Read by its luminance, as Mitsuba reads a colour map of a weight.
+            let texture = t.roughness.expect("a given map is loaded");
+            textures.scalars.push(ScalarMap {
+                param: *param,
+                texture,
+            });
+        }
         textures.normal_shadowing = m.normal_shadowing.unwrap_or(false);
         textures.normal_frame = match m.normal_frame {
             None | Some("uv") => NormalFrame::Uv,
@@ -863,6 +970,7 @@ impl Builder<'_> {
             bump_scale: 1.0,
             alpha_u: None,
             alpha_v: None,
+            scalars: Vec::new(),
         })
     }
 

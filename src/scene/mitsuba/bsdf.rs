@@ -355,7 +355,7 @@ impl<'a> Translator<'a> {
         let mut t = Table::new();
         let opaque = !matches!(
             kind.as_str(),
-            "dielectric" | "roughdielectric" | "thindielectric"
+            "dielectric" | "roughdielectric" | "thindielectric" | "principledthin"
         );
         match kind.as_str() {
             "diffuse" => self.bsdf_diffuse(&mut p, &mut t)?,
@@ -364,6 +364,7 @@ impl<'a> Translator<'a> {
                 self.bsdf_dielectric(node, &kind, &mut p, &mut t)?
             }
             "principled" => self.bsdf_principled(node, &mut p, &mut t)?,
+            "principledthin" => self.bsdf_principled_thin(node, &mut p, &mut t)?,
             "thindielectric" => self.bsdf_thin_dielectric(node, &mut p, &mut t)?,
             "plastic" | "roughplastic" => self.bsdf_plastic(node, &kind, &mut p, &mut t)?,
             "twosided" => return Err(self.err(node, "a twosided inside a twosided")),
@@ -373,8 +374,8 @@ impl<'a> Translator<'a> {
                     format!(
                         "the `{other}` BSDF is not supported (supported: diffuse, conductor, \
                          roughconductor, dielectric, roughdielectric, thindielectric, plastic, \
-                         roughplastic, principled, twosided, blendbsdf, mask, null, bumpmap, \
-                         normalmap)"
+                         roughplastic, principled, principledthin, twosided, blendbsdf, mask, null, \
+                         bumpmap, normalmap)"
                     ),
                 ))
             }
@@ -606,15 +607,13 @@ impl<'a> Translator<'a> {
                         node,
                         format!("`{name}` texture: plsr reads its red channel"),
                     );
-                    set(t, map, m)
+                    set(t, map, scalar_map(m))
                 }
                 None => {}
             }
         }
         for name in ["anisotropic", "specular", "spec_tint"] {
-            if let Some(v) = self.take_float(p, name)? {
-                set(t, name, float(v));
-            }
+            self.take_weight(node, p, t, name)?;
         }
         for name in [
             "sheen",
@@ -643,6 +642,85 @@ impl<'a> Translator<'a> {
                 return Err(self.err(node, format!("eta = {eta} is outside plsr's range")));
             }
             set(t, "specular", float(s));
+        }
+        Ok(())
+    }
+
+    /// `principledthin`: plsr's `principled_thin`, every parameter a number
+    /// or (the weights) a texture; its sampling rates are Mitsuba's defaults.
+    pub(super) fn bsdf_principled_thin(
+        &mut self,
+        node: &'a Element,
+        p: &mut Params<'a>,
+        t: &mut Table,
+    ) -> Result<()> {
+        set(t, "type", Value::String("principled_thin".into()));
+        match self.take_colour(p, "base_color", SpectrumUse::Reflectance)? {
+            Some(Colour::Rgb(v)) => set(t, "base_color", vec3(v)),
+            Some(Colour::Map(m)) => set(t, "base_color_map", m),
+            None => {}
+        }
+        match self.take_colour(p, "roughness", SpectrumUse::Unbounded)? {
+            Some(Colour::Rgb([a, b, c])) if a == b && b == c => set(t, "roughness", float(a)),
+            Some(Colour::Rgb(_)) => return Err(self.err(node, "`roughness` must be one number")),
+            Some(Colour::Map(m)) => {
+                self.note(node, "`roughness` texture: plsr reads its red channel");
+                set(t, "roughness_map", scalar_map(m))
+            }
+            None => {}
+        }
+        for name in [
+            "anisotropic",
+            "spec_trans",
+            "spec_tint",
+            "sheen",
+            "sheen_tint",
+            "flatness",
+        ] {
+            self.take_weight(node, p, t, name)?;
+        }
+        for name in ["eta", "diff_trans"] {
+            if let Some(v) = self.take_float(p, name)? {
+                set(t, name, float(v));
+            }
+        }
+        for name in [
+            "diffuse_reflectance_sampling_rate",
+            "specular_reflectance_sampling_rate",
+            "specular_transmittance_sampling_rate",
+            "diffuse_transmittance_sampling_rate",
+        ] {
+            if let Some(v) = self.take_float(p, name)? {
+                if v != 1.0 {
+                    self.note(
+                        node,
+                        format!(
+                            "`{name}` = {v}: plsr picks the lobes by their weights (rate 1); \
+                             the image is the same, its noise differs"
+                        ),
+                    );
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// A principled weight: a number as `name`, a texture as `name_map`
+    /// (read by its luminance, as Mitsuba reads it).
+    fn take_weight(
+        &mut self,
+        node: &'a Element,
+        p: &mut Params<'a>,
+        t: &mut Table,
+        name: &str,
+    ) -> Result<()> {
+        match self.take_colour(p, name, SpectrumUse::Unbounded)? {
+            Some(Colour::Rgb([a, b, c])) if a == b && b == c => set(t, name, float(a)),
+            Some(Colour::Rgb(_)) => {
+                return Err(self.err(node, format!("`{name}` must be one number")))
+            }
+            Some(Colour::Map(m)) => set(t, &format!("{name}_map"), scalar_map(m)),
+            None => {}
         }
         Ok(())
     }

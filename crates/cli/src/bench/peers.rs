@@ -319,6 +319,24 @@ fn mitsuba_bsdf(bsdf: &Bsdf) -> std::result::Result<String, String> {
             ),
             p.sample_visible
         )),
+        Bsdf::PrincipledThin(p) => format!(
+            "<bsdf type=\"principledthin\"><rgb name=\"base_color\" value=\"{}\"/>\
+             <float name=\"roughness\" value=\"{}\"/><float name=\"anisotropic\" value=\"{}\"/>\
+             <float name=\"spec_trans\" value=\"{}\"/><float name=\"eta\" value=\"{}\"/>\
+             <float name=\"spec_tint\" value=\"{}\"/><float name=\"sheen\" value=\"{}\"/>\
+             <float name=\"sheen_tint\" value=\"{}\"/><float name=\"flatness\" value=\"{}\"/>\
+             <float name=\"diff_trans\" value=\"{}\"/></bsdf>",
+            rgb(p.base_color),
+            p.roughness,
+            p.anisotropic,
+            p.spec_trans,
+            p.eta,
+            p.spec_tint,
+            p.sheen,
+            p.sheen_tint,
+            p.flatness,
+            p.diff_trans
+        ),
     })
 }
 
