@@ -311,6 +311,52 @@ impl SceneBuilder<'_> {
         Ok(())
     }
 
+    /// Attaches an instance of the committed scene `prototype` under
+    /// geometry id `geom_id`, placed by the affine `to_world` (object to
+    /// world). Rays that hit it report `geom_id` as [`Hit::instance`] and
+    /// the prototype's own geometry id and triangle. `prototype` must
+    /// outlive the scene this builds (Embree keeps a reference to it, and
+    /// the caller keeps the [`Accel`]).
+    pub fn add_instance(
+        &mut self,
+        geom_id: u32,
+        prototype: &Accel,
+        to_world: &glam::Affine3A,
+    ) -> Result<(), EmbreeError> {
+        let columns = to_world.to_cols_array();
+        if columns.iter().any(|x| !x.is_finite()) {
+            return Err(EmbreeError {
+                code: sys::RTC_ERROR_INVALID_ARGUMENT,
+                message: format!("instance {geom_id} has a non-finite transform"),
+            });
+        }
+        let device = self.device;
+        // SAFETY: the device is live; the geometry is released by `GeometryHandle`.
+        let geom = GeometryHandle(unsafe {
+            sys::rtcNewGeometry(device.raw, sys::RTC_GEOMETRY_TYPE_INSTANCE)
+        });
+        device.check("rtcNewGeometry")?;
+        // SAFETY: `prototype.scene` is a committed scene of the same device
+        // (Embree retains it); `columns` is 12 floats, the 3×4 column-major
+        // layout the format names, read during the call.
+        unsafe {
+            sys::rtcSetGeometryInstancedScene(geom.0, prototype.scene.0);
+            sys::rtcSetGeometryTransform(
+                geom.0,
+                0,
+                sys::RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR,
+                columns.as_ptr().cast(),
+            );
+            // The prototype's geometries keep their own masks.
+            sys::rtcSetGeometryMask(geom.0, u32::MAX);
+            sys::rtcCommitGeometry(geom.0);
+            device.check("rtcCommitGeometry (instance)")?;
+            sys::rtcAttachGeometryByID(self.scene.0, geom.0, geom_id);
+            device.check(&format!("attaching instance {geom_id}"))?;
+        }
+        Ok(())
+    }
+
     /// Builds the acceleration structure and returns the immutable scene.
     pub fn commit(self) -> Result<Accel, EmbreeError> {
         // SAFETY: the scene is live and only reachable through `self`.
@@ -396,8 +442,12 @@ pub struct Hit {
     pub u: f32,
     /// Barycentric coordinate of vertex 2.
     pub v: f32,
-    /// Unnormalised geometric normal, `(p1 − p0) × (p2 − p0)`.
+    /// Unnormalised geometric normal, `(p1 − p0) × (p2 − p0)`, in the
+    /// space of the geometry hit (an instance's prototype: object space).
     pub ng: Vec3,
+    /// The geometry id given to [`SceneBuilder::add_instance`] when the
+    /// triangle belongs to an instance (then `geom_id` is the prototype's).
+    pub instance: Option<u32>,
 }
 
 /// A ray and its hit record in Embree's layout, for batched queries.
@@ -450,6 +500,7 @@ impl RayHit {
             u: h.u,
             v: h.v,
             ng: Vec3::new(h.Ng_x, h.Ng_y, h.Ng_z),
+            instance: (h.instID[0] != INVALID_ID).then_some(h.instID[0]),
         })
     }
 }
@@ -807,6 +858,10 @@ impl RayBatch {
                 self.ng_y.as_slice()[i],
                 self.ng_z.as_slice()[i],
             ),
+            instance: {
+                let id = self.inst_id.as_slice()[i];
+                (id != INVALID_ID).then_some(id)
+            },
         })
     }
 

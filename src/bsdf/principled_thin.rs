@@ -390,7 +390,7 @@ mod tests {
             "{f}"
         );
         assert_eq!(p.eval(wo, Vec3::new(0.0, 0.6, 0.8)), Vec3::ZERO);
-        assert!((p.pdf(wo, wi) - cosine_hemisphere_pdf(0.8)).abs() < 1e-6);
+        assert!((p.pdf(wo, wi) - cosine_hemisphere_pdf(-wi.z)).abs() < 1e-6);
     }
 
     #[test]

@@ -88,10 +88,9 @@ fn attributes(m: &crate::scene::Mesh) -> bool {
 /// in two loops over all hits, so that the cache misses on large meshes
 /// overlap instead of stalling each shading in turn.
 fn prefetch_surfaces(scene: &Scene, rays: &[RayHit]) {
-    let meshes = scene.meshes();
     for rh in rays {
         if let Some(hit) = rh.hit() {
-            let mesh = &meshes[hit.geom_id as usize];
+            let mesh = scene.mesh_hit(&hit).mesh;
             if attributes(mesh) {
                 prefetch(&mesh.triangles[hit.prim_id as usize]);
             }
@@ -99,7 +98,7 @@ fn prefetch_surfaces(scene: &Scene, rays: &[RayHit]) {
     }
     for rh in rays {
         if let Some(hit) = rh.hit() {
-            let mesh = &meshes[hit.geom_id as usize];
+            let mesh = scene.mesh_hit(&hit).mesh;
             if !attributes(mesh) {
                 continue;
             }
@@ -233,7 +232,8 @@ fn trace_pass(pass: &TilePass, wf: &mut Wavefront, pixels: &mut [PixelSums], sta
     stats.trace_nanos += clock.elapsed().as_nanos() as u64;
 
     let mut camera_vertex = true;
-    let has_attributes = scene.meshes().iter().any(attributes);
+    let grouped = scene.instancing().groups.iter().flat_map(|g| &g.meshes);
+    let has_attributes = scene.meshes().iter().chain(grouped).any(attributes);
     while !wf.paths.is_empty() {
         wf.shadow_rays.clear();
         wf.pending.clear();
@@ -345,10 +345,12 @@ fn shade(
         path.alive = false;
         return;
     };
-    let mesh = &scene.meshes()[hit.geom_id as usize];
+    let on = scene.mesh_hit(&hit);
+    let hit = on.world(hit);
+    let mesh = on.mesh;
     let material = &scene.materials()[mesh.material as usize];
-    let surface = SurfacePoint::new(mesh, &hit, material);
-    let at = SurfaceHit::new(scene, &ray, &hit, surface);
+    let surface = SurfacePoint::new(on, &hit, material);
+    let at = SurfaceHit::new(scene, on, &ray, &hit, surface);
 
     if path.depth == 0 {
         pixel.add_first_hit(
@@ -357,7 +359,7 @@ fn shade(
             at.bsdf.albedo(),
         );
         if record_aovs_first {
-            pixel.object_id = mesh.object_layer();
+            pixel.object_id = on.object_layer();
         }
         if mesh.is_virtual {
             pixel.virtual_hits += 1;
@@ -366,7 +368,7 @@ fn shade(
 
     // Emission found by the camera ray or by BSDF sampling, MIS-weighted
     // against next-event estimation (which could have found it too).
-    if let Some(li) = scene.light_index(hit.geom_id, hit.prim_id) {
+    if let Some(li) = scene.hit_light(&hit) {
         let light = &scene.lights().lights[li];
         if let Light::Triangle(tl) = light {
             let le = tl.emitted(at.wo);
@@ -457,7 +459,7 @@ struct SurfaceHit<'a> {
     /// terminator's microfacets (0: no attenuation), see
     /// [`SurfaceHit::terminator`].
     terminator: (Vec3, f32),
-    mesh: &'a crate::scene::Mesh,
+    on: crate::scene::MeshHit<'a>,
     hit: crate::accel::Hit,
 }
 
@@ -466,11 +468,12 @@ impl<'a> SurfaceHit<'a> {
     #[inline]
     fn new(
         scene: &'a Scene,
+        on: crate::scene::MeshHit<'a>,
         ray: &Ray,
         hit: &crate::accel::Hit,
         surface: SurfacePoint,
     ) -> SurfaceHit<'a> {
-        let mesh = &scene.meshes()[hit.geom_id as usize];
+        let mesh = on.mesh;
         let material = &scene.materials()[mesh.material as usize];
         let p = ray.org + hit.t * ray.dir;
         let wo = -ray.dir;
@@ -510,7 +513,7 @@ impl<'a> SurfaceHit<'a> {
             // light-leak guard cannot fail.
             guard: surface.normal.is_some(),
             bsdf,
-            mesh,
+            on,
             hit: *hit,
         }
     }
@@ -543,7 +546,7 @@ impl<'a> SurfaceHit<'a> {
     #[inline]
     fn frame(&self) -> Frame {
         if self.bsdf.is_anisotropic() {
-            Frame::from_normal_tangent(self.shading_n, SurfacePoint::tangent(self.mesh, &self.hit))
+            Frame::from_normal_tangent(self.shading_n, SurfacePoint::tangent(self.on, &self.hit))
         } else {
             Frame::from_normal(self.shading_n)
         }

@@ -410,13 +410,15 @@ fn step(
         return;
     };
     let (beta, depth) = (path.beta, path.depth);
-    let mesh = &scene.meshes()[hit.geom_id as usize];
+    let on = scene.mesh_hit(&hit);
+    let hit = on.world(hit);
+    let mesh = on.mesh;
     let p = ray.org + hit.t * ray.dir;
     let wo = -ray.dir;
     let ng = hit.ng.normalize_or_zero();
     let facing = if ng.dot(wo) >= 0.0 { ng } else { -ng };
     let material = &scene.materials()[mesh.material as usize];
-    let surface = SurfacePoint::new(mesh, &hit, material);
+    let surface = SurfacePoint::new(on, &hit, material);
     let textured;
     let bsdf = if material.textures.is_empty() {
         &material.bsdf
@@ -428,7 +430,7 @@ fn step(
     let n = if bsdf.transmits() { ng } else { facing };
     let shading_n = surface.shading_normal(n, wo);
 
-    if let Some(li) = scene.light_index(hit.geom_id, hit.prim_id) {
+    if let Some(li) = scene.hit_light(&hit) {
         if let Light::Triangle(tl) = &scene.lights().lights[li] {
             let le = tl.emitted(wo);
             if le != Vec3::ZERO {
@@ -462,7 +464,7 @@ fn step(
     // even while the anisotropy is 0.
     let frame =
         if bsdf.is_anisotropic() || slots[crate::bsdf::BsdfParam::Anisotropic as usize].is_some() {
-            Frame::from_normal_tangent(shading_n, SurfacePoint::tangent(mesh, &hit))
+            Frame::from_normal_tangent(shading_n, SurfacePoint::tangent(on, &hit))
         } else {
             Frame::from_normal(shading_n)
         };

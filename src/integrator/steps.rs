@@ -57,7 +57,7 @@ fn sample_sphere(
     let mut query = [crate::accel::RayHit::masked(ray, mask)];
     scene.accel().intersect_each(&mut query);
     let hit = query[0].hit()?;
-    if hit.geom_id != cap.geom {
+    if hit.geom_id != cap.geom || hit.instance.is_some() {
         return None;
     }
     let li = scene.light_index(hit.geom_id, hit.prim_id)?;
@@ -156,6 +156,26 @@ impl SurfacePoint {
     /// `material` is textured; then applies its normal map.
     #[inline]
     pub(crate) fn new(
+        on: crate::scene::MeshHit,
+        hit: &crate::accel::Hit,
+        material: &crate::scene::Material,
+    ) -> SurfacePoint {
+        let point = Self::in_mesh_space(on.mesh, hit, material);
+        match on.instance {
+            None => point,
+            // Interpolated in the group's space, the normals brought to
+            // the world.
+            Some(i) => SurfacePoint {
+                normal: point.normal.map(|n| i.normal(n)),
+                base_normal: point.base_normal.map(|n| i.normal(n)),
+                ..point
+            },
+        }
+    }
+
+    /// [`SurfacePoint::new`] in the mesh's own space.
+    #[inline]
+    fn in_mesh_space(
         mesh: &crate::scene::Mesh,
         hit: &crate::accel::Hit,
         material: &crate::scene::Material,
@@ -347,7 +367,16 @@ impl SurfacePoint {
 
     /// The first tangent for anisotropic BSDFs: ∂p/∂u where the mesh has
     /// texture coordinates, else the triangle's first edge.
-    pub(crate) fn tangent(mesh: &crate::scene::Mesh, hit: &crate::accel::Hit) -> Vec3 {
+    pub(crate) fn tangent(on: crate::scene::MeshHit, hit: &crate::accel::Hit) -> Vec3 {
+        let t = Self::tangent_in_mesh_space(on.mesh, hit);
+        match on.instance {
+            None => t,
+            Some(i) => i.vector(t),
+        }
+    }
+
+    /// [`SurfacePoint::tangent`] in the mesh's own space.
+    fn tangent_in_mesh_space(mesh: &crate::scene::Mesh, hit: &crate::accel::Hit) -> Vec3 {
         let [i0, i1, i2] = mesh.triangles[hit.prim_id as usize].map(|i| i as usize);
         let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
         let (dp1, dp2) = (p1 - p0, p2 - p0);

@@ -8,6 +8,7 @@
 
 pub mod file;
 pub mod gltf_scene;
+pub mod instancing;
 pub mod mitsuba;
 pub mod photo;
 pub mod ply;
@@ -384,6 +385,42 @@ pub struct SceneDescription {
     pub job: RenderJob,
     /// Embree's robust intersection mode (watertight, a little slower).
     pub robust: bool,
+    /// Groups of meshes placed by instances (none: every mesh is in
+    /// `meshes`).
+    pub instancing: instancing::Instancing,
+}
+
+/// The mesh a ray hit, and the instance that placed it (then the mesh is
+/// in its group's space).
+#[derive(Clone, Copy)]
+pub struct MeshHit<'a> {
+    /// The mesh.
+    pub mesh: &'a Mesh,
+    /// The instance, for a mesh of a group.
+    pub instance: Option<&'a instancing::Instance>,
+}
+
+impl MeshHit<'_> {
+    /// `hit` with its geometric normal in the world (an instance's hit
+    /// reports it in its group's space).
+    #[inline]
+    pub fn world(&self, hit: crate::accel::Hit) -> crate::accel::Hit {
+        match self.instance {
+            None => hit,
+            Some(i) => crate::accel::Hit {
+                ng: i.geometric(hit.ng),
+                ..hit
+            },
+        }
+    }
+
+    /// The object identity the film's object layer records.
+    pub fn object_layer(&self) -> f32 {
+        match self.instance {
+            Some(i) => i.object_id as f32,
+            None => self.mesh.object_layer(),
+        }
+    }
 }
 
 /// A scene ready to render: the meshes, materials, lights and camera, and
@@ -407,8 +444,12 @@ pub struct Scene {
     film: FilmSettings,
     /// The job the description asked for.
     default_job: RenderJob,
-    /// Embree's acceleration structure over `meshes`.
+    /// Embree's acceleration structure over `meshes` and the instances.
     accel: Accel,
+    /// The groups and their instances (geometry ids from `meshes.len()`).
+    instancing: instancing::Instancing,
+    /// Each group's acceleration structure, which its instances place.
+    _group_accels: Vec<Accel>,
     /// Whether any light can be hit by a ray (area lights, environment).
     has_hittable_lights: bool,
 }
@@ -432,6 +473,7 @@ impl Scene {
             film,
             job,
             robust,
+            instancing,
         } = desc;
         job.validate()
             .map_err(|e| Error::invalid_argument(format!("render: {e}")))?;
@@ -471,12 +513,24 @@ impl Scene {
                 }
             }
         }
-        for (i, m) in meshes.iter().enumerate() {
+        let grouped = instancing.groups.iter().enumerate().flat_map(|(g, group)| {
+            group
+                .meshes
+                .iter()
+                .enumerate()
+                .map(move |(i, m)| (format!("group {g} ({}), mesh {i}", group.name), m))
+        });
+        let all = meshes
+            .iter()
+            .enumerate()
+            .map(|(i, m)| (format!("mesh {i}"), m))
+            .chain(grouped);
+        for (what, m) in all {
             m.validate()
-                .map_err(|e| Error::invalid_argument(format!("mesh {i} ({}): {e}", m.name)))?;
+                .map_err(|e| Error::invalid_argument(format!("{what} ({}): {e}", m.name)))?;
             if m.material as usize >= materials.len() {
                 return Err(Error::invalid_argument(format!(
-                    "mesh {i} ({}) uses material {} of {}",
+                    "{what} ({}) uses material {} of {}",
                     m.name,
                     m.material,
                     materials.len()
@@ -575,10 +629,22 @@ impl Scene {
         // The bounding sphere of the geometry sets the selection power of
         // the lights at infinity against the scene's other lights.
         let scene_radius = {
-            let (lo, hi) = meshes.iter().flat_map(|m| &m.positions).fold(
-                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-                |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-            );
+            let placed = instancing.instances.iter().flat_map(|i| {
+                let group = &instancing.groups[i.group as usize];
+                group
+                    .meshes
+                    .iter()
+                    .flat_map(|m| &m.positions)
+                    .map(|p| i.point(*p))
+            });
+            let (lo, hi) = meshes
+                .iter()
+                .flat_map(|m| m.positions.iter().copied())
+                .chain(placed)
+                .fold(
+                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                    |(lo, hi), p| (lo.min(p), hi.max(p)),
+                );
             let r = if lo.x <= hi.x {
                 0.5 * (hi - lo).length()
             } else {
@@ -628,8 +694,42 @@ impl Scene {
                     e
                 })?;
         }
+        let mut group_accels = Vec::with_capacity(instancing.groups.len());
+        for (g, group) in instancing.groups.iter().enumerate() {
+            let mut b = device.scene_builder(SceneOptions { robust })?;
+            for (i, m) in group.meshes.iter().enumerate() {
+                if m.emission.is_some() || m.pls.is_some() {
+                    return Err(Error::invalid_argument(format!(
+                        "group {g} ({}), mesh {i} ({}): a mesh placed by instances cannot emit",
+                        group.name, m.name
+                    )));
+                }
+                b.add_triangle_mesh(i as u32, &m.positions, &m.triangles, m.mask())
+                    .map_err(|mut e| {
+                        e.message = format!(
+                            "group {g} ({}), mesh {i} ({}): {}",
+                            group.name, m.name, e.message
+                        );
+                        e
+                    })?;
+            }
+            group_accels.push(b.commit()?);
+        }
+        for (k, i) in instancing.instances.iter().enumerate() {
+            let Some(prototype) = group_accels.get(i.group as usize) else {
+                return Err(Error::invalid_argument(format!(
+                    "instance {k}: no group {}",
+                    i.group
+                )));
+            };
+            let id = u32::try_from(meshes.len() + k)
+                .map_err(|_| Error::invalid_argument("too many meshes and instances"))?;
+            builder.add_instance(id, prototype, &i.to_world)?;
+        }
         let accel = builder.commit()?;
         Ok(Scene {
+            instancing,
+            _group_accels: group_accels,
             meshes,
             first_light,
             materials,
@@ -820,8 +920,56 @@ impl Scene {
         self.first_light[geom as usize].map(|f| (f + prim) as usize)
     }
 
-    /// Number of triangles in the scene.
+    /// The light of a hit's triangle ([`Scene::light_index`]); none on an
+    /// instance (groups do not emit).
+    #[inline]
+    pub fn hit_light(&self, hit: &crate::accel::Hit) -> Option<usize> {
+        match hit.instance {
+            Some(_) => None,
+            None => self.light_index(hit.geom_id, hit.prim_id),
+        }
+    }
+
+    /// The mesh a hit is on, and the instance that placed it.
+    #[inline]
+    pub fn mesh_hit(&self, hit: &crate::accel::Hit) -> MeshHit<'_> {
+        match hit.instance {
+            None => MeshHit {
+                mesh: &self.meshes[hit.geom_id as usize],
+                instance: None,
+            },
+            Some(id) => {
+                let instance = &self.instancing.instances[id as usize - self.meshes.len()];
+                MeshHit {
+                    mesh: &self.instancing.groups[instance.group as usize].meshes
+                        [hit.geom_id as usize],
+                    instance: Some(instance),
+                }
+            }
+        }
+    }
+
+    /// The groups of meshes and their instances.
+    pub fn instancing(&self) -> &instancing::Instancing {
+        &self.instancing
+    }
+
+    /// Number of triangles in the scene (an instance's counted each time
+    /// it is placed).
     pub fn triangle_count(&self) -> usize {
-        self.meshes.iter().map(|m| m.triangles.len()).sum()
+        let placed: usize = self
+            .instancing
+            .instances
+            .iter()
+            .map(|i| {
+                let group = &self.instancing.groups[i.group as usize];
+                group
+                    .meshes
+                    .iter()
+                    .map(|m| m.triangles.len())
+                    .sum::<usize>()
+            })
+            .sum();
+        self.meshes.iter().map(|m| m.triangles.len()).sum::<usize>() + placed
     }
 }

@@ -10,6 +10,7 @@ mod embree_layer;
 mod environment;
 mod fuzz_parsers;
 mod gltf_import;
+mod instancing;
 mod materials;
 mod mitsuba_parity;
 mod plastic;

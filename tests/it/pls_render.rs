@@ -60,6 +60,7 @@ fn floor_radiance(light: &Pls, mode: BrightnessMode, target: Vec3, spp: u32) -> 
             ..Default::default()
         },
         robust: false,
+        instancing: Default::default(),
     })
     .unwrap();
     let film = render(
@@ -197,6 +198,7 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
             ..Default::default()
         },
         robust: false,
+        instancing: Default::default(),
     })
     .unwrap();
     let film = render(
@@ -325,6 +327,7 @@ fn meshes_and_materials_check_their_own_rules() {
         film: Default::default(),
         job: Default::default(),
         robust: false,
+        instancing: Default::default(),
     };
     let err = Scene::build(desc(
         vec![mesh],

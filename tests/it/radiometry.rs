@@ -88,6 +88,7 @@ fn white_furnace() {
             ..Default::default()
         },
         robust: false,
+        instancing: Default::default(),
     });
     // The sphere fills the middle of the image.
     let centre = film.index(12, 12);
@@ -172,6 +173,7 @@ fn floor_under_emitter(
             ..Default::default()
         },
         robust: false,
+        instancing: Default::default(),
     })
 }
 
@@ -305,6 +307,7 @@ fn floor_lit_by(light: plsr::light::PointLight, px: f32) -> f32 {
             ..Default::default()
         },
         robust: false,
+        instancing: Default::default(),
     });
     film.color[film.index(1, 1)].x
 }
@@ -507,6 +510,7 @@ fn glass_sphere_in_a_furnace(spp: u32, rr_depth: u32) -> (Film, Vec<usize>) {
             ..Default::default()
         },
         robust: false,
+        instancing: Default::default(),
     });
     let centre = film.index(8, 8);
     assert_eq!(film.object_id[centre], 0.0, "the sphere fills the middle");

@@ -201,7 +201,12 @@ pub(super) fn lane_surfaces(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLan
             if let Some(hit) = lanes.rays.hit(i) {
                 let mesh = &meshes[g];
                 let material = &scene.materials()[mesh.material as usize];
-                let surface = SurfacePoint::new(mesh, &hit, material);
+                // (No instances here: their scenes go to the general integrator.)
+                let on = crate::scene::MeshHit {
+                    mesh,
+                    instance: None,
+                };
+                let surface = SurfacePoint::new(on, &hit, material);
                 if kernel.textured[g] {
                     let bsdf = material.bsdf_at(surface.uv, surface.color);
                     albedo = bsdf.albedo();
@@ -225,7 +230,13 @@ pub(super) fn lane_surfaces(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLan
         }
         if kernel.any_anisotropic {
             let hit = lanes.rays.hit(i).filter(|_| kernel.anisotropic[g]);
-            let tangent = hit.map(|hit| SurfacePoint::tangent(&meshes[g], &hit));
+            let tangent = hit.map(|hit| {
+                let on = crate::scene::MeshHit {
+                    mesh: &meshes[g],
+                    instance: None,
+                };
+                SurfacePoint::tangent(on, &hit)
+            });
             lanes.tangent_valid[i] = tangent.is_some();
             let tangent = tangent.unwrap_or(Vec3::ZERO);
             for c in 0..3 {

@@ -115,6 +115,11 @@ impl SoaScene {
         if scene.lights().lights.iter().any(spot) {
             return None;
         }
+        // So are instanced groups (the kernel's tables are per mesh of the
+        // top-level scene).
+        if !scene.instancing().instances.is_empty() {
+            return None;
+        }
         // So are normal maps with the shadow terminator, composites,
         // roughness maps along two tangents and maps of principled weights.
         if scene.materials().iter().any(|m| {

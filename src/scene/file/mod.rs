@@ -37,6 +37,7 @@ use toml_path::{field_at, position_of};
 
 use crate::error::{Error, Result};
 use crate::light::PointLight;
+use crate::scene::instancing::{Instance, Instancing, MeshGroup};
 use crate::scene::{Material, SceneDescription};
 use glam::Vec3;
 use serde::Deserialize;
@@ -60,6 +61,8 @@ struct SceneFile {
     materials: Vec<MaterialSection>,
     #[serde(default)]
     shapes: Vec<ShapeSection>,
+    #[serde(default)]
+    instances: Vec<shape::InstanceSection>,
     #[serde(default)]
     lights: Vec<LightSection>,
     #[serde(default)]
@@ -458,17 +461,73 @@ impl Builder<'_> {
         self.resolve_composites(&mut materials, &by_name, &pending)?;
 
         let mut meshes = Vec::new();
+        let mut instancing = Instancing::default();
         for (i, s) in f.shapes.iter().enumerate() {
-            let first = meshes.len();
-            self.shape(i, s, &by_name, &mut materials, &mut meshes)?;
+            // A grouped shape's meshes go to its group, in the group's space.
+            let group = match &s.group {
+                None => None,
+                Some(name) => {
+                    if s.emission.is_some() {
+                        return Err(self.err(
+                            format!("shapes[{i}].emission"),
+                            "a shape in a group cannot emit (as in Mitsuba's shapegroup)",
+                        ));
+                    }
+                    let g = match instancing.groups.iter().position(|g| &g.name == name) {
+                        Some(g) => g,
+                        None => {
+                            instancing.groups.push(MeshGroup {
+                                name: name.clone(),
+                                meshes: Vec::new(),
+                            });
+                            instancing.groups.len() - 1
+                        }
+                    };
+                    Some(g)
+                }
+            };
+            let target = match group {
+                Some(g) => &mut instancing.groups[g].meshes,
+                None => &mut meshes,
+            };
+            let first = target.len();
+            self.shape(i, s, &by_name, &mut materials, target)?;
             if s.flip_v == Some(true) {
                 // `flip_v`: texture coordinates (u, 1 − v), the shape's
                 // meshes as they come from the file or the built-in shape.
-                for m in &mut meshes[first..] {
+                for m in &mut target[first..] {
                     m.uvs.iter_mut().for_each(|uv| uv.y = 1.0 - uv.y);
                     m.uv_map = m.uv_map.flipped_v();
                 }
             }
+        }
+        for (k, inst) in f.instances.iter().enumerate() {
+            let field = format!("instances[{k}]");
+            let Some(g) = instancing.groups.iter().position(|g| g.name == inst.group) else {
+                let known: Vec<&str> = instancing.groups.iter().map(|g| g.name.as_str()).collect();
+                return Err(self.err(
+                    format!("{field}.group"),
+                    format!(
+                        "no shape is in group `{}` (groups: {})",
+                        inst.group,
+                        if known.is_empty() {
+                            "none".to_string()
+                        } else {
+                            known.join(", ")
+                        }
+                    ),
+                ));
+            };
+            let to_world = match &inst.transform {
+                Some(t) => self.transform(&format!("{field}.transform"), t)?,
+                None => glam::Mat4::IDENTITY,
+            };
+            let to_world = glam::Affine3A::from_mat4(to_world);
+            let object_id = (f.shapes.len() + k) as u32;
+            let instance = Instance::new(g as u32, to_world, object_id).ok_or_else(|| {
+                self.err(format!("{field}.transform"), "is singular or not finite")
+            })?;
+            instancing.instances.push(instance);
         }
 
         let mut point_lights = Vec::new();
@@ -522,6 +581,7 @@ impl Builder<'_> {
             film,
             job,
             robust,
+            instancing,
         })
     }
 }

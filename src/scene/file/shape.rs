@@ -32,8 +32,21 @@ pub(super) struct ShapeSection {
     /// A virtual object, inserted into the photograph (`plsr composite`).
     #[serde(rename = "virtual")]
     pub(super) is_virtual: Option<bool>,
+    /// The group the shape belongs to: it is then drawn only where
+    /// `[[instances]]` place the group.
+    pub(super) group: Option<String>,
     #[serde(flatten)]
     pub(super) keys: toml::Table,
+}
+
+/// `[[instances]]`: a group of shapes placed by a transform.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct InstanceSection {
+    /// The group (the `group` key of its shapes).
+    pub(super) group: String,
+    /// The group's space to the world (identity when absent).
+    pub(super) transform: Option<TransformSection>,
 }
 
 /// The keys of an `obj` shape.

@@ -291,6 +291,7 @@ impl<'a> Translator<'a> {
         let arrays = [
             ("materials", std::mem::take(&mut self.materials)),
             ("shapes", std::mem::take(&mut self.shapes)),
+            ("instances", std::mem::take(&mut self.instances)),
             ("lights", std::mem::take(&mut self.lights)),
         ];
         for (name, list) in arrays {

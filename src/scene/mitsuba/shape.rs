@@ -95,11 +95,10 @@ impl<'a> Translator<'a> {
                 ))
             }
         }
-        let own = self.take_transform(&mut p, "to_world")?;
-        let to_world = match (self.instance_to_world, own) {
-            (Some(i), Some(m)) => Some(i * m),
-            (i, m) => i.or(m),
-        };
+        let to_world = self.take_transform(&mut p, "to_world")?;
+        if let Some(group) = &self.group {
+            s.insert("group", Value::String(group.clone()));
+        }
         if let Some(m) = to_world {
             let rows: Vec<Value> = (0..4).map(|r| vec3_row(m.row(r))).collect();
             s.insert("transform.matrix", Value::Array(rows));
@@ -115,7 +114,7 @@ impl<'a> Translator<'a> {
                     }
                     bsdf = Some(self.material(target)?);
                 }
-                "emitter" if self.instance_to_world.is_some() => {
+                "emitter" if self.group.is_some() => {
                     return Err(self.err(c, "a shape in a shapegroup cannot emit (as in Mitsuba)"));
                 }
                 "emitter" => {
@@ -149,7 +148,7 @@ impl<'a> Translator<'a> {
     /// A `shapegroup` where it is defined: nothing is drawn (its shapes
     /// are placed by instances); its children are checked to be shapes.
     fn shapegroup(&mut self, node: &'a Element) -> Result<()> {
-        if self.instance_to_world.is_some() {
+        if self.group.is_some() {
             return Err(self.err(
                 node,
                 "a shapegroup inside a shapegroup (as in Mitsuba, refused)",
@@ -168,11 +167,12 @@ impl<'a> Translator<'a> {
         Ok(())
     }
 
-    /// An `instance`: the shapes of its `shapegroup`, each with the
-    /// instance's `to_world` applied after its own. plsr places a copy of
-    /// each shape (its meshes are not shared between instances).
+    /// An `instance`: an `[[instances]]` entry placing its `shapegroup`
+    /// (an Embree instance of the group's own BVH); the group's shapes are
+    /// written once, with the group's name as their `group`, in the
+    /// group's own space.
     fn instance(&mut self, node: &'a Element) -> Result<()> {
-        if self.instance_to_world.is_some() {
+        if self.group.is_some() {
             return Err(self.err(
                 node,
                 "an instance inside a shapegroup (as in Mitsuba, refused)",
@@ -203,13 +203,27 @@ impl<'a> Translator<'a> {
             group.ok_or_else(|| self.err(node, "an instance needs a <ref> to a shapegroup"))?;
         self.leftovers(&p)?;
         self.shapegroup(group)?;
-        self.instance_to_world = Some(to_world);
-        let placed = group.children.iter().try_for_each(|c| {
-            let target = if c.tag == "ref" { self.deref(c)? } else { c };
-            self.shape(target)
-        });
-        self.instance_to_world = None;
-        placed
+        let name = match group.attribute("id") {
+            Some(id) => id.to_string(),
+            None => format!("shapegroup-line-{}", group.line),
+        };
+        if self.groups_written.insert(name.clone()) {
+            self.group = Some(name.clone());
+            let written = group.children.iter().try_for_each(|c| {
+                let target = if c.tag == "ref" { self.deref(c)? } else { c };
+                self.shape(target)
+            });
+            self.group = None;
+            written?;
+        }
+        let mut t = Table::new();
+        t.insert("group", Value::String(name));
+        if to_world != glam::DMat4::IDENTITY {
+            let rows: Vec<Value> = (0..4).map(|r| vec3_row(to_world.row(r))).collect();
+            t.insert("transform.matrix", Value::Array(rows));
+        }
+        self.instances.push(t);
+        Ok(())
     }
 
     /// An `area` emitter's radiance (linear sRGB, W/(m²·sr)).

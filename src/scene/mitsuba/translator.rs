@@ -41,9 +41,13 @@ pub(super) struct Translator<'a> {
     pub film: Table,
     /// Whether the scene's integrator was read.
     pub integrated: bool,
-    /// While a `shapegroup`'s shapes are placed by an `instance`: the
-    /// instance's `to_world`, applied after each shape's own.
-    pub instance_to_world: Option<glam::DMat4>,
+    /// While a `shapegroup`'s shapes are written: the group's name (the
+    /// `group` key of its shapes).
+    pub group: Option<String>,
+    /// The groups written so far (each once, however many instances).
+    pub groups_written: HashSet<String>,
+    /// `[[instances]]`: a group and its `to_world` each.
+    pub instances: Vec<Table>,
     pub notes: Vec<String>,
     noted: HashSet<String>,
 }
@@ -72,7 +76,9 @@ impl<'a> Translator<'a> {
             camera: None,
             film: Table::new(),
             integrated: false,
-            instance_to_world: None,
+            group: None,
+            groups_written: HashSet::new(),
+            instances: Vec::new(),
             notes: Vec::new(),
             noted: HashSet::new(),
         }

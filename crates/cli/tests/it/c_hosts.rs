@@ -207,6 +207,7 @@ fn host_scene_in_rust() -> plsr::scene::Scene {
             ..Default::default()
         },
         robust: false,
+        instancing: Default::default(),
     })
     .unwrap()
 }

@@ -654,12 +654,22 @@ fn instances_place_their_shapegroups_shapes() {
         <shape type="instance"><ref id="g"/></shape>
         </scene>"#,
     );
+    // The group's two shapes written once, in the group's space, and two
+    // instances placing them (the identity written as no transform).
     let shapes = t["shapes"].as_array().unwrap();
-    assert_eq!(shapes.len(), 4, "two shapes, twice");
-    // The instance's scale after the sphere's own translation: x = 2.
+    assert_eq!(shapes.len(), 2, "{t}");
+    assert!(
+        shapes.iter().all(|s| s["group"].as_str() == Some("g")),
+        "{t}"
+    );
     let m = shapes[0]["transform"]["matrix"].as_array().unwrap();
-    assert_eq!(m[0].as_array().unwrap()[3].as_float(), Some(2.0), "{m:?}");
+    assert_eq!(m[0].as_array().unwrap()[3].as_float(), Some(1.0), "{m:?}");
+    let instances = t["instances"].as_array().unwrap();
+    assert_eq!(instances.len(), 2, "{t}");
+    assert!(instances.iter().all(|i| i["group"].as_str() == Some("g")));
+    let m = instances[0]["transform"]["matrix"].as_array().unwrap();
     assert_eq!(m[0].as_array().unwrap()[0].as_float(), Some(2.0), "{m:?}");
+    assert!(instances[1].get("transform").is_none(), "{t}");
     for (xml, wanted) in [
         (
             r#"<shape type="shapegroup" id="g"><shape type="sphere"><emitter type="area"/></shape></shape>
