@@ -476,6 +476,18 @@ impl DielectricParams {
     }
 }
 
+/// A colour's hue at unit luminance (white for black): what the principled
+/// models' tints blend towards.
+#[inline(always)]
+pub(super) fn hue(c: Vec3) -> Vec3 {
+    let lum = luminance(c);
+    if lum > 0.0 {
+        c / lum
+    } else {
+        Vec3::ONE
+    }
+}
+
 /// A subset of Burley's principled BSDF, with Mitsuba 3's `principled`
 /// parameter names and meanings, so that fitted values carry over: a
 /// diffuse lobe with retro-reflection and an anisotropic GGX specular lobe
@@ -601,12 +613,7 @@ impl PrincipledParams {
     /// The base colour's hue at unit luminance (what `spec_tint` blends in).
     #[inline(always)]
     fn tint(&self) -> Vec3 {
-        let lum = luminance(self.base_color);
-        if lum > 0.0 {
-            self.base_color / lum
-        } else {
-            Vec3::ONE
-        }
+        hue(self.base_color)
     }
 
     #[inline(always)]

@@ -21,9 +21,8 @@
 
 use super::fresnel::{self, reflect};
 use super::microfacet::{Distribution, Microfacet};
-use super::models::finish_sample;
+use super::models::{finish_sample, hue};
 use super::{BsdfSample, ParamError};
-use crate::color::luminance;
 use crate::warp::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
@@ -196,12 +195,7 @@ impl PrincipledThinParams {
     /// The base colour's hue at unit luminance (1 for black).
     #[inline(always)]
     fn tint(&self) -> Vec3 {
-        let lum = luminance(self.base_color);
-        if lum > 0.0 {
-            self.base_color / lum
-        } else {
-            Vec3::ONE
-        }
+        hue(self.base_color)
     }
 
     /// Both directions mirrored to the front when `wo` is behind the sheet

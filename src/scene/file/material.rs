@@ -488,6 +488,17 @@ impl Builder<'_> {
 
     /// Builds the BSDF of a material from its checked keys.
     pub(super) fn material(&self, field: &str, keys: &MaterialKeys) -> Result<Bsdf> {
+        // The parser checks that each value is a finite number; the ranges
+        // are the model's own rule (`validate`), reported here by key.
+        let number = |name: &str, v: Option<f32>, default: f32| {
+            self.finite(&format!("{field}.{name}"), v.unwrap_or(default))
+        };
+        let out_of_range = |e: crate::bsdf::ParamError| {
+            self.err(
+                format!("{field}.{}", e.parameter),
+                format!("must be in {}, got {}", e.range, e.value),
+            )
+        };
         let colour = |name: &str, v: Option<[f32; 3]>, default: f32| {
             self.colour(
                 &format!("{field}.{name}"),
@@ -629,11 +640,6 @@ impl Builder<'_> {
                 Bsdf::ThinDielectric(params.validate().map_err(|e| self.err(field, e))?)
             }
             MaterialKeys::Principled(m) => {
-                // The parser checks that each value is a finite number; the
-                // ranges are the material's own rule.
-                let number = |name: &str, v: Option<f32>, default: f32| {
-                    self.finite(&format!("{field}.{name}"), v.unwrap_or(default))
-                };
                 let params = PrincipledParams {
                     base_color: colour("base_color", m.base_color, 0.5)?,
                     roughness: number("roughness", m.roughness, 0.5)?,
@@ -643,17 +649,9 @@ impl Builder<'_> {
                     spec_tint: number("spec_tint", m.spec_tint, 0.0)?,
                     energy_conserving: m.energy_conserving.unwrap_or(false),
                 };
-                Bsdf::Principled(params.validate().map_err(|e| {
-                    self.err(
-                        format!("{field}.{}", e.parameter),
-                        format!("must be in {}, got {}", e.range, e.value),
-                    )
-                })?)
+                Bsdf::Principled(params.validate().map_err(out_of_range)?)
             }
             MaterialKeys::PrincipledThin(m) => {
-                let number = |name: &str, v: Option<f32>, default: f32| {
-                    self.finite(&format!("{field}.{name}"), v.unwrap_or(default))
-                };
                 let params = PrincipledThinParams {
                     base_color: colour("base_color", m.base_color, 0.5)?,
                     roughness: number("roughness", m.roughness, 0.5)?,
@@ -666,12 +664,7 @@ impl Builder<'_> {
                     flatness: number("flatness", m.flatness, 0.0)?,
                     diff_trans: number("diff_trans", m.diff_trans, 0.0)?,
                 };
-                Bsdf::PrincipledThin(params.validate().map_err(|e| {
-                    self.err(
-                        format!("{field}.{}", e.parameter),
-                        format!("must be in {}, got {}", e.range, e.value),
-                    )
-                })?)
+                Bsdf::PrincipledThin(params.validate().map_err(out_of_range)?)
             }
         })
     }
