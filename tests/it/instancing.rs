@@ -192,3 +192,25 @@ fn bad_instances_name_their_field() {
         "{e}"
     );
 }
+
+#[test]
+fn documented_instances_example_loads_and_renders() {
+    let doc = include_str!("../../docs/scene-format.md");
+    let start = doc
+        .find("`instances-spheres.toml`")
+        .expect("the example is in the docs");
+    let block = &doc[start..];
+    let open = block.find("```toml\n").unwrap() + "```toml\n".len();
+    let close = block[open..].find("```").unwrap();
+    let scene = load(&block[open..open + close]).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.instancing().instances.len(), 3);
+    assert_eq!(scene.instancing().groups[0].meshes.len(), 2);
+    let job = scene.default_job();
+    let film = render(&scene, &job, &RenderOptions::default(), &|_, _| true)
+        .unwrap()
+        .0;
+    // Every instance shows: the object layer holds the three instances'
+    // ids (3, 4, 5: after the three shapes).
+    let ids: std::collections::BTreeSet<i64> = film.object_id.iter().map(|&i| i as i64).collect();
+    assert!([3, 4, 5].iter().all(|i| ids.contains(i)), "{ids:?}");
+}

@@ -381,7 +381,7 @@ fn documented_material_example_loads_and_renders() {
     let open = block.find("```toml\n").unwrap() + "```toml\n".len();
     let close = block[open..].find("```").unwrap();
     let scene = load(&block[open..open + close]).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(scene.materials().len(), 6, "six named, no default needed");
+    assert_eq!(scene.materials().len(), 7, "seven named, no default needed");
     let film = render(
         &scene,
         &scene.default_job(),
