@@ -89,17 +89,6 @@ pub enum ScalarParam {
 }
 
 impl ScalarParam {
-    /// Every parameter, in the order the scene file lists their keys.
-    pub const ALL: [ScalarParam; 7] = [
-        ScalarParam::Anisotropic,
-        ScalarParam::Specular,
-        ScalarParam::SpecTint,
-        ScalarParam::SpecTrans,
-        ScalarParam::Sheen,
-        ScalarParam::SheenTint,
-        ScalarParam::Flatness,
-    ];
-
     /// The parameter's name (its map's key is the name and `_map`).
     pub fn name(self) -> &'static str {
         match self {

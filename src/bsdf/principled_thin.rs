@@ -19,7 +19,7 @@
 //! their weights (Mitsuba's sampling rates at their default, 1); the glossy
 //! ones by visible normals, the diffuse ones by the cosine.
 
-use super::fresnel::{self, reflect};
+use super::fresnel::{self, reflect, schlick_weight};
 use super::microfacet::{Distribution, Microfacet};
 use super::models::{finish_sample, hue};
 use super::{BsdfSample, ParamError};
@@ -76,14 +76,6 @@ impl Default for PrincipledThinParams {
             diff_trans: 0.0,
         }
     }
-}
-
-/// `(1 − cos)⁵`, clamped: Schlick's weight.
-#[inline(always)]
-fn schlick_weight(cos: f32) -> f32 {
-    let m = (1.0 - cos).clamp(0.0, 1.0);
-    let m2 = m * m;
-    m2 * m2 * m
 }
 
 /// Schlick's approximation with normal-incidence reflectance `f0` for an
@@ -171,12 +163,6 @@ impl PrincipledThinParams {
             });
         }
         Ok(self)
-    }
-
-    /// Whether any light goes through the sheet.
-    #[inline(always)]
-    pub fn transmits(&self) -> bool {
-        self.spec_trans > 0.0 || self.diff_trans > 0.0
     }
 
     /// The glossy reflection lobe's distribution.
