@@ -8,12 +8,12 @@
 //! | --- | --- | --- |
 //! | `base_color` (sRGB) | the albedo / base colour | `diffuse` (reflectance), `blinn_phong` (diffuse), `principled` (base_color), plastics (diffuse_reflectance) |
 //! | `base_color_attribute` (the mesh's colours) | multiplies the base colour | as `base_color` |
-//! | `roughness` (linear, red channel) | roughness (α = r²) | `principled`, `cook_torrance` |
+//! | `roughness` (linear, red channel) | roughness (α = r²) | `principled`, `principled_thin`, `cook_torrance` |
 //! | `metallic` (linear, red channel) | metallic | `principled` |
 //! | `normal` (linear, tangent space) | the shading normal | all |
 //! | `bump` (linear height, luminance) | the shading normal, by its slopes | all |
 //! | `alpha_u`, `alpha_v` (linear, luminance) | microfacet α along each tangent | `cook_torrance`, rough `dielectric` |
-//! | `scalars` (linear, luminance; [`ScalarParam`]) | one named weight each (`anisotropic`, `specular`, `spec_tint`, `spec_trans`, `sheen`, `sheen_tint`, `flatness`) | `principled`, `principled_thin` |
+//! | `scalars` (linear, luminance; [`ScalarParam`]) | one named weight each (`anisotropic`, `specular`, `spec_tint`, `spec_trans`, `sheen`, `sheen_tint`, `flatness`, `clearcoat`, `clearcoat_gloss`) | `principled`, `principled_thin` |
 //!
 //! A normal map holds tangent-space normals (OpenGL and glTF convention:
 //! red +x along increasing u, green +y along increasing v, blue +z along
@@ -78,14 +78,18 @@ pub enum ScalarParam {
     Specular,
     /// `spec_tint` (`principled`, `principled_thin`).
     SpecTint,
-    /// `spec_trans` (`principled_thin`).
+    /// `spec_trans` (`principled`, `principled_thin`).
     SpecTrans,
-    /// `sheen` (`principled_thin`).
+    /// `sheen` (`principled`, `principled_thin`).
     Sheen,
-    /// `sheen_tint` (`principled_thin`).
+    /// `sheen_tint` (`principled`, `principled_thin`).
     SheenTint,
-    /// `flatness` (`principled_thin`).
+    /// `flatness` (`principled`, `principled_thin`).
     Flatness,
+    /// `clearcoat` (`principled`).
+    Clearcoat,
+    /// `clearcoat_gloss` (`principled`).
+    ClearcoatGloss,
 }
 
 impl ScalarParam {
@@ -99,6 +103,8 @@ impl ScalarParam {
             ScalarParam::Sheen => "sheen",
             ScalarParam::SheenTint => "sheen_tint",
             ScalarParam::Flatness => "flatness",
+            ScalarParam::Clearcoat => "clearcoat",
+            ScalarParam::ClearcoatGloss => "clearcoat_gloss",
         }
     }
 
@@ -116,6 +122,17 @@ impl ScalarParam {
             (Bsdf::PrincipledThin(p), ScalarParam::Sheen) => p.sheen = v,
             (Bsdf::PrincipledThin(p), ScalarParam::SheenTint) => p.sheen_tint = v,
             (Bsdf::PrincipledThin(p), ScalarParam::Flatness) => p.flatness = v,
+            (Bsdf::PrincipledFull(p), param) => match param {
+                ScalarParam::Anisotropic => p.anisotropic = v,
+                ScalarParam::Specular => p.eta = crate::bsdf::albedo::eta_from_specular(v),
+                ScalarParam::SpecTint => p.spec_tint = v,
+                ScalarParam::SpecTrans => p.spec_trans = v,
+                ScalarParam::Sheen => p.sheen = v,
+                ScalarParam::SheenTint => p.sheen_tint = v,
+                ScalarParam::Flatness => p.flatness = v,
+                ScalarParam::Clearcoat => p.clearcoat = v,
+                ScalarParam::ClearcoatGloss => p.clearcoat_gloss = v,
+            },
             _ => {}
         }
     }
@@ -385,7 +402,11 @@ impl Material {
             .any(|m| m.param == ScalarParam::Anisotropic);
         match self.bsdf {
             Bsdf::CookTorrance(_) if self.textures.roughness.is_some() => false,
-            Bsdf::Principled(_) | Bsdf::PrincipledThin(_) if anisotropy_mapped => true,
+            Bsdf::Principled(_) | Bsdf::PrincipledThin(_) | Bsdf::PrincipledFull(_)
+                if anisotropy_mapped =>
+            {
+                true
+            }
             bsdf => bsdf.is_anisotropic(),
         }
     }
@@ -429,6 +450,7 @@ impl Material {
             match &mut bsdf {
                 Bsdf::Principled(p) => p.roughness = r,
                 Bsdf::PrincipledThin(p) => p.roughness = r,
+                Bsdf::PrincipledFull(p) => p.roughness = r,
                 Bsdf::CookTorrance(p) => {
                     let a = alpha_from_roughness(r);
                     p.microfacet = Microfacet::new(p.microfacet.kind, a, a);
@@ -437,8 +459,11 @@ impl Material {
             }
         }
         if let Some(tex) = &t.metallic {
-            if let Bsdf::Principled(p) = &mut bsdf {
-                p.metallic = tex.eval(uv).x.clamp(0.0, 1.0);
+            let metallic = tex.eval(uv).x.clamp(0.0, 1.0);
+            match &mut bsdf {
+                Bsdf::Principled(p) => p.metallic = metallic,
+                Bsdf::PrincipledFull(p) => p.metallic = metallic,
+                _ => {}
             }
         }
         if let (Some(u), Some(v)) = (&t.alpha_u, &t.alpha_v) {

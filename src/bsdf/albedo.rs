@@ -55,6 +55,14 @@ pub fn eta_from_specular(specular: f32) -> f32 {
     2.0 / (1.0 - (0.08 * specular).sqrt()) - 1.0
 }
 
+/// Principled's `specular` for an index of refraction `eta`, the inverse of
+/// [`eta_from_specular`]: `((η − 1)/(η + 1))² / 0.08`, or `None` where no
+/// `specular` in `[0, 1]` gives `eta` (below 1 or above about 1.79).
+pub fn specular_from_eta(eta: f32) -> Option<f32> {
+    let s = ((eta - 1.0) / (eta + 1.0)).powi(2) / 0.08;
+    (eta >= 1.0 && s <= 1.0).then_some(s)
+}
+
 fn mu_at(i: usize) -> f32 {
     let t = i as f32 / (MU_POINTS - 1) as f32;
     t * t

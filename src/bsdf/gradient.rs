@@ -88,6 +88,9 @@ impl Bsdf {
             }
             Bsdf::ThinDielectric(_) => Err("thin_dielectric materials cannot be fitted"),
             Bsdf::PrincipledThin(_) => Err("principled_thin materials cannot be fitted"),
+            Bsdf::PrincipledFull(_) => Err(
+                "principled materials with sheen, clearcoat, spec_trans or flatness cannot be fitted",
+            ),
         }
     }
 

@@ -28,6 +28,9 @@ use glam::{Vec2, Vec3};
 pub const MAX_PARTS: usize = 4;
 
 /// A surface's scattering at one shading point.
+// Built per shading point and `Copy`: boxing the mixture would allocate at
+// every hit on a composite.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Scatter {
     /// One BSDF (every material that is not a composite).

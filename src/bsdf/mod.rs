@@ -37,7 +37,7 @@
 //! | `blinn_phong` | normalised Blinn–Phong |
 //! | `cook_torrance` | microfacet reflection, GGX or Beckmann, Smith G, Schlick / dielectric / conductor Fresnel |
 //! | `dielectric` | smooth or rough (Walter et al. 2007) glass-like interface |
-//! | `principled` | Burley's principled BSDF with Mitsuba 3's parameters; optionally energy-conserving |
+//! | `principled` | Burley's principled BSDF with Mitsuba 3's parameters; optionally energy-conserving; with sheen, clearcoat, specular transmission or flatness, every lobe of Mitsuba's ([`principled_full`]) |
 //! | `principled_thin` | Burley's thin sheet with Mitsuba 3's `principledthin` parameters ([`principled_thin`]) |
 //! | `plastic`, `rough_plastic` | Mitsuba 3's `plastic` and `roughplastic`: a diffuse substrate under a smooth or rough dielectric coating ([`plastic`]) |
 //!
@@ -55,6 +55,7 @@ pub mod microfacet;
 pub mod mixture;
 pub mod models;
 pub mod plastic;
+pub mod principled_full;
 pub mod principled_thin;
 mod table_cache;
 pub mod thin_dielectric;
@@ -68,6 +69,7 @@ pub use models::{
     DielectricParams, DiffuseParams, Fresnel, ParamError, PrincipledParams,
 };
 pub use plastic::{PlasticParams, RoughPlasticParams};
+pub use principled_full::PrincipledFullParams;
 pub use principled_thin::PrincipledThinParams;
 pub use thin_dielectric::ThinDielectricParams;
 
@@ -98,6 +100,9 @@ pub enum Bsdf {
     /// Burley's thin principled sheet: glossy and diffuse reflection and
     /// transmission (Mitsuba's `principledthin`).
     PrincipledThin(PrincipledThinParams),
+    /// Burley's principled BSDF with every lobe of Mitsuba's `principled`
+    /// (sheen, clearcoat, specular transmission, flatness).
+    PrincipledFull(PrincipledFullParams),
 }
 
 /// A direction drawn by [`Bsdf::sample`].
@@ -134,6 +139,7 @@ impl Bsdf {
             Bsdf::RoughPlastic(p) => p.eval(wo, wi),
             Bsdf::ThinDielectric(p) => p.eval(wo, wi),
             Bsdf::PrincipledThin(p) => p.eval(wo, wi),
+            Bsdf::PrincipledFull(p) => p.eval(wo, wi),
         }
     }
 
@@ -151,6 +157,7 @@ impl Bsdf {
             Bsdf::RoughPlastic(p) => p.sample(wo, uc, u),
             Bsdf::ThinDielectric(p) => p.sample(wo, uc),
             Bsdf::PrincipledThin(p) => p.sample(wo, uc, u),
+            Bsdf::PrincipledFull(p) => p.sample(wo, uc, u),
         }
     }
 
@@ -167,6 +174,7 @@ impl Bsdf {
             Bsdf::RoughPlastic(p) => p.pdf(wo, wi),
             Bsdf::ThinDielectric(p) => p.pdf(wo, wi),
             Bsdf::PrincipledThin(p) => p.pdf(wo, wi),
+            Bsdf::PrincipledFull(p) => p.pdf(wo, wi),
         }
     }
 
@@ -187,13 +195,16 @@ impl Bsdf {
     /// Whether light passes through the surface: the integrator then keeps
     /// the geometric normal as the outside instead of facing it to the viewer.
     /// A thin principled sheet counts as transmissive even with its
-    /// transmission at 0: it has two sides as Mitsuba's has.
+    /// transmission at 0: it has two sides as Mitsuba's has; so does a
+    /// principled material with a transmission lobe, wherever its map
+    /// takes it to 0.
     #[inline]
     pub fn transmits(&self) -> bool {
-        matches!(
-            self,
-            Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::PrincipledThin(_)
-        )
+        match self {
+            Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::PrincipledThin(_) => true,
+            Bsdf::PrincipledFull(p) => p.has_transmission,
+            _ => false,
+        }
     }
 
     /// `η²` of a scattering from `wo` to `wi` (local frame): the square of
@@ -208,6 +219,7 @@ impl Bsdf {
                 let eta = if wo.z > 0.0 { p.eta } else { 1.0 / p.eta };
                 eta * eta
             }
+            Bsdf::PrincipledFull(p) => p.eta_scale(wo, wi),
             _ => 1.0,
         }
     }
@@ -235,6 +247,7 @@ impl Bsdf {
             Bsdf::Dielectric(p) => p.microfacet.as_ref().is_some_and(aniso),
             Bsdf::Principled(p) => p.anisotropic > 0.0,
             Bsdf::PrincipledThin(p) => p.anisotropic > 0.0,
+            Bsdf::PrincipledFull(p) => p.anisotropic > 0.0,
             Bsdf::Diffuse(_)
             | Bsdf::BlinnPhong(_)
             | Bsdf::Plastic(_)
@@ -253,6 +266,7 @@ impl Bsdf {
             Bsdf::BlinnPhong(p) => Some(p.diffuse),
             Bsdf::Principled(p) => Some(p.base_color),
             Bsdf::PrincipledThin(p) => Some(p.base_color),
+            Bsdf::PrincipledFull(p) => Some(p.base_color),
             Bsdf::Plastic(p) => Some(p.diffuse_reflectance),
             Bsdf::RoughPlastic(p) => Some(p.diffuse_reflectance),
             Bsdf::CookTorrance(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => None,
@@ -268,6 +282,7 @@ impl Bsdf {
             Bsdf::BlinnPhong(p) => p.diffuse = c.min(Vec3::ONE - p.specular),
             Bsdf::Principled(p) => p.base_color = c,
             Bsdf::PrincipledThin(p) => p.base_color = c,
+            Bsdf::PrincipledFull(p) => p.base_color = c,
             Bsdf::Plastic(p) => p.diffuse_reflectance = c,
             Bsdf::RoughPlastic(p) => p.diffuse_reflectance = c,
             Bsdf::CookTorrance(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => {}
@@ -284,6 +299,7 @@ impl Bsdf {
             Bsdf::Dielectric(_) => Vec3::ONE,
             Bsdf::Principled(p) => p.base_color,
             Bsdf::PrincipledThin(p) => p.base_color,
+            Bsdf::PrincipledFull(p) => p.base_color,
             Bsdf::Plastic(p) => p.albedo(),
             Bsdf::RoughPlastic(p) => p.albedo(),
             Bsdf::ThinDielectric(_) => Vec3::ONE,

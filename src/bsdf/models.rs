@@ -492,8 +492,9 @@ pub(super) fn hue(c: Vec3) -> Vec3 {
 /// parameter names and meanings, so that fitted values carry over: a
 /// diffuse lobe with retro-reflection and an anisotropic GGX specular lobe
 /// whose Fresnel term blends the dielectric (`specular`, `spec_tint`) and the
-/// metallic (`base_color`) response. Sheen, clearcoat and specular
-/// transmission are not modelled.
+/// metallic (`base_color`) response: the two lobes most materials use,
+/// with a vectorised kernel and gradients. Sheen, clearcoat, specular
+/// transmission and flatness are [`PrincipledFullParams`](super::PrincipledFullParams)'s.
 ///
 /// Like Mitsuba's, the model is not energy-conserving as a dielectric (a
 /// white base colour reflects up to 1.5× at grazing incidence). With

@@ -82,7 +82,7 @@ impl Default for PrincipledThinParams {
 /// interface of relative index `eta`, at the angle of the denser side (the
 /// transmitted angle when `eta < 1`), as Mitsuba's principled helpers.
 #[inline(always)]
-fn schlick_towards(f0: Vec3, cos: f32, eta: f32) -> Vec3 {
+pub(super) fn schlick_towards(f0: Vec3, cos: f32, eta: f32) -> Vec3 {
     let (eta_it, eta_ti) = if cos >= 0.0 {
         (eta, 1.0 / eta)
     } else {
@@ -100,7 +100,7 @@ fn schlick_towards(f0: Vec3, cos: f32, eta: f32) -> Vec3 {
 /// `(α_x, α_y)` of a roughness and an anisotropy (Burley's mapping, with
 /// Mitsuba's floor of 0.001).
 #[inline(always)]
-fn alphas(roughness: f32, anisotropic: f32) -> Microfacet {
+pub(super) fn alphas(roughness: f32, anisotropic: f32) -> Microfacet {
     let r2 = roughness * roughness;
     let aspect = (1.0 - 0.9 * anisotropic).sqrt();
     Microfacet::new(
@@ -108,6 +108,29 @@ fn alphas(roughness: f32, anisotropic: f32) -> Microfacet {
         (r2 / aspect).max(0.001),
         (r2 * aspect).max(0.001),
     )
+}
+
+/// Burley's diffuse lobe with retro-reflection, blended by `flatness`
+/// towards Hanrahan–Krueger's fake subsurface lobe (its `Fss90` flattening
+/// the retro-reflection by roughness), without `base_color/π`: for the
+/// cosines of both directions (above the surface) and of the angle between
+/// `wi` and the half vector.
+#[inline(always)]
+pub(super) fn burley_diffuse(
+    cos_o: f32,
+    cos_i: f32,
+    cos_d: f32,
+    roughness: f32,
+    flatness: f32,
+) -> f32 {
+    let (fo, fi) = (schlick_weight(cos_i), schlick_weight(cos_o));
+    let diffuse = (1.0 - 0.5 * fi) * (1.0 - 0.5 * fo);
+    let rr = 2.0 * roughness * cos_d * cos_d;
+    let retro = rr * (fo + fi + fo * fi * (rr - 1.0));
+    let fss90 = 0.5 * rr;
+    let fss = (1.0 + (fss90 - 1.0) * fo) * (1.0 + (fss90 - 1.0) * fi);
+    let subsurface = 1.25 * (fss * (1.0 / (cos_i + cos_o) - 0.5) + 0.5);
+    diffuse + retro + (subsurface - diffuse - retro) * flatness
 }
 
 /// Whether microfacet `h` is seen from the front by `wo` and from its
@@ -233,17 +256,8 @@ impl PrincipledThinParams {
             }
         }
         if cos_i > 0.0 && s < 1.0 && d < 1.0 {
-            let (fo, fi) = (schlick_weight(cos_i), schlick_weight(cos_o));
-            let diffuse = (1.0 - 0.5 * fi) * (1.0 - 0.5 * fo);
             let cos_d = h.dot(wi);
-            let rr = 2.0 * self.roughness * cos_d * cos_d;
-            let retro = rr * (fo + fi + fo * fi * (rr - 1.0));
-            // Hanrahan–Krueger's fake subsurface, `Fss90` flattening the
-            // retro-reflection by roughness.
-            let fss90 = 0.5 * rr;
-            let fss = (1.0 + (fss90 - 1.0) * fo) * (1.0 + (fss90 - 1.0) * fi);
-            let subsurface = 1.25 * (fss * (1.0 / (cos_i + cos_o) - 0.5) + 0.5);
-            let lobe = diffuse + retro + (subsurface - diffuse - retro) * self.flatness;
+            let lobe = burley_diffuse(cos_o, cos_i, cos_d, self.roughness, self.flatness);
             let weight = (1.0 - s) * (1.0 - d);
             value += base * (weight * cos_i * FRAC_1_PI * lobe);
             if self.sheen > 0.0 {

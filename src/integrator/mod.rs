@@ -17,7 +17,9 @@
 //! order, so an image is bit-identical whatever the number of threads.
 //!
 //! Every scene whose materials the kernel has passes for (all models but
-//! `plastic` and `rough_plastic`, which the general integrator renders)
+//! `plastic`, `rough_plastic`, `thin_dielectric`, `principled_thin` and
+//! `principled` with more than its two lobes, which the general integrator
+//! renders)
 //! runs on a vectorised version of the same wavefront ([`soa`]): structure-of-arrays lanes, compiled for AVX-512, AVX2 and
 //! the baseline and picked at run time ([`Isa`]), each material kind
 //! shaded in a branch-free loop of its own. It performs the same

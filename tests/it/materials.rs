@@ -139,6 +139,60 @@ fn every_material_type_parses() {
 }
 
 #[test]
+fn principled_takes_every_lobe_of_mitsubas() {
+    // Any of the four lobes beyond diffuse and specular makes the full model.
+    let Bsdf::PrincipledFull(p) = bsdf_of(
+        "type = \"principled\"\nbase_color = [0.7, 0.5, 0.3]\nroughness = 0.2\nmetallic = 0.1\n\
+         sheen = 0.6\nsheen_tint = 0.2\nclearcoat = 0.8\nclearcoat_gloss = 0.9\nflatness = 0.5\n\
+         eta = 2.5",
+    ) else {
+        panic!("not the full principled model")
+    };
+    assert_eq!(
+        (
+            p.sheen,
+            p.sheen_tint,
+            p.clearcoat,
+            p.clearcoat_gloss,
+            p.flatness
+        ),
+        (0.6, 0.2, 0.8, 0.9, 0.5)
+    );
+    assert_eq!((p.eta, p.spec_trans, p.has_transmission), (2.5, 0.0, false));
+    // A transmission lobe gives it an inside; Mitsuba's specular = 0 with
+    // transmission becomes 0.001.
+    let Bsdf::PrincipledFull(p) = bsdf_of("type = \"principled\"\nspec_trans = 0.5\nspecular = 0")
+    else {
+        panic!("not the full principled model")
+    };
+    assert!(p.has_transmission && Bsdf::PrincipledFull(p).transmits());
+    assert_eq!(p.eta, plsr::bsdf::albedo::eta_from_specular(1e-3));
+    // Only a map of spec_trans: an inside too.
+    let Bsdf::PrincipledFull(p) = bsdf_of(
+        "type = \"principled\"\nspec_trans_map = { checkerboard = [[0, 0, 0], [1, 1, 1]] }",
+    ) else {
+        panic!("not the full principled model")
+    };
+    assert!(p.has_transmission);
+    // Zero weights and an η that `specular` can express: the two-lobe model.
+    let Bsdf::Principled(p) = bsdf_of("type = \"principled\"\nsheen = 0\nclearcoat = 0\neta = 1.5")
+    else {
+        panic!("not the two-lobe principled model")
+    };
+    assert!((p.eta() - 1.5).abs() < 1e-5, "{}", p.eta());
+    // Faults, by key.
+    let e = error_of("type = \"principled\"\neta = 1.5\nspecular = 0.5");
+    assert!(
+        e.contains("materials[0].eta") && e.contains("give one of eta and specular"),
+        "{e}"
+    );
+    let e = error_of("type = \"principled\"\nsheen = 0.5\nenergy_conserving = true");
+    assert!(e.contains("materials[0].energy_conserving"), "{e}");
+    let e = error_of("type = \"principled\"\nclearcoat = 1.5");
+    assert!(e.contains("clearcoat") && e.contains("[0, 1]"), "{e}");
+}
+
+#[test]
 fn weight_maps_replace_the_principled_weights() {
     // A checkerboard of 0.2 and 0.8 for `sheen`: the BSDF at a point of
     // each square takes that value; the constant is kept where no map is.

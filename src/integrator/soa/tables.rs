@@ -99,7 +99,8 @@ pub struct SoaScene {
 impl SoaScene {
     /// The kernel's view of `scene`, or `None` where a material of it is one
     /// no pass of the kernel shades (`plastic`, `rough_plastic`,
-    /// `thin_dielectric` and composites; every
+    /// `thin_dielectric`, `principled_thin`, `principled` with sheen,
+    /// clearcoat, transmission or flatness, and composites; every
     /// other model, mapped or not, has a pass), it has a spot, projector,
     /// directional or sphere light, a normal map with the shadow
     /// terminator, or alpha maps: the general integrator then renders the
@@ -200,7 +201,8 @@ impl SoaScene {
                 Bsdf::Plastic(_)
                 | Bsdf::RoughPlastic(_)
                 | Bsdf::ThinDielectric(_)
-                | Bsdf::PrincipledThin(_) => false,
+                | Bsdf::PrincipledThin(_)
+                | Bsdf::PrincipledFull(_) => false,
             });
         }
         for a in &mut albedo {
@@ -287,7 +289,8 @@ pub(super) fn mapped_params(bsdf: &Bsdf) -> [f32; 3] {
         | Bsdf::Plastic(_)
         | Bsdf::RoughPlastic(_)
         | Bsdf::ThinDielectric(_)
-        | Bsdf::PrincipledThin(_) => [0.0; 3],
+        | Bsdf::PrincipledThin(_)
+        | Bsdf::PrincipledFull(_) => [0.0; 3],
     }
 }
 

@@ -7,7 +7,7 @@ use super::Builder;
 use crate::bsdf::METALS;
 use crate::bsdf::{
     BlinnPhongParams, Bsdf, CookTorranceParams, DielectricParams, Distribution, Fresnel,
-    Microfacet, PrincipledParams, PrincipledThinParams,
+    Microfacet, PrincipledFullParams, PrincipledParams, PrincipledThinParams,
 };
 use crate::error::Result;
 use crate::material::{decode_normal, NormalFrame, ScalarMap, ScalarParam};
@@ -140,7 +140,14 @@ pub(super) struct PrincipledKeys {
     metallic: Option<f32>,
     anisotropic: Option<f32>,
     specular: Option<f32>,
+    eta: Option<f32>,
     spec_tint: Option<f32>,
+    sheen: Option<f32>,
+    sheen_tint: Option<f32>,
+    clearcoat: Option<f32>,
+    clearcoat_gloss: Option<f32>,
+    spec_trans: Option<f32>,
+    flatness: Option<f32>,
     energy_conserving: Option<bool>,
     base_color_map: Option<MapKey>,
     roughness_map: Option<MapKey>,
@@ -148,6 +155,12 @@ pub(super) struct PrincipledKeys {
     anisotropic_map: Option<MapKey>,
     specular_map: Option<MapKey>,
     spec_tint_map: Option<MapKey>,
+    sheen_map: Option<MapKey>,
+    sheen_tint_map: Option<MapKey>,
+    clearcoat_map: Option<MapKey>,
+    clearcoat_gloss_map: Option<MapKey>,
+    spec_trans_map: Option<MapKey>,
+    flatness_map: Option<MapKey>,
     normal_map: Option<PathBuf>,
     normal_scale: Option<f32>,
     normal_frame: Option<String>,
@@ -212,7 +225,7 @@ pub(super) enum MaterialKeys {
     BlinnPhong(BlinnPhongKeys),
     CookTorrance(CookTorranceKeys),
     Dielectric(DielectricKeys),
-    Principled(PrincipledKeys),
+    Principled(Box<PrincipledKeys>),
     PrincipledThin(PrincipledThinKeys),
     Plastic(PlasticKeys),
     RoughPlastic(PlasticKeys),
@@ -334,6 +347,12 @@ impl MaterialKeys {
                     (ScalarParam::Anisotropic, &k.anisotropic_map),
                     (ScalarParam::Specular, &k.specular_map),
                     (ScalarParam::SpecTint, &k.spec_tint_map),
+                    (ScalarParam::Sheen, &k.sheen_map),
+                    (ScalarParam::SheenTint, &k.sheen_tint_map),
+                    (ScalarParam::Clearcoat, &k.clearcoat_map),
+                    (ScalarParam::ClearcoatGloss, &k.clearcoat_gloss_map),
+                    (ScalarParam::SpecTrans, &k.spec_trans_map),
+                    (ScalarParam::Flatness, &k.flatness_map),
                 ]),
                 ..Default::default()
             },
@@ -640,16 +659,99 @@ impl Builder<'_> {
                 Bsdf::ThinDielectric(params.validate().map_err(|e| self.err(field, e))?)
             }
             MaterialKeys::Principled(m) => {
-                let params = PrincipledParams {
-                    base_color: colour("base_color", m.base_color, 0.5)?,
-                    roughness: number("roughness", m.roughness, 0.5)?,
-                    metallic: number("metallic", m.metallic, 0.0)?,
-                    anisotropic: number("anisotropic", m.anisotropic, 0.0)?,
-                    specular: number("specular", m.specular, 0.5)?,
-                    spec_tint: number("spec_tint", m.spec_tint, 0.0)?,
-                    energy_conserving: m.energy_conserving.unwrap_or(false),
+                if m.eta.is_some() && (m.specular.is_some() || m.specular_map.is_some()) {
+                    return Err(self.err(
+                        format!("{field}.eta"),
+                        "give one of eta and specular (they set the same index of refraction)",
+                    ));
+                }
+                let specular = number("specular", m.specular, 0.5)?;
+                let eta = match m.eta {
+                    Some(e) => Some(number("eta", Some(e), 1.5)?),
+                    None => None,
                 };
-                Bsdf::Principled(params.validate().map_err(out_of_range)?)
+                // The two-lobe model's specular for η, if it has one.
+                let specular_of_eta = eta.map(crate::bsdf::albedo::specular_from_eta);
+                let eta_in_range = specular_of_eta.is_none_or(|s| s.is_some());
+                let specular_of_eta = specular_of_eta.flatten();
+                let extra_lobes = [m.sheen, m.clearcoat, m.spec_trans, m.flatness]
+                    .iter()
+                    .any(|v| v.is_some_and(|v| v != 0.0))
+                    || [
+                        &m.sheen_map,
+                        &m.sheen_tint_map,
+                        &m.clearcoat_map,
+                        &m.clearcoat_gloss_map,
+                        &m.spec_trans_map,
+                        &m.flatness_map,
+                    ]
+                    .iter()
+                    .any(|k| k.is_some());
+                let two_lobes = !extra_lobes && eta_in_range;
+                if two_lobes {
+                    let params = PrincipledParams {
+                        base_color: colour("base_color", m.base_color, 0.5)?,
+                        roughness: number("roughness", m.roughness, 0.5)?,
+                        metallic: number("metallic", m.metallic, 0.0)?,
+                        anisotropic: number("anisotropic", m.anisotropic, 0.0)?,
+                        specular: specular_of_eta.unwrap_or(specular),
+                        spec_tint: number("spec_tint", m.spec_tint, 0.0)?,
+                        energy_conserving: m.energy_conserving.unwrap_or(false),
+                    };
+                    Bsdf::Principled(params.validate().map_err(out_of_range)?)
+                } else {
+                    if m.energy_conserving == Some(true) {
+                        return Err(self.err(
+                            format!("{field}.energy_conserving"),
+                            "the energy-conserving diffuse lobe is for the two-lobe model: \
+                             not with sheen, clearcoat, spec_trans, flatness or an eta \
+                             beyond specular's range",
+                        ));
+                    }
+                    let spec_trans = number("spec_trans", m.spec_trans, 0.0)?;
+                    let has_transmission = spec_trans != 0.0 || m.spec_trans_map.is_some();
+                    let eta = match eta {
+                        Some(e) => e,
+                        None => {
+                            // Mitsuba: specular 0 (η = 1) is no interface to
+                            // transmit through; it takes 0.001.
+                            let s = if has_transmission && specular == 0.0 {
+                                1e-3
+                            } else {
+                                specular
+                            };
+                            if !(0.0..=1.0).contains(&s) {
+                                return Err(out_of_range(crate::bsdf::ParamError {
+                                    parameter: "specular",
+                                    value: s,
+                                    range: "[0, 1]",
+                                }));
+                            }
+                            crate::bsdf::albedo::eta_from_specular(s)
+                        }
+                    };
+                    let params = PrincipledFullParams {
+                        base_color: colour("base_color", m.base_color, 0.5)?,
+                        roughness: number("roughness", m.roughness, 0.5)?,
+                        metallic: number("metallic", m.metallic, 0.0)?,
+                        anisotropic: number("anisotropic", m.anisotropic, 0.0)?,
+                        // Mitsuba: η = 1 with transmission takes 1.001.
+                        eta: if has_transmission && eta == 1.0 {
+                            1.001
+                        } else {
+                            eta
+                        },
+                        spec_tint: number("spec_tint", m.spec_tint, 0.0)?,
+                        sheen: number("sheen", m.sheen, 0.0)?,
+                        sheen_tint: number("sheen_tint", m.sheen_tint, 0.0)?,
+                        clearcoat: number("clearcoat", m.clearcoat, 0.0)?,
+                        clearcoat_gloss: number("clearcoat_gloss", m.clearcoat_gloss, 0.0)?,
+                        spec_trans,
+                        flatness: number("flatness", m.flatness, 0.0)?,
+                        has_transmission,
+                    };
+                    Bsdf::PrincipledFull(params.validate().map_err(out_of_range)?)
+                }
             }
             MaterialKeys::PrincipledThin(m) => {
                 let params = PrincipledThinParams {

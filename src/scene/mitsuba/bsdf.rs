@@ -384,8 +384,13 @@ impl<'a> Translator<'a> {
         if let Some(c) = node.children.iter().find(|c| c.attribute("name").is_none()) {
             return Err(self.err(c, "not supported inside a BSDF"));
         }
-        // Mitsuba's opaque BSDFs are black from behind unless `twosided`.
-        if opaque && !twosided {
+        // Mitsuba's opaque BSDFs are black from behind unless `twosided`; a
+        // principled BSDF with a transmission lobe has an inside.
+        let transmissive_principled = kind == "principled"
+            && (t.get("spec_trans_map").is_some()
+                || t.get("spec_trans")
+                    .is_some_and(|v| v.as_float() != Some(0.0)));
+        if opaque && !twosided && !transmissive_principled {
             set(&mut t, "two_sided", Value::Boolean(false));
         }
         Ok(t)
@@ -612,10 +617,10 @@ impl<'a> Translator<'a> {
                 None => {}
             }
         }
-        for name in ["anisotropic", "specular", "spec_tint"] {
-            self.take_weight(node, p, t, name)?;
-        }
         for name in [
+            "anisotropic",
+            "specular",
+            "spec_tint",
             "sheen",
             "sheen_tint",
             "clearcoat",
@@ -623,25 +628,47 @@ impl<'a> Translator<'a> {
             "spec_trans",
             "flatness",
         ] {
-            if let Some(v) = self.take_float(p, name)? {
-                if v != 0.0 {
-                    return Err(self.err(
-                        node,
-                        format!(
-                            "`{name}` = {v}: principled's {name} is not modelled by plsr \
-                             (only 0 is accepted)"
-                        ),
-                    ));
-                }
-            }
+            self.take_weight(node, p, t, name)?;
         }
         if let Some(eta) = self.take_float(p, "eta")? {
-            // Mitsuba: η given instead of `specular`.
-            let s = ((eta - 1.0) / (eta + 1.0)).powi(2) / 0.08;
-            if !(0.0..=1.0).contains(&s) {
-                return Err(self.err(node, format!("eta = {eta} is outside plsr's range")));
+            // Mitsuba: η given instead of `specular` (both is an error).
+            if t.get("specular").is_some() || t.get("specular_map").is_some() {
+                return Err(self.err(node, "give one of `eta` and `specular`, as Mitsuba asks"));
             }
-            set(t, "specular", float(s));
+            set(t, "eta", float(eta));
+        }
+        self.note_sampling_rates(
+            node,
+            p,
+            &[
+                "main_specular_sampling_rate",
+                "clearcoat_sampling_rate",
+                "diffuse_reflectance_sampling_rate",
+            ],
+        )
+    }
+
+    /// Mitsuba's lobe sampling rates among `names`: plsr draws the lobes at
+    /// rate 1, which changes the noise, not the image (a note for any other
+    /// rate).
+    fn note_sampling_rates(
+        &mut self,
+        node: &'a Element,
+        p: &mut Params<'a>,
+        names: &[&str],
+    ) -> Result<()> {
+        for name in names {
+            if let Some(v) = self.take_float(p, name)? {
+                if v != 1.0 {
+                    self.note(
+                        node,
+                        format!(
+                            "`{name}` = {v}: plsr picks the lobes by their weights (rate 1); \
+                             the image is the same, its noise differs"
+                        ),
+                    );
+                }
+            }
         }
         Ok(())
     }
@@ -684,25 +711,16 @@ impl<'a> Translator<'a> {
                 set(t, name, float(v));
             }
         }
-        for name in [
-            "diffuse_reflectance_sampling_rate",
-            "specular_reflectance_sampling_rate",
-            "specular_transmittance_sampling_rate",
-            "diffuse_transmittance_sampling_rate",
-        ] {
-            if let Some(v) = self.take_float(p, name)? {
-                if v != 1.0 {
-                    self.note(
-                        node,
-                        format!(
-                            "`{name}` = {v}: plsr picks the lobes by their weights (rate 1); \
-                             the image is the same, its noise differs"
-                        ),
-                    );
-                }
-            }
-        }
-        Ok(())
+        self.note_sampling_rates(
+            node,
+            p,
+            &[
+                "diffuse_reflectance_sampling_rate",
+                "specular_reflectance_sampling_rate",
+                "specular_transmittance_sampling_rate",
+                "diffuse_transmittance_sampling_rate",
+            ],
+        )
     }
 
     /// A principled weight: a number as `name`, a texture as `name_map`

@@ -319,6 +319,36 @@ fn mitsuba_bsdf(bsdf: &Bsdf) -> std::result::Result<String, String> {
             ),
             p.sample_visible
         )),
+        Bsdf::PrincipledFull(p) => {
+            let inner = format!(
+                "<bsdf type=\"principled\"><rgb name=\"base_color\" value=\"{}\"/>\
+                 <float name=\"roughness\" value=\"{}\"/><float name=\"metallic\" value=\"{}\"/>\
+                 <float name=\"anisotropic\" value=\"{}\"/><float name=\"eta\" value=\"{}\"/>\
+                 <float name=\"spec_tint\" value=\"{}\"/><float name=\"sheen\" value=\"{}\"/>\
+                 <float name=\"sheen_tint\" value=\"{}\"/><float name=\"clearcoat\" value=\"{}\"/>\
+                 <float name=\"clearcoat_gloss\" value=\"{}\"/><float name=\"spec_trans\" value=\"{}\"/>\
+                 <float name=\"flatness\" value=\"{}\"/></bsdf>",
+                rgb(p.base_color),
+                p.roughness,
+                p.metallic,
+                p.anisotropic,
+                p.eta,
+                p.spec_tint,
+                p.sheen,
+                p.sheen_tint,
+                p.clearcoat,
+                p.clearcoat_gloss,
+                p.spec_trans,
+                p.flatness
+            );
+            // With a transmission lobe it has an inside; without, it is
+            // opaque, and plsr's materials are two-sided by default.
+            if p.has_transmission {
+                inner
+            } else {
+                twosided(inner)
+            }
+        }
         Bsdf::PrincipledThin(p) => format!(
             "<bsdf type=\"principledthin\"><rgb name=\"base_color\" value=\"{}\"/>\
              <float name=\"roughness\" value=\"{}\"/><float name=\"anisotropic\" value=\"{}\"/>\

@@ -88,7 +88,8 @@ const XML: &str = r#"<?xml version="1.0"?>
     <float name="roughness" value="0.5"/>
     <float name="metallic" value="0.25"/>
     <float name="specular" value="0.5"/>
-    <float name="clearcoat" value="0"/>
+    <float name="clearcoat" value="0.4"/>
+    <float name="sheen" value="0.3"/>
   </bsdf>
   <shape type="rectangle">
     <transform name="to_world">
@@ -200,6 +201,8 @@ base_color = [0.1, 0.3, 0.8]
 roughness = 0.5
 metallic = 0.25
 specular = 0.5
+clearcoat = 0.4
+sheen = 0.3
 two_sided = false
 
 [[materials]]
@@ -424,8 +427,9 @@ fn unsupported_elements_are_refused_by_name_and_line() {
         ),
         (
             "<scene version=\"3.0.0\"><shape type=\"sphere\"><bsdf type=\"principled\">\n\
-             <float name=\"sheen\" value=\"0.5\"/></bsdf></shape></scene>",
-            &["`sheen` = 0.5", "not modelled"],
+             <float name=\"eta\" value=\"1.5\"/><float name=\"specular\" value=\"0.5\"/>\
+             </bsdf></shape></scene>",
+            &["line 1", "<bsdf type=\"principled\">", "give one of `eta` and `specular`"],
         ),
         (
             "<scene version=\"3.0.0\"><shape type=\"sphere\"><bsdf type=\"diffuse\">\n\
