@@ -233,6 +233,9 @@ impl SceneBuilder<'_> {
     /// Attaches a triangle mesh under geometry id `geom_id`.
     ///
     /// `positions` are world-space vertices (any unit), `triangles` index them.
+    /// With `cull_back`, rays (and shadow rays) pass through a triangle they
+    /// meet from behind (`dir · ng > 0`, `ng` = `(p1 − p0) × (p2 − p0)`), as
+    /// through the inside of Mitsuba's curves.
     /// Fails if an index is out of range, a position is not finite, or the id is
     /// already used.
     pub fn add_triangle_mesh(
@@ -241,6 +244,7 @@ impl SceneBuilder<'_> {
         positions: &[Vec3],
         triangles: &[[u32; 3]],
         mask: u32,
+        cull_back: bool,
     ) -> Result<(), EmbreeError> {
         let invalid = |message: String| EmbreeError {
             code: sys::RTC_ERROR_INVALID_ARGUMENT,
@@ -303,6 +307,10 @@ impl SceneBuilder<'_> {
             }
             // Rays see this geometry when their mask shares a bit with it.
             sys::rtcSetGeometryMask(geom.0, mask);
+            if cull_back {
+                sys::rtcSetGeometryIntersectFilterFunction(geom.0, Some(cull_back_faces));
+                sys::rtcSetGeometryOccludedFilterFunction(geom.0, Some(cull_back_faces));
+            }
             sys::rtcCommitGeometry(geom.0);
             device.check("rtcCommitGeometry")?;
             sys::rtcAttachGeometryByID(self.scene.0, geom.0, geom_id);
@@ -374,6 +382,40 @@ impl SceneBuilder<'_> {
             lower: Vec3::new(bounds.lower_x, bounds.lower_y, bounds.lower_z),
             upper: Vec3::new(bounds.upper_x, bounds.upper_y, bounds.upper_z),
         })
+    }
+}
+
+/// Embree's filter callback that rejects hits on the back of a triangle:
+/// `valid[i]` is cleared where the ray's direction and the hit's geometric
+/// normal point the same way.
+///
+/// `RTCRayN` and `RTCHitN` are structures of `N`-wide arrays (Embree's
+/// `rtcore_ray.h`): the ray's direction is at float offsets `4N`, `5N`, `6N`,
+/// the hit's normal at `0`, `N`, `2N`.
+unsafe extern "C" fn cull_back_faces(args: *const sys::RTCFilterFunctionNArguments) {
+    // SAFETY: Embree passes a valid argument record whose `valid`, `ray` and
+    // `hit` point to `N` lanes of the layouts above, alive for the call;
+    // only `valid` is written, within its `N` entries.
+    unsafe {
+        let args = &*args;
+        let n = args.N as usize;
+        let ray = args.ray as *const f32;
+        let hit = args.hit as *const f32;
+        for i in 0..n {
+            let valid = args.valid.add(i);
+            if *valid == 0 {
+                continue;
+            }
+            let d = Vec3::new(
+                *ray.add(4 * n + i),
+                *ray.add(5 * n + i),
+                *ray.add(6 * n + i),
+            );
+            let ng = Vec3::new(*hit.add(i), *hit.add(n + i), *hit.add(2 * n + i));
+            if d.dot(ng) > 0.0 {
+                *valid = 0;
+            }
+        }
     }
 }
 

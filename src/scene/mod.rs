@@ -6,6 +6,7 @@
 //! turned by [`Scene::build`] into a [`Scene`] ready to render. Geometry id
 //! `i` in Embree is `meshes[i]`, so a hit names its mesh directly.
 
+pub mod curves;
 pub mod file;
 pub mod gltf_scene;
 pub mod instancing;
@@ -86,6 +87,10 @@ pub struct Mesh {
     /// `COLOR_0`), which multiply the base colour of a material whose
     /// `base_color_attribute` is set; `None` leaves it as it is.
     pub colors: Option<MeshColors>,
+    /// Whether rays pass through the mesh's back faces (those they meet
+    /// along its winding's normal), as through the inside of Mitsuba's
+    /// curves, whose tubes are open-ended.
+    pub cull_back: bool,
 }
 
 /// Linear RGB colours stored with a mesh, per vertex (interpolated over
@@ -223,6 +228,7 @@ impl Mesh {
             return Err(MeshError::Empty);
         }
         let mesh = Mesh {
+            cull_back: false,
             name: name.into(),
             positions,
             triangles,
@@ -322,6 +328,7 @@ pub fn pls_mesh(light: &Pls, mode: BrightnessMode, nf: u32, material: u32, name:
     let mesh = emitter.tessellate();
     let radiance = emitter.radiance(mesh.area());
     Mesh {
+        cull_back: false,
         name,
         positions: mesh.positions,
         triangles: mesh.triangles,
@@ -688,7 +695,7 @@ impl Scene {
         let mut builder = device.scene_builder(SceneOptions { robust })?;
         for (i, m) in meshes.iter().enumerate() {
             builder
-                .add_triangle_mesh(i as u32, &m.positions, &m.triangles, m.mask())
+                .add_triangle_mesh(i as u32, &m.positions, &m.triangles, m.mask(), m.cull_back)
                 .map_err(|mut e| {
                     e.message = format!("mesh {i} ({}): {}", m.name, e.message);
                     e
@@ -704,7 +711,7 @@ impl Scene {
                         group.name, m.name
                     )));
                 }
-                b.add_triangle_mesh(i as u32, &m.positions, &m.triangles, m.mask())
+                b.add_triangle_mesh(i as u32, &m.positions, &m.triangles, m.mask(), m.cull_back)
                     .map_err(|mut e| {
                         e.message = format!(
                             "group {g} ({}), mesh {i} ({}): {}",

@@ -19,6 +19,7 @@ fn two_layers(options: SceneOptions) -> plsr::accel::Accel {
         ],
         &[[0, 1, 2]],
         plsr::accel::REAL_MASK,
+        false,
     )
     .unwrap();
     b.add_triangle_mesh(
@@ -31,6 +32,7 @@ fn two_layers(options: SceneOptions) -> plsr::accel::Accel {
         ],
         &[[0, 1, 2], [0, 2, 3]],
         plsr::accel::REAL_MASK,
+        false,
     )
     .unwrap();
     b.commit().unwrap()
@@ -126,12 +128,12 @@ fn embree_errors_become_rust_errors() {
     let device = Device::new().unwrap();
     let mut b = device.scene_builder(SceneOptions::default()).unwrap();
     let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
-    b.add_triangle_mesh(0, &tri, &[[0, 1, 2]], plsr::accel::REAL_MASK)
+    b.add_triangle_mesh(0, &tri, &[[0, 1, 2]], plsr::accel::REAL_MASK, false)
         .unwrap();
     // Embree itself rejects a second geometry under a taken id; its error
     // callback's code and message must come back as an error.
     let e = b
-        .add_triangle_mesh(0, &tri, &[[0, 1, 2]], plsr::accel::REAL_MASK)
+        .add_triangle_mesh(0, &tri, &[[0, 1, 2]], plsr::accel::REAL_MASK, false)
         .unwrap_err();
     assert_eq!(e.code, plsr::sys::RTC_ERROR_INVALID_OPERATION, "{e}");
     assert!(e.message.contains("invalid geometry ID"), "{e}");
@@ -142,7 +144,7 @@ fn embree_errors_become_rust_errors() {
     );
     // Our own checks catch what Embree would read out of bounds.
     let e = b
-        .add_triangle_mesh(1, &tri, &[[0, 1, 3]], plsr::accel::REAL_MASK)
+        .add_triangle_mesh(1, &tri, &[[0, 1, 3]], plsr::accel::REAL_MASK, false)
         .unwrap_err();
     assert!(e.to_string().contains("indexes past the 3 vertices"), "{e}");
     let e = b
@@ -151,11 +153,12 @@ fn embree_errors_become_rust_errors() {
             &[Vec3::ZERO, Vec3::X, Vec3::NAN],
             &[[0, 1, 2]],
             plsr::accel::REAL_MASK,
+            false,
         )
         .unwrap_err();
     assert!(e.to_string().contains("non-finite"), "{e}");
     // The device is still usable after errors.
-    b.add_triangle_mesh(4, &tri, &[[0, 1, 2]], plsr::accel::REAL_MASK)
+    b.add_triangle_mesh(4, &tri, &[[0, 1, 2]], plsr::accel::REAL_MASK, false)
         .unwrap();
     let accel = b.commit().unwrap();
     assert!(accel
@@ -176,4 +179,30 @@ fn render_workers_flush_denormals_to_zero() {
     let pool = plsr::render::thread_pool(Some(2)).unwrap();
     let flags: Vec<bool> = pool.broadcast(|_| flush_to_zero_enabled());
     assert_eq!(flags, vec![true, true]);
+}
+
+#[test]
+fn culled_back_faces_let_rays_through_from_behind_only() {
+    let device = Device::new().unwrap();
+    let mut b = device.scene_builder(SceneOptions::default()).unwrap();
+    // Counter-clockwise seen from +z: its normal (p1 − p0) × (p2 − p0) is +z.
+    let tri = [
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+    ];
+    b.add_triangle_mesh(0, &tri, &[[0, 1, 2]], plsr::accel::REAL_MASK, true)
+        .unwrap();
+    let accel = b.commit().unwrap();
+    let down = Ray::new(Vec3::new(0.0, 0.0, 1.0), -Vec3::Z);
+    let up = Ray::new(Vec3::new(0.0, 0.0, -1.0), Vec3::Z);
+    assert!(accel.intersect(&down).is_some() && accel.occluded(&down));
+    assert!(accel.intersect(&up).is_none() && !accel.occluded(&up));
+    // The streamed queries the renderer uses cull the same way.
+    let mut rays = [RayHit::new(down), RayHit::new(up)];
+    accel.intersect_stream(&mut rays, false);
+    assert!(rays[0].hit().is_some() && rays[1].hit().is_none());
+    let mut shadows = [ShadowRay::new(down), ShadowRay::new(up)];
+    accel.occluded_stream(&mut shadows, false);
+    assert!(shadows[0].occluded() && !shadows[1].occluded());
 }

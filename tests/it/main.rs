@@ -5,6 +5,7 @@
 mod bsdf;
 mod cameras;
 mod composite;
+mod curves;
 mod determinism;
 mod embree_layer;
 mod environment;

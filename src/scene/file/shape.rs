@@ -93,6 +93,26 @@ struct SerializedKeys {
     flip_normals: Option<bool>,
 }
 
+/// The keys of a `curves` shape (Mitsuba's `bsplinecurve` and
+/// `linearcurve`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CurvesKeys {
+    file: Option<PathBuf>,
+    basis: Option<String>,
+    sides: Option<u32>,
+    steps: Option<u32>,
+}
+
+/// Default vertices round a curve's ring.
+const DEFAULT_CURVE_SIDES: u32 = 32;
+/// Default rings per B-spline segment.
+const DEFAULT_CURVE_STEPS: u32 = 16;
+/// The largest curve file read (bytes): about a million control points.
+const MAX_CURVE_FILE: u64 = 64 << 20;
+/// The most triangles a `curves` shape may become.
+const MAX_CURVE_TRIANGLES: u64 = 1 << 26;
+
 /// The keys of a `disk` shape.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -278,6 +298,10 @@ impl Builder<'_> {
         }
 
         let flip;
+        // Whether the mesh is already in world space, and rays pass
+        // through its back faces (curves).
+        let mut world_space = false;
+        let mut cull_back = false;
         // For the sphere and the disk: the unit shape's frame in the
         // shape's own coordinates, for exact texture coordinates at hits.
         let mut round: Option<(Mat4, Round)> = None;
@@ -360,6 +384,16 @@ impl Builder<'_> {
                 round = Some((frame, Round::Cylinder));
                 mesh
             }
+            "curves" => {
+                let keys: CurvesKeys = self.typed_keys(&field, &s.keys, unknown)?;
+                flip = false;
+                // Built in world space: the transform moves the control
+                // points, not the radii.
+                let mesh = self.curves_mesh(&field, &keys, &matrix)?;
+                world_space = true;
+                cull_back = true;
+                mesh
+            }
             "cube" => {
                 let keys: CubeKeys = self.typed_keys(&field, &s.keys, unknown)?;
                 flip = keys.flip_normals.unwrap_or(false);
@@ -370,7 +404,7 @@ impl Builder<'_> {
                 return Err(self.err(
                     format!("{field}.type"),
                     format!(
-                    "unknown shape type `{other}` (known: obj, ply, serialized, gltf, rectangle, sphere, disk, cylinder, cube)"
+                    "unknown shape type `{other}` (known: obj, ply, serialized, gltf, rectangle, sphere, disk, cylinder, cube, curves)"
                 ),
                 ))
             }
@@ -391,8 +425,12 @@ impl Builder<'_> {
                 }
             }
         };
-        transform_mesh(&matrix, &mut positions, &mut triangles);
-        let mut normals = transform_normals(&matrix, normals);
+        let mut normals = if world_space {
+            normals
+        } else {
+            transform_mesh(&matrix, &mut positions, &mut triangles);
+            transform_normals(&matrix, normals)
+        };
         if flip {
             normals.iter_mut().for_each(|n| *n = -*n);
         }
@@ -402,6 +440,7 @@ impl Builder<'_> {
         };
         let colors = self.mesh_colors(&field, s, &materials[material as usize], attributes)?;
         meshes.push(Mesh {
+            cull_back,
             name: shape_name,
             positions,
             triangles,
@@ -539,6 +578,78 @@ impl Builder<'_> {
     /// The mesh of a `serialized` shape: shape `shape_index` (default 0)
     /// of a file in Mitsuba's `serialized` format, with its vertex colours
     /// as the attribute `vertex_color` (Mitsuba's name).
+    /// The mesh of a `curves` shape: its file read and checked, moved by
+    /// `matrix` (the radii unchanged) and meshed.
+    fn curves_mesh(&self, field: &str, keys: &CurvesKeys, matrix: &Mat4) -> Result<MeshData> {
+        use crate::scene::curves::{curve_mesh, parse_curves, CurveBasis};
+        let basis = match keys.basis.as_deref().unwrap_or("bspline") {
+            "bspline" => CurveBasis::BSpline,
+            "linear" => CurveBasis::Linear,
+            other => {
+                return Err(self.err(
+                    format!("{field}.basis"),
+                    format!("unknown basis `{other}` (known: bspline, linear)"),
+                ))
+            }
+        };
+        let sides = keys.sides.unwrap_or(DEFAULT_CURVE_SIDES);
+        if !(3..=1024).contains(&sides) {
+            return Err(self.err(
+                format!("{field}.sides"),
+                format!("must be between 3 and 1024, got {sides}"),
+            ));
+        }
+        let steps = keys.steps.unwrap_or(DEFAULT_CURVE_STEPS);
+        if !(1..=1024).contains(&steps) {
+            return Err(self.err(
+                format!("{field}.steps"),
+                format!("must be between 1 and 1024, got {steps}"),
+            ));
+        }
+        let rel = keys
+            .file
+            .as_ref()
+            .ok_or_else(|| self.err(format!("{field}.file"), "required for curves"))?;
+        let path = self.base.join(rel);
+        crate::input::check_input_file(&path)
+            .map_err(|e| self.err(format!("{field}.file"), e.to_string()))?;
+        let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+        if size > MAX_CURVE_FILE {
+            return Err(self.err(
+                format!("{field}.file"),
+                format!(
+                    "{}: {size} bytes, more than the {MAX_CURVE_FILE} a curve file may have",
+                    path.display()
+                ),
+            ));
+        }
+        let text = crate::input::read_text_lenient(&path)
+            .map_err(|e| self.err(format!("{field}.file"), format!("{}: {e}", path.display())))?;
+        self.read_input(&path);
+        let curves = parse_curves(&text, basis)
+            .map_err(|m| self.err(format!("{field}.file"), format!("{}: {m}", path.display())))?;
+        // Rings (or sphere stacks) per curve, each `2·sides` triangles.
+        let rings: u64 = curves
+            .iter()
+            .map(|c| match basis {
+                CurveBasis::BSpline => (c.len() as u64 - 3) * steps as u64,
+                CurveBasis::Linear => (c.len() as u64 - 1) * (2 + sides as u64 / 2),
+            })
+            .sum();
+        if rings * 2 * sides as u64 > MAX_CURVE_TRIANGLES {
+            return Err(self.err(
+                format!("{field}.file"),
+                format!(
+                    "{}: its curves would make {} triangles, more than {MAX_CURVE_TRIANGLES} \
+                     (lower `sides` or `steps`)",
+                    path.display(),
+                    rings * 2 * sides as u64
+                ),
+            ));
+        }
+        Ok(curve_mesh(&curves, basis, matrix, sides, steps))
+    }
+
     fn serialized_mesh(
         &self,
         field: &str,
@@ -654,6 +765,7 @@ impl Builder<'_> {
                     cone: None,
                 });
             meshes.push(Mesh {
+                cull_back: false,
                 name: format!("{}/{}", shape.name, o.name),
                 positions: p,
                 triangles: t,
@@ -770,6 +882,7 @@ impl Builder<'_> {
                 ));
             }
             meshes.push(Mesh {
+                cull_back: false,
                 name: format!("{}/{}", shape.name, o.name),
                 positions: p,
                 triangles: t,
@@ -928,6 +1041,7 @@ fn unknown_shape_key(kind: &str, key: &str) -> String {
         key_names::<PlyKeys>(),
         key_names::<CubeKeys>(),
         key_names::<GltfKeys>(),
+        key_names::<CurvesKeys>(),
     ]
     .concat()
     {

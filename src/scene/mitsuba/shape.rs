@@ -85,12 +85,34 @@ impl<'a> Translator<'a> {
                     }
                 }
             }
+            "bsplinecurve" | "linearcurve" => {
+                s.insert("type", Value::String("curves".into()));
+                let file = self
+                    .take_string(&mut p, "filename")?
+                    .ok_or_else(|| self.err(node, "curves need `filename`"))?;
+                s.insert("file", Value::String(self.file_name(node, file)));
+                let basis = if kind == "bsplinecurve" {
+                    "bspline"
+                } else {
+                    "linear"
+                };
+                s.insert("basis", Value::String(basis.into()));
+                s.insert("flip_v", Value::Boolean(true));
+                // Only for differentiable silhouettes.
+                self.take_float(&mut p, "silhouette_sampling_weight")?;
+                self.note(
+                    node,
+                    "plsr meshes curves (32 sides, 16 rings per B-spline segment): \
+                     set `sides` and `steps` in the translated scene for finer tubes",
+                );
+            }
             other => {
                 return Err(self.err(
                     node,
                     format!(
                         "the `{other}` shape is not supported (supported: obj, ply, serialized, \
-                         rectangle, sphere, disk, cylinder, cube, shapegroup, instance)"
+                         rectangle, sphere, disk, cylinder, cube, bsplinecurve, linearcurve, \
+                         shapegroup, instance)"
                     ),
                 ))
             }
