@@ -13,6 +13,7 @@ pub mod instancing;
 pub mod mitsuba;
 pub mod photo;
 pub mod ply;
+pub mod sdf_grid;
 pub mod serialized;
 pub mod shapes;
 pub mod uv_map;

@@ -20,5 +20,6 @@ mod pls_render;
 mod radiometry;
 mod regression;
 mod sampling_chi2;
+mod sdf_grid;
 mod surfaces;
 mod vectorised;

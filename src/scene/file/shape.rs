@@ -104,6 +104,20 @@ struct CurvesKeys {
     steps: Option<u32>,
 }
 
+/// The keys of an `sdf_grid` shape (Mitsuba's `sdfgrid`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SdfGridKeys {
+    file: Option<PathBuf>,
+    normals: Option<String>,
+    subdivisions: Option<u32>,
+}
+
+/// Default refinements of an SDF grid's cells for meshing.
+const DEFAULT_SDF_SUBDIVISIONS: u32 = 2;
+/// The largest SDF grid file read (bytes).
+const MAX_SDF_FILE: u64 = 512 << 20;
+
 /// Default vertices round a curve's ring.
 const DEFAULT_CURVE_SIDES: u32 = 32;
 /// Default rings per B-spline segment.
@@ -394,6 +408,11 @@ impl Builder<'_> {
                 cull_back = true;
                 mesh
             }
+            "sdf_grid" => {
+                let keys: SdfGridKeys = self.typed_keys(&field, &s.keys, unknown)?;
+                flip = false;
+                self.sdf_grid_mesh(&field, &keys)?
+            }
             "cube" => {
                 let keys: CubeKeys = self.typed_keys(&field, &s.keys, unknown)?;
                 flip = keys.flip_normals.unwrap_or(false);
@@ -404,7 +423,7 @@ impl Builder<'_> {
                 return Err(self.err(
                     format!("{field}.type"),
                     format!(
-                    "unknown shape type `{other}` (known: obj, ply, serialized, gltf, rectangle, sphere, disk, cylinder, cube, curves)"
+                    "unknown shape type `{other}` (known: obj, ply, serialized, gltf, rectangle, sphere, disk, cylinder, cube, curves, sdf_grid)"
                 ),
                 ))
             }
@@ -648,6 +667,72 @@ impl Builder<'_> {
             ));
         }
         Ok(curve_mesh(&curves, basis, matrix, sides, steps))
+    }
+
+    /// The mesh of an `sdf_grid` shape (object space, the unit cube).
+    fn sdf_grid_mesh(&self, field: &str, keys: &SdfGridKeys) -> Result<MeshData> {
+        use crate::scene::sdf_grid::{read_vol, SdfNormals};
+        let mode = match keys.normals.as_deref().unwrap_or("smooth") {
+            "smooth" => SdfNormals::Smooth,
+            "analytic" => SdfNormals::Analytic,
+            other => {
+                return Err(self.err(
+                    format!("{field}.normals"),
+                    format!("unknown normals `{other}` (known: smooth, analytic)"),
+                ))
+            }
+        };
+        let subdivisions = keys.subdivisions.unwrap_or(DEFAULT_SDF_SUBDIVISIONS);
+        if !(1..=8).contains(&subdivisions) {
+            return Err(self.err(
+                format!("{field}.subdivisions"),
+                format!("must be between 1 and 8, got {subdivisions}"),
+            ));
+        }
+        let rel = keys
+            .file
+            .as_ref()
+            .ok_or_else(|| self.err(format!("{field}.file"), "required for an SDF grid"))?;
+        let path = self.base.join(rel);
+        crate::input::check_input_file(&path)
+            .map_err(|e| self.err(format!("{field}.file"), e.to_string()))?;
+        let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+        if size > MAX_SDF_FILE {
+            return Err(self.err(
+                format!("{field}.file"),
+                format!(
+                    "{}: {size} bytes, more than the {MAX_SDF_FILE} an SDF grid may have",
+                    path.display()
+                ),
+            ));
+        }
+        let bytes = std::fs::read(&path)
+            .map_err(|e| self.err(format!("{field}.file"), format!("{}: {e}", path.display())))?;
+        self.read_input(&path);
+        let grid = read_vol(&bytes)
+            .map_err(|m| self.err(format!("{field}.file"), format!("{}: {m}", path.display())))?;
+        let cells: u64 = grid
+            .size
+            .iter()
+            .map(|&n| (n as u64 - 1) * subdivisions as u64)
+            .product();
+        if cells > 1 << 30 {
+            return Err(self.err(
+                format!("{field}.subdivisions"),
+                format!("{cells} cells to march, more than 2^30: lower `subdivisions`"),
+            ));
+        }
+        let (p, t, n) = grid.mesh(subdivisions, mode);
+        if t.is_empty() {
+            return Err(self.err(
+                format!("{field}.file"),
+                format!(
+                    "{}: the grid has no surface (no sign change)",
+                    path.display()
+                ),
+            ));
+        }
+        Ok((p, t, n, Vec::new()))
     }
 
     fn serialized_mesh(
@@ -1042,6 +1127,7 @@ fn unknown_shape_key(kind: &str, key: &str) -> String {
         key_names::<CubeKeys>(),
         key_names::<GltfKeys>(),
         key_names::<CurvesKeys>(),
+        key_names::<SdfGridKeys>(),
     ]
     .concat()
     {

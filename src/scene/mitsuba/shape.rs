@@ -106,13 +106,33 @@ impl<'a> Translator<'a> {
                      set `sides` and `steps` in the translated scene for finer tubes",
                 );
             }
+            "sdfgrid" => {
+                s.insert("type", Value::String("sdf_grid".into()));
+                let file = self
+                    .take_string(&mut p, "filename")?
+                    .ok_or_else(|| self.err(node, "plsr reads an sdfgrid from `filename`"))?;
+                s.insert("file", Value::String(self.file_name(node, file)));
+                if let Some(n) = self.take_string(&mut p, "normals")? {
+                    if !matches!(n.as_str(), "smooth" | "analytic") {
+                        return Err(
+                            self.err(node, format!("normals `{n}` is not smooth or analytic"))
+                        );
+                    }
+                    s.insert("normals", Value::String(n));
+                }
+                self.note(
+                    node,
+                    "plsr meshes the SDF grid's surface (each cell refined twice): \
+                     set `subdivisions` in the translated scene for a finer mesh",
+                );
+            }
             other => {
                 return Err(self.err(
                     node,
                     format!(
                         "the `{other}` shape is not supported (supported: obj, ply, serialized, \
                          rectangle, sphere, disk, cylinder, cube, bsplinecurve, linearcurve, \
-                         shapegroup, instance)"
+                         sdfgrid, shapegroup, instance)"
                     ),
                 ))
             }
