@@ -548,29 +548,68 @@ impl std::fmt::Display for ParamError {
 
 impl std::error::Error for ParamError {}
 
+impl ParamError {
+    /// `Ok` if `value` lies in `[0, 1]` (NaN does not), else the error
+    /// naming `parameter`.
+    pub(crate) fn check_unit(parameter: &'static str, value: f32) -> Result<(), ParamError> {
+        ParamError::check_range(parameter, value, 0.0, 1.0, "[0, 1]")
+    }
+
+    /// `Ok` if every channel of the colour `c` lies in `[0, 1]`.
+    pub(crate) fn check_colour(parameter: &'static str, c: Vec3) -> Result<(), ParamError> {
+        c.to_array()
+            .into_iter()
+            .try_for_each(|v| ParamError::check_unit(parameter, v))
+    }
+
+    /// `Ok` if `value` lies in `[lo, hi]` (NaN does not); `range` is the
+    /// interval as the error shows it.
+    pub(crate) fn check_range(
+        parameter: &'static str,
+        value: f32,
+        lo: f32,
+        hi: f32,
+        range: &'static str,
+    ) -> Result<(), ParamError> {
+        if value >= lo && value <= hi {
+            Ok(())
+        } else {
+            Err(ParamError {
+                parameter,
+                value,
+                range,
+            })
+        }
+    }
+
+    /// `Ok` for a relative index of refraction `eta` in `(0, 10]`.
+    pub(crate) fn check_eta(eta: f32) -> Result<(), ParamError> {
+        if eta > 0.0 && eta <= 10.0 {
+            Ok(())
+        } else {
+            Err(ParamError {
+                parameter: "eta",
+                value: eta,
+                range: "(0, 10]",
+            })
+        }
+    }
+}
+
 impl PrincipledParams {
     /// Checks every parameter's range: `base_color` channels and the
     /// scalars all in `[0, 1]` (NaN fails). Returns the parameters.
     pub fn validate(self) -> Result<PrincipledParams, ParamError> {
-        let unit = |parameter, value: f32| {
-            if (0.0..=1.0).contains(&value) {
-                Ok(())
-            } else {
-                Err(ParamError {
-                    parameter,
-                    value,
-                    range: "[0, 1]",
-                })
-            }
-        };
-        for c in self.base_color.to_array() {
-            unit("base_color", c)?;
+        ParamError::check_colour("base_color", self.base_color)?;
+        for (name, v) in [
+            ("roughness", self.roughness),
+            ("metallic", self.metallic),
+            ("anisotropic", self.anisotropic),
+            ("specular", self.specular),
+            ("spec_tint", self.spec_tint),
+        ] {
+            ParamError::check_unit(name, v)?;
         }
-        unit("roughness", self.roughness)?;
-        unit("metallic", self.metallic)?;
-        unit("anisotropic", self.anisotropic)?;
-        unit("specular", self.specular)?;
-        unit("spec_tint", self.spec_tint)?;
         Ok(self)
     }
 

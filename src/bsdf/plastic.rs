@@ -154,20 +154,6 @@ fn substrate(rho: Vec3, internal_reflectance: f32, nonlinear: bool) -> Vec3 {
     rho / denominator
 }
 
-/// Checks a colour's channels are in `[0, 1]` (NaN fails).
-fn unit_colour(parameter: &'static str, c: Vec3) -> Result<(), ParamError> {
-    for value in c.to_array() {
-        if !(0.0..=1.0).contains(&value) {
-            return Err(ParamError {
-                parameter,
-                value,
-                range: "[0, 1]",
-            });
-        }
-    }
-    Ok(())
-}
-
 /// Checks an index of refraction is positive and finite.
 fn ior(parameter: &'static str, value: f32) -> Result<(), ParamError> {
     if value > 0.0 && value.is_finite() {
@@ -229,8 +215,8 @@ impl PlasticParams {
     /// `[0, 1]`, both indices positive and finite (NaN fails). Returns the
     /// parameters.
     pub fn validate(self) -> Result<PlasticParams, ParamError> {
-        unit_colour("diffuse_reflectance", self.diffuse_reflectance)?;
-        unit_colour("specular_reflectance", self.specular_reflectance)?;
+        ParamError::check_colour("diffuse_reflectance", self.diffuse_reflectance)?;
+        ParamError::check_colour("specular_reflectance", self.specular_reflectance)?;
         ior("int_ior", self.int_ior)?;
         ior("ext_ior", self.ext_ior)?;
         Ok(self)
@@ -414,8 +400,8 @@ impl RoughPlasticParams {
     /// condition), `alpha` finite and ≥ 0 (NaN fails). Returns the
     /// parameters.
     pub fn validate(self) -> Result<RoughPlasticParams, ParamError> {
-        unit_colour("diffuse_reflectance", self.diffuse_reflectance)?;
-        unit_colour("specular_reflectance", self.specular_reflectance)?;
+        ParamError::check_colour("diffuse_reflectance", self.diffuse_reflectance)?;
+        ParamError::check_colour("specular_reflectance", self.specular_reflectance)?;
         ior("int_ior", self.int_ior)?;
         ior("ext_ior", self.ext_ior)?;
         if self.int_ior == self.ext_ior {

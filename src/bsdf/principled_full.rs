@@ -180,20 +180,7 @@ impl PrincipledFullParams {
     /// Checks every parameter's range (NaN fails): `base_color` and the
     /// weights in `[0, 1]`, `eta` in `(0, 10]`.
     pub fn validate(self) -> Result<PrincipledFullParams, ParamError> {
-        let unit = |parameter, value: f32| {
-            if (0.0..=1.0).contains(&value) {
-                Ok(())
-            } else {
-                Err(ParamError {
-                    parameter,
-                    value,
-                    range: "[0, 1]",
-                })
-            }
-        };
-        for c in self.base_color.to_array() {
-            unit("base_color", c)?;
-        }
+        ParamError::check_colour("base_color", self.base_color)?;
         for (name, v) in [
             ("roughness", self.roughness),
             ("metallic", self.metallic),
@@ -206,15 +193,9 @@ impl PrincipledFullParams {
             ("spec_trans", self.spec_trans),
             ("flatness", self.flatness),
         ] {
-            unit(name, v)?;
+            ParamError::check_unit(name, v)?;
         }
-        if !(self.eta > 0.0 && self.eta <= 10.0) {
-            return Err(ParamError {
-                parameter: "eta",
-                value: self.eta,
-                range: "(0, 10]",
-            });
-        }
+        ParamError::check_eta(self.eta)?;
         Ok(self)
     }
 

@@ -152,20 +152,7 @@ impl PrincipledThinParams {
     /// Checks every parameter's range (NaN fails): `base_color` and the
     /// weights in `[0, 1]`, `diff_trans` in `[0, 2]`, `eta` in `(0, 10]`.
     pub fn validate(self) -> Result<PrincipledThinParams, ParamError> {
-        let within = |parameter, value: f32, lo: f32, hi: f32, range| {
-            if value >= lo && value <= hi {
-                Ok(())
-            } else {
-                Err(ParamError {
-                    parameter,
-                    value,
-                    range,
-                })
-            }
-        };
-        for c in self.base_color.to_array() {
-            within("base_color", c, 0.0, 1.0, "[0, 1]")?;
-        }
+        ParamError::check_colour("base_color", self.base_color)?;
         for (name, v) in [
             ("roughness", self.roughness),
             ("anisotropic", self.anisotropic),
@@ -175,16 +162,10 @@ impl PrincipledThinParams {
             ("sheen_tint", self.sheen_tint),
             ("flatness", self.flatness),
         ] {
-            within(name, v, 0.0, 1.0, "[0, 1]")?;
+            ParamError::check_unit(name, v)?;
         }
-        within("diff_trans", self.diff_trans, 0.0, 2.0, "[0, 2]")?;
-        if !(self.eta > 0.0 && self.eta <= 10.0) {
-            return Err(ParamError {
-                parameter: "eta",
-                value: self.eta,
-                range: "(0, 10]",
-            });
-        }
+        ParamError::check_range("diff_trans", self.diff_trans, 0.0, 2.0, "[0, 2]")?;
+        ParamError::check_eta(self.eta)?;
         Ok(self)
     }
 
