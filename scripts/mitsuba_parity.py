@@ -577,6 +577,7 @@ class Plsr:
         self.has_D = re.search(r"(^|\s)-D[\s,<]", self.help) is not None
         self.has_threads = "--threads" in self.help
         self.has_quiet = "--quiet" in self.help
+        self.extra_args = []
 
     def render(self, info, out, spp, seed, threads, scene_file=None):
         cmd = [self.path, "render", str(scene_file or info.rendered_path), "-o", str(out),
@@ -585,6 +586,7 @@ class Plsr:
             cmd += ["--threads", str(threads)]
         if self.has_quiet:
             cmd += ["-q"]
+        cmd += self.extra_args
         if self.has_D:
             d = dict(info.cli_params)
             if "spp" in info.uses:
@@ -739,6 +741,9 @@ def main():
     ap.add_argument("--plsr-scene", metavar="FILE",
                     help="with one scene: plsr renders FILE instead (e.g. a deliberately "
                          "perturbed copy, to see the test fail); the reference is the scene's")
+    ap.add_argument("--plsr-arg", dest="plsr_args", action="append", default=[],
+                    metavar="ARG", help="extra argument for `plsr render` (repeatable), "
+                    "e.g. --plsr-arg=--light-picking=spatial")
     ap.add_argument("--threads", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--variant", default=None)
     ap.add_argument("--cache", default="/tmp/mitsuba_parity_cache")
@@ -761,6 +766,8 @@ def main():
         k, _, v = d.partition("=")
         defines[k] = v
     plsr = None if args.no_plsr else Plsr(args.plsr or default_plsr())
+    if plsr is not None:
+        plsr.extra_args = list(args.plsr_args)
     scenes = collect_scenes(args.scenes)
     if args.plsr_scene and (len(scenes) != 1 or args.size):
         sys.exit("--plsr-scene needs exactly one scene and no --size")

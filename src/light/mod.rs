@@ -28,7 +28,9 @@
 //! way it faces ([`LightBounds`]). A parametric light whose cone cannot reach the
 //! shading point is never picked ([`Reach`]). The integrator divides by the
 //! probability returned with the pick ([`LightSet::pick`]) and uses
-//! [`LightSet::pick_pmf`] for MIS.
+//! [`LightSet::pick_pmf`] for MIS. [`LightPicking`] chooses between that
+//! (`Spatial`, the default), power alone (`Power`) and Mitsuba's rule, every
+//! group equally likely (`Uniform`).
 
 mod bounds;
 mod directional;
@@ -143,12 +145,51 @@ pub struct LightGroup {
     /// Where the group can send light; `None`: everywhere.
     pub reach: Option<Reach>,
     /// Selection weight: emitted power, or for a cone-limited group the
-    /// power it would emit without its window.
+    /// power it would emit without its window; with
+    /// [`LightPicking::Uniform`], 1 for a group that emits at all.
     power: f32,
     within: Distribution1D,
     /// Where the group's lights are and which way they face (`None` for
     /// the environment, which is everywhere).
     bounds: Option<LightBounds>,
+}
+
+/// How [`LightSet`] picks a group of lights at a shading point. All three
+/// are unbiased; they differ in noise.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LightPicking {
+    /// By power, and among groups at a finite distance by power times a
+    /// bound on what each can send to the point (the default).
+    #[default]
+    Spatial,
+    /// By power alone.
+    Power,
+    /// Every group that can reach the point equally likely, as Mitsuba 3
+    /// picks emitters (each emissive shape, point light or environment is
+    /// one group); within a group, by power.
+    Uniform,
+}
+
+impl LightPicking {
+    /// The name used in scene files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            LightPicking::Spatial => "spatial",
+            LightPicking::Power => "power",
+            LightPicking::Uniform => "uniform",
+        }
+    }
+
+    /// The rule named `name` (see [`LightPicking::name`]).
+    pub fn from_name(name: &str) -> Option<LightPicking> {
+        [
+            LightPicking::Spatial,
+            LightPicking::Power,
+            LightPicking::Uniform,
+        ]
+        .into_iter()
+        .find(|p| p.name() == name)
+    }
 }
 
 /// The most groups at a finite distance for which [`LightSet`] weighs each
@@ -173,10 +214,9 @@ pub struct LightSet {
     /// shading point (2 to [`MAX_SPATIAL_GROUPS`] groups at a finite
     /// distance); see [`LightSet::pick`].
     spatial: bool,
-    /// Whether the user asked for picking by power alone
-    /// ([`LightSet::without_spatial_picking`]; kept through
-    /// [`LightSet::edit`]).
-    power_only: bool,
+    /// The rule the user asked for ([`LightSet::with_picking`]; kept
+    /// through [`LightSet::edit`]).
+    picking: LightPicking,
     /// The environment's groups and their total power (spatial picking).
     env_groups: Vec<u32>,
     env_power: f32,
@@ -207,6 +247,15 @@ impl LightSet {
     /// A light set with explicit groups: `(range of lights, reach)`; every
     /// light must be in exactly one group, in order.
     pub fn with_groups(lights: Vec<Light>, groups: Vec<(Range<u32>, Option<Reach>)>) -> LightSet {
+        LightSet::with_groups_picked_by(lights, groups, LightPicking::Spatial)
+    }
+
+    /// [`LightSet::with_groups`] picked by `picking`.
+    pub fn with_groups_picked_by(
+        lights: Vec<Light>,
+        groups: Vec<(Range<u32>, Option<Reach>)>,
+        picking: LightPicking,
+    ) -> LightSet {
         let mut group_of = vec![u32::MAX; lights.len()];
         let mut built = Vec::with_capacity(groups.len());
         for (g, (range, reach)) in groups.into_iter().enumerate() {
@@ -223,6 +272,13 @@ impl LightSet {
             // full radiance, so a narrow beam must not be picked less often
             // than a wide one of the same radiance and area.
             let weight = match &reach {
+                _ if picking == LightPicking::Uniform => {
+                    if total > 0.0 {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                }
                 Some(r) if r.sin_a() > 0.0 => total / (r.sin_a() * r.sin_a()),
                 _ => total,
             };
@@ -292,11 +348,13 @@ impl LightSet {
         // Weighing groups by where they are pays only where there is a
         // choice among them; with a group the bounds cannot place (a mix of
         // kinds), picking stays by power.
-        let spatial =
-            (2..=MAX_SPATIAL_GROUPS).contains(&local_groups.len()) && lit >= 2 && unplaced == 0;
+        let spatial = picking == LightPicking::Spatial
+            && (2..=MAX_SPATIAL_GROUPS).contains(&local_groups.len())
+            && lit >= 2
+            && unplaced == 0;
         LightSet {
             spatial,
-            power_only: false,
+            picking,
             env_groups,
             env_power,
             local_groups,
@@ -355,11 +413,7 @@ impl LightSet {
                 (g.range.clone(), reach)
             })
             .collect();
-        let power_only = self.power_only;
-        *self = LightSet::with_groups(lights, groups);
-        if power_only {
-            *self = std::mem::take(self).without_spatial_picking();
-        }
+        *self = LightSet::with_groups_picked_by(lights, groups, self.picking);
     }
 
     /// Whether the scene has no light that can be sampled.
@@ -592,20 +646,16 @@ impl LightSet {
         self.spatial
     }
 
-    /// The same lights picked by power alone (and reach), as with one
-    /// group: the reference that spatial picking is measured against.
-    pub fn without_spatial_picking(mut self) -> LightSet {
-        self.spatial = false;
-        self.power_only = true;
+    /// The same lights picked by `picking`.
+    pub fn with_picking(mut self, picking: LightPicking) -> LightSet {
+        self.picking = picking;
+        self.edit(|_| {});
         self
     }
 
-    /// Undoes [`LightSet::without_spatial_picking`]: groups weighed by where
-    /// they are again, where there are 2 to [`MAX_SPATIAL_GROUPS`] of them.
-    pub fn with_spatial_picking(mut self) -> LightSet {
-        self.power_only = false;
-        self.edit(|_| {});
-        self
+    /// The rule lights are picked by.
+    pub fn picking(&self) -> LightPicking {
+        self.picking
     }
 
     /// Probability that [`LightSet::pick`] returns light `index` at `p`.
@@ -702,7 +752,7 @@ mod tests {
             .collect();
         let spatial = LightSet::new(lights);
         assert!(spatial.is_spatial());
-        let by_power = spatial.clone().without_spatial_picking();
+        let by_power = spatial.clone().with_picking(LightPicking::Power);
         for x in [0.0, 0.7, 1.5] {
             let p = Vec3::new(x, 0.0, 0.0);
             let (vs, vp) = (

@@ -25,7 +25,8 @@ use crate::film::FilmSettings;
 use crate::job::RenderJob;
 use crate::light::pls::{BrightnessMode, Pls, PlsEmitter};
 use crate::light::{
-    Cone, DirectionalLight, EnvironmentLight, Light, LightSet, PointLight, Reach, TriangleLight,
+    Cone, DirectionalLight, EnvironmentLight, Light, LightPicking, LightSet, PointLight, Reach,
+    TriangleLight,
 };
 use glam::{Vec2, Vec3};
 use plsr_base::Vocabulary;
@@ -393,6 +394,8 @@ pub struct SceneDescription {
     pub job: RenderJob,
     /// Embree's robust intersection mode (watertight, a little slower).
     pub robust: bool,
+    /// How next-event estimation picks a light at each shading point.
+    pub light_picking: LightPicking,
     /// Groups of meshes placed by instances (none: every mesh is in
     /// `meshes`).
     pub instancing: instancing::Instancing,
@@ -481,6 +484,7 @@ impl Scene {
             film,
             job,
             robust,
+            light_picking,
             instancing,
         } = desc;
         job.validate()
@@ -741,7 +745,7 @@ impl Scene {
             meshes,
             first_light,
             materials,
-            lights: LightSet::with_groups(lights, groups),
+            lights: LightSet::with_groups_picked_by(lights, groups, light_picking),
             camera,
             film,
             default_job: job,
@@ -786,17 +790,15 @@ impl Scene {
         self.lights.edit(f);
     }
 
-    /// Picks lights by power alone (`false`) instead of weighing them by
-    /// distance and orientation at each shading point as well (`true`, the
-    /// default; see [`LightSet::pick`]). Both are unbiased; this is for
-    /// comparing their noise.
-    pub fn set_spatial_light_picking(&mut self, spatial: bool) {
-        let lights = std::mem::take(&mut self.lights);
-        self.lights = if spatial {
-            lights.with_spatial_picking()
-        } else {
-            lights.without_spatial_picking()
-        };
+    /// Picks lights by `picking` instead of the scene's rule (see
+    /// [`LightPicking`]). Every rule is unbiased; they differ in noise.
+    pub fn set_light_picking(&mut self, picking: LightPicking) {
+        self.lights = std::mem::take(&mut self.lights).with_picking(picking);
+    }
+
+    /// The rule lights are picked by.
+    pub fn light_picking(&self) -> LightPicking {
+        self.lights.picking()
     }
 
     /// Sets the PLS light of mesh `mesh` (an emitter made by [`pls_mesh`])

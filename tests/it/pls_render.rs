@@ -60,6 +60,7 @@ fn floor_radiance(light: &Pls, mode: BrightnessMode, target: Vec3, spp: u32) -> 
             ..Default::default()
         },
         robust: false,
+        light_picking: Default::default(),
         instancing: Default::default(),
     })
     .unwrap();
@@ -198,6 +199,7 @@ fn the_papers_flashlight_lights_the_ellipse_the_geometry_predicts() {
             ..Default::default()
         },
         robust: false,
+        light_picking: Default::default(),
         instancing: Default::default(),
     })
     .unwrap();
@@ -327,6 +329,7 @@ fn meshes_and_materials_check_their_own_rules() {
         film: Default::default(),
         job: Default::default(),
         robust: false,
+        light_picking: Default::default(),
         instancing: Default::default(),
     };
     let err = Scene::build(desc(

@@ -88,6 +88,7 @@ fn white_furnace() {
             ..Default::default()
         },
         robust: false,
+        light_picking: Default::default(),
         instancing: Default::default(),
     });
     // The sphere fills the middle of the image.
@@ -173,6 +174,7 @@ fn floor_under_emitter(
             ..Default::default()
         },
         robust: false,
+        light_picking: Default::default(),
         instancing: Default::default(),
     })
 }
@@ -307,6 +309,7 @@ fn floor_lit_by(light: plsr::light::PointLight, px: f32) -> f32 {
             ..Default::default()
         },
         robust: false,
+        light_picking: Default::default(),
         instancing: Default::default(),
     });
     film.color[film.index(1, 1)].x
@@ -510,6 +513,7 @@ fn glass_sphere_in_a_furnace(spp: u32, rr_depth: u32) -> (Film, Vec<usize>) {
             ..Default::default()
         },
         robust: false,
+        light_picking: Default::default(),
         instancing: Default::default(),
     });
     let centre = film.index(8, 8);
@@ -731,5 +735,59 @@ fn a_sphere_light_gives_its_analytic_irradiance() {
     assert!(
         (got - Vec3::splat(want)).abs().max_element() < 0.004 * want,
         "{got}, want {want}"
+    );
+}
+
+/// Every light-picking rule (`[render] light_picking`) renders the same
+/// closed-form image: a floor of albedo ρ under a constant sky L and a point
+/// light of intensity I at height h, direct light only, has radiance
+/// `ρ·L + ρ/π·I·h/d³` at distance `d` from the light. The image means agree
+/// with it within 4 standard errors, and an unknown rule is refused naming
+/// the key.
+#[test]
+fn every_light_picking_rule_renders_the_closed_form_image() {
+    let (rho, sky, intensity, h) = (0.5f64, 0.2f64, 2.0f64, 1.0f64);
+    let dir = tempfile::tempdir().unwrap();
+    let text = |rule: &str| {
+        format!(
+            "[render]\nspp = 64\nmax_depth = 1\nlight_picking = \"{rule}\"\n\
+             [camera]\nposition = [0, 0, 3]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nvfov = 20\nresolution = [16, 16]\n\
+             [film]\nfilter = \"box\"\n\
+             [environment]\nradiance = [{sky}, {sky}, {sky}]\n\
+             [[materials]]\nname = \"floor\"\ntype = \"diffuse\"\nreflectance = [{rho}, {rho}, {rho}]\n\
+             [[shapes]]\ntype = \"rectangle\"\nmaterial = \"floor\"\ntransform = {{ scale = 50 }}\n\
+             [[lights]]\ntype = \"point\"\nposition = [0, 0, {h}]\nintensity = [{intensity}, {intensity}, {intensity}]\n"
+        )
+    };
+    // The closed form averaged over the image's footprint on the floor
+    // (a box filter: each pixel is the mean over its square).
+    let half = 3.0 * (10f64).to_radians().tan();
+    let n = 400;
+    let mut expected = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            let x = -half + (i as f64 + 0.5) / n as f64 * 2.0 * half;
+            let y = -half + (j as f64 + 0.5) / n as f64 * 2.0 * half;
+            let d = (x * x + y * y + h * h).sqrt();
+            expected += rho * sky + rho / std::f64::consts::PI * intensity * h / (d * d * d);
+        }
+    }
+    expected /= (n * n) as f64;
+    for rule in ["spatial", "power", "uniform"] {
+        let path = dir.path().join(format!("{rule}.toml"));
+        std::fs::write(&path, text(rule)).unwrap();
+        let film = render_scene(plsr::scene::file::load(&path).unwrap());
+        let (mean, stderr) = mean_and_stderr(&film);
+        assert!(
+            (mean - expected).abs() < 4.0 * stderr + 1e-4 * expected,
+            "{rule}: mean {mean} against {expected} (standard error {stderr})"
+        );
+    }
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, text("random")).unwrap();
+    let err = plsr::scene::file::load(&path).unwrap_err().to_string();
+    assert!(
+        err.contains("render.light_picking") && err.contains("\"random\""),
+        "{err}"
     );
 }

@@ -166,7 +166,7 @@ fn light_selection_is_proportional_to_power() {
     let total: f64 = powers.iter().sum();
     // By power alone (with several groups, `pick` would also weigh them by
     // where they are: `spatial_light_selection_matches_its_pmf`).
-    let set = LightSet::new(lights).without_spatial_picking();
+    let set = LightSet::new(lights).with_picking(plsr::light::LightPicking::Power);
     let n = 200_000;
     let mut observed = vec![0.0; 4];
     let mut rng = Rng::new(16, 1);
@@ -271,6 +271,86 @@ fn spatial_light_selection_matches_its_pmf() {
     let p = Vec3::ZERO;
     let ratio = set.pick_pmf(0, p) / set.pick_pmf(1, p);
     assert!((ratio - (1.0 / 9.0) / (3.0 / 17.0)).abs() < 1e-4, "{ratio}");
+}
+
+/// Mitsuba's rule (`LightPicking::Uniform`): every group that emits is
+/// equally likely, whatever its power or where it is; a group of zero power
+/// is never picked; within a group, lights go by power. Picks are
+/// distributed as `pick_pmf` says (chi-square) and return its value.
+#[test]
+fn uniform_light_selection_picks_every_emitter_equally() {
+    use plsr::light::{EnvironmentLight, LightPicking};
+    let point = |position: Vec3, intensity: f32| {
+        Light::Point(PointLight {
+            position,
+            intensity: Vec3::splat(intensity),
+            cone: None,
+            projection: None,
+        })
+    };
+    let lights = vec![
+        point(Vec3::new(0.0, 0.0, 3.0), 1.0),
+        point(Vec3::new(4.0, 0.0, 1.0), 300.0),
+        point(Vec3::new(1.0, 0.0, 1.0), 0.0),
+        // One mesh of two triangles, the second four times the first.
+        Light::Triangle(
+            TriangleLight::new([Vec3::ZERO, Vec3::X, Vec3::Y], Vec3::splat(2.0), true).unwrap(),
+        ),
+        Light::Triangle(
+            TriangleLight::new(
+                [Vec3::Z, Vec3::Z + 2.0 * Vec3::X, Vec3::Z + 2.0 * Vec3::Y],
+                Vec3::splat(2.0),
+                true,
+            )
+            .unwrap(),
+        ),
+        Light::Environment {
+            light: Box::new(EnvironmentLight::constant(Vec3::splat(5.0))),
+            scene_radius: 10.0,
+        },
+    ];
+    let groups = vec![
+        (0..1, None),
+        (1..2, None),
+        (2..3, None),
+        (3..5, None),
+        (5..6, None),
+    ];
+    let set = LightSet::with_groups_picked_by(lights, groups, LightPicking::Uniform);
+    assert!(!set.is_spatial() && set.picking() == LightPicking::Uniform);
+    let expected_pmf: [f32; 6] = [0.25, 0.25, 0.0, 0.05, 0.2, 0.25];
+    let n = 200_000;
+    for (s, p) in [Vec3::ZERO, Vec3::new(3.0, 0.5, 0.5)]
+        .into_iter()
+        .enumerate()
+    {
+        for (i, &q) in expected_pmf.iter().enumerate() {
+            let pmf = set.pick_pmf(i, p);
+            assert!(
+                (pmf - q).abs() < 1e-6,
+                "at {p}: light {i} pmf {pmf}, not {q}"
+            );
+        }
+        let mut observed = vec![0.0; 6];
+        let mut rng = Rng::new(70 + s as u64, 1);
+        for _ in 0..n {
+            let (i, prob) = set.pick(p, rng.next_2d()).unwrap();
+            assert_eq!(prob, set.pick_pmf(i, p), "at {p}, light {i}");
+            observed[i] += 1.0;
+        }
+        assert_eq!(observed[2], 0.0, "a light of zero power was picked");
+        let expected: Vec<f64> = expected_pmf.iter().map(|&q| q as f64 * n as f64).collect();
+        let (chi2, dof) = chi2_from_counts(&observed, &expected, 5.0);
+        let pv = 1.0 - regularized_gamma_p(dof as f64 / 2.0, chi2 / 2.0);
+        assert!(
+            pv >= SIGNIFICANCE,
+            "at {p}: chi2 = {chi2}, dof = {dof}, p = {pv}"
+        );
+    }
+    // Editing the lights (as fitting does) keeps the rule.
+    let mut edited = set.clone();
+    edited.scale_emission(1..2, Vec3::splat(10.0));
+    assert_eq!(edited.pick_pmf(1, Vec3::ZERO), 0.25);
 }
 
 /// Next-event estimation on a parametric light (the paper's lamp): picking a

@@ -420,6 +420,7 @@ pub extern "C" fn plsr_scene_builder_build(
             film: Default::default(),
             job: b.job,
             robust: false,
+            light_picking: Default::default(),
             instancing: Default::default(),
         })?;
         write_out(out, new_handle(plsr_scene { scene }), "out")

@@ -8,6 +8,7 @@ use plsr::film::part::{merge_parts, scene_files_hasher, Part, PartInfo, StableHa
 use plsr::film::Tile;
 use plsr::job::RenderJob;
 use plsr::job::{JobError, MAX_DEPTH, MAX_SPP};
+use plsr::light::LightPicking;
 use plsr::render::{render_window_sums, RenderOptions, DEFAULT_TILE_SIZE, MAX_TILE_SIZE};
 use plsr::scene::Scene;
 use plsr_base::Vocabulary;
@@ -89,11 +90,13 @@ pub struct RenderArgs {
     /// checking and timing.
     #[arg(long)]
     pub scalar: bool,
-    /// How next-event estimation picks a light: `spatial` (default) weighs
-    /// each light's power by its distance and orientation at the shading
-    /// point, `power` by power alone. Both are unbiased; for comparing noise.
-    #[arg(long, value_parser = ["spatial", "power"], default_value = "spatial")]
-    pub light_picking: String,
+    /// How next-event estimation picks a light, instead of the scene's
+    /// `[render] light_picking`: `spatial` (plsr's default) weighs each
+    /// light's power by its distance and orientation at the shading point,
+    /// `power` by power alone, `uniform` every light equally (Mitsuba's
+    /// rule). All are unbiased; they differ in noise.
+    #[arg(long, value_parser = ["spatial", "power", "uniform"])]
+    pub light_picking: Option<String>,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
@@ -241,15 +244,20 @@ fn build_scene(a: &RenderArgs, mut description: plsr::scene::SceneDescription) -
             .map_err(|e| Error::invalid_argument(format!("--resolution {r}: {e}")))?;
     }
     let mut scene = Scene::build(description)?;
-    if a.light_picking == "power" {
-        // A part's identity (its scene hash) does not record the picking,
-        // so parts rendered both ways could be merged unnoticed.
+    let picking = a.light_picking.as_deref().and_then(LightPicking::from_name);
+    if let Some(picking) = picking.filter(|&p| p != scene.light_picking()) {
+        // A part's identity (its scene hash) does not record a picking
+        // chosen on the command line, so parts rendered both ways could be
+        // merged unnoticed; the scene file's `[render] light_picking` is
+        // part of the hash.
         if a.samples.is_some() || a.resume {
-            return Err(Error::invalid_argument(
-                "--light-picking power renders whole images only (not with --samples or --resume)",
-            ));
+            return Err(Error::invalid_argument(format!(
+                "--light-picking {} renders whole images only (not with --samples or --resume); \
+                 for parts, set `light_picking` in the scene's [render] section",
+                picking.name()
+            )));
         }
-        scene.set_spatial_light_picking(false);
+        scene.set_light_picking(picking);
     }
     Ok(scene)
 }

@@ -397,6 +397,7 @@ impl Builder<'_> {
     fn build(&self, f: SceneFile) -> Result<SceneDescription> {
         let job = self.job(&f.render)?;
         let robust = f.render.robust.unwrap_or(false);
+        let light_picking = self.light_picking(&f.render)?;
         let (camera, preset) = self.camera(&f.camera)?;
         let film = self.film(&f.film, preset, (camera.width(), camera.height()))?;
 
@@ -581,6 +582,7 @@ impl Builder<'_> {
             film,
             job,
             robust,
+            light_picking,
             instancing,
         })
     }

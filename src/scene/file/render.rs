@@ -1,9 +1,10 @@
-//! `[render]`: the job the scene file asks for (spp, depth, seed) and
-//! Embree's robust mode.
+//! `[render]`: the job the scene file asks for (spp, depth, seed),
+//! Embree's robust mode and how lights are picked.
 
 use super::Builder;
 use crate::error::Result;
 use crate::job::RenderJob;
+use crate::light::LightPicking;
 use serde::Deserialize;
 
 #[derive(Debug, Default, Deserialize)]
@@ -14,9 +15,23 @@ pub(super) struct RenderSection {
     pub(super) seed: Option<u64>,
     pub(super) rr_depth: Option<i64>,
     pub(super) robust: Option<bool>,
+    pub(super) light_picking: Option<String>,
 }
 
 impl Builder<'_> {
+    /// `render.light_picking`: `spatial` (default), `power` or `uniform`.
+    pub(super) fn light_picking(&self, r: &RenderSection) -> Result<LightPicking> {
+        match r.light_picking.as_deref() {
+            None => Ok(LightPicking::default()),
+            Some(name) => LightPicking::from_name(name).ok_or_else(|| {
+                self.err(
+                    "render.light_picking",
+                    format!("unknown rule {name:?} (spatial, power or uniform)"),
+                )
+            }),
+        }
+    }
+
     pub(super) fn job(&self, r: &RenderSection) -> Result<RenderJob> {
         let d = RenderJob::default();
         Ok(RenderJob {

@@ -11,9 +11,30 @@ use glam::{DMat4, DVec3};
 use toml::Value;
 
 impl<'a> Translator<'a> {
+    /// An emitter's `sampling_weight`: plsr picks Mitsuba's emitters
+    /// uniformly (`[render] light_picking = "uniform"`), Mitsuba's rule
+    /// when every weight is 1, the default; other weights are refused.
+    pub(super) fn sampling_weight(
+        &self,
+        node: &'a Element,
+        p: &mut super::translator::Params<'a>,
+    ) -> Result<()> {
+        match self.take_float(p, "sampling_weight")? {
+            Some(w) if w != 1.0 => Err(self.err(
+                node,
+                format!(
+                    "sampling_weight = {w}: plsr picks every emitter equally likely \
+                     (Mitsuba's default, weight 1); other weights are not supported"
+                ),
+            )),
+            _ => Ok(()),
+        }
+    }
+
     pub(super) fn emitter(&mut self, node: &'a Element) -> Result<()> {
         let kind = self.required_attr(node, "type")?;
         let mut p = self.params(node)?;
+        self.sampling_weight(node, &mut p)?;
         match kind.as_str() {
             "point" => {
                 let position = self.take_point(&mut p, "position")?;

@@ -275,6 +275,7 @@ impl<'a> Translator<'a> {
             return Err(self.err(e, format!("a shape's emitter must be `area`, not `{kind}`")));
         }
         let mut ep = self.params(e)?;
+        self.sampling_weight(e, &mut ep)?;
         let radiance = self
             .take_rgb(&mut ep, "radiance", SpectrumUse::Emission)?
             .unwrap_or([1.0; 3]);

@@ -72,7 +72,12 @@ impl<'a> Translator<'a> {
             shapes: Vec::new(),
             lights: Vec::new(),
             environment: None,
-            render: Table::new(),
+            // Mitsuba picks each emitter equally likely; so does the import,
+            // so its noise is Mitsuba's too.
+            render: Table(vec![(
+                "light_picking".to_string(),
+                toml::Value::String("uniform".into()),
+            )]),
             camera: None,
             film: Table::new(),
             integrated: false,

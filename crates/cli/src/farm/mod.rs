@@ -317,7 +317,7 @@ fn piece(a: &PieceArgs) -> Result<()> {
         exposure: None,
         filmic: false,
         scalar: false,
-        light_picking: "spatial".into(),
+        light_picking: None,
         resume: false,
         quiet: true,
     })

@@ -207,6 +207,7 @@ fn host_scene_in_rust() -> plsr::scene::Scene {
             ..Default::default()
         },
         robust: false,
+        light_picking: Default::default(),
         instancing: Default::default(),
     })
     .unwrap()

@@ -159,6 +159,7 @@ spp = 4
 seed = 7
 max_depth = 4
 rr_depth = 2
+light_picking = "uniform"
 
 [camera]
 position = [0, 1, 4]
@@ -329,6 +330,12 @@ fn mitsuba_conventions_are_converted() {
     );
     assert_eq!(num(&t, "render", "max_depth"), 7.0);
     assert_eq!(num(&t, "render", "rr_depth"), 4.0, "Mitsuba's rr_depth 5");
+    // Lights are picked as Mitsuba picks its emitters: each equally likely.
+    assert_eq!(
+        t["render"]["light_picking"].as_str(),
+        Some("uniform"),
+        "{t:?}"
+    );
     let t = translated(r#"<scene version="3.0.0"><integrator type="path"/></scene>"#);
     assert_eq!(num(&t, "render", "max_depth"), 1024.0);
 
@@ -416,7 +423,7 @@ fn error_of(xml: &str) -> String {
 
 #[test]
 fn unsupported_elements_are_refused_by_name_and_line() {
-    let cases: [(&str, &[&str]); 12] = [
+    let cases: [(&str, &[&str]); 13] = [
         (
             "<scene version=\"3.0.0\">\n<shape type=\"sphere\">\n<bsdf type=\"pplastic\"/></shape></scene>",
             &["line 3", "<bsdf type=\"pplastic\">", "`pplastic` BSDF is not supported"],
@@ -446,6 +453,11 @@ fn unsupported_elements_are_refused_by_name_and_line() {
             &["<include>", "\"other.xml\" was not found"],
         ),
         ("<scene version=\"3.0.0\"><shape type=\"sphere\"></scene>", &["not well-formed XML"]),
+        (
+            "<scene version=\"3.0.0\"><shape type=\"sphere\"><emitter type=\"area\">\n\
+             <float name=\"sampling_weight\" value=\"2\"/></emitter></shape></scene>",
+            &["<emitter type=\"area\">", "sampling_weight = 2", "equally likely"],
+        ),
         (
             "<scene version=\"3.0.0\"><shape type=\"sphere\"><bsdf type=\"diffuse\">\
              <spectrum name=\"reflectance\" value=\"700:0.1, 400:0.9\"/></bsdf></shape></scene>",
