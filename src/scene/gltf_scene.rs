@@ -107,15 +107,15 @@ impl GltfScene {
 /// error message says what is wrong; callers put the file and field in
 /// front.
 pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, FormatError> {
-    let (doc, buffers, images) =
-        gltf::import(path).map_err(|e| format!("not a readable glTF 2.0 file: {e}"))?;
-    let files = external_files(&doc, path.parent().unwrap_or(Path::new(".")));
+    let asset = super::gltf_files::open(path)?;
+    let (doc, buffers) = (&asset.doc, &asset.buffers);
     let mut notes = Notes::default();
 
     // Materials: the metallic-roughness model as principled.
     let mut cache = TexelCache {
-        images: &images,
-        decoded: vec![None; images.len()],
+        asset: &asset,
+        decoded: vec![None; doc.images().len()],
+        files: Vec::new(),
     };
     let mut materials = Vec::new();
     let mut emission = Vec::new();
@@ -151,7 +151,7 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, FormatError> {
                 .name()
                 .map_or_else(|| format!("mesh {}", mesh.index()), String::from);
             for prim in mesh.primitives() {
-                read_primitive(&mesh_name, &prim, &m, &buffers, &mut objects, &mut notes)?;
+                read_primitive(&mesh_name, &prim, &m, buffers, &mut objects, &mut notes)?;
             }
         }
         if let Some(camera) = node.camera() {
@@ -165,6 +165,8 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, FormatError> {
             stack.push((child, m, depth + 1));
         }
     }
+    let mut files = asset.files.clone();
+    files.extend(cache.files);
     Ok(GltfScene {
         objects,
         materials,
@@ -174,28 +176,6 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, FormatError> {
         notes: notes.0,
         files,
     })
-}
-
-/// The files a glTF document references besides itself (buffers and
-/// images not embedded as `data:` URIs), relative to `base`.
-fn external_files(doc: &gltf::Document, base: &Path) -> Vec<std::path::PathBuf> {
-    let mut files = Vec::new();
-    let mut external = |uri: &str| {
-        if !uri.starts_with("data:") {
-            files.push(base.join(uri));
-        }
-    };
-    for b in doc.buffers() {
-        if let gltf::buffer::Source::Uri(uri) = b.source() {
-            external(uri);
-        }
-    }
-    for i in doc.images() {
-        if let gltf::image::Source::Uri { uri, .. } = i.source() {
-            external(uri);
-        }
-    }
-    files
 }
 
 /// The import's notes, each said once.
@@ -212,8 +192,10 @@ impl Notes {
 
 /// The document's images, each decoded the first time a material uses it.
 struct TexelCache<'a> {
-    images: &'a [gltf::image::Data],
-    decoded: Vec<Option<Texels>>,
+    asset: &'a super::gltf_files::GltfAsset,
+    decoded: Vec<Option<(u32, u32, Texels)>>,
+    /// The image files read.
+    files: Vec<std::path::PathBuf>,
 }
 
 /// An image's RGBA texels, shared by the textures made of it.
@@ -222,18 +204,16 @@ type Texels = Arc<Vec<[f32; 4]>>;
 impl TexelCache<'_> {
     /// Image `index`: its width, height and RGBA texels.
     fn texels(&mut self, index: usize) -> std::result::Result<(u32, u32, Texels), FormatError> {
-        let image = self
-            .images
-            .get(index)
-            .ok_or_else(|| format!("image {index} does not exist"))?;
-        if self.decoded[index].is_none() {
-            self.decoded[index] = Some(Arc::new(decode(image)?));
+        if self.decoded.get(index).is_none() {
+            return Err(format!("images[{index}] does not exist").into());
         }
-        Ok((
-            image.width,
-            image.height,
-            self.decoded[index].clone().unwrap(),
-        ))
+        if self.decoded[index].is_none() {
+            let (bytes, file) = self.asset.image_bytes(index)?;
+            let (w, h, texels) = decode(&bytes).map_err(|m| format!("images[{index}]: {m}"))?;
+            self.files.extend(file);
+            self.decoded[index] = Some((w, h, Arc::new(texels)));
+        }
+        Ok(self.decoded[index].clone().expect("decoded above"))
     }
 }
 
@@ -347,7 +327,7 @@ fn read_primitive(
     mesh_name: &str,
     prim: &gltf::Primitive,
     m: &Mat4,
-    buffers: &[gltf::buffer::Data],
+    buffers: &[Vec<u8>],
     objects: &mut Vec<GltfObject>,
     notes: &mut Notes,
 ) -> std::result::Result<(), FormatError> {
@@ -360,7 +340,7 @@ fn read_primitive(
         ));
         return Ok(());
     }
-    let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
     let positions: Vec<Vec3> = reader
         .read_positions()
         .ok_or_else(|| format!("`{name}` has no POSITION attribute"))?
@@ -515,54 +495,47 @@ fn read_light(
 }
 
 /// An image's texels as RGBA in `[0, 1]` (not yet decoded from sRGB).
-fn decode(image: &gltf::image::Data) -> std::result::Result<Vec<[f32; 4]>, FormatError> {
-    use gltf::image::Format::*;
-    let (channels, bytes) = match image.format {
-        R8 => (1, 1),
-        R8G8 => (2, 1),
-        R8G8B8 => (3, 1),
-        R8G8B8A8 => (4, 1),
-        R16 => (1, 2),
-        R16G16 => (2, 2),
-        R16G16B16 => (3, 2),
-        R16G16B16A16 => (4, 2),
-        R32G32B32FLOAT => (3, 4),
-        R32G32B32A32FLOAT => (4, 4),
+fn decode(bytes: &[u8]) -> std::result::Result<(u32, u32, Vec<[f32; 4]>), String> {
+    use image::DynamicImage::*;
+    let reader = || {
+        image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| e.to_string())
     };
-    let n = image.width as usize * image.height as usize;
-    if n == 0 || image.pixels.len() != n * channels * bytes {
+    let (w, h) = reader()?
+        .into_dimensions()
+        .map_err(|e| format!("not an image plsr can read: {e}"))?;
+    let texels = w as u64 * h as u64;
+    if texels == 0 || texels > MAX_TEXELS {
         return Err(format!(
-            "an image of {}×{} has {} bytes of pixels",
-            image.width,
-            image.height,
-            image.pixels.len()
-        )
-        .into());
+            "an image of {w}×{h} texels (plsr reads 1 to {MAX_TEXELS})"
+        ));
     }
-    let value = |k: usize| -> f32 {
-        let at = k * bytes;
-        match bytes {
-            1 => image.pixels[at] as f32 / 255.0,
-            2 => u16::from_le_bytes([image.pixels[at], image.pixels[at + 1]]) as f32 / 65535.0,
-            _ => f32::from_le_bytes(image.pixels[at..at + 4].try_into().expect("4 bytes")),
-        }
+    let mut reader = reader()?;
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(texels * 16 + (1 << 20));
+    reader.limits(limits);
+    let image = reader
+        .decode()
+        .map_err(|e| format!("not an image plsr can read: {e}"))?;
+    let rgba: Vec<[f32; 4]> = match &image {
+        ImageRgb32F(_) | ImageRgba32F(_) => image.to_rgba32f().pixels().map(|p| p.0).collect(),
+        ImageLuma16(_) | ImageLumaA16(_) | ImageRgb16(_) | ImageRgba16(_) => image
+            .to_rgba16()
+            .pixels()
+            .map(|p| p.0.map(|c| c as f32 / 65535.0))
+            .collect(),
+        _ => image
+            .to_rgba8()
+            .pixels()
+            .map(|p| p.0.map(|c| c as f32 / 255.0))
+            .collect(),
     };
-    Ok((0..n)
-        .map(|i| {
-            let base = i * channels;
-            let get = |c: usize| {
-                if c < channels {
-                    value(base + c)
-                } else if c == 3 {
-                    1.0
-                } else {
-                    value(base)
-                }
-            };
-            [get(0), get(1), get(2), get(3)]
-        })
-        .collect())
+    Ok((w, h, rgba))
 }
+
+/// The most texels of one glTF image (2²⁸: 16384²).
+const MAX_TEXELS: u64 = 1 << 28;
 
 /// A texture from RGBA texels through `f`.
 /// Tangents (with the bitangent's sign in `w`) under the transform `m`: the

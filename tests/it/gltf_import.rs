@@ -336,7 +336,9 @@ fn bad_gltf_files_are_refused_clearly() {
     std::fs::remove_file(dir.path().join("tex.png")).unwrap();
     let e = scene("quad.gltf");
     assert!(
-        e.contains("quad.gltf") && e.contains("not a readable glTF"),
+        e.contains("quad.gltf")
+            && e.contains("images[0].uri \"tex.png\"")
+            && e.contains("no such file"),
         "{e}"
     );
     // Directly: the same messages, naming the file.
@@ -347,6 +349,128 @@ fn bad_gltf_files_are_refused_clearly() {
         e.contains("junk.gltf") && e.contains("not a readable glTF"),
         "{e}"
     );
+}
+
+/// A glTF reads its own files and nothing else: buffer and image URIs that
+/// are absolute, climb out with `..`, use another scheme, link out of the
+/// folder or name a FIFO are refused naming the URI, before anything is
+/// read; sizes a file states (GLB length, accessor count and range) are
+/// checked against the bytes there before anything is allocated; `data:`
+/// and percent-encoded URIs are read.
+#[test]
+fn gltf_files_stay_inside_the_assets_folder() {
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("asset");
+    std::fs::create_dir(&dir).unwrap();
+    write_quad(&dir, TEXTURED);
+    std::fs::write(root.path().join("outside.bin"), quad_buffer()).unwrap();
+    let error_of = |name: &str, json: String| {
+        let path = dir.join(name);
+        std::fs::write(&path, json).unwrap();
+        match read_gltf(&path) {
+            Ok(_) => panic!("{name} accepted"),
+            Err(e) => e.to_string(),
+        }
+    };
+    let with_buffer = |uri: &str| quad_json(Some(uri), TEXTURED);
+    for (uri, fault) in [
+        ("../outside.bin", "climbs out with `..`"),
+        ("/etc/passwd", "an absolute path"),
+        ("/dev/zero", "an absolute path"),
+        ("file:///etc/passwd", "`file:` URIs are not read"),
+        ("http://example.com/quad.bin", "`http:` URIs are not read"),
+        ("sub/../../outside.bin", "climbs out with `..`"),
+    ] {
+        let e = error_of("bad.gltf", with_buffer(uri));
+        assert!(
+            e.contains(&format!("buffers[0].uri {uri:?}")) && e.contains(fault),
+            "{uri}: {e}"
+        );
+    }
+    // A link inside the folder to a file outside it.
+    std::os::unix::fs::symlink(root.path().join("outside.bin"), dir.join("link.bin")).unwrap();
+    let e = error_of("bad.gltf", with_buffer("link.bin"));
+    assert!(e.contains("outside the asset's folder"), "{e}");
+    // A FIFO would block a read: refused unopened.
+    let fifo = dir.join("fifo.bin");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    if made.is_ok_and(|s| s.success()) {
+        let e = error_of("bad.gltf", with_buffer("fifo.bin"));
+        assert!(e.contains("not a regular file"), "{e}");
+    }
+    // Images follow the same rule.
+    let json = quad_json(
+        Some("quad.bin"),
+        &TEXTURED.replace("\"tex.png\"", "\"../tex.png\""),
+    );
+    let e = error_of("bad.gltf", json);
+    assert!(e.contains("images[0].uri \"../tex.png\""), "{e}");
+
+    // Sizes are checked before anything is allocated from them.
+    let json =
+        quad_json(Some("quad.bin"), TEXTURED).replace("\"count\": 6", "\"count\": 2147483648");
+    let e = error_of("bad.gltf", json);
+    assert!(e.contains("accessors[2].count 2147483648"), "{e}");
+    let json = quad_json(Some("quad.bin"), TEXTURED).replace("\"count\": 6", "\"count\": 7");
+    let e = error_of("bad.gltf", json);
+    assert!(e.contains("accessors[2]") && e.contains("run past"), "{e}");
+    let json =
+        quad_json(Some("quad.bin"), TEXTURED).replace("\"byteLength\": 92", "\"byteLength\": 93");
+    let e = error_of("bad.gltf", json);
+    assert!(e.contains("buffers[0].byteLength 93"), "{e}");
+    write_glb(&dir.join("quad.glb"), TEXTURED);
+    let mut glb = std::fs::read(dir.join("quad.glb")).unwrap();
+    glb[8..12].copy_from_slice(&0xFFFF_FFF0u32.to_le_bytes());
+    std::fs::write(dir.join("huge.glb"), &glb).unwrap();
+    let e = read_gltf(&dir.join("huge.glb")).unwrap_err().to_string();
+    assert!(e.contains("length 4294967280"), "{e}");
+
+    // What is allowed: a buffer as a data: URI and a percent-encoded name
+    // give the same quad as the plain file.
+    let plain = read_gltf(&dir.join("quad.gltf")).unwrap();
+    let data = format!(
+        "data:application/octet-stream;base64,{}",
+        base64(&quad_buffer())
+    );
+    std::fs::write(dir.join("data.gltf"), with_buffer(&data)).unwrap();
+    std::fs::write(dir.join("my quad.bin"), quad_buffer()).unwrap();
+    std::fs::write(dir.join("spaced.gltf"), with_buffer("my%20quad.bin")).unwrap();
+    for name in ["data.gltf", "spaced.gltf"] {
+        let other = read_gltf(&dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(
+            other.objects[0].positions, plain.objects[0].positions,
+            "{name}"
+        );
+        assert_eq!(other.objects[0].uvs, plain.objects[0].uvs, "{name}");
+    }
+    let bad = with_buffer("data:application/octet-stream;base64,AAAA*AAA");
+    let e = error_of("bad.gltf", bad);
+    assert!(
+        e.contains("buffers[0].uri") && e.contains("not base64"),
+        "{e}"
+    );
+}
+
+/// Standard base64 with padding, for writing `data:` URIs.
+fn base64(bytes: &[u8]) -> String {
+    const ALPHABET: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
+        for k in 0..4 {
+            if k <= chunk.len() {
+                out.push(ALPHABET[(n >> (18 - 6 * k) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
 }
 
 /// A quad `[-1, 1]²` at z = 0 as glTF, with texture coordinates as plsr's
