@@ -93,8 +93,9 @@ pub enum Wrap {
 pub struct Sampling {
     /// Bilinear or nearest.
     pub filter: Filter,
-    /// Outside `[0, 1)`.
-    pub wrap: Wrap,
+    /// Outside `[0, 1)`: along `u` (the image's width), then along `v`
+    /// (its height), as glTF's `wrapS` and `wrapT`.
+    pub wrap: [Wrap; 2],
     /// An affine map of the surface's UV, `[[a, b, c], [d, e, f]]`: the
     /// lookup is at `(a·u + b·v + c, d·u + e·v + f)`; `None` is the
     /// identity.
@@ -223,9 +224,9 @@ impl ImageTexture {
     }
 
     fn texel(&self, x: i64, y: i64) -> Vec3 {
-        let wrap = |i: i64, n: u32| -> usize {
+        let wrap = |i: i64, n: u32, mode: Wrap| -> usize {
             let n = n as i64;
-            (match self.sampling.wrap {
+            (match mode {
                 Wrap::Repeat => i.rem_euclid(n),
                 Wrap::Mirror => {
                     let m = i.rem_euclid(2 * n);
@@ -238,7 +239,8 @@ impl ImageTexture {
                 Wrap::Clamp => i.clamp(0, n - 1),
             }) as usize
         };
-        self.texels[wrap(y, self.height) * self.width as usize + wrap(x, self.width)]
+        let [wrap_u, wrap_v] = self.sampling.wrap;
+        self.texels[wrap(y, self.height, wrap_v) * self.width as usize + wrap(x, self.width, wrap_u)]
     }
 
     /// The bilinearly filtered value at `uv` (repeating outside `[0, 1)`).
@@ -385,7 +387,7 @@ mod tests {
         let nearest = |wrap| {
             checker().with_sampling(Sampling {
                 filter: Filter::Nearest,
-                wrap,
+                wrap: [wrap; 2],
                 to_uv: None,
             })
         };
@@ -406,16 +408,30 @@ mod tests {
         // A map of UV: scaled by 2, the texture repeats twice.
         let s = nearest(Wrap::Repeat).with_sampling(Sampling {
             filter: Filter::Nearest,
-            wrap: Wrap::Repeat,
+            wrap: [Wrap::Repeat; 2],
             to_uv: Some([[2.0, 0.0, 0.0], [0.0, 2.0, 0.0]]),
         });
         assert_eq!(s.eval(Vec2::new(0.3, 0.3)), t.eval(Vec2::new(0.6, 0.6)));
         // Bilinear clamping blends nothing beyond the edge.
         let b = checker().with_sampling(Sampling {
-            wrap: Wrap::Clamp,
+            wrap: [Wrap::Clamp; 2],
             ..Sampling::default()
         });
         assert_eq!(b.eval(Vec2::new(0.0, 0.75)), Vec3::X);
+        // Each axis has its own mode (glTF's wrapS, wrapT).
+        let axes = |wrap| {
+            checker().with_sampling(Sampling {
+                filter: Filter::Nearest,
+                wrap,
+                to_uv: None,
+            })
+        };
+        let clamp_u = axes([Wrap::Clamp, Wrap::Repeat]);
+        assert_eq!(clamp_u.eval(Vec2::new(0.3, -0.1)), Vec3::X);
+        assert_eq!(clamp_u.eval(Vec2::new(7.0, 0.9)), Vec3::Y);
+        let clamp_v = axes([Wrap::Repeat, Wrap::Clamp]);
+        assert_eq!(clamp_v.eval(Vec2::new(1.3, -0.1)), Vec3::Z);
+        assert_eq!(clamp_v.eval(Vec2::new(1.3, 5.0)), Vec3::X);
     }
 
     #[test]

@@ -85,7 +85,7 @@ pub fn open(path: &Path) -> Result<GltfAsset> {
                 data
             }
             gltf::buffer::Source::Uri(uri) => {
-                let (data, file) = asset.read_uri(uri, &format!("{field}.uri"), length as u64)?;
+                let (data, file) = asset.read_uri(uri, &format!("{field}.uri"), length as u64, true)?;
                 asset.files.extend(file);
                 if data.len() < length {
                     return Err(format!(
@@ -122,25 +122,29 @@ impl GltfAsset {
                 Ok((Cow::Borrowed(bytes), None))
             }
             gltf::image::Source::Uri { uri, .. } => {
-                self.read_uri(uri, &format!("images[{index}].uri"), MAX_FILE_BYTES)
+                self.read_uri(uri, &format!("images[{index}].uri"), MAX_FILE_BYTES, false)
             }
         }
     }
 
-    /// The bytes a URI names (at most `cap`), and the file it resolved to
-    /// (none for a `data:` URI). `field` names the URI in errors.
+    /// The bytes a URI names (at most `cap`: a file's first `cap` bytes
+    /// where `prefix`, else a longer file is refused), and the file it
+    /// resolved to (none for a `data:` URI). `field` names the URI in
+    /// errors.
     fn read_uri(
         &self,
         uri: &str,
         field: &str,
         cap: u64,
+        prefix: bool,
     ) -> Result<(Cow<'static, [u8]>, Option<PathBuf>)> {
         if let Some(rest) = uri.strip_prefix("data:") {
             let data = decode_data_uri(rest, cap).map_err(|m| format!("{field}: {m}"))?;
             return Ok((Cow::Owned(data), None));
         }
         let path = confined_path(&self.folder, uri).map_err(|m| format!("{field} {uri:?}: {m}"))?;
-        let data = read_capped(&path, cap, uri).map_err(|e| format!("{field} {uri:?}: {e}"))?;
+        let data =
+            read_first(&path, cap, uri, prefix).map_err(|e| format!("{field} {uri:?}: {e}"))?;
         Ok((Cow::Owned(data), Some(path)))
     }
 
@@ -441,14 +445,21 @@ fn base64_decode(text: &[u8]) -> std::result::Result<Vec<u8>, String> {
 /// (`what` names it in that message) before anything is opened (a FIFO
 /// would block the open).
 fn read_capped(path: &Path, cap: u64, what: &str) -> Result<Vec<u8>> {
+    read_first(path, cap, what, false)
+}
+
+/// The first `cap` bytes of the regular file `path` where `prefix` (a
+/// buffer file longer than its `byteLength`), or the whole file, refused
+/// above `cap` bytes.
+fn read_first(path: &Path, cap: u64, what: &str, prefix: bool) -> Result<Vec<u8>> {
     let meta = std::fs::metadata(path)?;
     if !meta.is_file() {
         return Err(format!("{what} is not a regular file (a folder, device or FIFO)").into());
     }
-    if meta.len() > cap {
+    if meta.len() > cap && !prefix {
         return Err(format!("{what} is {} bytes, above the limit of {cap}", meta.len()).into());
     }
-    let mut data = Vec::with_capacity(meta.len() as usize);
+    let mut data = Vec::with_capacity(meta.len().min(cap) as usize);
     std::fs::File::open(path)?
         .take(cap)
         .read_to_end(&mut data)?;

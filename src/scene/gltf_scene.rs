@@ -18,8 +18,10 @@
 
 use crate::bsdf::{Bsdf, PrincipledParams};
 use crate::error::FormatError;
-use crate::material::{decode_normal, Material, MaterialTextures};
-use crate::texture::{srgb_to_linear, ImageTexture};
+use crate::material::{
+    decode_normal, Composite, Layer, Material, MaterialTextures, Weight, WeightFactor,
+};
+use crate::texture::{srgb_to_linear, Filter, ImageTexture, Sampling, Wrap};
 use glam::{Mat4, Vec2, Vec3};
 use plsr_base::Vocabulary;
 use std::path::Path;
@@ -46,6 +48,9 @@ pub struct GltfObject {
     /// Unit tangents with the bitangent's sign in `w` (glTF's `TANGENT`),
     /// or empty.
     pub tangents: Vec<glam::Vec4>,
+    /// Linear vertex colours (glTF's `COLOR_0`, its alpha dropped), which
+    /// multiply the base colour, or empty.
+    pub colors: Vec<Vec3>,
     /// Index into [`GltfScene::materials`], or `None` for glTF's default
     /// material (white, metallic 1, roughness 1).
     pub material: Option<usize>,
@@ -82,8 +87,8 @@ pub struct GltfScene {
     pub objects: Vec<GltfObject>,
     /// Materials, by glTF index.
     pub materials: Vec<Material>,
-    /// Emitted radiance of each material (W/(m²·sr)), zero if none.
-    pub emission: Vec<Vec3>,
+    /// What else each material gives (emission, sidedness), by glTF index.
+    pub extras: Vec<GltfMaterialExtras>,
     /// Cameras of the default scene.
     pub cameras: Vec<GltfCamera>,
     /// Point lights of the default scene.
@@ -118,10 +123,10 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, FormatError> {
         files: Vec::new(),
     };
     let mut materials = Vec::new();
-    let mut emission = Vec::new();
+    let mut extras = Vec::new();
     for (i, m) in doc.materials().enumerate() {
         let (material, e) = read_material(i, &m, &mut cache, &mut notes)?;
-        emission.push(e);
+        extras.push(e);
         materials.push(material);
     }
 
@@ -170,7 +175,7 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, FormatError> {
     Ok(GltfScene {
         objects,
         materials,
-        emission,
+        extras,
         cameras,
         point_lights,
         notes: notes.0,
@@ -217,20 +222,32 @@ impl TexelCache<'_> {
     }
 }
 
+/// What a glTF material gives besides plsr's [`Material`].
+#[derive(Debug, Clone, Copy)]
+pub struct GltfMaterialExtras {
+    /// Emitted radiance where no emissive texture varies it (the emissive
+    /// factor times `KHR_materials_emissive_strength`), W/(m²·sr).
+    pub emission: Vec3,
+    /// glTF's `doubleSided`: when false, rays pass through the back faces
+    /// (back-face culling, as glTF viewers draw them).
+    pub double_sided: bool,
+}
+
 /// Material `i`, the metallic-roughness model as principled with its
-/// textures, and its emitted radiance (the emissive factor times its
-/// strength).
+/// textures (each with its sampler and `KHR_texture_transform`), alpha
+/// `MASK` and `BLEND` as a stochastic pass-through, and what else it gives.
 fn read_material(
     i: usize,
     m: &gltf::Material,
     cache: &mut TexelCache,
     notes: &mut Notes,
-) -> std::result::Result<(Material, Vec3), FormatError> {
+) -> std::result::Result<(Material, GltfMaterialExtras), FormatError> {
     let name = m
         .name()
         .map_or_else(|| format!("material {i}"), String::from);
+    let field = format!("materials[{i}]");
     let pbr = m.pbr_metallic_roughness();
-    let [r, g, b, _] = pbr.base_color_factor();
+    let [r, g, b, alpha] = pbr.base_color_factor();
     let factor = Vec3::new(r, g, b);
     let params = PrincipledParams {
         base_color: factor.clamp(Vec3::ZERO, Vec3::ONE),
@@ -242,83 +259,267 @@ fn read_material(
         energy_conserving: false,
     };
     let mut t = MaterialTextures::default();
-    let mut uses_second_uv = false;
+    let mut second_uv = Vec::new();
+    let mut slot = |slot: &str,
+                    texture: gltf::Texture,
+                    tex_coord: u32,
+                    transform: Option<&gltf::json::Value>|
+     -> std::result::Result<_, FormatError> {
+        let slot_field = format!("{field}.{slot}");
+        let (sampling, set) = slot_sampling(&texture, tex_coord, transform, &slot_field)?;
+        if set != 0 {
+            second_uv.push(slot.to_string());
+        }
+        let (w, h, px) = cache.texels(texture.source().index())?;
+        Ok((w, h, px, sampling))
+    };
+    let mut alpha_map = None;
     if let Some(info) = pbr.base_color_texture() {
-        uses_second_uv |= info.tex_coord() != 0;
-        let (w, h, px) = cache.texels(info.texture().source().index())?;
-        t.base_color = Some(Arc::new(texture(w, h, &px, |p| {
-            let c = Vec3::new(
-                srgb_to_linear(p[0]),
-                srgb_to_linear(p[1]),
-                srgb_to_linear(p[2]),
-            );
-            (c * factor).clamp(Vec3::ZERO, Vec3::ONE)
-        })));
+        let (w, h, px, sampling) = slot(
+            "pbrMetallicRoughness.baseColorTexture",
+            info.texture(),
+            info.tex_coord(),
+            info.extension_value("KHR_texture_transform"),
+        )?;
+        t.base_color = Some(Arc::new(
+            texture(w, h, &px, |p| {
+                let c = Vec3::new(
+                    srgb_to_linear(p[0]),
+                    srgb_to_linear(p[1]),
+                    srgb_to_linear(p[2]),
+                );
+                (c * factor).clamp(Vec3::ZERO, Vec3::ONE)
+            })
+            .with_sampling(sampling),
+        ));
+        alpha_map = Some((w, h, px, sampling));
     }
     if let Some(info) = pbr.metallic_roughness_texture() {
-        uses_second_uv |= info.tex_coord() != 0;
-        let (w, h, px) = cache.texels(info.texture().source().index())?;
+        let (w, h, px, sampling) = slot(
+            "pbrMetallicRoughness.metallicRoughnessTexture",
+            info.texture(),
+            info.tex_coord(),
+            info.extension_value("KHR_texture_transform"),
+        )?;
         // Roughness in green, metallic in blue, each times its factor.
         let rf = params.roughness;
         let mf = params.metallic;
-        t.roughness = Some(Arc::new(texture(w, h, &px, |p| {
-            Vec3::splat((p[1] * rf).clamp(0.0, 1.0))
-        })));
-        t.metallic = Some(Arc::new(texture(w, h, &px, |p| {
-            Vec3::splat((p[2] * mf).clamp(0.0, 1.0))
-        })));
+        t.roughness = Some(Arc::new(
+            texture(w, h, &px, |p| Vec3::splat((p[1] * rf).clamp(0.0, 1.0))).with_sampling(sampling),
+        ));
+        t.metallic = Some(Arc::new(
+            texture(w, h, &px, |p| Vec3::splat((p[2] * mf).clamp(0.0, 1.0))).with_sampling(sampling),
+        ));
     }
     if let Some(info) = m.normal_texture() {
-        uses_second_uv |= info.tex_coord() != 0;
-        let (w, h, px) = cache.texels(info.texture().source().index())?;
         let scale = info.scale();
         if !(scale.is_finite() && scale.abs() <= 10.0) {
             return Err(format!(
-                "material `{name}`: normal texture scale {scale} is not in [-10, 10]"
+                "{field}.normalTexture.scale: {scale} is not in [-10, 10] (material `{name}`)"
             )
             .into());
         }
-        t.normal = Some(Arc::new(texture(w, h, &px, |p| {
-            decode_normal(Vec3::new(p[0], p[1], p[2]), scale)
-        })));
+        let (w, h, px, sampling) = slot(
+            "normalTexture",
+            info.texture(),
+            info.tex_coord(),
+            info.extension_value("KHR_texture_transform"),
+        )?;
+        t.normal = Some(Arc::new(
+            texture(w, h, &px, |p| decode_normal(Vec3::new(p[0], p[1], p[2]), scale))
+                .with_sampling(sampling),
+        ));
     }
-    if uses_second_uv {
+    if !second_uv.is_empty() {
         notes.add(format!(
-            "material `{name}`: textures on a second UV set are looked up with the first"
+            "material `{name}`: {} on a second UV set (TEXCOORD_1) {} looked up with the first",
+            second_uv.join(", "),
+            if second_uv.len() == 1 { "is" } else { "are" }
         ));
     }
     if m.occlusion_texture().is_some() {
         notes.add(format!("material `{name}`: its occlusion texture is not used (light transport computes occlusion)"));
     }
-    if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
-        notes.add(format!(
-            "material `{name}`: alpha {:?} is rendered opaque",
-            m.alpha_mode()
-        ));
-    }
     let strength = m.emissive_strength().unwrap_or(1.0);
     let e = Vec3::from_array(m.emissive_factor()) * strength;
-    if m.emissive_texture().is_some() {
-        notes.add(format!(
-            "material `{name}`: its emissive texture is not used; the emissive factor is"
-        ));
-    }
     if !e.is_finite() || e.min_element() < 0.0 {
         return Err(format!(
-            "material `{name}`: emissive factor {e} is not finite and non-negative"
+            "{field}.emissiveFactor: {e} is not finite and non-negative (material `{name}`)"
         )
         .into());
     }
+    if m.emissive_texture().is_some() && e.max_element() > 0.0 {
+        notes.add(format!(
+            "material `{name}`: its emissive texture is not used, so it emits its emissive \
+             factor {e} everywhere"
+        ));
+    }
+    let leaf = Material {
+        name,
+        bsdf: Bsdf::Principled(params),
+        textures: t,
+        two_sided: true,
+        composite: None,
+    };
+    let material = match alpha_coverage(m, alpha, alpha_map) {
+        None => leaf,
+        Some(opacity) => with_coverage(leaf, opacity),
+    };
     Ok((
-        Material {
-            name,
-            bsdf: Bsdf::Principled(params),
-            textures: t,
-            two_sided: true,
-            composite: None,
+        material,
+        GltfMaterialExtras {
+            emission: e,
+            double_sided: m.double_sided(),
         },
-        e,
     ))
+}
+
+/// `m` with its base colour (and that of every part of a composite)
+/// multiplied by the mesh's vertex colours (glTF's `COLOR_0`).
+pub fn with_vertex_colors(mut m: Material) -> Material {
+    m.textures.base_color_attribute = Some("vertex_color".into());
+    if let Some(c) = &m.composite {
+        let mut c = Composite::clone(c);
+        for layer in c.front.iter_mut().chain(c.back.iter_mut().flatten()) {
+            if let Some(leaf) = &mut layer.material {
+                leaf.textures.base_color_attribute = Some("vertex_color".into());
+            }
+        }
+        m.composite = Some(Arc::new(c));
+    }
+    m
+}
+
+/// The coverage of an alpha `MASK` or `BLEND` material: the base colour's
+/// alpha (factor times texture), or for `MASK` whether it reaches the
+/// cutoff; `None` when the surface is opaque everywhere.
+fn alpha_coverage(
+    m: &gltf::Material,
+    factor: f32,
+    map: Option<(u32, u32, Texels, Sampling)>,
+) -> Option<WeightFactor> {
+    use gltf::material::AlphaMode;
+    let cutoff = m.alpha_cutoff().unwrap_or(0.5);
+    let coverage = |a: f32| match m.alpha_mode() {
+        AlphaMode::Mask => f32::from(u8::from(a >= cutoff)),
+        _ => a.clamp(0.0, 1.0),
+    };
+    if m.alpha_mode() == AlphaMode::Opaque {
+        return None;
+    }
+    match map {
+        Some((w, h, px, sampling)) => Some(WeightFactor::Map {
+            map: Arc::new(
+                texture(w, h, &px, |p| Vec3::splat(coverage(p[3] * factor))).with_sampling(sampling),
+            ),
+            complement: false,
+        }),
+        None if coverage(factor) >= 1.0 => None,
+        None => Some(WeightFactor::Constant(coverage(factor))),
+    }
+}
+
+/// `leaf` covering the surface by `opacity`, the rest a straight
+/// pass-through (as plsr's `mask` material).
+fn with_coverage(leaf: Material, opacity: WeightFactor) -> Material {
+    let pass = match &opacity {
+        WeightFactor::Constant(c) => WeightFactor::Constant(1.0 - c),
+        WeightFactor::Map { map, complement } => WeightFactor::Map {
+            map: map.clone(),
+            complement: !complement,
+        },
+    };
+    let composite = Composite {
+        front: vec![
+            Layer {
+                material: Some(leaf.clone()),
+                weight: Weight(vec![opacity]),
+            },
+            Layer {
+                material: None,
+                weight: Weight(vec![pass]),
+            },
+        ],
+        back: None,
+    };
+    Material {
+        composite: Some(Arc::new(composite)),
+        ..leaf
+    }
+}
+
+/// How a texture slot looks its image up: the texture's sampler (`wrapS`,
+/// `wrapT`, `magFilter`) and the slot's `KHR_texture_transform`, in plsr's
+/// texture coordinates (`v` up); and the UV set it reads.
+fn slot_sampling(
+    texture: &gltf::Texture,
+    tex_coord: u32,
+    transform: Option<&gltf::json::Value>,
+    field: &str,
+) -> std::result::Result<(Sampling, u32), FormatError> {
+    use gltf::texture::{MagFilter, WrappingMode};
+    let sampler = texture.sampler();
+    let wrap = |m: WrappingMode| match m {
+        WrappingMode::ClampToEdge => Wrap::Clamp,
+        WrappingMode::MirroredRepeat => Wrap::Mirror,
+        WrappingMode::Repeat => Wrap::Repeat,
+    };
+    let filter = match sampler.mag_filter() {
+        Some(MagFilter::Nearest) => Filter::Nearest,
+        _ => Filter::Bilinear,
+    };
+    let mut sampling = Sampling {
+        filter,
+        wrap: [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())],
+        to_uv: None,
+    };
+    let Some(tt) = transform else {
+        return Ok((sampling, tex_coord));
+    };
+    let field = format!("{field}.extensions.KHR_texture_transform");
+    let number = |key: &str, default: f32| -> std::result::Result<f32, FormatError> {
+        match tt.get(key) {
+            None => Ok(default),
+            Some(v) => v
+                .as_f64()
+                .map(|x| x as f32)
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| format!("{field}.{key}: {v} is not a finite number").into()),
+        }
+    };
+    let pair = |key: &str, default: f32| -> std::result::Result<[f32; 2], FormatError> {
+        match tt.get(key) {
+            None => Ok([default; 2]),
+            Some(v) => {
+                let xs: Option<Vec<f32>> = v.as_array().and_then(|a| {
+                    a.iter()
+                        .map(|x| x.as_f64().map(|x| x as f32).filter(|x| x.is_finite()))
+                        .collect()
+                });
+                match xs.as_deref() {
+                    Some(&[a, b]) => Ok([a, b]),
+                    _ => Err(format!("{field}.{key}: {v} is not two finite numbers").into()),
+                }
+            }
+        }
+    };
+    let [ox, oy] = pair("offset", 0.0)?;
+    let [sx, sy] = pair("scale", 1.0)?;
+    let rotation = number("rotation", 0.0)?;
+    let set = match tt.get("texCoord") {
+        None => tex_coord,
+        Some(v) => v
+            .as_u64()
+            .filter(|&s| s < 8)
+            .ok_or_else(|| format!("{field}.texCoord: {v} is not a UV set 0 to 7"))?
+            as u32,
+    };
+    // glTF's lookup (s', t') = T·R·S·(s, t) with t = 1 − v (plsr's v is
+    // up), and v' = 1 − t'.
+    let (sin, cos) = rotation.sin_cos();
+    let (a, b, c, d) = (cos * sx, sin * sy, -sin * sx, cos * sy);
+    sampling.to_uv = Some([[a, -b, b + ox], [-c, d, 1.0 - d - oy]]);
+    Ok((sampling, set))
 }
 
 /// A triangle primitive of mesh `mesh_name`, placed by the node's
@@ -381,7 +582,12 @@ fn read_primitive(
             .map(|it| it.map(glam::Vec4::from_array).collect())
             .unwrap_or_default(),
     };
+    let colors: Vec<Vec3> = reader
+        .read_colors(0)
+        .map(|c| c.into_rgb_f32().map(Vec3::from_array).collect())
+        .unwrap_or_default();
     if (!normals.is_empty() && normals.len() != n)
+        || (!colors.is_empty() && colors.len() != n)
         || (!uvs.is_empty() && uvs.len() != n)
         || (!tangents.is_empty() && tangents.len() != n)
     {
@@ -390,6 +596,7 @@ fn read_primitive(
     if positions.iter().any(|p| !p.is_finite())
         || normals.iter().any(|v| !v.is_finite())
         || uvs.iter().any(|v| !v.is_finite())
+        || colors.iter().any(|v| !v.is_finite())
         || tangents.iter().any(|v| !v.is_finite())
     {
         return Err(format!("`{name}` has non-finite vertex data").into());
@@ -416,6 +623,7 @@ fn read_primitive(
         normals,
         uvs,
         tangents,
+        colors,
         material: prim.material().index(),
     });
     Ok(())
@@ -537,7 +745,6 @@ fn decode(bytes: &[u8]) -> std::result::Result<(u32, u32, Vec<[f32; 4]>), String
 /// The most texels of one glTF image (2²⁸: 16384²).
 const MAX_TEXELS: u64 = 1 << 28;
 
-/// A texture from RGBA texels through `f`.
 /// Tangents (with the bitangent's sign in `w`) under the transform `m`: the
 /// direction by its linear part, renormalised; the sign turned round by a
 /// mirroring transform, so that the bitangent `w·(n × t)` of the
@@ -555,6 +762,7 @@ pub fn transform_tangents(m: &glam::Mat4, tangents: Vec<glam::Vec4>) -> Vec<glam
         .collect()
 }
 
+/// A texture from RGBA texels through `f`.
 fn texture(w: u32, h: u32, px: &[[f32; 4]], f: impl Fn(&[f32; 4]) -> Vec3) -> ImageTexture {
     ImageTexture::from_texels(
         w,
@@ -640,8 +848,8 @@ pub fn scene_toml(path: &Path) -> crate::error::Result<GltfWrapper> {
     );
     let emits = scene.objects.iter().any(|o| {
         o.material
-            .and_then(|m| scene.emission.get(m))
-            .is_some_and(|e| e.max_element() > 0.0)
+            .and_then(|m| scene.extras.get(m))
+            .is_some_and(|e| e.emission.max_element() > 0.0)
     });
     if scene.point_lights.is_empty() && !emits {
         notes.push(format!(

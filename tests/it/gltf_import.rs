@@ -228,7 +228,7 @@ fn gltf_contents_are_read_as_gltf_defines_them() {
     assert!((mt.eval(at(0.75, 0.75)).x - 0.5).abs() < 1e-6); // B 255 × 0.5
     assert!((mt.eval(at(0.25, 0.25)).x - 0.5 * 64.0 / 255.0).abs() < 1e-6);
     assert_eq!(m.bsdf.albedo(), Vec3::new(0.5, 0.25, 1.0));
-    assert_eq!(g.emission[0], Vec3::new(1.0, 2.0, 3.0));
+    assert_eq!(g.extras[0].emission, Vec3::new(1.0, 2.0, 3.0));
     // The normal texture, decoded: 2c − 1 (scale 1).
     let n = m.textures.normal.as_ref().unwrap();
     assert_eq!(n.eval(at(0.25, 0.75)), Vec3::new(-1.0, 1.0, -1.0));
@@ -598,4 +598,184 @@ fn gltf_tangents_orient_the_normal_map() {
         frame(Vec3::X, Vec3::Y),
         "no normals",
     );
+}
+
+/// The quad's glTF with vertex colours `colors` (`COLOR_0`, RGB floats)
+/// after its other data.
+fn quad_json_with_colors(material: &str) -> String {
+    quad_json(Some("quad.bin"), material)
+        .replace(r#""TEXCOORD_0": 1}"#, r#""TEXCOORD_0": 1, "COLOR_0": 3}"#)
+        .replace(r#""byteLength": 92"#, r#""byteLength": 140"#)
+        .replace(
+            r#"{"buffer": 0, "byteOffset": 80, "byteLength": 12}"#,
+            r#"{"buffer": 0, "byteOffset": 80, "byteLength": 12},
+    {"buffer": 0, "byteOffset": 92, "byteLength": 48}"#,
+        )
+        .replace(
+            r#"{"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}"#,
+            r#"{"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"},
+    {"bufferView": 3, "componentType": 5126, "count": 4, "type": "VEC3"}"#,
+        )
+}
+
+/// A scene of a grey backdrop behind where the glTF quad is placed (or not).
+fn backdrop_scene(dir: &Path, name: &str, gltf: Option<&str>) -> std::path::PathBuf {
+    let shape = gltf
+        .map(|f| format!("\n[[shapes]]\ntype = \"gltf\"\nfile = \"{f}\"\n"))
+        .unwrap_or_default();
+    let path = dir.join(name);
+    std::fs::write(
+        &path,
+        format!(
+            "{SCENE_HEAD}\n[[materials]]\nname = \"grey\"\ntype = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n\n\
+             [[shapes]]\ntype = \"rectangle\"\nmaterial = \"grey\"\n\
+             transform.scale = [8, 8, 1]\ntransform.translate = [0, 0, -3]\n{shape}"
+        ),
+    )
+    .unwrap();
+    path
+}
+
+#[test]
+fn gltf_samplers_and_texture_transforms_look_up_as_gltf_says() {
+    // Clamp along s, mirror along t, nearest; offset, rotation and scale.
+    let material = r#""materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0,
+      "extensions": {"KHR_texture_transform": {"offset": [0.25, -0.5], "rotation": 0.3, "scale": [1.5, 2.5]}}}}}],
+  "samplers": [{"magFilter": 9728, "wrapS": 33071, "wrapT": 33648}],
+  "textures": [{"source": 0, "sampler": 0}], "images": [{"uri": "tex.png"}]"#;
+    let dir = tempfile::tempdir().unwrap();
+    write_quad(dir.path(), material);
+    let g = read_gltf(&dir.path().join("quad.gltf")).unwrap();
+    let tex = g.materials[0].textures.base_color.clone().unwrap();
+    let srgb = |c: u8| plsr::texture::srgb_to_linear(c as f32 / 255.0);
+    let texels = [[200, 30, 30], [30, 200, 30], [30, 30, 200], [250, 250, 250]]
+        .map(|t: [u8; 3]| Vec3::new(srgb(t[0]), srgb(t[1]), srgb(t[2])));
+    // glTF's own rule, in its (s, t), t down the image: T·R·S, then the
+    // sampler's wrap per axis and the nearest texel.
+    let (sin, cos) = 0.3f32.sin_cos();
+    let mut checked = 0;
+    for i in 0..40 {
+        for j in 0..40 {
+            let (s, t) = (i as f32 / 39.0, j as f32 / 39.0);
+            let (ss, tt) = (1.5 * s, 2.5 * t);
+            let s2 = cos * ss + sin * tt + 0.25;
+            let t2 = -sin * ss + cos * tt - 0.5;
+            let (x, y) = (s2 * 2.0, t2 * 2.0);
+            // Nearest lookups jump at texel edges: skip points near one.
+            if (x - x.round()).abs() < 1e-3 || (y - y.round()).abs() < 1e-3 {
+                continue;
+            }
+            let col = (x.floor() as i64).clamp(0, 1);
+            let m = (y.floor() as i64).rem_euclid(4);
+            let row = if m >= 2 { 3 - m } else { m };
+            let want = texels[(row * 2 + col) as usize];
+            let got = tex.eval(Vec2::new(s, 1.0 - t));
+            assert!((got - want).length() < 1e-5, "(s, t) = ({s}, {t}): {got} vs {want}");
+            checked += 1;
+        }
+    }
+    assert!(checked > 1000);
+    // A transform that is not numbers is refused naming its place.
+    let bad = material.replace("0.3", "\"a lot\"");
+    write_quad(dir.path(), &bad);
+    let e = read_gltf(&dir.path().join("quad.gltf")).unwrap_err().to_string();
+    assert!(
+        e.contains("materials[0].pbrMetallicRoughness.baseColorTexture.extensions.KHR_texture_transform.rotation"),
+        "{e}"
+    );
+}
+
+#[test]
+fn gltf_vertex_colours_alpha_and_sides_render_as_gltf_says() {
+    let dir = tempfile::tempdir().unwrap();
+    write_quad(dir.path(), MR);
+    let render_scene = |gltf_json: String, name: &str| {
+        std::fs::write(dir.path().join(format!("{name}.gltf")), gltf_json).unwrap();
+        render_file(&backdrop_scene(dir.path(), &format!("{name}.toml"), Some(&format!("{name}.gltf"))))
+    };
+    let empty = render_file(&backdrop_scene(dir.path(), "empty.toml", None));
+    let plain = |factor: &str, extra: &str| {
+        format!(
+            r#""materials": [{{"pbrMetallicRoughness": {{"baseColorFactor": {factor}, "metallicFactor": 0}}{extra}}}]"#
+        )
+    };
+
+    // COLOR_0 multiplies the base colour factor: (0.8, 0.5, 1)·(0.5, 0.5,
+    // 0.25) is the factor (0.4, 0.25, 0.25).
+    let mut bin = quad_buffer();
+    for _ in 0..4 {
+        for x in [0.5f32, 0.5, 0.25] {
+            bin.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    std::fs::write(dir.path().join("quad.bin"), &bin).unwrap();
+    let colored = render_scene(
+        quad_json_with_colors(&plain("[0.8, 0.5, 1, 1]", "")),
+        "colored",
+    );
+    let g = read_gltf(&dir.path().join("colored.gltf")).unwrap();
+    assert_eq!(g.objects[0].colors, vec![Vec3::new(0.5, 0.5, 0.25); 4]);
+    let factor = render_scene(
+        quad_json(Some("quad.bin"), &plain("[0.4, 0.25, 0.25, 1]", "")),
+        "factor",
+    );
+    assert_close("COLOR_0 against the factor", &colored, &factor, 1e-5);
+    assert!(colored.color.iter().zip(&empty.color).any(|(a, b)| a != b));
+
+    // MASK below the cutoff everywhere: the quad is not there; at the
+    // cutoff it is. BLEND with alpha 0: not there either.
+    let masked = render_scene(
+        quad_json(
+            Some("quad.bin"),
+            &plain("[1, 1, 1, 0.4]", r#", "alphaMode": "MASK", "alphaCutoff": 0.5"#),
+        ),
+        "masked",
+    );
+    assert_same_colour("a masked-out quad", &masked, &empty);
+    let kept = render_scene(
+        quad_json(
+            Some("quad.bin"),
+            &plain("[1, 1, 1, 0.5]", r#", "alphaMode": "MASK", "alphaCutoff": 0.5"#),
+        ),
+        "kept",
+    );
+    assert!(kept.color.iter().zip(&empty.color).any(|(a, b)| a != b));
+    let blended = render_scene(
+        quad_json(Some("quad.bin"), &plain("[1, 1, 1, 0]", r#", "alphaMode": "BLEND""#)),
+        "blended",
+    );
+    assert_same_colour("a fully transparent quad", &blended, &empty);
+    // At the cutoff the material is opaque; below, a pass-through.
+    let g = read_gltf(&dir.path().join("kept.gltf")).unwrap();
+    assert!(g.materials[0].composite.is_none());
+    let g = read_gltf(&dir.path().join("masked.gltf")).unwrap();
+    assert!(g.materials[0].composite.is_some());
+
+    // Seen from behind (the node turns it round), a one-sided quad lets
+    // the rays through; a double-sided one does not.
+    let turned = |extra: &str, name: &str| {
+        let json = quad_json(Some("quad.bin"), &plain("[1, 1, 1, 1]", extra)).replace(
+            r#""translation": [0, 0.5, -1], "scale": [2, 2, 2]"#,
+            r#""translation": [0, 0.5, -1], "rotation": [0, 1, 0, 0]"#,
+        );
+        render_scene(json, name)
+    };
+    // (The camera sees the backdrop through it; light between the quad's
+    // front and the backdrop still bounces, so only the first hits agree.)
+    let one_sided = turned("", "one_sided");
+    assert_eq!(one_sided.object_id, empty.object_id);
+    let two_sided = turned(r#", "doubleSided": true"#, "two_sided");
+    assert_ne!(two_sided.object_id, empty.object_id);
+}
+
+/// The colour of `a` and `b` equal up to rounding (a ray continued through
+/// a pass-through starts again at the surface it passed, so the two
+/// renders' rays differ in their last bits).
+fn assert_same_colour(what: &str, a: &Film, b: &Film) {
+    for (i, (p, q)) in a.color.iter().zip(&b.color).enumerate() {
+        assert!(
+            (*p - *q).abs().max_element() <= 1e-4 * p.max_element().max(q.max_element()),
+            "{what}: pixel {i}: {p} vs {q}"
+        );
+    }
 }

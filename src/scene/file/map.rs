@@ -34,8 +34,9 @@ pub(crate) struct MapKey {
     pub source: MapSource,
     /// `filter`: `"bilinear"` (default for files) or `"nearest"`.
     pub filter: Option<Filter>,
-    /// `wrap`: `"repeat"` (default), `"mirror"` or `"clamp"`.
-    pub wrap: Option<Wrap>,
+    /// `wrap`: `"repeat"` (default), `"mirror"` or `"clamp"`, or a pair of
+    /// them (along `u`, along `v`).
+    pub wrap: Option<[Wrap; 2]>,
     /// `encoding`: `"srgb"` or `"linear"` (default: sRGB for colour maps,
     /// linear for data maps; floating-point images are always linear).
     pub encoding: Option<Encoding>,
@@ -80,6 +81,14 @@ impl MapKey {
 }
 
 /// The keys of a map's table.
+/// `wrap`: one mode for both axes, or one for each (`u`, then `v`).
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum WrapKey {
+    Both(String),
+    Each([String; 2]),
+}
+
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct MapTable {
@@ -87,7 +96,7 @@ struct MapTable {
     checkerboard: Option<[toml::Value; 2]>,
     attribute: Option<String>,
     filter: Option<String>,
-    wrap: Option<String>,
+    wrap: Option<WrapKey>,
     encoding: Option<String>,
     #[serde(default, deserialize_with = "crate::input::exact::option")]
     to_uv: Option<[[f32; 3]; 2]>,
@@ -141,16 +150,18 @@ impl<'de> Deserialize<'de> for MapKey {
                 )))
             }
         };
-        let wrap = match t.wrap.as_deref() {
+        let wrap_mode = |name: &str| match name {
+            "repeat" => Ok(Wrap::Repeat),
+            "mirror" => Ok(Wrap::Mirror),
+            "clamp" => Ok(Wrap::Clamp),
+            o => Err(D::Error::custom(format!(
+                "wrap `{o}` is not repeat, mirror or clamp"
+            ))),
+        };
+        let wrap = match &t.wrap {
             None => None,
-            Some("repeat") => Some(Wrap::Repeat),
-            Some("mirror") => Some(Wrap::Mirror),
-            Some("clamp") => Some(Wrap::Clamp),
-            Some(o) => {
-                return Err(D::Error::custom(format!(
-                    "wrap `{o}` is not repeat, mirror or clamp"
-                )))
-            }
+            Some(WrapKey::Both(m)) => Some([wrap_mode(m)?; 2]),
+            Some(WrapKey::Each([u, v])) => Some([wrap_mode(u)?, wrap_mode(v)?]),
         };
         let encoding = match t.encoding.as_deref() {
             None => None,

@@ -903,11 +903,14 @@ impl Builder<'_> {
                 format!("{}: its default scene has no triangles", path.display()),
             ));
         }
-        let mut index: HashMap<Option<usize>, u32> = HashMap::new();
+        // One plsr material per glTF material, and another where vertex
+        // colours multiply its base colour.
+        let mut index: HashMap<(Option<usize>, bool), u32> = HashMap::new();
         for o in gltf.objects {
+            let colored = !o.colors.is_empty();
             let mat = match shape.material {
                 Some(m) => m,
-                None => match index.get(&o.material) {
+                None => match index.get(&(o.material, colored)) {
                     Some(&m) => m,
                     None => {
                         let material = match o.material {
@@ -931,9 +934,13 @@ impl Builder<'_> {
                                 }),
                             ),
                         };
+                        let material = match colored {
+                            true => crate::scene::gltf_scene::with_vertex_colors(material),
+                            false => material,
+                        };
                         materials.push(material);
                         let m = (materials.len() - 1) as u32;
-                        index.insert(o.material, m);
+                        index.insert((o.material, colored), m);
                         m
                     }
                 },
@@ -946,9 +953,11 @@ impl Builder<'_> {
             let (mut p, mut t) = (o.positions, o.triangles);
             transform_mesh(&shape.matrix, &mut p, &mut t);
             let normals = transform_normals(&shape.matrix, normals);
-            let file_emission = o
-                .material
-                .and_then(|m| gltf.emission.get(m).copied())
+            let extras = o.material.and_then(|m| gltf.extras.get(m).copied());
+            // glTF's default material is one-sided.
+            let double_sided = extras.is_some_and(|e| e.double_sided);
+            let file_emission = extras
+                .map(|e| e.emission)
                 .filter(|e| e.max_element() > 0.0)
                 .map(|radiance| Emission {
                     radiance,
@@ -966,8 +975,12 @@ impl Builder<'_> {
                     ),
                 ));
             }
+            let colors = match colored && shape.material.is_none() {
+                true => Some(crate::scene::MeshColors::Vertex(o.colors)),
+                false => None,
+            };
             meshes.push(Mesh {
-                cull_back: false,
+                cull_back: !double_sided,
                 name: format!("{}/{}", shape.name, o.name),
                 positions: p,
                 triangles: t,
@@ -980,7 +993,7 @@ impl Builder<'_> {
                 pls: None,
                 is_virtual: shape.is_virtual,
                 uv_map: crate::scene::uv_map::UvMap::Vertices,
-                colors: None,
+                colors,
             });
         }
         Ok(())
