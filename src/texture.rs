@@ -240,7 +240,8 @@ impl ImageTexture {
             }) as usize
         };
         let [wrap_u, wrap_v] = self.sampling.wrap;
-        self.texels[wrap(y, self.height, wrap_v) * self.width as usize + wrap(x, self.width, wrap_u)]
+        self.texels
+            [wrap(y, self.height, wrap_v) * self.width as usize + wrap(x, self.width, wrap_u)]
     }
 
     /// The bilinearly filtered value at `uv` (repeating outside `[0, 1)`).

@@ -371,7 +371,7 @@ fn shade(
     if let Some(li) = scene.hit_light(&hit) {
         let light = &scene.lights().lights[li];
         if let Light::Triangle(tl) = light {
-            let le = tl.emitted(at.wo);
+            let le = tl.emitted_at(at.wo, Vec2::new(hit.u, hit.v));
             if le != Vec3::ZERO {
                 let prev = PrevVertex {
                     depth: path.depth,

@@ -53,7 +53,7 @@ use crate::job::RenderJob;
 use crate::light::Light;
 use crate::scene::Scene;
 use crate::warp::{power_heuristic, Frame};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// The gradient slots a light's emission parameters feed.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -432,7 +432,7 @@ fn step(
 
     if let Some(li) = scene.hit_light(&hit) {
         if let Light::Triangle(tl) = &scene.lights().lights[li] {
-            let le = tl.emitted(wo);
+            let le = tl.emitted_at(wo, Vec2::new(hit.u, hit.v));
             if le != Vec3::ZERO {
                 let prev = PrevVertex {
                     depth,

@@ -64,7 +64,7 @@ fn sample_sphere(
     let crate::light::Light::Triangle(t) = &scene.lights().lights[li] else {
         return None;
     };
-    let radiance = t.emitted(-wi);
+    let radiance = t.emitted_at(-wi, Vec2::new(hit.u, hit.v));
     (radiance != Vec3::ZERO).then_some(crate::light::LightSample {
         radiance,
         wi,

@@ -11,6 +11,11 @@
 //! two_sided = false        # default: emit on the geometric normal's side only
 //! ```
 //!
+//! A mesh's emission may vary over its surface by a map of its texture
+//! coordinates (glTF's emissive texture): each triangle then carries an
+//! [`EmissionMap`], its radiance is the constant times the map, and it is
+//! picked by its power estimated over the map.
+//!
 //! The triangles of a tessellated sphere light (the built-in `sphere`
 //! shape, Mitsuba's `sphere` emitters) are sampled together by the cone the
 //! exact sphere subtends ([`SphereCap`]), as Mitsuba and pbrt sample a
@@ -21,8 +26,55 @@
 use super::pls::Cone;
 use super::LightSample;
 use crate::color::luminance;
+use crate::texture::ImageTexture;
 use crate::warp::{square_to_uniform_sphere, square_to_uniform_triangle, Frame};
 use glam::{Vec2, Vec3};
+use std::sync::Arc;
+
+/// A map that multiplies a triangle light's radiance over its surface.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EmissionMap {
+    /// The map (linear RGB factors), looked up by texture coordinates.
+    pub texture: Arc<ImageTexture>,
+    /// The texture coordinates of the triangle's three vertices.
+    pub uv: [Vec2; 3],
+    /// The map's mean luminance over the triangle, estimated from 16
+    /// stratified points and never below 10⁻³ of the map's largest value
+    /// (so that no triangle the map lights is never picked): the factor
+    /// of the triangle's power.
+    pub mean: f32,
+}
+
+impl EmissionMap {
+    /// The map over the triangle with vertex coordinates `uv`; `peak` is
+    /// the map's largest value ([`ImageTexture::max_value`], found once
+    /// for all the triangles of a mesh).
+    pub fn new(texture: Arc<ImageTexture>, uv: [Vec2; 3], peak: f32) -> EmissionMap {
+        let mut map = EmissionMap {
+            texture,
+            uv,
+            mean: 0.0,
+        };
+        let mut sum = 0.0;
+        for i in 0..4 {
+            for j in 0..4 {
+                let u = Vec2::new((i as f32 + 0.5) / 4.0, (j as f32 + 0.5) / 4.0);
+                sum += luminance(map.at(square_to_uniform_triangle(u))).max(0.0);
+            }
+        }
+        let floor = 1e-3 * peak.max(0.0);
+        map.mean = (sum / 16.0).max(floor);
+        map
+    }
+
+    /// The factor at barycentrics `b` (Embree's: `(1 − b.x − b.y)·p0 +
+    /// b.x·p1 + b.y·p2`).
+    #[inline]
+    pub fn at(&self, b: Vec2) -> Vec3 {
+        let [a, c, d] = self.uv;
+        self.texture.eval(a * (1.0 - b.x - b.y) + c * b.x + d * b.y)
+    }
+}
 
 /// A triangle emitting constant radiance.
 #[derive(Debug, Clone, PartialEq)]
@@ -43,6 +95,8 @@ pub struct TriangleLight {
     /// For a triangle of a tessellated sphere light: the sphere, by whose
     /// cone the group's triangles are sampled together.
     pub sphere: Option<SphereCap>,
+    /// A map multiplying `radiance` over the triangle, if any.
+    pub map: Option<EmissionMap>,
 }
 
 /// The exact sphere a sphere light's mesh is inscribed in, for sampling its
@@ -135,6 +189,7 @@ impl TriangleLight {
             two_sided,
             cone: None,
             sphere: None,
+            map: None,
         })
     }
 
@@ -164,13 +219,23 @@ impl TriangleLight {
         }
     }
 
+    /// Radiance leaving the triangle's point at barycentrics `b` towards
+    /// `w`: [`TriangleLight::emitted`] times the map there, if any.
+    #[inline]
+    pub fn emitted_at(&self, w: Vec3, b: Vec2) -> Vec3 {
+        match &self.map {
+            None => self.emitted(w),
+            Some(m) => self.emitted(w) * m.at(b),
+        }
+    }
+
     /// Uniform-area sample converted to solid angle at `p`:
     /// `pdf = r² / (|cos θ_light| · A)` (never for a sphere light's
     /// triangle, which is sampled by tracing: see [`SphereCap`]).
     #[inline]
     pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
-        let (valid, sample) =
-            triangle_light_sample(self.p, self.n, self.area, |w| self.emitted(w), p, u);
+        let point = TrianglePoint::new(self.p, self.n, self.area, p, u);
+        let (valid, sample) = point.sample(self.emitted_at(-point.wi, point.b));
         valid.then_some(sample)
     }
 
@@ -200,7 +265,8 @@ impl TriangleLight {
     pub fn power(&self) -> f32 {
         let sides = if self.two_sided { 2.0 } else { 1.0 };
         let window = self.cone.map_or(1.0, |c| c.power_fraction());
-        std::f32::consts::PI * self.area * luminance(self.radiance) * sides * window
+        let map = self.map.as_ref().map_or(1.0, |m| m.mean);
+        std::f32::consts::PI * self.area * luminance(self.radiance) * sides * window * map
     }
 }
 
@@ -210,6 +276,8 @@ impl TriangleLight {
 pub struct TrianglePoint {
     /// Unit direction from the shading point to the light point.
     pub wi: Vec3,
+    /// The light point's barycentrics (as [`EmissionMap::at`] takes them).
+    pub b: Vec2,
     /// Distance and squared distance to the light point.
     pub dist: f32,
     dist2: f32,
@@ -231,6 +299,7 @@ impl TrianglePoint {
         let wi = d / dist;
         TrianglePoint {
             wi,
+            b,
             dist,
             dist2,
             cos_light: n.dot(-wi),

@@ -85,7 +85,8 @@ pub fn open(path: &Path) -> Result<GltfAsset> {
                 data
             }
             gltf::buffer::Source::Uri(uri) => {
-                let (data, file) = asset.read_uri(uri, &format!("{field}.uri"), length as u64, true)?;
+                let (data, file) =
+                    asset.read_uri(uri, &format!("{field}.uri"), length as u64, true)?;
                 asset.files.extend(file);
                 if data.len() < length {
                     return Err(format!(

@@ -1,14 +1,18 @@
 //! glTF 2.0 files (`.gltf` with its buffers and images, or `.glb`): the
-//! meshes of the default scene with their node transforms, normals and
-//! texture coordinates, the metallic-roughness materials as plsr's
-//! `principled` BSDF (base colour, metallic and roughness, factors and
-//! textures), emission, cameras and punctual point lights.
+//! meshes of the default scene with their node transforms, normals,
+//! texture coordinates and vertex colours (`COLOR_0`), the
+//! metallic-roughness materials as plsr's `principled` BSDF (base colour,
+//! metallic and roughness, factors and textures with their samplers and
+//! `KHR_texture_transform`; alpha `MASK`/`BLEND` as coverage; emission
+//! with its texture), cameras and punctual point lights. Its bytes come
+//! only from the asset's folder, through [`super::gltf_files`].
 //!
 //! A scene file places a glTF like an OBJ (`type = "gltf"`), and
 //! `plsr render model.glb` renders one directly (see
 //! [`crate::scene::file`]). What plsr does not model is listed in
-//! [`GltfScene::notes`]: normal, occlusion and emissive textures, alpha
-//! blending and masking, spot and directional lights, orthographic cameras.
+//! [`GltfScene::notes`]: occlusion textures, a second UV set, extensions
+//! other than [`SUPPORTED_EXTENSIONS`], spot and directional lights,
+//! orthographic cameras.
 //!
 //! Conventions: glTF is y-up, metres, right-handed, as plsr's scenes
 //! usually are; texture coordinates have `v` pointing down the image, so
@@ -26,6 +30,14 @@ use glam::{Mat4, Vec2, Vec3};
 use plsr_base::Vocabulary;
 use std::path::Path;
 use std::sync::Arc;
+
+/// The glTF extensions plsr reads; others are named in a note, or refused
+/// where the file requires them.
+pub const SUPPORTED_EXTENSIONS: [&str; 3] = [
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_texture_transform",
+];
 
 /// The luminous efficacy plsr assumes to turn glTF's photometric light
 /// intensities (candela) into radiant ones (W/sr): 683 lm/W.
@@ -115,6 +127,21 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, FormatError> {
     let asset = super::gltf_files::open(path)?;
     let (doc, buffers) = (&asset.doc, &asset.buffers);
     let mut notes = Notes::default();
+    for e in doc.extensions_used() {
+        if !SUPPORTED_EXTENSIONS.contains(&e) {
+            let required = doc.extensions_required().any(|r| r == e);
+            if required {
+                return Err(format!(
+                    "extensionsRequired: `{e}` is not supported (plsr reads {})",
+                    SUPPORTED_EXTENSIONS.join(", ")
+                )
+                .into());
+            }
+            notes.add(format!(
+                "extension `{e}` is not supported: the file renders without what it adds"
+            ));
+        }
+    }
 
     // Materials: the metallic-roughness model as principled.
     let mut cache = TexelCache {
@@ -223,11 +250,15 @@ impl TexelCache<'_> {
 }
 
 /// What a glTF material gives besides plsr's [`Material`].
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct GltfMaterialExtras {
-    /// Emitted radiance where no emissive texture varies it (the emissive
-    /// factor times `KHR_materials_emissive_strength`), W/(m²·sr).
+    /// Emitted radiance (the emissive factor times
+    /// `KHR_materials_emissive_strength`), W/(m²·sr).
     pub emission: Vec3,
+    /// The emissive texture (linear, decoded from sRGB), which multiplies
+    /// `emission` over the surface; `None` where there is none or the
+    /// factor is zero.
+    pub emission_map: Option<Arc<ImageTexture>>,
     /// glTF's `doubleSided`: when false, rays pass through the back faces
     /// (back-face culling, as glTF viewers draw them).
     pub double_sided: bool,
@@ -305,10 +336,12 @@ fn read_material(
         let rf = params.roughness;
         let mf = params.metallic;
         t.roughness = Some(Arc::new(
-            texture(w, h, &px, |p| Vec3::splat((p[1] * rf).clamp(0.0, 1.0))).with_sampling(sampling),
+            texture(w, h, &px, |p| Vec3::splat((p[1] * rf).clamp(0.0, 1.0)))
+                .with_sampling(sampling),
         ));
         t.metallic = Some(Arc::new(
-            texture(w, h, &px, |p| Vec3::splat((p[2] * mf).clamp(0.0, 1.0))).with_sampling(sampling),
+            texture(w, h, &px, |p| Vec3::splat((p[2] * mf).clamp(0.0, 1.0)))
+                .with_sampling(sampling),
         ));
     }
     if let Some(info) = m.normal_texture() {
@@ -326,15 +359,10 @@ fn read_material(
             info.extension_value("KHR_texture_transform"),
         )?;
         t.normal = Some(Arc::new(
-            texture(w, h, &px, |p| decode_normal(Vec3::new(p[0], p[1], p[2]), scale))
-                .with_sampling(sampling),
-        ));
-    }
-    if !second_uv.is_empty() {
-        notes.add(format!(
-            "material `{name}`: {} on a second UV set (TEXCOORD_1) {} looked up with the first",
-            second_uv.join(", "),
-            if second_uv.len() == 1 { "is" } else { "are" }
+            texture(w, h, &px, |p| {
+                decode_normal(Vec3::new(p[0], p[1], p[2]), scale)
+            })
+            .with_sampling(sampling),
         ));
     }
     if m.occlusion_texture().is_some() {
@@ -348,10 +376,29 @@ fn read_material(
         )
         .into());
     }
-    if m.emissive_texture().is_some() && e.max_element() > 0.0 {
+    // The emissive texture, decoded only where it can make light.
+    let mut emission_map = None;
+    if let Some(info) = m.emissive_texture().filter(|_| e.max_element() > 0.0) {
+        let (w, h, px, sampling) = slot(
+            "emissiveTexture",
+            info.texture(),
+            info.tex_coord(),
+            info.extension_value("KHR_texture_transform"),
+        )?;
+        let map = texture(w, h, &px, |p| {
+            Vec3::new(
+                srgb_to_linear(p[0]),
+                srgb_to_linear(p[1]),
+                srgb_to_linear(p[2]),
+            )
+        });
+        emission_map = Some(Arc::new(map.with_sampling(sampling)));
+    }
+    if !second_uv.is_empty() {
         notes.add(format!(
-            "material `{name}`: its emissive texture is not used, so it emits its emissive \
-             factor {e} everywhere"
+            "material `{name}`: {} on a second UV set (TEXCOORD_1) {} looked up with the first",
+            second_uv.join(", "),
+            if second_uv.len() == 1 { "is" } else { "are" }
         ));
     }
     let leaf = Material {
@@ -369,6 +416,7 @@ fn read_material(
         material,
         GltfMaterialExtras {
             emission: e,
+            emission_map,
             double_sided: m.double_sided(),
         },
     ))
@@ -410,7 +458,8 @@ fn alpha_coverage(
     match map {
         Some((w, h, px, sampling)) => Some(WeightFactor::Map {
             map: Arc::new(
-                texture(w, h, &px, |p| Vec3::splat(coverage(p[3] * factor))).with_sampling(sampling),
+                texture(w, h, &px, |p| Vec3::splat(coverage(p[3] * factor)))
+                    .with_sampling(sampling),
             ),
             complement: false,
         }),
@@ -846,12 +895,9 @@ pub fn scene_toml(path: &Path) -> crate::error::Result<GltfWrapper> {
         fmt(look_at),
         fmt(up)
     );
-    let emits = scene.objects.iter().any(|o| {
-        o.material
-            .and_then(|m| scene.extras.get(m))
-            .is_some_and(|e| e.emission.max_element() > 0.0)
-    });
-    if scene.point_lights.is_empty() && !emits {
+    // Emissive materials glow, but rarely light a model as a viewer's
+    // environment does: without punctual lights, a sky lights it.
+    if scene.point_lights.is_empty() {
         notes.push(format!(
             "{file} has no lights: a uniform white sky (radiance 1) lights it"
         ));

@@ -32,6 +32,7 @@ use crate::light::{
 use glam::{Vec2, Vec3};
 use plsr_base::Vocabulary;
 use std::path::Path;
+use std::sync::Arc;
 
 /// Environment variable holding extra Embree device configuration (e.g.
 /// `verbose=1`), passed to `rtcNewDevice`.
@@ -90,6 +91,9 @@ pub struct Mesh {
     /// `COLOR_0`), which multiply the base colour of a material whose
     /// `base_color_attribute` is set; `None` leaves it as it is.
     pub colors: Option<MeshColors>,
+    /// A map of the texture coordinates that multiplies `emission`'s
+    /// radiance over the surface (glTF's emissive texture); needs `uvs`.
+    pub emission_map: Option<Arc<crate::texture::ImageTexture>>,
     /// Whether rays pass through the mesh's back faces (those they meet
     /// along its winding's normal), as through the inside of Mitsuba's
     /// curves, whose tubes are open-ended.
@@ -245,6 +249,7 @@ impl Mesh {
             is_virtual: false,
             uv_map: uv_map::UvMap::Vertices,
             colors: None,
+            emission_map: None,
         };
         mesh.validate()?;
         Ok(mesh)
@@ -349,6 +354,7 @@ pub fn pls_mesh(light: &Pls, mode: BrightnessMode, nf: u32, material: u32, name:
         is_virtual: false,
         uv_map: uv_map::UvMap::Vertices,
         colors: None,
+        emission_map: None,
     }
 }
 
@@ -582,6 +588,7 @@ impl Scene {
                         (None, None) => exact_sphere(m),
                         _ => None,
                     };
+                    let map_peak = m.emission_map.as_ref().map_or(0.0, |t| t.max_value());
                     for t in &m.triangles {
                         let p = t.map(|i| m.positions[i as usize]);
                         // Zero-area triangles keep their slot (with zero power,
@@ -595,8 +602,20 @@ impl Scene {
                                 two_sided: false,
                                 cone: None,
                                 sphere: None,
+                                map: None,
                             },
                         );
+                        let light = match (&m.emission_map, m.uvs.is_empty()) {
+                            (Some(map), false) => TriangleLight {
+                                map: Some(crate::light::EmissionMap::new(
+                                    map.clone(),
+                                    t.map(|i| m.uvs[i as usize]),
+                                    map_peak,
+                                )),
+                                ..light
+                            },
+                            _ => light,
+                        };
                         let light = match e.cone {
                             Some(c) => light.with_cone(c),
                             None => light,

@@ -670,7 +670,10 @@ fn gltf_samplers_and_texture_transforms_look_up_as_gltf_says() {
             let row = if m >= 2 { 3 - m } else { m };
             let want = texels[(row * 2 + col) as usize];
             let got = tex.eval(Vec2::new(s, 1.0 - t));
-            assert!((got - want).length() < 1e-5, "(s, t) = ({s}, {t}): {got} vs {want}");
+            assert!(
+                (got - want).length() < 1e-5,
+                "(s, t) = ({s}, {t}): {got} vs {want}"
+            );
             checked += 1;
         }
     }
@@ -678,11 +681,39 @@ fn gltf_samplers_and_texture_transforms_look_up_as_gltf_says() {
     // A transform that is not numbers is refused naming its place.
     let bad = material.replace("0.3", "\"a lot\"");
     write_quad(dir.path(), &bad);
-    let e = read_gltf(&dir.path().join("quad.gltf")).unwrap_err().to_string();
+    let e = read_gltf(&dir.path().join("quad.gltf"))
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("materials[0].pbrMetallicRoughness.baseColorTexture.extensions.KHR_texture_transform.rotation"),
         "{e}"
     );
+    // Extensions plsr does not read: a note each, or an error where the
+    // file requires one.
+    let used = |list: &str| {
+        quad_json(Some("quad.bin"), material).replace(
+            r#""extensionsUsed": ["KHR_lights_punctual"]"#,
+            &format!(r#""extensionsUsed": ["KHR_lights_punctual", "KHR_texture_transform", "KHR_materials_sheen"]{list}"#),
+        )
+    };
+    std::fs::write(dir.path().join("quad.gltf"), used("")).unwrap();
+    let g = read_gltf(&dir.path().join("quad.gltf")).unwrap();
+    let sheen: Vec<_> = g
+        .notes
+        .iter()
+        .filter(|n| n.contains("KHR_materials_sheen"))
+        .collect();
+    assert_eq!(sheen.len(), 1, "{:?}", g.notes);
+    assert!(!g.notes.iter().any(|n| n.contains("KHR_texture_transform")));
+    std::fs::write(
+        dir.path().join("quad.gltf"),
+        used(r#", "extensionsRequired": ["KHR_materials_sheen"]"#),
+    )
+    .unwrap();
+    let e = read_gltf(&dir.path().join("quad.gltf"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("KHR_materials_sheen"), "{e}");
 }
 
 #[test]
@@ -691,7 +722,11 @@ fn gltf_vertex_colours_alpha_and_sides_render_as_gltf_says() {
     write_quad(dir.path(), MR);
     let render_scene = |gltf_json: String, name: &str| {
         std::fs::write(dir.path().join(format!("{name}.gltf")), gltf_json).unwrap();
-        render_file(&backdrop_scene(dir.path(), &format!("{name}.toml"), Some(&format!("{name}.gltf"))))
+        render_file(&backdrop_scene(
+            dir.path(),
+            &format!("{name}.toml"),
+            Some(&format!("{name}.gltf")),
+        ))
     };
     let empty = render_file(&backdrop_scene(dir.path(), "empty.toml", None));
     let plain = |factor: &str, extra: &str| {
@@ -727,7 +762,10 @@ fn gltf_vertex_colours_alpha_and_sides_render_as_gltf_says() {
     let masked = render_scene(
         quad_json(
             Some("quad.bin"),
-            &plain("[1, 1, 1, 0.4]", r#", "alphaMode": "MASK", "alphaCutoff": 0.5"#),
+            &plain(
+                "[1, 1, 1, 0.4]",
+                r#", "alphaMode": "MASK", "alphaCutoff": 0.5"#,
+            ),
         ),
         "masked",
     );
@@ -735,13 +773,19 @@ fn gltf_vertex_colours_alpha_and_sides_render_as_gltf_says() {
     let kept = render_scene(
         quad_json(
             Some("quad.bin"),
-            &plain("[1, 1, 1, 0.5]", r#", "alphaMode": "MASK", "alphaCutoff": 0.5"#),
+            &plain(
+                "[1, 1, 1, 0.5]",
+                r#", "alphaMode": "MASK", "alphaCutoff": 0.5"#,
+            ),
         ),
         "kept",
     );
     assert!(kept.color.iter().zip(&empty.color).any(|(a, b)| a != b));
     let blended = render_scene(
-        quad_json(Some("quad.bin"), &plain("[1, 1, 1, 0]", r#", "alphaMode": "BLEND""#)),
+        quad_json(
+            Some("quad.bin"),
+            &plain("[1, 1, 1, 0]", r#", "alphaMode": "BLEND""#),
+        ),
         "blended",
     );
     assert_same_colour("a fully transparent quad", &blended, &empty);
@@ -777,5 +821,140 @@ fn assert_same_colour(what: &str, a: &Film, b: &Film) {
             (*p - *q).abs().max_element() <= 1e-4 * p.max_element().max(q.max_element()),
             "{what}: pixel {i}: {p} vs {q}"
         );
+    }
+}
+
+/// An emissive quad: black, emitting its factor times `tex.png` (nearest
+/// texels), turned round by its node where `turned` (to face −z).
+fn emissive_quad_json(turned: bool) -> String {
+    let material = r#""materials": [{"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0},
+      "emissiveFactor": [1, 1, 1], "emissiveTexture": {"index": 0}}],
+  "samplers": [{"magFilter": 9728}],
+  "textures": [{"source": 0, "sampler": 0}], "images": [{"uri": "tex.png"}]"#;
+    let json = quad_json(Some("quad.bin"), material);
+    match turned {
+        true => json.replace(
+            r#""translation": [0, 0.5, -1], "scale": [2, 2, 2]"#,
+            r#""translation": [0, 0.5, -1], "rotation": [0, 1, 0, 0], "scale": [2, 2, 2]"#,
+        ),
+        false => json,
+    }
+}
+
+#[test]
+fn gltf_emissive_textures_vary_the_emission() {
+    let dir = tempfile::tempdir().unwrap();
+    write_quad(dir.path(), MR);
+    let srgb = |c: u8| plsr::texture::srgb_to_linear(c as f32 / 255.0);
+    let texels = [[200, 30, 30], [30, 200, 30], [30, 30, 200], [250, 250, 250]]
+        .map(|t: [u8; 3]| Vec3::new(srgb(t[0]), srgb(t[1]), srgb(t[2])));
+
+    // Seen straight on with nothing else in the scene, each pixel is the
+    // radiance of its texel: factor × texture.
+    std::fs::write(dir.path().join("seen.gltf"), emissive_quad_json(false)).unwrap();
+    let seen = dir.path().join("seen.toml");
+    std::fs::write(
+        &seen,
+        "[render]\nspp = 1\nmax_depth = 2\n\n[camera]\nposition = [0, 0.5, 4]\n\
+         look_at = [0, 0.5, -1]\nup = [0, 1, 0]\nvfov = 40\nresolution = [32, 32]\n\n\
+         [[shapes]]\ntype = \"gltf\"\nfile = \"seen.gltf\"\n",
+    )
+    .unwrap();
+    let film = render_file(&seen);
+    // The quad spans x, y in [-2, 2] about (0, 0.5) at z = -1, 5 m from
+    // the camera: ±21.8° of the ±20° view, so it fills the image.
+    for (y, x, texel) in [(8, 8, 0), (8, 24, 1), (24, 8, 2), (24, 24, 3)] {
+        let c = film.color[y * 32 + x];
+        assert!(
+            (c - texels[texel]).abs().max_element() < 1e-5,
+            "pixel ({x}, {y}): {c} vs texel {texel} {}",
+            texels[texel]
+        );
+    }
+
+    // Lighting a backdrop, the mapped quad gives what four quads of the
+    // texels' constant radiance give (its front faces the backdrop; its
+    // back, one-sided, lets the camera through).
+    // (The file's own point light and camera are left out.)
+    let mapped = emissive_quad_json(true).replace(
+        r#""scenes": [{"nodes": [0, 1, 2, 3]}]"#,
+        r#""scenes": [{"nodes": [0]}]"#,
+    );
+    std::fs::write(dir.path().join("mapped.gltf"), mapped).unwrap();
+    let quadrant = |i: usize| {
+        // Texel (col, row) lies at local (x, y) = (±0.5, ±0.5) of the
+        // quad, (−2x, 2y + 0.5, −1) in the world after the node.
+        let (col, row) = (i % 2, i / 2);
+        let (x, y) = (
+            if col == 1 { 0.5 } else { -0.5 },
+            if row == 0 { 0.5 } else { -0.5 },
+        );
+        format!(
+            r#"{{"mesh": {i}, "translation": [{}, {}, -1], "rotation": [0, 1, 0, 0]}}"#,
+            -2.0 * x,
+            2.0 * y + 0.5
+        )
+    };
+    let mut twin = quad_json(Some("quad.bin"), MR);
+    let nodes: Vec<String> = (0..4).map(quadrant).collect();
+    let start = twin.find("\"nodes\": [\n").unwrap();
+    let end = start + twin[start..].find("],\n  \"cameras\"").unwrap();
+    twin.replace_range(
+        start..end,
+        &format!("\"nodes\": [\n    {}\n  ", nodes.join(",\n    ")),
+    );
+    let mesh = |i: usize| {
+        format!(
+            r#"{{"primitives": [{{"attributes": {{"POSITION": 0, "TEXCOORD_0": 1}}, "indices": 2, "material": {i}}}]}}"#
+        )
+    };
+    let meshes: Vec<String> = (0..4).map(mesh).collect();
+    let start = twin.find(r#""meshes": ["#).unwrap();
+    let end = start + twin[start..].find("]}]").unwrap() + 3;
+    twin.replace_range(start..end, &format!("\"meshes\": [{}]", meshes.join(", ")));
+    let materials: Vec<String> = texels
+        .iter()
+        .map(|t| {
+            format!(
+                r#"{{"pbrMetallicRoughness": {{"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0}}, "emissiveFactor": [{}, {}, {}]}}"#,
+                t.x, t.y, t.z
+            )
+        })
+        .collect();
+    let start = twin.find(r#""materials": ["#).unwrap();
+    let end = twin.find(r#""buffers""#).unwrap();
+    twin.replace_range(
+        start..end,
+        &format!("\"materials\": [{}],\n  ", materials.join(", ")),
+    );
+    std::fs::write(dir.path().join("quadrants.gltf"), twin).unwrap();
+    let lit = |gltf: &str, name: &str| {
+        let path = backdrop_scene(dir.path(), name, Some(gltf));
+        let text = std::fs::read_to_string(&path)
+            .unwrap()
+            .replace("spp = 4", "spp = 256");
+        // Only the quad lights the backdrop.
+        let text = text.replace("intensity = [20, 20, 20]", "intensity = [0, 0, 0]");
+        std::fs::write(&path, text).unwrap();
+        render_file(&path)
+    };
+    let mapped = lit("mapped.gltf", "mapped.toml");
+    let quadrants = lit("quadrants.gltf", "quadrants.toml");
+    // Mean colour of each half of the image (the red texel lights the
+    // left, the green the right): equal within the noise of 256 spp (0.2 % measured).
+    let half = |f: &Film, left: bool| {
+        let mut sum = Vec3::ZERO;
+        for (i, c) in f.color.iter().enumerate() {
+            if ((i % f.width as usize) < f.width as usize / 2) == left {
+                sum += *c;
+            }
+        }
+        sum
+    };
+    for left in [true, false] {
+        let (a, b) = (half(&mapped, left), half(&quadrants, left));
+        assert!(b.min_element() > 0.0, "the backdrop is lit: {b}");
+        let rel = ((a - b) / b).abs().max_element();
+        assert!(rel < 0.01, "left {left}: mapped {a} vs quadrants {b}");
     }
 }

@@ -102,7 +102,7 @@ impl SoaScene {
     /// `thin_dielectric`, `principled_thin`, `principled` with sheen,
     /// clearcoat, transmission or flatness, and composites; every
     /// other model, mapped or not, has a pass), it has a spot, projector,
-    /// directional or sphere light, a normal map with the shadow
+    /// directional, sphere or emission-mapped light, a normal map with the shadow
     /// terminator, or alpha maps: the general integrator then renders the
     /// scene.
     pub fn new(scene: &Scene) -> Option<SoaScene> {
@@ -111,7 +111,7 @@ impl SoaScene {
         let spot = |l: &crate::light::Light| {
             matches!(l, crate::light::Light::Point(p) if p.cone.is_some() || p.projection.is_some())
                 || matches!(l, crate::light::Light::Directional { .. })
-                || matches!(l, crate::light::Light::Triangle(t) if t.sphere.is_some())
+                || matches!(l, crate::light::Light::Triangle(t) if t.sphere.is_some() || t.map.is_some())
         };
         if scene.lights().lights.iter().any(spot) {
             return None;

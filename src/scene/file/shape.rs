@@ -473,6 +473,7 @@ impl Builder<'_> {
             is_virtual,
             uv_map,
             colors,
+            emission_map: None,
         });
         Ok(())
     }
@@ -864,6 +865,7 @@ impl Builder<'_> {
                 is_virtual: shape.is_virtual,
                 uv_map: crate::scene::uv_map::UvMap::Vertices,
                 colors: None,
+                emission_map: None,
             });
         }
         Ok(())
@@ -953,9 +955,22 @@ impl Builder<'_> {
             let (mut p, mut t) = (o.positions, o.triangles);
             transform_mesh(&shape.matrix, &mut p, &mut t);
             let normals = transform_normals(&shape.matrix, normals);
-            let extras = o.material.and_then(|m| gltf.extras.get(m).copied());
+            let extras = o.material.and_then(|m| gltf.extras.get(m));
             // glTF's default material is one-sided.
             let double_sided = extras.is_some_and(|e| e.double_sided);
+            let emission_map = match extras.and_then(|e| e.emission_map.clone()) {
+                Some(_) if shape.emission.is_some() => None,
+                Some(_) if o.uvs.is_empty() => {
+                    self.note(format!(
+                        "{field} ({}): `{}` has an emissive texture but no texture \
+                         coordinates: it emits its emissive factor everywhere",
+                        rel.display(),
+                        o.name
+                    ));
+                    None
+                }
+                map => map,
+            };
             let file_emission = extras
                 .map(|e| e.emission)
                 .filter(|e| e.max_element() > 0.0)
@@ -994,6 +1009,7 @@ impl Builder<'_> {
                 is_virtual: shape.is_virtual,
                 uv_map: crate::scene::uv_map::UvMap::Vertices,
                 colors,
+                emission_map,
             });
         }
         Ok(())
