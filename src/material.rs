@@ -44,6 +44,13 @@ pub struct MaterialTextures {
     /// angles is attenuated by Estevez et al.'s shadowing term (Mitsuba's
     /// `normalmap` and `bumpmap` do by default; see `integrator::general`).
     pub normal_shadowing: bool,
+    /// Whether the shading normal is bent, where it must be, so that the
+    /// mirror reflection of the viewing direction stays above the surface
+    /// (as Cycles does; see `integrator::steps::valid_reflection_normal`):
+    /// without it a smooth normal-mapped metal shows black rings where the
+    /// map tilts the normal away from the viewer. glTF's normal-mapped
+    /// materials set it.
+    pub valid_reflection: bool,
     /// A height field whose slopes tilt the shading normal (Mitsuba's
     /// `bumpmap`): its luminance, in scene units per unit of `uv`, times
     /// `bump_scale`.

@@ -488,6 +488,10 @@ impl<'a> SurfaceHit<'a> {
         // Transmissive ones keep the geometric normal as their outside.
         let n = if bsdf.transmits() { ng } else { facing };
         let shading_n = surface.shading_normal(n, wo);
+        let shading_n = match material.textures.valid_reflection && !bsdf.transmits() {
+            true => crate::integrator::steps::valid_reflection_normal(shading_n, n, wo),
+            false => shading_n,
+        };
         let terminator = if material.textures.terminator() {
             // Estevez et al. 2019: the tilt of the mapped normal from the
             // unmapped one sets the roughness of a microfacet surface,

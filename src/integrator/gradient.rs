@@ -429,6 +429,10 @@ fn step(
     let guard = surface.normal.is_some();
     let n = if bsdf.transmits() { ng } else { facing };
     let shading_n = surface.shading_normal(n, wo);
+    let shading_n = match material.textures.valid_reflection && !bsdf.transmits() {
+        true => crate::integrator::steps::valid_reflection_normal(shading_n, n, wo),
+        false => shading_n,
+    };
 
     if let Some(li) = scene.hit_light(&hit) {
         if let Light::Triangle(tl) = &scene.lights().lights[li] {

@@ -405,6 +405,31 @@ pub(crate) fn shading_normal_towards(ns: Vec3, n: Vec3, wo: Vec3) -> Vec3 {
     }
 }
 
+/// The shading normal `ns` bent, where it must be, so that the mirror
+/// reflection of `wo` about it leaves the surface (whose geometric normal
+/// `n` faces `wo`) at least `min(0.9·(n·wo), 0.01)` above it: the
+/// reflection is lifted to that height in the plane it spans with `n`, and
+/// the new normal is the half vector of `wo` and the lifted reflection
+/// (the correction Cycles applies against black rings; unit vectors in,
+/// unit vector out).
+#[inline]
+pub(crate) fn valid_reflection_normal(ns: Vec3, n: Vec3, wo: Vec3) -> Vec3 {
+    let cos_o = n.dot(wo);
+    if cos_o <= 0.0 {
+        return ns;
+    }
+    let threshold = (0.9 * cos_o).min(0.01);
+    let r = 2.0 * ns.dot(wo) * ns - wo;
+    if n.dot(r) >= threshold {
+        return ns;
+    }
+    let tangent = (r - n.dot(r) * n)
+        .try_normalize()
+        .unwrap_or_else(|| n.any_orthonormal_vector());
+    let lifted = tangent * (1.0 - threshold * threshold).sqrt() + threshold * n;
+    (wo + lifted).try_normalize().unwrap_or(n)
+}
+
 /// The scattering vertex a path's current ray left from.
 pub(crate) struct PrevVertex {
     /// Scattering events before it (0: the ray is the camera's).
@@ -486,4 +511,46 @@ pub(crate) fn camera_sample(
     };
     let ray = camera.generate_ray(film, lens);
     (rng, ray)
+}
+
+#[cfg(test)]
+mod valid_reflection_tests {
+    use super::valid_reflection_normal;
+    use glam::Vec3;
+
+    #[test]
+    fn reflections_are_lifted_above_the_surface_and_no_more() {
+        let n = Vec3::Z;
+        let mut lifted = 0;
+        for i in 0..40 {
+            for j in 0..40 {
+                // Viewing directions and shading normals over the upper
+                // hemisphere, the normals tilted up to 80 degrees.
+                let (a, b) = (i as f32 * 0.157, j as f32 * 0.37);
+                let wo = Vec3::new(
+                    a.cos() * 0.99,
+                    (a * 1.7).sin() * 0.5,
+                    0.05 + 0.02 * i as f32,
+                )
+                .normalize();
+                let tilt = (j as f32 / 40.0) * 1.4;
+                let ns = Vec3::new(tilt.sin() * b.cos(), tilt.sin() * b.sin(), tilt.cos());
+                let bent = valid_reflection_normal(ns, n, wo);
+                assert!((bent.length() - 1.0).abs() < 1e-5);
+                let r = 2.0 * bent.dot(wo) * bent - wo;
+                let threshold = (0.9 * n.dot(wo)).min(0.01);
+                assert!(n.dot(r) >= threshold - 1e-4, "wo {wo}, ns {ns}: r {r}");
+                let r0 = 2.0 * ns.dot(wo) * ns - wo;
+                if n.dot(r0) >= threshold {
+                    assert_eq!(bent, ns, "a valid normal is kept");
+                } else {
+                    lifted += 1;
+                    // Bent in the plane of the reflection and the normal:
+                    // no further from the original than needed.
+                    assert!(bent.dot(n) > 0.0);
+                }
+            }
+        }
+        assert!(lifted > 100, "{lifted} normals lifted");
+    }
 }

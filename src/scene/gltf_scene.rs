@@ -358,6 +358,7 @@ fn read_material(
             info.tex_coord(),
             info.extension_value("KHR_texture_transform"),
         )?;
+        t.valid_reflection = true;
         t.normal = Some(Arc::new(
             texture(w, h, &px, |p| {
                 decode_normal(Vec3::new(p[0], p[1], p[2]), scale)
@@ -853,6 +854,47 @@ pub struct GltfWrapper {
 /// camera's aspect ratio, 4:3 if it gives none).
 pub const DIRECT_WIDTH: u32 = 960;
 
+/// The radiance of the studio's sky (W/(m²·sr)): a dim fill.
+pub const STUDIO_SKY: f32 = 0.3;
+
+/// The radiance of the studio's key light (W/(m²·sr)): a square softbox
+/// as wide as the model's bounding radius, 2.5 radii from its centre,
+/// subtending about 0.16 sr, so that it gives about 2.5 W/m² where it
+/// faces the model (the sky gives 0.94 on a surface facing up).
+pub const STUDIO_KEY: f32 = 16.0;
+
+/// The `[environment]` and key light of plsr's studio, which lights a glTF
+/// without lights of its own as a viewer does: a dim grey sky, and a
+/// square softbox above the camera and to its left, facing the model's
+/// centre (its reflection shows the form of metals).
+fn studio_toml(position: Vec3, look_at: Vec3, up: Vec3, (lo, hi): (Vec3, Vec3)) -> String {
+    let centre = 0.5 * (lo + hi);
+    let radius = (0.5 * (hi - lo).length()).max(1e-3);
+    let forward = (look_at - position).normalize_or(Vec3::NEG_Z);
+    let right = forward.cross(up).normalize_or(Vec3::X);
+    let up = right.cross(forward);
+    let towards = (-forward + up - 0.8 * right).normalize();
+    let key = centre + 2.5 * radius * towards;
+    // The rectangle's +z (its emitting side) faces the centre.
+    let z = -towards;
+    let x = z.any_orthonormal_vector();
+    let y = z.cross(x);
+    let half = 0.5 * radius;
+    let row = |i: usize| {
+        let (a, b, c) = (x[i] * half, y[i] * half, z[i]);
+        format!("[{a}, {b}, {c}, {}]", key[i])
+    };
+    format!(
+        "\n[environment]\nradiance = [{STUDIO_SKY}, {STUDIO_SKY}, {STUDIO_SKY}]\n\n\
+         # The studio's key light: a softbox facing the model.\n[[shapes]]\n\
+         type = \"rectangle\"\nemission = [{STUDIO_KEY}, {STUDIO_KEY}, {STUDIO_KEY}]\n\
+         transform.matrix = [{}, {}, {}, [0, 0, 0, 1]]\n",
+        row(0),
+        row(1),
+        row(2)
+    )
+}
+
 /// The scene [`GltfWrapper`] of the glTF file `path`.
 pub fn scene_toml(path: &Path) -> crate::error::Result<GltfWrapper> {
     crate::input::check_input_file(path)?;
@@ -896,12 +938,13 @@ pub fn scene_toml(path: &Path) -> crate::error::Result<GltfWrapper> {
         fmt(up)
     );
     // Emissive materials glow, but rarely light a model as a viewer's
-    // environment does: without punctual lights, a sky lights it.
+    // environment does: without punctual lights, the studio lights it.
     if scene.point_lights.is_empty() {
         notes.push(format!(
-            "{file} has no lights: a uniform white sky (radiance 1) lights it"
+            "{file} has no lights: plsr's studio lights it (a grey sky of radiance \
+             {STUDIO_SKY} and a key light above the camera, to its left)"
         ));
-        toml.push_str("\n[environment]\nradiance = [1, 1, 1]\n");
+        toml.push_str(&studio_toml(position, look_at, up, (lo, hi)));
     }
     toml.push_str(&format!(
         "\n[[shapes]]\ntype = \"gltf\"\nfile = {}\n",

@@ -958,3 +958,36 @@ fn gltf_emissive_textures_vary_the_emission() {
         assert!(rel < 0.01, "left {left}: mapped {a} vs quadrants {b}");
     }
 }
+
+#[test]
+fn gltf_normal_maps_on_mirrors_reflect_the_sky_not_black() {
+    // A white mirror whose normal texture tilts the normal by up to 55°,
+    // seen nearly head-on under a uniform sky of radiance 1: every
+    // reflection must leave the surface (the shading normal is bent where
+    // it would not), so every pixel, sky or mirror, is about 1. Without
+    // the correction the steepest texels reflect into the quad: black.
+    let material = r#""materials": [{"pbrMetallicRoughness": {"metallicFactor": 1, "roughnessFactor": 0},
+      "normalTexture": {"index": 0}}],
+  "textures": [{"source": 0}], "images": [{"uri": "nrm.png"}]"#;
+    let dir = tempfile::tempdir().unwrap();
+    write_quad(dir.path(), material);
+    let json = quad_json(Some("quad.bin"), material).replace(
+        r#""scenes": [{"nodes": [0, 1, 2, 3]}]"#,
+        r#""scenes": [{"nodes": [0]}]"#,
+    );
+    std::fs::write(dir.path().join("mirror.gltf"), json).unwrap();
+    let scene = dir.path().join("mirror.toml");
+    let text = SCENE_HEAD.replace("intensity = [20, 20, 20]", "intensity = [0, 0, 0]");
+    std::fs::write(
+        &scene,
+        format!("{text}\n[environment]\nradiance = [1, 1, 1]\n\n[[shapes]]\ntype = \"gltf\"\nfile = \"mirror.gltf\"\n"),
+    )
+    .unwrap();
+    let film = render_file(&scene);
+    let darkest = film
+        .color
+        .iter()
+        .map(|c| c.min_element())
+        .fold(f32::INFINITY, f32::min);
+    assert!(darkest > 0.8, "darkest pixel {darkest}");
+}

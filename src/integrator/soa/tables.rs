@@ -103,7 +103,7 @@ impl SoaScene {
     /// clearcoat, transmission or flatness, and composites; every
     /// other model, mapped or not, has a pass), it has a spot, projector,
     /// directional, sphere or emission-mapped light, a normal map with the shadow
-    /// terminator, or alpha maps: the general integrator then renders the
+    /// terminator or bent for valid reflections, or alpha maps: the general integrator then renders the
     /// scene.
     pub fn new(scene: &Scene) -> Option<SoaScene> {
         // Spot, projector, directional and sphere lights are sampled by the
@@ -125,6 +125,7 @@ impl SoaScene {
         // roughness maps along two tangents and maps of principled weights.
         if scene.materials().iter().any(|m| {
             m.textures.terminator()
+                || m.textures.valid_reflection
                 || m.composite.is_some()
                 || m.textures.alpha_u.is_some()
                 || !m.textures.scalars.is_empty()

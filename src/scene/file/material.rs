@@ -1061,6 +1061,7 @@ impl Builder<'_> {
             normal: None,
             normal_frame: NormalFrame::Uv,
             normal_shadowing: false,
+            valid_reflection: false,
             bump: None,
             bump_scale: 1.0,
             alpha_u: None,
