@@ -189,7 +189,7 @@ fn a_gltf_quad_renders_as_the_plsr_rectangle() {
         format!(
             "{SCENE_HEAD}\n[[materials]]\nname = \"paint\"\ntype = \"principled\"\n\
              base_color_map = \"tex.png\"\nmetallic = 0.25\nroughness = 0.5\n\
-             normal_map = \"nrm.png\"\nnormal_scale = 0.6\n\n\
+             normal_map = \"nrm.png\"\nnormal_scale = 0.6\nnormal_valid_reflection = true\n\n\
              [[shapes]]\ntype = \"rectangle\"\nmaterial = \"paint\"\n\
              transform.matrix = [[2, 0, 0, 0], [0, 2, 0, 0.5], [0, 0, 2, -0.5], [0, 0, 0, 1]]\n"
         ),

@@ -368,6 +368,7 @@ impl Builder<'_> {
             u.normal == t.normal
                 && u.normal_frame == t.normal_frame
                 && u.normal_shadowing == t.normal_shadowing
+                && u.valid_reflection == t.valid_reflection
                 && u.bump == t.bump
                 && u.bump_scale == t.bump_scale
         };
@@ -385,6 +386,7 @@ impl Builder<'_> {
             normal: t.normal.clone(),
             normal_frame: t.normal_frame,
             normal_shadowing: t.normal_shadowing,
+            valid_reflection: t.valid_reflection,
             bump: t.bump.clone(),
             bump_scale: t.bump_scale,
             ..MaterialTextures::default()

@@ -52,6 +52,7 @@ pub(super) struct DiffuseKeys {
     normal_scale: Option<f32>,
     normal_frame: Option<String>,
     normal_shadowing: Option<bool>,
+    normal_valid_reflection: Option<bool>,
 }
 
 /// The keys of a `blinn_phong` material.
@@ -68,6 +69,7 @@ pub(super) struct BlinnPhongKeys {
     normal_scale: Option<f32>,
     normal_frame: Option<String>,
     normal_shadowing: Option<bool>,
+    normal_valid_reflection: Option<bool>,
 }
 
 /// The keys of a `cook_torrance` material.
@@ -98,6 +100,7 @@ pub(super) struct CookTorranceKeys {
     normal_scale: Option<f32>,
     normal_frame: Option<String>,
     normal_shadowing: Option<bool>,
+    normal_valid_reflection: Option<bool>,
 }
 
 /// The keys of a `dielectric` material.
@@ -117,6 +120,7 @@ pub(super) struct DielectricKeys {
     normal_scale: Option<f32>,
     normal_frame: Option<String>,
     normal_shadowing: Option<bool>,
+    normal_valid_reflection: Option<bool>,
 }
 
 /// The keys of a `thin_dielectric` material (Mitsuba's `thindielectric`).
@@ -165,6 +169,7 @@ pub(super) struct PrincipledKeys {
     normal_scale: Option<f32>,
     normal_frame: Option<String>,
     normal_shadowing: Option<bool>,
+    normal_valid_reflection: Option<bool>,
 }
 
 /// The keys of a `principled_thin` material (Mitsuba's `principledthin`).
@@ -194,6 +199,7 @@ pub(super) struct PrincipledThinKeys {
     normal_scale: Option<f32>,
     normal_frame: Option<String>,
     normal_shadowing: Option<bool>,
+    normal_valid_reflection: Option<bool>,
 }
 
 /// The keys of a `plastic` and a `rough_plastic` material (Mitsuba's
@@ -216,6 +222,7 @@ pub(super) struct PlasticKeys {
     normal_scale: Option<f32>,
     normal_frame: Option<String>,
     normal_shadowing: Option<bool>,
+    normal_valid_reflection: Option<bool>,
 }
 
 /// A material's keys, by its type (the `type` key is the tag).
@@ -273,6 +280,7 @@ struct TextureKeys<'a> {
     normal_scale: Option<f32>,
     normal_frame: Option<&'a str>,
     normal_shadowing: Option<bool>,
+    normal_valid_reflection: Option<bool>,
     /// Maps of the principled models' weights.
     scalars: Vec<(ScalarParam, &'a MapKey)>,
 }
@@ -295,6 +303,7 @@ impl MaterialKeys {
                 normal_scale: k.normal_scale,
                 normal_frame: k.normal_frame.as_deref(),
                 normal_shadowing: k.normal_shadowing,
+                normal_valid_reflection: k.normal_valid_reflection,
                 ..Default::default()
             },
             MaterialKeys::BlinnPhong(k) => TextureKeys {
@@ -303,6 +312,7 @@ impl MaterialKeys {
                 normal_scale: k.normal_scale,
                 normal_frame: k.normal_frame.as_deref(),
                 normal_shadowing: k.normal_shadowing,
+                normal_valid_reflection: k.normal_valid_reflection,
                 ..Default::default()
             },
             MaterialKeys::CookTorrance(k) => TextureKeys {
@@ -314,6 +324,7 @@ impl MaterialKeys {
                 normal_scale: k.normal_scale,
                 normal_frame: k.normal_frame.as_deref(),
                 normal_shadowing: k.normal_shadowing,
+                normal_valid_reflection: k.normal_valid_reflection,
                 ..Default::default()
             },
             MaterialKeys::Dielectric(k) => TextureKeys {
@@ -324,6 +335,7 @@ impl MaterialKeys {
                 normal_scale: k.normal_scale,
                 normal_frame: k.normal_frame.as_deref(),
                 normal_shadowing: k.normal_shadowing,
+                normal_valid_reflection: k.normal_valid_reflection,
                 ..Default::default()
             },
             MaterialKeys::Plastic(k) | MaterialKeys::RoughPlastic(k) => TextureKeys {
@@ -332,6 +344,7 @@ impl MaterialKeys {
                 normal_scale: k.normal_scale,
                 normal_frame: k.normal_frame.as_deref(),
                 normal_shadowing: k.normal_shadowing,
+                normal_valid_reflection: k.normal_valid_reflection,
                 ..Default::default()
             },
             MaterialKeys::ThinDielectric(_) => TextureKeys::default(),
@@ -343,6 +356,7 @@ impl MaterialKeys {
                 normal_scale: k.normal_scale,
                 normal_frame: k.normal_frame.as_deref(),
                 normal_shadowing: k.normal_shadowing,
+                normal_valid_reflection: k.normal_valid_reflection,
                 scalars: given_maps([
                     (ScalarParam::Anisotropic, &k.anisotropic_map),
                     (ScalarParam::Specular, &k.specular_map),
@@ -363,6 +377,7 @@ impl MaterialKeys {
                 normal_scale: k.normal_scale,
                 normal_frame: k.normal_frame.as_deref(),
                 normal_shadowing: k.normal_shadowing,
+                normal_valid_reflection: k.normal_valid_reflection,
                 scalars: given_maps([
                     (ScalarParam::Anisotropic, &k.anisotropic_map),
                     (ScalarParam::SpecTrans, &k.spec_trans_map),
@@ -876,6 +891,15 @@ impl Builder<'_> {
                 "only used with a normal_map or a bump_map",
             ));
         }
+        if m.normal_valid_reflection.is_some()
+            && m.normal_map.is_none()
+            && section.bump_map.is_none()
+        {
+            return Err(self.err(
+                format!("{field}.normal_valid_reflection"),
+                "only used with a normal_map or a bump_map",
+            ));
+        }
         textures.alpha_u = None;
         let alpha = |key: &str, map: Option<&MapKey>| -> Result<Option<Arc<ImageTexture>>> {
             let Some(map) = map else { return Ok(None) };
@@ -955,6 +979,7 @@ impl Builder<'_> {
             });
         }
         textures.normal_shadowing = m.normal_shadowing.unwrap_or(false);
+        textures.valid_reflection = m.normal_valid_reflection.unwrap_or(false);
         textures.normal_frame = match m.normal_frame {
             None | Some("uv") => NormalFrame::Uv,
             Some("tangent") => NormalFrame::Tangent,
