@@ -143,6 +143,30 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, FormatError> {
         }
     }
 
+    // What moves is rendered still.
+    if doc.animations().len() > 0 {
+        notes.add(format!(
+            "its {} animation(s) are not played: nodes are rendered at their rest pose \
+             (their own translation, rotation and scale), not at any time of an animation",
+            doc.animations().len()
+        ));
+    }
+    if doc.skins().len() > 0 {
+        notes.add(
+            "its skins are not applied: skinned meshes are rendered as stored (their bind pose)"
+                .to_string(),
+        );
+    }
+    if doc
+        .meshes()
+        .any(|m| m.primitives().any(|p| p.morph_targets().len() > 0))
+    {
+        notes.add(
+            "its morph targets are not applied: meshes are rendered with their base shape"
+                .to_string(),
+        );
+    }
+
     // Materials: the metallic-roughness model as principled.
     let mut cache = TexelCache {
         asset: &asset,

@@ -991,3 +991,19 @@ fn gltf_normal_maps_on_mirrors_reflect_the_sky_not_black() {
         .fold(f32::INFINITY, f32::min);
     assert!(darkest > 0.8, "darkest pixel {darkest}");
 }
+
+#[test]
+fn an_animated_gltf_renders_its_rest_pose_and_says_so() {
+    // Khronos' BoxAnimated (CC BY 4.0, Cesium; tests/data/realworld/gltf).
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/realworld/gltf/BoxAnimated.glb");
+    let g = read_gltf(&path).unwrap();
+    let animation: Vec<_> = g.notes.iter().filter(|n| n.contains("animation")).collect();
+    assert_eq!(animation.len(), 1, "{:?}", g.notes);
+    assert!(animation[0].contains("rest pose"), "{}", animation[0]);
+    assert!(!g
+        .notes
+        .iter()
+        .any(|n| n.contains("skins") || n.contains("morph")));
+    assert!(!g.objects.is_empty());
+}
