@@ -46,7 +46,7 @@ pub use envmap::EnvironmentLight;
 pub use pls::{Cone, Reach};
 pub use point::{point_light_sample, spot_cone, PointLight};
 pub use projection::{Projection, ProjectionKind};
-pub use triangle::{triangle_light_sample, EmissionMap, SphereCap, TriangleLight, TrianglePoint};
+pub use triangle::{EmissionMap, SphereCap, TriangleLight, TrianglePoint};
 
 use crate::color::luminance;
 

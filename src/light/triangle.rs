@@ -271,7 +271,10 @@ impl TriangleLight {
 }
 
 /// A point sampled uniformly on a triangle light, seen from a shading
-/// point: the first half of [`triangle_light_sample`].
+/// point (uniform over the area; its density converted to solid angle is
+/// `r² / (|cos θ_light|·A)`). Branch-free: [`TriangleLight::sample_li`]
+/// and the vectorised kernel (per lane) take the same steps, so that their
+/// samples agree bit for bit.
 #[derive(Debug, Clone, Copy)]
 pub struct TrianglePoint {
     /// Unit direction from the shading point to the light point.
@@ -322,25 +325,4 @@ impl TrianglePoint {
         };
         (valid, sample)
     }
-}
-
-/// The light sample of a triangle `vertices` with unit normal `n` and area
-/// `area` (scene units²) seen from `p`, for the square sample `u` (uniform
-/// over the area, density converted to solid angle: `r² / (|cos θ_light|·A)`);
-/// `emitted(w)` is the radiance leaving along `w`. Returns whether the
-/// sample is valid (non-zero distance, cosine and radiance). Branch-free
-/// (with a branch-free `emitted`): the vectorised kernel takes the same
-/// steps per lane ([`TrianglePoint`]), [`TriangleLight::sample_li`] per
-/// shading point.
-#[inline(always)]
-pub fn triangle_light_sample(
-    vertices: [Vec3; 3],
-    n: Vec3,
-    area: f32,
-    emitted: impl Fn(Vec3) -> Vec3,
-    p: Vec3,
-    u: Vec2,
-) -> (bool, LightSample) {
-    let point = TrianglePoint::new(vertices, n, area, p, u);
-    point.sample(emitted(-point.wi))
 }
