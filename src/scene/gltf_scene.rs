@@ -55,8 +55,12 @@ pub struct GltfObject {
     pub triangles: Vec<[u32; 3]>,
     /// Unit vertex normals, or empty.
     pub normals: Vec<Vec3>,
-    /// Texture coordinates (plsr's convention: `v` up), or empty.
+    /// Texture coordinates (plsr's convention: `v` up) of the UV set the
+    /// material's shading textures read (`TEXCOORD_n`), or empty.
     pub uvs: Vec<Vec2>,
+    /// Texture coordinates of the UV set the emissive texture reads (often
+    /// a second set), or empty.
+    pub emission_uvs: Vec<Vec2>,
     /// Unit tangents with the bitangent's sign in `w` (glTF's `TANGENT`),
     /// or empty.
     pub tangents: Vec<glam::Vec4>,
@@ -207,7 +211,15 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, FormatError> {
                 .name()
                 .map_or_else(|| format!("mesh {}", mesh.index()), String::from);
             for prim in mesh.primitives() {
-                read_primitive(&mesh_name, &prim, &m, buffers, &mut objects, &mut notes)?;
+                read_primitive(
+                    &mesh_name,
+                    &prim,
+                    &m,
+                    buffers,
+                    &extras,
+                    &mut objects,
+                    &mut notes,
+                )?;
             }
         }
         if let Some(camera) = node.camera() {
@@ -286,6 +298,11 @@ pub struct GltfMaterialExtras {
     /// glTF's `doubleSided`: when false, rays pass through the back faces
     /// (back-face culling, as glTF viewers draw them).
     pub double_sided: bool,
+    /// The UV set (`TEXCOORD_n`) the shading textures read (base colour,
+    /// metallic-roughness, normal).
+    pub uv_set: u32,
+    /// The UV set the emissive texture reads.
+    pub emission_uv_set: u32,
 }
 
 /// Material `i`, the metallic-roughness model as principled with its
@@ -311,10 +328,13 @@ fn read_material(
         anisotropic: 0.0,
         specular: 0.5,
         spec_tint: 0.0,
-        energy_conserving: false,
+        // glTF's BRDF mixes diffuse and specular by the Fresnel term: the
+        // diffuse lobe takes what the specular one leaves.
+        energy_conserving: true,
     };
     let mut t = MaterialTextures::default();
-    let mut second_uv = Vec::new();
+    // The UV set of each slot read, by slot.
+    let mut sets: Vec<(String, u32)> = Vec::new();
     let mut slot = |slot: &str,
                     texture: gltf::Texture,
                     tex_coord: u32,
@@ -322,9 +342,7 @@ fn read_material(
      -> std::result::Result<_, FormatError> {
         let slot_field = format!("{field}.{slot}");
         let (sampling, set) = slot_sampling(&texture, tex_coord, transform, &slot_field)?;
-        if set != 0 {
-            second_uv.push(slot.to_string());
-        }
+        sets.push((slot.to_string(), set));
         let (w, h, px) = cache.texels(texture.source().index())?;
         Ok((w, h, px, sampling))
     };
@@ -419,11 +437,26 @@ fn read_material(
         });
         emission_map = Some(Arc::new(map.with_sampling(sampling)));
     }
-    if !second_uv.is_empty() {
+    // The emissive texture has UVs of its own (each emitting triangle
+    // carries them); the shading textures share one set per mesh.
+    let emission_uv_set = sets
+        .iter()
+        .find(|(s, _)| s == "emissiveTexture")
+        .map_or(0, |&(_, k)| k);
+    let shading: Vec<&(String, u32)> = sets
+        .iter()
+        .filter(|(s, _)| s != "emissiveTexture")
+        .collect();
+    let uv_set = shading.first().map_or(0, |&&(_, k)| k);
+    if shading.iter().any(|&&(_, k)| k != uv_set) {
+        let list: Vec<String> = shading
+            .iter()
+            .map(|(s, k)| format!("{s} on TEXCOORD_{k}"))
+            .collect();
         notes.add(format!(
-            "material `{name}`: {} on a second UV set (TEXCOORD_1) {} looked up with the first",
-            second_uv.join(", "),
-            if second_uv.len() == 1 { "is" } else { "are" }
+            "material `{name}`: its textures read different UV sets ({}); plsr shades with one \
+             set per mesh, so all are looked up with TEXCOORD_{uv_set}",
+            list.join(", ")
         ));
     }
     let leaf = Material {
@@ -443,6 +476,8 @@ fn read_material(
             emission: e,
             emission_map,
             double_sided: m.double_sided(),
+            uv_set,
+            emission_uv_set,
         },
     ))
 }
@@ -603,6 +638,7 @@ fn read_primitive(
     prim: &gltf::Primitive,
     m: &Mat4,
     buffers: &[Vec<u8>],
+    extras: &[GltfMaterialExtras],
     objects: &mut Vec<GltfObject>,
     notes: &mut Notes,
 ) -> std::result::Result<(), FormatError> {
@@ -644,10 +680,32 @@ fn read_primitive(
         .read_normals()
         .map(|it| it.map(Vec3::from_array).collect())
         .unwrap_or_default();
-    let uvs: Vec<Vec2> = reader
-        .read_tex_coords(0)
-        .map(|t| t.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).collect())
-        .unwrap_or_default();
+    // The UV sets the material reads: the shading textures' and the
+    // emissive texture's (glTF's `v` runs down, plsr's up).
+    let extra = prim.material().index().and_then(|i| extras.get(i));
+    let (uv_set, emission_uv_set) = extra.map_or((0, 0), |e| (e.uv_set, e.emission_uv_set));
+    let read_set = |set: u32, notes: &mut Notes| -> Vec<Vec2> {
+        match reader.read_tex_coords(set) {
+            Some(t) => t.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).collect(),
+            None if set == 0 => Vec::new(),
+            None => {
+                notes.add(format!(
+                    "`{name}`: its material reads TEXCOORD_{set}, which it does not have; \
+                     TEXCOORD_0 is used"
+                ));
+                reader
+                    .read_tex_coords(0)
+                    .map(|t| t.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).collect())
+                    .unwrap_or_default()
+            }
+        }
+    };
+    let uvs = read_set(uv_set, notes);
+    let emission_uvs = match extra.is_some_and(|e| e.emission_map.is_some()) {
+        false => Vec::new(),
+        true if emission_uv_set == uv_set => uvs.clone(),
+        true => read_set(emission_uv_set, notes),
+    };
     // Without normals, glTF's tangents are ignored (its rule).
     let mut tangents: Vec<glam::Vec4> = match normals.is_empty() {
         true => Vec::new(),
@@ -663,13 +721,14 @@ fn read_primitive(
     if (!normals.is_empty() && normals.len() != n)
         || (!colors.is_empty() && colors.len() != n)
         || (!uvs.is_empty() && uvs.len() != n)
+        || (!emission_uvs.is_empty() && emission_uvs.len() != n)
         || (!tangents.is_empty() && tangents.len() != n)
     {
         return Err(format!("`{name}`: attributes of different lengths").into());
     }
     if positions.iter().any(|p| !p.is_finite())
         || normals.iter().any(|v| !v.is_finite())
-        || uvs.iter().any(|v| !v.is_finite())
+        || uvs.iter().chain(&emission_uvs).any(|v| !v.is_finite())
         || colors.iter().any(|v| !v.is_finite())
         || tangents.iter().any(|v| !v.is_finite())
     {
@@ -696,6 +755,7 @@ fn read_primitive(
         triangles,
         normals,
         uvs,
+        emission_uvs,
         tangents,
         colors,
         material: prim.material().index(),

@@ -91,13 +91,24 @@ pub struct Mesh {
     /// `COLOR_0`), which multiply the base colour of a material whose
     /// `base_color_attribute` is set; `None` leaves it as it is.
     pub colors: Option<MeshColors>,
-    /// A map of the texture coordinates that multiplies `emission`'s
-    /// radiance over the surface (glTF's emissive texture); needs `uvs`.
-    pub emission_map: Option<Arc<crate::texture::ImageTexture>>,
+    /// A texture that multiplies `emission`'s radiance over the surface
+    /// (glTF's emissive texture), with its own texture coordinates.
+    pub emission_map: Option<MeshEmissionMap>,
     /// Whether rays pass through the mesh's back faces (those they meet
     /// along its winding's normal), as through the inside of Mitsuba's
     /// curves, whose tubes are open-ended.
     pub cull_back: bool,
+}
+
+/// A texture that multiplies a mesh's emitted radiance, looked up by
+/// texture coordinates of its own (glTF's emissive texture may read another
+/// UV set than the shading textures).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshEmissionMap {
+    /// Linear factors, per texel.
+    pub texture: Arc<crate::texture::ImageTexture>,
+    /// One per vertex of the mesh (plsr's convention: `v` up).
+    pub uvs: Vec<Vec2>,
 }
 
 /// Linear RGB colours stored with a mesh, per vertex (interpolated over
@@ -588,7 +599,10 @@ impl Scene {
                         (None, None) => exact_sphere(m),
                         _ => None,
                     };
-                    let map_peak = m.emission_map.as_ref().map_or(0.0, |t| t.max_value());
+                    let map_peak = m
+                        .emission_map
+                        .as_ref()
+                        .map_or(0.0, |t| t.texture.max_value());
                     for t in &m.triangles {
                         let p = t.map(|i| m.positions[i as usize]);
                         // Zero-area triangles keep their slot (with zero power,
@@ -605,11 +619,11 @@ impl Scene {
                                 map: None,
                             },
                         );
-                        let light = match (&m.emission_map, m.uvs.is_empty()) {
-                            (Some(map), false) => TriangleLight {
+                        let light = match &m.emission_map {
+                            Some(map) if map.uvs.len() == m.positions.len() => TriangleLight {
                                 map: Some(crate::light::EmissionMap::new(
-                                    map.clone(),
-                                    t.map(|i| m.uvs[i as usize]),
+                                    map.texture.clone(),
+                                    t.map(|i| map.uvs[i as usize]),
                                     map_peak,
                                 )),
                                 ..light

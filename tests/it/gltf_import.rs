@@ -188,7 +188,7 @@ fn a_gltf_quad_renders_as_the_plsr_rectangle() {
         &twin,
         format!(
             "{SCENE_HEAD}\n[[materials]]\nname = \"paint\"\ntype = \"principled\"\n\
-             base_color_map = \"tex.png\"\nmetallic = 0.25\nroughness = 0.5\n\
+             base_color_map = \"tex.png\"\nmetallic = 0.25\nroughness = 0.5\nenergy_conserving = true\n\
              normal_map = \"nrm.png\"\nnormal_scale = 0.6\nnormal_valid_reflection = true\n\n\
              [[shapes]]\ntype = \"rectangle\"\nmaterial = \"paint\"\n\
              transform.matrix = [[2, 0, 0, 0], [0, 2, 0, 0.5], [0, 0, 2, -0.5], [0, 0, 0, 1]]\n"
@@ -1006,4 +1006,29 @@ fn an_animated_gltf_renders_its_rest_pose_and_says_so() {
         .iter()
         .any(|n| n.contains("skins") || n.contains("morph")));
     assert!(!g.objects.is_empty());
+}
+
+#[test]
+fn each_texture_reads_the_uv_set_it_names() {
+    // Khronos' MultiUVTest (CC BY 4.0, Hilo3d; tests/data/realworld/gltf):
+    // the base colour reads TEXCOORD_0, spanning [0, 0.75] × [0, 1]; the
+    // emissive texture reads TEXCOORD_1, within [0, 0.25]² (glTF's v runs
+    // down, plsr's up: v in [0.75, 1]).
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/realworld/gltf/MultiUVTest.glb");
+    let g = read_gltf(&path).unwrap();
+    assert!(
+        !g.notes.iter().any(|n| n.contains("TEXCOORD")),
+        "{:?}",
+        g.notes
+    );
+    let o = &g.objects[0];
+    assert_eq!(o.emission_uvs.len(), o.positions.len());
+    assert_eq!(o.uvs.len(), o.positions.len());
+    let inside = |uv: &Vec2| (0.0..=0.25).contains(&uv.x) && (0.75..=1.0).contains(&uv.y);
+    assert!(o.emission_uvs.iter().all(inside), "{:?}", o.emission_uvs);
+    assert!(o.uvs.iter().any(|uv| uv.x > 0.5), "{:?}", o.uvs);
+    // The emissive texture is decoded (its logo is bright).
+    let e = g.extras[o.material.unwrap()].emission_map.as_ref().unwrap();
+    assert!(e.max_value() > 0.5);
 }

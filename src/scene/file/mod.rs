@@ -498,6 +498,9 @@ impl Builder<'_> {
                 // meshes as they come from the file or the built-in shape.
                 for m in &mut target[first..] {
                     m.uvs.iter_mut().for_each(|uv| uv.y = 1.0 - uv.y);
+                    if let Some(map) = &mut m.emission_map {
+                        map.uvs.iter_mut().for_each(|uv| uv.y = 1.0 - uv.y);
+                    }
                     m.uv_map = m.uv_map.flipped_v();
                 }
             }

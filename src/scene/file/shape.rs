@@ -932,7 +932,7 @@ impl Builder<'_> {
                                     anisotropic: 0.0,
                                     specular: 0.5,
                                     spec_tint: 0.0,
-                                    energy_conserving: false,
+                                    energy_conserving: true,
                                 }),
                             ),
                         };
@@ -960,7 +960,7 @@ impl Builder<'_> {
             let double_sided = extras.is_some_and(|e| e.double_sided);
             let emission_map = match extras.and_then(|e| e.emission_map.clone()) {
                 Some(_) if shape.emission.is_some() => None,
-                Some(_) if o.uvs.is_empty() => {
+                Some(_) if o.emission_uvs.is_empty() => {
                     self.note(format!(
                         "{field} ({}): `{}` has an emissive texture but no texture \
                          coordinates: it emits its emissive factor everywhere",
@@ -969,7 +969,10 @@ impl Builder<'_> {
                     ));
                     None
                 }
-                map => map,
+                map => map.map(|texture| crate::scene::MeshEmissionMap {
+                    texture,
+                    uvs: o.emission_uvs,
+                }),
             };
             let file_emission = extras
                 .map(|e| e.emission)
