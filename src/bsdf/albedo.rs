@@ -39,8 +39,15 @@ const SQRT_ALPHA_POINTS: usize = 32;
 /// Largest tabulated `√α`: principled's anisotropy stretches `α = r²` up to
 /// `1/√0.1 ≈ 3.16`, i.e. `√α ≈ 1.78`.
 const SQRT_ALPHA_MAX: f32 = 1.8;
-/// Stratified visible-normal samples per table entry, per side.
+/// Stratified visible-normal samples per table entry, per side, for the
+/// dielectric tables (whose Fresnel term is small where a narrow lobe
+/// loses its tail below the horizon).
 const SAMPLES_PER_SIDE: usize = 24;
+/// The same for the `F = 1` and Schlick tables, computed once per process:
+/// the metal's multiple-scattering factor divides by `E(F = 1)`, and 24 per
+/// side overestimate it by 3 % at roughness 0.4 (the stratified quadrature
+/// misses much of the tail below the horizon); 64 leave 1 %.
+const SPECULAR_SAMPLES_PER_SIDE: usize = 64;
 
 /// A `[√α][μ]` table of directional albedos, row-major over `√α`. A fixed
 /// size, so that every index [`lookup`] forms is provably in bounds and the
@@ -97,17 +104,20 @@ fn hemispherical_average(e: &[f32]) -> f32 {
 }
 
 /// Tabulates `E` for each Fresnel term of `fresnels` (functions of
-/// `cos θd = wo·h`): one `[α][μ]` table each, with its `[α]` averages.
+/// `cos θd = wo·h`): one `[α][μ]` table each, with its `[α]` averages, from
+/// `n × n` stratified samples per entry.
 ///
 /// Serial on purpose: the tables may first be needed inside a render's
 /// rayon worker, where a nested parallel loop could steal a job that waits
 /// on this very initialisation.
-fn tabulate<const N: usize>(fresnels: [&dyn Fn(f32) -> f32; N]) -> [(Table, Averages); N] {
+fn tabulate<const N: usize>(
+    fresnels: [&dyn Fn(f32) -> f32; N],
+    n: usize,
+) -> [(Table, Averages); N] {
     let mut out = [(
         [0.0; SQRT_ALPHA_POINTS * MU_POINTS],
         [0.0; SQRT_ALPHA_POINTS],
     ); N];
-    let n = SAMPLES_PER_SIDE;
     for j in 0..SQRT_ALPHA_POINTS {
         let a = sqrt_alpha_at(j);
         let m = Microfacet::isotropic(Distribution::Ggx, a * a);
@@ -200,8 +210,9 @@ static NO_DIELECTRIC_ALBEDO: DielectricAlbedo = DielectricAlbedo {
 pub struct EnergyTables {
     /// [`DielectricAlbedo::for_specular`] of the material's `specular`.
     pub dielectric: &'static DielectricAlbedo,
-    /// [`SpecularAlbedo::get`] where `spec_tint > 0`; else tables of zeros,
-    /// never read.
+    /// [`SpecularAlbedo::get`]: the tinted dielectric's albedo (where
+    /// `spec_tint > 0`) and the metal's (`F = 1`, for its multiple
+    /// scattering); tables of zeros in [`EnergyTables::NONE`].
     pub schlick: &'static SpecularAlbedo,
 }
 
@@ -212,27 +223,25 @@ impl EnergyTables {
         schlick: &NO_SPECULAR_ALBEDO,
     };
 
-    /// The tables of a material with `specular` and `spec_tint`, computing
-    /// any not computed yet.
-    pub fn of(specular: f32, spec_tint: f32) -> EnergyTables {
+    /// The tables of a material with `specular`, computing any not computed
+    /// yet.
+    pub fn of(specular: f32) -> EnergyTables {
         EnergyTables {
             dielectric: DielectricAlbedo::for_specular(specular),
-            schlick: if spec_tint > 0.0 {
-                SpecularAlbedo::get()
-            } else {
-                &NO_SPECULAR_ALBEDO
-            },
+            schlick: SpecularAlbedo::get(),
         }
     }
 }
 
 impl SpecularAlbedo {
-    /// The tables, computed on first use (a few tens of milliseconds).
+    /// The tables, computed on first use (about 0.2 s).
     pub fn get() -> &'static SpecularAlbedo {
         static TABLES: OnceLock<SpecularAlbedo> = OnceLock::new();
         TABLES.get_or_init(|| {
-            let [(white, white_avg), (schlick, schlick_avg)] =
-                tabulate([&|_| 1.0, &fresnel::schlick_weight]);
+            let [(white, white_avg), (schlick, schlick_avg)] = tabulate(
+                [&|_| 1.0, &fresnel::schlick_weight],
+                SPECULAR_SAMPLES_PER_SIDE,
+            );
             SpecularAlbedo {
                 white,
                 schlick,
@@ -311,7 +320,7 @@ impl DielectricAlbedo {
 
     fn compute(specular: f32) -> DielectricAlbedo {
         let eta = eta_from_specular(specular);
-        let [(e, avg)] = tabulate([&|c| fresnel::dielectric(c, eta)]);
+        let [(e, avg)] = tabulate([&|c| fresnel::dielectric(c, eta)], SAMPLES_PER_SIDE);
         DielectricAlbedo { specular, e, avg }
     }
 

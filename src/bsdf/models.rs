@@ -642,7 +642,7 @@ impl PrincipledParams {
     /// The albedo tables the energy-conserving mode reads for this
     /// material (computed at first use).
     pub fn energy_tables(&self) -> albedo::EnergyTables {
-        albedo::EnergyTables::of(self.specular, self.spec_tint)
+        albedo::EnergyTables::of(self.specular)
     }
 
     #[inline(always)]
@@ -692,13 +692,59 @@ impl PrincipledParams {
         let h = (wo + wi).normalize();
         let m = self.microfacet();
         let cos_d = wi.dot(h);
-        let specular =
-            self.fresnel(cos_d, self.eta()) * (m.d(h) * m.g(wo, wi, h) / (4.0 * wo.z * wi.z));
-        self.diffuse(albedos, wo, wi, cos_d, &m) + specular
+        let (diffuse, multiscatter) = self.diffuse(albedos, wo, wi, cos_d, &m);
+        let specular = self.compensated_fresnel(cos_d, multiscatter)
+            * (m.d(h) * m.g(wo, wi, h) / (4.0 * wo.z * wi.z));
+        diffuse + specular
+    }
+
+    /// The Fresnel term with its metallic part scaled by `multiscatter`
+    /// ([`PrincipledParams::metal_multiscatter`]; exactly the Fresnel term
+    /// where it is 1).
+    #[inline(always)]
+    fn compensated_fresnel(&self, cos_d: f32, multiscatter: Vec3) -> Vec3 {
+        let f = self.fresnel(cos_d, self.eta());
+        if self.energy_conserving {
+            f + fresnel::schlick(self.base_color, cos_d)
+                * self.metallic
+                * (multiscatter - Vec3::ONE)
+        } else {
+            f
+        }
+    }
+
+    /// The factor that gives the metallic part of the specular lobe the
+    /// light single scattering loses between the microfacets (Turquin 2019,
+    /// as Cycles does): `1 + F_ms·(1 − E(μo))/E(μo)` with `E` the lobe's
+    /// directional albedo for `F = 1`, `Ē` its average, `F̄ = f₀ + (1 − f₀)/21`
+    /// Schlick's average and `F_ms = F̄·Ē/(1 − F̄(1 − Ē))` (Kulla and Conty
+    /// 2017). A white metal then reflects all the light at every angle;
+    /// 1 where the material has no metal, or with [`EnergyTables::NONE`].
+    #[inline(always)]
+    pub(crate) fn metal_multiscatter(
+        &self,
+        tables: &albedo::EnergyTables,
+        m: &Microfacet,
+        wo: Vec3,
+    ) -> Vec3 {
+        if self.metallic <= 0.0 {
+            return Vec3::ONE;
+        }
+        let alpha = alpha_towards(m, wo);
+        let e = tables.schlick.directional(wo.z, alpha)[0];
+        let e_avg = tables.schlick.average(alpha)[0];
+        if e <= 0.0 {
+            return Vec3::ONE;
+        }
+        let f_avg = self.base_color + (Vec3::ONE - self.base_color) * (1.0 / 21.0);
+        let f_ms = f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg));
+        Vec3::ONE + f_ms * ((1.0 - e) / e)
     }
 
     /// The diffuse lobe: Burley's, or the energy-conserving coupled one
-    /// (with the specular lobe's albedos from `albedos`).
+    /// (with the specular lobe's albedos from `albedos`); and the metal's
+    /// multiple-scattering factor ([`PrincipledParams::metal_multiscatter`],
+    /// 1 in Mitsuba's mode).
     #[inline(always)]
     fn diffuse(
         &self,
@@ -707,20 +753,22 @@ impl PrincipledParams {
         wi: Vec3,
         cos_d: f32,
         m: &Microfacet,
-    ) -> Vec3 {
+    ) -> (Vec3, Vec3) {
         let weight = FRAC_1_PI * (1.0 - self.metallic);
         if self.energy_conserving {
             // Kelemen and Szirmay-Kalos: ρ(1 − E(wo))(1 − E(wi)) / (π(1 − Ē)),
             // which integrates against cos θi to ρ(1 − E(wo)).
-            let [eo, ei, avg] = albedos.albedos(self, m, wo, wi);
-            return self.base_color * weight * (Vec3::ONE - eo) * (Vec3::ONE - ei)
-                / (Vec3::ONE - avg);
+            let [eo, ei, avg, multiscatter] = albedos.albedos(self, m, wo, wi);
+            let diffuse =
+                self.base_color * weight * (Vec3::ONE - eo) * (Vec3::ONE - ei) / (Vec3::ONE - avg);
+            return (diffuse, multiscatter);
         }
         // Burley's diffuse with retro-reflection.
         let (fo, fi) = (fresnel::schlick_weight(wo.z), fresnel::schlick_weight(wi.z));
         let rr = 2.0 * self.roughness * cos_d * cos_d;
         let retro = rr * (fo + fi + fo * fi * (rr - 1.0));
-        self.base_color * (weight * ((1.0 - 0.5 * fo) * (1.0 - 0.5 * fi) + retro))
+        let diffuse = self.base_color * (weight * ((1.0 - 0.5 * fo) * (1.0 - 0.5 * fi) + retro));
+        (diffuse, Vec3::ONE)
     }
 
     /// Albedo of the specular lobe's dielectric (non-metal) part per unit
@@ -893,8 +941,9 @@ impl PrincipledParams {
         let h = (wo + wi).normalize();
         let (d, g1o, g1i) = (m.d(h), m.g1(wo, h), m.g1(wi, h));
         let cos_d = wi.dot(h);
-        let specular = self.fresnel(cos_d, self.eta()) * (d * g1o * g1i / (4.0 * wo.z * wi.z));
-        let diffuse = self.diffuse(albedos, wo, wi, cos_d, m);
+        let (diffuse, multiscatter) = self.diffuse(albedos, wo, wi, cos_d, m);
+        let specular =
+            self.compensated_fresnel(cos_d, multiscatter) * (d * g1o * g1i / (4.0 * wo.z * wi.z));
         // The visible-normal density over h, pdf_h = G1(wo)·max(0, wo·h)·D/cos θo,
         // turned into a density over wi by 1/(4 wo·h).
         let wo_h = wo.dot(h);
@@ -917,9 +966,10 @@ impl PrincipledParams {
 /// the tables given, or else looked up by the material), or albedos a caller
 /// looked up in advance ([`KnownAlbedos`]). Mitsuba's mode never asks.
 pub(crate) trait AlbedoSource: Copy {
-    /// `[E(wo), E(wi), Ē]` of the principled material `p`, whose specular
-    /// lobe is `m`, for the local directions `wo` and `wi`.
-    fn albedos(&self, p: &PrincipledParams, m: &Microfacet, wo: Vec3, wi: Vec3) -> [Vec3; 3];
+    /// `[E(wo), E(wi), Ē, the metal's multiple-scattering factor at wo]` of
+    /// the principled material `p`, whose specular lobe is `m`, for the
+    /// local directions `wo` and `wi`.
+    fn albedos(&self, p: &PrincipledParams, m: &Microfacet, wo: Vec3, wi: Vec3) -> [Vec3; 4];
 }
 
 impl AlbedoSource for Option<albedo::EnergyTables> {
@@ -927,12 +977,13 @@ impl AlbedoSource for Option<albedo::EnergyTables> {
     /// [`PrincipledParams::energy_tables`]: a caller that shades many
     /// points of one material finds them once), or else in the material's.
     #[inline(always)]
-    fn albedos(&self, p: &PrincipledParams, m: &Microfacet, wo: Vec3, wi: Vec3) -> [Vec3; 3] {
+    fn albedos(&self, p: &PrincipledParams, m: &Microfacet, wo: Vec3, wi: Vec3) -> [Vec3; 4] {
         let tables = self.unwrap_or_else(|| p.energy_tables());
         [
             p.albedo_towards(&tables, m, wo),
             p.albedo_towards(&tables, m, wi),
             p.average_dielectric_albedo(&tables, m),
+            p.metal_multiscatter(&tables, m, wo),
         ]
     }
 }
@@ -942,11 +993,11 @@ impl AlbedoSource for Option<albedo::EnergyTables> {
 /// [`PrincipledParams::average_dielectric_albedo`]): so that a vectorised
 /// loop evaluating the BSDF reads no table.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct KnownAlbedos(pub [Vec3; 3]);
+pub(crate) struct KnownAlbedos(pub [Vec3; 4]);
 
 impl AlbedoSource for KnownAlbedos {
     #[inline(always)]
-    fn albedos(&self, _p: &PrincipledParams, _m: &Microfacet, _wo: Vec3, _wi: Vec3) -> [Vec3; 3] {
+    fn albedos(&self, _p: &PrincipledParams, _m: &Microfacet, _wo: Vec3, _wi: Vec3) -> [Vec3; 4] {
         self.0
     }
 }
@@ -1037,7 +1088,8 @@ mod tests {
                     p.albedo_towards(&tables, &m, wo),
                     p.albedo_towards(&tables, &m, wi),
                 );
-                let known = KnownAlbedos([eo, ei, average]);
+                let ms = p.metal_multiscatter(&tables, &m, wo);
+                let known = KnownAlbedos([eo, ei, average, ms]);
                 assert_eq!(
                     bits(p.eval_pdf_with(known, wo, wi)),
                     bits(p.eval_pdf(wo, wi))
@@ -1046,8 +1098,8 @@ mod tests {
                     bits((p.eval_with(known, wo, wi), 0.0)),
                     bits((p.eval(wo, wi), 0.0))
                 );
-                let wrong_wi = KnownAlbedos([eo, eo, average]);
-                let tilted = KnownAlbedos([eo, ei, average * 0.5]);
+                let wrong_wi = KnownAlbedos([eo, eo, average, ms]);
+                let tilted = KnownAlbedos([eo, ei, average * 0.5, ms]);
                 let original = bits(p.eval_pdf(wo, wi));
                 wrong_wi_differs +=
                     usize::from(bits(p.eval_pdf_with(wrong_wi, wo, wi)) != original);
@@ -1055,7 +1107,8 @@ mod tests {
 
                 let (uc, u) = (rng.next_f32(), rng.next_2d());
                 let drawn = p.sample_direction(&m, wo, uc, u);
-                let known = KnownAlbedos([eo, p.albedo_towards(&tables, &m, drawn), average]);
+                let e_drawn = p.albedo_towards(&tables, &m, drawn);
+                let known = KnownAlbedos([eo, e_drawn, average, ms]);
                 let (with, looked_up) = (p.sample_with(known, wo, uc, u), p.sample(wo, uc, u));
                 assert_eq!(with.is_some(), looked_up.is_some());
                 if let (Some(a), Some(b)) = (with, looked_up) {

@@ -117,9 +117,9 @@ pub(super) fn shade_staged_lanes<
             }
         }
     }
-    // Stage 2: the albedos there, `[E(wo), E(light wi), E(sampled wi), Ē]`
-    // by component.
-    let mut albedos = [[0.0f32; W]; 12];
+    // Stage 2: the albedos there, `[E(wo), E(light wi), E(sampled wi), Ē,
+    // the metal's multiple-scattering factor at wo]` by component.
+    let mut albedos = [[0.0f32; W]; 15];
     for (k, lane) in principled.iter().enumerate() {
         let Some(lane) = lane else {
             continue;
@@ -127,7 +127,9 @@ pub(super) fn shade_staged_lanes<
         let params = lane.params();
         let m = params.microfacet();
         let tables = lane.0.mode.tables().unwrap_or(EnergyTables::NONE);
-        let mut found = [params.average_dielectric_albedo(&tables, &m); 4];
+        let mut found = [params.average_dielectric_albedo(&tables, &m); 5];
+        let wo = Vec3::new(evaluated[0][k], evaluated[1][k], evaluated[2][k]);
+        found[4] = params.metal_multiscatter(&tables, &m, wo);
         for (d, found) in found.iter_mut().take(3).enumerate() {
             let dir = Vec3::new(
                 evaluated[3 * d][k],
@@ -136,7 +138,7 @@ pub(super) fn shade_staged_lanes<
             );
             *found = params.albedo_towards(&tables, &m, dir);
         }
-        for a in 0..4 {
+        for a in 0..5 {
             for c in 0..3 {
                 albedos[3 * a + c][k] = found[a][c];
             }
@@ -150,10 +152,11 @@ pub(super) fn shade_staged_lanes<
         let e_light = Vec3::new(albedos[3][k], albedos[4][k], albedos[5][k]);
         let e_sampled = Vec3::new(albedos[6][k], albedos[7][k], albedos[8][k]);
         let average = Vec3::new(albedos[9][k], albedos[10][k], albedos[11][k]);
+        let ms = Vec3::new(albedos[12][k], albedos[13][k], albedos[14][k]);
         let staged = StagedPrincipledLane {
             lane: lane_numbers::<M>(&params, k),
-            light: KnownAlbedos([eo, e_light, average]),
-            sampled: KnownAlbedos([eo, e_sampled, average]),
+            light: KnownAlbedos([eo, e_light, average, ms]),
+            sampled: KnownAlbedos([eo, e_sampled, average, ms]),
         };
         let out = shade_lane::<_, TRIANGLES, CONES, ENV, ANISO>(l, staged, u);
         if owned[k] {
