@@ -23,6 +23,9 @@ Usage:
     --json FILE       also write the rows as JSON
     --view X,Y,Z      direction from the model to the camera, glTF axes
                       (default 0.45,0.35,1: in front, a little right, above)
+    --write-fixtures DIR  also write Blender's block means and camera per
+                      model (--block N pixels, default 16)
+    --downsample-env IN OUT.exr  box-filter an environment to --env-size
 
 The environment's top row is glTF's +y and its centre column looks along +x
 (how Blender's Environment Texture maps a Z-up world after the importer's
@@ -38,7 +41,15 @@ the venv once (bpy 4.5 pins numpy 1.26):
 Cycles is set as a fair reference: no clamping, filter glossy 0, a box pixel
 filter, the Standard view (EXR output is linear anyway), no denoising, no
 adaptive sampling. Blender's importer marks single-sided materials for
-back-face culling, which Cycles ignores; plsr culls them (as glTF viewers do).
+back-face culling, which Cycles ignores: the script makes their back faces
+transparent (a Mix with a Transparent BSDF by `Backfacing`), as plsr and
+glTF viewers cull them; `--keep-back-faces` leaves Cycles' default.
+
+Fixtures for `tests/it/gltf_fixtures.rs`: `--downsample-env IN OUT.exr
+--env-size 128,64` makes the small environment, then
+
+    python3 scripts/gltf_parity.py MODELS... --env small.exr --size 160,120 \
+        --spp 512 --block 8 --no-env-check --write-fixtures tests/data/realworld/gltf/fixtures
 """
 
 import json
@@ -70,6 +81,8 @@ def blender_worker(args):
         load_s = time.perf_counter() - t0
         import resource
         load_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        if job.get("cull_back_faces", True):
+            cull_back_faces(bpy)
         # glTF's animations at t = 0 (the importer puts t = 0 at frame 0
         # when it shifts keys; otherwise at the scene's first frame).
         scene.frame_set(scene.frame_start)
@@ -172,7 +185,44 @@ def blender_worker(args):
     Path(job["result"]).write_text(json.dumps({
         "position": position, "look_at": centre, "up": [0, 1, 0],
         "vfov": vfov, "load_s": load_s, "load_mb": load_mb, "render_s": render_s,
+        "blender": bpy.app.version_string,
     }))
+
+
+def cull_back_faces(bpy):
+    """Cycles ignores the importer's `use_backface_culling` (glTF's
+    `doubleSided: false`): make those materials' back faces transparent, as
+    a glTF viewer (and plsr) draws them."""
+    for mat in bpy.data.materials:
+        if not (mat.use_backface_culling and mat.use_nodes):
+            continue
+        nt = mat.node_tree
+        out = next((n for n in nt.nodes if n.type == "OUTPUT_MATERIAL"
+                    and n.is_active_output), None)
+        if out is None or not out.inputs["Surface"].is_linked:
+            continue
+        link = out.inputs["Surface"].links[0]
+        surface = link.from_socket
+        nt.links.remove(link)
+        geometry = nt.nodes.new("ShaderNodeNewGeometry")
+        transparent = nt.nodes.new("ShaderNodeBsdfTransparent")
+        mix = nt.nodes.new("ShaderNodeMixShader")
+        nt.links.new(geometry.outputs["Backfacing"], mix.inputs["Fac"])
+        nt.links.new(surface, mix.inputs[1])
+        nt.links.new(transparent.outputs["BSDF"], mix.inputs[2])
+        nt.links.new(mix.outputs["Shader"], out.inputs["Surface"])
+
+
+def image_worker(args):
+    """Writes the image `args[0]` (as Blender reads it: linear RGBA, rows
+    bottom-up) to the .npy file `args[1]`, top row first."""
+    import bpy
+    import numpy as np
+
+    img = bpy.data.images.load(args[0])
+    w, h = img.size
+    px = np.array(img.pixels[:], dtype=np.float32).reshape(h, w, 4)
+    np.save(args[1], px[::-1].copy())
 
 
 # -------------------------------------------------------------------------
@@ -286,6 +336,55 @@ def compare(a, b):
     return iou, ratio, lum, inner
 
 
+def write_fixture(args, name, model, cam, size, b):
+    """`DIR/NAME.json`: the camera, and Blender's mean linear RGB and
+    coverage over each `--block`-sized block, row by row from the top."""
+    import numpy as np
+
+    k = args.block
+    h, w = b.shape[:2]
+    blocks = b[: h // k * k, : w // k * k].reshape(h // k, k, w // k, k, 4).mean((1, 3))
+    args.write_fixtures.mkdir(parents=True, exist_ok=True)
+    fixture = {
+        "model": model.name,
+        "environment": args.env.name,
+        "camera": {"position": cam["position"], "look_at": cam["look_at"],
+                   "vfov": cam["vfov"]},
+        "resolution": size,
+        "max_depth": args.max_depth,
+        "blender_spp": args.spp,
+        "block": k,
+        "blocks": [[round(float(x), 6) for x in v] for v in blocks.reshape(-1, 4)],
+        "made_by": "scripts/gltf_parity.py --write-fixtures, Blender "
+                   + cam.get("blender", "?") + ", Cycles",
+    }
+    (args.write_fixtures / f"{name}.json").write_text(json.dumps(fixture, indent=0))
+
+
+def downsample_env(args):
+    """Box-filters an environment map to `--env-size` (via Blender's reader,
+    which reads .hdr), written as an RGB OpenEXR."""
+    import numpy as np
+    import OpenEXR
+
+    src, dst = args.downsample_env
+    with tempfile.TemporaryDirectory() as tmp:
+        npy = Path(tmp) / "env.npy"
+        subprocess.run([args.blender_python, str(Path(__file__).resolve()),
+                        "--image-worker", str(src.resolve()), str(npy)], check=True,
+                       capture_output=True)
+        px = np.load(npy)[..., :3].astype(np.float64)
+    w, h = (int(x) for x in args.env_size.split(","))
+    H, W = px.shape[:2]
+    if H % h or W % w:
+        raise SystemExit(f"{src}: {W}x{H} is not a multiple of {w}x{h}")
+    small = px.reshape(h, H // h, w, W // w, 3).mean((1, 3)).astype(np.float32)
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, {"RGB": np.ascontiguousarray(small)}) as f:
+        f.write(str(dst))
+    print(f"{src} ({W}x{H}) -> {dst} ({w}x{h})")
+
+
 def run_one(name, model, args, out):
     import numpy as np
 
@@ -297,6 +396,7 @@ def run_one(name, model, args, out):
         "view": [float(x) for x in args.view.split(",")],
         "out": str(out / f"{name}.blender.exr"),
         "result": str(out / f"{name}.blender.json"),
+        "cull_back_faces": not args.keep_back_faces,
     }
     if not model:
         job["camera"] = {"position": [0, 0, 0], "look_at": [-1, 0.15, 0.3]}
@@ -328,6 +428,8 @@ def run_one(name, model, args, out):
         b[..., 3] = 1.0
     iou, ratio, lum, inner = compare(a, b)
     side_by_side(a, b, inner, out / f"{name}.png")
+    if model and args.write_fixtures:
+        write_fixture(args, name, model, cam, size, b)
     return {
         "model": name, "iou": iou, "ratio_rgb": ratio, "ratio_lum": lum,
         "pixels": int(inner.sum()), "plsr_render_s": p_s, "plsr_peak_mb": p_mb,
@@ -340,12 +442,14 @@ def main():
     import argparse
 
     if len(sys.argv) > 1 and sys.argv[1] == "--blender-worker":
-        argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[2:]
-        blender_worker(argv)
+        blender_worker(sys.argv[2:])
+        return
+    if len(sys.argv) > 1 and sys.argv[1] == "--image-worker":
+        image_worker(sys.argv[2:])
         return
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("models", nargs="+", type=Path)
-    ap.add_argument("--env", type=Path, required=True)
+    ap.add_argument("models", nargs="*", type=Path)
+    ap.add_argument("--env", type=Path)
     ap.add_argument("--blender-python", default=os.environ.get(
         "BLENDER_PYTHON", "/work/venvs/bpy/bin/python"))
     ap.add_argument("--plsr", type=Path, default=HERE.parent / "target/release/plsr")
@@ -356,7 +460,23 @@ def main():
     ap.add_argument("--json", type=Path)
     ap.add_argument("--view", default="0.45,0.35,1")
     ap.add_argument("--no-env-check", action="store_true")
+    ap.add_argument("--keep-back-faces", action="store_true",
+                    help="leave Cycles drawing single-sided materials' back faces")
+    ap.add_argument("--write-fixtures", type=Path, metavar="DIR",
+                    help="write each model's Blender block means and camera "
+                         "(for tests/it/gltf_fixtures.rs)")
+    ap.add_argument("--block", type=int, default=16,
+                    help="fixture block size in pixels (default 16)")
+    ap.add_argument("--downsample-env", nargs=2, type=Path, metavar=("IN", "OUT.exr"),
+                    help="write IN (.hdr or .exr) box-filtered to --env-size "
+                         "as OUT.exr, and stop")
+    ap.add_argument("--env-size", default="128,64")
     args = ap.parse_args()
+    if args.downsample_env:
+        downsample_env(args)
+        return
+    if not args.models or args.env is None:
+        ap.error("give models and --env")
     args.env = args.env.resolve()
     args.out.mkdir(parents=True, exist_ok=True)
     models = []

@@ -10,6 +10,7 @@ mod determinism;
 mod embree_layer;
 mod environment;
 mod fuzz_parsers;
+mod gltf_fixtures;
 mod gltf_import;
 mod instancing;
 mod materials;
