@@ -83,9 +83,9 @@ def blender_worker(args):
         load_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         if job.get("cull_back_faces", True):
             cull_back_faces(bpy)
-        # glTF's animations at t = 0 (the importer puts t = 0 at frame 0
-        # when it shifts keys; otherwise at the scene's first frame).
-        scene.frame_set(scene.frame_start)
+        # glTF's animations at t = 0 s, plsr's default: Khronos' importer
+        # puts t = 0 at frame 0 (the scene starts at frame 1, t = 1/24 s).
+        scene.frame_set(0)
 
     def to_gltf(v):  # Blender (x, y, z) = glTF (x, −z, y)
         return [v[0], v[2], -v[1]]

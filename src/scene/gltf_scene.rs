@@ -128,6 +128,12 @@ impl GltfScene {
 /// error message says what is wrong; callers put the file and field in
 /// front.
 pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, FormatError> {
+    read_gltf_at(path, 0.0)
+}
+
+/// [`read_gltf`] with the file's animations shown at `time` seconds
+/// ([`super::gltf_animation`]).
+pub fn read_gltf_at(path: &Path, time: f32) -> std::result::Result<GltfScene, FormatError> {
     let asset = super::gltf_files::open(path)?;
     let (doc, buffers) = (&asset.doc, &asset.buffers);
     let mut notes = Notes::default();
@@ -147,11 +153,12 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, FormatError> {
         }
     }
 
-    // What moves is rendered still.
+    // What moves is shown at one time.
+    let poses = super::gltf_animation::poses_at(&asset.doc, buffers, time)?;
     if doc.animations().len() > 0 {
         notes.add(format!(
-            "its {} animation(s) are not played: nodes are rendered at their rest pose \
-             (their own translation, rotation and scale), not at any time of an animation",
+            "its {} animation(s) are shown at t = {time} s, not played (a `gltf` shape's \
+             `time` picks another moment)",
             doc.animations().len()
         ));
     }
@@ -201,7 +208,17 @@ pub fn read_gltf(path: &Path) -> std::result::Result<GltfScene, FormatError> {
         if depth > 256 {
             return Err("nodes nest deeper than 256 levels (a cycle?)".into());
         }
-        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+        let local = match poses.get(node.index()) {
+            Some(p) if *p != super::gltf_animation::NodePose::default() => {
+                let (t, r, sc) = node.transform().decomposed();
+                Mat4::from_scale_rotation_translation(
+                    p.scale.unwrap_or(Vec3::from_array(sc)),
+                    p.rotation.unwrap_or(glam::Quat::from_array(r)),
+                    p.translation.unwrap_or(Vec3::from_array(t)),
+                )
+            }
+            _ => Mat4::from_cols_array_2d(&node.transform().matrix()),
+        };
         let m = parent * local;
         if !m.is_finite() {
             return Err(format!("node {}: its transform is not finite", node.index()).into());

@@ -8,6 +8,7 @@
 
 pub mod curves;
 pub mod file;
+pub mod gltf_animation;
 mod gltf_files;
 pub mod gltf_scene;
 pub mod instancing;

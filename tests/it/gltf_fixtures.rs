@@ -11,7 +11,8 @@
 //! colours (VertexColorTest), sampler wrap modes and `doubleSided`
 //! (TextureSettingsTest), a second UV set for the emissive texture
 //! (MultiUVTest), node transforms, winding and culling (OrientationTest,
-//! NegativeScaleTest); TextureCoordinateTest is a general check. Each
+//! NegativeScaleTest), an animation at t = 0 (BoxAnimated);
+//! TextureCoordinateTest is a general check. Each
 //! feature's test was seen to fail with the feature turned off.
 
 use plsr::film::Film;
@@ -197,6 +198,14 @@ fn texture_coordinate_test_looks_as_in_blender() {
 fn node_orientations_and_negative_scales_as_in_blender() {
     assert_like_blender("OrientationTest", 0.15, 50);
     assert_like_blender("NegativeScaleTest", 0.25, 50);
+}
+
+/// BoxAnimated at t = 0 s (Blender's frame 0): its inner box sits in the
+/// outer one, unturned (as in its rest pose); at t = 1 s it has risen out
+/// of it, and the test fails.
+#[test]
+fn an_animation_at_t_0_as_in_blender() {
+    assert_like_blender("BoxAnimated", 0.15, 50);
 }
 
 /// MultiUVTest's cube is a rough metal (glTF's default metallic 1), whose

@@ -993,19 +993,52 @@ fn gltf_normal_maps_on_mirrors_reflect_the_sky_not_black() {
 }
 
 #[test]
-fn an_animated_gltf_renders_its_rest_pose_and_says_so() {
-    // Khronos' BoxAnimated (CC BY 4.0, Cesium; tests/data/realworld/gltf).
+fn an_animated_gltf_is_shown_at_one_time_and_says_so() {
+    // Khronos' BoxAnimated (CC BY 4.0, Cesium; tests/data/realworld/gltf):
+    // node 0 rises along y by linear keys at t = 0 … 3.7 s and carries the
+    // inner box (mesh 0); the outer box (mesh 1) stands still.
     let path =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/realworld/gltf/BoxAnimated.glb");
-    let g = read_gltf(&path).unwrap();
-    let animation: Vec<_> = g.notes.iter().filter(|n| n.contains("animation")).collect();
-    assert_eq!(animation.len(), 1, "{:?}", g.notes);
-    assert!(animation[0].contains("rest pose"), "{}", animation[0]);
-    assert!(!g
+    let at = |t: f32| plsr::scene::gltf_scene::read_gltf_at(&path, t).unwrap();
+    let (start, later) = (at(0.0), at(1.0));
+    let animation: Vec<_> = start
+        .notes
+        .iter()
+        .filter(|n| n.contains("animation"))
+        .collect();
+    assert_eq!(animation.len(), 1, "{:?}", start.notes);
+    assert!(animation[0].contains("t = 0 s"), "{}", animation[0]);
+    assert!(!start
         .notes
         .iter()
         .any(|n| n.contains("skins") || n.contains("morph")));
-    assert!(!g.objects.is_empty());
+    let mut rose = None;
+    for (a, b) in start.objects.iter().zip(&later.objects) {
+        let shift = b.positions[0] - a.positions[0];
+        for (p, q) in a.positions.iter().zip(&b.positions) {
+            assert!(
+                (*q - *p - shift).length() < 1e-4,
+                "{}: not a translation",
+                a.name
+            );
+        }
+        assert!(
+            shift.x.abs() < 1e-6 && shift.z.abs() < 1e-6,
+            "{}: {shift}",
+            a.name
+        );
+        if shift.y.abs() > 1e-3 {
+            assert!(rose.is_none(), "two objects moved");
+            rose = Some(shift.y);
+        }
+    }
+    // One box rose between t = 0 and t = 1 s, by the linear keys' share.
+    let rose = rose.expect("nothing moved");
+    assert!(rose > 0.1, "rose by {rose}");
+    // Before the first key and after the last, the keys' values hold.
+    let (before, after, much_after) = (at(-5.0), at(3.8), at(100.0));
+    assert_eq!(before.objects[0].positions, start.objects[0].positions);
+    assert_eq!(after.objects[0].positions, much_after.objects[0].positions);
 }
 
 #[test]

@@ -63,6 +63,7 @@ struct ObjKeys {
 struct GltfKeys {
     file: Option<PathBuf>,
     smooth_normals: Option<bool>,
+    time: Option<f32>,
 }
 
 /// The keys of a `rectangle` shape.
@@ -890,7 +891,14 @@ impl Builder<'_> {
         let path = self.base.join(rel);
         crate::input::check_input_file(&path)
             .map_err(|e| self.err(format!("{field}.file"), e.to_string()))?;
-        let gltf = crate::scene::gltf_scene::read_gltf(&path)
+        let time = keys.time.unwrap_or(0.0);
+        if !time.is_finite() {
+            return Err(self.err(
+                format!("{field}.time"),
+                "must be a finite number of seconds",
+            ));
+        }
+        let gltf = crate::scene::gltf_scene::read_gltf_at(&path, time)
             .map_err(|m| self.err(format!("{field}.file"), format!("{}: {m}", path.display())))?;
         self.read_input(&path);
         for f in &gltf.files {
