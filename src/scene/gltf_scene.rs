@@ -320,6 +320,9 @@ pub struct GltfMaterialExtras {
     pub uv_set: u32,
     /// The UV set the emissive texture reads.
     pub emission_uv_set: u32,
+    /// Whether it has a normal texture (whose meshes need tangents:
+    /// MikkTSpace's where the file gives none).
+    pub normal_mapped: bool,
 }
 
 /// Material `i`, the metallic-roughness model as principled with its
@@ -476,6 +479,7 @@ fn read_material(
             list.join(", ")
         ));
     }
+    let normal_mapped = t.normal.is_some();
     let leaf = Material {
         name,
         bsdf: Bsdf::Principled(params),
@@ -495,6 +499,7 @@ fn read_material(
             double_sided: m.double_sided(),
             uv_set,
             emission_uv_set,
+            normal_mapped,
         },
     ))
 }
@@ -669,7 +674,7 @@ fn read_primitive(
         return Ok(());
     }
     let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
-    let positions: Vec<Vec3> = reader
+    let mut positions: Vec<Vec3> = reader
         .read_positions()
         .ok_or_else(|| format!("`{name}` has no POSITION attribute"))?
         .map(Vec3::from_array)
@@ -717,8 +722,8 @@ fn read_primitive(
             }
         }
     };
-    let uvs = read_set(uv_set, notes);
-    let emission_uvs = match extra.is_some_and(|e| e.emission_map.is_some()) {
+    let mut uvs = read_set(uv_set, notes);
+    let mut emission_uvs = match extra.is_some_and(|e| e.emission_map.is_some()) {
         false => Vec::new(),
         true if emission_uv_set == uv_set => uvs.clone(),
         true => read_set(emission_uv_set, notes),
@@ -731,7 +736,7 @@ fn read_primitive(
             .map(|it| it.map(glam::Vec4::from_array).collect())
             .unwrap_or_default(),
     };
-    let colors: Vec<Vec3> = reader
+    let mut colors: Vec<Vec3> = reader
         .read_colors(0)
         .map(|c| c.into_rgb_f32().map(Vec3::from_array).collect())
         .unwrap_or_default();
@@ -753,6 +758,31 @@ fn read_primitive(
     }
     if triangles.is_empty() {
         return Ok(());
+    }
+    // A normal map without tangents: MikkTSpace's, as glTF asks (vertices
+    // split where a seam gives their corners different tangents).
+    if tangents.is_empty()
+        && !normals.is_empty()
+        && !uvs.is_empty()
+        && extra.is_some_and(|e| e.normal_mapped)
+    {
+        if let Some((source, t, tris)) =
+            super::gltf_tangents::mikktspace(&positions, &normals, &uvs, &triangles)
+        {
+            fn pick<T: Copy>(v: &[T], source: &[u32]) -> Vec<T> {
+                match v.is_empty() {
+                    true => Vec::new(),
+                    false => source.iter().map(|&i| v[i as usize]).collect(),
+                }
+            }
+            positions = pick(&positions, &source);
+            normals = pick(&normals, &source);
+            uvs = pick(&uvs, &source);
+            colors = pick(&colors, &source);
+            emission_uvs = pick(&emission_uvs, &source);
+            tangents = t;
+            triangles = tris;
+        }
     }
     let world: Vec<Vec3> = positions.iter().map(|p| m.transform_point3(*p)).collect();
     if m.determinant() < 0.0 {

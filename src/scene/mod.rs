@@ -11,6 +11,7 @@ pub mod file;
 pub mod gltf_animation;
 mod gltf_files;
 pub mod gltf_scene;
+mod gltf_tangents;
 pub mod instancing;
 pub mod mitsuba;
 pub mod photo;
