@@ -42,6 +42,10 @@ impl bevy_mikktspace::Geometry for Corners<'_> {
     }
 }
 
+/// A mesh rebuilt with tangents: for each new vertex the original vertex
+/// it copies and its tangent, and the triangles over the new vertices.
+pub type WithTangents = (Vec<u32>, Vec<Vec4>, Vec<[u32; 3]>);
+
 /// MikkTSpace tangents (`w` the bitangent's sign, glTF's `TANGENT`) for
 /// the mesh, from its positions, unit normals and texture coordinates
 /// (plsr's, `v` up, as the normal map's green channel points); `None` where
@@ -52,7 +56,7 @@ pub fn mikktspace(
     normals: &[Vec3],
     uvs: &[Vec2],
     triangles: &[[u32; 3]],
-) -> Option<(Vec<u32>, Vec<Vec4>, Vec<[u32; 3]>)> {
+) -> Option<WithTangents> {
     let mut corners = Corners {
         positions,
         normals,
@@ -139,7 +143,7 @@ mod tests {
             .map(|p| Vec2::new(1.0 - (p.x - 1.0).abs(), p.y))
             .collect();
         let t = vec![[0, 2, 3], [0, 3, 1], [2, 4, 5], [2, 5, 3]];
-        let (source, tangents, tris) = mikktspace(&p, &vec![Vec3::Z; 6], &uv, &t).unwrap();
+        let (source, tangents, tris) = mikktspace(&p, &[Vec3::Z; 6], &uv, &t).unwrap();
         assert_eq!(source.len(), 8, "{source:?}");
         assert_eq!(source.iter().filter(|&&i| i == 2 || i == 3).count(), 4);
         for (f, tri) in tris.iter().enumerate() {
