@@ -368,6 +368,8 @@ def downsample_env(args):
     import OpenEXR
 
     src, dst = args.downsample_env
+    if dst.resolve() == src.resolve():
+        raise SystemExit(f"{dst}: would overwrite the environment it reads")
     with tempfile.TemporaryDirectory() as tmp:
         npy = Path(tmp) / "env.npy"
         subprocess.run([args.blender_python, str(Path(__file__).resolve()),

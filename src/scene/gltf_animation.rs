@@ -12,6 +12,8 @@
 
 use crate::error::FormatError;
 use glam::{Quat, Vec3, Vec4};
+use gltf::animation::util::ReadOutputs;
+use gltf::animation::Property;
 
 /// The animated parts of one node's local transform at the sampled time;
 /// `None` where no channel animates that part.
@@ -64,7 +66,6 @@ pub fn poses_at(
                 gltf::animation::Interpolation::Linear => Interpolation::Linear,
                 gltf::animation::Interpolation::CubicSpline => Interpolation::CubicSpline,
             };
-            use gltf::animation::util::ReadOutputs;
             let values: Vec<Vec4> = match reader.read_outputs() {
                 Some(ReadOutputs::Translations(it)) | Some(ReadOutputs::Scales(it)) => {
                     it.map(|v| Vec3::from_array(v).extend(0.0)).collect()
@@ -94,7 +95,6 @@ pub fn poses_at(
             let Some(pose) = poses.get_mut(node) else {
                 continue;
             };
-            use gltf::animation::Property;
             match channel.target().property() {
                 Property::Translation => {
                     pose.translation =

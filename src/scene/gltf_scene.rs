@@ -706,21 +706,22 @@ fn read_primitive(
     // emissive texture's (glTF's `v` runs down, plsr's up).
     let extra = prim.material().index().and_then(|i| extras.get(i));
     let (uv_set, emission_uv_set) = extra.map_or((0, 0), |e| (e.uv_set, e.emission_uv_set));
+    let read_uvs = |set: u32| -> Option<Vec<Vec2>> {
+        let t = reader.read_tex_coords(set)?;
+        Some(t.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).collect())
+    };
     let read_set = |set: u32, notes: &mut Notes| -> Vec<Vec2> {
-        match reader.read_tex_coords(set) {
-            Some(t) => t.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).collect(),
-            None if set == 0 => Vec::new(),
-            None => {
-                notes.add(format!(
-                    "`{name}`: its material reads TEXCOORD_{set}, which it does not have; \
-                     TEXCOORD_0 is used"
-                ));
-                reader
-                    .read_tex_coords(0)
-                    .map(|t| t.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).collect())
-                    .unwrap_or_default()
-            }
-        }
+        read_uvs(set)
+            .or_else(|| {
+                if set != 0 {
+                    notes.add(format!(
+                        "`{name}`: its material reads TEXCOORD_{set}, which it does not have; \
+                         TEXCOORD_0 is used"
+                    ));
+                }
+                read_uvs(0)
+            })
+            .unwrap_or_default()
     };
     let mut uvs = read_set(uv_set, notes);
     let mut emission_uvs = match extra.is_some_and(|e| e.emission_map.is_some()) {

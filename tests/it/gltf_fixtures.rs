@@ -16,8 +16,6 @@
 //! feature's test was seen to fail with the feature turned off.
 
 use plsr::film::Film;
-use plsr::render::{render, RenderOptions};
-use plsr::scene::Scene;
 use std::path::{Path, PathBuf};
 
 /// Where the vendored models, the environment and the fixtures are.
@@ -92,15 +90,7 @@ fn render_fixture(f: &Fixture, spp: u32) -> Film {
         ),
     )
     .unwrap();
-    let scene = Scene::load(&scene).unwrap_or_else(|e| panic!("{e}"));
-    render(
-        &scene,
-        &scene.default_job(),
-        &RenderOptions::default(),
-        &|_, _| true,
-    )
-    .unwrap()
-    .0
+    super::gltf_import::render_file(&scene)
 }
 
 /// Mean RGB and coverage of `film` per `k × k` block, row by row.

@@ -14,7 +14,8 @@ use plsr::scene::gltf_scene::{read_gltf, LUMENS_PER_WATT};
 use plsr::scene::Scene;
 use std::path::Path;
 
-fn render_file(path: &Path) -> Film {
+/// The image of the scene file `path`, with the default render options.
+pub(super) fn render_file(path: &Path) -> Film {
     let scene = Scene::load(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     render(
         &scene,
