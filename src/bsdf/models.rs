@@ -692,7 +692,7 @@ impl PrincipledParams {
         let h = (wo + wi).normalize();
         let m = self.microfacet();
         let cos_d = wi.dot(h);
-        let (diffuse, multiscatter) = self.diffuse(albedos, wo, wi, cos_d, &m);
+        let (diffuse, multiscatter) = self.diffuse(albedos, (wo, wi), (wo, wi), cos_d, &m);
         let specular = self.compensated_fresnel(cos_d, multiscatter)
             * (m.d(h) * m.g(wo, wi, h) / (4.0 * wo.z * wi.z));
         diffuse + specular
@@ -744,13 +744,15 @@ impl PrincipledParams {
     /// The diffuse lobe: Burley's, or the energy-conserving coupled one
     /// (with the specular lobe's albedos from `albedos`); and the metal's
     /// multiple-scattering factor ([`PrincipledParams::metal_multiscatter`],
-    /// 1 in Mitsuba's mode).
+    /// 1 in Mitsuba's mode). `(wo, wi)` are in the diffuse lobe's frame,
+    /// `specular` the same pair in the specular lobe's (the same frame
+    /// unless [`PrincipledParams::eval_pdf_split`] gave the lobes two).
     #[inline(always)]
     fn diffuse(
         &self,
         albedos: impl AlbedoSource,
-        wo: Vec3,
-        wi: Vec3,
+        (wo, wi): (Vec3, Vec3),
+        specular: (Vec3, Vec3),
         cos_d: f32,
         m: &Microfacet,
     ) -> (Vec3, Vec3) {
@@ -758,7 +760,7 @@ impl PrincipledParams {
         if self.energy_conserving {
             // Kelemen and Szirmay-Kalos: ρ(1 − E(wo))(1 − E(wi)) / (π(1 − Ē)),
             // which integrates against cos θi to ρ(1 − E(wo)).
-            let [eo, ei, avg, multiscatter] = albedos.albedos(self, m, wo, wi);
+            let [eo, ei, avg, multiscatter] = albedos.albedos(self, m, specular.0, specular.1);
             let diffuse =
                 self.base_color * weight * (Vec3::ONE - eo) * (Vec3::ONE - ei) / (Vec3::ONE - avg);
             return (diffuse, multiscatter);
@@ -941,7 +943,7 @@ impl PrincipledParams {
         let h = (wo + wi).normalize();
         let (d, g1o, g1i) = (m.d(h), m.g1(wo, h), m.g1(wi, h));
         let cos_d = wi.dot(h);
-        let (diffuse, multiscatter) = self.diffuse(albedos, wo, wi, cos_d, m);
+        let (diffuse, multiscatter) = self.diffuse(albedos, (wo, wi), (wo, wi), cos_d, m);
         let specular =
             self.compensated_fresnel(cos_d, multiscatter) * (d * g1o * g1i / (4.0 * wo.z * wi.z));
         // The visible-normal density over h, pdf_h = G1(wo)·max(0, wo·h)·D/cos θo,
@@ -958,6 +960,83 @@ impl PrincipledParams {
             pd * cosine_hemisphere_pdf(wi.z) + (1.0 - pd) * spec_pdf,
         )
     }
+}
+
+impl PrincipledParams {
+    /// Whether [`PrincipledParams::sample_direction`] draws from the diffuse
+    /// lobe for the lobe-picking number `uc` (then in the diffuse lobe's
+    /// frame; else in the specular lobe's).
+    #[inline(always)]
+    pub(crate) fn samples_diffuse(&self, uc: f32) -> bool {
+        uc < self.diffuse_probability()
+    }
+
+    /// [`PrincipledParams::eval_pdf`] with each lobe in a shading frame of
+    /// its own, as Cycles shades a normal-mapped surface (its diffuse closure
+    /// keeps the mapped normal; only the glossy one gets the normal bent so
+    /// that mirror reflections stay above the surface, see
+    /// `integrator::steps::valid_reflection_normal`): `diffuse` is `(wo, wi)`
+    /// in the diffuse lobe's frame, `specular` the same two directions in the
+    /// specular lobe's. Returns each lobe's value times its own `|cos θi|`
+    /// (so that a caller can drop one whose frame disagrees with the
+    /// geometry) and the density of [`PrincipledParams::sample_direction`]
+    /// drawing `wi` in the frame of the lobe it picks.
+    #[inline]
+    pub(crate) fn eval_pdf_split(
+        &self,
+        diffuse: (Vec3, Vec3),
+        specular: (Vec3, Vec3),
+    ) -> SplitEval {
+        let m = self.microfacet();
+        let (wo, wi) = specular;
+        let h = (wo + wi).normalize_or_zero();
+        let cos_d = wi.dot(h);
+        let pd = self.diffuse_probability();
+        // The coupled diffuse lobe reads the specular albedos at the
+        // directions' heights above the specular lobe's surface (a
+        // direction below it, seen by the diffuse lobe alone, counts as
+        // grazing).
+        let lift = |w: Vec3| Vec3::new(w.x, w.y, w.z.max(1e-4));
+        let mut out = SplitEval::default();
+        let multiscatter = if both_above(diffuse.0, diffuse.1) {
+            let (f, multiscatter) = self.diffuse(
+                None::<albedo::EnergyTables>,
+                diffuse,
+                (lift(wo), lift(wi)),
+                cos_d,
+                &m,
+            );
+            out.diffuse = f * diffuse.1.z;
+            out.pdf += pd * cosine_hemisphere_pdf(diffuse.1.z);
+            multiscatter
+        } else if self.energy_conserving {
+            let tables = self.energy_tables();
+            self.metal_multiscatter(&tables, &m, lift(wo))
+        } else {
+            Vec3::ONE
+        };
+        if both_above(wo, wi) && h != Vec3::ZERO {
+            let (d, g1o, g1i) = (m.d(h), m.g1(wo, h), m.g1(wi, h));
+            out.specular =
+                self.compensated_fresnel(cos_d, multiscatter) * (d * g1o * g1i / (4.0 * wo.z));
+            if wo.dot(h) > 0.0 {
+                out.pdf += (1.0 - pd) * g1o * d / (4.0 * wo.z);
+            }
+        }
+        out
+    }
+}
+
+/// The two lobes of a principled BSDF evaluated in frames of their own
+/// ([`PrincipledParams::eval_pdf_split`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct SplitEval {
+    /// The diffuse lobe's value times `cos θi` in its frame.
+    pub diffuse: Vec3,
+    /// The specular lobe's value times `cos θi` in its frame.
+    pub specular: Vec3,
+    /// The density of drawing `wi` (per unit solid angle).
+    pub pdf: f32,
 }
 
 /// Where the energy-conserving principled BSDF takes the specular lobe's

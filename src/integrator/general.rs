@@ -4,6 +4,7 @@
 //! [`super::steps`].
 
 use super::spawn::{ray_epsilon, shadow_segment, spawn_origin};
+use super::split_lobes::SplitLobes;
 use super::steps::*;
 use crate::accel::{Ray, RayHit, ShadowRay};
 use crate::bsdf::Scatter;
@@ -450,6 +451,9 @@ struct SurfaceHit<'a> {
     n: Vec3,
     /// The normal of the shading frame (see [`SurfacePoint::shading_normal`]).
     shading_n: Vec3,
+    /// The diffuse lobe's own shading normal where it differs from
+    /// `shading_n` (see [`SplitLobes`]).
+    diffuse_n: Option<Vec3>,
     /// Whether the mesh has vertex normals (then the light-leak guard
     /// applies, see [`sides_agree`]).
     guard: bool,
@@ -487,10 +491,20 @@ impl<'a> SurfaceHit<'a> {
         // Opaque surfaces are two-sided: shade in the frame facing the viewer.
         // Transmissive ones keep the geometric normal as their outside.
         let n = if bsdf.transmits() { ng } else { facing };
-        let shading_n = surface.shading_normal(n, wo);
+        let mapped_n = surface.shading_normal(n, wo);
         let shading_n = match material.textures.valid_reflection && !bsdf.transmits() {
-            true => crate::integrator::steps::valid_reflection_normal(shading_n, n, wo),
-            false => shading_n,
+            true => crate::integrator::steps::valid_reflection_normal(mapped_n, n, wo),
+            false => mapped_n,
+        };
+        // Where the correction bent the normal, a principled material's
+        // diffuse lobe keeps the mapped one (see `split_lobes`).
+        let diffuse_n = match bsdf {
+            Scatter::One(crate::bsdf::Bsdf::Principled(p))
+                if shading_n != mapped_n && p.metallic < 1.0 =>
+            {
+                Some(mapped_n)
+            }
+            _ => None,
         };
         let terminator = if material.textures.terminator() {
             // Estevez et al. 2019: the tilt of the mapped normal from the
@@ -512,6 +526,7 @@ impl<'a> SurfaceHit<'a> {
             facing,
             n,
             shading_n,
+            diffuse_n,
             terminator,
             // Without shading normals the frame's normal is ±ng and the
             // light-leak guard cannot fail.
@@ -544,6 +559,23 @@ impl<'a> SurfaceHit<'a> {
         } else {
             self.shading_n
         }
+    }
+
+    /// The BSDF with its lobes in two frames, where they have two.
+    #[inline]
+    fn split_lobes(&self, frame: &Frame) -> Option<SplitLobes> {
+        let (nd, Scatter::One(crate::bsdf::Bsdf::Principled(params))) =
+            (self.diffuse_n?, self.bsdf)
+        else {
+            return None;
+        };
+        Some(SplitLobes {
+            params,
+            diffuse: Frame::from_normal(nd),
+            specular: *frame,
+            guard: self.guard,
+            ng: self.ng,
+        })
     }
 
     /// The local shading frame (with the tangent anisotropic BSDFs need).
@@ -599,6 +631,7 @@ fn scatter(
     };
     let frame = at.frame();
     let wo_local = frame.to_local(wo);
+    let split = at.split_lobes(&frame);
     let eps = ray_epsilon(p);
     // Reflected rays leave on the side of `n`; only a transmissive BSDF can
     // send a ray out on the other side.
@@ -620,16 +653,24 @@ fn scatter(
     if let Some((li, pick_pmf)) = light_pick {
         let u = rng.next_2d();
         if let Some(ls) = sample(li, p, u) {
-            let wi_local = frame.to_local(ls.wi);
-            // A delta light needs no MIS weight, so no BSDF density.
-            let (f, bsdf_pdf) = if at.guard && !sides_agree(wo, ls.wi, ng, wo_local, wi_local) {
-                (Vec3::ZERO, 0.0)
-            } else if ls.delta {
-                (bsdf.eval(wo_local, wi_local), 0.0)
-            } else {
-                bsdf.eval_pdf(wo_local, wi_local)
+            let (f, bsdf_pdf) = match &split {
+                Some(lobes) => {
+                    let (f, pdf) = lobes.eval_pdf(wo, ls.wi);
+                    (f * at.terminator(ls.wi), pdf)
+                }
+                None => {
+                    let wi_local = frame.to_local(ls.wi);
+                    // A delta light needs no MIS weight, so no BSDF density.
+                    let (f, pdf) = if at.guard && !sides_agree(wo, ls.wi, ng, wo_local, wi_local) {
+                        (Vec3::ZERO, 0.0)
+                    } else if ls.delta {
+                        (bsdf.eval(wo_local, wi_local), 0.0)
+                    } else {
+                        bsdf.eval_pdf(wo_local, wi_local)
+                    };
+                    (f * (wi_local.z.abs() * at.terminator(ls.wi)), pdf)
+                }
             };
-            let f = f * (wi_local.z.abs() * at.terminator(ls.wi));
             if f != Vec3::ZERO {
                 let light_pdf = pick_pmf * ls.pdf;
                 let weight = if ls.delta {
@@ -661,15 +702,24 @@ fn scatter(
 
     // BSDF sampling for the next ray.
     let uc = rng.next_f32();
-    let Some(bs) = bsdf.sample(wo_local, uc, rng.next_2d()) else {
-        return out;
+    let (wi, pdf) = if let Some(lobes) = &split {
+        let Some(s) = lobes.sample(wo, uc, rng.next_2d()) else {
+            return out;
+        };
+        *beta *= s.weight * at.terminator(s.wi);
+        (s.wi, s.pdf)
+    } else {
+        let Some(bs) = bsdf.sample(wo_local, uc, rng.next_2d()) else {
+            return out;
+        };
+        let wi = frame.to_world(bs.wi);
+        if at.guard && !sides_agree(wo, wi, ng, wo_local, bs.wi) {
+            return out;
+        }
+        *beta *= bs.weight * at.terminator(wi);
+        *eta_scale *= bsdf.eta_scale(wo_local, bs.wi);
+        (wi, if bs.delta { 0.0 } else { bs.pdf })
     };
-    let wi = frame.to_world(bs.wi);
-    if at.guard && !sides_agree(wo, wi, ng, wo_local, bs.wi) {
-        return out;
-    }
-    *beta *= bs.weight * at.terminator(wi);
-    *eta_scale *= bsdf.eta_scale(wo_local, bs.wi);
     let rr_beta = *beta * *eta_scale;
     if roulette_spins(rr_beta, bounce.roulette) {
         let (survives, survivor) = roulette(*beta, rr_beta, rng.next_f32());
@@ -681,7 +731,6 @@ fn scatter(
     if *beta == Vec3::ZERO {
         return out;
     }
-    let pdf = if bs.delta { 0.0 } else { bs.pdf };
     out.next = Some((Ray::new(origin_for(wi), wi), pdf));
     out
 }

@@ -39,6 +39,7 @@ mod general;
 pub mod gradient;
 pub mod soa;
 mod spawn;
+mod split_lobes;
 mod steps;
 
 pub use soa::{Isa, SoaScene};

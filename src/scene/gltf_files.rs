@@ -12,10 +12,11 @@
 //! range, an accessor's count, offset and stride) is checked against the
 //! bytes that are really there before anything is allocated from it.
 
+use super::confined::confined_path;
 use crate::error::FormatError;
 use std::borrow::Cow;
 use std::io::Read;
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 
 /// The largest glTF, GLB, buffer or image file plsr reads (bytes).
 pub const MAX_FILE_BYTES: u64 = 1 << 32;
@@ -143,7 +144,7 @@ impl GltfAsset {
             let data = decode_data_uri(rest, cap).map_err(|m| format!("{field}: {m}"))?;
             return Ok((Cow::Owned(data), None));
         }
-        let path = confined_path(&self.folder, uri).map_err(|m| format!("{field} {uri:?}: {m}"))?;
+        let path = confined_uri(&self.folder, uri).map_err(|m| format!("{field} {uri:?}: {m}"))?;
         let data =
             read_first(&path, cap, uri, prefix).map_err(|e| format!("{field} {uri:?}: {e}"))?;
         Ok((Cow::Owned(data), Some(path)))
@@ -320,8 +321,8 @@ fn check_glb(bytes: &[u8]) -> Result<()> {
 }
 
 /// `uri` (relative, percent-encoded) resolved inside the canonical folder
-/// `folder`, symbolic links followed, naming a regular file; or why not.
-fn confined_path(folder: &Path, uri: &str) -> std::result::Result<PathBuf, String> {
+/// `folder` ([`confined_path`]); or why not.
+fn confined_uri(folder: &Path, uri: &str) -> std::result::Result<PathBuf, String> {
     if let Some(colon) = uri.find(':') {
         let scheme = &uri[..colon];
         if !scheme.is_empty()
@@ -335,33 +336,7 @@ fn confined_path(folder: &Path, uri: &str) -> std::result::Result<PathBuf, Strin
             ));
         }
     }
-    let decoded = percent_decode(uri)?;
-    let relative = Path::new(&decoded);
-    if decoded.is_empty() {
-        return Err("an empty URI".into());
-    }
-    if relative.has_root() || decoded.starts_with('\\') {
-        return Err("an absolute path: a glTF's files must be inside its folder".into());
-    }
-    if relative.components().any(|c| c == Component::ParentDir) {
-        return Err("climbs out with `..`: a glTF's files must be inside its folder".into());
-    }
-    let joined = folder.join(relative);
-    let resolved = joined.canonicalize().map_err(|e| match e.kind() {
-        std::io::ErrorKind::NotFound => format!("no such file ({})", joined.display()),
-        _ => format!("cannot be opened ({}): {e}", joined.display()),
-    })?;
-    if !resolved.starts_with(folder) {
-        return Err(format!(
-            "is a link to {}, outside the asset's folder",
-            resolved.display()
-        ));
-    }
-    let meta = std::fs::metadata(&resolved).map_err(|e| e.to_string())?;
-    if !meta.is_file() {
-        return Err("is not a regular file (a folder, device or FIFO)".into());
-    }
-    Ok(resolved)
+    confined_path(folder, &percent_decode(uri)?, "a glTF's")
 }
 
 /// A URI's `%XX` escapes decoded (as UTF-8).

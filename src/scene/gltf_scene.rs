@@ -1029,8 +1029,20 @@ fn studio_toml(position: Vec3, look_at: Vec3, up: Vec3, (lo, hi): (Vec3, Vec3)) 
 
 /// The scene [`GltfWrapper`] of the glTF file `path`.
 pub fn scene_toml(path: &Path) -> crate::error::Result<GltfWrapper> {
+    scene_toml_at(path, 0.0)
+}
+
+/// [`scene_toml`] with the file's animations shown at `time` seconds
+/// (`plsr render model.glb --anim-time 1.5`).
+pub fn scene_toml_at(path: &Path, time: f32) -> crate::error::Result<GltfWrapper> {
     crate::input::check_input_file(path)?;
-    let scene = read_gltf(path).map_err(|m| crate::error::Error::input(path, "", m.to_string()))?;
+    if !time.is_finite() {
+        return Err(crate::error::Error::invalid_argument(format!(
+            "--anim-time {time}: a time in seconds must be a finite number"
+        )));
+    }
+    let scene = read_gltf_at(path, time)
+        .map_err(|m| crate::error::Error::input(path, "", m.to_string()))?;
     let mut notes = Vec::new();
     let file = path
         .file_name()
@@ -1082,6 +1094,9 @@ pub fn scene_toml(path: &Path) -> crate::error::Result<GltfWrapper> {
         "\n[[shapes]]\ntype = \"gltf\"\nfile = {}\n",
         toml::Value::String(file.clone())
     ));
+    if time != 0.0 {
+        toml.push_str(&format!("time = {time:?}\n"));
+    }
     for l in &scene.point_lights {
         toml.push_str(&format!(
             "\n[[lights]]\ntype = \"point\"\nposition = {}\nintensity = {}\n",

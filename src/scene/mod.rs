@@ -6,6 +6,7 @@
 //! turned by [`Scene::build`] into a [`Scene`] ready to render. Geometry id
 //! `i` in Embree is `meshes[i]`, so a hit names its mesh directly.
 
+mod confined;
 pub mod curves;
 pub mod file;
 pub mod gltf_animation;

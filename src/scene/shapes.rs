@@ -542,7 +542,19 @@ pub fn load_obj(path: &Path, scene_file: &Path, field: &str) -> Result<ObjFile> 
     let text = crate::input::read_text_lenient(path)
         .map_err(|e| fail(format!("{}: {e}", path.display())))?;
     check_obj(&text).map_err(|m| fail(format!("{}: {m}", path.display())))?;
-    let base = path.parent().unwrap_or(Path::new("."));
+    // The OBJ's files (MTL libraries, textures) must lie in its folder
+    // (`super::confined`).
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+    let base = parent
+        .unwrap_or(Path::new("."))
+        .canonicalize()
+        .map_err(|e| {
+            fail(format!(
+                "{}: its folder cannot be read: {e}",
+                path.display()
+            ))
+        })?;
+    let base = base.as_path();
     // tobj does not say which MTL library is missing: check them first.
     let libraries = check_mtl_libraries(&text, base, path, &fail)?;
     let options = tobj::LoadOptions {
@@ -555,7 +567,10 @@ pub fn load_obj(path: &Path, scene_file: &Path, field: &str) -> Result<ObjFile> 
         &mut std::io::Cursor::new(text.as_bytes()),
         &options,
         |lib| {
-            let text = crate::input::read_text_lenient(&base.join(lib))
+            // Only the libraries checked above are read.
+            let lib = super::confined::confined_path(base, &lib.to_string_lossy(), "an OBJ's")
+                .map_err(|_| tobj::LoadError::OpenFileFailed)?;
+            let text = crate::input::read_text_lenient(&lib)
                 .map_err(|_| tobj::LoadError::OpenFileFailed)?;
             tobj::load_mtl_buf(&mut std::io::Cursor::new(text.as_bytes()))
         },
@@ -600,14 +615,8 @@ fn check_mtl_libraries(
     for line in text.lines() {
         if let Some(libs) = line.trim_start().strip_prefix("mtllib ") {
             for lib in libs.split_whitespace() {
-                let mtl = base.join(lib);
-                crate::input::check_regular_file(&mtl).map_err(|m| {
-                    fail(format!(
-                        "{}: MTL library {} {m}",
-                        path.display(),
-                        mtl.display()
-                    ))
-                })?;
+                let mtl = super::confined::confined_path(base, lib, "an OBJ's")
+                    .map_err(|m| fail(format!("{}: mtllib {lib:?} {m}", path.display())))?;
                 // tobj panics on some malformed lines and says only
                 // "material parse error" on others: check them first.
                 check_mtl(&mtl).map_err(|m| fail(format!("{}: {m}", mtl.display())))?;
@@ -746,8 +755,15 @@ fn obj_material(
     };
     let roughness = unit("Pr")?;
     let metallic = unit("Pm")?;
-    let map =
-        |name: Option<&String>| name.map(|n| base.join(n.split_whitespace().last().unwrap_or(n)));
+    // A map's options come first (`map_Kd -s 2 2 1 tex.png`): the file is
+    // the last word, inside the OBJ's folder.
+    let map = |key: &str, name: Option<&String>| -> Result<Option<PathBuf>> {
+        let Some(n) = name else { return Ok(None) };
+        let file = n.split_whitespace().last().unwrap_or(n);
+        super::confined::confined_path(base, file, "an OBJ's")
+            .map(Some)
+            .map_err(|e| bad(key, format!("{file:?} {e}")))
+    };
     Ok(ObjMaterial {
         name: m.name.clone(),
         diffuse,
@@ -756,9 +772,9 @@ fn obj_material(
         shininess: m.shininess,
         roughness,
         metallic,
-        diffuse_map: map(m.diffuse_texture.as_ref()),
-        roughness_map: map(m.unknown_param.get("map_Pr")),
-        metallic_map: map(m.unknown_param.get("map_Pm")),
+        diffuse_map: map("map_Kd", m.diffuse_texture.as_ref())?,
+        roughness_map: map("map_Pr", m.unknown_param.get("map_Pr"))?,
+        metallic_map: map("map_Pm", m.unknown_param.get("map_Pm"))?,
     })
 }
 

@@ -11,9 +11,13 @@
 //! colours (VertexColorTest), sampler wrap modes and `doubleSided`
 //! (TextureSettingsTest), a second UV set for the emissive texture
 //! (MultiUVTest), node transforms, winding and culling (OrientationTest,
-//! NegativeScaleTest), an animation at t = 0 (BoxAnimated);
-//! TextureCoordinateTest is a general check. Each
-//! feature's test was seen to fail with the feature turned off.
+//! NegativeScaleTest), an animation at t = 0 (BoxAnimated), alpha `MASK`
+//! and `BLEND` (AlphaBlendModeTest), a normal map without tangents
+//! (NormalTangentTest), an emissive texture (DamagedHelmet) and
+//! `KHR_texture_transform` (plsr's TextureTransformQuads);
+//! TextureCoordinateTest is a general check. Coverage is compared in every
+//! block, colour where both cover a block. Each feature's test was seen to
+//! fail with the feature turned off.
 
 use plsr::film::Film;
 use std::path::{Path, PathBuf};
@@ -69,8 +73,9 @@ fn fixture(name: &str) -> Fixture {
 }
 
 /// plsr's render of the fixture's model, camera and environment (the
-/// environment oriented as Blender's: top row +y, centre column +x).
-fn render_fixture(f: &Fixture, spp: u32) -> Film {
+/// environment oriented as Blender's: top row +y, centre column +x); or,
+/// with `model` false, of the environment alone.
+fn render_fixture(f: &Fixture, spp: u32, model: bool) -> Film {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("scene.toml");
     let [w, h] = f.resolution;
@@ -80,21 +85,29 @@ fn render_fixture(f: &Fixture, spp: u32) -> Film {
             "[camera]\nposition = {:?}\nlook_at = {:?}\nup = [0, 1, 0]\nvfov = {}\n\
              resolution = [{w}, {h}]\n\n[render]\nspp = {spp}\nmax_depth = {}\nseed = 0\n\n\
              [environment]\nfile = {:?}\nup = [0, 1, 0]\nforward = [1, 0, 0]\n\
-             filter = \"bilinear\"\n\n[[shapes]]\ntype = \"gltf\"\nfile = {:?}\n",
+             filter = \"bilinear\"\n{}",
             f.position,
             f.look_at,
             f.vfov,
             f.max_depth,
             f.environment.display().to_string(),
-            f.model.display().to_string(),
+            match model {
+                true => format!(
+                    "\n[[shapes]]\ntype = \"gltf\"\nfile = {:?}\n",
+                    f.model.display().to_string()
+                ),
+                false => String::new(),
+            },
         ),
     )
     .unwrap();
     super::gltf_import::render_file(&scene)
 }
 
-/// Mean RGB and coverage of `film` per `k × k` block, row by row.
-fn blocks(film: &Film, k: usize) -> Vec<[f64; 4]> {
+/// Mean RGB and coverage of `film` per `k × k` block, row by row, the
+/// environment seen past the model (`background`, the environment alone,
+/// times `1 − coverage`) taken out: what Cycles' transparent film keeps.
+fn blocks(film: &Film, background: &Film, k: usize) -> Vec<[f64; 4]> {
     let (w, h) = (film.width as usize, film.height as usize);
     let mut out = Vec::new();
     for by in 0..h / k {
@@ -103,7 +116,7 @@ fn blocks(film: &Film, k: usize) -> Vec<[f64; 4]> {
             for y in by * k..(by + 1) * k {
                 for x in bx * k..(bx + 1) * k {
                     let i = y * w + x;
-                    let c = film.color[i];
+                    let c = film.color[i] - background.color[i] * (1.0 - film.alpha[i]);
                     for (s, v) in sum.iter_mut().zip([c.x, c.y, c.z, film.alpha[i]]) {
                         *s += v as f64;
                     }
@@ -119,19 +132,33 @@ fn blocks(film: &Film, k: usize) -> Vec<[f64; 4]> {
 /// Blender's.
 type Disagreement = (usize, [f64; 4], [f64; 4]);
 
-/// The blocks both renderers cover fully where plsr's colour is further
-/// from Blender's than `relative` of the block's brightest channel (plus a
-/// floor for dark blocks): `(block index, plsr, Blender)`; and how many
-/// blocks were compared.
-fn disagreements(name: &str, relative: f64) -> (Vec<Disagreement>, usize) {
+/// Coverage a block may differ by (the fraction of its area): an edge
+/// shifted by a tenth of a pixel along a whole 8-pixel block.
+const COVERAGE_TOLERANCE: f64 = 0.0125 + 0.03;
+
+/// The blocks where plsr's coverage differs from Blender's by more than
+/// [`COVERAGE_TOLERANCE`] (every block), or, among those both cover at
+/// least 90 %, where plsr's colour is further from Blender's than
+/// `relative` of the block's brightest channel (plus a floor for dark
+/// blocks): `(block index, plsr, Blender)`; and how many blocks' colours
+/// were compared.
+fn disagreements(name: &str, relative: f64, spp: u32) -> (Vec<Disagreement>, usize) {
     let f = fixture(name);
-    let film = render_fixture(&f, 128);
-    let ours = blocks(&film, f.block);
+    let film = render_fixture(&f, spp, true);
+    let background = render_fixture(&f, 16, false);
+    let ours = blocks(&film, &background, f.block);
     assert_eq!(ours.len(), f.blocks.len(), "{name}: block count");
     let mut bad = Vec::new();
     let mut compared = 0;
     for (i, (p, b)) in ours.iter().zip(&f.blocks).enumerate() {
-        if p[3] < 0.99 || b[3] < 0.99 {
+        if (p[3] - b[3]).abs() > COVERAGE_TOLERANCE {
+            bad.push((i, *p, *b));
+            continue;
+        }
+        // At the edge of a shiny object, what it reflects of the
+        // environment is not what `blocks` takes out: edges are judged by
+        // their coverage only.
+        if p[3] < 0.9 || b[3] < 0.9 {
             continue;
         }
         compared += 1;
@@ -145,7 +172,12 @@ fn disagreements(name: &str, relative: f64) -> (Vec<Disagreement>, usize) {
 }
 
 fn assert_like_blender(name: &str, relative: f64, min_blocks: usize) {
-    let (bad, compared) = disagreements(name, relative);
+    assert_like_blender_at(name, relative, min_blocks, 128)
+}
+
+/// [`assert_like_blender`] with plsr rendering `spp` samples per pixel.
+fn assert_like_blender_at(name: &str, relative: f64, min_blocks: usize, spp: u32) {
+    let (bad, compared) = disagreements(name, relative, spp);
     assert!(
         compared >= min_blocks,
         "{name}: only {compared} blocks covered by both"
@@ -206,4 +238,45 @@ fn an_animation_at_t_0_as_in_blender() {
 #[test]
 fn a_second_uv_set_places_the_emissive_logo_as_in_blender() {
     assert_like_blender("MultiUVTest", 0.3, 50);
+}
+
+/// Alpha `MASK` (cutoff) and `BLEND` as coverage: every block's coverage
+/// is Blender's within [`COVERAGE_TOLERANCE`] (they agree within 0.001 on
+/// the masked and blended planes; rendered opaque, 20 of the 36 blocks
+/// compared fail, most by more than 40 %). Colours within 30 %:
+/// the normal-mapped stone backdrop behind the planes is up to 25 %
+/// darker or brighter than Blender's in a few blocks at 1024 samples (the
+/// file's tangents and MikkTSpace's give the same image; not yet
+/// explained, see `docs/gltf.md`).
+#[test]
+fn alpha_mask_and_blend_as_in_blender() {
+    assert_like_blender("AlphaBlendModeTest", 0.3, 30);
+}
+
+/// A normal map on a mesh without `TANGENT`: MikkTSpace tangents, as the
+/// spec asks and Blender's importer computes them; the shading normal
+/// bent for the glossy lobe only where a reflection would go below the
+/// surface. Images scaled to 256² (see the README). At 512 samples: its
+/// gold spheres mirror bright parts of the environment, and a block
+/// differs by 20 % at 128.
+#[test]
+fn normal_map_without_tangents_as_in_blender() {
+    assert_like_blender_at("NormalTangentTest", 0.15, 10, 512);
+}
+
+/// DamagedHelmet's emissive texture (× its emissive factor) with its
+/// base colour, metallic-roughness and normal maps (scaled to 256²):
+/// without the emissive texture the whole helmet glows, several times
+/// Blender's image. At 512 samples: its metal mirrors small bright parts
+/// of the environment, and single blocks differ by 40 % at 128.
+#[test]
+fn emissive_texture_and_pbr_maps_as_in_blender() {
+    assert_like_blender_at("DamagedHelmet", 0.2, 30, 512);
+}
+
+/// plsr's own model: `KHR_texture_transform`'s offset, rotation and scale
+/// and its `texCoord` override, each on a quad of four coloured quadrants.
+#[test]
+fn texture_transforms_as_in_blender() {
+    assert_like_blender("TextureTransformQuads", 0.15, 40);
 }

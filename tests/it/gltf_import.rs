@@ -339,7 +339,7 @@ fn bad_gltf_files_are_refused_clearly() {
     assert!(
         e.contains("quad.gltf")
             && e.contains("images[0].uri \"tex.png\"")
-            && e.contains("no such file"),
+            && e.contains("not found"),
         "{e}"
     );
     // Directly: the same messages, naming the file.
@@ -376,8 +376,8 @@ fn gltf_files_stay_inside_the_assets_folder() {
     let with_buffer = |uri: &str| quad_json(Some(uri), TEXTURED);
     for (uri, fault) in [
         ("../outside.bin", "climbs out with `..`"),
-        ("/etc/passwd", "an absolute path"),
-        ("/dev/zero", "an absolute path"),
+        ("/etc/passwd", "is an absolute path"),
+        ("/dev/zero", "is an absolute path"),
         ("file:///etc/passwd", "`file:` URIs are not read"),
         ("http://example.com/quad.bin", "`http:` URIs are not read"),
         ("sub/../../outside.bin", "climbs out with `..`"),
@@ -391,7 +391,7 @@ fn gltf_files_stay_inside_the_assets_folder() {
     // A link inside the folder to a file outside it.
     std::os::unix::fs::symlink(root.path().join("outside.bin"), dir.join("link.bin")).unwrap();
     let e = error_of("bad.gltf", with_buffer("link.bin"));
-    assert!(e.contains("outside the asset's folder"), "{e}");
+    assert!(e.contains("outside a glTF's folder"), "{e}");
     // A FIFO would block a read: refused unopened.
     let fifo = dir.join("fifo.bin");
     let made = std::process::Command::new("mkfifo").arg(&fifo).status();
@@ -1065,4 +1065,55 @@ fn each_texture_reads_the_uv_set_it_names() {
     // The emissive texture is decoded (its logo is bright).
     let e = g.extras[o.material.unwrap()].emission_map.as_ref().unwrap();
     assert!(e.max_value() > 0.5);
+}
+
+#[test]
+fn a_gltf_rendered_on_its_own_is_shown_at_the_time_asked() {
+    // `plsr render BoxAnimated.glb --anim-time 1`: the inner box has risen.
+    use plsr::scene::file::load_contents_with;
+    use plsr::scene::mitsuba::Options;
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/realworld/gltf/BoxAnimated.glb");
+    let at = |time: Option<f32>| {
+        let options = Options {
+            defines: Vec::new(),
+            time,
+        };
+        let c = load_contents_with(&path, &options).unwrap();
+        c.description
+            .meshes
+            .iter()
+            .flat_map(|m| m.positions.iter().map(|p| p.y))
+            .fold(f32::MIN, f32::max)
+    };
+    let (start, later) = (at(None), at(Some(1.0)));
+    assert_eq!(start, at(Some(0.0)));
+    assert!(
+        later > start + 0.1,
+        "top at t = 0: {start}, at t = 1 s: {later}"
+    );
+    // Not a finite time, or a scene that is not a glTF file: refused.
+    let e = load_contents_with(
+        &path,
+        &Options {
+            defines: Vec::new(),
+            time: Some(f32::NAN),
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("--anim-time") && e.contains("finite"), "{e}");
+    let dir = tempfile::tempdir().unwrap();
+    let toml = dir.path().join("scene.toml");
+    std::fs::write(&toml, "[camera]\nposition = [0, 0, 5]\n").unwrap();
+    let e = load_contents_with(
+        &toml,
+        &Options {
+            defines: Vec::new(),
+            time: Some(1.0),
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("--anim-time 1") && e.contains("time = 1"), "{e}");
 }

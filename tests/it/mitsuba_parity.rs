@@ -138,7 +138,10 @@ fn render_fixture(f: &Fixture) -> Vec<glam::Vec3> {
     if !defines.iter().any(|(k, _)| k == "spp") {
         defines.push(("spp".into(), f.spp.to_string()));
     }
-    let options = Options { defines };
+    let options = Options {
+        defines,
+        time: None,
+    };
     let contents = plsr::scene::file::load_contents_with(&f.scene, &options)
         .unwrap_or_else(|e| panic!("{}: {e}", f.name));
     let scene = Scene::build(contents.description).unwrap_or_else(|e| panic!("{}: {e}", f.name));

@@ -153,9 +153,10 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     let parts = a.samples.is_some() || window.is_some() || a.resume;
     let files_hasher = if parts {
         let mut h = scene_files_hasher(&files)?;
-        // A Mitsuba scene's -D parameters are part of the scene.
-        for (name, value) in &a.params.define {
-            h.field(format!("-D {name}={value}").as_bytes());
+        // A Mitsuba scene's -D parameters and a glTF's --anim-time are part of
+        // the scene.
+        for field in a.params.hash_fields() {
+            h.field(field.as_bytes());
         }
         h
     } else {

@@ -1,5 +1,5 @@
 //! `-D NAME=VALUE`: a Mitsuba scene's parameters from the command line, as
-//! `mitsuba -D` takes them.
+//! `mitsuba -D` takes them; `--anim-time`: the moment a glTF file is shown at.
 
 /// The `-D` options of a command that reads a scene.
 #[derive(Debug, Clone, Default, clap::Args)]
@@ -9,13 +9,36 @@ pub struct SceneParams {
     /// repeatable. Each must be used by the scene.
     #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
     pub define: Vec<(String, String)>,
+    /// For a glTF file given as the scene: show its animations at this
+    /// time, in seconds (default 0, the first keyframe's pose).
+    #[arg(
+        long = "anim-time",
+        value_name = "SECONDS",
+        allow_negative_numbers = true
+    )]
+    pub anim_time: Option<f32>,
 }
 
 impl SceneParams {
+    /// What identifies these options in a part file's scene hash: each
+    /// `-D NAME=VALUE`, then `--anim-time T` if given.
+    pub fn hash_fields(&self) -> Vec<String> {
+        let mut fields: Vec<String> = self
+            .define
+            .iter()
+            .map(|(name, value)| format!("-D {name}={value}"))
+            .collect();
+        if let Some(t) = self.anim_time {
+            fields.push(format!("--anim-time {t:?}"));
+        }
+        fields
+    }
+
     /// The options the scene is read with.
     pub fn options(&self) -> plsr::scene::mitsuba::Options {
         plsr::scene::mitsuba::Options {
             defines: self.define.clone(),
+            time: self.anim_time,
         }
     }
 }

@@ -127,8 +127,14 @@ pub fn load_contents_with(
     crate::input::check_input_file(path)?;
     let bytes = std::fs::read(path).map_err(|source| Error::io(path.to_path_buf(), source))?;
     if crate::scene::gltf_scene::looks_like_gltf(path, &bytes) {
-        refuse_defines(path, options)?;
-        let wrapper = crate::scene::gltf_scene::scene_toml(path)?;
+        if let Some((name, value)) = options.defines.first() {
+            return Err(Error::invalid_argument(format!(
+                "-D {name}={value}: parameters are for Mitsuba XML scenes, and {} is not one",
+                path.display()
+            )));
+        }
+        let time = options.time.unwrap_or(0.0);
+        let wrapper = crate::scene::gltf_scene::scene_toml_at(path, time)?;
         let mut contents = from_text(path, &wrapper.toml, false)?;
         let mut notes = wrapper.notes;
         notes.append(&mut contents.notes);
@@ -144,6 +150,7 @@ pub fn load_contents_with(
              JSON with the same schema, or Mitsuba 3 XML; see docs/scene-format.md)",
         )
     })?;
+    refuse_time(path, options)?;
     if crate::scene::mitsuba::looks_like_xml(path, text.as_bytes()) {
         let translation = crate::scene::mitsuba::translate_with(path, &text, options)?;
         // What the builder finds wrong is in the translation, not the XML.
@@ -179,6 +186,18 @@ pub fn load_contents_with(
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"));
     from_text(path, &text, is_json)
+}
+
+/// `--anim-time` given for a scene that is not a glTF file is refused.
+fn refuse_time(path: &Path, options: &crate::scene::mitsuba::Options) -> Result<()> {
+    match options.time {
+        Some(t) => Err(Error::invalid_argument(format!(
+            "--anim-time {t}: picks the moment of a glTF file given as the scene, and {} is not one \
+             (in a scene file, a `gltf` shape takes `time = {t}`)",
+            path.display()
+        ))),
+        None => Ok(()),
+    }
 }
 
 /// `-D` parameters given for a scene that is not Mitsuba XML are refused.

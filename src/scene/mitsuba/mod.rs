@@ -72,12 +72,16 @@ pub fn looks_like_xml(path: &Path, text: &[u8]) -> bool {
 }
 
 /// How a Mitsuba scene is read: what `mitsuba`'s command line would add.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Options {
     /// Parameters, as `mitsuba -D name=value` gives them: they take the
     /// place of the scene's `<default>` of the same name, and each must be
     /// used by some `$name`.
     pub defines: Vec<(String, String)>,
+    /// `--anim-time SECONDS`: when the scene is a glTF file rendered on its
+    /// own, the time its animations are shown at (0 when `None`); refused
+    /// for other scenes (a scene file's `gltf` shape has its own `time`).
+    pub time: Option<f32>,
 }
 
 /// Translates the Mitsuba 3 scene `text` (read from `path`, which errors

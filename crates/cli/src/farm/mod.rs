@@ -166,6 +166,7 @@ pub fn make_plan(a: &PlanArgs, writes: &[&str]) -> Result<(FarmPlan, PathBuf, Pa
             .iter()
             .map(|(n, v)| [n.clone(), v.clone()])
             .collect(),
+        time: a.params.anim_time,
     };
     plan.check().map_err(|(field, m)| {
         let flag = match field {

@@ -44,6 +44,10 @@ pub struct FarmPlan {
     /// `[name, value]` pairs.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub defines: Vec<[String; 2]>,
+    /// For a glTF file as the scene: `--anim-time`, the time (s) its animations
+    /// are shown at.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time: Option<f32>,
 }
 
 /// One piece of a plan: a sample range of one frame.
@@ -176,6 +180,7 @@ impl FarmPlan {
                 .iter()
                 .map(|[n, v]| (n.clone(), v.clone()))
                 .collect(),
+            anim_time: self.time,
         }
     }
 
@@ -222,8 +227,8 @@ impl DoneCheck {
         let camera = &contents.description.camera;
         // As `plsr render` hashes a part's scene: its files, then its -D.
         let mut files_hasher = scene_files_hasher(&files)?;
-        for (name, value) in &params.define {
-            files_hasher.field(format!("-D {name}={value}").as_bytes());
+        for field in params.hash_fields() {
+            files_hasher.field(field.as_bytes());
         }
         Ok(DoneCheck {
             files_hasher,
@@ -314,6 +319,7 @@ mod tests {
             name: "image".into(),
             png: false,
             defines: Vec::new(),
+            time: None,
         }
     }
 

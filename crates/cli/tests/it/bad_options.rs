@@ -127,3 +127,10 @@ fn resolution_overrides_the_scene_and_is_checked() {
     let film = plsr::film::Film::read_exr(&dir.path().join("out.exr")).unwrap();
     assert_eq!((film.width, film.height), (12, 5));
 }
+
+#[test]
+fn an_animation_time_is_for_gltf_files_only() {
+    // A plsr scene's `gltf` shape takes `time`; --anim-time is for a glTF
+    // file given as the scene.
+    refused(&["--anim-time", "1.5"], "--anim-time 1.5", "time = 1.5");
+}

@@ -17,6 +17,7 @@ fn options(defines: &[(&str, &str)]) -> Options {
             .iter()
             .map(|(n, v)| (n.to_string(), v.to_string()))
             .collect(),
+        time: None,
     }
 }
 
