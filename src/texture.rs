@@ -28,6 +28,7 @@ use crate::error::{Error, Result};
 use glam::{Vec2, Vec3};
 use plsr_base::Vocabulary;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// A texture image that could not be loaded. Its text names the image; the
 /// scene reader adds the scene file and field.
@@ -109,11 +110,78 @@ pub struct ImageTexture {
     pub width: u32,
     /// Height in texels.
     pub height: u32,
-    /// Linear texels, row-major from the top row.
-    texels: Vec<Vec3>,
+    /// The texels, row-major from the top row.
+    texels: TexelStore,
     /// How it is looked up.
     pub sampling: Sampling,
 }
+
+/// How a texture holds its texels.
+#[derive(Debug, Clone, PartialEq)]
+enum TexelStore {
+    /// Linear RGB, 12 bytes a texel (HDR images, computed textures).
+    Linear(Vec<Vec3>),
+    /// 8-bit RGBA as the image file stores it, 4 bytes a texel, shared by
+    /// every texture made of one image and decoded at each lookup.
+    Packed {
+        /// The image's texels.
+        texels: Arc<[[u8; 4]]>,
+        /// What a texel means.
+        decode: PackedDecode,
+    },
+}
+
+/// What the texels of a packed (8-bit) image mean to one texture: the
+/// value looked up is `scale · decoded(channels) + offset`, `decoded` the
+/// stored byte through the sRGB curve or linearly to `[0, 1]`. Bilinear
+/// filtering commutes with this affine map, so filtering the decoded
+/// texels gives what filtering the stored ones and then decoding would.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PackedDecode {
+    /// The stored channel (0 R, 1 G, 2 B, 3 A) each of the three values
+    /// reads.
+    pub channels: [u8; 3],
+    /// Whether the stored values are sRGB-encoded (colour) or linear
+    /// (data: roughness, normals, alpha).
+    pub srgb: bool,
+    /// Multiplies the decoded values (a glTF factor).
+    pub scale: Vec3,
+    /// Added after the scale.
+    pub offset: Vec3,
+}
+
+impl PackedDecode {
+    /// Colour: RGB through the sRGB curve, times `scale`.
+    pub fn srgb_color(scale: Vec3) -> PackedDecode {
+        PackedDecode {
+            channels: [0, 1, 2],
+            srgb: true,
+            scale,
+            offset: Vec3::ZERO,
+        }
+    }
+
+    /// One stored channel, linear, times `scale`, in all three values.
+    pub fn channel(channel: u8, scale: f32) -> PackedDecode {
+        PackedDecode {
+            channels: [channel; 3],
+            srgb: false,
+            scale: Vec3::splat(scale),
+            offset: Vec3::ZERO,
+        }
+    }
+}
+
+/// The 256 bytes' values: linear (`b / 255`) and through the sRGB curve.
+struct ByteTables {
+    linear: [f32; 256],
+    srgb: [f32; 256],
+}
+
+static BYTE_TABLES: std::sync::LazyLock<ByteTables> = std::sync::LazyLock::new(|| ByteTables {
+    linear: std::array::from_fn(|b| b as f32 / 255.0),
+    srgb: std::array::from_fn(|b| srgb_to_linear(b as f32 / 255.0)),
+});
 
 /// sRGB transfer function, decoded: encoded value in `[0, 1]` to linear.
 #[inline]
@@ -133,9 +201,64 @@ impl ImageTexture {
         ImageTexture {
             width,
             height,
-            texels,
+            texels: TexelStore::Linear(texels),
             sampling: Sampling::default(),
         }
+    }
+
+    /// A texture reading the 8-bit RGBA image `texels` (row-major from the
+    /// top row, shared with other textures of the same image) as `decode`
+    /// says: 4 bytes a texel however many textures read it.
+    pub fn packed(
+        width: u32,
+        height: u32,
+        texels: Arc<[[u8; 4]]>,
+        decode: PackedDecode,
+    ) -> ImageTexture {
+        assert_eq!(
+            texels.len(),
+            width as usize * height as usize,
+            "texel count"
+        );
+        assert!(width > 0 && height > 0, "empty texture");
+        ImageTexture {
+            width,
+            height,
+            texels: TexelStore::Packed { texels, decode },
+            sampling: Sampling::default(),
+        }
+    }
+
+    /// Bytes held per texel (shared images counted in full).
+    pub fn bytes_per_texel(&self) -> usize {
+        match &self.texels {
+            TexelStore::Linear(_) => std::mem::size_of::<Vec3>(),
+            TexelStore::Packed { .. } => 4,
+        }
+    }
+
+    /// Texel `i` (row-major), decoded.
+    #[inline(always)]
+    fn at(&self, i: usize) -> Vec3 {
+        match &self.texels {
+            TexelStore::Linear(t) => t[i],
+            TexelStore::Packed { texels, decode } => {
+                let tables = &*BYTE_TABLES;
+                let table = if decode.srgb {
+                    &tables.srgb
+                } else {
+                    &tables.linear
+                };
+                let p = texels[i];
+                let [r, g, b] = decode.channels.map(|c| table[p[c as usize & 3] as usize]);
+                Vec3::new(r, g, b) * decode.scale + decode.offset
+            }
+        }
+    }
+
+    /// Every texel, decoded, row-major.
+    fn decoded(&self) -> impl Iterator<Item = Vec3> + '_ {
+        (0..self.width as usize * self.height as usize).map(|i| self.at(i))
     }
 
     /// Mitsuba's `checkerboard`: `color0` where the fractional parts of `u`
@@ -193,7 +316,7 @@ impl ImageTexture {
         Ok(ImageTexture {
             width,
             height,
-            texels,
+            texels: TexelStore::Linear(texels),
             sampling: Sampling::default(),
         })
     }
@@ -201,25 +324,29 @@ impl ImageTexture {
     /// The texture with every texel replaced by `f(texel)` (decoding data
     /// maps such as normal maps).
     pub fn map(mut self, f: impl Fn(Vec3) -> Vec3) -> ImageTexture {
-        for t in &mut self.texels {
-            *t = f(*t);
+        if let TexelStore::Linear(t) = &mut self.texels {
+            for t in t.iter_mut() {
+                *t = f(*t);
+            }
+            return self;
         }
+        let texels = self.decoded().map(f).collect();
+        self.texels = TexelStore::Linear(texels);
         self
     }
 
     /// The mean texel (linear RGB).
     pub fn mean(&self) -> Vec3 {
         let sum = self
-            .texels
-            .iter()
+            .decoded()
             .fold(glam::DVec3::ZERO, |s, t| s + t.as_dvec3());
-        (sum / self.texels.len().max(1) as f64).as_vec3()
+        let n = self.width as usize * self.height as usize;
+        (sum / n.max(1) as f64).as_vec3()
     }
 
     /// The largest value of any channel (for range checks of parameters).
     pub fn max_value(&self) -> f32 {
-        self.texels
-            .iter()
+        self.decoded()
             .fold(f32::NEG_INFINITY, |m, t| m.max(t.max_element()))
     }
 
@@ -240,8 +367,7 @@ impl ImageTexture {
             }) as usize
         };
         let [wrap_u, wrap_v] = self.sampling.wrap;
-        self.texels
-            [wrap(y, self.height, wrap_v) * self.width as usize + wrap(x, self.width, wrap_u)]
+        self.at(wrap(y, self.height, wrap_v) * self.width as usize + wrap(x, self.width, wrap_u))
     }
 
     /// The bilinearly filtered value at `uv` (repeating outside `[0, 1)`).
@@ -257,7 +383,7 @@ impl ImageTexture {
             let x = (uv.x * self.width as f32).floor();
             let y = ((1.0 - uv.y) * self.height as f32).floor();
             if !(x.is_finite() && y.is_finite()) {
-                return self.texels[0];
+                return self.at(0);
             }
             return self.texel(x as i64, y as i64);
         }
@@ -266,7 +392,7 @@ impl ImageTexture {
         let x = uv.x * self.width as f32 - 0.5;
         let y = (1.0 - uv.y) * self.height as f32 - 0.5;
         if !(x.is_finite() && y.is_finite()) {
-            return self.texels[0];
+            return self.at(0);
         }
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
@@ -461,5 +587,63 @@ mod tests {
         // 8-bit 188 is about linear 0.5.
         assert!((srgb_to_linear(188.0 / 255.0) - 0.5029).abs() < 1e-3);
         assert!((srgb_to_linear(0.04) - 0.04 / 12.92).abs() < 1e-9);
+    }
+
+    #[test]
+    fn packed_texels_look_up_as_their_decoded_floats() {
+        // A 3 × 2 RGBA image, read as sRGB colour times a factor, as one
+        // channel, and as a normal map's affine decoding: each lookup of
+        // the packed texture equals the same lookup of the texels decoded
+        // into floats first, with 4 bytes held per texel.
+        let bytes: Vec<[u8; 4]> = (0..6u8)
+            .map(|i| [i * 40, 250 - i * 30, 17 * i, 255 - 50 * i])
+            .collect();
+        let shared: Arc<[[u8; 4]]> = bytes.clone().into();
+        let decodes = [
+            PackedDecode::srgb_color(Vec3::new(0.9, 0.5, 1.0)),
+            PackedDecode::channel(3, 0.7),
+            PackedDecode {
+                channels: [0, 1, 2],
+                srgb: false,
+                scale: Vec3::new(1.2, 1.2, 2.0),
+                offset: Vec3::new(-0.6, -0.6, -1.0),
+            },
+        ];
+        for decode in decodes {
+            let floats: Vec<Vec3> = bytes
+                .iter()
+                .map(|p| {
+                    let [r, g, b] = decode.channels.map(|c| {
+                        let v = p[c as usize] as f32 / 255.0;
+                        if decode.srgb {
+                            srgb_to_linear(v)
+                        } else {
+                            v
+                        }
+                    });
+                    Vec3::new(r, g, b) * decode.scale + decode.offset
+                })
+                .collect();
+            for filter in [Filter::Bilinear, Filter::Nearest] {
+                let sampling = Sampling {
+                    filter,
+                    wrap: [Wrap::Repeat, Wrap::Mirror],
+                    to_uv: None,
+                };
+                let packed =
+                    ImageTexture::packed(3, 2, shared.clone(), decode).with_sampling(sampling);
+                let float = ImageTexture::from_texels(3, 2, floats.clone()).with_sampling(sampling);
+                assert_eq!(packed.bytes_per_texel(), 4);
+                for uv in [(0.1, 0.2), (0.5, 0.5), (0.93, 0.71), (-0.3, 1.4)] {
+                    let uv = Vec2::new(uv.0, uv.1);
+                    let (p, f) = (packed.eval(uv), float.eval(uv));
+                    assert!(
+                        (p - f).abs().max_element() < 1e-6,
+                        "{decode:?} {uv}: {p} vs {f}"
+                    );
+                }
+                assert!((packed.mean() - float.mean()).abs().max_element() < 1e-6);
+            }
+        }
     }
 }

@@ -49,6 +49,7 @@
 //! ```
 
 pub mod albedo;
+mod albedo_specular;
 pub mod fresnel;
 pub mod gradient;
 pub mod microfacet;

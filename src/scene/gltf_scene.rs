@@ -25,7 +25,7 @@ use crate::error::FormatError;
 use crate::material::{
     decode_normal, Composite, Layer, Material, MaterialTextures, Weight, WeightFactor,
 };
-use crate::texture::{srgb_to_linear, Filter, ImageTexture, Sampling, Wrap};
+use crate::texture::{srgb_to_linear, Filter, ImageTexture, PackedDecode, Sampling, Wrap};
 use glam::{Mat4, Vec2, Vec3};
 use plsr_base::Vocabulary;
 use std::path::Path;
@@ -283,8 +283,40 @@ struct TexelCache<'a> {
     files: Vec<std::path::PathBuf>,
 }
 
-/// An image's RGBA texels, shared by the textures made of it.
-type Texels = Arc<Vec<[f32; 4]>>;
+/// An image's RGBA texels, decoded once and shared by the textures made
+/// of it.
+#[derive(Debug, Clone)]
+enum Texels {
+    /// 8-bit channels (most PNG and every JPEG image), as stored: 4 bytes
+    /// a texel, each texture decoding them at lookup.
+    Bytes(Arc<[[u8; 4]]>),
+    /// 16-bit or float channels, as values in `[0, 1]` (or beyond, for
+    /// float images).
+    Floats(Arc<Vec<[f32; 4]>>),
+}
+
+/// A texture of image `px` (`w × h`) meaning what `decode` says (see
+/// [`PackedDecode`]): 8-bit images are shared as they are; others are
+/// decoded now, each value clamped to `[0, 1]` when `clamp`.
+fn slot_texture(w: u32, h: u32, px: &Texels, decode: PackedDecode, clamp: bool) -> ImageTexture {
+    match px {
+        Texels::Bytes(bytes) => ImageTexture::packed(w, h, bytes.clone(), decode),
+        Texels::Floats(floats) => texture(w, h, floats, |p| {
+            let [r, g, b] = decode.channels.map(|c| {
+                let v = p[c as usize & 3];
+                match decode.srgb {
+                    true => srgb_to_linear(v.clamp(0.0, 1.0)),
+                    false => v,
+                }
+            });
+            let v = Vec3::new(r, g, b) * decode.scale + decode.offset;
+            match clamp {
+                true => v.clamp(Vec3::ZERO, Vec3::ONE),
+                false => v,
+            }
+        }),
+    }
+}
 
 impl TexelCache<'_> {
     /// Image `index`: its width, height and RGBA texels.
@@ -296,7 +328,7 @@ impl TexelCache<'_> {
             let (bytes, file) = self.asset.image_bytes(index)?;
             let (w, h, texels) = decode(&bytes).map_err(|m| format!("images[{index}]: {m}"))?;
             self.files.extend(file);
-            self.decoded[index] = Some((w, h, Arc::new(texels)));
+            self.decoded[index] = Some((w, h, texels));
         }
         Ok(self.decoded[index].clone().expect("decoded above"))
     }
@@ -374,16 +406,9 @@ fn read_material(
             info.tex_coord(),
             info.extension_value("KHR_texture_transform"),
         )?;
+        let decode = PackedDecode::srgb_color(factor.clamp(Vec3::ZERO, Vec3::ONE));
         t.base_color = Some(Arc::new(
-            texture(w, h, &px, |p| {
-                let c = Vec3::new(
-                    srgb_to_linear(p[0]),
-                    srgb_to_linear(p[1]),
-                    srgb_to_linear(p[2]),
-                );
-                (c * factor).clamp(Vec3::ZERO, Vec3::ONE)
-            })
-            .with_sampling(sampling),
+            slot_texture(w, h, &px, decode, true).with_sampling(sampling),
         ));
         alpha_map = Some((w, h, px, sampling));
     }
@@ -398,12 +423,10 @@ fn read_material(
         let rf = params.roughness;
         let mf = params.metallic;
         t.roughness = Some(Arc::new(
-            texture(w, h, &px, |p| Vec3::splat((p[1] * rf).clamp(0.0, 1.0)))
-                .with_sampling(sampling),
+            slot_texture(w, h, &px, PackedDecode::channel(1, rf), true).with_sampling(sampling),
         ));
         t.metallic = Some(Arc::new(
-            texture(w, h, &px, |p| Vec3::splat((p[2] * mf).clamp(0.0, 1.0)))
-                .with_sampling(sampling),
+            slot_texture(w, h, &px, PackedDecode::channel(2, mf), true).with_sampling(sampling),
         ));
     }
     if let Some(info) = m.normal_texture() {
@@ -421,11 +444,19 @@ fn read_material(
             info.extension_value("KHR_texture_transform"),
         )?;
         t.valid_reflection = true;
+        // glTF's decoding, (2c − 1)·(scale, scale, 1), as an affine map.
+        let decode = PackedDecode {
+            channels: [0, 1, 2],
+            srgb: false,
+            scale: Vec3::new(2.0 * scale, 2.0 * scale, 2.0),
+            offset: Vec3::new(-scale, -scale, -1.0),
+        };
+        debug_assert_eq!(
+            decode.scale + decode.offset,
+            decode_normal(Vec3::ONE, scale)
+        );
         t.normal = Some(Arc::new(
-            texture(w, h, &px, |p| {
-                decode_normal(Vec3::new(p[0], p[1], p[2]), scale)
-            })
-            .with_sampling(sampling),
+            slot_texture(w, h, &px, decode, false).with_sampling(sampling),
         ));
     }
     if m.occlusion_texture().is_some() {
@@ -448,13 +479,7 @@ fn read_material(
             info.tex_coord(),
             info.extension_value("KHR_texture_transform"),
         )?;
-        let map = texture(w, h, &px, |p| {
-            Vec3::new(
-                srgb_to_linear(p[0]),
-                srgb_to_linear(p[1]),
-                srgb_to_linear(p[2]),
-            )
-        });
+        let map = slot_texture(w, h, &px, PackedDecode::srgb_color(Vec3::ONE), false);
         emission_map = Some(Arc::new(map.with_sampling(sampling)));
     }
     // The emissive texture has UVs of its own (each emitting triangle
@@ -537,11 +562,31 @@ fn alpha_coverage(
     if m.alpha_mode() == AlphaMode::Opaque {
         return None;
     }
+    let factor = factor.clamp(0.0, 1.0);
     match map {
         Some((w, h, px, sampling)) => Some(WeightFactor::Map {
             map: Arc::new(
-                texture(w, h, &px, |p| Vec3::splat(coverage(p[3] * factor)))
-                    .with_sampling(sampling),
+                match (&px, m.alpha_mode()) {
+                    // Blended: the alpha channel times the factor, as stored.
+                    (Texels::Bytes(_), AlphaMode::Blend) => {
+                        slot_texture(w, h, &px, PackedDecode::channel(3, factor), true)
+                    }
+                    // Masked: whether each texel reaches the cutoff, stored
+                    // as 0 or 255 in an image of its own.
+                    (Texels::Bytes(bytes), _) => {
+                        let mask: Arc<[[u8; 4]]> = bytes
+                            .iter()
+                            .map(|p| {
+                                [255 * u8::from(coverage(p[3] as f32 / 255.0 * factor) >= 1.0); 4]
+                            })
+                            .collect();
+                        ImageTexture::packed(w, h, mask, PackedDecode::channel(0, 1.0))
+                    }
+                    (Texels::Floats(floats), _) => {
+                        texture(w, h, floats, |p| Vec3::splat(coverage(p[3] * factor)))
+                    }
+                }
+                .with_sampling(sampling),
             ),
             complement: false,
         }),
@@ -885,7 +930,7 @@ fn read_light(
 }
 
 /// An image's texels as RGBA in `[0, 1]` (not yet decoded from sRGB).
-fn decode(bytes: &[u8]) -> std::result::Result<(u32, u32, Vec<[f32; 4]>), String> {
+fn decode(bytes: &[u8]) -> std::result::Result<(u32, u32, Texels), String> {
     use image::DynamicImage::*;
     let reader = || {
         image::ImageReader::new(std::io::Cursor::new(bytes))
@@ -908,20 +953,22 @@ fn decode(bytes: &[u8]) -> std::result::Result<(u32, u32, Vec<[f32; 4]>), String
     let image = reader
         .decode()
         .map_err(|e| format!("not an image plsr can read: {e}"))?;
-    let rgba: Vec<[f32; 4]> = match &image {
-        ImageRgb32F(_) | ImageRgba32F(_) => image.to_rgba32f().pixels().map(|p| p.0).collect(),
-        ImageLuma16(_) | ImageLumaA16(_) | ImageRgb16(_) | ImageRgba16(_) => image
-            .to_rgba16()
-            .pixels()
-            .map(|p| p.0.map(|c| c as f32 / 65535.0))
-            .collect(),
-        _ => image
-            .to_rgba8()
-            .pixels()
-            .map(|p| p.0.map(|c| c as f32 / 255.0))
-            .collect(),
+    let texels = match &image {
+        ImageRgb32F(_) | ImageRgba32F(_) => {
+            Texels::Floats(Arc::new(image.to_rgba32f().pixels().map(|p| p.0).collect()))
+        }
+        ImageLuma16(_) | ImageLumaA16(_) | ImageRgb16(_) | ImageRgba16(_) => {
+            Texels::Floats(Arc::new(
+                image
+                    .to_rgba16()
+                    .pixels()
+                    .map(|p| p.0.map(|c| c as f32 / 65535.0))
+                    .collect(),
+            ))
+        }
+        _ => Texels::Bytes(image.to_rgba8().pixels().map(|p| p.0).collect()),
     };
-    Ok((w, h, rgba))
+    Ok((w, h, texels))
 }
 
 /// The most texels of one glTF image (2²⁸: 16384²).
