@@ -20,7 +20,7 @@
 //! `roughness` (`α = roughness²`) and its dielectric reflectance at normal
 //! incidence, 0.04, is plsr's default `specular` (0.5, `η = 1.5`).
 
-use crate::bsdf::{Bsdf, PrincipledParams};
+use crate::bsdf::PrincipledParams;
 use crate::error::FormatError;
 use crate::material::{
     decode_normal, Composite, Layer, Material, MaterialTextures, Weight, WeightFactor,
@@ -33,10 +33,17 @@ use std::sync::Arc;
 
 /// The glTF extensions plsr reads; others are named in a note, or refused
 /// where the file requires them.
-pub const SUPPORTED_EXTENSIONS: [&str; 3] = [
+pub const SUPPORTED_EXTENSIONS: [&str; 9] = [
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
     "KHR_texture_transform",
+    // See `gltf_materials`.
+    "KHR_materials_ior",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+    "KHR_materials_clearcoat",
+    "KHR_materials_sheen",
 ];
 
 /// The luminous efficacy plsr assumes to turn glTF's photometric light
@@ -505,9 +512,15 @@ fn read_material(
         ));
     }
     let normal_mapped = t.normal.is_some();
+    // The KHR_materials_* extensions (`gltf_materials`).
+    let extensions = super::gltf_materials::read(m, &field)?;
+    let (bsdf, extension_notes) = super::gltf_materials::bsdf(params, &extensions, &name);
+    for n in extension_notes {
+        notes.add(n);
+    }
     let leaf = Material {
         name,
-        bsdf: Bsdf::Principled(params),
+        bsdf,
         textures: t,
         two_sided: true,
         composite: None,
@@ -521,7 +534,11 @@ fn read_material(
         GltfMaterialExtras {
             emission: e,
             emission_map,
-            double_sided: m.double_sided(),
+            // Light that enters glass leaves through the back faces: a
+            // transmissive material is never culled (glTF's culling hides
+            // the back faces of opaque surfaces only, which no ray can see
+            // from inside a closed mesh).
+            double_sided: m.double_sided() || extensions.transmission.is_some_and(|t| t > 0.0),
             uv_set,
             emission_uv_set,
             normal_mapped,

@@ -11,6 +11,7 @@ pub mod curves;
 pub mod file;
 pub mod gltf_animation;
 mod gltf_files;
+pub mod gltf_materials;
 pub mod gltf_scene;
 mod gltf_tangents;
 pub mod instancing;

@@ -706,27 +706,27 @@ fn gltf_samplers_and_texture_transforms_look_up_as_gltf_says() {
     let used = |list: &str| {
         quad_json(Some("quad.bin"), material).replace(
             r#""extensionsUsed": ["KHR_lights_punctual"]"#,
-            &format!(r#""extensionsUsed": ["KHR_lights_punctual", "KHR_texture_transform", "KHR_materials_sheen"]{list}"#),
+            &format!(r#""extensionsUsed": ["KHR_lights_punctual", "KHR_texture_transform", "KHR_materials_anisotropy"]{list}"#),
         )
     };
     std::fs::write(dir.path().join("quad.gltf"), used("")).unwrap();
     let g = read_gltf(&dir.path().join("quad.gltf")).unwrap();
-    let sheen: Vec<_> = g
+    let anisotropy: Vec<_> = g
         .notes
         .iter()
-        .filter(|n| n.contains("KHR_materials_sheen"))
+        .filter(|n| n.contains("KHR_materials_anisotropy"))
         .collect();
-    assert_eq!(sheen.len(), 1, "{:?}", g.notes);
+    assert_eq!(anisotropy.len(), 1, "{:?}", g.notes);
     assert!(!g.notes.iter().any(|n| n.contains("KHR_texture_transform")));
     std::fs::write(
         dir.path().join("quad.gltf"),
-        used(r#", "extensionsRequired": ["KHR_materials_sheen"]"#),
+        used(r#", "extensionsRequired": ["KHR_materials_anisotropy"]"#),
     )
     .unwrap();
     let e = read_gltf(&dir.path().join("quad.gltf"))
         .unwrap_err()
         .to_string();
-    assert!(e.contains("KHR_materials_sheen"), "{e}");
+    assert!(e.contains("KHR_materials_anisotropy"), "{e}");
 }
 
 #[test]
@@ -1128,4 +1128,44 @@ fn a_gltf_rendered_on_its_own_is_shown_at_the_time_asked() {
     .unwrap_err()
     .to_string();
     assert!(e.contains("--anim-time 1") && e.contains("time = 1"), "{e}");
+}
+
+#[test]
+fn material_extensions_map_onto_the_principled_models() {
+    // plsr's own model (CC0, scripts/make_material_extensions_test.py):
+    // six spheres, each with one KHR_materials_* extension.
+    use plsr::bsdf::Bsdf;
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/realworld/gltf/MaterialExtensionSpheres.glb");
+    let g = read_gltf(&path).unwrap();
+    assert!(
+        !g.notes.iter().any(|n| n.contains("not supported")),
+        "{:?}",
+        g.notes
+    );
+    let kinds: Vec<&str> = g
+        .materials
+        .iter()
+        .map(|m| match m.bsdf {
+            Bsdf::Principled(_) => "principled",
+            Bsdf::PrincipledThin(_) => "thin",
+            Bsdf::PrincipledFull(_) => "full",
+            _ => "other",
+        })
+        .collect();
+    assert_eq!(
+        kinds,
+        ["principled", "thin", "full", "full", "full", "principled"]
+    );
+    // ior 1.33 and specularFactor 0.5: f₀ = 0.5·(0.33/2.33)², `specular`
+    // = f₀/0.08; the plain sphere keeps glTF's 1.5 (0.5).
+    let Bsdf::Principled(p) = g.materials[0].bsdf else {
+        unreachable!()
+    };
+    assert!((p.specular - 0.5 * (0.33f32 / 2.33).powi(2) / 0.08).abs() < 1e-5);
+    assert!(matches!(g.materials[5].bsdf, Bsdf::Principled(p) if p.specular == 0.5));
+    // Glass is never culled (light leaves through its back faces), though
+    // the file leaves `doubleSided` false; the opaque spheres are.
+    let sides: Vec<bool> = g.extras.iter().map(|e| e.double_sided).collect();
+    assert_eq!(sides, [false, true, true, false, false, false]);
 }
