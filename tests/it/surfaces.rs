@@ -732,3 +732,57 @@ fn missing_or_misplaced_mesh_colours_are_refused() {
         assert!(e.contains(field) && e.contains(fault), "{material}: {e}");
     }
 }
+
+#[test]
+fn an_objs_libraries_and_textures_stay_in_its_folder() {
+    // Inside a folder of its own, next to a file it must not read.
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("asset");
+    std::fs::create_dir(&dir).unwrap();
+    image::RgbImage::new(2, 2)
+        .save(root.path().join("secret.png"))
+        .unwrap();
+    for (map, fault) in [
+        ("../secret.png", "climbs out"),
+        ("/etc/hostname", "absolute path"),
+        ("C:\\textures\\wood.png", "absolute path"),
+    ] {
+        let e = mtl_quad_material(&dir, &format!("newmtl m\nmap_Kd {map}\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("map_Kd") && e.contains(fault) && e.contains("quad.obj"),
+            "{map}: {e}"
+        );
+    }
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(root.path().join("secret.png"), dir.join("link.png")).unwrap();
+        let e = mtl_quad_material(&dir, "newmtl m\nmap_Kd link.png\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("outside an OBJ's folder"), "{e}");
+    }
+    // The MTL library itself: `mtllib ../x.mtl` is refused naming it.
+    std::fs::write(root.path().join("x.mtl"), "newmtl m\nKd 1 0 0\n").unwrap();
+    std::fs::write(
+        dir.join("quad.obj"),
+        "mtllib ../x.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("scene.toml"),
+        format!(
+            "[render]\nspp = 1\n{TOP_CAMERA}\n[[shapes]]\ntype = \"obj\"\nfile = \"quad.obj\"\n"
+        ),
+    )
+    .unwrap();
+    let Err(e) = Scene::load(&dir.join("scene.toml")) else {
+        panic!("`mtllib ../x.mtl` was read")
+    };
+    let e = e.to_string();
+    assert!(
+        e.contains("mtllib \"../x.mtl\"") && e.contains("climbs out"),
+        "{e}"
+    );
+}
