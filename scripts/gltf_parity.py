@@ -192,11 +192,16 @@ def blender_worker(args):
 def cull_back_faces(bpy):
     """Cycles ignores the importer's `use_backface_culling` (glTF's
     `doubleSided: false`): make those materials' back faces transparent, as
-    a glTF viewer (and plsr) draws them."""
+    a glTF viewer (and plsr) draws them. Glass (a Principled BSDF with a
+    transmission weight) keeps its back faces: light leaves through them, and
+    plsr never culls a transmissive material."""
     for mat in bpy.data.materials:
         if not (mat.use_backface_culling and mat.use_nodes):
             continue
         nt = mat.node_tree
+        if any(n.type == "BSDF_PRINCIPLED" and not n.inputs["Transmission Weight"].is_linked
+               and n.inputs["Transmission Weight"].default_value > 0 for n in nt.nodes):
+            continue
         out = next((n for n in nt.nodes if n.type == "OUTPUT_MATERIAL"
                     and n.is_active_output), None)
         if out is None or not out.inputs["Surface"].is_linked:
