@@ -75,6 +75,7 @@ def blender_worker(args):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     load_s = load_mb = None
+    start = time.perf_counter()
     if job.get("model"):
         t0 = time.perf_counter()
         bpy.ops.import_scene.gltf(filepath=job["model"])
@@ -182,7 +183,12 @@ def blender_worker(args):
     t0 = time.perf_counter()
     bpy.ops.render.render(write_still=True)
     render_s = time.perf_counter() - t0
+    import resource
     Path(job["result"]).write_text(json.dumps({
+        # From before the import to the end of the render: with a probe job
+        # (one pixel, one sample) what it takes to be ready to render.
+        "ready_s": time.perf_counter() - start,
+        "ready_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         "position": position, "look_at": centre, "up": [0, 1, 0],
         "vfov": vfov, "load_s": load_s, "load_mb": load_mb, "render_s": render_s,
         "blender": bpy.app.version_string,
@@ -420,9 +426,20 @@ def run_one(name, model, args, out):
     if p.returncode != 0:
         raise RuntimeError(f"plsr failed on {name}:\n{p.stderr[-2000:]}")
     notes = [line for line in p.stderr.splitlines() if line.startswith("note:")]
-    # Load alone: a render of one pixel, one sample.
+    # Load alone: a render of one pixel, one sample, in each renderer
+    # (Blender's importer defers decoding images to the render: its import
+    # time alone is not comparable).
     load = {}
     if model:
+        probe = dict(job, size=[1, 1], spp=1, out=str(out / f"{name}.probe.exr"),
+                     result=str(out / f"{name}.probe.json"))
+        (out / f"{name}.probe-job.json").write_text(json.dumps(probe))
+        p, _, _ = timed([args.blender_python, str(Path(__file__).resolve()),
+                         "--blender-worker", str(out / f"{name}.probe-job.json")])
+        if p.returncode == 0:
+            ready = json.loads(Path(probe["result"]).read_text())
+            load["blender_ready_s"] = ready["ready_s"]
+            load["blender_ready_mb"] = ready["ready_mb"]
         _, load["plsr_s"], load["plsr_mb"] = timed(
             [str(args.plsr), "render", str(scene), "-q", "--spp", "1",
              "--resolution", "1,1", "-o", str(out / f"{name}.load.exr")])
@@ -496,7 +513,7 @@ def main():
     jobs += [(m.stem, m.resolve()) for m in models]
     rows = []
     print(f"{'model':<26} {'IoU':>6} {'plsr/Blender R, G, B':>22} {'lum':>6} "
-          f"{'load plsr':>10} {'Blender':>8} {'peak plsr':>10} {'Blender':>8}")
+          f"{'load plsr':>10} {'Blender':>8} {'ready':>8} {'peak plsr':>10} {'Blender':>8} {'ready':>8}")
     for name, model in jobs:
         try:
             row = run_one(name.strip("()"), model, args, args.out)
@@ -511,8 +528,10 @@ def main():
         lb = f"{row['blender_import_s']:.2f} s" if row.get("blender_import_s") else "—"
         mp = f"{row['plsr_mb']:.0f} MB" if "plsr_mb" in row else "—"
         mb = f"{row['blender_import_mb']:.0f} MB" if row.get("blender_import_mb") else "—"
+        rs = f"{row['blender_ready_s']:.2f} s" if row.get("blender_ready_s") else "—"
+        rm = f"{row['blender_ready_mb']:.0f} MB" if row.get("blender_ready_mb") else "—"
         print(f"{name:<26} {row['iou']:6.3f} {rgb:>22} {row['ratio_lum']:6.3f} "
-              f"{lp:>10} {lb:>8} {mp:>10} {mb:>8}", flush=True)
+              f"{lp:>10} {lb:>8} {rs:>8} {mp:>10} {mb:>8} {rm:>8}", flush=True)
     if args.json:
         args.json.write_text(json.dumps(rows, indent=1))
     print(f"side-by-side images (plsr | Blender | difference x4): {args.out}/*.png")
