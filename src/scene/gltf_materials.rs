@@ -11,7 +11,7 @@
 //! | `KHR_materials_transmission` | Mitsuba's `principled` (`principled_full`) with `spec_trans` = `transmissionFactor`; thin-walled (no `KHR_materials_volume` thickness) as `principled_thin` |
 //! | `KHR_materials_volume` | a thickness above 0 makes the glass a solid that refracts; its attenuation is noted, not applied (the glass is clear) |
 //! | `KHR_materials_clearcoat` | `principled_full`'s clearcoat, its gloss from `clearcoatRoughnessFactor` |
-//! | `KHR_materials_sheen` | `principled_full`'s sheen (weight the colour's largest channel, tinted by its hue) |
+//! | `KHR_materials_sheen` | `principled_full`'s sheen, white, of the colour's luminance (a coloured sheen is noted) |
 //!
 //! Textures of these extensions (`transmissionTexture`, `clearcoatTexture`,
 //! …) are noted and their factors used alone. The full model is Mitsuba's
@@ -183,11 +183,18 @@ pub fn bsdf(p: PrincipledParams, ext: &MaterialExtensions, name: &str) -> (Bsdf,
     // Clearcoat: Mitsuba's gloss maps 0 → α = 0.1 and 1 → α = 0.001;
     // glTF's roughness r gives α = r².
     let gloss = |r: f32| ((0.1 - r * r) / 0.099).clamp(0.0, 1.0);
+    // Mitsuba's sheen is white, or tinted by the base colour's hue
+    // (`sheen_tint`), never by a colour of its own: a white sheen of the
+    // colour's luminance, and a note where the colour is not grey.
     let (sheen_weight, sheen_tint) = match sheen {
         Some((c, _)) => {
-            let w = c.max_element();
-            // Tinted as far as the colour is not grey.
-            (w, 1.0 - c.min_element() / w)
+            if c.max_element() - c.min_element() > 1e-3 {
+                notes.push(format!(
+                    "material `{name}`: KHR_materials_sheen's colour {c} is applied as a white \
+                     sheen of its luminance (plsr's sheen takes no colour of its own)"
+                ));
+            }
+            (crate::color::luminance(c).clamp(0.0, 1.0), 0.0)
         }
         None => (0.0, 0.0),
     };
@@ -318,12 +325,14 @@ mod tests {
         let Bsdf::PrincipledFull(f) = b else {
             panic!("not the full model")
         };
-        assert_eq!((f.spec_trans, f.clearcoat, f.sheen), (0.8, 1.0, 0.5));
+        assert_eq!((f.spec_trans, f.clearcoat), (0.8, 1.0));
+        let luminance = crate::color::luminance(Vec3::new(0.5, 0.25, 0.5));
+        assert!((f.sheen - luminance).abs() < 1e-6 && f.sheen_tint == 0.0);
         assert!(f.has_transmission);
         // α = 0.2² = 0.04 → gloss (0.1 − 0.04)/0.099.
         assert!((f.clearcoat_gloss - 0.06 / 0.099).abs() < 1e-6);
-        assert!((f.sheen_tint - 0.5).abs() < 1e-6);
-        assert_eq!(notes.len(), 2, "{notes:?}");
+        assert_eq!(notes.len(), 3, "{notes:?}");
+        assert!(notes.iter().any(|n| n.contains("white sheen")));
         assert!(notes.iter().any(|n| n.contains("clearcoatTexture")));
         assert!(notes.iter().any(|n| n.contains("attenuation")));
     }
