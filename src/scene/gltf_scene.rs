@@ -31,20 +31,22 @@ use plsr_base::Vocabulary;
 use std::path::Path;
 use std::sync::Arc;
 
-/// The glTF extensions plsr reads; others are named in a note, or refused
-/// where the file requires them.
-pub const SUPPORTED_EXTENSIONS: [&str; 9] = [
+/// The glTF extensions plsr reads besides the material extensions of
+/// [`super::gltf_materials::MATERIAL_EXTENSIONS`]; others are named in a
+/// note, or refused where the file requires them.
+pub const SUPPORTED_EXTENSIONS: [&str; 3] = [
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
     "KHR_texture_transform",
-    // See `gltf_materials`.
-    "KHR_materials_ior",
-    "KHR_materials_specular",
-    "KHR_materials_transmission",
-    "KHR_materials_volume",
-    "KHR_materials_clearcoat",
-    "KHR_materials_sheen",
 ];
+
+/// Every extension plsr reads ([`SUPPORTED_EXTENSIONS`] and the material
+/// extensions).
+fn supported_extensions() -> impl Iterator<Item = &'static str> {
+    SUPPORTED_EXTENSIONS
+        .into_iter()
+        .chain(super::gltf_materials::MATERIAL_EXTENSIONS)
+}
 
 /// The luminous efficacy plsr assumes to turn glTF's photometric light
 /// intensities (candela) into radiant ones (W/sr): 683 lm/W.
@@ -145,12 +147,12 @@ pub fn read_gltf_at(path: &Path, time: f32) -> std::result::Result<GltfScene, Fo
     let (doc, buffers) = (&asset.doc, &asset.buffers);
     let mut notes = Notes::default();
     for e in doc.extensions_used() {
-        if !SUPPORTED_EXTENSIONS.contains(&e) {
+        if !supported_extensions().any(|s| s == e) {
             let required = doc.extensions_required().any(|r| r == e);
             if required {
                 return Err(format!(
                     "extensionsRequired: `{e}` is not supported (plsr reads {})",
-                    SUPPORTED_EXTENSIONS.join(", ")
+                    supported_extensions().collect::<Vec<_>>().join(", ")
                 )
                 .into());
             }
