@@ -516,7 +516,8 @@ fn read_material(
     let normal_mapped = t.normal.is_some();
     // The KHR_materials_* extensions (`gltf_materials`).
     let extensions = super::gltf_materials::read(m, &field)?;
-    let (bsdf, extension_notes) = super::gltf_materials::bsdf(params, &extensions, &name);
+    let textured = t.base_color.is_some() || t.metallic.is_some() || t.roughness.is_some();
+    let (bsdf, extension_notes) = super::gltf_materials::bsdf(params, &extensions, &name, textured);
     for n in extension_notes {
         notes.add(n);
     }

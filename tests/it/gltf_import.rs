@@ -1150,12 +1150,20 @@ fn material_extensions_map_onto_the_principled_models() {
             Bsdf::Principled(_) => "principled",
             Bsdf::PrincipledThin(_) => "thin",
             Bsdf::PrincipledFull(_) => "full",
+            Bsdf::Dielectric(_) => "dielectric",
             _ => "other",
         })
         .collect();
     assert_eq!(
         kinds,
-        ["principled", "thin", "full", "full", "full", "principled"]
+        [
+            "principled",
+            "thin",
+            "dielectric",
+            "full",
+            "full",
+            "principled"
+        ]
     );
     // ior 1.33 and specularFactor 0.5: f₀ = 0.5·(0.33/2.33)², `specular`
     // = f₀/0.08; the plain sphere keeps glTF's 1.5 (0.5).
