@@ -15,6 +15,7 @@ Needs Pillow. Images referenced by URI (not embedded) are left alone.
 
 import io
 import json
+import os
 import struct
 import sys
 
@@ -43,15 +44,19 @@ def read_glb(path):
 
 
 def write_glb(path, doc, binary):
+    """Writes next to `path`, then renames: an interrupted run leaves no
+    half file."""
     text = json.dumps(doc, separators=(",", ":")).encode()
     text += b" " * (-len(text) % 4)
     binary += b"\0" * (-len(binary) % 4)
     total = 12 + 8 + len(text) + (8 + len(binary) if binary else 0)
-    with open(path, "wb") as f:
+    partial = f"{path}.partial"
+    with open(partial, "wb") as f:
         f.write(struct.pack("<III", GLB_MAGIC, 2, total))
         f.write(struct.pack("<II", len(text), CHUNK_JSON) + text)
         if binary:
             f.write(struct.pack("<II", len(binary), CHUNK_BIN) + binary)
+    os.replace(partial, path)
 
 
 def shrink(image_bytes, max_size):
@@ -81,6 +86,8 @@ def main():
     if len(args) != 2:
         sys.exit(__doc__)
     src, dst = args
+    if os.path.exists(dst) and os.path.samefile(src, dst):
+        sys.exit(f"{dst}: is the input; write the small copy elsewhere")
     doc, binary = read_glb(src)
     views = doc.get("bufferViews", [])
     image_views = {im["bufferView"] for im in doc.get("images", []) if "bufferView" in im}

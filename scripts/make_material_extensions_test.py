@@ -14,10 +14,11 @@ Released under CC0 1.0. Usage:
 python3 scripts/make_material_extensions_test.py OUT.glb
 """
 
-import json
 import math
 import struct
 import sys
+
+from gltf_shrink import write_glb
 
 
 def sphere(rings=24, segments=48):
@@ -87,12 +88,7 @@ def main():
     }
     blob.extend(b"\0" * (-len(blob) % 4))
     doc["buffers"][0]["byteLength"] = len(blob)
-    text = json.dumps(doc, separators=(",", ":")).encode()
-    text += b" " * (-len(text) % 4)
-    with open(sys.argv[1], "wb") as f:
-        f.write(struct.pack("<III", 0x46546C67, 2, 12 + 8 + len(text) + 8 + len(blob)))
-        f.write(struct.pack("<II", len(text), 0x4E4F534A) + text)
-        f.write(struct.pack("<II", len(blob), 0x004E4942) + bytes(blob))
+    write_glb(sys.argv[1], doc, bytes(blob))
 
 
 if __name__ == "__main__":

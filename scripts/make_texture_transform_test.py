@@ -18,10 +18,11 @@ Usage: python3 scripts/make_texture_transform_test.py OUT.glb  (needs Pillow)
 """
 
 import io
-import json
 import math
 import struct
 import sys
+
+from gltf_shrink import write_glb
 
 
 def texture_png():
@@ -138,13 +139,7 @@ def main():
     }
     blob.extend(b"\0" * (-len(blob) % 4))
     doc["buffers"][0]["byteLength"] = len(blob)
-    text = json.dumps(doc, separators=(",", ":")).encode()
-    text += b" " * (-len(text) % 4)
-    total = 12 + 8 + len(text) + 8 + len(blob)
-    with open(sys.argv[1], "wb") as f:
-        f.write(struct.pack("<III", 0x46546C67, 2, total))
-        f.write(struct.pack("<II", len(text), 0x4E4F534A) + text)
-        f.write(struct.pack("<II", len(blob), 0x004E4942) + bytes(blob))
+    write_glb(sys.argv[1], doc, bytes(blob))
 
 
 if __name__ == "__main__":

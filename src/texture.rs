@@ -128,6 +128,9 @@ enum TexelStore {
         texels: Arc<[[u8; 4]]>,
         /// What a texel means.
         decode: PackedDecode,
+        /// The bytes' values under `decode.srgb` (one of [`BYTE_TABLES`]),
+        /// found once here rather than at every lookup.
+        table: &'static [f32; 256],
     },
 }
 
@@ -221,10 +224,20 @@ impl ImageTexture {
             "texel count"
         );
         assert!(width > 0 && height > 0, "empty texture");
+        let tables = &*BYTE_TABLES;
+        let table = if decode.srgb {
+            &tables.srgb
+        } else {
+            &tables.linear
+        };
         ImageTexture {
             width,
             height,
-            texels: TexelStore::Packed { texels, decode },
+            texels: TexelStore::Packed {
+                texels,
+                decode,
+                table,
+            },
             sampling: Sampling::default(),
         }
     }
@@ -242,13 +255,11 @@ impl ImageTexture {
     fn at(&self, i: usize) -> Vec3 {
         match &self.texels {
             TexelStore::Linear(t) => t[i],
-            TexelStore::Packed { texels, decode } => {
-                let tables = &*BYTE_TABLES;
-                let table = if decode.srgb {
-                    &tables.srgb
-                } else {
-                    &tables.linear
-                };
+            TexelStore::Packed {
+                texels,
+                decode,
+                table,
+            } => {
                 let p = texels[i];
                 let [r, g, b] = decode.channels.map(|c| table[p[c as usize & 3] as usize]);
                 Vec3::new(r, g, b) * decode.scale + decode.offset

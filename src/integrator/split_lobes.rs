@@ -7,13 +7,12 @@
 //! correction (Cycles' `ensure_valid_specular_reflection`, see
 //! [`super::steps::valid_reflection_normal`]) bends the normal back until
 //! the reflection leaves the surface. Cycles applies it to its glossy
-//! closures only; the diffuse closure keeps the mapped normal. Bending it
-//! for the diffuse lobe too turns the lambertian response towards the
-//! viewer and darkens normal-mapped surfaces (by 7–20 % on Khronos'
-//! NormalTangentTest models against Blender's render), so the lobes are
-//! shaded apart: the diffuse lobe around the mapped normal, the specular
-//! lobe around the bent one. glTF materials (energy-conserving principled)
-//! are shaded so wherever the correction moved the normal.
+//! closures only; the diffuse closure keeps the mapped normal. So do
+//! plsr's: the lobes are shaded apart, the diffuse lobe around the mapped
+//! normal, the specular lobe around the bent one, wherever the correction
+//! moved the normal of a glTF material (energy-conserving principled). On
+//! Khronos' normal-map test models the difference from bending both lobes
+//! is below the noise of a 1024-sample render.
 
 use super::steps::sides_agree;
 use crate::bsdf::models::PrincipledParams;

@@ -453,17 +453,15 @@ fn read_material(
             info.extension_value("KHR_texture_transform"),
         )?;
         t.valid_reflection = true;
-        // glTF's decoding, (2c − 1)·(scale, scale, 1), as an affine map.
+        // glTF's decoding, (2c − 1)·(scale, scale, 1): an affine map,
+        // its offset the value at c = 0 and its slope from there to c = 1.
+        let offset = decode_normal(Vec3::ZERO, scale);
         let decode = PackedDecode {
             channels: [0, 1, 2],
             srgb: false,
-            scale: Vec3::new(2.0 * scale, 2.0 * scale, 2.0),
-            offset: Vec3::new(-scale, -scale, -1.0),
+            scale: decode_normal(Vec3::ONE, scale) - offset,
+            offset,
         };
-        debug_assert_eq!(
-            decode.scale + decode.offset,
-            decode_normal(Vec3::ONE, scale)
-        );
         t.normal = Some(Arc::new(
             slot_texture(w, h, &px, decode, false).with_sampling(sampling),
         ));

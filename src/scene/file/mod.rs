@@ -127,12 +127,7 @@ pub fn load_contents_with(
     crate::input::check_input_file(path)?;
     let bytes = std::fs::read(path).map_err(|source| Error::io(path.to_path_buf(), source))?;
     if crate::scene::gltf_scene::looks_like_gltf(path, &bytes) {
-        if let Some((name, value)) = options.defines.first() {
-            return Err(Error::invalid_argument(format!(
-                "-D {name}={value}: parameters are for Mitsuba XML scenes, and {} is not one",
-                path.display()
-            )));
-        }
+        refuse_defines(path, options)?;
         let time = options.time.unwrap_or(0.0);
         let wrapper = crate::scene::gltf_scene::scene_toml_at(path, time)?;
         let mut contents = from_text(path, &wrapper.toml, false)?;
