@@ -99,9 +99,19 @@ pub struct HdrMergeArgs {
     /// Debevec smoothness weight λ.
     #[arg(long, default_value_t = plsr_hdr::response::DEFAULT_LAMBDA)]
     pub lambda: f64,
-    /// Debevec sample pixels (default: ≥ 100, from bit depth and bracket count).
+    /// Debevec sample pixels, chosen spread over the image and the middle
+    /// exposure's intensities (default: every point of a ~40,000-pixel lattice).
     #[arg(long)]
     pub samples: Option<usize>,
+    /// The camera's black level, as a code value of the input (0–255 for
+    /// 8-bit): values at and below it are the pedestal and its noise and
+    /// carry no signal. `auto` finds it from the darkest bracket.
+    #[arg(long, value_name = "auto|CODE", default_value = "auto")]
+    pub black_level: String,
+    /// The code value at and above which values are clipped. `auto` finds
+    /// it from the brightest bracket.
+    #[arg(long, value_name = "auto|CODE", default_value = "auto")]
+    pub white_level: String,
     /// OpenEXR compression (zip, piz, zips, rle, dwaa, none, …); default:
     /// zip for --half, none for float (noisy float data barely compresses).
     #[arg(long)]
@@ -340,6 +350,20 @@ fn seconds(t: f64) -> String {
     }
 }
 
+/// `auto` (None) or a code value ≥ 0 of `--black-level`/`--white-level`.
+fn level_option(value: &str, name: &str) -> Result<Option<f64>> {
+    if value.eq_ignore_ascii_case("auto") {
+        return Ok(None);
+    }
+    match value.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(Some(v)),
+        _ => Err(Error::invalid_argument(format!(
+            "{name}: `{value}` is neither `auto` nor a code value ≥ 0 (0–255 for 8-bit input, \
+             0–65535 for 16-bit, 0–1 for float)"
+        ))),
+    }
+}
+
 fn merge_command(a: &HdrMergeArgs) -> Result<()> {
     let exposures = match &a.exposures {
         Some(s) => Some(
@@ -372,6 +396,8 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
         threads: a.threads,
         compression: a.compression.clone(),
         calibration: calibration(a)?,
+        black_level: level_option(&a.black_level, "--black-level")?,
+        white_level: level_option(&a.white_level, "--white-level")?,
     };
     let bar = progress_bar(
         a.quiet,

@@ -4,6 +4,8 @@
 //! - [`oiio`]: reading and writing images through OpenImageIO (C++ shim);
 //! - [`response`]: camera response curves (Debevec–Malik, Robertson, linear,
 //!   sRGB), saved as CSV and plotted as PNG;
+//! - [`levels`]: the black (pedestal) and white (clip) levels of a camera,
+//!   found from its brackets;
 //! - [`merge`]: the streaming merge of brackets into one float/half EXR, with
 //!   optional median-threshold-bitmap alignment ([`align`]);
 //! - [`synth`]: synthetic HDR scenes and simulated brackets for tests and the
@@ -17,6 +19,7 @@
 
 pub mod align;
 pub mod error;
+pub mod levels;
 pub mod merge;
 pub use plsr_oiio as oiio;
 pub mod response;

@@ -7,32 +7,34 @@
 //!    every bracket has them and they differ; index 0 is the first image
 //!    given). Brackets may come in any order; they are sorted by it.
 //! 2. Optionally align them by median threshold bitmaps ([`super::align`]).
-//! 3. For `debevec` and `robertson`, read a lattice of pixels from every
-//!    bracket (one row in `stride`), choose samples spread over the image and
-//!    over the middle exposure's intensities, and recover the curve
-//!    ([`super::response`]); `linear` and `srgb` are presets.
+//! 3. Read a lattice of pixels from every bracket (one row in `stride`),
+//!    find each channel's black and white levels on it
+//!    ([`super::levels`]), and for `debevec` and `robertson` recover the
+//!    curve from it ([`super::response`]); `linear` and `srgb` are presets.
 //! 4. Merge band by band: a reader thread reads the same rows of every
 //!    bracket in its own bit depth, the rows are merged in parallel (rayon),
 //!    and a writer thread streams them into the output. Memory stays a few
 //!    bands deep: all brackets are never held at once, not even one full
 //!    image.
 //!
-//! Per pixel and channel, with hat weights `w(v)` (zero at both clip limits,
-//! so clipped values never contribute) and the inverse response `I(v)`:
+//! Per pixel and channel, with weights `w(v)` (the hat between the channel's
+//! black and white levels, [`super::levels`], times its noise gate: zero on
+//! the pedestal and where clipped) and the inverse response `I(v)`:
 //! - `debevec`, `linear`, `srgb`: `ln E = Σ w (ln I(v) − ln k) / Σ w`;
 //! - `robertson`: `E = Σ w k I(v) / Σ w k²`;
-//! - if every weight is zero: a value clipped high in some bracket takes the
-//!   clipped estimate `I(1)/k` of the shortest such bracket (suns stay the
+//! - if every weight is zero: a value clipped high in some bracket (and not
+//!   dark in a longer one) takes the clipped estimate `I(1)/k` of the shortest such bracket (suns stay the
 //!   brightest pixels), otherwise the pixel is dark everywhere and takes the
 //!   longest bracket's estimate, floored at half a quantisation step (never
 //!   zero, never NaN).
 //!
-//! Integer inputs clip at their full range (255, 65535); float inputs are
-//! taken as normalised, clipping at 1.0.
+//! Integer inputs clip at their white level (by default the top code);
+//! float inputs are taken as normalised, clipping at 1.0.
 
 use super::align;
+use super::levels::{self, SignalRange};
 use super::oiio::{AttrValue, Attribute, ImageInfo, ImageReader, ImageWriter, PixelType, Sample};
-use super::response::{self, hat, ResponseCurve, ResponseMethod, SampleSet, BINNED_LEVELS};
+use super::response::{self, ResponseCurve, ResponseMethod, SampleSet, BINNED_LEVELS};
 use crate::error::{BadExposure, Error, Result};
 use plsr_base::Vocabulary;
 use rayon::prelude::*;
@@ -69,6 +71,14 @@ pub struct MergeOptions {
     pub compression: Option<String>,
     /// How the output is brought to absolute units, if at all.
     pub calibration: Calibration,
+    /// The camera's black level: the code value at and below which values
+    /// are its pedestal and noise and carry no signal (0–255 for 8-bit
+    /// input, 0–65535 for 16-bit, 0–1 for float); `None` finds it from the
+    /// brackets ([`levels::detect`]).
+    pub black_level: Option<f64>,
+    /// The code value at and above which values are clipped; `None` finds
+    /// it from the brackets.
+    pub white_level: Option<f64>,
 }
 
 /// Reflected-light calibration constant of [`Calibration::Exif`] by
@@ -125,6 +135,8 @@ impl Default for MergeOptions {
             threads: None,
             compression: None,
             calibration: Calibration::Relative,
+            black_level: None,
+            white_level: None,
         }
     }
 }
@@ -165,6 +177,9 @@ pub struct MergeSummary {
     pub brackets: Vec<BracketInfo>,
     /// The response curve used.
     pub curve: ResponseCurve,
+    /// Per channel, the black and white levels the values were weighted
+    /// between.
+    pub ranges: Vec<SignalRange>,
     /// Channel values clipped high in every bracket.
     pub saturated_values: u64,
     /// Channel values at zero in every bracket.
@@ -476,8 +491,11 @@ fn level_of(v: f32, levels: usize) -> u16 {
 /// Lookup of (weight, ln I, I, clipped-high) per channel and value.
 struct Lookup {
     curve: ResponseCurve,
+    /// Per channel, the black and white levels.
+    ranges: Vec<SignalRange>,
     /// For integer inputs: per channel, SIZE entries each.
     w: Vec<Vec<f32>>,
+    clip: Vec<Vec<bool>>,
     ln_i: Vec<Vec<f32>>,
     lin: Vec<Vec<f32>>,
     /// I at the clip level and at half a quantisation step, per channel.
@@ -488,8 +506,8 @@ struct Lookup {
 const TINY: f32 = 1e-30;
 
 impl Lookup {
-    fn new<T: Px>(curve: ResponseCurve, channels: usize) -> Lookup {
-        let (mut w, mut ln_i, mut lin) = (Vec::new(), Vec::new(), Vec::new());
+    fn new<T: Px>(curve: ResponseCurve, ranges: &[SignalRange], channels: usize) -> Lookup {
+        let (mut w, mut ln_i, mut lin, mut clip) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let half_step = if T::TABLE {
             0.5 / (T::SIZE - 1) as f32
         } else {
@@ -497,13 +515,25 @@ impl Lookup {
         };
         let mut top = Vec::new();
         let mut floor = Vec::new();
-        for c in 0..channels {
+        for (c, r) in ranges.iter().enumerate().take(channels) {
             if T::TABLE {
                 let n = T::SIZE;
                 let vals: Vec<f32> = (0..n)
                     .map(|z| curve.eval(c, z as f32 / (n - 1) as f32))
                     .collect();
-                w.push((0..n).map(|z| hat(z as f32 / (n - 1) as f32)).collect());
+                w.push(
+                    (0..n)
+                        .map(|z| {
+                            let v = z as f32 / (n - 1) as f32;
+                            r.weight(v) * levels::noise_gate(&curve, c, v)
+                        })
+                        .collect(),
+                );
+                clip.push(
+                    (0..n)
+                        .map(|z| r.is_clipped(z as f32 / (n - 1) as f32))
+                        .collect(),
+                );
                 ln_i.push(vals.iter().map(|v| v.max(TINY).ln()).collect());
                 lin.push(vals);
             }
@@ -512,7 +542,9 @@ impl Lookup {
         }
         Lookup {
             curve,
+            ranges: ranges.to_vec(),
             w,
+            clip,
             ln_i,
             lin,
             top,
@@ -527,12 +559,14 @@ impl Lookup {
             let i = z.index();
             // SAFETY-free indexing: tables have T::SIZE entries and i < SIZE.
             let w = self.w[c][i];
-            (w, self.ln_i[c][i], self.lin[c][i], i == T::SIZE - 1)
+            (w, self.ln_i[c][i], self.lin[c][i], self.clip[c][i])
         } else {
             let v = z.norm();
             let v = if v.is_nan() { 0.0 } else { v };
             let i = self.curve.eval(c, v).max(TINY);
-            (hat(v), i.ln(), i, v >= 1.0)
+            let r = &self.ranges[c];
+            let w = r.weight(v) * levels::noise_gate(&self.curve, c, v);
+            (w, i.ln(), i, r.is_clipped(v))
         }
     }
 }
@@ -560,6 +594,7 @@ fn merge_value<T: Px>(
 ) -> f32 {
     let (mut sw, mut acc, mut den) = (0f32, 0f32, 0f32);
     let mut clipped: Option<f32> = None;
+    let mut contradicted = false;
     let mut last_i = 0f32;
     for (b, row) in rows.iter().enumerate() {
         let z = row[x * ch_in + c];
@@ -572,8 +607,14 @@ fn merge_value<T: Px>(
             } else {
                 acc += w * (ln_i - ln_k[b]);
             }
-        } else if high && clipped.is_none() {
-            clipped = Some(lk.top[c] / k[b]);
+        } else if high {
+            if clipped.is_none() {
+                clipped = Some(lk.top[c] / k[b]);
+            }
+        } else if clipped.is_some() {
+            // Dark in a longer exposure than one it is clipped in: not a
+            // sun but a marker (a scan's coloured border) or a ghost.
+            contradicted = true;
         }
         last_i = i;
     }
@@ -589,7 +630,7 @@ fn merge_value<T: Px>(
     if v.is_finite() && v > 0.0 {
         return v;
     }
-    if let Some(s) = clipped {
+    if let (Some(s), false) = (clipped, contradicted) {
         stats.0 += 1;
         return s;
     }
@@ -860,14 +901,14 @@ fn run<T: Px>(
     if options.align {
         align_brackets(brackets, options, pool, progress)?;
     }
-    let curve = recover_curve::<T>(brackets, &info, options, ch_out, progress)?;
+    let (curve, ranges) = recover_curve::<T>(brackets, &info, options, ch_out, progress)?;
 
     // Merge pass. Readers must start from row 0: re-open them (the lattice
     // pass read forward through them).
     for b in brackets.iter_mut() {
         b.reader = ImageReader::open(&b.info.path)?;
     }
-    let lk = Lookup::new::<T>(curve.clone(), ch_out);
+    let lk = Lookup::new::<T>(curve.clone(), &ranges, ch_out);
     let calibration = calibrate::<T>(brackets, &lk, (w, h, ch_in, ch_out), options)?;
     let kernel = MergeKernel::new::<T>(
         brackets,
@@ -877,7 +918,7 @@ fn run<T: Px>(
         (w, h, ch_in, ch_out),
     );
 
-    let attrs = header(brackets, &curve, options, calibration.as_ref());
+    let attrs = header(brackets, &curve, &ranges, options, calibration.as_ref());
     let stored = if options.half {
         PixelType::Half
     } else {
@@ -903,6 +944,7 @@ fn run<T: Px>(
         bits: info.bits,
         brackets: brackets.iter().map(|b| b.info.clone()).collect(),
         curve,
+        ranges,
         saturated_values: stats.0,
         dark_values: stats.1,
         seconds: start.elapsed().as_secs_f64(),
@@ -946,34 +988,90 @@ fn align_brackets(
     Ok(())
 }
 
-/// The response curve: a fixed one (linear, sRGB), or one recovered from
-/// the brackets' pixels (Debevec–Malik, Robertson).
+/// The black and white levels of each channel, and the response curve:
+/// a fixed one (linear, sRGB), or one recovered from the brackets' pixels
+/// (Debevec–Malik, Robertson).
 fn recover_curve<T: Px>(
     brackets: &mut [Input],
     info: &ImageInfo,
     options: &MergeOptions,
     ch_out: usize,
     progress: &dyn Fn(&str, u64, u64),
-) -> Result<ResponseCurve> {
-    let n = brackets.len();
+) -> Result<(ResponseCurve, Vec<SignalRange>)> {
     let levels = domain_levels(info.format, options.response);
-    Ok(match options.response {
+    // The lattice the levels are found on (and curves recovered from), on
+    // the recovery's domain: 256 levels for 8-bit input, bins otherwise.
+    let lattice_levels = domain_levels(info.format, ResponseMethod::Debevec);
+    let lattice = sample_lattice::<T>(brackets, lattice_levels, ch_out, progress)?;
+    let ranges = signal_ranges(&lattice.samples, options, info.format)?;
+    let curve = match options.response {
         ResponseMethod::Linear => ResponseCurve::linear(levels, ch_out),
         ResponseMethod::Srgb => ResponseCurve::srgb(levels, ch_out),
         method => {
             let k: Vec<f64> = brackets.iter().map(|b| b.info.relative_exposure).collect();
-            let lattice = sample_lattice::<T>(brackets, levels, ch_out, progress)?;
             if method == ResponseMethod::Debevec {
-                let wanted = options
-                    .samples
-                    .unwrap_or_else(|| (3 * levels / (n - 1)).clamp(100, 2000));
-                let chosen = choose_samples(&lattice, wanted);
-                response::debevec(&chosen, &k, options.lambda)?
+                // Every lattice point by default: the least squares stay a
+                // levels × levels system however many there are, and a
+                // uniform lattice weights the curve's levels as the image
+                // uses them. (Samples chosen evenly over the middle
+                // exposure's intensities, the earlier default, over-weight
+                // rare highlights: 0.20 against 0.12 log2-RMSE on the
+                // Memorial stack.)
+                match options.samples {
+                    None => response::debevec(&lattice.samples, &k, options.lambda, &ranges)?,
+                    Some(wanted) => {
+                        let chosen = choose_samples(&lattice, wanted, &ranges);
+                        response::debevec(&chosen, &k, options.lambda, &ranges)?
+                    }
+                }
             } else {
-                response::robertson(&lattice.samples, &k, 50, 1e-4)?
+                response::robertson(&lattice.samples, &k, 50, 1e-4, &ranges)?
             }
         }
-    })
+    };
+    Ok((curve, ranges))
+}
+
+/// Each channel's black and white levels: the ones given in `options`,
+/// the others found from the lattice.
+fn signal_ranges(
+    samples: &SampleSet,
+    options: &MergeOptions,
+    format: PixelType,
+) -> Result<Vec<SignalRange>> {
+    let full = match format {
+        PixelType::U8 => 255.0,
+        PixelType::U16 => 65535.0,
+        _ => 1.0,
+    };
+    levels::detect(samples)
+        .into_iter()
+        .map(|found| {
+            let range = SignalRange {
+                pedestal: found.pedestal.min(
+                    options
+                        .black_level
+                        .map_or(found.pedestal, |b| (b / full) as f32),
+                ),
+                black: options
+                    .black_level
+                    .map_or(found.black, |b| (b / full) as f32),
+                white: options
+                    .white_level
+                    .map_or(found.white, |w| (w / full) as f32),
+            };
+            if range.black < range.white && range.black >= 0.0 && range.white <= 1.0 {
+                Ok(range)
+            } else {
+                Err(Error::invalid_argument(format!(
+                    "the black level {} is not below the white level {} (code values of the \
+                     input, 0–{full}); give both with --black-level and --white-level",
+                    range.black as f64 * full,
+                    range.white as f64 * full
+                )))
+            }
+        })
+        .collect()
 }
 
 /// Absolute units: the factor every merged value is multiplied by (every
@@ -1321,6 +1419,7 @@ fn region_luminance<T: Px>(
 fn header(
     brackets: &[Input],
     curve: &ResponseCurve,
+    ranges: &[SignalRange],
     options: &MergeOptions,
     calibration: Option<&(f64, String)>,
 ) -> Vec<Attribute> {
@@ -1369,6 +1468,14 @@ fn header(
             }),
         ),
         ("plsr:response_curve".into(), s(curve.to_header_string())),
+        (
+            "plsr:black_level".into(),
+            s(ranges.iter().map(|r| format!("{}", r.black)).collect::<Vec<_>>().join(" ")),
+        ),
+        (
+            "plsr:white_level".into(),
+            s(ranges.iter().map(|r| format!("{}", r.white)).collect::<Vec<_>>().join(" ")),
+        ),
     ];
     if brackets.iter().all(|b| b.info.f_number.is_some()) {
         a.push((
@@ -1458,7 +1565,7 @@ fn sample_lattice<T: Px>(
 /// intensity range (`wanted` equal-width strata, visited in turn), preferring
 /// points in smooth regions; points with no usable value in any bracket are
 /// skipped.
-fn choose_samples(lattice: &Lattice, wanted: usize) -> SampleSet {
+fn choose_samples(lattice: &Lattice, wanted: usize, ranges: &[SignalRange]) -> SampleSet {
     let s = &lattice.samples;
     let (n, ch, l) = (s.brackets, s.channels, s.levels);
     let points = s.len();
@@ -1472,8 +1579,8 @@ fn choose_samples(lattice: &Lattice, wanted: usize) -> SampleSet {
     let usable = |p: usize| {
         (0..n).any(|b| {
             (0..ch).all(|c| {
-                let z = s.values[(p * n + b) * ch + c] as usize;
-                z > 0 && z < l - 1
+                let z = s.values[(p * n + b) * ch + c];
+                ranges[c.min(ranges.len() - 1)].weight(z as f32 / (l - 1) as f32) > 0.0
             })
         })
     };
@@ -1592,7 +1699,7 @@ mod tests {
             cols,
             rows,
         };
-        let s = choose_samples(&lattice, 100);
+        let s = choose_samples(&lattice, 100, &[SignalRange::FULL]);
         assert_eq!(s.len(), 100);
         // Intensities in the middle bracket cover the range.
         let mids: Vec<u16> = (0..100).map(|i| s.values[i * n + 1]).collect();

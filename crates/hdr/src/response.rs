@@ -22,6 +22,7 @@
 //! stays neutral.
 
 use crate::error::{Error, Result, UnknownResponseMethod};
+use crate::levels::SignalRange;
 use plsr_base::Vocabulary;
 use std::fmt;
 use std::io::Write;
@@ -465,10 +466,21 @@ impl SampleSet {
     }
 }
 
-/// Hat weight on the 8-bit scale (0–127.5) for level `z` of `levels`.
+/// Hat weight on the 8-bit scale (0–127.5) for level `z` of `levels`
+/// within the channel's signal `range`.
 #[inline]
-fn level_weight(z: usize, levels: usize) -> f64 {
-    hat(z as f32 / (levels - 1) as f32) as f64 * 127.5
+fn level_weight(z: usize, levels: usize, range: &SignalRange) -> f64 {
+    range.weight(z as f32 / (levels - 1) as f32) as f64 * 127.5
+}
+
+/// The signal range of channel `c` (the last one for extra channels; the
+/// full range if none is given).
+fn range_of(ranges: &[SignalRange], c: usize) -> SignalRange {
+    ranges
+        .get(c)
+        .or(ranges.last())
+        .copied()
+        .unwrap_or(SignalRange::FULL)
 }
 
 fn check_samples(samples: &SampleSet, exposures: &[f64]) -> Result<()> {
@@ -537,14 +549,21 @@ fn normalise(inverse: &mut [Vec<f32>]) {
 /// the 8-bit weight scale; scaled internally for other domains so the
 /// smoothing is the same per unit of normalised pixel value).
 /// `exposures[i]` is the relative exposure of bracket `i` (seconds, or
-/// t/N²·ISO when those differ).
-pub fn debevec(samples: &SampleSet, exposures: &[f64], lambda: f64) -> Result<ResponseCurve> {
+/// t/N²·ISO when those differ); `ranges` the signal range of each channel
+/// (hat weights between its black and white levels).
+pub fn debevec(
+    samples: &SampleSet,
+    exposures: &[f64],
+    lambda: f64,
+    ranges: &[SignalRange],
+) -> Result<ResponseCurve> {
     check_samples(samples, exposures)?;
     let l = samples.levels;
     let ln_t: Vec<f64> = exposures.iter().map(|t| t.ln()).collect();
     let lam = lambda.max(0.0) * ((l - 1) as f64 / 255.0).powi(2);
     let mut inverse = Vec::with_capacity(samples.channels);
     for c in 0..samples.channels {
+        let range = range_of(ranges, c);
         // Normal equations over g (l unknowns) with the per-sample ln E
         // eliminated: G g = r with
         // G = A_gᵀA_g − Σ_j b_j b_jᵀ / D_j,  r = A_gᵀy − Σ_j b_j (e_j / D_j).
@@ -557,7 +576,7 @@ pub fn debevec(samples: &SampleSet, exposures: &[f64], lambda: f64) -> Result<Re
             let mut e = 0.0;
             for (i, lt) in ln_t.iter().enumerate() {
                 let z = samples.get(s, i, c);
-                let w = level_weight(z, l);
+                let w = level_weight(z, l, &range);
                 if w <= 0.0 {
                     continue;
                 }
@@ -587,7 +606,7 @@ pub fn debevec(samples: &SampleSet, exposures: &[f64], lambda: f64) -> Result<Re
         g[mid * l + mid] += 1.0;
         // Smoothness: λ w(z) (g(z−1) − 2g(z) + g(z+1)) = 0.
         for z in 1..l - 1 {
-            let w = lam * level_weight(z, l);
+            let w = lam * level_weight(z, l, &range);
             let coef = [(z - 1, w), (z, -2.0 * w), (z + 1, w)];
             for &(a, ca) in &coef {
                 for &(b, cb) in &coef {
@@ -605,6 +624,8 @@ pub fn debevec(samples: &SampleSet, exposures: &[f64], lambda: f64) -> Result<Re
                 "Debevec response recovery: the least-squares system is singular (too few usable samples?)",
             )
         })?;
+        let mut sol = sol;
+        extend_beyond_range(&mut sol, |z| level_weight(z, l, &range) > 0.0);
         inverse.push(sol.iter().map(|g| (g.exp()) as f32).collect());
     }
     normalise(&mut inverse);
@@ -612,6 +633,25 @@ pub fn debevec(samples: &SampleSet, exposures: &[f64], lambda: f64) -> Result<Re
         method: ResponseMethod::Debevec,
         inverse,
     })
+}
+
+/// Holds `g` constant below and above the levels its equations reach:
+/// those the `weighted` predicate accepts, and one level either side (which
+/// their smoothness rows tie in). Below the black level the solution is
+/// otherwise only the ridge's `g = 0`, which would lift the whole dark end
+/// when the curve is made non-decreasing.
+fn extend_beyond_range(g: &mut [f64], weighted: impl Fn(usize) -> bool) {
+    let l = g.len();
+    let (Some(first), Some(last)) = (
+        (0..l).find(|&z| weighted(z)),
+        (0..l).rfind(|&z| weighted(z)),
+    ) else {
+        return;
+    };
+    let (lo, hi) = (first.saturating_sub(1), (last + 1).min(l - 1));
+    let (g_lo, g_hi) = (g[lo], g[hi]);
+    g[..lo].fill(g_lo);
+    g[hi + 1..].fill(g_hi);
 }
 
 /// Solves the symmetric positive definite `a x = b` (`a` n×n row-major,
@@ -659,19 +699,22 @@ fn cholesky_solve(a: &mut [f64], b: &mut [f64], n: usize) -> Option<Vec<f64>> {
 /// curve, alternately estimate each sample's irradiance (hat-weighted
 /// maximum likelihood) and each level's exposure (mean of `t·E` over the
 /// samples at that level), until the largest relative change of the curve is
-/// below `tolerance` or after `max_iterations`.
+/// below `tolerance` or after `max_iterations`. `ranges` as for
+/// [`debevec`].
 pub fn robertson(
     samples: &SampleSet,
     exposures: &[f64],
     max_iterations: usize,
     tolerance: f64,
+    ranges: &[SignalRange],
 ) -> Result<ResponseCurve> {
     check_samples(samples, exposures)?;
     let l = samples.levels;
     let n = samples.len();
-    let weights: Vec<f64> = (0..l).map(|z| level_weight(z, l) / 127.5).collect();
     let mut inverse = Vec::with_capacity(samples.channels);
     for c in 0..samples.channels {
+        let range = range_of(ranges, c);
+        let weights: Vec<f64> = (0..l).map(|z| level_weight(z, l, &range) / 127.5).collect();
         let mut curve: Vec<f64> = (0..l).map(|z| (z as f64 + 0.5) / l as f64).collect();
         let mut e = vec![0f64; n];
         let mut sum = vec![0f64; l];
@@ -844,9 +887,9 @@ mod tests {
     fn debevec_recovers_a_gamma_curve() {
         // Debevec needs few samples (about 100 for 8 bits).
         let (s, t) = synthetic(256, 120, vec![0.01, 0.04, 0.16, 0.64, 2.56]);
-        check_gamma(&debevec(&s, &t, DEFAULT_LAMBDA).unwrap(), 0.03);
+        check_gamma(&debevec(&s, &t, DEFAULT_LAMBDA, &[]).unwrap(), 0.03);
         let (s, t) = synthetic(BINNED_LEVELS, 240, vec![0.01, 0.04, 0.16, 0.64, 2.56]);
-        check_gamma(&debevec(&s, &t, DEFAULT_LAMBDA).unwrap(), 0.03);
+        check_gamma(&debevec(&s, &t, DEFAULT_LAMBDA, &[]).unwrap(), 0.03);
     }
 
     #[test]
@@ -856,7 +899,7 @@ mod tests {
         // its linear start it converges well with brackets one stop apart
         // (as the paper's), slowly with wider spacing.
         let (s, t) = synthetic(256, 5000, (0..10).map(|k| 0.01 * 2f64.powi(k)).collect());
-        check_gamma(&robertson(&s, &t, 50, 1e-5).unwrap(), 0.05);
+        check_gamma(&robertson(&s, &t, 50, 1e-5, &[]).unwrap(), 0.05);
     }
 
     #[test]

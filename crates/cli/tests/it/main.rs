@@ -16,6 +16,7 @@ mod farm;
 mod gradients;
 mod hdr;
 mod hdr_capture;
+mod hdr_memorial;
 mod metrics;
 mod mitsuba_import;
 mod mitsuba_structure;
