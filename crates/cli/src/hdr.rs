@@ -122,8 +122,8 @@ pub struct HdrMergeArgs {
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
-    /// Absolute units from the first image's EXIF exposure time, f-number
-    /// and ISO: luminance L = K·N²·v/(t·S) cd/m² (v the linear pixel value,
+    /// Absolute units from the EXIF f-number and ISO of the bracket of
+    /// least exposure (any order of the files gives the same result): luminance L = K·N²·v/(t·S) cd/m² (v the linear pixel value,
     /// 1 at clipping), then 683 cd/m² = radiance 1.
     #[arg(long, conflicts_with_all = ["known_luminance", "known_radiance", "grey_card"])]
     pub exif_calibration: bool,

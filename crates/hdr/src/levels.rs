@@ -253,9 +253,9 @@ mod tests {
     #[test]
     fn a_clip_below_the_top_code_is_found() {
         let dark: Vec<u16> = (0..1000).map(|i| (i % 50) as u16).collect();
-        // 30 % clipped at 250, the rest spread below.
+        // 30 % clipped at 250, the rest spread below it.
         let bright: Vec<u16> = (0..1000)
-            .map(|i| if i < 300 { 250 } else { (i % 240) as u16 + 5 })
+            .map(|i| if i < 300 { 250 } else { (i % 245) as u16 + 5 })
             .collect();
         let r = detect(&stack(256, &[dark, bright]));
         assert_eq!(r[0].white, 250.0 / 255.0);

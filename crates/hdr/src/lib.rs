@@ -8,6 +8,8 @@
 //!   found from its brackets;
 //! - [`merge`]: the streaming merge of brackets into one float/half EXR, with
 //!   optional median-threshold-bitmap alignment ([`align`]);
+//! - [`reference`]: how close a merge is to a reference map (log2-RMSE
+//!   overall, in the highlights and in the shadows);
 //! - [`synth`]: synthetic HDR scenes and simulated brackets for tests and the
 //!   benchmark;
 //!
@@ -22,6 +24,7 @@ pub mod error;
 pub mod levels;
 pub mod merge;
 pub use plsr_oiio as oiio;
+pub mod reference;
 pub mod response;
 pub mod synth;
 

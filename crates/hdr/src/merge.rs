@@ -4,8 +4,9 @@
 //!    channels and bit depths agree, and find each one's exposure time
 //!    (given, or EXIF `ExposureTime`). The *relative exposure* of a bracket
 //!    is `t · (N₀/N)² · (ISO/ISO₀)` (f-number N and ISO from EXIF, used when
-//!    every bracket has them and they differ; index 0 is the first image
-//!    given). Brackets may come in any order; they are sorted by it.
+//!    every bracket has them and they differ; index 0 is the bracket of
+//!    least exposure `t · ISO / N²`, so the order of the files does not
+//!    matter). Brackets are sorted by it.
 //! 2. Optionally align them by median threshold bitmaps ([`super::align`]).
 //! 3. Read a lattice of pixels from every bracket (one row in `stride`),
 //!    find each channel's black and white levels on it
@@ -97,11 +98,11 @@ pub const LUMENS_PER_WATT: f64 = 683.0;
 /// units, luminance-weighted with Rec. 709 weights).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub enum Calibration {
-    /// Relative units: exposure per second at the first image's aperture
-    /// and ISO.
+    /// Relative units: exposure per second at the aperture and ISO of the
+    /// bracket of least exposure.
     #[default]
     Relative,
-    /// From the first image's EXIF exposure time, f-number and ISO, with
+    /// From the EXIF f-number and ISO of the bracket of least exposure, with
     /// the reflected-light constant `constant` (cd/m²; see
     /// [`DEFAULT_CALIBRATION_CONSTANT`]).
     Exif {
@@ -152,8 +153,8 @@ pub struct BracketInfo {
     pub f_number: Option<f64>,
     /// ISO from EXIF, if any.
     pub iso: Option<f64>,
-    /// Relative exposure `t · (N₀/N)² · (ISO/ISO₀)` (seconds at the first
-    /// image's aperture and ISO).
+    /// Relative exposure `t · (N₀/N)² · (ISO/ISO₀)` (seconds at the aperture
+    /// and ISO of the bracket of least exposure).
     pub relative_exposure: f64,
     /// Translation applied, in pixels (see [`align::mtb_shift`] and
     /// [`align::stack_shifts`]).
@@ -343,8 +344,30 @@ fn open_inputs(inputs: &[PathBuf], options: &MergeOptions) -> Result<Vec<Input>>
     }
     let all_f = opened.iter().all(|(_, e)| e.f_number.is_some());
     let all_iso = opened.iter().all(|(_, e)| e.iso.is_some());
-    let f0 = opened[0].1.f_number.unwrap_or(1.0);
-    let iso0 = opened[0].1.iso.unwrap_or(100.0);
+    // The reference bracket, whose aperture and ISO the output's units
+    // are at: the one of least exposure `t · ISO / N²`, whatever order the
+    // files come in (ties by time, then file name), so that the same files
+    // merge to the same values in any order.
+    let exposure_value = |t: f64, e: &super::oiio::Exif| {
+        let mut v = t;
+        if all_f {
+            v /= e.f_number.unwrap_or(1.0).powi(2);
+        }
+        if all_iso {
+            v *= e.iso.unwrap_or(100.0);
+        }
+        v
+    };
+    let reference = (0..opened.len())
+        .min_by(|&a, &b| {
+            exposure_value(times[a], &opened[a].1)
+                .total_cmp(&exposure_value(times[b], &opened[b].1))
+                .then(times[a].total_cmp(&times[b]))
+                .then(opened[a].0.path().cmp(opened[b].0.path()))
+        })
+        .unwrap_or(0);
+    let f0 = opened[reference].1.f_number.unwrap_or(1.0);
+    let iso0 = opened[reference].1.iso.unwrap_or(100.0);
     let mut out: Vec<Input> = opened
         .into_iter()
         .zip(times)
@@ -367,10 +390,13 @@ fn open_inputs(inputs: &[PathBuf], options: &MergeOptions) -> Result<Vec<Input>>
             Input { reader, info }
         })
         .collect();
+    // The same order as the reference's choice: the reference first.
     out.sort_by(|a, b| {
         a.info
             .relative_exposure
             .total_cmp(&b.info.relative_exposure)
+            .then(a.info.exposure_time.total_cmp(&b.info.exposure_time))
+            .then(a.info.path.cmp(&b.info.path))
     });
     let infos: Vec<&BracketInfo> = out.iter().map(|i| &i.info).collect();
     if equal_exposure(infos[0], infos[infos.len() - 1]) {
@@ -382,6 +408,24 @@ fn open_inputs(inputs: &[PathBuf], options: &MergeOptions) -> Result<Vec<Input>>
         )));
     }
     Ok(out)
+}
+
+/// A warning when the brackets' f-numbers differ: their exposures account
+/// for it, but depth of field (and vignetting) differ between them, so
+/// edges at other distances than the focus blend from differently sharp
+/// brackets.
+pub fn aperture_warning(brackets: &[BracketInfo]) -> Option<String> {
+    let f: Vec<f64> = brackets.iter().map(|b| b.f_number).collect::<Option<_>>()?;
+    let (lo, hi) = f
+        .iter()
+        .fold((f64::INFINITY, 0f64), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+    (hi > lo * 1.01).then(|| {
+        format!(
+            "the brackets' apertures differ (f/{lo} to f/{hi}): their exposures take it into \
+             account, but depth of field differs between them; bracket with the shutter time \
+             at one aperture where you can"
+        )
+    })
 }
 
 /// Whether two brackets have the same relative exposure (within 0.1 %,
@@ -871,7 +915,11 @@ pub fn merge(
     }
     let mut brackets = open_inputs(inputs, options)?;
     let infos: Vec<BracketInfo> = brackets.iter().map(|b| b.info.clone()).collect();
-    let warnings = duplicate_exposure_warnings(&infos);
+    let warnings = [
+        duplicate_exposure_warnings(&infos),
+        aperture_warning(&infos).into_iter().collect(),
+    ]
+    .concat();
     let info = brackets[0].reader.info().clone();
     let pool = plsr_base::threads::thread_pool(options.threads)?;
     let summary = match info.format {
@@ -1318,9 +1366,10 @@ fn read_bands<T: Px>(
     }
 }
 
-/// The factor from relative to absolute units given by the first
+/// The factor from relative to absolute units given by the reference
 /// bracket's exposure triangle: `K · N² / (S · 683)` (relative values are
-/// exposures per second at the first image's f-number `N` and ISO `S`).
+/// exposures per second at the f-number `N` and ISO `S` of the bracket of
+/// least exposure, the first after sorting).
 fn exif_scale(brackets: &[Input], constant: f64) -> Result<(f64, String)> {
     let first = &brackets[0].info;
     let (Some(n), Some(iso)) = (first.f_number, first.iso) else {
@@ -1328,8 +1377,8 @@ fn exif_scale(brackets: &[Input], constant: f64) -> Result<(f64, String)> {
             &first.path,
             "",
             "EXIF calibration needs the f-number (FNumber) and ISO (ISOSpeedRatings) in the \
-             first image's metadata; calibrate from a known window instead \
-             (--known-luminance, --grey-card)",
+             metadata of every image (this one, of least exposure, is the reference); \
+             calibrate from a known window instead (--known-luminance, --grey-card)",
         ));
     };
     if !(constant.is_finite() && constant > 0.0) {
@@ -1341,8 +1390,13 @@ fn exif_scale(brackets: &[Input], constant: f64) -> Result<(f64, String)> {
     Ok((
         scale,
         format!(
-            "EXIF: f/{n}, ISO {iso} of the first image, K = {constant} cd/m^2 \
-             (L = K N^2 v / (t S)), 683 lm/W"
+            "EXIF: f/{n}, ISO {iso} of the bracket of least exposure ({}), K = {constant} \
+             cd/m^2 (L = K N^2 v / (t S)), 683 lm/W",
+            first
+                .path
+                .file_name()
+                .map(|f| f.to_string_lossy().into_owned())
+                .unwrap_or_default()
         ),
     ))
 }
@@ -1463,7 +1517,7 @@ fn header(
         (
             "plsr:units".into(),
             s(match calibration {
-                None => "relative radiance: linear exposure per second at the first image's aperture and ISO; pixel level 0.5 of the curve's domain maps to exposure 0.5".into(),
+                None => "relative radiance: linear exposure per second at the aperture and ISO of the bracket of least exposure; pixel level 0.5 of the curve's domain maps to exposure 0.5".into(),
                 Some(_) => "absolute radiance, W/(m^2 sr) per linear Rec. 709 channel (683 cd/m^2 of luminance = 1)".into(),
             }),
         ),

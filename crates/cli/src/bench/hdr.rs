@@ -36,25 +36,34 @@ pub struct HdrBenchOptions {
     /// Folder for the brackets, kept afterwards and reused when it already
     /// holds brackets of the right size; `None`: a temporary folder.
     pub dir: Option<PathBuf>,
+    /// The Memorial stack's folder (`None`: the repository's copy, if found).
+    pub memorial: Option<PathBuf>,
 }
 
-const OPENCV_SCRIPT: &str = r#"
+/// OpenCV's merge: `script METHOD OUT TIMES FILE…` with METHOD `debevec`
+/// or `robertson`; prints one JSON line of phase times and `ru_maxrss`.
+pub(crate) const OPENCV_SCRIPT: &str = r#"
 import json, resource, sys, time
 t0 = time.perf_counter()
 import cv2
 import numpy as np
 t_import = time.perf_counter()
-out = sys.argv[1]
-times = np.array([float(x) for x in sys.argv[2].split(",")], dtype=np.float32)
-files = sys.argv[3:]
+method = sys.argv[1]
+out = sys.argv[2]
+times = np.array([float(x) for x in sys.argv[3].split(",")], dtype=np.float32)
+files = sys.argv[4:]
 imgs = [cv2.imread(f, cv2.IMREAD_COLOR) for f in files]
 if any(i is None for i in imgs):
     print(json.dumps({"error": "cv2.imread failed"}))
     sys.exit(1)
 t_read = time.perf_counter()
-response = cv2.createCalibrateDebevec().process(imgs, times)
+if method == "robertson":
+    calibrate, merge = cv2.createCalibrateRobertson(), cv2.createMergeRobertson()
+else:
+    calibrate, merge = cv2.createCalibrateDebevec(), cv2.createMergeDebevec()
+response = calibrate.process(imgs, times)
 t_cal = time.perf_counter()
-hdr = cv2.createMergeDebevec().process(imgs, times, response)
+hdr = merge.process(imgs, times, response)
 t_merge = time.perf_counter()
 ok = cv2.imwrite(out, hdr)
 t_write = time.perf_counter()
@@ -69,9 +78,9 @@ print(json.dumps({
 
 /// One merger's result.
 #[derive(Debug, Clone)]
-struct Run {
-    wall: f64,
-    peak_mib: Option<f64>,
+pub(crate) struct Run {
+    pub(crate) wall: f64,
+    pub(crate) peak_mib: Option<f64>,
     accuracy: Option<synth::Accuracy>,
     note: String,
 }
@@ -82,7 +91,17 @@ pub fn run(o: &HdrBenchOptions) -> Result<()> {
         std::env::temp_dir().join(format!("plsr-bench-hdr-{}", std::process::id()))
     });
     std::fs::create_dir_all(&dir).map_err(|source| Error::io(dir.clone(), source))?;
-    let result = run_in(o, &dir);
+    let result = run_in(o, &dir).and_then(|()| {
+        match super::hdr_memorial::find(o.memorial.as_deref()) {
+            Some(stack) => super::hdr_memorial::run(&stack, o.python.as_deref(), o.threads, &dir),
+            None => {
+                println!(
+                    "\nMemorial stack skipped: no tests/data/realworld/hdr/memorial here (give --hdr-memorial DIR)"
+                );
+                Ok(())
+            }
+        }
+    });
     if o.dir.is_none() {
         let _ = std::fs::remove_dir_all(&dir);
     }
@@ -136,38 +155,12 @@ fn run_in(o: &HdrBenchOptions, dir: &Path) -> Result<()> {
     };
 
     // plsr, as a child process.
-    let exe = std::env::current_exe().map_err(|source| Error::io(PathBuf::from("plsr"), source))?;
     let out = dir.join("plsr.exr");
-    let mut cmd = Command::new(&exe);
-    cmd.args(["hdr", "merge"])
-        .args(&files)
-        .arg("-o")
-        .arg(&out)
-        .args(["--response", "debevec", "--quiet"]);
-    if let Some(n) = o.threads {
-        cmd.args(["--threads", &n.to_string()]);
-    }
-    let t = Instant::now();
-    let output = cmd
-        .output()
-        .map_err(|e| Error::invalid_argument(format!("cannot run {}: {e}", exe.display())))?;
-    let wall = t.elapsed().as_secs_f64();
-    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
-    if !output.status.success() {
-        return Err(Error::invalid_argument(format!(
-            "plsr hdr merge failed: {stderr}"
-        )));
-    }
-    let peak = stderr
-        .split("peak memory ")
-        .nth(1)
-        .and_then(|s| s.split_whitespace().next())
-        .and_then(|s| s.parse::<f64>().ok());
+    let merged = plsr_merge(&files, &out, &["--response", "debevec"], o.threads)?;
     let plsr = Run {
-        wall,
-        peak_mib: peak,
         accuracy: Some(synth::accuracy(&out, &scene, &camera, &times)?),
         note: "float EXR (uncompressed)".into(),
+        ..merged
     };
     let _ = std::fs::remove_file(&out);
 
@@ -243,6 +236,49 @@ fn run_in(o: &HdrBenchOptions, dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Runs `plsr hdr merge FILES -o OUT ARGS --quiet` as a child process of
+/// this executable; its wall time and the peak memory it reports.
+pub(crate) fn plsr_merge(
+    files: &[PathBuf],
+    out: &Path,
+    args: &[&str],
+    threads: Option<usize>,
+) -> Result<Run> {
+    let exe = std::env::current_exe().map_err(|source| Error::io(PathBuf::from("plsr"), source))?;
+    let mut cmd = Command::new(&exe);
+    cmd.args(["hdr", "merge"])
+        .args(files)
+        .arg("-o")
+        .arg(out)
+        .args(args)
+        .arg("--quiet");
+    if let Some(n) = threads {
+        cmd.args(["--threads", &n.to_string()]);
+    }
+    let t = Instant::now();
+    let output = cmd
+        .output()
+        .map_err(|e| Error::invalid_argument(format!("cannot run {}: {e}", exe.display())))?;
+    let wall = t.elapsed().as_secs_f64();
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    if !output.status.success() {
+        return Err(Error::invalid_argument(format!(
+            "plsr hdr merge failed: {stderr}"
+        )));
+    }
+    let peak_mib = stderr
+        .split("peak memory ")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|s| s.parse::<f64>().ok());
+    Ok(Run {
+        wall,
+        peak_mib,
+        accuracy: None,
+        note: String::new(),
+    })
+}
+
 fn run_opencv(
     py: &Path,
     dir: &Path,
@@ -251,14 +287,31 @@ fn run_opencv(
     scene: &SyntheticScene,
     camera: &CameraModel,
 ) -> Result<Run> {
+    let out = dir.join("opencv.hdr");
+    let mut run = opencv_merge(py, dir, "debevec", files, times, &out)?;
+    run.accuracy = synth::accuracy(&out, scene, camera, times).ok();
+    let _ = std::fs::remove_file(&out);
+    Ok(run)
+}
+
+/// Runs [`OPENCV_SCRIPT`] with `method` on `files` into `out` (Radiance
+/// HDR), printing its phase times; the result has no accuracy yet.
+pub(crate) fn opencv_merge(
+    py: &Path,
+    dir: &Path,
+    method: &str,
+    files: &[PathBuf],
+    times: &[f64],
+    out: &Path,
+) -> Result<Run> {
     let script = dir.join("opencv_merge.py");
     std::fs::write(&script, OPENCV_SCRIPT).map_err(|source| Error::io(script.clone(), source))?;
-    let out = dir.join("opencv.hdr");
     let list: Vec<String> = times.iter().map(|t| format!("{t}")).collect();
     let t = Instant::now();
     let output = Command::new(py)
         .arg(&script)
-        .arg(&out)
+        .arg(method)
+        .arg(out)
         .arg(list.join(","))
         .args(files)
         .output()
@@ -277,7 +330,7 @@ fn run_opencv(
         })?;
     let f = |k: &str| json.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
     println!(
-        "  OpenCV {} ({} threads): import {:.2} s, read {:.2} s, calibrate {:.2} s, merge {:.2} s, write {:.2} s",
+        "  OpenCV {method} {} ({} threads): import {:.2} s, read {:.2} s, calibrate {:.2} s, merge {:.2} s, write {:.2} s",
         json.get("version").and_then(|v| v.as_str()).unwrap_or("?"),
         f("threads"),
         f("import"),
@@ -286,12 +339,10 @@ fn run_opencv(
         f("merge"),
         f("write")
     );
-    let accuracy = synth::accuracy(&out, scene, camera, times).ok();
-    let _ = std::fs::remove_file(&out);
     Ok(Run {
         wall,
         peak_mib: Some(f("maxrss_kib") / 1024.0),
-        accuracy,
+        accuracy: None,
         note: "Radiance HDR (RGBE)".into(),
     })
 }

@@ -16,6 +16,7 @@ mod core;
 mod farm;
 mod fit;
 mod hdr;
+mod hdr_memorial;
 mod materials;
 mod peers;
 mod pls;
@@ -48,6 +49,11 @@ pub struct BenchArgs {
     /// if it already holds them). Default: a temporary folder, removed.
     #[arg(long)]
     pub hdr_dir: Option<PathBuf>,
+    /// The real bracket stack of `plsr bench hdr` (Memorial Church:
+    /// memorial0061.png …, shutter_times.txt, memorial.hdr). Default: the
+    /// repository's halved copy, tests/data/realworld/hdr/memorial.
+    #[arg(long, value_name = "DIR")]
+    pub hdr_memorial: Option<PathBuf>,
     /// Timed Adam iterations for `plsr bench fit`.
     #[arg(long, default_value_t = 5)]
     pub iterations: u32,
@@ -137,6 +143,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
                 python: (!a.no_peer).then_some(a.python),
                 threads: a.threads,
                 dir: a.hdr_dir,
+                memorial: a.hdr_memorial,
             })
         }
         _ => core::run(&core::BenchOptions {

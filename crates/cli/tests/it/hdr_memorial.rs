@@ -7,6 +7,7 @@
 
 use plsr_hdr::merge::{merge, parse_exposure, MergeOptions};
 use plsr_hdr::oiio;
+use plsr_hdr::reference::reference_errors;
 use std::path::{Path, PathBuf};
 
 fn memorial_dir() -> PathBuf {
@@ -26,52 +27,6 @@ fn memorial_stack() -> (Vec<PathBuf>, Vec<f64>) {
         .map(|n| dir.join(format!("memorial{n:04}.png")))
         .collect();
     (files, times)
-}
-
-/// log2-RMSE of `merged` against `reference` (both RGB, same size) after
-/// the one global scale that best matches them in the log domain, over
-/// every pixel, the brightest 1 % and the darkest 10 % of the reference's
-/// luminance. Pixels the reference holds as 0 (45 of the full map) are
-/// left out.
-pub fn memorial_errors(merged: &[f32], reference: &[f32]) -> (f64, f64, f64) {
-    let n = reference.len() / 3;
-    let lum: Vec<f64> = (0..n)
-        .map(|p| {
-            let r = &reference[3 * p..3 * p + 3];
-            0.2126 * r[0] as f64 + 0.7152 * r[1] as f64 + 0.0722 * r[2] as f64
-        })
-        .collect();
-    let mut sorted = lum.clone();
-    sorted.sort_by(f64::total_cmp);
-    let quantile = |q: f64| sorted[((n - 1) as f64 * q).round() as usize];
-    let (hi, lo) = (quantile(0.99), quantile(0.10));
-    let valid: Vec<bool> = (0..n)
-        .map(|p| reference[3 * p..3 * p + 3].iter().all(|&v| v > 0.0))
-        .collect();
-    let d: Vec<f64> = (0..3 * n)
-        .map(|i| (merged[i].max(1e-12) as f64).log2() - (reference[i] as f64).max(1e-12).log2())
-        .collect();
-    let (mut sum, mut count) = (0.0, 0usize);
-    for p in (0..n).filter(|&p| valid[p]) {
-        sum += d[3 * p..3 * p + 3].iter().sum::<f64>();
-        count += 3;
-    }
-    let offset = sum / count as f64;
-    let rmse = |keep: &dyn Fn(usize) -> bool| {
-        let (mut s, mut c) = (0.0, 0usize);
-        for p in (0..n).filter(|&p| valid[p] && keep(p)) {
-            for v in &d[3 * p..3 * p + 3] {
-                s += (v - offset).powi(2);
-                c += 1;
-            }
-        }
-        (s / c as f64).sqrt()
-    };
-    (
-        rmse(&|_| true),
-        rmse(&|p| lum[p] >= hi),
-        rmse(&|p| lum[p] <= lo),
-    )
 }
 
 #[test]
@@ -97,7 +52,8 @@ fn the_default_merge_of_a_real_stack_is_close_to_its_authors_map() {
     let (_, merged) = oiio::read_image_f32(&out).unwrap();
     let (info, reference) = oiio::read_image_f32(&memorial_dir().join("memorial.hdr")).unwrap();
     assert_eq!((info.width, info.height, info.channels), (256, 384, 3));
-    let (all, windows, shadows) = memorial_errors(&merged, &reference);
+    let e = reference_errors(&merged, &reference);
+    let (all, windows, shadows) = (e.all, e.brightest, e.darkest);
     eprintln!(
         "Memorial, log2-RMSE: all {all:.3}, brightest 1 % {windows:.3}, darkest 10 % {shadows:.3}"
     );
