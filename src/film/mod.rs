@@ -46,6 +46,7 @@ use plsr_base::Vocabulary;
 use std::fs::File;
 use std::io::BufWriter;
 pub mod part;
+pub mod radiance;
 mod sums;
 
 pub use sums::{FilmSums, PixelSums, Tile};

@@ -76,7 +76,7 @@ pub struct HdrMergeArgs {
     /// The bracketed images (at least two, same size).
     #[arg(required = true, value_name = "IMG")]
     pub images: Vec<PathBuf>,
-    /// Output: OpenEXR (.exr) or Radiance HDR (.hdr).
+    /// Output: OpenEXR (.exr), Radiance HDR (.hdr) or 32-bit float TIFF (.tif).
     #[arg(short, long, value_name = "PANO.exr")]
     pub output: PathBuf,
     /// Exposure times in seconds, one per image in the order given
@@ -87,6 +87,11 @@ pub struct HdrMergeArgs {
     /// for raw/linear data, srgb).
     #[arg(long, default_value = "debevec", value_parser = ["debevec", "robertson", "linear", "srgb"])]
     pub response: String,
+    /// Use this response curve instead of recovering one: a CSV written by
+    /// --curve (one camera's calibration, reused), or OpenCV's response
+    /// saved as 256 rows of blue,green,red.
+    #[arg(long, value_name = "CURVE.csv", conflicts_with = "response")]
+    pub response_curve: Option<PathBuf>,
     /// Align the brackets first (translation, median threshold bitmaps).
     #[arg(long)]
     pub align: bool,
@@ -385,8 +390,20 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
     if a.samples == Some(0) {
         return Err(Error::invalid_argument("--samples must be at least 1"));
     }
+    if let Some(c) = &a.response_curve {
+        if a.curve
+            .as_deref()
+            .is_some_and(|out| plsr_base::atomic_write::same_file(c, out))
+        {
+            return Err(Error::invalid_argument(format!(
+                "--curve {} names the --response-curve it reads",
+                c.display()
+            )));
+        }
+    }
     let options = MergeOptions {
         response,
+        response_curve: a.response_curve.clone(),
         exposures,
         align: a.align,
         half: a.half,

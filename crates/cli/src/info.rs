@@ -1,6 +1,8 @@
 //! `plsr info`: what an OpenEXR file holds — its size, layers and
 //! channels, compression, and header attributes (plsr's own: spp, film
-//! settings, a part's scene hash and range, an HDR merge's exposure data).
+//! settings, a part's scene hash and range, an HDR merge's exposure data);
+//! for a Radiance HDR, TIFF, PNG or JPEG file its size, channels, pixel type
+//! and EXIF exposure.
 
 use crate::error::{Error, Result};
 use exr::meta::attribute::{AttributeValue, SampleType};
@@ -10,7 +12,7 @@ use std::path::PathBuf;
 /// Arguments of `plsr info`.
 #[derive(Debug, clap::Args)]
 pub struct InfoArgs {
-    /// The OpenEXR file.
+    /// The image: OpenEXR, Radiance HDR (.hdr), TIFF, PNG or JPEG.
     #[arg(value_name = "IN.exr")]
     pub input: PathBuf,
 }
@@ -26,9 +28,48 @@ fn value(v: &AttributeValue) -> String {
     }
 }
 
+/// What `plsr info` says of a Radiance HDR or TIFF file: its size,
+/// channels and pixel type, and the exposure its metadata states.
+fn run_other(path: &std::path::Path) -> Result<()> {
+    let reader = plsr_hdr::oiio::ImageReader::open(path)?;
+    let info = reader.info();
+    println!("{}", path.display());
+    println!(
+        "{}×{} pixels, {} channel(s), {:?} ({} significant bits)",
+        info.width, info.height, info.channels, info.format, info.bits
+    );
+    let exif = reader.exif();
+    for (k, v) in [
+        ("ExposureTime", exif.exposure_time),
+        ("FNumber", exif.f_number),
+        ("ISO", exif.iso),
+    ] {
+        if let Some(v) = v {
+            println!("  {k} = {v}");
+        }
+    }
+    Ok(())
+}
+
 /// Runs `plsr info`.
 pub fn run(a: &InfoArgs) -> Result<()> {
     plsr::input::check_input_file(&a.input)?;
+    let ext = a
+        .input
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    if ext == "hdr" {
+        // Read by plsr's own decoder (which takes Radiance headers that
+        // OpenImageIO refuses); Radiance files carry no attributes.
+        let (w, h, _) = plsr::film::radiance::read_radiance_hdr(&a.input)?;
+        println!("{}", a.input.display());
+        println!("{w}×{h} pixels, 3 channels, Radiance RGBE (8-bit mantissas, shared exponent)");
+        return Ok(());
+    }
+    if matches!(ext.as_str(), "tif" | "tiff" | "png" | "jpg" | "jpeg") {
+        return run_other(&a.input);
+    }
     let meta = exr::meta::MetaData::read_from_file(&a.input, false)
         .map_err(|e| Error::input(&a.input, "", format!("cannot read as OpenEXR: {e}")))?;
     println!("{}", a.input.display());

@@ -11,6 +11,7 @@ mod fit;
 mod hdr;
 mod import;
 mod info;
+mod linear_image;
 mod merge;
 mod pls;
 mod progress;

@@ -12,8 +12,9 @@ use std::path::PathBuf;
 /// Arguments of `plsr tonemap`.
 #[derive(Debug, clap::Args)]
 pub struct TonemapArgs {
-    /// The image (OpenEXR with R, G and B channels, linear).
-    #[arg(value_name = "IN.exr")]
+    /// The linear image: OpenEXR (R, G, B channels), Radiance HDR (.hdr) or
+    /// float TIFF (.tif).
+    #[arg(value_name = "IN.exr|IN.hdr|IN.tif")]
     pub input: PathBuf,
     /// The PNG to write.
     #[arg(short, long, value_name = "OUT.png")]
@@ -128,7 +129,7 @@ pub fn run(a: &TonemapArgs) -> Result<()> {
         ));
     }
     plsr::input::check_input_file(&a.input)?;
-    let film = Film::read_exr(&a.input)?;
+    let film = crate::linear_image::read_linear(&a.input)?;
     let tone = exposure.tone_map(&film, a.filmic);
     let mut outputs = OutputSet::new();
     film.stage_png(&mut outputs, &a.output, tone)?;

@@ -48,6 +48,9 @@ use std::time::Instant;
 pub struct MergeOptions {
     /// How the camera response is obtained.
     pub response: ResponseMethod,
+    /// A response curve to use instead (CSV, as `curve_csv` writes it or
+    /// OpenCV's 256×3): `response` is then ignored.
+    pub response_curve: Option<PathBuf>,
     /// Exposure times in seconds, one per input in the order given; `None`
     /// reads them from EXIF.
     pub exposures: Option<Vec<f64>>,
@@ -127,6 +130,7 @@ impl Default for MergeOptions {
     fn default() -> Self {
         MergeOptions {
             response: ResponseMethod::Debevec,
+            response_curve: None,
             exposures: None,
             align: false,
             half: false,
@@ -842,7 +846,8 @@ fn check_compression(c: &str, ext: &str) -> Result<()> {
     Ok(())
 }
 
-/// Merges `inputs` into `output` (OpenEXR `.exr` or Radiance `.hdr`),
+/// Merges `inputs` into `output` (OpenEXR `.exr`, Radiance `.hdr` or float
+/// TIFF `.tif`),
 /// reporting progress as `(phase, done, total)`. On any error no output (and
 /// no curve file) is left behind.
 pub fn merge(
@@ -856,10 +861,11 @@ pub fn merge(
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    if ext != "exr" && ext != "hdr" {
+    if !matches!(ext.as_str(), "exr" | "hdr" | "tif" | "tiff") {
         return Err(Error::output(
             output.to_path_buf(),
-            "the output must be an OpenEXR (.exr) or Radiance (.hdr) file",
+            "the output must be an OpenEXR (.exr), Radiance (.hdr) or 32-bit float TIFF \
+             (.tif) file",
         ));
     }
     if options.half && ext != "exr" {
@@ -1052,9 +1058,17 @@ fn recover_curve<T: Px>(
     let lattice_levels = domain_levels(info.format, ResponseMethod::Debevec);
     let lattice = sample_lattice::<T>(brackets, lattice_levels, ch_out, progress)?;
     let ranges = signal_ranges(&lattice.samples, options, info.format)?;
+    if let Some(path) = &options.response_curve {
+        return Ok((ResponseCurve::read_csv(path)?, ranges));
+    }
     let curve = match options.response {
         ResponseMethod::Linear => ResponseCurve::linear(levels, ch_out),
         ResponseMethod::Srgb => ResponseCurve::srgb(levels, ch_out),
+        ResponseMethod::Given => {
+            return Err(Error::invalid_argument(
+                "the response method `given` needs a curve file (--response-curve)",
+            ))
+        }
         method => {
             let k: Vec<f64> = brackets.iter().map(|b| b.info.relative_exposure).collect();
             if method == ResponseMethod::Debevec {

@@ -48,6 +48,9 @@ pub enum ResponseMethod {
     Linear,
     /// The sRGB transfer function.
     Srgb,
+    /// A curve read from a file (`--response-curve`): one camera's
+    /// calibration reused for its later stacks.
+    Given,
 }
 
 impl ResponseMethod {
@@ -64,6 +67,7 @@ impl fmt::Display for ResponseMethod {
             ResponseMethod::Robertson => "robertson",
             ResponseMethod::Linear => "linear",
             ResponseMethod::Srgb => "srgb",
+            ResponseMethod::Given => "given",
         })
     }
 }
@@ -187,8 +191,14 @@ impl ResponseCurve {
     /// Reads a curve written by [`ResponseCurve::write_csv`] (`plsr hdr
     /// merge --curve`): comment lines starting with `#`, the header
     /// `level,pixel_value,<channels>`, then one row per level from 0, with
-    /// finite, non-negative, non-decreasing exposures. Errors name the file
-    /// and the line.
+    /// finite, non-negative, non-decreasing exposures. A file without that
+    /// header whose rows are three numbers is read as OpenCV's
+    /// `CalibrateDebevec`/`CalibrateRobertson` response saved as a 256×3
+    /// CSV (`numpy.savetxt(f, response.reshape(-1, 3), delimiter=",")`): one
+    /// row per level, in OpenCV's channel order, blue, green, red, made
+    /// non-decreasing where OpenCV's solution dips. Errors
+    /// name the file and the line. The curve's method is
+    /// [`ResponseMethod::Given`].
     pub fn read_csv(path: &Path) -> Result<ResponseCurve> {
         plsr_base::input::check_input_file(path)?;
         let text = std::fs::read_to_string(path)
@@ -202,6 +212,9 @@ impl ResponseCurve {
             .next()
             .ok_or_else(|| Error::input(path, "", "empty: no header `level,pixel_value,…`"))?;
         let names: Vec<&str> = header.split(',').map(str::trim).collect();
+        if names.len() == 3 && names.iter().all(|n| n.parse::<f64>().is_ok()) {
+            return read_opencv_rows(path, &text);
+        }
         if names.len() < 3 || names[0] != "level" || names[1] != "pixel_value" {
             return Err(fail(
                 header_line + 1,
@@ -246,7 +259,7 @@ impl ResponseCurve {
             return Err(Error::input(path, "", "a curve needs at least two levels"));
         }
         Ok(ResponseCurve {
-            method: ResponseMethod::Debevec,
+            method: ResponseMethod::Given,
             inverse,
         })
     }
@@ -429,6 +442,53 @@ impl ResponseCurve {
         }
         img
     }
+}
+
+/// The rows of an OpenCV response saved as CSV: per level, the blue, green
+/// and red exposures; returned as red, green, blue.
+fn read_opencv_rows(path: &Path, text: &str) -> Result<ResponseCurve> {
+    let mut inverse = vec![Vec::new(); 3];
+    for (n, row) in text.lines().enumerate() {
+        if row.trim().is_empty() || row.trim_start().starts_with('#') {
+            continue;
+        }
+        let fail = |m: String| Error::input(path, "", format!("line {}: {m}", n + 1));
+        let cells: Vec<&str> = row.split(',').map(str::trim).collect();
+        if cells.len() != 3 {
+            return Err(fail(format!(
+                "{} values where an OpenCV response has 3 (blue, green, red)",
+                cells.len()
+            )));
+        }
+        for (cell, c) in cells.iter().zip([2usize, 1, 0]) {
+            let v: f32 = cell
+                .parse()
+                .map_err(|_| fail(format!("`{cell}` is not a number")))?;
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(fail(format!("exposure {v} must be finite and ≥ 0")));
+            }
+            inverse[c].push(v);
+        }
+    }
+    // OpenCV's least squares may dip at the ends of the range; made
+    // non-decreasing, as plsr's recovered curves are.
+    for c in inverse.iter_mut() {
+        for z in 1..c.len() {
+            c[z] = c[z].max(c[z - 1]);
+        }
+    }
+    let levels = inverse[0].len();
+    if levels != 256 && levels != BINNED_LEVELS {
+        return Err(Error::input(
+            path,
+            "",
+            format!("{levels} rows: an OpenCV response has 256 (one per 8-bit level)"),
+        ));
+    }
+    Ok(ResponseCurve {
+        method: ResponseMethod::Given,
+        inverse,
+    })
 }
 
 /// Pixel samples for response recovery: `values[(s · brackets + i) ·
@@ -912,6 +972,31 @@ mod tests {
         assert_eq!(hat(1.0), 0.0);
         assert_eq!(hat(0.5), 1.0);
         assert_eq!(hat(f32::NAN), 0.0);
+    }
+
+    #[test]
+    fn curves_are_read_back_and_opencv_responses_are_read_in_its_order() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut c = ResponseCurve::srgb(256, 3);
+        c.method = ResponseMethod::Debevec;
+        c.inverse[0][200] *= 1.0001; // break the channels' symmetry
+        c.write_csv(&dir.path().join("c.csv")).unwrap();
+        let back = ResponseCurve::read_csv(&dir.path().join("c.csv")).unwrap();
+        assert_eq!(back.inverse, c.inverse);
+        assert_eq!(back.method, ResponseMethod::Given);
+        // OpenCV: blue, green, red per row, no header.
+        let rows: Vec<String> = (0..256)
+            .map(|z| format!("{},{},{}", 3.0 * z as f32, 2.0 * z as f32, z as f32))
+            .collect();
+        std::fs::write(dir.path().join("cv.csv"), rows.join("\n")).unwrap();
+        let cv = ResponseCurve::read_csv(&dir.path().join("cv.csv")).unwrap();
+        assert_eq!(cv.inverse[0][10], 10.0, "red is the last column");
+        assert_eq!(cv.inverse[2][10], 30.0, "blue is the first column");
+        std::fs::write(dir.path().join("short.csv"), "1,2,3\n4,5,6\n").unwrap();
+        let e = ResponseCurve::read_csv(&dir.path().join("short.csv"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("short.csv") && e.contains("256"), "{e}");
     }
 
     #[test]

@@ -191,15 +191,7 @@ pub(super) fn load_environment_image(
             Ok((film.width, film.height, film.color))
         }
         Some("hdr") => {
-            let img = image::open(path)
-                .map_err(|e| format!("{}: cannot read Radiance HDR: {e}", path.display()))?;
-            let rgb = img.to_rgb32f();
-            let (w, h) = rgb.dimensions();
-            Ok((
-                w,
-                h,
-                rgb.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect(),
-            ))
+            crate::film::radiance::read_radiance_hdr(path).map_err(|e| e.to_string().into())
         }
         _ => Err(format!(
             "{}: unsupported environment image (use .exr or .hdr)",

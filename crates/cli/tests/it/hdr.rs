@@ -929,6 +929,148 @@ fn exif_calibration_follows_the_exposure_triangle() {
     assert!(e.contains("bracket_00") && e.contains("f-number"), "{e}");
 }
 
+/// Every format `hdr merge` writes is read back: `.hdr` and `.tif` by
+/// `tonemap` and `info` like the `.exr`, with the merged values within the
+/// format's precision (RGBE's 8-bit mantissa; float TIFF exactly), and the
+/// `.hdr` by the reader environment maps use.
+#[test]
+fn merged_hdr_and_tif_files_are_read_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = brackets(
+        dir.path(),
+        &CameraModel::default(),
+        &BracketOptions::default(),
+    );
+    let mut merged = Vec::new();
+    for ext in ["exr", "hdr", "tif"] {
+        let out = dir.path().join(format!("pano.{ext}"));
+        run_merge(&files, &out, &with(ResponseMethod::Debevec));
+        for args in [
+            vec!["tonemap", "--exposure", "0", "-o", "pano.png"],
+            vec!["info"],
+        ] {
+            let (cmd, rest) = args.split_first().unwrap();
+            let o = Command::new(env!("CARGO_BIN_EXE_plsr"))
+                .current_dir(dir.path())
+                .arg(cmd)
+                .arg(format!("pano.{ext}"))
+                .args(rest)
+                .output()
+                .unwrap();
+            let text = String::from_utf8_lossy(&o.stdout).to_string()
+                + &String::from_utf8_lossy(&o.stderr);
+            assert!(o.status.success(), "plsr {cmd} pano.{ext}: {text}");
+            assert!(
+                text.contains(&format!("{W}×{H}")),
+                "plsr {cmd} pano.{ext}: {text}"
+            );
+        }
+        let png = image::open(dir.path().join("pano.png")).unwrap().to_rgb8();
+        merged.push(png);
+    }
+    let exr = oiio::read_image_f32(&dir.path().join("pano.exr"))
+        .unwrap()
+        .1;
+    let tif = oiio::read_image_f32(&dir.path().join("pano.tif"))
+        .unwrap()
+        .1;
+    assert_eq!(tif, exr, "a float TIFF keeps every value");
+    let (w, h, hdr) =
+        plsr::film::radiance::read_radiance_hdr(&dir.path().join("pano.hdr")).unwrap();
+    assert_eq!((w as usize, h as usize), (W, H));
+    // RGBE shares one exponent per pixel: each channel is within a part in
+    // 128 of the pixel's largest (and a step of its mantissa).
+    for (p, e) in hdr.iter().zip(exr.chunks_exact(3)) {
+        let largest = e[0].max(e[1]).max(e[2]);
+        for c in 0..3 {
+            assert!((p[c] - e[c]).abs() <= largest / 64.0, "RGBE {p:?} vs {e:?}");
+        }
+    }
+    // The tone-mapped PNGs agree: the TIFF's exactly, RGBE's within a level.
+    assert_eq!(merged[2], merged[0]);
+    let worst = merged[1]
+        .as_raw()
+        .iter()
+        .zip(merged[0].as_raw())
+        .map(|(a, b)| a.abs_diff(*b))
+        .max()
+        .unwrap();
+    assert!(worst <= 2, "PNG of the .hdr differs by {worst} levels");
+}
+
+/// A curve written by `--curve` and read back by `--response-curve` merges
+/// the same panorama as recovering it again (one camera's calibration
+/// serves its later stacks), through the library and the command line.
+#[test]
+fn a_written_curve_read_back_merges_the_same_panorama() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = brackets(
+        dir.path(),
+        &CameraModel::default(),
+        &BracketOptions::default(),
+    );
+    let (recovered, given) = (
+        dir.path().join("recovered.exr"),
+        dir.path().join("given.exr"),
+    );
+    let csv = dir.path().join("camera.csv");
+    run_merge(
+        &files,
+        &recovered,
+        &MergeOptions {
+            curve_csv: Some(csv.clone()),
+            ..with(ResponseMethod::Debevec)
+        },
+    );
+    let s = run_merge(
+        &files,
+        &given,
+        &MergeOptions {
+            response_curve: Some(csv.clone()),
+            ..with(ResponseMethod::Debevec)
+        },
+    );
+    assert_eq!(s.curve.method, ResponseMethod::Given);
+    let a = oiio::read_image_f32(&recovered).unwrap().1;
+    let b = oiio::read_image_f32(&given).unwrap().1;
+    assert_eq!(a, b, "the curve's CSV keeps every f32 exactly");
+    // The command line, from a copy of the brackets' curve.
+    let out = dir.path().join("cli.exr");
+    let o = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .args(["hdr", "merge", "--quiet", "--response-curve"])
+        .arg(&csv)
+        .args(&files)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(oiio::read_image_f32(&out).unwrap().1, a);
+    // Both a curve and a method is a usage error; so is a broken curve.
+    let o = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .args(["hdr", "merge", "--response", "srgb", "--response-curve"])
+        .arg(&csv)
+        .args(&files)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    std::fs::write(&csv, "level,pixel_value,r\n0,0,1\n1,1,0.5\n").unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .args(["hdr", "merge", "--response-curve"])
+        .arg(&csv)
+        .args(&files)
+        .arg("-o")
+        .arg(dir.path().join("broken.exr"))
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("camera.csv") && e.contains("line 3"), "{e}");
+    assert!(!dir.path().join("broken.exr").exists());
+}
+
 /// The same files in any order merge to the same values, calibrated or not,
 /// also when the ISO changes from bracket to bracket (the reference is the
 /// bracket of least exposure, not the first file given).
