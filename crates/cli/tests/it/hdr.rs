@@ -254,6 +254,45 @@ fn f_number_and_iso_enter_the_relative_exposure() {
     assert!(a.log_rmse < 2.0 * BOUND_DEBEVEC, "{a:?}");
 }
 
+/// A value clipped in a short exposure but dark in a longer one is not a
+/// sun (a scan's coloured border, a ghost): it takes the dark estimate,
+/// while a value clipped in every bracket stays the brightest.
+#[test]
+fn clipped_then_dark_is_a_marker_not_a_sun() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut files = Vec::new();
+    // Pixels: a sun, a marker, mid-grey, a shadow.
+    for (name, row) in [
+        ("short.png", [255u8, 255, 20, 2]),
+        ("long.png", [255, 3, 200, 60]),
+    ] {
+        let path = dir.path().join(name);
+        let grey: Vec<u8> = row.iter().flat_map(|&v| [v, v, v]).collect();
+        image::save_buffer(&path, &grey, 4, 1, image::ExtendedColorType::Rgb8).unwrap();
+        files.push(path);
+    }
+    let out = dir.path().join("merged.exr");
+    run_merge(
+        &files,
+        &out,
+        &MergeOptions {
+            exposures: Some(vec![0.01, 1.0]),
+            ..with(ResponseMethod::Srgb)
+        },
+    );
+    let v = oiio::read_image_f32(&out).unwrap().1;
+    let (sun, marker, grey, shadow) = (v[0], v[3], v[6], v[9]);
+    assert!(
+        sun >= 99.0,
+        "the sun takes the short exposure's clip: {v:?}"
+    );
+    assert!(
+        marker < shadow && marker < grey,
+        "the marker is dark: {v:?}"
+    );
+    assert!(marker < 0.01, "{v:?}");
+}
+
 #[test]
 fn saturated_and_dark_pixels_are_finite_and_ordered() {
     let dir = tempfile::tempdir().unwrap();
