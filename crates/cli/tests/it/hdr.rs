@@ -909,7 +909,7 @@ fn a_known_window_calibrates_to_absolute_radiance() {
 
 /// EXIF calibration: a linear camera whose pixel value is L·t at f/8, ISO
 /// 100 follows `L = K·N²·v/(t·S)/683` with K = 683·100/64; the merge then
-/// reads the true radiance. The first image's f-number enters squared.
+/// reads the true radiance. The reference bracket's f-number enters squared.
 #[test]
 fn exif_calibration_follows_the_exposure_triangle() {
     use plsr_hdr::merge::Calibration;

@@ -171,9 +171,18 @@ fn render_takes_auto_exposure_and_info_lists_an_exr() {
     ] {
         assert!(out.contains(want), "{want} not in:\n{out}");
     }
-    let (ok, _, err) = plsr(&["info", png.to_str().unwrap()]);
+    // A PNG is described too (size, channels, pixel type); a file that is
+    // no image is an error naming it.
+    let (ok, out, err) = plsr(&["info", png.to_str().unwrap()]);
     assert!(
-        !ok && err.contains("part.png") && err.contains("cannot read as OpenEXR"),
+        ok && out.contains("64×64 pixels, 3 channel(s)"),
+        "{out}{err}"
+    );
+    let text = png.with_extension("txt");
+    std::fs::write(&text, "not an image").unwrap();
+    let (ok, _, err) = plsr(&["info", text.to_str().unwrap()]);
+    assert!(
+        !ok && err.contains("part.txt") && err.contains("cannot read as OpenEXR"),
         "{err}"
     );
 }
