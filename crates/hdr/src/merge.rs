@@ -541,6 +541,10 @@ struct Lookup {
     curve: ResponseCurve,
     /// Per channel, the black and white levels.
     ranges: Vec<SignalRange>,
+    /// For float inputs: per channel, the noise gate at each level of the
+    /// curve's domain (at least 256), looked up by the nearest level
+    /// rather than computed for every value.
+    gate: Vec<Vec<f32>>,
     /// For integer inputs: per channel, SIZE entries each.
     w: Vec<Vec<f32>>,
     clip: Vec<Vec<bool>>,
@@ -588,9 +592,22 @@ impl Lookup {
             top.push(curve.eval(c, 1.0).max(TINY));
             floor.push(curve.eval(c, half_step).max(TINY));
         }
+        let gate = if T::TABLE {
+            Vec::new()
+        } else {
+            let n = curve.levels().max(256);
+            (0..channels)
+                .map(|c| {
+                    (0..n)
+                        .map(|z| levels::noise_gate(&curve, c, z as f32 / (n - 1) as f32))
+                        .collect()
+                })
+                .collect()
+        };
         Lookup {
             curve,
             ranges: ranges.to_vec(),
+            gate,
             w,
             clip,
             ln_i,
@@ -613,7 +630,9 @@ impl Lookup {
             let v = if v.is_nan() { 0.0 } else { v };
             let i = self.curve.eval(c, v).max(TINY);
             let r = &self.ranges[c];
-            let w = r.weight(v) * levels::noise_gate(&self.curve, c, v);
+            let gate = &self.gate[c];
+            let level = (v.clamp(0.0, 1.0) * (gate.len() - 1) as f32).round() as usize;
+            let w = r.weight(v) * gate[level];
             (w, i.ln(), i, r.is_clipped(v))
         }
     }

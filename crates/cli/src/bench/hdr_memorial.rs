@@ -53,7 +53,7 @@ pub fn run(stack: &Path, python: Option<&Path>, threads: Option<usize>, work: &P
     let files: Vec<PathBuf> = (61..61 + times.len())
         .map(|n| stack.join(format!("memorial{n:04}.png")))
         .collect();
-    let reference = read_reference(&stack.join("memorial.hdr"), work)?;
+    let reference = read_reference(&stack.join("memorial.hdr"))?;
     let info = plsr_hdr::oiio::ImageReader::open(&files[0])?.info().clone();
     println!();
     println!(
@@ -134,33 +134,12 @@ pub fn run(stack: &Path, python: Option<&Path>, threads: Option<usize>, work: &P
     Ok(())
 }
 
-/// The reference map as RGB floats. Radiance files written by Radiance's
-/// own tools may carry header lines before the `#?` magic line (Debevec's
-/// starts with `VIEW=`), which OpenImageIO refuses: such a file is copied
-/// into `work` from its magic line on.
-fn read_reference(path: &Path, work: &Path) -> Result<Vec<f32>> {
-    let bytes = std::fs::read(path).map_err(|source| Error::io(path.to_path_buf(), source))?;
-    let start = bytes
-        .windows(2)
-        .take(4096)
-        .position(|w| w == b"#?")
-        .unwrap_or(0);
-    let readable = if start > 0 {
-        let copy = work.join("memorial-reference.hdr");
-        std::fs::write(&copy, &bytes[start..]).map_err(|source| Error::io(copy.clone(), source))?;
-        copy
-    } else {
-        path.to_path_buf()
-    };
-    let (info, data) = plsr_hdr::oiio::read_image_f32(&readable)?;
-    if info.channels != 3 {
-        return Err(Error::invalid_argument(format!(
-            "{}: {} channels, the reference must be RGB",
-            path.display(),
-            info.channels
-        )));
-    }
-    Ok(data)
+/// The reference map as RGB floats, through plsr's Radiance reader (which
+/// takes the header lines Radiance's own tools write before the `#?`
+/// magic line, as in Debevec's map, and OpenImageIO refuses).
+fn read_reference(path: &Path) -> Result<Vec<f32>> {
+    let (_, _, pixels) = plsr::film::radiance::read_radiance_hdr(path)?;
+    Ok(pixels.iter().flat_map(|p| p.to_array()).collect())
 }
 
 fn score(merged: &Path, reference: &[f32]) -> Result<ReferenceErrors> {
