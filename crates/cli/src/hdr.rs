@@ -95,6 +95,16 @@ pub struct HdrMergeArgs {
     /// Align the brackets first (translation, median threshold bitmaps).
     #[arg(long)]
     pub align: bool,
+    /// Crop the output to the area every aligned bracket covers (auto: when
+    /// --align moved any bracket; no: keep the whole frame, whose border
+    /// repeats the shifted brackets' edge pixels).
+    #[arg(long, value_name = "auto|yes|no", default_value = "auto")]
+    pub crop_to_common: plsr_hdr::merge::CropMode,
+    /// Deghost: where something moved between exposures (people, leaves),
+    /// leave out the brackets that disagree with the middle exposure, so the
+    /// moving thing appears once, as the middle exposure saw it.
+    #[arg(long)]
+    pub deghost: bool,
     /// Write the response curve as CSV here, and its plot as PNG next to it.
     #[arg(long, value_name = "CURVE.csv")]
     pub curve: Option<PathBuf>,
@@ -415,6 +425,8 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
         calibration: calibration(a)?,
         black_level: level_option(&a.black_level, "--black-level")?,
         white_level: level_option(&a.white_level, "--white-level")?,
+        crop: a.crop_to_common,
+        deghost: a.deghost,
     };
     let bar = progress_bar(
         a.quiet,
@@ -453,6 +465,12 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
         s.seconds,
         a.output.display()
     );
+    if s.camera_raw {
+        eprintln!(
+            "  camera raw: merged as linear data (each file's black and white levels and as-shot \
+             white balance, through LibRaw)"
+        );
+    }
     if s.saturated_values > 0 || s.dark_values > 0 {
         eprintln!(
             "  {} channel value(s) clipped in every bracket (took the shortest exposure's estimate), {} dark in every bracket (took the longest's)",
@@ -468,6 +486,19 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
         eprintln!(
             "  alignment shifts (dx,dy, shortest exposure first): {}",
             shifts.join(" ")
+        );
+    }
+    if let Some(f) = s.ghost_fraction {
+        eprintln!(
+            "  deghosting: {:.1} % of the image left out some bracket that disagreed with the \
+             middle exposure",
+            100.0 * f
+        );
+    }
+    if let Some([x0, y0, x1, y1]) = s.crop {
+        eprintln!(
+            "  cropped to {x0},{y0},{x1},{y1} (X0,Y0,X1,Y1 of the brackets' frame), the area every \
+             bracket covers; --crop-to-common no keeps the whole frame"
         );
     }
     match &s.calibration {

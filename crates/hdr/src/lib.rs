@@ -8,6 +8,7 @@
 //!   found from its brackets;
 //! - [`merge`]: the streaming merge of brackets into one float/half EXR, with
 //!   optional median-threshold-bitmap alignment ([`align`]);
+//! - [`deghost`]: leaving out brackets where something moved between them;
 //! - [`reference`]: how close a merge is to a reference map (log2-RMSE
 //!   overall, in the highlights and in the shadows);
 //! - [`synth`]: synthetic HDR scenes and simulated brackets for tests and the
@@ -20,6 +21,7 @@
 //! See docs/hdr.md.
 
 pub mod align;
+pub mod deghost;
 pub mod error;
 pub mod levels;
 pub mod merge;

@@ -31,8 +31,15 @@
 //!
 //! Integer inputs clip at their white level (by default the top code);
 //! float inputs are taken as normalised, clipping at 1.0.
+//!
+//! Camera raw brackets (DNG, CR2, NEF, …; [`super::oiio::is_camera_raw`])
+//! come out of LibRaw linear, black-subtracted and white-balanced: they are
+//! merged with the `linear` response and a black level of 0, whatever
+//! response was asked for. An aligned merge is cropped to the area every
+//! bracket covers ([`CropMode`], [`common_window`]).
 
 use super::align;
+use super::deghost::{self, GhostMask, GhostVotes};
 use super::levels::{self, SignalRange};
 use super::oiio::{AttrValue, Attribute, ImageInfo, ImageReader, ImageWriter, PixelType, Sample};
 use super::response::{self, ResponseCurve, ResponseMethod, SampleSet, BINNED_LEVELS};
@@ -83,6 +90,74 @@ pub struct MergeOptions {
     /// The code value at and above which values are clipped; `None` finds
     /// it from the brackets.
     pub white_level: Option<f64>,
+    /// Whether the output is cropped to the area every aligned bracket
+    /// covers (see [`CropMode`]).
+    pub crop: CropMode,
+    /// Leave out, where something moved between exposures, the brackets
+    /// that disagree with the middle exposure ([`super::deghost`]).
+    pub deghost: bool,
+}
+
+/// Whether an aligned merge keeps the frame's border, where some brackets
+/// were shifted out of the picture (their edge pixels repeat there), or
+/// crops it off.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CropMode {
+    /// Crop when alignment moved any bracket (the default).
+    #[default]
+    Auto,
+    /// Always crop to the common area (nothing is cropped when no bracket
+    /// moved).
+    Always,
+    /// Keep the whole frame; the uncovered border repeats each shifted
+    /// bracket's edge pixels.
+    Never,
+}
+
+impl std::str::FromStr for CropMode {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "auto" => Ok(CropMode::Auto),
+            "yes" | "on" | "always" => Ok(CropMode::Always),
+            "no" | "off" | "never" => Ok(CropMode::Never),
+            _ => Err(format!("`{s}`: expected auto, yes or no")),
+        }
+    }
+}
+
+/// The window `[x0, y0, x1, y1]` (`x1`, `y1` exclusive) of a `w`×`h` frame
+/// that every bracket covers after its shift (pixel `x` of the output
+/// takes pixel `x − dx` of a bracket shifted by `dx`); empty (`x0 ≥ x1`)
+/// when the shifts leave nothing in common.
+pub fn common_window(shifts: &[(i32, i32)], w: usize, h: usize) -> [usize; 4] {
+    let (w, h) = (w as i64, h as i64);
+    let x0 = shifts
+        .iter()
+        .map(|s| s.0 as i64)
+        .fold(0, i64::max)
+        .clamp(0, w);
+    let y0 = shifts
+        .iter()
+        .map(|s| s.1 as i64)
+        .fold(0, i64::max)
+        .clamp(0, h);
+    let x1 = shifts
+        .iter()
+        .map(|s| w + s.0 as i64)
+        .fold(w, i64::min)
+        .clamp(0, w);
+    let y1 = shifts
+        .iter()
+        .map(|s| h + s.1 as i64)
+        .fold(h, i64::min)
+        .clamp(0, h);
+    [
+        x0 as usize,
+        y0 as usize,
+        x1.max(x0) as usize,
+        y1.max(y0) as usize,
+    ]
 }
 
 /// Reflected-light calibration constant of [`Calibration::Exif`] by
@@ -142,6 +217,8 @@ impl Default for MergeOptions {
             calibration: Calibration::Relative,
             black_level: None,
             white_level: None,
+            crop: CropMode::Auto,
+            deghost: false,
         }
     }
 }
@@ -197,6 +274,15 @@ pub struct MergeSummary {
     /// The factor applied to reach absolute units and where it came from
     /// (`None`: relative units).
     pub calibration: Option<(f64, String)>,
+    /// The window `[x0, y0, x1, y1]` of the brackets' frame the output was
+    /// cropped to (`None`: the whole frame).
+    pub crop: Option<[usize; 4]>,
+    /// The brackets were camera raw files, merged as linear data (black
+    /// and white levels and white balance from each file, through LibRaw).
+    pub camera_raw: bool,
+    /// With deghosting: the fraction of the image where some bracket was
+    /// left out.
+    pub ghost_fraction: Option<f64>,
 }
 
 /// The largest finite half float: what `--half` stores values above it as.
@@ -657,6 +743,7 @@ fn merge_value<T: Px>(
     ln_k: &[f32],
     k: &[f32],
     robertson: bool,
+    skip: u64,
     stats: &mut (u64, u64),
 ) -> f32 {
     let (mut sw, mut acc, mut den) = (0f32, 0f32, 0f32);
@@ -664,6 +751,9 @@ fn merge_value<T: Px>(
     let mut contradicted = false;
     let mut last_i = 0f32;
     for (b, row) in rows.iter().enumerate() {
+        if skip >> b & 1 == 1 {
+            continue;
+        }
         let z = row[x * ch_in + c];
         let (w, ln_i, i, high) = lk.get(c, z);
         if w > 0.0 {
@@ -696,6 +786,11 @@ fn merge_value<T: Px>(
     };
     if v.is_finite() && v > 0.0 {
         return v;
+    }
+    if skip != 0 {
+        // Every bracket left is clipped or dark here: deghosting must not
+        // leave the pixel without an estimate.
+        return merge_value(lk, rows, ch_in, x, c, ln_k, k, robertson, 0, stats);
     }
     if let (Some(s), false) = (clipped, contradicted) {
         stats.0 += 1;
@@ -826,7 +921,7 @@ fn merge_row_tables<T: Px>(
             out[i] = if v.is_finite() && v > 0.0 {
                 v
             } else {
-                merge_value(lk, rows, ch_in, x, c, ln_k, k, robertson, stats)
+                merge_value(lk, rows, ch_in, x, c, ln_k, k, robertson, 0, stats)
             };
         }
     }
@@ -938,9 +1033,55 @@ pub fn merge(
             ));
         }
     }
+    // Camera raw brackets are linear: no response to recover, and LibRaw
+    // has already subtracted the black level the file gives.
+    let raw = inputs
+        .iter()
+        .filter(|p| super::oiio::is_camera_raw(p))
+        .count();
+    let mut raw_notes = Vec::new();
+    let raw_options;
+    let options = if raw == 0 {
+        options
+    } else if raw < inputs.len() {
+        let (r, other) = (
+            inputs.iter().find(|p| super::oiio::is_camera_raw(p)),
+            inputs.iter().find(|p| !super::oiio::is_camera_raw(p)),
+        );
+        return Err(Error::invalid_argument(format!(
+            "{} is a camera raw file but {} is not: merge brackets of one kind (raw brackets \
+             are linear, others go through a response curve)",
+            r.map(|p| p.display().to_string()).unwrap_or_default(),
+            other.map(|p| p.display().to_string()).unwrap_or_default()
+        )));
+    } else {
+        if options.response_curve.is_some()
+            || !matches!(
+                options.response,
+                ResponseMethod::Debevec | ResponseMethod::Linear
+            )
+        {
+            raw_notes.push(format!(
+                "camera raw brackets are linear: the response {} was not used",
+                options
+                    .response_curve
+                    .as_ref()
+                    .map(|c| c.display().to_string())
+                    .unwrap_or_else(|| options.response.to_string())
+            ));
+        }
+        raw_options = MergeOptions {
+            response: ResponseMethod::Linear,
+            response_curve: None,
+            black_level: Some(options.black_level.unwrap_or(0.0)),
+            ..options.clone()
+        };
+        &raw_options
+    };
     let mut brackets = open_inputs(inputs, options)?;
     let infos: Vec<BracketInfo> = brackets.iter().map(|b| b.info.clone()).collect();
     let warnings = [
+        raw_notes,
         duplicate_exposure_warnings(&infos),
         aperture_warning(&infos).into_iter().collect(),
     ]
@@ -954,6 +1095,7 @@ pub fn merge(
     }?;
     Ok(MergeSummary {
         warnings: [warnings, summary.warnings.clone()].concat(),
+        camera_raw: raw > 0,
         ..summary
     })
 }
@@ -974,6 +1116,25 @@ fn run<T: Px>(
     if options.align {
         align_brackets(brackets, options, pool, progress)?;
     }
+    let shifts: Vec<(i32, i32)> = brackets.iter().map(|b| b.info.shift).collect();
+    let moved = shifts.iter().any(|s| *s != (0, 0));
+    let window = match options.crop {
+        CropMode::Always => common_window(&shifts, w, h),
+        CropMode::Auto if moved => common_window(&shifts, w, h),
+        _ => [0, 0, w, h],
+    };
+    if window[0] >= window[2] || window[1] >= window[3] {
+        return Err(Error::invalid_argument(format!(
+            "alignment shifted the brackets so far apart ({}) that no pixel is in all of them: \
+             these are not brackets of one view",
+            shifts
+                .iter()
+                .map(|s| format!("{},{}", s.0, s.1))
+                .collect::<Vec<_>>()
+                .join(" ")
+        )));
+    }
+    let crop = (window != [0, 0, w, h]).then_some(window);
     let (curve, ranges) = recover_curve::<T>(brackets, &info, options, ch_out, progress)?;
 
     // Merge pass. Readers must start from row 0: re-open them (the lattice
@@ -982,24 +1143,43 @@ fn run<T: Px>(
         b.reader = ImageReader::open(&b.info.path)?;
     }
     let lk = Lookup::new::<T>(curve.clone(), &ranges, ch_out);
-    let calibration = calibrate::<T>(brackets, &lk, (w, h, ch_in, ch_out), options)?;
+    let calibration = calibrate::<T>(brackets, &lk, (w, h, ch_in, ch_out), window, options)?;
+    let ghosts = if options.deghost {
+        Some(ghost_mask::<T>(
+            brackets,
+            &lk,
+            (w, h, ch_in, ch_out),
+            pool,
+            progress,
+        )?)
+    } else {
+        None
+    };
     let kernel = MergeKernel::new::<T>(
         brackets,
         lk,
         calibration.as_ref(),
+        ghosts.clone(),
         options,
         (w, h, ch_in, ch_out),
     );
 
-    let attrs = header(brackets, &curve, &ranges, options, calibration.as_ref());
+    let mut attrs = header(brackets, &curve, &ranges, options, calibration.as_ref());
+    if let Some([x0, y0, x1, y1]) = crop {
+        attrs.push((
+            "plsr:crop".into(),
+            AttrValue::Str(format!("{x0} {y0} {x1} {y1} of {w}x{h}")),
+        ));
+    }
+    let (out_w, out_h) = (window[2] - window[0], window[3] - window[1]);
     let stored = if options.half {
         PixelType::Half
     } else {
         PixelType::F32
     };
-    let writer = ImageWriter::create(output, w, h, ch_out, stored, &attrs)?;
+    let writer = ImageWriter::create(output, out_w, out_h, ch_out, stored, &attrs)?;
     let (writer, stats, clamped) =
-        stream_merge::<T>(brackets, writer, &kernel, options, pool, progress)?;
+        stream_merge::<T>(brackets, writer, &kernel, window, options, pool, progress)?;
     // The curve files and the image are renamed into place together, once
     // all are written: a failure writing any leaves every old file.
     let mut outputs = plsr_base::atomic_write::OutputSet::new();
@@ -1010,8 +1190,8 @@ fn run<T: Px>(
     writer.finish_into(&mut outputs)?;
     outputs.commit()?;
     Ok(MergeSummary {
-        width: w,
-        height: h,
+        width: out_w,
+        height: out_h,
         channels: ch_out,
         format: info.format,
         bits: info.bits,
@@ -1022,6 +1202,9 @@ fn run<T: Px>(
         dark_values: stats.1,
         seconds: start.elapsed().as_secs_f64(),
         calibration,
+        crop,
+        camera_raw: false,
+        ghost_fraction: ghosts.as_ref().map(|g| g.ghost_fraction()),
         warnings: if clamped > 0 {
             vec![format!(
                 "{clamped} value(s) above {HALF_MAX}, the largest half float, were stored as {HALF_MAX}: \
@@ -1162,6 +1345,7 @@ fn calibrate<T: Px>(
     brackets: &mut [Input],
     lk: &Lookup,
     dims: (usize, usize, usize, usize),
+    frame: [usize; 4],
     options: &MergeOptions,
 ) -> Result<Option<(f64, String)>> {
     let (w, h, ch_in, ch_out) = dims;
@@ -1173,7 +1357,14 @@ fn calibrate<T: Px>(
             luminance,
             source,
         } => {
-            let mean = region_luminance::<T>(brackets, lk, *window, w, h, ch_in, ch_out, options)?;
+            let mean = region_luminance::<T>(
+                brackets,
+                lk,
+                *window,
+                frame,
+                (w, h, ch_in, ch_out),
+                options,
+            )?;
             if !(mean.is_finite() && mean > 0.0) {
                 return Err(Error::invalid_argument(format!(
                     "calibration: the window {},{},{},{} merges to luminance {mean}: it must \
@@ -1193,9 +1384,9 @@ struct MergeKernel {
     k: Vec<f32>,
     ln_k: Vec<f32>,
     shifts: Vec<(i32, i32)>,
-    shifts_x: Vec<i32>,
     robertson: bool,
     fast: Option<Tables>,
+    ghosts: Option<GhostMask>,
     w: usize,
     h: usize,
     ch_in: usize,
@@ -1207,6 +1398,7 @@ impl MergeKernel {
         brackets: &[Input],
         lk: Lookup,
         calibration: Option<&(f64, String)>,
+        ghosts: Option<GhostMask>,
         options: &MergeOptions,
         (w, h, ch_in, ch_out): (usize, usize, usize, usize),
     ) -> MergeKernel {
@@ -1217,7 +1409,6 @@ impl MergeKernel {
             .collect();
         let ln_k: Vec<f32> = k.iter().map(|v| v.ln()).collect();
         let shifts: Vec<(i32, i32)> = brackets.iter().map(|b| b.info.shift).collect();
-        let shifts_x: Vec<i32> = shifts.iter().map(|s| s.0).collect();
         let robertson = options.response == ResponseMethod::Robertson;
         let fast = T::TABLE.then(|| Tables::new(&lk, &k, &ln_k, robertson));
         MergeKernel {
@@ -1225,9 +1416,9 @@ impl MergeKernel {
             k,
             ln_k,
             shifts,
-            shifts_x,
             robertson,
             fast,
+            ghosts,
             w,
             h,
             ch_in,
@@ -1238,18 +1429,8 @@ impl MergeKernel {
     /// Merges output row `y` from the bands' `rows` into `orow`; returns
     /// the (saturated, dark) value counts.
     fn merge_row<T: Px>(&self, y: usize, rows: &[BandRows<T>], orow: &mut [f32]) -> (u64, u64) {
-        let (w, h, ch_in, ch_out) = (self.w, self.h, self.ch_in, self.ch_out);
-        // Each bracket's row, moved by its alignment shift.
-        let src: Vec<std::borrow::Cow<[T]>> = rows
-            .iter()
-            .enumerate()
-            .map(|(b, br)| {
-                let sy = (y as i64 - self.shifts[b].1 as i64).clamp(0, h as i64 - 1) as usize;
-                let off = (sy - br.first_row) * w * ch_in;
-                let row = &br.data[off..off + w * ch_in];
-                shift_row(row, self.shifts_x[b], w, ch_in)
-            })
-            .collect();
+        let (w, ch_in, ch_out) = (self.w, self.ch_in, self.ch_out);
+        let src = shifted_rows(rows, &self.shifts, y, w, self.h, ch_in);
         let src: Vec<&[T]> = src.iter().map(|r| r.as_ref()).collect();
         let mut st = (0u64, 0u64);
         if let Some(ft) = &self.fast {
@@ -1277,13 +1458,145 @@ impl MergeKernel {
                         &self.ln_k,
                         &self.k,
                         self.robertson,
+                        0,
                         &mut st,
+                    );
+                }
+            }
+        }
+        // Where something moved, again without the brackets that saw it.
+        if let Some(g) = &self.ghosts {
+            let mut ghost_stats = (0u64, 0u64);
+            for x in 0..w {
+                let skip = g.skip(x, y);
+                if skip == 0 {
+                    continue;
+                }
+                for c in 0..ch_out {
+                    orow[x * ch_out + c] = merge_value(
+                        &self.lk,
+                        &src,
+                        ch_in,
+                        x,
+                        c,
+                        &self.ln_k,
+                        &self.k,
+                        self.robertson,
+                        skip,
+                        &mut ghost_stats,
                     );
                 }
             }
         }
         st
     }
+}
+
+/// Each bracket's row `y` of the output, moved by its alignment shift
+/// (`rows` hold the rows the band needs).
+fn shifted_rows<'a, T: Px>(
+    rows: &'a [BandRows<T>],
+    shifts: &[(i32, i32)],
+    y: usize,
+    w: usize,
+    h: usize,
+    ch_in: usize,
+) -> Vec<std::borrow::Cow<'a, [T]>> {
+    rows.iter()
+        .zip(shifts)
+        .map(|(br, &(dx, dy))| {
+            let sy = (y as i64 - dy as i64).clamp(0, h as i64 - 1) as usize;
+            let off = (sy - br.first_row) * w * ch_in;
+            shift_row(&br.data[off..off + w * ch_in], dx, w, ch_in)
+        })
+        .collect()
+}
+
+/// The deghosting mask ([`super::deghost`]): a pass over every bracket's
+/// rows comparing each pixel's estimates with the reference bracket's.
+fn ghost_mask<T: Px>(
+    brackets: &[Input],
+    lk: &Lookup,
+    (w, h, ch_in, ch_out): (usize, usize, usize, usize),
+    pool: &rayon::ThreadPool,
+    progress: &dyn Fn(&str, u64, u64),
+) -> Result<GhostMask> {
+    let n = brackets.len();
+    if n > deghost::MAX_BRACKETS {
+        return Err(Error::invalid_argument(format!(
+            "--deghost handles at most {} brackets; {n} were given",
+            deghost::MAX_BRACKETS
+        )));
+    }
+    let middle = n / 2;
+    let ln_k: Vec<f32> = brackets
+        .iter()
+        .map(|b| (b.info.relative_exposure as f32).ln())
+        .collect();
+    let levels = lk.curve.levels().max(256);
+    let noise: Vec<Vec<f32>> = (0..ch_out)
+        .map(|c| {
+            (0..levels)
+                .map(|z| levels::exposure_noise(&lk.curve, c, z as f32 / (levels - 1) as f32))
+                .collect()
+        })
+        .collect();
+    let mut readers = brackets
+        .iter()
+        .map(|b| ImageReader::open(&b.info.path))
+        .collect::<std::result::Result<Vec<_>, _>>()?;
+    let shifts: Vec<(i32, i32)> = brackets.iter().map(|b| b.info.shift).collect();
+    let band = (deghost::BLOCK * 8).min(h);
+    let mut votes = GhostVotes::new(w, h, n);
+    progress("deghosting", 0, h as u64);
+    std::thread::scope(|scope| -> Result<()> {
+        let (to_votes, from_reader) = sync_channel::<Result<Band<T>>>(2);
+        let refs: Vec<&mut ImageReader> = readers.iter_mut().collect();
+        let read_shifts = shifts.clone();
+        scope.spawn(move || read_bands(refs, &read_shifts, w, h, ch_in, (0, h, band), to_votes));
+        for item in from_reader {
+            let (y0, y1, rows) = item?;
+            let per_row: Vec<Vec<(u64, u64)>> = pool.install(|| {
+                (y0..y1)
+                    .into_par_iter()
+                    .map(|y| {
+                        let src = shifted_rows(&rows, &shifts, y, w, h, ch_in);
+                        let mut est = Vec::with_capacity(n);
+                        (0..w)
+                            .map(|x| {
+                                let (mut bad, mut tested) = (0u64, 0u64);
+                                for c in 0..ch_out {
+                                    est.clear();
+                                    for (b, row) in src.iter().enumerate() {
+                                        let z = row[x * ch_in + c];
+                                        let (wt, ln_i, _, high) = lk.get(c, z);
+                                        est.push(deghost::Estimate {
+                                            ln_e: ln_i - ln_k[b],
+                                            noise: noise[c][level_of(z.norm(), levels) as usize],
+                                            valid: wt > 0.0,
+                                            clipped: high,
+                                        });
+                                    }
+                                    let (b, t) = deghost::disagreeing(&est, middle);
+                                    bad |= b;
+                                    tested |= t;
+                                }
+                                (bad, tested)
+                            })
+                            .collect()
+                    })
+                    .collect()
+            });
+            for (r, row) in per_row.iter().enumerate() {
+                for (x, &(bad, tested)) in row.iter().enumerate() {
+                    votes.vote(x, y0 + r, bad, tested);
+                }
+            }
+            progress("deghosting", y1 as u64, h as u64);
+        }
+        Ok(())
+    })?;
+    Ok(votes.mask())
 }
 
 /// The streamed merge: a reader thread reads bands of rows of every
@@ -1294,16 +1607,19 @@ fn stream_merge<T: Px>(
     brackets: &mut [Input],
     writer: ImageWriter,
     kernel: &MergeKernel,
+    window: [usize; 4],
     options: &MergeOptions,
     pool: &rayon::ThreadPool,
     progress: &dyn Fn(&str, u64, u64),
 ) -> Result<(ImageWriter, (u64, u64), u64)> {
     let (w, h, ch_in, ch_out) = (kernel.w, kernel.h, kernel.ch_in, kernel.ch_out);
+    let [x0, wy0, x1, wy1] = window;
+    let out_w = x1 - x0;
     let n = brackets.len();
     // Rows per band: about 16 MB of input per band.
     let bytes = std::mem::size_of::<T>().max(1);
     let band = (16usize << 20) / (n * w * ch_in * bytes).max(1);
-    let band = band.clamp(4, 256).min(h);
+    let band = band.clamp(4, 256).min(wy1 - wy0);
 
     let (to_merge, from_reader) = sync_channel::<Result<Band<T>>>(2);
     let (to_writer, from_merge) = sync_channel::<(usize, usize, Vec<f32>)>(2);
@@ -1312,7 +1628,7 @@ fn stream_merge<T: Px>(
     let mut clamped = 0u64;
     let result: Result<ImageWriter> = std::thread::scope(|scope| {
         let shifts = kernel.shifts.clone();
-        scope.spawn(move || read_bands(readers, &shifts, w, h, ch_in, band, to_merge));
+        scope.spawn(move || read_bands(readers, &shifts, w, h, ch_in, (wy0, wy1, band), to_merge));
         let writer_thread = scope.spawn(move || -> Result<ImageWriter> {
             let mut writer = writer;
             for (y0, y1, data) in from_merge {
@@ -1324,11 +1640,22 @@ fn stream_merge<T: Px>(
         let merged: Result<()> = (|| {
             for item in from_reader {
                 let (y0, y1, rows) = item?;
-                let mut out = vec![0f32; (y1 - y0) * w * ch_out];
+                let mut out = vec![0f32; (y1 - y0) * out_w * ch_out];
                 let band_stats: Vec<(u64, u64)> = pool.install(|| {
-                    out.par_chunks_mut(w * ch_out)
+                    out.par_chunks_mut(out_w * ch_out)
                         .enumerate()
-                        .map(|(r, orow)| kernel.merge_row(y0 + r, &rows, orow))
+                        .map(|(r, orow)| {
+                            if out_w == w {
+                                kernel.merge_row(y0 + r, &rows, orow)
+                            } else {
+                                // Merged over the whole width (the kernel's
+                                // tables run along full rows), then cropped.
+                                let mut full = vec![0f32; w * ch_out];
+                                let st = kernel.merge_row(y0 + r, &rows, &mut full);
+                                orow.copy_from_slice(&full[x0 * ch_out..x1 * ch_out]);
+                                st
+                            }
+                        })
                         .collect()
                 });
                 for s in band_stats {
@@ -1342,8 +1669,8 @@ fn stream_merge<T: Px>(
                         clamped += 1;
                     }
                 }
-                progress("merging", y1 as u64, h as u64);
-                if to_writer.send((y0, y1, out)).is_err() {
+                progress("merging", (y1 - wy0) as u64, (wy1 - wy0) as u64);
+                if to_writer.send((y0 - wy0, y1 - wy0, out)).is_err() {
                     break;
                 }
             }
@@ -1362,21 +1689,22 @@ fn stream_merge<T: Px>(
 /// Rows `y0..y1` of the output as each bracket's rows: `(y0, y1, rows)`.
 type Band<T> = (usize, usize, Vec<BandRows<T>>);
 
-/// The reader thread of [`stream_merge`]: bands of `band` rows of every
-/// bracket (each moved by its vertical shift), sent until the image ends,
-/// a read fails (the error is sent) or the merge stops listening.
+/// The reader thread of [`stream_merge`]: bands of `band` output rows
+/// `first..end` of every bracket (each moved by its vertical shift), sent
+/// until the window ends, a read fails (the error is sent) or the merge
+/// stops listening.
 fn read_bands<T: Px>(
     mut readers: Vec<&mut ImageReader>,
     shifts: &[(i32, i32)],
     w: usize,
     h: usize,
     ch_in: usize,
-    band: usize,
+    (first, end, band): (usize, usize, usize),
     to_merge: std::sync::mpsc::SyncSender<Result<Band<T>>>,
 ) {
-    let mut y0 = 0;
-    while y0 < h {
-        let y1 = (y0 + band).min(h);
+    let mut y0 = first;
+    while y0 < end {
+        let y1 = (y0 + band).min(end);
         let mut rows = Vec::with_capacity(readers.len());
         for (b, r) in readers.iter_mut().enumerate() {
             let dy = shifts[b].1 as i64;
@@ -1442,19 +1770,25 @@ fn region_luminance<T: Px>(
     brackets: &[Input],
     lk: &Lookup,
     window: [usize; 4],
-    w: usize,
-    h: usize,
-    ch_in: usize,
-    ch_out: usize,
+    frame: [usize; 4],
+    (w, h, ch_in, ch_out): (usize, usize, usize, usize),
     options: &MergeOptions,
 ) -> Result<f64> {
     let [x0, y0, x1, y1] = window;
-    if !(x0 < x1 && y0 < y1 && x1 <= w && y1 <= h) {
+    let (fw, fh) = (frame[2] - frame[0], frame[3] - frame[1]);
+    if !(x0 < x1 && y0 < y1 && x1 <= fw && y1 <= fh) {
+        let what = if (fw, fh) == (w, h) {
+            "the images' size"
+        } else {
+            "the output's size, cropped to the area every aligned bracket covers"
+        };
         return Err(Error::invalid_argument(format!(
-            "calibration window {x0},{y0},{x1},{y1}: must be X0,Y0,X1,Y1 with X0 < X1 ≤ {w} \
-             and Y0 < Y1 ≤ {h} (the images' size)"
+            "calibration window {x0},{y0},{x1},{y1}: must be X0,Y0,X1,Y1 with X0 < X1 ≤ {fw} \
+             and Y0 < Y1 ≤ {fh} ({what})"
         )));
     }
+    // The window is in the output's pixels: move it into the frame's.
+    let [x0, y0, x1, y1] = [x0 + frame[0], y0 + frame[1], x1 + frame[0], y1 + frame[1]];
     let k: Vec<f32> = brackets
         .iter()
         .map(|b| b.info.relative_exposure as f32)
@@ -1494,7 +1828,7 @@ fn region_luminance<T: Px>(
         let src: Vec<&[T]> = src.iter().map(|r| r.as_ref()).collect();
         for x in x0..x1 {
             for (c, wt) in weights.iter().enumerate() {
-                let v = merge_value(lk, &src, ch_in, x, c, &ln_k, &k, robertson, &mut stats);
+                let v = merge_value(lk, &src, ch_in, x, c, &ln_k, &k, robertson, 0, &mut stats);
                 sum += wt * v as f64;
             }
         }
@@ -1582,6 +1916,19 @@ fn header(
             AttrValue::Float(*scale as f32),
         ));
         a.push(("plsr:calibration".into(), s(source.clone())));
+    }
+    if brackets
+        .first()
+        .is_some_and(|b| super::oiio::is_camera_raw(&b.info.path))
+    {
+        a.push((
+            "plsr:camera_raw".into(),
+            s(
+                "linear (LibRaw): each file's black and white levels and as-shot white balance, \
+               sRGB primaries"
+                    .into(),
+            ),
+        ));
     }
     if options.align {
         a.push((

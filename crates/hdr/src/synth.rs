@@ -608,6 +608,30 @@ pub fn accuracy<S: RadianceImage + ?Sized>(
     let mut r = ImageReader::open(path)?;
     let info = r.info().clone();
     let (width, height) = scene.size();
+    // A merge cropped to the brackets' common area says where it lies in
+    // the frame (`plsr:crop`, "x0 y0 x1 y1 of WxH").
+    let (ox, oy, width, height) = match r.string_attribute("plsr:crop") {
+        None => (0, 0, width, height),
+        Some(c) => {
+            let v: Vec<usize> = c
+                .split_whitespace()
+                .take(4)
+                .filter_map(|t| t.parse().ok())
+                .collect();
+            match v[..] {
+                [x0, y0, x1, y1] if x0 < x1 && y0 < y1 && x1 <= width && y1 <= height => {
+                    (x0, y0, x1 - x0, y1 - y0)
+                }
+                _ => {
+                    return Err(Error::input(
+                        path,
+                        "plsr:crop",
+                        format!("`{c}` is not a window of the {width}×{height} frame"),
+                    ))
+                }
+            }
+        }
+    };
     if info.width != width || info.height != height || info.channels < 3 {
         return Err(Error::input(
             path,
@@ -632,7 +656,7 @@ pub fn accuracy<S: RadianceImage + ?Sized>(
                 let y = y0 + k;
                 let (mut a, mut b, mut m, mut bd) = (0f64, 0f64, 0u64, 0u64);
                 for x in 0..w {
-                    let truth = scene.radiance(x, y);
+                    let truth = scene.radiance(x + ox, y + oy);
                     for c in 0..3 {
                         let v = row[x * ch + c];
                         if !(v.is_finite() && v > 0.0) {

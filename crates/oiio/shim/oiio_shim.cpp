@@ -76,7 +76,17 @@ extern "C" int plsr_oiio_open(const char *path, plsr_oiio_input **out, plsr_oiio
             return PLSR_OIIO_ERROR;
         }
         *out = nullptr;
-        auto in = ImageInput::open(path);
+        // Camera raw files (LibRaw) are read as linear data with sRGB
+        // primaries: the camera's black level subtracted, scaled to its
+        // white level, its as-shot white balance applied, highlights
+        // clipped, no automatic brightening. Other formats ignore these.
+        ImageSpec config;
+        config.attribute("raw:ColorSpace", "sRGB-linear");
+        config.attribute("raw:use_camera_wb", 1);
+        config.attribute("raw:auto_bright", 0);
+        config.attribute("raw:adjust_maximum_thr", 0.0f);
+        config.attribute("raw:HighlightMode", 0);
+        auto in = ImageInput::open(path, &config);
         if (!in) {
             set_error(err, err_len, global_error());
             return PLSR_OIIO_ERROR;

@@ -565,6 +565,24 @@ impl Drop for ImageReader {
     }
 }
 
+/// File extensions of the camera raw formats OpenImageIO reads through
+/// LibRaw (Adobe DNG and the common makers' own), lower case.
+pub const CAMERA_RAW_EXTENSIONS: [&str; 22] = [
+    "dng", "cr2", "cr3", "crw", "nef", "nrw", "arw", "srf", "sr2", "raf", "orf", "rw2", "rwl",
+    "pef", "srw", "3fr", "fff", "iiq", "mos", "mrw", "x3f", "erf",
+];
+
+/// Whether `path` names a camera raw file (by its extension, as
+/// OpenImageIO chooses its reader). [`ImageReader`] reads those as linear
+/// 16-bit RGB with sRGB primaries: LibRaw subtracts the black level the
+/// file gives, scales to its white level, applies its as-shot white
+/// balance and demosaics; clipped highlights stay at 65535.
+pub fn is_camera_raw(path: &Path) -> bool {
+    path.extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .is_some_and(|e| CAMERA_RAW_EXTENSIONS.contains(&e.as_str()))
+}
+
 /// Reads a whole image as `f32` (integer types scaled to 0–1).
 pub fn read_image_f32(path: &Path) -> Result<(ImageInfo, Vec<f32>)> {
     let mut r = ImageReader::open(path)?;

@@ -3,7 +3,9 @@
 //! OpenImageIO errors.
 
 use plsr_hdr::align;
-use plsr_hdr::merge::{merge, MergeOptions, MergeSummary};
+use plsr_hdr::merge::{
+    self as merge_mod, merge, Calibration, CropMode, MergeOptions, MergeSummary,
+};
 use plsr_hdr::oiio::{self, AttrValue, ImageReader, PixelType};
 use plsr_hdr::response::ResponseMethod;
 use plsr_hdr::synth::{
@@ -390,15 +392,110 @@ fn alignment_recovers_camera_shake() {
     for (i, (f, t)) in found.iter().zip(&shake).enumerate() {
         assert_eq!(*f, (-t.0, -t.1), "bracket {i}: {found:?}");
     }
+    // Alignment moved brackets, so the output is cropped to the area all
+    // of them cover: 2 + 3 columns and 2 + 2 rows fewer, said in the header.
+    let window = merge_mod::common_window(&found, 256, 128);
+    assert_eq!(window, [2, 2, 253, 126]);
+    assert_eq!(s.crop, Some(window));
+    assert_eq!((s.width, s.height), (251, 124));
+    let r = ImageReader::open(&aligned).unwrap();
+    assert_eq!((r.info().width, r.info().height), (251, 124));
+    assert_eq!(
+        r.string_attribute("plsr:crop").as_deref(),
+        Some("2 2 253 126 of 256x128")
+    );
+    // Kept whole, the border repeats the shifted brackets' edge pixels.
+    let whole = dir.path().join("whole.exr");
+    let sw = run_merge(
+        &files,
+        &whole,
+        &MergeOptions {
+            align: true,
+            crop: CropMode::Never,
+            ..with(ResponseMethod::Debevec)
+        },
+    );
+    assert_eq!((sw.width, sw.height, sw.crop), (256, 128, None));
     let plain = dir.path().join("plain.exr");
     run_merge(&files, &plain, &with(ResponseMethod::Debevec));
     let a = synth::accuracy(&aligned, &sc, &camera, &PAPER_EXPOSURES).unwrap();
+    let k = synth::accuracy(&whole, &sc, &camera, &PAPER_EXPOSURES).unwrap();
     let b = synth::accuracy(&plain, &sc, &camera, &PAPER_EXPOSURES).unwrap();
-    eprintln!("aligned {a:?}\nunaligned {b:?}");
+    eprintln!("aligned {a:?}\nwhole frame {k:?}\nunaligned {b:?}");
     assert!(
         a.log_rmse < 0.5 * b.log_rmse,
         "aligned {a:?}, unaligned {b:?}"
     );
+    assert!(a.log_rmse < k.log_rmse, "cropped {a:?}, whole frame {k:?}");
+}
+
+#[test]
+fn a_calibration_window_is_in_the_cropped_outputs_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    let camera = CameraModel::default();
+    let sc = SyntheticScene::textured(128, 64);
+    let mut shake = vec![(0, 0); 10];
+    shake[7] = (4, 3);
+    let files = synth::write_brackets(
+        &sc,
+        &camera,
+        &PAPER_EXPOSURES,
+        dir.path(),
+        &BracketOptions {
+            shifts: shake,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    // The window 10,10–30,20 of the output: its mean luminance is the value
+    // given, whether the output is cropped or not.
+    for crop in [CropMode::Auto, CropMode::Never] {
+        let out = dir.path().join(format!("{crop:?}.exr"));
+        let s = run_merge(
+            &files,
+            &out,
+            &MergeOptions {
+                align: true,
+                crop,
+                calibration: Calibration::Region {
+                    window: [10, 10, 30, 20],
+                    luminance: 2.0,
+                    source: "test".into(),
+                },
+                ..with(ResponseMethod::Debevec)
+            },
+        );
+        let (info, px) = plsr_hdr::oiio::read_image_f32(&out).unwrap();
+        assert_eq!(s.crop.is_some(), crop == CropMode::Auto);
+        let mut sum = 0f64;
+        for y in 10..20 {
+            for x in 10..30 {
+                let p = &px[(y * info.width + x) * 3..][..3];
+                sum += 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
+            }
+        }
+        let mean = sum / 200.0;
+        assert!((mean / 2.0 - 1.0).abs() < 1e-3, "{crop:?}: mean {mean}");
+    }
+    // A window beyond the cropped output is refused, naming the reason.
+    let err = merge(
+        &files,
+        &dir.path().join("x.exr"),
+        &MergeOptions {
+            align: true,
+            calibration: Calibration::Region {
+                window: [100, 10, 128, 20],
+                luminance: 2.0,
+                source: "test".into(),
+            },
+            ..with(ResponseMethod::Debevec)
+        },
+        &|_, _, _| {},
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("cropped"), "{err}");
+    assert!(!dir.path().join("x.exr").exists());
 }
 
 /// Writes the paper's ten brackets of `scene` (8-bit, default camera) with

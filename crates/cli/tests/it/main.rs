@@ -17,6 +17,7 @@ mod gradients;
 mod hdr;
 mod hdr_capture;
 mod hdr_memorial;
+mod hdr_raw;
 mod metrics;
 mod mitsuba_import;
 mod mitsuba_structure;
