@@ -101,8 +101,8 @@ pub struct HdrMergeArgs {
     #[arg(long, value_name = "auto|yes|no", default_value = "auto")]
     pub crop_to_common: plsr_hdr::merge::CropMode,
     /// Deghost: where something moved between exposures (people, leaves),
-    /// leave out the brackets that disagree with the middle exposure, so the
-    /// moving thing appears once, as the middle exposure saw it.
+    /// leave out the brackets that disagree with the best-exposed one, so the
+    /// moving thing appears once, as that bracket saw it.
     #[arg(long)]
     pub deghost: bool,
     /// Write the response curve as CSV here, and its plot as PNG next to it.
@@ -488,11 +488,12 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
             shifts.join(" ")
         );
     }
-    if let Some(f) = s.ghost_fraction {
+    if let Some((reference, f)) = &s.deghost {
         eprintln!(
             "  deghosting: {:.1} % of the image left out some bracket that disagreed with the \
-             middle exposure",
-            100.0 * f
+             best-exposed one, {}",
+            100.0 * f,
+            reference.display()
         );
     }
     if let Some([x0, y0, x1, y1]) = s.crop {

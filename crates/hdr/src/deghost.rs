@@ -4,34 +4,52 @@
 //! A reference-exposure method (in the spirit of Granados et al. 2013, with
 //! the consistency test of Grosch 2006): every pixel's radiance estimate in
 //! each bracket, `ln E_b = ln I(z_b) − ln k_b`, is compared with the
-//! estimate of a *reference* bracket, the middle exposure of the stack (or,
-//! where the middle exposure is clipped or dark, the nearest bracket
-//! towards it that is well exposed). Where a bracket disagrees by more than
+//! estimate of a *reference* bracket, the best-exposed one of the stack
+//! (the most weight between black and white over the image; where it is
+//! clipped or dark, the nearest bracket towards it that is exposed). Where a bracket disagrees by more than
 //! its noise allows ([`GhostVotes::vote`]), it saw something else there.
 //! Votes are gathered over blocks of [`BLOCK`]×[`BLOCK`] pixels, a block
 //! leaves a bracket out when enough of its pixels disagree, and the
 //! decision spreads to the neighbouring blocks so that a moving object's
-//! soft edges go with it ([`GhostMask`]). The merge then leaves those
-//! brackets out of those pixels: a moving object appears once, as the
-//! reference saw it, and still parts of the scene keep every bracket.
+//! soft edges go with it ([`GhostMask`]). In those blocks the merge leaves
+//! a bracket out of every pixel where it does not agree with the reference
+//! (disagrees, or could not be compared): a moving object appears once, as
+//! the reference saw it, while still pixels of the block and every other
+//! block keep all their brackets.
+//!
+//! Measured on the Memorial stack with a 40-pixel patch pasted along a
+//! path across its 16 brackets (`tests/it/hdr_memorial.rs`): log2-RMSE
+//! inside the path 0.72 without, 0.37 with deghosting; outside it 0.109 and
+//! 0.113; on the untouched stack 0.111 and 0.115. Leaving out whole blocks
+//! (no per-pixel agreement) gave 0.27 inside but 0.14 outside; per-pixel
+//! disagreement alone 0.50 inside.
 
 /// Side of the square blocks votes are gathered over, in pixels.
 pub const BLOCK: usize = 8;
 
 /// Difference of `ln E` (natural log of the radiance estimate) beyond the
-/// noise at which two brackets disagree: about half a stop.
-pub const THRESHOLD: f32 = 0.35;
+/// noise at which two brackets disagree: about 0.7 stops. (On the
+/// Memorial stack with a pasted moving patch, 0.35 and 0.5 left the same
+/// error inside the patch's path, 0.5 less harm to the still parts.)
+pub const THRESHOLD: f32 = 0.5;
 
 /// How many noise standard deviations (both estimates' relative errors
 /// added) the threshold grows by.
 const NOISE_SIGMAS: f32 = 3.0;
 
 /// A bracket is left out of a block when more than this fraction of the
-/// block's pixels where it was compared disagree with the reference...
-const REJECT_FRACTION: f32 = 0.2;
+/// block's pixels where it was compared disagree with the reference (a
+/// moving object disagrees nearly everywhere; a still scene's edges, where
+/// real brackets are never exactly registered, in a few pixels)...
+const REJECT_FRACTION: f32 = 0.5;
 
 /// ...and at least this many did.
 const REJECT_MIN_PIXELS: u32 = 4;
+
+/// The merge weight below which a value is too close to black or to
+/// clipping to be compared (a scan's or a curve's ends are where brackets
+/// disagree most, moving or not).
+pub const MIN_WEIGHT: f32 = 0.25;
 
 /// The most brackets deghosting handles (one bit each).
 pub const MAX_BRACKETS: usize = 64;
@@ -44,32 +62,37 @@ pub struct Estimate {
     pub ln_e: f32,
     /// Its relative error from the value's noise (`σ(E)/E`).
     pub noise: f32,
+    /// The value's merge weight (0 on the pedestal and where clipped).
+    pub weight: f32,
     /// Whether the value is exposed well enough to compare (weight above
-    /// zero).
+    /// [`MIN_WEIGHT`]).
     pub valid: bool,
     /// Whether the value is clipped high.
     pub clipped: bool,
 }
 
-/// The reference bracket at a pixel: `middle` where it is valid, else the
-/// nearest valid bracket towards shorter exposures if `middle` is clipped,
+/// The reference bracket at a pixel: `reference_bracket` where it is valid, else the
+/// best-weighted valid bracket among the shorter exposures if `reference_bracket` is clipped,
 /// towards longer ones if it is dark; `None` if there is none.
-pub fn reference(estimates: &[Estimate], middle: usize) -> Option<usize> {
-    let m = estimates.get(middle)?;
+pub fn reference_of(estimates: &[Estimate], reference_bracket: usize) -> Option<usize> {
+    let m = estimates.get(reference_bracket)?;
     if m.valid {
-        return Some(middle);
+        return Some(reference_bracket);
     }
-    if m.clipped {
-        (0..middle).rev().find(|&b| estimates[b].valid)
+    let range = if m.clipped {
+        0..reference_bracket
     } else {
-        (middle + 1..estimates.len()).find(|&b| estimates[b].valid)
-    }
+        reference_bracket + 1..estimates.len()
+    };
+    range
+        .filter(|&b| estimates[b].valid)
+        .max_by(|&a, &b| estimates[a].weight.total_cmp(&estimates[b].weight))
 }
 
 /// The brackets (bits) that disagree with the reference at one pixel and
 /// channel, and the ones compared with it.
-pub fn disagreeing(estimates: &[Estimate], middle: usize) -> (u64, u64) {
-    let Some(r) = reference(estimates, middle) else {
+pub fn disagreeing(estimates: &[Estimate], reference_bracket: usize) -> (u64, u64) {
+    let Some(r) = reference_of(estimates, reference_bracket) else {
         return (0, 0);
     };
     let e_r = estimates[r];
@@ -192,27 +215,28 @@ mod tests {
         Estimate {
             ln_e,
             noise: 0.01,
+            weight: if valid { 0.5 } else { 0.0 },
             valid,
             clipped,
         }
     }
 
     #[test]
-    fn the_reference_moves_off_a_clipped_or_dark_middle() {
+    fn the_reference_moves_off_a_clipped_or_dark_reference_bracket() {
         let e = [
             est(1.0, true, false),
             est(1.0, true, false),
             est(0.0, false, true),
             est(0.0, false, false),
         ];
-        assert_eq!(reference(&e, 2), Some(1));
-        assert_eq!(reference(&e, 3), None);
+        assert_eq!(reference_of(&e, 2), Some(1));
+        assert_eq!(reference_of(&e, 3), None);
         let e = [
             est(0.0, false, false),
             est(0.0, false, false),
             est(1.0, true, false),
         ];
-        assert_eq!(reference(&e, 0), Some(2));
+        assert_eq!(reference_of(&e, 0), Some(2));
     }
 
     #[test]
@@ -232,10 +256,10 @@ mod tests {
     #[test]
     fn a_block_with_enough_disagreement_leaves_the_bracket_out_around_it() {
         let mut v = GhostVotes::new(40, 24, 3);
-        // Block (2, 1): bracket 0 disagrees at 16 of 64 pixels.
+        // Block (2, 1): bracket 0 disagrees at 48 of 64 pixels.
         for y in 8..16 {
             for x in 16..24 {
-                let bad = if x % 4 == 0 { 1 } else { 0 };
+                let bad = if x % 4 == 3 { 0 } else { 1 };
                 v.vote(x, y, bad, 0b101);
             }
         }

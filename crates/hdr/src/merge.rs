@@ -94,7 +94,7 @@ pub struct MergeOptions {
     /// covers (see [`CropMode`]).
     pub crop: CropMode,
     /// Leave out, where something moved between exposures, the brackets
-    /// that disagree with the middle exposure ([`super::deghost`]).
+    /// that disagree with the best-exposed one ([`super::deghost`]).
     pub deghost: bool,
 }
 
@@ -280,9 +280,9 @@ pub struct MergeSummary {
     /// The brackets were camera raw files, merged as linear data (black
     /// and white levels and white balance from each file, through LibRaw).
     pub camera_raw: bool,
-    /// With deghosting: the fraction of the image where some bracket was
-    /// left out.
-    pub ghost_fraction: Option<f64>,
+    /// With deghosting: the reference bracket (the best-exposed one) and
+    /// the fraction of the image where some bracket was left out.
+    pub deghost: Option<(PathBuf, f64)>,
 }
 
 /// The largest finite half float: what `--half` stores values above it as.
@@ -1135,7 +1135,8 @@ fn run<T: Px>(
         )));
     }
     let crop = (window != [0, 0, w, h]).then_some(window);
-    let (curve, ranges) = recover_curve::<T>(brackets, &info, options, ch_out, progress)?;
+    let (curve, ranges, best_exposed) =
+        recover_curve::<T>(brackets, &info, options, ch_out, progress)?;
 
     // Merge pass. Readers must start from row 0: re-open them (the lattice
     // pass read forward through them).
@@ -1148,6 +1149,7 @@ fn run<T: Px>(
         Some(ghost_mask::<T>(
             brackets,
             &lk,
+            best_exposed,
             (w, h, ch_in, ch_out),
             pool,
             progress,
@@ -1204,7 +1206,12 @@ fn run<T: Px>(
         calibration,
         crop,
         camera_raw: false,
-        ghost_fraction: ghosts.as_ref().map(|g| g.ghost_fraction()),
+        deghost: ghosts.as_ref().map(|g| {
+            (
+                brackets[best_exposed].info.path.clone(),
+                g.0.ghost_fraction(),
+            )
+        }),
         warnings: if clamped > 0 {
             vec![format!(
                 "{clamped} value(s) above {HALF_MAX}, the largest half float, were stored as {HALF_MAX}: \
@@ -1253,15 +1260,16 @@ fn recover_curve<T: Px>(
     options: &MergeOptions,
     ch_out: usize,
     progress: &dyn Fn(&str, u64, u64),
-) -> Result<(ResponseCurve, Vec<SignalRange>)> {
+) -> Result<(ResponseCurve, Vec<SignalRange>, usize)> {
     let levels = domain_levels(info.format, options.response);
     // The lattice the levels are found on (and curves recovered from), on
     // the recovery's domain: 256 levels for 8-bit input, bins otherwise.
     let lattice_levels = domain_levels(info.format, ResponseMethod::Debevec);
     let lattice = sample_lattice::<T>(brackets, lattice_levels, ch_out, progress)?;
     let ranges = signal_ranges(&lattice.samples, options, info.format)?;
+    let best = best_exposed(&lattice.samples, &ranges);
     if let Some(path) = &options.response_curve {
-        return Ok((ResponseCurve::read_csv(path)?, ranges));
+        return Ok((ResponseCurve::read_csv(path)?, ranges, best));
     }
     let curve = match options.response {
         ResponseMethod::Linear => ResponseCurve::linear(levels, ch_out),
@@ -1293,7 +1301,25 @@ fn recover_curve<T: Px>(
             }
         }
     };
-    Ok((curve, ranges))
+    Ok((curve, ranges, best))
+}
+
+/// The bracket whose lattice values carry the most weight (between the
+/// black and white levels): the best-exposed one, deghosting's reference.
+fn best_exposed(samples: &SampleSet, ranges: &[SignalRange]) -> usize {
+    let (n, ch) = (samples.brackets, samples.channels);
+    let top = (samples.levels - 1).max(1) as f32;
+    let mut total = vec![0f64; n];
+    for point in samples.values.chunks_exact(n * ch) {
+        for (b, values) in point.chunks_exact(ch).enumerate() {
+            for (c, &z) in values.iter().enumerate() {
+                total[b] += ranges[c.min(ranges.len() - 1)].weight(z as f32 / top) as f64;
+            }
+        }
+    }
+    (0..n)
+        .max_by(|&a, &b| total[a].total_cmp(&total[b]).then(b.cmp(&a)))
+        .unwrap_or(n / 2)
 }
 
 /// Each channel's black and white levels: the ones given in `options`,
@@ -1386,7 +1412,7 @@ struct MergeKernel {
     shifts: Vec<(i32, i32)>,
     robertson: bool,
     fast: Option<Tables>,
-    ghosts: Option<GhostMask>,
+    ghosts: Option<(GhostMask, GhostTest)>,
     w: usize,
     h: usize,
     ch_in: usize,
@@ -1398,7 +1424,7 @@ impl MergeKernel {
         brackets: &[Input],
         lk: Lookup,
         calibration: Option<&(f64, String)>,
-        ghosts: Option<GhostMask>,
+        ghosts: Option<(GhostMask, GhostTest)>,
         options: &MergeOptions,
         (w, h, ch_in, ch_out): (usize, usize, usize, usize),
     ) -> MergeKernel {
@@ -1465,10 +1491,19 @@ impl MergeKernel {
             }
         }
         // Where something moved, again without the brackets that saw it.
-        if let Some(g) = &self.ghosts {
+        if let Some((mask, test)) = &self.ghosts {
             let mut ghost_stats = (0u64, 0u64);
+            let mut est = Vec::with_capacity(src.len());
             for x in 0..w {
-                let skip = g.skip(x, y);
+                // In a block where something moved, a bracket is left out
+                // unless it agrees with the reference at this very pixel
+                // (so still edges in the block keep every bracket).
+                let block = mask.skip(x, y);
+                if block == 0 {
+                    continue;
+                }
+                let (bad, tested) = test.pixel(&self.lk, &src, x, ch_in, &mut est);
+                let skip = block & !(tested & !bad);
                 if skip == 0 {
                     continue;
                 }
@@ -1517,10 +1552,11 @@ fn shifted_rows<'a, T: Px>(
 fn ghost_mask<T: Px>(
     brackets: &[Input],
     lk: &Lookup,
+    reference: usize,
     (w, h, ch_in, ch_out): (usize, usize, usize, usize),
     pool: &rayon::ThreadPool,
     progress: &dyn Fn(&str, u64, u64),
-) -> Result<GhostMask> {
+) -> Result<(GhostMask, GhostTest)> {
     let n = brackets.len();
     if n > deghost::MAX_BRACKETS {
         return Err(Error::invalid_argument(format!(
@@ -1528,19 +1564,11 @@ fn ghost_mask<T: Px>(
             deghost::MAX_BRACKETS
         )));
     }
-    let middle = n / 2;
     let ln_k: Vec<f32> = brackets
         .iter()
         .map(|b| (b.info.relative_exposure as f32).ln())
         .collect();
-    let levels = lk.curve.levels().max(256);
-    let noise: Vec<Vec<f32>> = (0..ch_out)
-        .map(|c| {
-            (0..levels)
-                .map(|z| levels::exposure_noise(&lk.curve, c, z as f32 / (levels - 1) as f32))
-                .collect()
-        })
-        .collect();
+    let test = GhostTest::new(lk, ln_k, reference, ch_out);
     let mut readers = brackets
         .iter()
         .map(|b| ImageReader::open(&b.info.path))
@@ -1548,6 +1576,7 @@ fn ghost_mask<T: Px>(
     let shifts: Vec<(i32, i32)> = brackets.iter().map(|b| b.info.shift).collect();
     let band = (deghost::BLOCK * 8).min(h);
     let mut votes = GhostVotes::new(w, h, n);
+    let test = &test;
     progress("deghosting", 0, h as u64);
     std::thread::scope(|scope| -> Result<()> {
         let (to_votes, from_reader) = sync_channel::<Result<Band<T>>>(2);
@@ -1561,28 +1590,10 @@ fn ghost_mask<T: Px>(
                     .into_par_iter()
                     .map(|y| {
                         let src = shifted_rows(&rows, &shifts, y, w, h, ch_in);
+                        let src: Vec<&[T]> = src.iter().map(|r| r.as_ref()).collect();
                         let mut est = Vec::with_capacity(n);
                         (0..w)
-                            .map(|x| {
-                                let (mut bad, mut tested) = (0u64, 0u64);
-                                for c in 0..ch_out {
-                                    est.clear();
-                                    for (b, row) in src.iter().enumerate() {
-                                        let z = row[x * ch_in + c];
-                                        let (wt, ln_i, _, high) = lk.get(c, z);
-                                        est.push(deghost::Estimate {
-                                            ln_e: ln_i - ln_k[b],
-                                            noise: noise[c][level_of(z.norm(), levels) as usize],
-                                            valid: wt > 0.0,
-                                            clipped: high,
-                                        });
-                                    }
-                                    let (b, t) = deghost::disagreeing(&est, middle);
-                                    bad |= b;
-                                    tested |= t;
-                                }
-                                (bad, tested)
-                            })
+                            .map(|x| test.pixel(lk, &src, x, ch_in, &mut est))
                             .collect()
                     })
                     .collect()
@@ -1596,7 +1607,71 @@ fn ghost_mask<T: Px>(
         }
         Ok(())
     })?;
-    Ok(votes.mask())
+    Ok((votes.mask(), test.clone()))
+}
+
+/// The per-pixel consistency test of deghosting: each bracket's estimate
+/// against the reference bracket's ([`deghost::disagreeing`]).
+#[derive(Debug, Clone)]
+struct GhostTest {
+    /// `ln k` per bracket.
+    ln_k: Vec<f32>,
+    /// Per channel, the relative error of the exposure at each level.
+    noise: Vec<Vec<f32>>,
+    /// The image's reference bracket (the best-exposed one).
+    reference: usize,
+    channels: usize,
+}
+
+impl GhostTest {
+    fn new(lk: &Lookup, ln_k: Vec<f32>, reference: usize, channels: usize) -> GhostTest {
+        let levels = lk.curve.levels().max(256);
+        let noise = (0..channels)
+            .map(|c| {
+                (0..levels)
+                    .map(|z| levels::exposure_noise(&lk.curve, c, z as f32 / (levels - 1) as f32))
+                    .collect()
+            })
+            .collect();
+        GhostTest {
+            ln_k,
+            noise,
+            reference,
+            channels,
+        }
+    }
+
+    /// The brackets that disagree with the reference at pixel `x` of the
+    /// (shifted) rows `src` in any channel, and the ones compared.
+    fn pixel<T: Px>(
+        &self,
+        lk: &Lookup,
+        src: &[&[T]],
+        x: usize,
+        ch_in: usize,
+        est: &mut Vec<deghost::Estimate>,
+    ) -> (u64, u64) {
+        let (mut bad, mut tested) = (0u64, 0u64);
+        for c in 0..self.channels {
+            est.clear();
+            let noise = &self.noise[c];
+            for (b, row) in src.iter().enumerate() {
+                let z = row[x * ch_in + c];
+                let (wt, ln_i, _, high) = lk.get(c, z);
+                est.push(deghost::Estimate {
+                    ln_e: ln_i - self.ln_k[b],
+                    noise: noise[level_of(z.norm(), noise.len()) as usize],
+                    weight: wt,
+                    valid: wt > deghost::MIN_WEIGHT,
+                    clipped: high,
+                });
+            }
+            let (b, t) = deghost::disagreeing(est, self.reference);
+            bad |= b;
+            tested |= t;
+        }
+        (bad, tested)
+    }
 }
 
 /// The streamed merge: a reader thread reads bands of rows of every
