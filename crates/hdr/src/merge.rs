@@ -1475,18 +1475,7 @@ impl MergeKernel {
         } else {
             for x in 0..w {
                 for c in 0..ch_out {
-                    orow[x * ch_out + c] = merge_value(
-                        &self.lk,
-                        &src,
-                        ch_in,
-                        x,
-                        c,
-                        &self.ln_k,
-                        &self.k,
-                        self.robertson,
-                        0,
-                        &mut st,
-                    );
+                    orow[x * ch_out + c] = self.value(&src, x, c, 0, &mut st);
                 }
             }
         }
@@ -1508,22 +1497,38 @@ impl MergeKernel {
                     continue;
                 }
                 for c in 0..ch_out {
-                    orow[x * ch_out + c] = merge_value(
-                        &self.lk,
-                        &src,
-                        ch_in,
-                        x,
-                        c,
-                        &self.ln_k,
-                        &self.k,
-                        self.robertson,
-                        skip,
-                        &mut ghost_stats,
-                    );
+                    orow[x * ch_out + c] = self.value(&src, x, c, skip, &mut ghost_stats);
                 }
             }
         }
         st
+    }
+}
+
+impl MergeKernel {
+    /// [`merge_value`] of channel `c` at pixel `x` of the shifted rows
+    /// `src`, without the brackets in `skip`.
+    #[inline]
+    fn value<T: Px>(
+        &self,
+        src: &[&[T]],
+        x: usize,
+        c: usize,
+        skip: u64,
+        stats: &mut (u64, u64),
+    ) -> f32 {
+        merge_value(
+            &self.lk,
+            src,
+            self.ch_in,
+            x,
+            c,
+            &self.ln_k,
+            &self.k,
+            self.robertson,
+            skip,
+            stats,
+        )
     }
 }
 
