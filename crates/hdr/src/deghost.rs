@@ -148,14 +148,6 @@ impl GhostVotes {
         }
     }
 
-    /// Adds another set of votes of the same image (one band's).
-    pub fn add(&mut self, other: &GhostVotes) {
-        for (a, b) in self.counts.iter_mut().zip(&other.counts) {
-            a.0 += b.0;
-            a.1 += b.1;
-        }
-    }
-
     /// The mask: each block leaves out the brackets that disagreed in it
     /// or in a neighbouring block.
     pub fn mask(&self) -> GhostMask {

@@ -1145,17 +1145,16 @@ fn run<T: Px>(
     }
     let lk = Lookup::new::<T>(curve.clone(), &ranges, ch_out);
     let calibration = calibrate::<T>(brackets, &lk, (w, h, ch_in, ch_out), window, options)?;
-    let ghosts = if options.deghost {
-        Some(ghost_mask::<T>(
+    let ghosts = match best_exposed {
+        Some(reference) => Some(ghost_mask::<T>(
             brackets,
             &lk,
-            best_exposed,
+            reference,
             (w, h, ch_in, ch_out),
             pool,
             progress,
-        )?)
-    } else {
-        None
+        )?),
+        None => None,
     };
     let kernel = MergeKernel::new::<T>(
         brackets,
@@ -1206,12 +1205,10 @@ fn run<T: Px>(
         calibration,
         crop,
         camera_raw: false,
-        deghost: ghosts.as_ref().map(|g| {
-            (
-                brackets[best_exposed].info.path.clone(),
-                g.0.ghost_fraction(),
-            )
-        }),
+        deghost: ghosts
+            .as_ref()
+            .zip(best_exposed)
+            .map(|(g, r)| (brackets[r].info.path.clone(), g.0.ghost_fraction())),
         warnings: if clamped > 0 {
             vec![format!(
                 "{clamped} value(s) above {HALF_MAX}, the largest half float, were stored as {HALF_MAX}: \
@@ -1260,14 +1257,16 @@ fn recover_curve<T: Px>(
     options: &MergeOptions,
     ch_out: usize,
     progress: &dyn Fn(&str, u64, u64),
-) -> Result<(ResponseCurve, Vec<SignalRange>, usize)> {
+) -> Result<(ResponseCurve, Vec<SignalRange>, Option<usize>)> {
     let levels = domain_levels(info.format, options.response);
     // The lattice the levels are found on (and curves recovered from), on
     // the recovery's domain: 256 levels for 8-bit input, bins otherwise.
     let lattice_levels = domain_levels(info.format, ResponseMethod::Debevec);
     let lattice = sample_lattice::<T>(brackets, lattice_levels, ch_out, progress)?;
     let ranges = signal_ranges(&lattice.samples, options, info.format)?;
-    let best = best_exposed(&lattice.samples, &ranges);
+    let best = options
+        .deghost
+        .then(|| best_exposed(&lattice.samples, &ranges));
     if let Some(path) = &options.response_curve {
         return Ok((ResponseCurve::read_csv(path)?, ranges, best));
     }
@@ -1503,9 +1502,7 @@ impl MergeKernel {
         }
         st
     }
-}
 
-impl MergeKernel {
     /// [`merge_value`] of channel `c` at pixel `x` of the shifted rows
     /// `src`, without the brackets in `skip`.
     #[inline]
@@ -1893,18 +1890,11 @@ fn region_luminance<T: Px>(
     } else {
         &[1.0]
     };
+    let shifts: Vec<(i32, i32)> = brackets.iter().map(|b| b.info.shift).collect();
     let mut sum = 0f64;
     let mut stats = (0u64, 0u64);
     for y in y0..y1 {
-        let src: Vec<std::borrow::Cow<[T]>> = rows
-            .iter()
-            .zip(brackets)
-            .map(|(br, b)| {
-                let sy = (y as i64 - b.info.shift.1 as i64).clamp(0, h as i64 - 1) as usize;
-                let off = (sy - br.first_row) * w * ch_in;
-                shift_row(&br.data[off..off + w * ch_in], b.info.shift.0, w, ch_in)
-            })
-            .collect();
+        let src = shifted_rows(&rows, &shifts, y, w, h, ch_in);
         let src: Vec<&[T]> = src.iter().map(|r| r.as_ref()).collect();
         for x in x0..x1 {
             for (c, wt) in weights.iter().enumerate() {
