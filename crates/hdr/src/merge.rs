@@ -1138,11 +1138,9 @@ fn run<T: Px>(
     let (curve, ranges, best_exposed) =
         recover_curve::<T>(brackets, &info, options, ch_out, progress)?;
 
-    // Merge pass. Readers must start from row 0: re-open them (the lattice
-    // pass read forward through them).
-    for b in brackets.iter_mut() {
-        b.reader = ImageReader::open(&b.info.path)?;
-    }
+    // Merge pass, from row 0 again: a reader of a sequential format goes
+    // back by itself (OpenImageIO re-opens the file; plsr's PNG reader
+    // kept a small image decoded).
     let lk = Lookup::new::<T>(curve.clone(), &ranges, ch_out);
     let calibration = calibrate::<T>(brackets, &lk, (w, h, ch_in, ch_out), window, options)?;
     let ghosts = match best_exposed {
@@ -2019,8 +2017,9 @@ struct Lattice {
 }
 
 /// Reads one row in `stride` (and one pixel in `stride` of it) of every
-/// bracket, with the bracket's alignment shift, as curve levels; about
-/// 40,000–160,000 points.
+/// bracket, with the bracket's alignment shift, as curve levels: about
+/// 40,000 points (22,000–90,000 as the stride rounds; every pixel of a
+/// smaller image). The Debevec solve's time grows with them.
 fn sample_lattice<T: Px>(
     brackets: &mut [Input],
     levels: usize,
@@ -2029,28 +2028,41 @@ fn sample_lattice<T: Px>(
 ) -> Result<Lattice> {
     let info = brackets[0].reader.info().clone();
     let (w, h, ch_in) = (info.width, info.height, info.channels);
-    let stride = (((w * h) as f64 / 40_000.0).sqrt().floor() as usize).max(1);
+    let stride = (((w * h) as f64 / 40_000.0).sqrt().round() as usize).max(1);
     let cols = w.div_ceil(stride);
     let rows = h.div_ceil(stride);
     let n = brackets.len();
-    let mut values = vec![0u16; cols * rows * n * ch_out];
-    let mut row = vec![T::default(); w * ch_in];
-    for (b, br) in brackets.iter_mut().enumerate() {
-        let (dx, dy) = br.info.shift;
-        for ry in 0..rows {
-            let y = (ry * stride + stride / 2).min(h - 1);
-            let sy = (y as i64 - dy as i64).clamp(0, h as i64 - 1) as usize;
-            br.reader.read_rows(sy, sy + 1, &mut row)?;
-            for rx in 0..cols {
-                let x = (rx * stride + stride / 2).min(w - 1);
-                let sx = (x as i64 - dx as i64).clamp(0, w as i64 - 1) as usize;
-                let p = ry * cols + rx;
-                for c in 0..ch_out {
-                    values[(p * n + b) * ch_out + c] = level_of(row[sx * ch_in + c].norm(), levels);
+    // Each bracket's lattice values (point-major), the brackets read in
+    // parallel; then interleaved bracket by bracket for each point.
+    progress("sampling", 0, n as u64);
+    let per_bracket = brackets
+        .par_iter_mut()
+        .map(|br| -> Result<Vec<u16>> {
+            let (dx, dy) = br.info.shift;
+            let mut row = vec![T::default(); w * ch_in];
+            let mut mine = vec![0u16; cols * rows * ch_out];
+            for ry in 0..rows {
+                let y = (ry * stride + stride / 2).min(h - 1);
+                let sy = (y as i64 - dy as i64).clamp(0, h as i64 - 1) as usize;
+                br.reader.read_rows(sy, sy + 1, &mut row)?;
+                for rx in 0..cols {
+                    let x = (rx * stride + stride / 2).min(w - 1);
+                    let sx = (x as i64 - dx as i64).clamp(0, w as i64 - 1) as usize;
+                    let p = ry * cols + rx;
+                    for c in 0..ch_out {
+                        mine[p * ch_out + c] = level_of(row[sx * ch_in + c].norm(), levels);
+                    }
                 }
             }
+            Ok(mine)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    progress("sampling", n as u64, n as u64);
+    let mut values = vec![0u16; cols * rows * n * ch_out];
+    for (b, mine) in per_bracket.iter().enumerate() {
+        for (p, point) in mine.chunks_exact(ch_out).enumerate() {
+            values[(p * n + b) * ch_out..][..ch_out].copy_from_slice(point);
         }
-        progress("sampling", b as u64 + 1, n as u64);
     }
     Ok(Lattice {
         samples: SampleSet {

@@ -24,6 +24,7 @@
 use crate::error::{Error, Result, UnknownResponseMethod};
 use crate::levels::SignalRange;
 use plsr_base::Vocabulary;
+use rayon::prelude::*;
 use std::fmt;
 use std::io::Write;
 use std::path::Path;
@@ -621,8 +622,8 @@ pub fn debevec(
     let l = samples.levels;
     let ln_t: Vec<f64> = exposures.iter().map(|t| t.ln()).collect();
     let lam = lambda.max(0.0) * ((l - 1) as f64 / 255.0).powi(2);
-    let mut inverse = Vec::with_capacity(samples.channels);
-    for c in 0..samples.channels {
+    // The channels are independent systems, solved in parallel.
+    let channel = |c: usize| -> Result<Vec<f32>> {
         let range = range_of(ranges, c);
         // Normal equations over g (l unknowns) with the per-sample ln E
         // eliminated: G g = r with
@@ -686,8 +687,12 @@ pub fn debevec(
         })?;
         let mut sol = sol;
         extend_beyond_range(&mut sol, |z| level_weight(z, l, &range) > 0.0);
-        inverse.push(sol.iter().map(|g| (g.exp()) as f32).collect());
-    }
+        Ok(sol.iter().map(|g| (g.exp()) as f32).collect())
+    };
+    let mut inverse = (0..samples.channels)
+        .into_par_iter()
+        .map(channel)
+        .collect::<Result<Vec<_>>>()?;
     normalise(&mut inverse);
     Ok(ResponseCurve {
         method: ResponseMethod::Debevec,

@@ -12,8 +12,15 @@
 //! Every failure is an [`Error`] naming the file and carrying OpenImageIO's
 //! own message ([`error`]); the shim catches every C++ exception, none reaches Rust.
 //! This module holds all of plsr's `unsafe` code for OpenImageIO.
+//!
+//! Two common cases skip OpenImageIO, whose loading costs about 0.3 s:
+//! 8/16-bit PNGs without alpha are read by [`png_reader`], and OpenEXR
+//! files up to [`exr_writer::MAX_BYTES`] with plsr's attributes are written
+//! by [`exr_writer`]; both give what OpenImageIO gives.
 
 pub mod error;
+pub mod exr_writer;
+pub mod png_reader;
 
 pub use error::{Error, LoadFailure, Result};
 use plsr_base::Vocabulary;
@@ -354,11 +361,48 @@ impl Sample for u16 {
 impl Sample for f32 {
     const TYPE: PixelType = PixelType::F32;
 }
-mod private {
-    pub trait Sealed {}
-    impl Sealed for u8 {}
-    impl Sealed for u16 {}
-    impl Sealed for f32 {}
+/// Conversions between sample types, as OpenImageIO converts them
+/// (integers span 0–1 over their full range, scaled by the reciprocal of
+/// their largest value).
+pub(crate) mod private {
+    pub trait Sealed: Sized {
+        fn from_u8(v: u8) -> Self;
+        fn from_u16(v: u16) -> Self;
+        fn to_f32(self) -> f32;
+    }
+    impl Sealed for u8 {
+        fn from_u8(v: u8) -> Self {
+            v
+        }
+        fn from_u16(v: u16) -> Self {
+            ((u32::from(v) * 255 + 32767) / 65535) as u8
+        }
+        fn to_f32(self) -> f32 {
+            f32::from(self) * (1.0 / 255.0)
+        }
+    }
+    impl Sealed for u16 {
+        fn from_u8(v: u8) -> Self {
+            u16::from(v) * 257
+        }
+        fn from_u16(v: u16) -> Self {
+            v
+        }
+        fn to_f32(self) -> f32 {
+            f32::from(self) * (1.0 / 65535.0)
+        }
+    }
+    impl Sealed for f32 {
+        fn from_u8(v: u8) -> Self {
+            v.to_f32()
+        }
+        fn from_u16(v: u16) -> Self {
+            v.to_f32()
+        }
+        fn to_f32(self) -> f32 {
+            self
+        }
+    }
 }
 
 /// Size, channels and depth of an image file.
@@ -391,9 +435,18 @@ pub struct Exif {
 /// An image file open for reading (first subimage, full resolution).
 #[derive(Debug)]
 pub struct ImageReader {
-    handle: NonNull<ffi::Input>,
+    source: Source,
     info: ImageInfo,
     path: PathBuf,
+}
+
+/// What reads an [`ImageReader`]'s file.
+#[derive(Debug)]
+enum Source {
+    /// OpenImageIO, through the shim.
+    Oiio(NonNull<ffi::Input>),
+    /// plsr's own PNG reader.
+    Png(Box<png_reader::PngRows>),
 }
 
 // SAFETY: an OpenImageIO ImageInput may be used from any thread as long as
@@ -405,6 +458,20 @@ impl ImageReader {
     /// Opens `path`. Errors name the file and carry OpenImageIO's message.
     pub fn open(path: &Path) -> Result<ImageReader> {
         plsr_base::input::check_input_file(path)?;
+        if png_reader::is_png(path) {
+            if let Some(png) = png_reader::PngRows::open(path)? {
+                return Ok(ImageReader {
+                    info: png.info().clone(),
+                    source: Source::Png(Box::new(png)),
+                    path: path.to_path_buf(),
+                });
+            }
+        }
+        Self::open_with_oiio(path)
+    }
+
+    /// Opens `path` with OpenImageIO, whatever its format.
+    fn open_with_oiio(path: &Path) -> Result<ImageReader> {
         let cpath = c_path(path)?;
         let mut handle: *mut ffi::Input = std::ptr::null_mut();
         let mut spec = ffi::Spec::default();
@@ -437,7 +504,7 @@ impl ImageReader {
         })?;
         let format = PixelType::from_code(spec.format);
         Ok(ImageReader {
-            handle,
+            source: Source::Oiio(handle),
             info: ImageInfo {
                 width: spec.width.max(0) as usize,
                 height: spec.height.max(0) as usize,
@@ -461,28 +528,31 @@ impl ImageReader {
 
     /// A numeric metadata attribute (OpenImageIO name, e.g. `"ExposureTime"`).
     pub fn float_attribute(&self, name: &str) -> Option<f64> {
+        let handle = match &self.source {
+            Source::Oiio(handle) => handle,
+            // PNG text chunks are strings, as OpenImageIO reports them.
+            Source::Png(_) => return None,
+        };
         let cname = CString::new(name).ok()?;
         let mut v = 0f32;
         // SAFETY: the handle is live (owned by self), the name is a valid C
         // string, and `v` is a valid out-parameter; the shim never throws.
-        let found =
-            unsafe { (ffi::loaded().get_float)(self.handle.as_ptr(), cname.as_ptr(), &mut v) };
+        let found = unsafe { (ffi::loaded().get_float)(handle.as_ptr(), cname.as_ptr(), &mut v) };
         (found == 1 && v.is_finite()).then_some(v as f64)
     }
 
     /// A string metadata attribute, truncated to 64 KiB.
     pub fn string_attribute(&self, name: &str) -> Option<String> {
+        let handle = match &self.source {
+            Source::Oiio(handle) => handle,
+            Source::Png(png) => return png.text(name).map(str::to_owned),
+        };
         let cname = CString::new(name).ok()?;
         let mut buf = vec![0 as c_char; 65536];
         // SAFETY: the handle is live, the name is a valid C string, and `buf`
         // holds `buf.len()` bytes; the shim NUL-terminates within them.
         let found = unsafe {
-            (ffi::loaded().get_string)(
-                self.handle.as_ptr(),
-                cname.as_ptr(),
-                buf.as_mut_ptr(),
-                buf.len(),
-            )
+            (ffi::loaded().get_string)(handle.as_ptr(), cname.as_ptr(), buf.as_mut_ptr(), buf.len())
         };
         if found != 1 {
             return None;
@@ -522,6 +592,10 @@ impl ImageReader {
                 self.info.channels
             )));
         }
+        let handle = match &mut self.source {
+            Source::Oiio(handle) => *handle,
+            Source::Png(png) => return png.read_rows(y0, y1, out),
+        };
         let mut err = [0 as c_char; ERR_LEN];
         // SAFETY: the handle is live and used by one thread at a time (&mut
         // self); `out` is a valid writable buffer of exactly
@@ -529,7 +603,7 @@ impl ImageReader {
         // requested; `err` holds ERR_LEN bytes.
         let status = unsafe {
             (ffi::loaded().read_rows)(
-                self.handle.as_ptr(),
+                handle.as_ptr(),
                 y0 as c_int,
                 y1 as c_int,
                 T::TYPE.code(),
@@ -559,9 +633,11 @@ impl ImageReader {
 
 impl Drop for ImageReader {
     fn drop(&mut self) {
-        // SAFETY: the handle came from plsr_oiio_open and is closed exactly
-        // once, here; the shim never throws.
-        unsafe { (ffi::loaded().close)(self.handle.as_ptr()) }
+        if let Source::Oiio(handle) = self.source {
+            // SAFETY: the handle came from plsr_oiio_open and is closed
+            // exactly once, here; the shim never throws.
+            unsafe { (ffi::loaded().close)(handle.as_ptr()) }
+        }
     }
 }
 
@@ -616,6 +692,24 @@ fn raw_size(width: usize, height: usize, channels: usize, stored: PixelType) -> 
     (width * height * channels * bytes + (1 << 16)) as u64
 }
 
+/// Refuses an empty image, or one too large for OpenImageIO's sizes.
+fn check_size(path: &Path, width: usize, height: usize, channels: usize) -> Result<()> {
+    let out_err = |message: &str| Error::Write {
+        file: path.to_path_buf(),
+        message: message.into(),
+    };
+    if width == 0 || height == 0 || channels == 0 {
+        return Err(out_err("empty image"));
+    }
+    if [width, height, channels]
+        .iter()
+        .any(|&d| d > i32::MAX as usize)
+    {
+        return Err(out_err("image too large"));
+    }
+    Ok(())
+}
+
 /// Removes an unfinished temporary output and forgets it.
 fn discard(tmp: &Path) {
     let _ = std::fs::remove_file(tmp);
@@ -626,7 +720,8 @@ fn discard(tmp: &Path) {
 /// it and move it into place. Dropped unfinished, it leaves no file behind.
 #[derive(Debug)]
 pub struct ImageWriter {
-    handle: Option<NonNull<ffi::Output>>,
+    /// `None` once finished.
+    sink: Option<Sink>,
     path: PathBuf,
     tmp: PathBuf,
     width: usize,
@@ -634,6 +729,15 @@ pub struct ImageWriter {
     channels: usize,
     /// Bytes the file needs at most.
     needed: u64,
+}
+
+/// What writes an [`ImageWriter`]'s file.
+#[derive(Debug)]
+enum Sink {
+    /// OpenImageIO, through the shim.
+    Oiio(NonNull<ffi::Output>),
+    /// plsr's own OpenEXR writer, and the temporary file it will fill.
+    Exr(Box<exr_writer::ExrBuffer>, std::fs::File),
 }
 
 // SAFETY: an OpenImageIO ImageOutput may be driven from any one thread at a
@@ -655,15 +759,60 @@ impl ImageWriter {
             file: path.to_path_buf(),
             message,
         };
-        if width == 0 || height == 0 || channels == 0 {
-            return Err(out_err("empty image".into()));
+        check_size(path, width, height, channels)?;
+        if let Some(buffer) =
+            exr_writer::ExrBuffer::new(path, width, height, channels, stored, attributes)
+        {
+            plsr_base::atomic_write::sweep_stale_partials(path);
+            let tmp = plsr_base::atomic_write::partial_path(path);
+            let needed = raw_size(width, height, channels, stored);
+            plsr_base::atomic_write::register_partial(&tmp);
+            // Read as well as written: the header is sorted in place.
+            let file = std::fs::OpenOptions::new()
+                .read(true)
+                .write(true)
+                .create(true)
+                .truncate(true)
+                .open(&tmp)
+                .map_err(|e| {
+                    discard(&tmp);
+                    out_err(plsr_base::atomic_write::write_failure_message(
+                        path,
+                        &tmp,
+                        needed,
+                        &e.to_string(),
+                    ))
+                })?;
+            return Ok(ImageWriter {
+                sink: Some(Sink::Exr(Box::new(buffer), file)),
+                path: path.to_path_buf(),
+                tmp,
+                width,
+                height,
+                channels,
+                needed,
+            });
         }
-        let dims = [width, height, channels];
-        if dims.iter().any(|&d| d > i32::MAX as usize) {
-            return Err(out_err("image too large".into()));
-        }
+        Self::create_with_oiio(path, width, height, channels, stored, attributes)
+    }
+
+    /// [`ImageWriter::create`] with OpenImageIO, whatever the format.
+    fn create_with_oiio(
+        path: &Path,
+        width: usize,
+        height: usize,
+        channels: usize,
+        stored: PixelType,
+        attributes: &[Attribute],
+    ) -> Result<ImageWriter> {
+        let out_err = |message: String| Error::Write {
+            file: path.to_path_buf(),
+            message,
+        };
+        check_size(path, width, height, channels)?;
         plsr_base::atomic_write::sweep_stale_partials(path);
         let tmp = plsr_base::atomic_write::partial_path(path);
+        let needed = raw_size(width, height, channels, stored);
         let ctmp = c_path(&tmp)?;
         plsr_base::atomic_write::register_partial(&tmp);
         // Keep the CStrings alive while the Attr array points into them.
@@ -730,7 +879,6 @@ impl ImageWriter {
         };
         if status != ffi::OK {
             discard(&tmp);
-            let needed = raw_size(width, height, channels, stored);
             return Err(out_err(plsr_base::atomic_write::write_failure_message(
                 path,
                 &tmp,
@@ -738,19 +886,18 @@ impl ImageWriter {
                 &message(&err),
             )));
         }
-        let handle = NonNull::new(handle);
-        if handle.is_none() {
+        let Some(handle) = NonNull::new(handle) else {
             discard(&tmp);
             return Err(out_err("OpenImageIO returned no writer".into()));
-        }
+        };
         Ok(ImageWriter {
-            handle,
+            sink: Some(Sink::Oiio(handle)),
             path: path.to_path_buf(),
             tmp,
             width,
             height,
             channels,
-            needed: raw_size(width, height, channels, stored),
+            needed,
         })
     }
 
@@ -758,12 +905,6 @@ impl ImageWriter {
     /// `(y1 - y0) · width · channels` values); rows go in increasing order.
     pub fn write_rows<T: Sample>(&mut self, y0: usize, y1: usize, data: &[T]) -> Result<()> {
         let need = y1.saturating_sub(y0) * self.width * self.channels;
-        let Some(handle) = self.handle else {
-            return Err(Error::Write {
-                file: self.path.clone(),
-                message: "writer already closed".into(),
-            });
-        };
         if y0 > y1 || y1 > self.height || data.len() != need {
             return Err(Error::invalid_argument(format!(
                 "{}: rows {y0}..{y1} with {} values",
@@ -771,6 +912,19 @@ impl ImageWriter {
                 data.len()
             )));
         }
+        let handle = match &mut self.sink {
+            None => {
+                return Err(Error::Write {
+                    file: self.path.clone(),
+                    message: "writer already closed".into(),
+                })
+            }
+            Some(Sink::Exr(buffer, _)) => {
+                buffer.write_rows(y0, data);
+                return Ok(());
+            }
+            Some(Sink::Oiio(handle)) => *handle,
+        };
         let mut err = [0 as c_char; ERR_LEN];
         // SAFETY: the handle is live (Some) and used by one thread (&mut
         // self); `data` is a readable buffer of size_of_val(data) bytes that
@@ -812,11 +966,26 @@ impl ImageWriter {
     /// Closes the file and hands it to `outputs`, to be renamed into place
     /// with the command's other outputs (or removed with them).
     pub fn finish_into(mut self, outputs: &mut plsr_base::atomic_write::OutputSet) -> Result<()> {
-        let Some(handle) = self.handle.take() else {
-            return Err(Error::Write {
-                file: self.path.clone(),
-                message: "writer already closed".into(),
-            });
+        let handle = match self.sink.take() {
+            None => {
+                return Err(Error::Write {
+                    file: self.path.clone(),
+                    message: "writer already closed".into(),
+                })
+            }
+            Some(Sink::Exr(buffer, mut file)) => {
+                if let Err(message) = buffer.write(&mut file) {
+                    drop(file);
+                    discard(&self.tmp);
+                    return Err(Error::Write {
+                        file: self.path.clone(),
+                        message: self.failure(&message),
+                    });
+                }
+                outputs.adopt(self.tmp.clone(), self.path.clone());
+                return Ok(());
+            }
+            Some(Sink::Oiio(handle)) => handle,
         };
         let mut err = [0 as c_char; ERR_LEN];
         // SAFETY: the handle came from plsr_oiio_create and is finished once
@@ -837,10 +1006,17 @@ impl ImageWriter {
 
 impl Drop for ImageWriter {
     fn drop(&mut self) {
-        if let Some(handle) = self.handle.take() {
-            // SAFETY: the handle is live and released exactly once, here.
-            unsafe { (ffi::loaded().abort)(handle.as_ptr()) };
-            discard(&self.tmp);
+        match self.sink.take() {
+            None => {}
+            Some(Sink::Exr(_, file)) => {
+                drop(file);
+                discard(&self.tmp);
+            }
+            Some(Sink::Oiio(handle)) => {
+                // SAFETY: the handle is live and released exactly once, here.
+                unsafe { (ffi::loaded().abort)(handle.as_ptr()) };
+                discard(&self.tmp);
+            }
         }
     }
 }
