@@ -149,8 +149,36 @@ fn remove_partial_outputs_on_signals() {
     });
 }
 
+/// A closed standard output or error (`plsr info x.exr | head`) ends the
+/// command quietly, as SIGPIPE ends a C program. Rust ignores SIGPIPE, so
+/// writing to a closed pipe fails and `println!` panics ("failed printing
+/// to stdout: Broken pipe"); for that panic alone this hook removes the
+/// outputs not yet in place and ends the process by SIGPIPE's default
+/// action (status 141 in a shell), with no message. Every other panic
+/// goes to the default hook.
+fn end_quietly_on_a_closed_pipe() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let payload = info.payload();
+        let message = payload
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| payload.downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if message.starts_with("failed printing to std")
+            && message.contains(&format!("(os error {})", libc::EPIPE))
+        {
+            plsr::atomic_write::remove_partial_outputs();
+            let _ = signal_hook::low_level::emulate_default_handler(libc::SIGPIPE);
+            std::process::exit(128 + libc::SIGPIPE);
+        }
+        default(info);
+    }));
+}
+
 fn main() -> ExitCode {
     remove_partial_outputs_on_signals();
+    end_quietly_on_a_closed_pipe();
     match run(std::env::args_os()) {
         Ok(Outcome::Done) => ExitCode::SUCCESS,
         Ok(Outcome::Usage) => ExitCode::from(2),

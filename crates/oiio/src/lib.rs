@@ -623,8 +623,27 @@ impl ImageReader {
     }
 
     /// Reads the whole image converted to `T` (see [`ImageReader::read_rows`]).
+    /// An image whose header asks for more memory than the machine has
+    /// free is refused before anything is allocated.
     pub fn read_all<T: Sample>(&mut self) -> Result<Vec<T>> {
-        let mut v = vec![T::default(); self.info.width * self.info.height * self.info.channels];
+        let (w, h, c) = (self.info.width, self.info.height, self.info.channels);
+        let bytes = w
+            .checked_mul(h)
+            .and_then(|n| n.checked_mul(c))
+            .and_then(|n| n.checked_mul(std::mem::size_of::<T>()))
+            .map_or(u64::MAX, |b| b as u64);
+        if let Some(free) = plsr_base::memory::available_bytes().filter(|&free| bytes > free) {
+            return Err(Error::Read {
+                file: self.path.clone(),
+                message: format!(
+                    "the header says {w}×{h} pixels of {c} channel(s): {} in memory, more \
+                     than the {} free (a damaged or hostile header?)",
+                    plsr_base::memory::human_bytes(bytes),
+                    plsr_base::memory::human_bytes(free)
+                ),
+            });
+        }
+        let mut v = vec![T::default(); w * h * c];
         let h = self.info.height;
         self.read_rows(0, h, &mut v)?;
         Ok(v)

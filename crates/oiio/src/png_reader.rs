@@ -64,6 +64,7 @@ impl PngRows {
     pub fn open(path: &Path) -> Result<Option<PngRows>> {
         let reader = decoder(path)?;
         let header = reader.info();
+        check_size_against_file(path, header)?;
         let channels = match header.color_type {
             png::ColorType::Grayscale => 1,
             png::ColorType::Rgb | png::ColorType::Indexed => 3,
@@ -198,6 +199,32 @@ impl PngRows {
         self.next_row += 1;
         Ok(row.data())
     }
+}
+
+/// Deflate stores at most about 1032 bytes per compressed byte (a run of
+/// 258-byte matches); this leaves room for zlib's and PNG's framing.
+const MAX_DEFLATE_RATIO: u64 = 1040;
+
+/// Refuses a header whose image cannot be in a file of this size: its
+/// filtered rows (a filter byte and the stored samples each) would need
+/// a better ratio than deflate reaches. A 50-byte file claiming
+/// 30000×30000 pixels is caught here, before anyone allocates for it.
+fn check_size_against_file(path: &Path, header: &png::Info) -> Result<()> {
+    let file_bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(u64::MAX);
+    let bits_per_pixel = header.color_type.samples() as u64 * header.bit_depth as u8 as u64;
+    let row = (u64::from(header.width) * bits_per_pixel).div_ceil(8) + 1;
+    let stored = row.saturating_mul(u64::from(header.height));
+    if stored > file_bytes.saturating_mul(MAX_DEFLATE_RATIO) + 4096 {
+        return Err(Error::Read {
+            file: path.to_path_buf(),
+            message: format!(
+                "the header says {}×{} pixels, {} bytes of image data, which a file of \
+                 {file_bytes} bytes cannot hold (truncated, or a damaged or hostile header)",
+                header.width, header.height, stored
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// Opens `path` and reads the PNG header (palettes expanded to RGB); the
@@ -413,6 +440,64 @@ mod tests {
             &bytes(6, 9),
         );
         assert!(!is_native(&ImageReader::open(&bits2).unwrap()));
+    }
+
+    #[test]
+    fn a_header_larger_than_its_file_can_hold_is_refused_before_reading() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("huge.png");
+        // A valid 1×1 PNG whose IHDR then claims 30000×30000 (CRC fixed).
+        write_png(
+            &p,
+            (1, 1),
+            png::ColorType::Rgb,
+            png::BitDepth::Eight,
+            None,
+            &[1, 2, 3],
+        );
+        let mut bytes = std::fs::read(&p).unwrap();
+        bytes[16..20].copy_from_slice(&30000u32.to_be_bytes());
+        bytes[20..24].copy_from_slice(&30000u32.to_be_bytes());
+        let crc = crc32(&bytes[12..29]);
+        bytes[29..33].copy_from_slice(&crc.to_be_bytes());
+        std::fs::write(&p, &bytes).unwrap();
+        let e = ImageReader::open(&p).unwrap_err().to_string();
+        assert!(e.contains("huge.png") && e.contains("30000×30000"), "{e}");
+        // A real image of that ratio is well within deflate's reach.
+        let flat = dir.path().join("flat.png");
+        write_png(
+            &flat,
+            (2000, 1000),
+            png::ColorType::Rgb,
+            png::BitDepth::Eight,
+            None,
+            &vec![7; 6_000_000],
+        );
+        assert!(std::fs::metadata(&flat).unwrap().len() < 40_000);
+        assert_eq!(
+            ImageReader::open(&flat)
+                .unwrap()
+                .read_all::<u8>()
+                .unwrap()
+                .len(),
+            6_000_000
+        );
+    }
+
+    /// CRC-32 of PNG chunks (ISO 3309), bit by bit.
+    fn crc32(data: &[u8]) -> u32 {
+        let mut c = 0xffff_ffffu32;
+        for &b in data {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 != 0 {
+                    0xedb8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
+            }
+        }
+        !c
     }
 
     #[test]
