@@ -21,6 +21,11 @@ use std::path::{Path, PathBuf};
 /// The plan's file name in the output folder.
 pub const PLAN_FILE: &str = "farm.toml";
 
+/// The most pieces (frames × parts) a plan may have, written or read
+/// back: Kubernetes takes at most 100,000 completions per Job and Slurm's
+/// arrays are smaller still by default.
+pub const MAX_PIECES: u64 = 1_000_000;
+
 /// The plan: everything a piece or the merge needs besides the scene.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -67,10 +72,24 @@ impl FarmPlan {
         let text = std::fs::read_to_string(path)
             .map_err(|source| Error::io(path.to_path_buf(), source))?;
         let plan: FarmPlan = toml::from_str(&text).map_err(|e| {
+            // The key and line the parser stopped at (a value out of
+            // range names only its type otherwise).
+            let (key, line) = match e.span() {
+                Some(span) => {
+                    let line = text[..span.start.min(text.len())].lines().count().max(1);
+                    let key = text
+                        .lines()
+                        .nth(line - 1)
+                        .and_then(|l| l.split_once('='))
+                        .map_or("", |(k, _)| k.trim());
+                    (key, format!("line {line}: "))
+                }
+                None => ("", String::new()),
+            };
             Error::input(
                 path,
-                "",
-                format!("not a farm plan: {}", e.message().trim_end()),
+                key,
+                format!("not a farm plan: {line}{}", e.message().trim_end()),
             )
         })?;
         plan.check()
@@ -78,11 +97,19 @@ impl FarmPlan {
         Ok(plan)
     }
 
-    /// Checks the numbers: parts between 1 and spp, frames in order, a
-    /// name that is a plain file name, and at most `u32::MAX` pieces.
+    /// Checks the numbers: spp between 1 and [`plsr::job::MAX_SPP`], parts
+    /// between 1 and spp, frames in order, a name that is a plain file
+    /// name, and at most [`MAX_PIECES`] pieces.
     pub fn check(&self) -> std::result::Result<(), (&'static str, String)> {
-        if self.spp == 0 {
-            return Err(("spp", "must be at least 1".into()));
+        if self.spp == 0 || self.spp > plsr::job::MAX_SPP {
+            return Err((
+                "spp",
+                format!(
+                    "must be between 1 and {}, got {}",
+                    plsr::job::MAX_SPP,
+                    self.spp
+                ),
+            ));
         }
         if self.parts == 0 || self.parts > self.spp {
             return Err((
@@ -109,8 +136,15 @@ impl FarmPlan {
                 format!("`{n}` is not a parameter name (letters, digits and `_`)"),
             ));
         }
-        if self.piece_count_u64() > u32::MAX as u64 {
-            return Err(("parts", "too many pieces (frames × parts)".into()));
+        if self.piece_count_u64() > MAX_PIECES {
+            return Err((
+                "parts",
+                format!(
+                    "{} pieces (frames × parts): at most {MAX_PIECES}, so that `farm status` \
+                     and `farm merge` check a bounded number of files",
+                    self.piece_count_u64()
+                ),
+            ));
         }
         Ok(())
     }
@@ -131,7 +165,11 @@ impl FarmPlan {
     }
 
     fn piece_count_u64(&self) -> u64 {
-        self.frame_list().len() as u64 * self.parts as u64
+        let frames = match self.frames {
+            Some([a, b]) => u64::from(b.saturating_sub(a)) + 1,
+            None => 1,
+        };
+        frames * u64::from(self.parts)
     }
 
     /// How many pieces: frames × parts.
@@ -321,6 +359,33 @@ mod tests {
             defines: Vec::new(),
             time: None,
         }
+    }
+
+    #[test]
+    fn hand_edited_counts_are_refused_before_anything_loops_over_them() {
+        // Parts = spp = 10⁹: beyond the most samples one render takes.
+        let e = plan(1_000_000_000, 1_000_000_000, None)
+            .check()
+            .unwrap_err();
+        assert_eq!(e.0, "spp", "{e:?}");
+        // Frames 0 to 4·10⁹ of one part each: too many pieces to list.
+        let e = plan(1, 1, Some([0, 4_000_000_000])).check().unwrap_err();
+        assert_eq!(e.0, "parts", "{e:?}");
+        assert!(e.1.contains("4000000001 pieces"), "{e:?}");
+        assert!(plan(1 << 24, 1000, Some([1, 1000])).check().is_ok());
+        // A value beyond u32 names its key and line.
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join(PLAN_FILE);
+        std::fs::write(
+            &file,
+            "scene = \"s.toml\"\nspp = 1099511627776\nparts = 4\nname = \"image\"\npng = false\n",
+        )
+        .unwrap();
+        let e = FarmPlan::read(&file).unwrap_err().to_string();
+        assert!(
+            e.contains("farm.toml") && e.contains("spp") && e.contains("line 2"),
+            "{e}"
+        );
     }
 
     #[test]
