@@ -474,8 +474,24 @@ pub fn merge_parts(parts: &[(PathBuf, Part)]) -> Result<(FilmSums, u32)> {
         }
     }
     let (range, _) = union.expect("at least one part");
-    // The windows must cover every pixel once.
+    // The image size comes from the parts' headers: what merging it needs
+    // must fit in memory before anything of that size is allocated.
     let (width, height) = first.info.image;
+    let needed = crate::render::memory_needed(width, height, 1, 1)
+        + width as u64 * height as u64 * std::mem::size_of::<Option<&Path>>() as u64;
+    if let Some(available) = crate::memory::available_bytes().filter(|&a| needed > a) {
+        return Err(Error::input(
+            first_file,
+            IMAGE,
+            format!(
+                "the merged {width}×{height} image needs about {} of memory, more than the {} \
+                 available (a damaged header, or merge on a larger machine)",
+                crate::memory::human_bytes(needed),
+                crate::memory::human_bytes(available)
+            ),
+        ));
+    }
+    // The windows must cover every pixel once.
     let mut owner: Vec<Option<&Path>> = vec![None; width as usize * height as usize];
     for (w, list) in &windows {
         let file = list[0].0.as_path();
@@ -512,4 +528,42 @@ pub fn merge_parts(parts: &[(PathBuf, Part)]) -> Result<(FilmSums, u32)> {
         whole.add_tile(*w, sums.pixels());
     }
     Ok((whole, range.end - range.start))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::film::FilmSettings;
+
+    /// A part of an 8×6 window of a `image`-sized image.
+    fn part(image: (u32, u32)) -> (PathBuf, Part) {
+        let window = Tile {
+            x0: 0,
+            y0: 0,
+            width: 8,
+            height: 6,
+        };
+        let info = PartInfo {
+            scene_hash: 7,
+            image,
+            window,
+            sample_start: 0,
+            sample_end: 4,
+        };
+        let sums = FilmSums::new(8, 6, 0, FilmSettings::default());
+        (PathBuf::from("part.exr"), Part { info, sums })
+    }
+
+    #[test]
+    fn a_header_claiming_an_image_too_large_to_merge_is_refused_before_allocating() {
+        let e = merge_parts(&[part((30000, 30000))])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("part.exr") && e.contains(IMAGE) && e.contains("30000×30000"),
+            "{e}"
+        );
+        let (sums, spp) = merge_parts(&[part((8, 6))]).unwrap();
+        assert_eq!((sums.width(), sums.height(), spp), (8, 6, 4));
+    }
 }

@@ -17,23 +17,29 @@ pub fn max_threads() -> usize {
 /// as Embree requires of every thread that traces rays. `threads` is 1 to
 /// [`max_threads`]; `None` uses every core.
 pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    check_thread_count(threads)?;
     let mut b = rayon::ThreadPoolBuilder::new().start_handler(|_| enable_flush_to_zero());
     if let Some(n) = threads {
-        if n == 0 {
-            return Err(Error::InvalidArgument(
-                "thread count must be at least 1".into(),
-            ));
-        }
-        if n > max_threads() {
-            return Err(Error::InvalidArgument(format!(
-                "thread count {n} is more than {} ({MAX_THREADS_PER_CORE} per core of this machine)",
-                max_threads()
-            )));
-        }
         b = b.num_threads(n);
     }
     b.build()
         .map_err(|e| Error::InvalidArgument(format!("cannot start worker threads: {e}")))
+}
+
+/// Checks a thread count asked for: 1 to [`max_threads`] (`None`: every
+/// core). Commands check it before anything sized by it, such as a
+/// render's memory estimate.
+pub fn check_thread_count(threads: Option<usize>) -> Result<()> {
+    match threads {
+        Some(0) => Err(Error::InvalidArgument(
+            "thread count must be at least 1".into(),
+        )),
+        Some(n) if n > max_threads() => Err(Error::InvalidArgument(format!(
+            "thread count {n} is more than {} ({MAX_THREADS_PER_CORE} per core of this machine)",
+            max_threads()
+        ))),
+        _ => Ok(()),
+    }
 }
 
 /// Sets flush-to-zero and denormals-are-zero in this thread's MXCSR register.

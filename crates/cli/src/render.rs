@@ -145,6 +145,8 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         vectorised: !a.scalar,
         ..Default::default()
     };
+    // The thread count first: the memory estimate grows with it.
+    plsr_base::threads::check_thread_count(a.threads)?;
     // Named against the scene file, before anything is allocated.
     plsr::render::check_memory(&scene, &options)
         .map_err(|m| Error::input(&a.scene, "camera.resolution", m.to_string()))?;

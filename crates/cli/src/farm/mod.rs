@@ -283,10 +283,10 @@ fn piece(a: &PieceArgs) -> Result<()> {
         }
         return Ok(());
     }
-    if let Some(folder) = output.parent() {
-        std::fs::create_dir_all(folder)
-            .map_err(|source| Error::io(folder.to_path_buf(), source))?;
-    }
+    let created = match output.parent() {
+        Some(folder) => create_missing_folders(folder)?,
+        None => Vec::new(),
+    };
     if !a.quiet {
         eprintln!(
             "piece {index} of {}: {}samples {}..{}",
@@ -299,7 +299,7 @@ fn piece(a: &PieceArgs) -> Result<()> {
             piece.samples.end
         );
     }
-    crate::render::run(&RenderArgs {
+    let rendered = crate::render::run(&RenderArgs {
         scene: plan.scene_path(&dir),
         params: plan.scene_params(),
         output,
@@ -321,7 +321,31 @@ fn piece(a: &PieceArgs) -> Result<()> {
         light_picking: None,
         resume: false,
         quiet: true,
-    })
+    });
+    if rendered.is_err() {
+        // A failed piece leaves no empty `parts/` behind (a folder another
+        // piece has written into since is not empty, and stays).
+        for folder in created.iter().rev() {
+            let _ = std::fs::remove_dir(folder);
+        }
+    }
+    rendered
+}
+
+/// Creates `folder` and its missing ancestors; returns the ones this call
+/// created, outermost first.
+fn create_missing_folders(folder: &Path) -> Result<Vec<PathBuf>> {
+    let missing: Vec<&Path> = folder.ancestors().take_while(|d| !d.exists()).collect();
+    let mut created = Vec::new();
+    for d in missing.into_iter().rev() {
+        match std::fs::create_dir(d) {
+            Ok(()) => created.push(d.to_path_buf()),
+            // Another piece made it meanwhile.
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+            Err(source) => return Err(Error::io(d.to_path_buf(), source)),
+        }
+    }
+    Ok(created)
 }
 
 /// `plsr farm merge`: every frame's parts into its image; refuses, before

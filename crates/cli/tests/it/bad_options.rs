@@ -63,6 +63,12 @@ fn roulette_depth_is_bounded() {
 fn thread_counts_are_capped() {
     refused(&["--threads", "100000"], "thread count 100000", "per core");
     refused(&["--threads", "0"], "thread count", "at least 1");
+    // Checked before the memory estimate, which grows with the threads.
+    refused(
+        &["--threads", "100000", "--resolution", "32,24"],
+        "thread count 100000",
+        "per core",
+    );
 }
 
 #[test]

@@ -571,6 +571,24 @@ fn bad_farm_requests_are_refused() {
         !out.status.success() && err.contains("no piece index"),
         "{err}"
     );
+    // A piece that fails (its scene gone) leaves no empty `parts/` behind.
+    let plan = d.join("out").join("farm.toml");
+    let text = std::fs::read_to_string(&plan).unwrap();
+    let broken: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("scene = ") {
+                "scene = \"missing.toml\"".to_string()
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(&plan, broken).unwrap();
+    let (ok, err) = plsr(&["farm", "piece", plan.to_str().unwrap(), "0"]);
+    assert!(!ok && err.contains("missing.toml"), "{err}");
+    assert!(!d.join("out").join("parts").exists(), "{err}");
 }
 
 #[test]
