@@ -323,3 +323,41 @@ fn a_sequence_keeps_the_first_frames_exposure() {
     assert!((own[0] - stops[0]).abs() < 0.006, "{own:?} {stops:?}");
     assert!((own[3] - own[0]).abs() > 0.1, "{own:?}");
 }
+
+#[test]
+fn an_exr_whose_data_window_is_inverted_is_refused_not_read_as_another_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("inverted.exr");
+    gradient(&exr, 1.0);
+    // dataWindow (box2i): min x, min y, max x, max y. Swap the corners.
+    let mut bytes = std::fs::read(&exr).unwrap();
+    let key = b"dataWindow\0box2i\0";
+    let at = bytes
+        .windows(key.len())
+        .position(|w| w == key)
+        .expect("a data window")
+        + key.len()
+        + 4;
+    let (min, max) = (bytes[at..at + 8].to_vec(), bytes[at + 8..at + 16].to_vec());
+    bytes[at..at + 8].copy_from_slice(&max);
+    bytes[at + 8..at + 16].copy_from_slice(&min);
+    std::fs::write(&exr, &bytes).unwrap();
+    let png = dir.path().join("out.png");
+    for args in [
+        vec![
+            "tonemap",
+            exr.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+        ],
+        vec!["info", exr.to_str().unwrap()],
+    ] {
+        let (ok, _, err) = plsr(&args);
+        assert!(
+            !ok && err.contains("inverted.exr") && err.contains("dataWindow"),
+            "{args:?}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    assert!(!png.exists());
+}
