@@ -711,6 +711,24 @@ fn raw_size(width: usize, height: usize, channels: usize, stored: PixelType) -> 
     (width * height * channels * bytes + (1 << 16)) as u64
 }
 
+/// What both writers do first: refuse an empty or oversized image, sweep
+/// the temporaries a killed run left beside `path`, and name this one's;
+/// returns it and the bytes the file needs at most.
+fn begin_output(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: usize,
+    stored: PixelType,
+) -> Result<(PathBuf, u64)> {
+    check_size(path, width, height, channels)?;
+    plsr_base::atomic_write::sweep_stale_partials(path);
+    Ok((
+        plsr_base::atomic_write::partial_path(path),
+        raw_size(width, height, channels, stored),
+    ))
+}
+
 /// Refuses an empty image, or one too large for OpenImageIO's sizes.
 fn check_size(path: &Path, width: usize, height: usize, channels: usize) -> Result<()> {
     let out_err = |message: &str| Error::Write {
@@ -778,13 +796,10 @@ impl ImageWriter {
             file: path.to_path_buf(),
             message,
         };
-        check_size(path, width, height, channels)?;
         if let Some(buffer) =
             exr_writer::ExrBuffer::new(path, width, height, channels, stored, attributes)
         {
-            plsr_base::atomic_write::sweep_stale_partials(path);
-            let tmp = plsr_base::atomic_write::partial_path(path);
-            let needed = raw_size(width, height, channels, stored);
+            let (tmp, needed) = begin_output(path, width, height, channels, stored)?;
             plsr_base::atomic_write::register_partial(&tmp);
             // Read as well as written: the header is sorted in place.
             let file = std::fs::OpenOptions::new()
@@ -828,10 +843,7 @@ impl ImageWriter {
             file: path.to_path_buf(),
             message,
         };
-        check_size(path, width, height, channels)?;
-        plsr_base::atomic_write::sweep_stale_partials(path);
-        let tmp = plsr_base::atomic_write::partial_path(path);
-        let needed = raw_size(width, height, channels, stored);
+        let (tmp, needed) = begin_output(path, width, height, channels, stored)?;
         let ctmp = c_path(&tmp)?;
         plsr_base::atomic_write::register_partial(&tmp);
         // Keep the CStrings alive while the Attr array points into them.
