@@ -1756,7 +1756,7 @@ fn found_coordinates_beyond_what_embree_traces() {
         ),
         (
             "aperture_radius = 0.1\n[[shapes]]\ntype = \"sphere\"\nradius = 1e30\n",
-            "beyond",
+            "scene.toml: shapes[0]: mesh `shapes[0] (sphere)`: vertex 0 lands at",
         ),
         (
             "aperture_radius = 0.1\n[[lights]]\ntype = \"point\"\nposition = [0, 0, 1e20]\n\

@@ -283,6 +283,50 @@ impl Builder<'_> {
         materials: &mut Vec<Material>,
         meshes: &mut Vec<Mesh>,
     ) -> Result<()> {
+        let first = meshes.len();
+        self.shape_meshes(index, s, by_name, materials, meshes)?;
+        self.check_coordinates(index, s, &meshes[first..])
+    }
+
+    /// Refuses a shape whose vertices, placed in the scene, leave plsr's
+    /// coordinate range ([`crate::accel::MAX_COORDINATE`]), naming the
+    /// shape (its `transform` when it has one), the mesh and the vertex.
+    fn check_coordinates(&self, index: usize, s: &ShapeSection, meshes: &[Mesh]) -> Result<()> {
+        for m in meshes {
+            if let Some((v, p)) = m
+                .positions
+                .iter()
+                .enumerate()
+                .find(|(_, p)| !crate::accel::within_coordinates(**p))
+            {
+                let field = match s.transform {
+                    Some(_) => format!("shapes[{index}].transform"),
+                    None => format!("shapes[{index}]"),
+                };
+                return Err(self.err(
+                    field,
+                    format!(
+                        "mesh `{}`: vertex {v} lands at {p}, beyond ±{:e} scene units \
+                         (plsr's coordinate limit): scale the shape or its transform down",
+                        m.name,
+                        crate::accel::MAX_COORDINATE
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The meshes of shape `index`, placed in the scene, appended to
+    /// `meshes` (see [`Self::shape`]).
+    fn shape_meshes(
+        &self,
+        index: usize,
+        s: &ShapeSection,
+        by_name: &HashMap<String, u32>,
+        materials: &mut Vec<Material>,
+        meshes: &mut Vec<Mesh>,
+    ) -> Result<()> {
         let field = format!("shapes[{index}]");
         let unknown = |key: &str| unknown_shape_key(&s.kind, key);
         let matrix = match &s.transform {
