@@ -11,7 +11,7 @@ DEB_BENCH_PACKAGES := embree-tools
 DEMO_SCENE := assets/scenes/pls-room/pls-room.toml
 OUT := out
 
-.PHONY: demo test paper fuzz deps bench-deps bench build fmt clippy install-deps-if-missing header install uninstall
+.PHONY: demo test paper fuzz fuzz-coverage deps bench-deps bench build fmt clippy install-deps-if-missing header install uninstall
 
 demo: deps
 	$(CARGO) build --release
@@ -19,8 +19,12 @@ demo: deps
 	./target/release/plsr render $(DEMO_SCENE) -o $(OUT)/demo.exr --png $(OUT)/demo.png
 	@echo "wrote $(OUT)/demo.exr and $(OUT)/demo.png"
 
+# Then every fuzz target runs for FUZZ_TEST_SECONDS from its seeds, with
+# a fixed libFuzzer seed (docs/fuzzing.md).
+FUZZ_TEST_SECONDS ?= 20
 test: deps
 	$(CARGO) test --workspace --no-fail-fast
+	PLSR_FUZZ_ARGS=-seed=1 bash scripts/fuzz.sh all $(FUZZ_TEST_SECONDS)
 
 # The paper's experiment redone on a synthetic room (docs/paper-experiment.md):
 # ground-truth photos, PLS lights and an HDR panorama, composites, CW-SSIM,
@@ -32,13 +36,20 @@ paper: deps
 	rm -rf $(OUT)/paper
 	./target/release/plsr experiment paper -o $(OUT)/paper
 
-# Searches further than `make test`'s fixed-seed fuzzing: fresh seeds, more
-# cases (FUZZ_CASES per parser). Failures are shrunk and their seeds kept in
+# Searches further than `make test`'s fixed-seed proptest fuzzing: fresh
+# seeds, more cases (FUZZ_CASES per parser). Failures are shrunk and their seeds kept in
 # tests/it/fuzz_parsers.proptest-regressions.
 FUZZ_CASES ?= 20000
 fuzz: deps
 	PLSR_FUZZ_SEED=random PLSR_FUZZ_CASES=$(FUZZ_CASES) PLSR_FUZZ_TRACE=$(CURDIR)/target/fuzz-case.txt \
 		$(CARGO) test -p plsr --test it fuzz_parsers:: -- --nocapture
+
+# Coverage-guided fuzzing with libFuzzer (docs/fuzzing.md): every target
+# of fuzz/ for FUZZ_SECONDS each, from the committed seeds and the corpus
+# earlier runs kept (target/fuzz/corpus/); prints coverage and executions.
+FUZZ_SECONDS ?= 300
+fuzz-coverage: deps
+	bash scripts/fuzz.sh all $(FUZZ_SECONDS)
 
 build: deps
 	$(CARGO) build --release

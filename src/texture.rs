@@ -56,7 +56,29 @@ pub enum TextureError {
     /// Some texel is not finite.
     #[error("{}: the texture has non-finite values", .0.display())]
     NonFinite(PathBuf),
+    /// Its texels, as the header sizes them, would not fit in the free
+    /// memory.
+    #[error(
+        "{}: the header says {width}×{height} texels: {needed} once decoded, more than the {free} free",
+        path.display()
+    )]
+    TooLarge {
+        /// The image.
+        path: PathBuf,
+        /// Its width in texels, as its header says.
+        width: u32,
+        /// Its height.
+        height: u32,
+        /// The bytes decoding needs, in words ("3.2 GiB").
+        needed: String,
+        /// The free memory, in words.
+        free: String,
+    },
 }
+
+/// The bytes decoding a texel costs at its peak: the decoder's RGB floats
+/// and the texture's own (12 bytes each).
+const DECODED_BYTES_PER_TEXEL: u64 = 24;
 
 /// How a texture's stored values map to linear values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -299,10 +321,28 @@ impl ImageTexture {
             path: at.clone(),
             fault,
         })?;
-        let image = image::open(path).map_err(|source| TextureError::Decode {
+        let decode_error = |source| TextureError::Decode {
             path: at.clone(),
             source,
-        })?;
+        };
+        // The header's size first: a small file (a PNG of zeros compresses
+        // 1000:1) can claim gigabytes of texels.
+        let (width, height) = image::ImageReader::open(path)
+            .and_then(|r| r.with_guessed_format())
+            .map_err(image::ImageError::IoError)
+            .and_then(|r| r.into_dimensions())
+            .map_err(decode_error)?;
+        let needed = u64::from(width) * u64::from(height) * DECODED_BYTES_PER_TEXEL;
+        if let Some(free) = crate::memory::available_bytes().filter(|&free| needed > free) {
+            return Err(TextureError::TooLarge {
+                path: at,
+                width,
+                height,
+                needed: crate::memory::human_bytes(needed),
+                free: crate::memory::human_bytes(free),
+            });
+        }
+        let image = image::open(path).map_err(decode_error)?;
         // Floating-point images hold linear values already.
         let float = matches!(
             image.color(),
@@ -466,6 +506,49 @@ mod tests {
     fn checker() -> ImageTexture {
         // Top row red, green; bottom row blue, white.
         ImageTexture::from_texels(2, 2, vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE])
+    }
+
+    /// A PNG of an 8-bit RGB header claiming `w × h` pixels and one empty
+    /// IDAT chunk: tens of bytes.
+    fn png_header(w: u32, h: u32) -> Vec<u8> {
+        let chunk = |kind: &[u8], data: &[u8]| {
+            let mut c = (data.len() as u32).to_be_bytes().to_vec();
+            c.extend_from_slice(kind);
+            c.extend_from_slice(data);
+            let mut crc = flate2::Crc::new();
+            crc.update(kind);
+            crc.update(data);
+            c.extend_from_slice(&crc.sum().to_be_bytes());
+            c
+        };
+        let mut ihdr = w.to_be_bytes().to_vec();
+        ihdr.extend_from_slice(&h.to_be_bytes());
+        ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
+        let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+        png.extend(chunk(b"IHDR", &ihdr));
+        png.extend(chunk(b"IDAT", &[]));
+        png.extend(chunk(b"IEND", &[]));
+        png
+    }
+
+    #[test]
+    fn a_texture_header_beyond_the_free_memory_is_refused_before_decoding() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("huge.png");
+        // 2^20 × 2^20 texels: 24 TiB decoded, more than any machine here.
+        std::fs::write(&path, png_header(1 << 20, 1 << 20)).unwrap();
+        let e = ImageTexture::load(&path, Encoding::Srgb).unwrap_err();
+        assert!(matches!(e, TextureError::TooLarge { .. }), "{e}");
+        let message = e.to_string();
+        assert!(
+            message.contains("huge.png") && message.contains("1048576×1048576"),
+            "{message}"
+        );
+        // A small header of the same kind goes on to the decoder, which
+        // finds the data missing.
+        std::fs::write(&path, png_header(4, 4)).unwrap();
+        let e = ImageTexture::load(&path, Encoding::Srgb).unwrap_err();
+        assert!(matches!(e, TextureError::Decode { .. }), "{e}");
     }
 
     #[test]

@@ -242,16 +242,17 @@ pub fn stage_exr_layers(
 /// The first layer of the OpenEXR file `path`, every channel read flat
 /// (an unreadable or truncated file is an error naming it).
 fn read_flat_layer(path: &Path) -> Result<exrp::Layer<AnyChannels<FlatSamples>>> {
-    check_data_window(path)?;
+    check_exr_header(path)?;
     exrp::read_first_flat_layer_from_file(path)
         .map(|image| image.layer_data)
         .map_err(|e| Error::input(path, "", format!("cannot read EXR: {e}")))
 }
 
 /// Refuses an EXR whose data window is inverted or too large, which the
-/// `exr` crate would read as an image of another size.
-pub fn check_data_window(path: &Path) -> Result<()> {
-    match plsr_base::exr_header::data_window_fault(path) {
+/// `exr` crate would read as an image of another size, or claims more
+/// samples than the file can hold ([`plsr_base::exr_header::header_fault`]).
+pub fn check_exr_header(path: &Path) -> Result<()> {
+    match plsr_base::exr_header::header_fault(path) {
         Ok(Some(fault)) => Err(Error::input(path, "dataWindow", fault)),
         Ok(None) => Ok(()),
         Err(source) => Err(Error::io(path.to_path_buf(), source)),

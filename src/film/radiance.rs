@@ -25,6 +25,7 @@ pub fn read_radiance_hdr(path: &Path) -> Result<(u32, u32, Vec<Vec3>)> {
         .ok_or_else(|| fail("not a Radiance HDR file: no `#?RADIANCE` line at its start".into()))?;
     let decoder = image::codecs::hdr::HdrDecoder::new(std::io::Cursor::new(&bytes[start..]))
         .map_err(|e| fail(format!("cannot read as Radiance HDR: {e}")))?;
+    check_size(decoder.metadata(), bytes.len() as u64).map_err(fail)?;
     let image = image::DynamicImage::from_decoder(decoder)
         .map_err(|e| fail(format!("cannot read as Radiance HDR: {e}")))?
         .to_rgb32f();
@@ -37,6 +38,36 @@ pub fn read_radiance_hdr(path: &Path) -> Result<(u32, u32, Vec<Vec3>)> {
             .map(|p| Vec3::new(p[0], p[1], p[2]))
             .collect(),
     ))
+}
+
+/// The most pixels a byte of a Radiance HDR file holds: run-length
+/// encoded rows store a run of up to 127 values of one component in 2
+/// bytes, so four components of 127 pixels take 8 bytes.
+const MAX_PIXELS_PER_BYTE: u64 = 16;
+
+/// Refuses a header whose size the file cannot hold, or whose pixels (12
+/// bytes each once decoded) would not fit in the free memory, before the
+/// decoder allocates for it.
+fn check_size(
+    header: image::codecs::hdr::HdrMetadata,
+    file_len: u64,
+) -> std::result::Result<(), String> {
+    let (w, h) = (u64::from(header.width), u64::from(header.height));
+    let pixels = w * h;
+    if pixels > MAX_PIXELS_PER_BYTE * file_len {
+        return Err(format!(
+            "the header says {w}×{h} pixels, which a file of {file_len} bytes cannot hold"
+        ));
+    }
+    let bytes = pixels * 12;
+    if let Some(free) = crate::memory::available_bytes().filter(|&free| bytes > free) {
+        return Err(format!(
+            "the header says {w}×{h} pixels: {} once decoded, more than the {} free",
+            crate::memory::human_bytes(bytes),
+            crate::memory::human_bytes(free)
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -62,6 +93,18 @@ mod tests {
         assert!(
             px[1].abs_diff_eq(Vec3::new(2.0, 2.0, 2.0), 1.0 / 64.0),
             "{px:?}"
+        );
+        // A header claiming more pixels than the file holds is refused
+        // before anything is allocated for them.
+        std::fs::write(
+            &path,
+            b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 30000 +X 30000\n\x02\x02",
+        )
+        .unwrap();
+        let e = read_radiance_hdr(&path).unwrap_err().to_string();
+        assert!(
+            e.contains("30000×30000") && e.contains("cannot hold"),
+            "{e}"
         );
         std::fs::write(&path, b"P6\n2 1\n255\n").unwrap();
         let e = read_radiance_hdr(&path).unwrap_err().to_string();

@@ -51,15 +51,18 @@ pub fn open(path: &Path) -> Result<GltfAsset> {
     if bytes.starts_with(b"glTF") {
         check_glb(&bytes)?;
     }
-    let gltf =
-        gltf::Gltf::from_slice(&bytes).map_err(|e| format!("not a readable glTF 2.0 file: {e}"))?;
+    let unreadable = |e: gltf::Error| format!("not a readable glTF 2.0 file: {e}");
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(unreadable)?;
+    let json = gltf.document.into_json();
+    check_position_accessors(&json)?;
+    let document = gltf::Document::from_json(json).map_err(unreadable)?;
     let folder = path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     let folder = folder.canonicalize()?;
     let mut asset = GltfAsset {
-        doc: gltf.document,
+        doc: document,
         buffers: Vec::new(),
         folder,
         files: Vec::new(),
@@ -104,7 +107,32 @@ pub fn open(path: &Path) -> Result<GltfAsset> {
         asset.buffers.push(data);
     }
     asset.check_views_and_accessors()?;
+    asset.check_attribute_types()?;
     Ok(asset)
+}
+
+/// Every primitive's `POSITION` names an accessor that exists. The glTF
+/// crate's validation indexes the accessors with it unchecked (a panic,
+/// found by fuzzing), so this runs before it.
+fn check_position_accessors(json: &gltf::json::Root) -> Result<()> {
+    use gltf::json::validation::Checked;
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = Checked::Valid(gltf::Semantic::Positions);
+            if let Some(index) = primitive.attributes.get(&position) {
+                if index.value() >= json.accessors.len() {
+                    return Err(format!(
+                        "meshes[{m}].primitives[{p}].attributes.POSITION is accessor {}, \
+                         but the file has {} accessors",
+                        index.value(),
+                        json.accessors.len()
+                    )
+                    .into());
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 impl GltfAsset {
@@ -116,6 +144,15 @@ impl GltfAsset {
             .images()
             .nth(index)
             .ok_or_else(|| format!("images[{index}] does not exist"))?;
+        // `source()` unwraps these (found by fuzzing): a view needs its
+        // mimeType, and an image needs a view or a URI.
+        let json = &self.doc.as_json().images[index];
+        if json.buffer_view.is_some() && json.mime_type.is_none() {
+            return Err(format!("images[{index}] is in a bufferView, but has no mimeType").into());
+        }
+        if json.buffer_view.is_none() && json.uri.is_none() {
+            return Err(format!("images[{index}] has neither a uri nor a bufferView").into());
+        }
         match image.source() {
             gltf::image::Source::View { view, .. } => {
                 let buffer = &self.buffers[view.buffer().index()];
@@ -154,6 +191,94 @@ impl GltfAsset {
     /// against its view (and its sparse storage), so that reading them
     /// later stays inside the bytes and allocates no more than the file
     /// holds.
+    /// Every primitive attribute (and morph target) and index accessor
+    /// has a type and component type the glTF specification allows for
+    /// it, which is what the reader assumes: the `gltf` crate reads a
+    /// `NORMAL` as three floats whatever the accessor says (found by
+    /// fuzzing: an accessor of three shorts read as floats).
+    fn check_attribute_types(&self) -> Result<()> {
+        use gltf::accessor::{DataType as D, Dimensions as N};
+        use gltf::Semantic as S;
+        let allowed = |semantic: &S| -> (&'static [N], &'static [D], &'static str) {
+            match semantic {
+                S::Positions | S::Normals => (&[N::Vec3], &[D::F32], "VEC3 of FLOAT"),
+                S::Tangents => (&[N::Vec4], &[D::F32], "VEC4 of FLOAT"),
+                S::TexCoords(_) => (
+                    &[N::Vec2],
+                    &[D::F32, D::U8, D::U16],
+                    "VEC2 of FLOAT, UNSIGNED_BYTE or UNSIGNED_SHORT",
+                ),
+                S::Colors(_) => (
+                    &[N::Vec3, N::Vec4],
+                    &[D::F32, D::U8, D::U16],
+                    "VEC3 or VEC4 of FLOAT, UNSIGNED_BYTE or UNSIGNED_SHORT",
+                ),
+                S::Joints(_) => (
+                    &[N::Vec4],
+                    &[D::U8, D::U16],
+                    "VEC4 of UNSIGNED_BYTE or UNSIGNED_SHORT",
+                ),
+                S::Weights(_) => (
+                    &[N::Vec4],
+                    &[D::F32, D::U8, D::U16],
+                    "VEC4 of FLOAT, UNSIGNED_BYTE or UNSIGNED_SHORT",
+                ),
+            }
+        };
+        let check = |field: String, a: &gltf::Accessor, semantic: &S| -> Result<()> {
+            let (dims, types, says) = allowed(semantic);
+            if dims.contains(&a.dimensions()) && types.contains(&a.data_type()) {
+                return Ok(());
+            }
+            Err(format!(
+                "{field} is accessor {} of {:?} {:?}; glTF requires {says}",
+                a.index(),
+                a.dimensions(),
+                a.data_type()
+            )
+            .into())
+        };
+        for mesh in self.doc.meshes() {
+            for p in mesh.primitives() {
+                let field = format!("meshes[{}].primitives[{}]", mesh.index(), p.index());
+                for (semantic, a) in p.attributes() {
+                    check(
+                        format!("{field}.attributes.{}", semantic.to_string()),
+                        &a,
+                        &semantic,
+                    )?;
+                }
+                for (t, target) in p.morph_targets().enumerate() {
+                    let parts = [
+                        (target.positions(), S::Positions, "POSITION"),
+                        (target.normals(), S::Normals, "NORMAL"),
+                        (target.tangents(), S::Tangents, "TANGENT"),
+                    ];
+                    for (a, semantic, name) in parts {
+                        if let Some(a) = a {
+                            check(format!("{field}.targets[{t}].{name}"), &a, &semantic)?;
+                        }
+                    }
+                }
+                if let Some(a) = p.indices() {
+                    if a.dimensions() != N::Scalar
+                        || !matches!(a.data_type(), D::U8 | D::U16 | D::U32)
+                    {
+                        return Err(format!(
+                            "{field}.indices is accessor {} of {:?} {:?}; glTF requires \
+                             SCALAR of UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT",
+                            a.index(),
+                            a.dimensions(),
+                            a.data_type()
+                        )
+                        .into());
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
     fn check_views_and_accessors(&self) -> Result<()> {
         for v in self.doc.views() {
             let field = format!("bufferViews[{}]", v.index());
@@ -190,6 +315,16 @@ impl GltfAsset {
             match a.view() {
                 Some(view) => {
                     let stride = view.stride().unwrap_or(element);
+                    // Found by fuzzing: the reader takes elements of their
+                    // own size at each stride, overlapping the next ones.
+                    if stride < element {
+                        return Err(format!(
+                            "{field}: bufferViews[{}].byteStride {stride} is less than \
+                             the accessor's elements of {element} bytes",
+                            view.index()
+                        )
+                        .into());
+                    }
                     fits(
                         &field,
                         a.offset(),

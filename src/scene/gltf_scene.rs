@@ -237,6 +237,7 @@ pub fn read_gltf_at(path: &Path, time: f32) -> std::result::Result<GltfScene, Fo
                 .name()
                 .map_or_else(|| format!("mesh {}", mesh.index()), String::from);
             for prim in mesh.primitives() {
+                let first = objects.len();
                 read_primitive(
                     &mesh_name,
                     &prim,
@@ -246,6 +247,7 @@ pub fn read_gltf_at(path: &Path, time: f32) -> std::result::Result<GltfScene, Fo
                     &mut objects,
                     &mut notes,
                 )?;
+                check_coordinates(&objects[first..], node.index(), mesh.index(), prim.index())?;
             }
         }
         if let Some(camera) = node.camera() {
@@ -270,6 +272,33 @@ pub fn read_gltf_at(path: &Path, time: f32) -> std::result::Result<GltfScene, Fo
         notes: notes.0,
         files,
     })
+}
+
+/// Every vertex, placed by its node's transform, is within plsr's
+/// coordinate limit (±1e12: what Embree traces without losing the
+/// scene's precision); the error names the mesh, primitive and node.
+fn check_coordinates(
+    objects: &[GltfObject],
+    node: usize,
+    mesh: usize,
+    primitive: usize,
+) -> std::result::Result<(), FormatError> {
+    let limit = crate::accel::MAX_COORDINATE;
+    for object in objects {
+        if let Some((i, p)) = object
+            .positions
+            .iter()
+            .enumerate()
+            .find(|(_, p)| p.abs().max_element() > limit)
+        {
+            return Err(format!(
+                "meshes[{mesh}].primitives[{primitive}] (node {node}): vertex {i} lands at \
+                 {p}, beyond ±1e12 (plsr's coordinate limit): scale the node down"
+            )
+            .into());
+        }
+    }
+    Ok(())
 }
 
 /// The import's notes, each said once.

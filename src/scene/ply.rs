@@ -249,6 +249,11 @@ fn parse_header(lines: &[String]) -> Result<(Encoding, Vec<Element>), FormatErro
                 if count > MAX_COUNT {
                     return Err(FormatError::Content(bad("too many items")));
                 }
+                // Found by fuzzing: a second `element vertex` without the
+                // first one's texture coordinates left them short.
+                if elements.iter().any(|e| e.name == *name) {
+                    return Err(FormatError::Content(bad("the element is declared twice")));
+                }
                 elements.push(Element {
                     name: name.to_string(),
                     count,
@@ -388,6 +393,11 @@ fn read_element(r: &mut Reader, e: &Element, mesh: &mut PlyMesh) -> Result<(), F
             Property::List(..) => 0.0,
         }
     };
+    // An element of no properties holds no bytes, however many items it
+    // claims (found by fuzzing: two billion of them looped for minutes).
+    if e.properties.is_empty() {
+        return Ok(());
+    }
     let mut values = vec![0.0f64; e.properties.len()];
     let mut polygon: Vec<u32> = Vec::new();
     for item in 0..e.count {

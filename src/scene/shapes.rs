@@ -361,10 +361,21 @@ pub struct ObjFile {
     pub libraries: Vec<PathBuf>,
 }
 
+/// The largest MTL library read (they are a few KiB in practice).
+const MAX_MTL_BYTES: u64 = 64 << 20;
+
 /// Checks what tobj's MTL reader assumes of a library: text (no NUL or
-/// other control bytes), three numbers after `Ka`, `Kd`, `Ks` and `Ke`,
-/// one after `Ns`, `Ni` and `d`. The error names the line.
+/// other control bytes), a `newmtl` before any other statement, three
+/// numbers after `Ka`, `Kd`, `Ks` and `Ke`, one after `Ns`, `Ni` and `d`.
+/// The error names the line.
 fn check_mtl(path: &Path) -> std::result::Result<(), FormatError> {
+    let len = std::fs::metadata(path)?.len();
+    if len > MAX_MTL_BYTES {
+        return Err(format!(
+            "{len} bytes, more than an MTL library may have ({MAX_MTL_BYTES} bytes)"
+        )
+        .into());
+    }
     let bytes = std::fs::read(path)?;
     if let Some(i) = bytes
         .iter()
@@ -377,6 +388,24 @@ fn check_mtl(path: &Path) -> std::result::Result<(), FormatError> {
         .into());
     }
     let text = String::from_utf8_lossy(&bytes);
+    // Every statement belongs to the material a `newmtl` before it starts
+    // (random text passed the byte check above and rendered with no word
+    // of it). A library of comments alone, as exporters write for a mesh
+    // without materials, is fine.
+    let first = text.lines().enumerate().find(|(_, l)| {
+        let l = l.trim();
+        !l.is_empty() && !l.starts_with('#')
+    });
+    if let Some((n, line)) = first {
+        if line.split_whitespace().next() != Some("newmtl") {
+            return Err(format!(
+                "line {}: not an MTL library: `{}` comes before any `newmtl`",
+                n + 1,
+                line.trim().chars().take(40).collect::<String>()
+            )
+            .into());
+        }
+    }
     for (n, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
         let (count, what) = match words.next() {

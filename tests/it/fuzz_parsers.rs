@@ -1420,6 +1420,280 @@ fn obj_and_mtl_files_end_in_ok_or_a_clean_error() {
 }
 
 // ---------------------------------------------------------------------
+// glTF files.
+// ---------------------------------------------------------------------
+
+/// Standard base64 (the glTF's `data:` URI of its buffer).
+fn base64(bytes: &[u8]) -> String {
+    const ABC: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        for k in 0..4 {
+            if k <= chunk.len() {
+                out.push(ABC[(n >> (18 - 6 * k) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+/// A JSON number: mostly in `[lo, hi)`, now and then from the edges.
+fn json_number(lo: f64, hi: f64) -> BoxedStrategy<String> {
+    mostly(
+        within(lo, hi),
+        prop::sample::select(vec![
+            "0",
+            "-0",
+            "1e-45",
+            "1e39",
+            "-1e39",
+            "1e308",
+            "4294967296",
+            "-1",
+            "\"1\"",
+            "null",
+            "[]",
+        ])
+        .prop_map(String::from),
+    )
+}
+
+/// A JSON array of `n` numbers in `[lo, hi)`.
+fn json_array(n: usize, lo: f64, hi: f64) -> BoxedStrategy<String> {
+    prop::collection::vec(json_number(lo, hi), n)
+        .prop_map(|v| format!("[{}]", v.join(", ")))
+        .boxed()
+}
+
+/// One triangle mesh's glTF: positions (and maybe normals and texture
+/// coordinates) in one buffer given as a `data:` URI, indices or none, a
+/// material with the extensions plsr reads, a node with its transform, a
+/// camera and a punctual light. The accessors' counts, offsets, strides
+/// and component types are mostly right and now and then not.
+fn gltf_text() -> impl Strategy<Value = String> {
+    let vertices = prop::collection::vec(prop::collection::vec(-2.0f32..2.0, 8), 3..9);
+    // Whole triangles, mostly of the vertices there are (taken modulo
+    // their count), now and then of any, now and then cut short.
+    let indices = prop::option::weighted(
+        0.7,
+        (
+            prop::collection::vec(0u16..10, 1..5),
+            prop::bool::weighted(0.9),
+            prop::sample::select(vec![0usize, 0, 0, 0, 0, 0, 0, 0, 1, 2]),
+        ),
+    );
+    let accessor = (
+        mostly(
+            Just(String::new()),
+            count(0, 40).prop_map(|c| format!(", \"count\": {c}")),
+        ),
+        mostly(
+            Just("5126".to_string()),
+            prop::sample::select(vec!["5120", "5121", "5123", "5125", "1"]).prop_map(String::from),
+        ),
+        mostly(
+            Just(String::new()),
+            count(0, 64).prop_map(|o| format!(", \"byteOffset\": {o}")),
+        ),
+        mostly(
+            Just(String::new()),
+            prop::sample::select(vec![", \"byteStride\": 32", ", \"byteStride\": 4"])
+                .prop_map(String::from),
+        ),
+    );
+    let material = keys(vec![
+        ("baseColorFactor", json_array(4, 0.0, 1.0)),
+        ("metallicFactor", json_number(0.0, 1.0)),
+        ("roughnessFactor", json_number(0.0, 1.0)),
+    ]);
+    let extras = keys(vec![
+        ("emissiveFactor", json_array(3, 0.0, 1.0)),
+        ("doubleSided", boolean().boxed()),
+        ("alphaMode", word(&["OPAQUE", "MASK", "BLEND"]).boxed()),
+        ("alphaCutoff", json_number(0.0, 1.0)),
+        (
+            "extensions",
+            (
+                json_number(0.0, 20.0),
+                json_number(1.0, 2.5),
+                json_number(0.0, 1.0),
+            )
+                .prop_map(|(s, ior, t)| {
+                    format!(
+                        "{{\"KHR_materials_emissive_strength\": {{\"emissiveStrength\": {s}}}, \
+                         \"KHR_materials_ior\": {{\"ior\": {ior}}}, \
+                         \"KHR_materials_transmission\": {{\"transmissionFactor\": {t}}}}}"
+                    )
+                })
+                .boxed(),
+        ),
+    ]);
+    let node = keys(vec![
+        ("translation", json_array(3, -1.0, 1.0)),
+        ("rotation", json_array(4, -1.0, 1.0)),
+        ("scale", json_array(3, -2.0, 2.0)),
+    ]);
+    let camera = (
+        json_number(0.1, 1.5),
+        json_number(0.001, 1.0),
+        json_array(3, -1.0, 1.0),
+    );
+    let light = (
+        word(&["point", "spot", "directional"]),
+        json_number(0.0, 100.0),
+    )
+        .prop_map(|(kind, intensity)| {
+            let spot = if kind == "\"spot\"" {
+                ", \"spot\": {\"outerConeAngle\": 0.7}"
+            } else {
+                ""
+            };
+            format!("{{\"type\": {kind}, \"intensity\": {intensity}{spot}}}")
+        });
+    (vertices, indices, accessor, material, extras, node, camera, light, 0u8..8)
+        .prop_map(|(vertices, indices, accessor, material, extras, node, camera, light, layout)| {
+            let (count, component, offset, stride) = accessor;
+            let n = vertices.len();
+            let (normals, uvs) = (layout & 1 != 0, layout & 2 != 0);
+            let mut buffer = Vec::new();
+            for v in &vertices {
+                buffer.extend(v[..3].iter().flat_map(|x| x.to_le_bytes()));
+            }
+            let normals_at = buffer.len();
+            if normals {
+                for v in &vertices {
+                    buffer.extend(v[3..6].iter().flat_map(|x| x.to_le_bytes()));
+                }
+            }
+            let uvs_at = buffer.len();
+            if uvs {
+                for v in &vertices {
+                    buffer.extend(v[6..8].iter().flat_map(|x| x.to_le_bytes()));
+                }
+            }
+            // Triples of indices, wrapped into range when `tame`, the last
+            // `cut` dropped (not a whole number of triangles).
+            let indices = indices.map(|(seeds, tame, cut)| {
+                let mut i: Vec<u16> = seeds
+                    .iter()
+                    .flat_map(|&s| [s, s.wrapping_add(1), s.wrapping_add(2)])
+                    .map(|v| if tame { v % n as u16 } else { v })
+                    .collect();
+                i.truncate(i.len() - cut.min(i.len() - 1));
+                i
+            });
+            let indices_at = buffer.len();
+            if let Some(i) = &indices {
+                buffer.extend(i.iter().flat_map(|x| x.to_le_bytes()));
+                while buffer.len() % 4 != 0 {
+                    buffer.push(0);
+                }
+            }
+            let mut views = vec![format!(
+                "{{\"buffer\": 0, \"byteLength\": {}{stride}}}",
+                12 * n
+            )];
+            let mut accessors = vec![format!(
+                "{{\"bufferView\": 0, \"componentType\": {component}, \"type\": \"VEC3\", \
+                 \"min\": [-2, -2, -2], \"max\": [2, 2, 2]{offset}{}}}",
+                if count.is_empty() { format!(", \"count\": {n}") } else { count },
+            )];
+            let mut attributes = vec!["\"POSITION\": 0".to_string()];
+            if normals {
+                views.push(format!(
+                    "{{\"buffer\": 0, \"byteOffset\": {normals_at}, \"byteLength\": {}}}",
+                    12 * n
+                ));
+                accessors.push(format!(
+                    "{{\"bufferView\": {}, \"componentType\": 5126, \"count\": {n}, \"type\": \"VEC3\"}}",
+                    views.len() - 1
+                ));
+                attributes.push(format!("\"NORMAL\": {}", accessors.len() - 1));
+            }
+            if uvs {
+                views.push(format!(
+                    "{{\"buffer\": 0, \"byteOffset\": {uvs_at}, \"byteLength\": {}}}",
+                    8 * n
+                ));
+                accessors.push(format!(
+                    "{{\"bufferView\": {}, \"componentType\": 5126, \"count\": {n}, \"type\": \"VEC2\"}}",
+                    views.len() - 1
+                ));
+                attributes.push(format!("\"TEXCOORD_0\": {}", accessors.len() - 1));
+            }
+            let mut primitive = format!("\"attributes\": {{{}}}, \"material\": 0", attributes.join(", "));
+            if let Some(i) = &indices {
+                views.push(format!(
+                    "{{\"buffer\": 0, \"byteOffset\": {indices_at}, \"byteLength\": {}}}",
+                    2 * i.len()
+                ));
+                accessors.push(format!(
+                    "{{\"bufferView\": {}, \"componentType\": 5123, \"count\": {}, \"type\": \"SCALAR\"}}",
+                    views.len() - 1,
+                    i.len()
+                ));
+                primitive += &format!(", \"indices\": {}", accessors.len() - 1);
+            }
+            let material = material.replace(" = ", "\": ").replace('\n', ", \"");
+            let extras = extras.replace(" = ", "\": ").replace('\n', ", \"");
+            let node = node.replace(" = ", "\": ").replace('\n', ", \"");
+            let object = |body: &str| {
+                let body = body.trim_end_matches(", \"");
+                if body.is_empty() { String::new() } else { format!("\"{body}") }
+            };
+            let (yfov, znear, at) = camera;
+            format!(
+                "{{\"asset\": {{\"version\": \"2.0\"}}, \"scene\": 0,\n\
+                 \"scenes\": [{{\"nodes\": [0, 1, 2]}}],\n\
+                 \"nodes\": [{{\"mesh\": 0{}}}, {{\"camera\": 0, \"translation\": [0, 0, 4]}}, \
+                 {{\"extensions\": {{\"KHR_lights_punctual\": {{\"light\": 0}}}}, \"translation\": {at}}}],\n\
+                 \"cameras\": [{{\"type\": \"perspective\", \"perspective\": {{\"yfov\": {yfov}, \"znear\": {znear}, \"aspectRatio\": 1.0}}}}],\n\
+                 \"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_emissive_strength\", \"KHR_materials_ior\", \"KHR_materials_transmission\"],\n\
+                 \"extensions\": {{\"KHR_lights_punctual\": {{\"lights\": [{light}]}}}},\n\
+                 \"meshes\": [{{\"primitives\": [{{{primitive}}}]}}],\n\
+                 \"materials\": [{{\"pbrMetallicRoughness\": {{{}}}{}}}],\n\
+                 \"accessors\": [{}],\n\
+                 \"bufferViews\": [{}],\n\
+                 \"buffers\": [{{\"byteLength\": {}, \"uri\": \"data:application/octet-stream;base64,{}\"}}]}}\n",
+                if node.is_empty() { String::new() } else { format!(", {}", object(&node)) },
+                object(&material),
+                if extras.is_empty() { String::new() } else { format!(", {}", object(&extras)) },
+                accessors.join(",\n  "),
+                views.join(",\n  "),
+                buffer.len(),
+                base64(&buffer),
+            )
+        })
+}
+
+/// glTF files, as `plsr render model.gltf` reads them.
+#[test]
+fn gltf_files_end_in_ok_or_a_clean_error() {
+    fuzz(
+        "gltf_files",
+        1500,
+        0.05,
+        (gltf_text(), mutations()),
+        |(text, mutations)| {
+            let dir = scene_fixtures();
+            let bytes = mutate(&text, &mutations);
+            let input = String::from_utf8_lossy(&bytes).into_owned();
+            case(&input, || {
+                check_scene(dir.path(), "model.gltf", &bytes, &input)
+            })
+        },
+    );
+}
+
+// ---------------------------------------------------------------------
 // Bracket sets.
 // ---------------------------------------------------------------------
 

@@ -1177,3 +1177,26 @@ fn material_extensions_map_onto_the_principled_models() {
     let sides: Vec<bool> = g.extras.iter().map(|e| e.double_sided).collect();
     assert_eq!(sides, [false, true, true, false, false, false]);
 }
+
+#[test]
+fn a_node_scaling_a_mesh_beyond_the_coordinate_limit_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    write_quad(dir.path(), TEXTURED);
+    let json = std::fs::read_to_string(dir.path().join("quad.gltf")).unwrap();
+    let json = json.replace("\"scale\": [2, 2, 2]", "\"scale\": [2e12, 2, 2]");
+    std::fs::write(dir.path().join("quad.gltf"), json).unwrap();
+    let e = read_gltf(&dir.path().join("quad.gltf"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("meshes[0].primitives[0] (node 0): vertex 0") && e.contains("±1e12"),
+        "{e}"
+    );
+    // As a scene: the file is named, and nothing of plsr's own is blamed.
+    let e = Scene::load(&dir.path().join("quad.gltf"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("quad.gltf") && e.contains("meshes[0]"), "{e}");
+}

@@ -23,4 +23,5 @@ mod regression;
 mod sampling_chi2;
 mod sdf_grid;
 mod surfaces;
+mod under_load;
 mod vectorised;

@@ -1,5 +1,5 @@
-//! OpenEXR headers: written the same way every time, and the data window
-//! checked before a reader trusts it.
+//! OpenEXR headers: written the same way every time, and their sizes
+//! checked before a reader trusts them.
 
 use std::io::{Read, Seek, SeekFrom, Write};
 
@@ -56,6 +56,15 @@ fn attributes(head: &[u8]) -> Option<(Vec<RawAttribute<'_>>, usize)> {
     }
 }
 
+/// Whether `path` starts with OpenEXR's magic number (`false` when it
+/// cannot be read: the reader that opens it says why).
+pub fn is_exr(path: &std::path::Path) -> bool {
+    let mut magic = [0u8; 4];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut magic))
+        .is_ok_and(|()| magic == MAGIC)
+}
+
 /// Reads the first bytes of `file`, where its header is.
 fn head_of(file: &mut std::fs::File) -> std::io::Result<Vec<u8>> {
     let mut head = Vec::new();
@@ -87,38 +96,107 @@ pub fn sort_attributes(file: &mut std::fs::File) -> std::io::Result<()> {
     Ok(())
 }
 
-/// The fault of a single-part EXR file's `dataWindow` (`box2i`: min x, min
-/// y, max x, max y, both corners included), if it has one: a maximum below
-/// its minimum, or a width or height beyond 2³¹. Some readers take the
-/// size's magnitude and read such a file as an image of another size.
+/// The fault of a single-part EXR file's header sizes, if it has one:
+/// - a `dataWindow` (`box2i`: min x, min y, max x, max y, both corners
+///   included) whose maximum is below its minimum, or wider or higher than
+///   2³¹ (some readers take the size's magnitude and read such a file as an
+///   image of another size);
+/// - more sample bytes than the file can hold: its own length times the
+///   most its `compression` expands ([`max_expansion`]). Readers allocate
+///   for the header's size, so a 1 KiB file claiming 30000×30000 pixels
+///   would otherwise cost gigabytes before its data is found missing.
+///
 /// Files this does not recognise pass: the reader's own checks apply.
-pub fn data_window_fault(path: &std::path::Path) -> std::io::Result<Option<String>> {
-    let head = head_of(&mut std::fs::File::open(path)?)?;
+pub fn header_fault(path: &std::path::Path) -> std::io::Result<Option<String>> {
+    let mut file = std::fs::File::open(path)?;
+    let file_len = file.metadata()?.len();
+    let head = head_of(&mut file)?;
     let Some((attributes, _)) = attributes(&head) else {
         return Ok(None);
     };
-    let Some(window) = attributes
+    // A header may name an attribute twice (found by fuzzing: a second,
+    // wider `dataWindow` after a good one), and readers differ in which
+    // they take: every copy is checked, against the widest channel list
+    // and the compression that expands most.
+    let pixel_bytes = attributes
         .iter()
-        .find(|a| a.name == b"dataWindow" && a.kind == b"box2i" && a.value.len() == 16)
-    else {
-        return Ok(None);
-    };
-    let v = |i: usize| {
-        let b = &window.value[4 * i..4 * i + 4];
-        i64::from(i32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-    };
-    let (x0, y0, x1, y1) = (v(0), v(1), v(2), v(3));
-    Ok(if x1 < x0 || y1 < y0 {
-        Some(format!(
-            "the data window's corner ({x1}, {y1}) is below its origin ({x0}, {y0}): no pixels"
-        ))
-    } else if x1 - x0 + 1 > i64::from(i32::MAX) || y1 - y0 + 1 > i64::from(i32::MAX) {
-        Some(format!(
-            "the data window ({x0}, {y0}) to ({x1}, {y1}) is more than 2^31 pixels wide or high"
-        ))
-    } else {
-        None
-    })
+        .filter(|a| a.name == b"channels" && a.kind == b"chlist")
+        .filter_map(|a| bytes_per_pixel(a.value))
+        .max();
+    let expansion = attributes
+        .iter()
+        .filter(|a| a.name == b"compression" && a.kind == b"compression" && a.value.len() == 1)
+        .map(|a| max_expansion(a.value[0]))
+        .max()
+        .unwrap_or(1);
+    let windows = attributes
+        .iter()
+        .filter(|a| a.name == b"dataWindow" && a.kind == b"box2i" && a.value.len() == 16);
+    for window in windows {
+        let v = |i: usize| {
+            let b = &window.value[4 * i..4 * i + 4];
+            i64::from(i32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        };
+        let (x0, y0, x1, y1) = (v(0), v(1), v(2), v(3));
+        if x1 < x0 || y1 < y0 {
+            return Ok(Some(format!(
+                "the data window's corner ({x1}, {y1}) is below its origin ({x0}, {y0}): no pixels"
+            )));
+        }
+        let (width, height) = ((x1 - x0 + 1) as u64, (y1 - y0 + 1) as u64);
+        if width > i32::MAX as u64 || height > i32::MAX as u64 {
+            return Ok(Some(format!(
+                "the data window ({x0}, {y0}) to ({x1}, {y1}) is more than 2^31 pixels wide or high"
+            )));
+        }
+        let Some(pixel_bytes) = pixel_bytes else {
+            continue;
+        };
+        let samples = u128::from(width) * u128::from(height) * u128::from(pixel_bytes);
+        if samples > u128::from(file_len) * u128::from(expansion) {
+            return Ok(Some(format!(
+                "the header's {width}×{height} pixels ({samples} bytes of samples) cannot be \
+                 in a file of {file_len} bytes (its compression expands at most {expansion}×)"
+            )));
+        }
+    }
+    Ok(None)
+}
+
+/// The bytes of one pixel's samples in a `chlist` (each channel: its name,
+/// NUL, pixel type (0 uint, 1 half, 2 float), pLinear, three reserved
+/// bytes, x and y sampling; a NUL ends the list). A subsampled channel
+/// counts as a full one: the bound stays an upper one. `None` when the list
+/// is not well formed.
+fn bytes_per_pixel(list: &[u8]) -> Option<u64> {
+    let mut at = 0;
+    let mut bytes = 0u64;
+    while *list.get(at)? != 0 {
+        at += list[at..].iter().position(|&b| b == 0)? + 1;
+        let kind = list.get(at..at + 4)?;
+        bytes += match u32::from_le_bytes([kind[0], kind[1], kind[2], kind[3]]) {
+            1 => 2,
+            _ => 4,
+        };
+        at += 16;
+    }
+    Some(bytes)
+}
+
+/// The most a byte of an EXR file expands to in samples, by its
+/// `compression` code: 1 uncompressed; RLE stores a run of up to 128 bytes
+/// in 2; zlib (ZIPS, ZIP, PXR24) at most about 1032×; B44 packs 16 halves
+/// in at least 3 bytes (floats stay as they are); PIZ, DWAA/DWAB and newer
+/// codecs have no small bound, so they get a generous one (2¹⁶×): a
+/// constant 8K image still fits, a 1 KiB file cannot claim more than 64 MiB.
+pub fn max_expansion(compression: u8) -> u64 {
+    match compression {
+        0 => 1,
+        1 => 64,
+        2 | 3 | 5 => 1100,
+        6 | 7 => 11,
+        _ => 1 << 16,
+    }
 }
 
 #[cfg(test)]
@@ -142,7 +220,48 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("h.exr");
         std::fs::write(&p, bytes).unwrap();
-        data_window_fault(&p).unwrap()
+        header_fault(&p).unwrap()
+    }
+
+    /// A header with a data window, three half channels and a compression,
+    /// followed by `data` bytes standing for the offset table and pixels.
+    fn rgb_header(window: [i32; 4], compression: u8, data: usize) -> Vec<u8> {
+        let mut h = header(window, 2);
+        h.pop(); // the end of the header, put back below
+        let mut list = Vec::new();
+        for c in [b"B", b"G", b"R"] {
+            list.extend_from_slice(c);
+            list.push(0);
+            list.extend_from_slice(&1u32.to_le_bytes()); // half
+            list.extend_from_slice(&[0, 0, 0, 0]);
+            list.extend_from_slice(&1i32.to_le_bytes());
+            list.extend_from_slice(&1i32.to_le_bytes());
+        }
+        list.push(0);
+        h.extend_from_slice(b"channels\0chlist\0");
+        h.extend_from_slice(&(list.len() as i32).to_le_bytes());
+        h.extend_from_slice(&list);
+        h.extend_from_slice(b"compression\0compression\0");
+        h.extend_from_slice(&1i32.to_le_bytes());
+        h.push(compression);
+        h.push(0);
+        h.resize(h.len() + data, 7);
+        h
+    }
+
+    #[test]
+    fn headers_claiming_more_samples_than_the_file_holds_are_found() {
+        // 8×6 half RGB is 288 bytes of samples: uncompressed it needs them.
+        assert_eq!(fault(&rgb_header([0, 0, 7, 5], 0, 300)), None);
+        let f = fault(&rgb_header([0, 0, 7, 5], 0, 100)).unwrap();
+        assert!(f.contains("8×6 pixels (288 bytes"), "{f}");
+        // Found by fuzzing: 1 KiB claiming 30000×30000 pixels, ZIP.
+        let f = fault(&rgb_header([0, 0, 29_999, 29_999], 3, 1000)).unwrap();
+        assert!(f.contains("30000×30000") && f.contains("1100×"), "{f}");
+        // A constant 8K panorama in PIZ fits in a few KiB, and passes.
+        assert_eq!(fault(&rgb_header([0, 0, 8191, 4095], 4, 4000)), None);
+        assert!(max_expansion(0) < max_expansion(1));
+        assert!(max_expansion(3) < max_expansion(4));
     }
 
     #[test]

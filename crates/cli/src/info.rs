@@ -70,7 +70,7 @@ pub fn run(a: &InfoArgs) -> Result<()> {
     if matches!(ext.as_str(), "tif" | "tiff" | "png" | "jpg" | "jpeg") {
         return run_other(&a.input);
     }
-    plsr::film::check_data_window(&a.input)?;
+    plsr::film::check_exr_header(&a.input)?;
     let meta = exr::meta::MetaData::read_from_file(&a.input, false)
         .map_err(|e| Error::input(&a.input, "", format!("cannot read as OpenEXR: {e}")))?;
     println!("{}", a.input.display());

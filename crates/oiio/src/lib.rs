@@ -470,8 +470,19 @@ impl ImageReader {
         Self::open_with_oiio(path)
     }
 
-    /// Opens `path` with OpenImageIO, whatever its format.
+    /// Opens `path` with OpenImageIO, whatever its format. An OpenEXR
+    /// header whose sizes the file cannot hold is refused first
+    /// ([`plsr_base::exr_header::header_fault`]): OpenImageIO would size
+    /// its buffers from it.
     fn open_with_oiio(path: &Path) -> Result<ImageReader> {
+        if plsr_base::exr_header::is_exr(path) {
+            use plsr_base::Vocabulary;
+            let fault =
+                plsr_base::exr_header::header_fault(path).map_err(|e| Error::io(path, e))?;
+            if let Some(fault) = fault {
+                return Err(Error::input(path, "dataWindow", fault));
+            }
+        }
         let cpath = c_path(path)?;
         let mut handle: *mut ffi::Input = std::ptr::null_mut();
         let mut spec = ffi::Spec::default();

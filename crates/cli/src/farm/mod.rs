@@ -10,7 +10,7 @@
 //! whole array again re-renders only what is missing.
 
 mod k8s;
-mod plan;
+pub mod plan;
 mod slurm;
 
 use crate::error::{Error, Result};

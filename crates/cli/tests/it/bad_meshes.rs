@@ -85,6 +85,29 @@ fn random_bytes_are_not_a_library() {
 }
 
 #[test]
+fn random_text_is_not_a_library() {
+    // 8 KiB of printable words and numbers, control bytes excluded: once
+    // this rendered with no word of it.
+    let mut x = 0x9e37_79b9_7f4a_7c15u64;
+    let text: Vec<u8> = (0..8192)
+        .map(|_| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            b"abcdefghijklmnopqrstuvwxyz0123456789 .\n"[(x % 39) as usize]
+        })
+        .collect();
+    let e = cli_error(&text);
+    assert!(
+        e.contains("m.mtl") && e.contains("line 1") && e.contains("before any `newmtl`"),
+        "{e}"
+    );
+    // A library of comments alone (an exporter's, for no materials) loads.
+    let dir = folder(b"# Blender MTL File: 'None'\n# Material Count: 0\n");
+    assert!(plsr::scene::Scene::load(&dir.path().join("scene.toml")).is_ok());
+}
+
+#[test]
 fn a_good_library_still_loads() {
     let dir = folder(b"# a comment\nnewmtl a\nKd 0.5 0.25 0.125\nNs 10\nd 1\n");
     let scene = plsr::scene::Scene::load(&dir.path().join("scene.toml")).unwrap();

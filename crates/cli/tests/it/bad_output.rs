@@ -516,3 +516,136 @@ fn equal_exposures_are_a_warning_and_all_equal_an_error() {
         "{stderr}"
     );
 }
+
+/// A room small enough for a 64 KiB disk: a floor, a point light and a
+/// virtual sphere; `PHOTO` is replaced by a `[photo]` table or nothing.
+const TINY_ROOM: &str = r#"
+[render]
+spp = 4
+max_depth = 2
+
+[camera]
+position = [0, -4, 3]
+look_at = [0, 0, 0.3]
+up = [0, 0, 1]
+vfov = 40
+resolution = [12, 8]
+
+PHOTO
+
+[[materials]]
+name = "floor"
+type = "diffuse"
+reflectance = [0.5, 0.5, 0.5]
+
+[[shapes]]
+type = "rectangle"
+material = "floor"
+transform = { scale = 3 }
+
+[[lights]]
+type = "point"
+position = [1.5, -1, 3]
+intensity = [6, 6, 6]
+
+[[shapes]]
+type = "sphere"
+center = [0, 0, 0.5]
+radius = 0.5
+virtual = true
+"#;
+
+#[test]
+#[cfg(target_os = "linux")]
+fn merge_fit_and_composite_on_a_full_disk_keep_the_old_files_and_succeed_next_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let plsr = env!("CARGO_BIN_EXE_plsr");
+    let run = |args: &[&str]| {
+        let o = Command::new(plsr)
+            .current_dir(d)
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    // The inputs, on the ordinary disk: a photo and two parts.
+    std::fs::write(d.join("room.toml"), TINY_ROOM.replace("PHOTO", "")).unwrap();
+    run(&["render", "room.toml", "-o", "photo.exr", "--quiet"]);
+    run(&[
+        "render",
+        "room.toml",
+        "--samples",
+        "0..2",
+        "-o",
+        "a.exr",
+        "--quiet",
+    ]);
+    run(&[
+        "render",
+        "room.toml",
+        "--samples",
+        "2..4",
+        "-o",
+        "b.exr",
+        "--quiet",
+    ]);
+    let photo = "[photo]\nfile = \"photo.exr\"\nresponse = \"linear\"\nexposure = 1";
+    std::fs::write(d.join("ar.toml"), TINY_ROOM.replace("PHOTO", photo)).unwrap();
+    std::fs::create_dir(d.join("full")).unwrap();
+    let commands = [
+        ("merge", format!("'{plsr}' merge a.exr b.exr -o full/m.exr")),
+        (
+            "fit",
+            format!(
+                "'{plsr}' fit ar.toml -o full/fitted.toml --iterations 1 --param 'floor.*' --quiet"
+            ),
+        ),
+        (
+            "composite",
+            format!("'{plsr}' composite ar.toml -o full/c.exr --quiet"),
+        ),
+    ];
+    // Yesterday's outputs, then a filler to the brim; each command fails.
+    // The filler goes, and each succeeds.
+    let mut script = String::from(
+        "echo old > full/m.exr; echo old > full/fitted.toml; echo old > full/c.exr; \
+         head -c 100000 /dev/zero > full/filler 2>/dev/null; ",
+    );
+    for (name, command) in &commands {
+        script += &format!("{command}; echo \"{name} on a full disk: $?\" >&2; ");
+    }
+    script += "cat full/m.exr full/fitted.toml full/c.exr >&2; ls -a full >&2; rm full/filler; ";
+    for (name, command) in &commands {
+        script += &format!("{command}; echo \"{name} next time: $?\" >&2; ");
+    }
+    script += "ls full >&2";
+    let Some(output) = on_a_tiny_disk(
+        &d.join("full"),
+        &format!("cd '{}' && {script}", d.display()),
+    ) else {
+        eprintln!("skipped: no mount namespace on this system");
+        return;
+    };
+    let stderr = String::from_utf8_lossy(&output.stderr).to_lowercase();
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    for (name, _) in &commands {
+        assert!(
+            stderr.contains(&format!("{name} on a full disk: 1")),
+            "{stderr}"
+        );
+        assert!(stderr.contains(&format!("{name} next time: 0")), "{stderr}");
+    }
+    assert!(stderr.contains("no space left on device"), "{stderr}");
+    // The old files were whole after the failures, and nothing else was
+    // left on the disk but the filler.
+    assert!(
+        stderr.contains("old\nold\nold\n.\n..\nc.exr\nfiller\nfitted.toml\nm.exr\n"),
+        "{stderr}"
+    );
+    // Next time: the new outputs (fit's loss curve beside its scene).
+    let listing = stderr.rsplit("next time: 0\n").next().unwrap();
+    for name in ["c.exr", "fitted.toml", "fitted.loss.csv", "m.exr"] {
+        assert!(listing.contains(name), "{name} missing: {stderr}");
+    }
+}
