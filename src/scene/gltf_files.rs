@@ -238,6 +238,44 @@ impl GltfAsset {
             )
             .into())
         };
+        // Animations (found by fuzzing: a scalar output read as rotations).
+        for animation in self.doc.animations() {
+            for (c, channel) in animation.channels().enumerate() {
+                use gltf::animation::Property as P;
+                let field = format!("animations[{}].channels[{c}]", animation.index());
+                let sampler = channel.sampler();
+                let input = sampler.input();
+                if input.dimensions() != N::Scalar || input.data_type() != D::F32 {
+                    return Err(format!(
+                        "{field}: its sampler's input is accessor {} of {:?} {:?}; glTF \
+                         requires SCALAR of FLOAT (times in seconds)",
+                        input.index(),
+                        input.dimensions(),
+                        input.data_type()
+                    )
+                    .into());
+                }
+                let ints = [D::F32, D::I8, D::U8, D::I16, D::U16];
+                let (dims, types, says): (N, &[D], &str) = match channel.target().property() {
+                    P::Translation | P::Scale => (N::Vec3, &[D::F32], "VEC3 of FLOAT"),
+                    P::Rotation => (N::Vec4, &ints, "VEC4 of FLOAT or normalised integers"),
+                    P::MorphTargetWeights => {
+                        (N::Scalar, &ints, "SCALAR of FLOAT or normalised integers")
+                    }
+                };
+                let output = sampler.output();
+                if output.dimensions() != dims || !types.contains(&output.data_type()) {
+                    return Err(format!(
+                        "{field}: its sampler's output is accessor {} of {:?} {:?}; glTF \
+                         requires {says} for this property",
+                        output.index(),
+                        output.dimensions(),
+                        output.data_type()
+                    )
+                    .into());
+                }
+            }
+        }
         for mesh in self.doc.meshes() {
             for p in mesh.primitives() {
                 let field = format!("meshes[{}].primitives[{}]", mesh.index(), p.index());
@@ -432,19 +470,24 @@ fn check_glb(bytes: &[u8]) -> Result<()> {
         )
         .into());
     }
-    let bytes = &bytes[..length as usize];
+    // The chunks end where the header's length says, whatever follows.
+    let end_of_file = length as usize;
     let mut at = 12usize;
     let mut chunk = 0;
-    while at < bytes.len() {
+    while at < end_of_file {
+        // Found by fuzzing: a chunk header running past the length.
+        if at + 8 > end_of_file {
+            return Err(format!("GLB chunk {chunk}: its 8-byte header is cut off").into());
+        }
         let (Some(len), Some(_kind)) = (word(at), word(at + 4)) else {
             return Err(format!("GLB chunk {chunk}: its 8-byte header is cut off").into());
         };
         let end = (at + 8).checked_add(len as usize);
-        if end.is_none_or(|e| e > bytes.len()) {
+        if end.is_none_or(|e| e > end_of_file) {
             return Err(format!(
                 "GLB chunk {chunk}: length {len} is past the end of the file ({} bytes from \
                  byte {})",
-                bytes.len() - at - 8,
+                end_of_file - at - 8,
                 at + 8
             )
             .into());

@@ -12,6 +12,7 @@
 //!    and divided by the scale, are the result.
 
 use crate::planes::Planes;
+use crate::transfer::Transfer;
 use crate::unet::{UNet, WeightsError};
 use crate::weights::{self, Guides};
 
@@ -104,40 +105,161 @@ pub fn denoise(
         set: set.name,
         source,
     })?;
-    let transfer = weights::color_transfer(options.hdr);
     let scale = match options.input_scale {
         Some(s) => s,
         None if options.hdr => crate::autoexposure::input_scale(color.pixels, w, h),
         None => 1.0,
     };
-    let (ph, pw) = (h.next_multiple_of(16), w.next_multiple_of(16));
-    let mut input = Planes::zeros(net.input_channels(), ph, pw);
-    let top = if options.hdr { f32::MAX } else { 1.0 };
-    fill(&mut input, 0, color, |v| {
-        transfer.forward(sanitise(v * scale, 0.0, top))
-    });
-    if let Some(albedo) = albedo {
-        fill(&mut input, 3, albedo, |v| sanitise(v, 0.0, 1.0));
-    }
-    if let Some(normal) = normal {
-        fill(&mut input, 6, normal, |v| {
-            sanitise(v, -1.0, 1.0) * 0.5 + 0.5
-        });
-    }
-    let output = net.forward(&input);
-    drop(input);
-    let unscale = if scale == 0.0 { 0.0 } else { 1.0 / scale };
+    let encode = Encoding {
+        hdr: options.hdr,
+        transfer: weights::color_transfer(options.hdr),
+        scale,
+    };
+    let images = [Some(color), albedo, normal];
     let mut out = vec![[0.0f32; 3]; w * h];
-    for (c, plane) in (0..3).map(|c| (c, output.plane(c))) {
-        for y in 0..h {
-            for x in 0..w {
-                let v = transfer.inverse(sanitise(plane[y * pw + x], 0.0, f32::MAX));
-                let v = if options.hdr { v } else { v.min(1.0) };
-                out[y * w + x][c] = v * unscale;
+    for tile in tiles(w, h, MAX_TILE_CORE, ONE_TILE_PIXELS) {
+        let input = encode.input(&images, &tile, net.input_channels());
+        let output = net.forward(&input);
+        drop(input);
+        encode.output(&output, &tile, &mut out, w);
+    }
+    Ok(out)
+}
+
+/// The largest image (padded, in pixels) run as one tile: a 1920×1080
+/// frame, whose feature maps peak at about 1.3 GiB (the 73 input channels
+/// of `dec_conv1a`, its 64 outputs at full resolution, and the skips).
+/// Tiles cost the work of their overlaps (30 % more for 1080p in four).
+const ONE_TILE_PIXELS: usize = 1920 * 1088;
+
+/// The largest side of a tile's core, in pixels, for larger images: a
+/// 1024² core with its overlap peaks at about 0.9 GiB, whatever the image's
+/// size.
+const MAX_TILE_CORE: usize = 1024;
+
+/// How far each tile reaches past its core on every side that has a
+/// neighbour, in pixels: past the network's receptive radius (87 pixels),
+/// and a multiple of 16 so that tiles keep the pooling grid of the whole
+/// image. With it, tiles give exactly what the whole image would.
+const OVERLAP: usize = 96;
+
+/// A tile: the network runs over `x0..x1 × y0..y1` (a multiple of 16 each
+/// way, zeros beyond the image) and keeps `core_x0..core_x1 ×
+/// core_y0..core_y1`.
+#[derive(Debug, Clone, PartialEq)]
+struct Tile {
+    x0: usize,
+    x1: usize,
+    y0: usize,
+    y1: usize,
+    core_x0: usize,
+    core_x1: usize,
+    core_y0: usize,
+    core_y1: usize,
+}
+
+/// The tiles of a `w × h` image: one if it has at most `one_tile`
+/// pixels once padded, else cores of at most `max_core` (multiples of 16)
+/// reaching [`OVERLAP`] past on the sides they share.
+fn tiles(w: usize, h: usize, max_core: usize, one_tile: usize) -> Vec<Tile> {
+    let whole = w.next_multiple_of(16) * h.next_multiple_of(16) <= one_tile;
+    let spans = |n: usize| -> Vec<(usize, usize, usize, usize)> {
+        let padded = n.next_multiple_of(16);
+        let count = if whole {
+            1
+        } else {
+            padded.div_ceil(max_core).max(1)
+        };
+        let core = padded.div_ceil(count).next_multiple_of(16);
+        (0..count)
+            .map(|i| {
+                let (c0, c1) = (i * core, ((i + 1) * core).min(padded));
+                let lo = c0.saturating_sub(OVERLAP);
+                let hi = (c1 + OVERLAP).min(padded);
+                (lo, hi, c0, c1.min(n))
+            })
+            .filter(|s| s.2 < s.3)
+            .collect()
+    };
+    let (columns, rows) = (spans(w), spans(h));
+    let mut out = Vec::new();
+    for &(y0, y1, core_y0, core_y1) in &rows {
+        for &(x0, x1, core_x0, core_x1) in &columns {
+            out.push(Tile {
+                x0,
+                x1,
+                y0,
+                y1,
+                core_x0,
+                core_x1,
+                core_y0,
+                core_y1,
+            });
+        }
+    }
+    out
+}
+
+/// How values go into the network and come out of it.
+struct Encoding {
+    hdr: bool,
+    transfer: Transfer,
+    scale: f32,
+}
+
+impl Encoding {
+    /// The network's input over `tile`: colour, then albedo and normal
+    /// where given, encoded; zeros beyond the image.
+    fn input(&self, images: &[Option<Image>; 3], tile: &Tile, channels: usize) -> Planes {
+        let (tw, th) = (tile.x1 - tile.x0, tile.y1 - tile.y0);
+        let mut planes = Planes::zeros(channels, th, tw);
+        let top = if self.hdr { f32::MAX } else { 1.0 };
+        let encoders: [&dyn Fn(f32) -> f32; 3] = [
+            &|v| self.transfer.forward(sanitise(v * self.scale, 0.0, top)),
+            &|v| sanitise(v, 0.0, 1.0),
+            &|v| sanitise(v, -1.0, 1.0) * 0.5 + 0.5,
+        ];
+        let mut first = 0;
+        for (image, encode) in images.iter().zip(encoders) {
+            let Some(image) = image else {
+                continue;
+            };
+            for c in 0..3 {
+                let plane = planes.plane_mut(first + c);
+                for y in tile.y0..tile.y1.min(image.height) {
+                    let row = &image.pixels[y * image.width..(y + 1) * image.width];
+                    for x in tile.x0..tile.x1.min(image.width) {
+                        plane[(y - tile.y0) * tw + x - tile.x0] = encode(row[x][c]);
+                    }
+                }
+            }
+            first += 3;
+        }
+        planes
+    }
+
+    /// Writes the core of `tile` from the network's `output` into `out` (an
+    /// image `width` pixels wide): decoded, clamped at 0, scaled back.
+    fn output(&self, output: &Planes, tile: &Tile, out: &mut [[f32; 3]], width: usize) {
+        let tw = tile.x1 - tile.x0;
+        let unscale = if self.scale == 0.0 {
+            0.0
+        } else {
+            1.0 / self.scale
+        };
+        for c in 0..3 {
+            let plane = output.plane(c);
+            for y in tile.core_y0..tile.core_y1 {
+                let row = &mut out[y * width + tile.core_x0..y * width + tile.core_x1];
+                let src = &plane[(y - tile.y0) * tw + tile.core_x0 - tile.x0..][..row.len()];
+                for (pixel, &v) in row.iter_mut().zip(src) {
+                    let v = self.transfer.inverse(sanitise(v, 0.0, f32::MAX));
+                    let v = if self.hdr { v } else { v.min(1.0) };
+                    pixel[c] = v * unscale;
+                }
             }
         }
     }
-    Ok(out)
 }
 
 /// NaN as 0, then clamped to `[lo, hi]`.
@@ -149,14 +271,81 @@ fn sanitise(v: f32, lo: f32, hi: f32) -> f32 {
     }
 }
 
-/// Writes `image`'s three channels, mapped by `f`, into planes `first..first + 3`.
-fn fill(planes: &mut Planes, first: usize, image: Image, f: impl Fn(f32) -> f32) {
-    let pw = planes.width;
-    for c in 0..3 {
-        let plane = planes.plane_mut(first + c);
-        for y in 0..image.height {
-            for x in 0..image.width {
-                plane[y * pw + x] = f(image.pixels[y * image.width + x][c]);
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tiles_cover_the_image_once_on_the_pooling_grid() {
+        for (w, h, core) in [
+            (37, 29, 1024),
+            (1000, 300, 256),
+            (517, 389, 128),
+            (16, 700, 64),
+        ] {
+            let tiles = tiles(w, h, core, 0);
+            let mut covered = vec![0u8; w * h];
+            for t in &tiles {
+                assert!(t.x0 % 16 == 0 && t.y0 % 16 == 0, "{t:?}");
+                assert!((t.x1 - t.x0) % 16 == 0 && (t.y1 - t.y0) % 16 == 0, "{t:?}");
+                assert!(t.core_x0 - t.x0 >= OVERLAP.min(t.core_x0), "{t:?}");
+                for y in t.core_y0..t.core_y1 {
+                    for x in t.core_x0..t.core_x1 {
+                        covered[y * w + x] += 1;
+                    }
+                }
+            }
+            assert!(
+                covered.iter().all(|&c| c == 1),
+                "{w}×{h} in cores of {core}"
+            );
+        }
+        assert_eq!(tiles(37, 29, 1024, 0).len(), 1);
+        assert_eq!(tiles(1920, 1080, 1024, ONE_TILE_PIXELS).len(), 1);
+        assert_eq!(tiles(1920, 1080, 1024, 0).len(), 4);
+    }
+
+    #[test]
+    fn tiled_filtering_is_the_whole_images() {
+        // A 300×200 image cut into cores of 64: the overlap keeps every
+        // pixel's receptive field, so the result is the same.
+        let (w, h) = (300, 200);
+        let color: Vec<[f32; 3]> = (0..w * h)
+            .map(|i| {
+                let v = ((i as u32).wrapping_mul(2_654_435_761) >> 8) as f32 / (1u32 << 24) as f32;
+                [v * 2.0, v, 0.5 * (i % w) as f32 / w as f32]
+            })
+            .collect();
+        let image = Image {
+            pixels: &color,
+            width: w,
+            height: h,
+        };
+        let options = Options {
+            hdr: true,
+            clean_aux: false,
+            input_scale: None,
+        };
+        let whole = denoise(image, None, None, &options).unwrap();
+        let net = UNet::load(weights::for_color(true, Guides::None).bytes).unwrap();
+        let encode = Encoding {
+            hdr: true,
+            transfer: Transfer::Pu,
+            scale: crate::autoexposure::input_scale(&color, w, h),
+        };
+        let mut tiled = vec![[0.0f32; 3]; w * h];
+        let tiles = tiles(w, h, 64, 0);
+        assert!(tiles.len() > 6);
+        for tile in tiles {
+            let input = encode.input(&[Some(image), None, None], &tile, 3);
+            encode.output(&net.forward(&input), &tile, &mut tiled, w);
+        }
+        for (a, b) in whole.iter().zip(&tiled) {
+            for c in 0..3 {
+                assert!(
+                    (a[c] - b[c]).abs() <= 1e-6 * (1.0 + a[c].abs()),
+                    "{a:?} vs {b:?}"
+                );
             }
         }
     }

@@ -167,8 +167,7 @@ pub fn check(data: &[u8]) {
                 width,
                 height,
             } => {
-                small = u64::from(*width) * u64::from(*height) <= 64;
-                plsr_scene_builder_set_camera(
+                let r = plsr_scene_builder_set_camera(
                     builder,
                     position.as_ptr(),
                     look_at.as_ptr(),
@@ -176,7 +175,13 @@ pub fn check(data: &[u8]) {
                     *vfov,
                     *width,
                     *height,
-                )
+                );
+                // A refused camera leaves the one before in place (found
+                // by fuzzing: a big earlier camera was then rendered).
+                if r == PLSR_OK {
+                    small = u64::from(*width) * u64::from(*height) <= 64;
+                }
+                r
             }
             Call::Render {
                 spp,
