@@ -214,26 +214,24 @@ impl Encoding {
         let (tw, th) = (tile.x1 - tile.x0, tile.y1 - tile.y0);
         let mut planes = Planes::zeros(channels, th, tw);
         let top = if self.hdr { f32::MAX } else { 1.0 };
-        let encoders: [&dyn Fn(f32) -> f32; 3] = [
-            &|v| self.transfer.forward(sanitise(v * self.scale, 0.0, top)),
-            &|v| sanitise(v, 0.0, 1.0),
-            &|v| sanitise(v, -1.0, 1.0) * 0.5 + 0.5,
-        ];
+        let [color, albedo, normal] = images;
+        // Colour, then albedo and normal where given, each encoded by a
+        // function of its own (generic, so that it inlines per pixel).
         let mut first = 0;
-        for (image, encode) in images.iter().zip(encoders) {
-            let Some(image) = image else {
-                continue;
-            };
-            for c in 0..3 {
-                let plane = planes.plane_mut(first + c);
-                for y in tile.y0..tile.y1.min(image.height) {
-                    let row = &image.pixels[y * image.width..(y + 1) * image.width];
-                    for x in tile.x0..tile.x1.min(image.width) {
-                        plane[(y - tile.y0) * tw + x - tile.x0] = encode(row[x][c]);
-                    }
-                }
-            }
+        if let Some(color) = color {
+            encode_into(&mut planes, first, color, tile, |v| {
+                self.transfer.forward(sanitise(v * self.scale, 0.0, top))
+            });
             first += 3;
+        }
+        if let Some(albedo) = albedo {
+            encode_into(&mut planes, first, albedo, tile, |v| sanitise(v, 0.0, 1.0));
+            first += 3;
+        }
+        if let Some(normal) = normal {
+            encode_into(&mut planes, first, normal, tile, |v| {
+                sanitise(v, -1.0, 1.0) * 0.5 + 0.5
+            });
         }
         planes
     }
@@ -257,6 +255,29 @@ impl Encoding {
                     let v = if self.hdr { v } else { v.min(1.0) };
                     pixel[c] = v * unscale;
                 }
+            }
+        }
+    }
+}
+
+/// Writes `image`'s three channels over `tile`, mapped by `encode`, into
+/// planes `first..first + 3`; what lies beyond the image stays 0.
+fn encode_into(
+    planes: &mut Planes,
+    first: usize,
+    image: &Image,
+    tile: &Tile,
+    encode: impl Fn(f32) -> f32,
+) {
+    let tw = tile.x1 - tile.x0;
+    for c in 0..3 {
+        let plane = planes.plane_mut(first + c);
+        for y in tile.y0..tile.y1.min(image.height) {
+            let row = &image.pixels[y * image.width..(y + 1) * image.width];
+            let x1 = tile.x1.min(image.width);
+            let dst = &mut plane[(y - tile.y0) * tw..][..x1 - tile.x0];
+            for (d, pixel) in dst.iter_mut().zip(&row[tile.x0..x1]) {
+                *d = encode(pixel[c]);
             }
         }
     }
