@@ -10,10 +10,63 @@
 
 use crate::planes::Planes;
 use rayon::prelude::*;
+use std::cell::RefCell;
 
 /// Output pixels per band: the patch matrix of a band stays within a few
 /// MiB (at most 160 input channels × 9 taps × 4 bytes each).
-const BAND_PIXELS: usize = 2048;
+pub(crate) const BAND_PIXELS: usize = 2048;
+
+thread_local! {
+    /// Each thread's patch matrix and product, reused from band to band so
+    /// that no band pays for fresh memory.
+    static SCRATCH: RefCell<(Vec<f32>, Vec<f32>)> = const { RefCell::new((Vec::new(), Vec::new())) };
+}
+
+/// Runs `f` with this thread's two scratch buffers, grown to `a` and `b`
+/// values (their contents are whatever the last band left).
+pub(crate) fn with_scratch<R>(
+    a: usize,
+    b: usize,
+    f: impl FnOnce(&mut [f32], &mut [f32]) -> R,
+) -> R {
+    SCRATCH.with(|cell| {
+        let mut guard = cell.borrow_mut();
+        let (x, y) = &mut *guard;
+        if x.len() < a {
+            x.resize(a, 0.0);
+        }
+        if y.len() < b {
+            y.resize(b, 0.0);
+        }
+        f(&mut x[..a], &mut y[..b])
+    })
+}
+
+/// `c = a · b` for row-major `a` (`m × k`), `b` (`k × n`) and `c` (`m × n`),
+/// single-threaded (the bands are the parallelism).
+pub(crate) fn matmul(m: usize, k: usize, n: usize, a: &[f32], b: &[f32], c: &mut [f32]) {
+    assert!(a.len() >= m * k && b.len() >= k * n && c.len() >= m * n);
+    // SAFETY: the asserts above show the three row-major matrices lie
+    // within their slices; `c` is borrowed mutably, so nothing aliases it.
+    unsafe {
+        matrixmultiply::sgemm(
+            m,
+            k,
+            n,
+            1.0,
+            a.as_ptr(),
+            k as isize,
+            1,
+            b.as_ptr(),
+            n as isize,
+            1,
+            0.0,
+            c.as_mut_ptr(),
+            n as isize,
+            1,
+        );
+    }
+}
 
 /// A 3×3 convolution with its ReLU.
 #[derive(Debug, Clone)]
@@ -24,9 +77,9 @@ pub struct Conv3x3 {
     pub inputs: usize,
     /// `outputs × (inputs · 9)`, row-major: output, input, ky, kx (OIDN's
     /// `oihw`, PyTorch's layout: a cross-correlation).
-    weight: Vec<f32>,
+    pub(crate) weight: Vec<f32>,
     /// One per output channel.
-    bias: Vec<f32>,
+    pub(crate) bias: Vec<f32>,
 }
 
 impl Conv3x3 {
@@ -50,64 +103,101 @@ impl Conv3x3 {
         let k = self.inputs * 9;
         let rows_per_band = (BAND_PIXELS / w).max(1);
         let mut out = Planes::zeros(self.outputs, h, w);
-        let bands: Vec<(usize, Vec<f32>)> = (0..h)
-            .step_by(rows_per_band)
-            .collect::<Vec<_>>()
-            .into_par_iter()
-            .map(|y0| {
-                let y1 = (y0 + rows_per_band).min(h);
-                let n = (y1 - y0) * w;
-                let patches = patches(parts, y0, y1);
-                let mut band = vec![0.0f32; self.outputs * n];
-                for (o, row) in band.chunks_exact_mut(n).enumerate() {
-                    row.fill(self.bias[o]);
+        let bands = Bands::of(&mut out, rows_per_band);
+        bands.for_each(|y0, y1, write| {
+            let n = (y1 - y0) * w;
+            with_scratch(k * n, self.outputs * n, |patch, product| {
+                patches(parts, y0, y1, patch);
+                matmul(self.outputs, k, n, &self.weight, patch, product);
+                for (o, row) in product.chunks_exact_mut(n).enumerate() {
+                    let b = self.bias[o];
+                    row.iter_mut().for_each(|v| *v = (*v + b).max(0.0));
+                    write(o, y0 * w, 1, row);
                 }
-                // SAFETY: the pointers and strides describe three row-major
-                // matrices held by live vectors: the weights (outputs × k),
-                // the patches (k × n) and the band (outputs × n), each of
-                // exactly that many elements.
-                unsafe {
-                    matrixmultiply::sgemm(
-                        self.outputs,
-                        k,
-                        n,
-                        1.0,
-                        self.weight.as_ptr(),
-                        k as isize,
-                        1,
-                        patches.as_ptr(),
-                        n as isize,
-                        1,
-                        1.0,
-                        band.as_mut_ptr(),
-                        n as isize,
-                        1,
-                    );
-                }
-                for v in &mut band {
-                    *v = v.max(0.0);
-                }
-                (y0, band)
             })
-            .collect();
-        for (y0, band) in bands {
-            let n = band.len() / self.outputs;
-            for o in 0..self.outputs {
-                out.plane_mut(o)[y0 * w..y0 * w + n].copy_from_slice(&band[o * n..(o + 1) * n]);
-            }
-        }
+        });
         out
     }
 }
 
-/// The patch matrix of rows `y0..y1`: row `(c·3 + ky)·3 + kx` holds, for
-/// each output pixel of the band, input channel `c` at offset
-/// `(ky − 1, kx − 1)`, zero outside the image.
-fn patches(parts: &[&Planes], y0: usize, y1: usize) -> Vec<f32> {
+/// Feature maps cut into bands of rows that threads fill at once, each
+/// band by one thread and each by itself, so the result does not depend on
+/// the thread count.
+pub(crate) struct Bands<'a> {
+    data: *mut f32,
+    len: usize,
+    height: usize,
+    width: usize,
+    rows: usize,
+    _out: std::marker::PhantomData<&'a mut Planes>,
+}
+
+// SAFETY: `Bands` hands each band's writer only the rows of its own band
+// (checked in `for_each`), so threads never write the same value, and the
+// planes are borrowed mutably for `'a`, so nothing else reads them meanwhile.
+unsafe impl Sync for Bands<'_> {}
+
+impl<'a> Bands<'a> {
+    /// `out` in bands of `rows` rows.
+    pub(crate) fn of(out: &'a mut Planes, rows: usize) -> Bands<'a> {
+        Bands {
+            data: out.data.as_mut_ptr(),
+            len: out.data.len(),
+            height: out.height,
+            width: out.width,
+            rows,
+            _out: std::marker::PhantomData,
+        }
+    }
+
+    /// Calls `f(y0, y1, write)` for each band of rows `y0..y1`, in
+    /// parallel; `write(channel, offset, stride, values)` stores
+    /// `values[i]` at pixel `offset + i·stride` (a pixel index is
+    /// row · width + column) of plane `channel`; every such pixel must lie
+    /// within the band's rows.
+    pub(crate) fn for_each<F>(&self, f: F)
+    where
+        F: Fn(usize, usize, &dyn Fn(usize, usize, usize, &[f32])) + Sync,
+    {
+        let plane = self.height * self.width;
+        (0..self.height.div_ceil(self.rows))
+            .into_par_iter()
+            .for_each(|band| {
+                let y0 = band * self.rows;
+                let y1 = (y0 + self.rows).min(self.height);
+                let (lo, hi) = (y0 * self.width, y1 * self.width);
+                let write = |channel: usize, offset: usize, stride: usize, values: &[f32]| {
+                    if values.is_empty() {
+                        return;
+                    }
+                    let last = offset + (values.len() - 1) * stride;
+                    assert!(
+                        offset >= lo
+                            && last < hi
+                            && stride > 0
+                            && channel * plane + last < self.len
+                    );
+                    let base = channel * plane + offset;
+                    for (i, v) in values.iter().enumerate() {
+                        // SAFETY: every index from `base` to `channel · plane
+                        // + last` lies in this band's rows of plane `channel`
+                        // (asserted above), which no other band writes, and
+                        // within the planes' values.
+                        unsafe { *self.data.add(base + i * stride) = *v };
+                    }
+                };
+                f(y0, y1, &write)
+            });
+    }
+}
+
+/// Writes into `m` the patch matrix of rows `y0..y1`: row
+/// `(c·3 + ky)·3 + kx` holds, for each output pixel of the band, input
+/// channel `c` at offset `(ky − 1, kx − 1)`, zero outside the image. Every
+/// value of `m` is written.
+fn patches(parts: &[&Planes], y0: usize, y1: usize, m: &mut [f32]) {
     let (h, w) = (parts[0].height, parts[0].width);
-    let channels: usize = parts.iter().map(|p| p.channels).sum();
     let n = (y1 - y0) * w;
-    let mut m = vec![0.0f32; channels * 9 * n];
     let mut c = 0;
     for part in parts {
         for pc in 0..part.channels {
@@ -116,16 +206,23 @@ fn patches(parts: &[&Planes], y0: usize, y1: usize) -> Vec<f32> {
                 for kx in 0..3 {
                     let row = &mut m[((c * 3 + ky) * 3 + kx) * n..][..n];
                     for (j, y) in (y0..y1).enumerate() {
+                        let dst = &mut row[j * w..(j + 1) * w];
                         let sy = y as isize + ky as isize - 1;
                         if sy < 0 || sy >= h as isize {
+                            dst.fill(0.0);
                             continue;
                         }
                         let src = &plane[sy as usize * w..(sy as usize + 1) * w];
-                        let dst = &mut row[j * w..(j + 1) * w];
                         match kx {
-                            0 => dst[1..].copy_from_slice(&src[..w - 1]),
+                            0 => {
+                                dst[0] = 0.0;
+                                dst[1..].copy_from_slice(&src[..w - 1]);
+                            }
                             1 => dst.copy_from_slice(src),
-                            _ => dst[..w - 1].copy_from_slice(&src[1..]),
+                            _ => {
+                                dst[..w - 1].copy_from_slice(&src[1..]);
+                                dst[w - 1] = 0.0;
+                            }
                         }
                     }
                 }
@@ -133,7 +230,6 @@ fn patches(parts: &[&Planes], y0: usize, y1: usize) -> Vec<f32> {
             c += 1;
         }
     }
-    m
 }
 
 #[cfg(test)]

@@ -4,7 +4,7 @@
 //! of a few dozen samples per pixel comes out clean (docs/denoising.md).
 //!
 //! The pieces, from the outside in: [`filter::denoise`] (the RT filter),
-//! [`unet`] (the network), [`conv`] and [`planes`] (its layers),
+//! [`unet`] (the network), [`conv`], [`upconv`] and [`planes`] (its layers),
 //! [`transfer`] and [`autoexposure`] (how values are encoded for it),
 //! [`weights`] (which trained weights for which images) and [`tza`] (their
 //! container).
@@ -16,6 +16,7 @@ pub mod planes;
 pub mod transfer;
 pub mod tza;
 pub mod unet;
+pub mod upconv;
 pub mod weights;
 
 pub use filter::{denoise, FilterError, Image, Options};

@@ -19,6 +19,7 @@
 use crate::conv::Conv3x3;
 use crate::planes::Planes;
 use crate::tza::{Archive, TzaError};
+use crate::upconv::UpConv3x3;
 
 /// What is wrong with a set of weights.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -36,9 +37,9 @@ pub enum WeightsError {
     },
 }
 
-/// The network, its weights loaded.
+/// The network's layers, as the weights give them.
 #[derive(Debug, Clone)]
-pub struct UNet {
+struct Layers {
     enc_conv0: Conv3x3,
     enc_conv1: Conv3x3,
     enc_conv2: Conv3x3,
@@ -55,6 +56,15 @@ pub struct UNet {
     dec_conv1a: Conv3x3,
     dec_conv1b: Conv3x3,
     dec_conv0: Conv3x3,
+}
+
+/// The network, its weights loaded.
+#[derive(Debug, Clone)]
+pub struct UNet {
+    layers: Layers,
+    /// `dec_conv4a` … `dec_conv1a` as they are run: on their upsampled
+    /// input without making it.
+    up: [UpConv3x3; 4],
 }
 
 /// The layer `name` of `archive`: weights `o × i × 3 × 3` and bias `o`.
@@ -83,32 +93,7 @@ fn layer(archive: &Archive, name: &'static str) -> Result<Conv3x3, WeightsError>
     })
 }
 
-impl UNet {
-    /// The network of the weights in the TZA archive `bytes`.
-    pub fn load(bytes: &[u8]) -> Result<UNet, WeightsError> {
-        let a = Archive::parse(bytes)?;
-        let net = UNet {
-            enc_conv0: layer(&a, "enc_conv0")?,
-            enc_conv1: layer(&a, "enc_conv1")?,
-            enc_conv2: layer(&a, "enc_conv2")?,
-            enc_conv3: layer(&a, "enc_conv3")?,
-            enc_conv4: layer(&a, "enc_conv4")?,
-            enc_conv5a: layer(&a, "enc_conv5a")?,
-            enc_conv5b: layer(&a, "enc_conv5b")?,
-            dec_conv4a: layer(&a, "dec_conv4a")?,
-            dec_conv4b: layer(&a, "dec_conv4b")?,
-            dec_conv3a: layer(&a, "dec_conv3a")?,
-            dec_conv3b: layer(&a, "dec_conv3b")?,
-            dec_conv2a: layer(&a, "dec_conv2a")?,
-            dec_conv2b: layer(&a, "dec_conv2b")?,
-            dec_conv1a: layer(&a, "dec_conv1a")?,
-            dec_conv1b: layer(&a, "dec_conv1b")?,
-            dec_conv0: layer(&a, "dec_conv0")?,
-        };
-        net.check_widths()?;
-        Ok(net)
-    }
-
+impl Layers {
     /// Each layer takes what the one before gives (and the skips).
     fn check_widths(&self) -> Result<(), WeightsError> {
         let chain: [(&'static str, &Conv3x3, usize); 15] = [
@@ -154,41 +139,80 @@ impl UNet {
         }
         Ok(())
     }
+}
+
+impl UNet {
+    /// The network of the weights in the TZA archive `bytes`.
+    pub fn load(bytes: &[u8]) -> Result<UNet, WeightsError> {
+        let a = Archive::parse(bytes)?;
+        let net = Layers {
+            enc_conv0: layer(&a, "enc_conv0")?,
+            enc_conv1: layer(&a, "enc_conv1")?,
+            enc_conv2: layer(&a, "enc_conv2")?,
+            enc_conv3: layer(&a, "enc_conv3")?,
+            enc_conv4: layer(&a, "enc_conv4")?,
+            enc_conv5a: layer(&a, "enc_conv5a")?,
+            enc_conv5b: layer(&a, "enc_conv5b")?,
+            dec_conv4a: layer(&a, "dec_conv4a")?,
+            dec_conv4b: layer(&a, "dec_conv4b")?,
+            dec_conv3a: layer(&a, "dec_conv3a")?,
+            dec_conv3b: layer(&a, "dec_conv3b")?,
+            dec_conv2a: layer(&a, "dec_conv2a")?,
+            dec_conv2b: layer(&a, "dec_conv2b")?,
+            dec_conv1a: layer(&a, "dec_conv1a")?,
+            dec_conv1b: layer(&a, "dec_conv1b")?,
+            dec_conv0: layer(&a, "dec_conv0")?,
+        };
+        net.check_widths()?;
+        let up = |conv: &Conv3x3, below: &Conv3x3| {
+            UpConv3x3::new(conv, below.outputs).expect("the widths were checked")
+        };
+        Ok(UNet {
+            up: [
+                up(&net.dec_conv4a, &net.enc_conv5b),
+                up(&net.dec_conv3a, &net.dec_conv4b),
+                up(&net.dec_conv2a, &net.dec_conv3b),
+                up(&net.dec_conv1a, &net.dec_conv2b),
+            ],
+            layers: net,
+        })
+    }
 
     /// The input channels it takes.
     pub fn input_channels(&self) -> usize {
-        self.enc_conv0.inputs
+        self.layers.enc_conv0.inputs
     }
 
     /// The output channels it gives.
     pub fn output_channels(&self) -> usize {
-        self.dec_conv0.outputs
+        self.layers.dec_conv0.outputs
     }
 
     /// Runs the network on `input` (its size a multiple of 16).
     pub fn forward(&self, input: &Planes) -> Planes {
         assert_eq!(input.channels, self.input_channels());
+        let l = &self.layers;
         assert!(input.height.is_multiple_of(16) && input.width.is_multiple_of(16));
-        let x = self.enc_conv0.forward(&[input]);
-        let pool1 = self.enc_conv1.forward(&[&x]).max_pool();
-        let pool2 = self.enc_conv2.forward(&[&pool1]).max_pool();
-        let pool3 = self.enc_conv3.forward(&[&pool2]).max_pool();
-        let pool4 = self.enc_conv4.forward(&[&pool3]).max_pool();
-        let x = self.enc_conv5a.forward(&[&pool4]);
+        let x = l.enc_conv0.forward(&[input]);
+        let pool1 = l.enc_conv1.forward(&[&x]).max_pool();
+        let pool2 = l.enc_conv2.forward(&[&pool1]).max_pool();
+        let pool3 = l.enc_conv3.forward(&[&pool2]).max_pool();
+        let pool4 = l.enc_conv4.forward(&[&pool3]).max_pool();
+        let x = l.enc_conv5a.forward(&[&pool4]);
         drop(pool4);
-        let up = self.enc_conv5b.forward(&[&x]).upsample();
-        let x = self.dec_conv4a.forward(&[&up, &pool3]);
+        let low = l.enc_conv5b.forward(&[&x]);
+        let x = self.up[0].forward(&low, &pool3);
         drop(pool3);
-        let up = self.dec_conv4b.forward(&[&x]).upsample();
-        let x = self.dec_conv3a.forward(&[&up, &pool2]);
+        let low = l.dec_conv4b.forward(&[&x]);
+        let x = self.up[1].forward(&low, &pool2);
         drop(pool2);
-        let up = self.dec_conv3b.forward(&[&x]).upsample();
-        let x = self.dec_conv2a.forward(&[&up, &pool1]);
+        let low = l.dec_conv3b.forward(&[&x]);
+        let x = self.up[2].forward(&low, &pool1);
         drop(pool1);
-        let up = self.dec_conv2b.forward(&[&x]).upsample();
-        let x = self.dec_conv1a.forward(&[&up, input]);
-        drop(up);
-        let x = self.dec_conv1b.forward(&[&x]);
-        self.dec_conv0.forward(&[&x])
+        let low = l.dec_conv2b.forward(&[&x]);
+        let x = self.up[3].forward(&low, input);
+        drop(low);
+        let x = l.dec_conv1b.forward(&[&x]);
+        l.dec_conv0.forward(&[&x])
     }
 }
