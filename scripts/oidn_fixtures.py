@@ -53,6 +53,25 @@ def run(color, albedo=None, normal=None, hdr=True, clean=False):
                           quality="balanced")
 
 
+def prefilter(image, which):
+    """OIDN's prefilter of an auxiliary layer: the RT filter given only
+    that layer (quality balanced takes the base network, rt_alb/rt_nrm)."""
+    out = np.zeros_like(image)
+    dev = pyoidn.Device(pyoidn.OIDN_DEVICE_TYPE_CPU)
+    dev.commit()
+    flt = pyoidn.Filter(dev, "RT")
+    flt.set_image(which, image, pyoidn.OIDN_FORMAT_FLOAT3)
+    flt.set_image("output", out, pyoidn.OIDN_FORMAT_FLOAT3)
+    flt.set_int("quality", pyoidn.OIDN_QUALITY_BALANCED)
+    flt.commit()
+    assert dev.get_error() is None, dev.get_error()
+    flt.execute()
+    assert dev.get_error() is None, dev.get_error()
+    flt.release()
+    dev.release()
+    return out
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
     color, albedo, normal = scene()
@@ -61,12 +80,19 @@ def main():
     write_pfm("ldr.pfm", ldr)
     write_pfm("albedo.pfm", albedo)
     write_pfm("normal.pfm", normal)
+    rng = np.random.default_rng(54)
+    noisy_albedo = np.clip(albedo + rng.normal(0, 0.15, albedo.shape), 0, 1).astype(np.float32)
+    noisy_normal = np.clip(normal + rng.normal(0, 0.3, normal.shape), -1, 1).astype(np.float32)
+    write_pfm("noisy_albedo.pfm", noisy_albedo)
+    write_pfm("noisy_normal.pfm", noisy_normal)
     cases = {
         "rt_hdr.pfm": run(color),
         "rt_hdr_alb.pfm": run(color, albedo),
         "rt_hdr_alb_nrm.pfm": run(color, albedo, normal),
         "rt_hdr_calb_cnrm.pfm": run(color, albedo, normal, clean=True),
         "rt_ldr_alb_nrm.pfm": run(ldr, albedo, normal, hdr=False),
+        "rt_alb.pfm": prefilter(noisy_albedo, "albedo"),
+        "rt_nrm.pfm": prefilter(noisy_normal, "normal"),
     }
     for name, image in cases.items():
         write_pfm(name, image)
@@ -76,6 +102,8 @@ def main():
         f.write("rt_hdr_alb_nrm: color, albedo, normal, hdr\n")
         f.write("rt_hdr_calb_cnrm: color, albedo, normal, hdr, cleanAux\n")
         f.write("rt_ldr_alb_nrm: ldr.pfm, albedo, normal (LDR)\n")
+        f.write("rt_alb: noisy_albedo.pfm alone (the albedo prefilter)\n")
+        f.write("rt_nrm: noisy_normal.pfm alone (the normal prefilter)\n")
     print("wrote", sorted(os.listdir(OUT)))
 
 

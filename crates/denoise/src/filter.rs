@@ -101,27 +101,84 @@ pub fn denoise(
         (None, Some(_)) => return Err(FilterError::NormalWithoutAlbedo),
     };
     let set = weights::for_color(options.hdr, guides);
-    let net = UNet::load(set.bytes).map_err(|source| FilterError::Weights {
-        set: set.name,
-        source,
-    })?;
     let scale = match options.input_scale {
         Some(s) => s,
         None if options.hdr => crate::autoexposure::input_scale(color.pixels, w, h),
         None => 1.0,
     };
-    let encode = Encoding {
-        hdr: options.hdr,
+    let encoding = Encoding {
+        main: Main::Color { hdr: options.hdr },
         transfer: weights::color_transfer(options.hdr),
         scale,
     };
-    let images = [Some(color), albedo, normal];
+    run(set, &encoding, &[Some(color), albedo, normal], w, h)
+}
+
+/// Which auxiliary layer a prefilter cleans.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Aux {
+    /// An albedo layer (values in [0, 1]).
+    Albedo,
+    /// A normal layer (values in [−1, 1], any length).
+    Normal,
+}
+
+/// Cleans a noisy auxiliary layer (OIDN's albedo and normal prefilters),
+/// so that the colour can then be denoised with `clean_aux`: a render's
+/// layers are noisy where the first hit varies within a pixel (motion,
+/// depth of field, glossy or rough transmission).
+pub fn prefilter(aux: Image, kind: Aux) -> Result<Vec<[f32; 3]>, FilterError> {
+    let (w, h) = (aux.width, aux.height);
+    if aux.pixels.len() != w * h {
+        return Err(FilterError::Size {
+            what: match kind {
+                Aux::Albedo => "albedo",
+                Aux::Normal => "normal",
+            },
+            got: aux.pixels.len(),
+            width: w,
+            height: h,
+        });
+    }
+    let (set, encoding) = match kind {
+        Aux::Albedo => (
+            weights::albedo_prefilter(),
+            Encoding {
+                main: Main::Albedo,
+                transfer: Transfer::Srgb,
+                scale: 1.0,
+            },
+        ),
+        Aux::Normal => (
+            weights::normal_prefilter(),
+            Encoding {
+                main: Main::Normal,
+                transfer: Transfer::Linear,
+                scale: 1.0,
+            },
+        ),
+    };
+    run(set, &encoding, &[Some(aux), None, None], w, h)
+}
+
+/// Runs the network of `set` over `images` (`w × h`), tile by tile.
+fn run(
+    set: weights::WeightSet,
+    encoding: &Encoding,
+    images: &[Option<Image>; 3],
+    w: usize,
+    h: usize,
+) -> Result<Vec<[f32; 3]>, FilterError> {
+    let net = UNet::load(set.bytes).map_err(|source| FilterError::Weights {
+        set: set.name,
+        source,
+    })?;
     let mut out = vec![[0.0f32; 3]; w * h];
     for tile in tiles(w, h, MAX_TILE_CORE, ONE_TILE_PIXELS) {
-        let input = encode.input(&images, &tile, net.input_channels());
+        let input = encoding.input(images, &tile, net.input_channels());
         let output = net.forward(&input);
         drop(input);
-        encode.output(&output, &tile, &mut out, w);
+        encoding.output(&output, &tile, &mut out, w);
     }
     Ok(out)
 }
@@ -200,9 +257,23 @@ fn tiles(w: usize, h: usize, max_core: usize, one_tile: usize) -> Vec<Tile> {
     out
 }
 
+/// What the network's first three channels hold.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Main {
+    /// Colour, HDR or LDR.
+    Color {
+        /// Unbounded rather than in [0, 1].
+        hdr: bool,
+    },
+    /// An albedo layer to prefilter, in [0, 1].
+    Albedo,
+    /// A normal layer to prefilter, in [−1, 1].
+    Normal,
+}
+
 /// How values go into the network and come out of it.
 struct Encoding {
-    hdr: bool,
+    main: Main,
     transfer: Transfer,
     scale: f32,
 }
@@ -213,15 +284,26 @@ impl Encoding {
     fn input(&self, images: &[Option<Image>; 3], tile: &Tile, channels: usize) -> Planes {
         let (tw, th) = (tile.x1 - tile.x0, tile.y1 - tile.y0);
         let mut planes = Planes::zeros(channels, th, tw);
-        let top = if self.hdr { f32::MAX } else { 1.0 };
         let [color, albedo, normal] = images;
         // Colour, then albedo and normal where given, each encoded by a
         // function of its own (generic, so that it inlines per pixel).
         let mut first = 0;
         if let Some(color) = color {
-            encode_into(&mut planes, first, color, tile, |v| {
-                self.transfer.forward(sanitise(v * self.scale, 0.0, top))
-            });
+            let t = self.transfer;
+            match self.main {
+                Main::Color { hdr } => {
+                    let top = if hdr { f32::MAX } else { 1.0 };
+                    encode_into(&mut planes, first, color, tile, |v| {
+                        t.forward(sanitise(v * self.scale, 0.0, top))
+                    })
+                }
+                Main::Albedo => encode_into(&mut planes, first, color, tile, |v| {
+                    t.forward(sanitise(v, 0.0, 1.0))
+                }),
+                Main::Normal => encode_into(&mut planes, first, color, tile, |v| {
+                    t.forward(sanitise(v, -1.0, 1.0) * 0.5 + 0.5)
+                }),
+            }
             first += 3;
         }
         if let Some(albedo) = albedo {
@@ -252,7 +334,11 @@ impl Encoding {
                 let src = &plane[(y - tile.y0) * tw + tile.core_x0 - tile.x0..][..row.len()];
                 for (pixel, &v) in row.iter_mut().zip(src) {
                     let v = self.transfer.inverse(sanitise(v, 0.0, f32::MAX));
-                    let v = if self.hdr { v } else { v.min(1.0) };
+                    let v = match self.main {
+                        Main::Color { hdr: true } => v,
+                        Main::Color { hdr: false } | Main::Albedo => v.min(1.0),
+                        Main::Normal => (2.0 * v - 1.0).clamp(-1.0, 1.0),
+                    };
                     pixel[c] = v * unscale;
                 }
             }
@@ -350,7 +436,7 @@ mod tests {
         let whole = denoise(image, None, None, &options).unwrap();
         let net = UNet::load(weights::for_color(true, Guides::None).bytes).unwrap();
         let encode = Encoding {
-            hdr: true,
+            main: Main::Color { hdr: true },
             transfer: Transfer::Pu,
             scale: crate::autoexposure::input_scale(&color, w, h),
         };

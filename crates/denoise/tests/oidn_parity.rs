@@ -4,7 +4,7 @@
 //! weights for. OIDN runs the network in f32 on this machine's CPUs, as
 //! plsr does, so the outputs agree to rounding.
 
-use plsr_denoise::{denoise, Image, Options};
+use plsr_denoise::{denoise, prefilter, Aux, Image, Options};
 use std::path::Path;
 
 /// A PFM image (three float32 channels, rows bottom to top) as rows from
@@ -107,4 +107,40 @@ fn hdr_colour_with_clean_albedo_and_normal_is_denoised_as_oidn_does() {
 #[test]
 fn ldr_colour_with_albedo_and_normal_is_denoised_as_oidn_does() {
     check("rt_ldr_alb_nrm.pfm", "ldr.pfm", true, true, false, false);
+}
+
+/// A prefilter's output against OIDN's: every value within 1e-4 (albedos
+/// lie in [0, 1], normals in [−1, 1]), and the layer was changed.
+fn check_prefilter(reference: &str, noisy: &str, kind: Aux) {
+    let (w, h, input) = read_pfm(noisy);
+    let ours = prefilter(
+        Image {
+            pixels: &input,
+            width: w,
+            height: h,
+        },
+        kind,
+    )
+    .unwrap();
+    let (_, _, theirs) = read_pfm(reference);
+    let largest = |a: &[[f32; 3]], b: &[[f32; 3]]| {
+        a.iter()
+            .zip(b)
+            .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs()))
+            .fold(0.0f32, f32::max)
+    };
+    let worst = largest(&ours, &theirs);
+    eprintln!("{reference}: largest difference {worst:.2e}");
+    assert!(worst < 1e-4, "{reference}: a value differs by {worst:.2e}");
+    assert!(largest(&ours, &input) > 0.1, "{reference}: nothing was filtered");
+}
+
+#[test]
+fn a_noisy_albedo_is_prefiltered_as_oidn_does() {
+    check_prefilter("rt_alb.pfm", "noisy_albedo.pfm", Aux::Albedo);
+}
+
+#[test]
+fn a_noisy_normal_is_prefiltered_as_oidn_does() {
+    check_prefilter("rt_nrm.pfm", "noisy_normal.pfm", Aux::Normal);
 }
