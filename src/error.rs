@@ -19,6 +19,9 @@ pub enum Error {
     /// Embree reported an error.
     #[error(transparent)]
     Embree(#[from] EmbreeError),
+    /// The denoiser refused its input (pixels that are not finite).
+    #[error("cannot denoise: {0}")]
+    Denoise(#[from] plsr_denoise::FilterError),
 }
 
 /// The renderer's result type.

@@ -11,10 +11,13 @@
 //! - `depth`: mean camera-space depth (distance along the view axis) of the
 //!   samples that hit, 0 where none did;
 //! - `normal`: mean world-space shading normal at the first hit (facing the camera);
-//! - `albedo`: mean albedo at the first hit.
+//! - `albedo`: mean albedo at the first hit;
+//! - `noisy`: only in a denoised film ([`denoise`]): the colour before
+//!   denoising (`color` then holds the denoised one).
 //!
 //! EXR channel names: `R G B A`, `variance.R/G/B`, `albedo.R/G/B`,
-//! `normal.X/Y/Z`, `Z` (depth) and `object_id`.
+//! `normal.X/Y/Z`, `Z` (depth), `object_id` and, when denoised,
+//! `noisy.R/G/B`.
 //!
 //! **Film settings** ([`FilmSettings`], the scene file's `[film]` table):
 //! the pixel reconstruction filter ([`crate::filter`]), exposure and white
@@ -45,6 +48,7 @@ use crate::atomic_write::{check_extension, OutputSet};
 use plsr_base::Vocabulary;
 use std::fs::File;
 use std::io::BufWriter;
+pub mod denoise;
 pub mod part;
 pub mod radiance;
 mod sums;
@@ -177,6 +181,9 @@ pub struct Film {
     pub normal: Vec<Vec3>,
     /// Mean albedo at first hits.
     pub albedo: Vec<Vec3>,
+    /// The colour before denoising, when `color` was denoised
+    /// ([`Film::denoise`]).
+    pub noisy: Option<Vec<Vec3>>,
     /// The filter, exposure and white balance it was recorded with.
     pub settings: FilmSettings,
 }
@@ -369,6 +376,7 @@ impl Film {
             depth: vec![0.0; n],
             normal: vec![Vec3::ZERO; n],
             albedo: vec![Vec3::ZERO; n],
+            noisy: None,
             settings: FilmSettings::default(),
         }
     }
@@ -452,6 +460,14 @@ impl Film {
                 format!("normal.{n}").as_str(),
                 split3(&self.normal, i),
             ));
+        }
+        if let Some(noisy) = &self.noisy {
+            for (i, n) in ["R", "G", "B"].iter().enumerate() {
+                list.push(AnyChannel::new(
+                    format!("noisy.{n}").as_str(),
+                    split3(noisy, i),
+                ));
+            }
         }
         list.push(AnyChannel::new("A", FlatSamples::F32(self.alpha.clone())));
         list.push(AnyChannel::new("Z", FlatSamples::F32(self.depth.clone())));
@@ -544,6 +560,11 @@ impl Film {
             &mut film.normal,
             false,
         )?;
+        if channel("noisy.R").is_some() {
+            let mut noisy = vec![Vec3::ZERO; film.color.len()];
+            set3(["noisy.R", "noisy.G", "noisy.B"], &mut noisy, true)?;
+            film.noisy = Some(noisy);
+        }
         if let Some(v) = channel("A") {
             film.alpha = v;
         }

@@ -132,6 +132,7 @@ impl ResultCode for plsr::Error {
         match self {
             plsr::Error::Base(e) => e.result_code(),
             plsr::Error::Embree(_) => PLSR_ERR_EMBREE,
+            plsr::Error::Denoise(_) => PLSR_ERR_INPUT,
         }
     }
 }

@@ -7,6 +7,7 @@
 pub mod bench;
 pub mod compare;
 pub mod composite;
+pub mod denoise;
 pub mod error;
 pub mod experiment;
 pub mod farm;
@@ -51,6 +52,10 @@ pub enum Command {
     /// `--crop X0,Y0,X1,Y1`) into the image one render of their union gives
     /// (see docs/farm.md)
     Merge(merge::MergeArgs),
+    /// Denoise a render's OpenEXR, guided by its albedo and normal layers
+    /// (Intel Open Image Denoise's network, run by plsr; see
+    /// docs/denoising.md). The output keeps the noisy colour beside.
+    Denoise(denoise::DenoiseArgs),
     /// Render on a batch system: cut a render (and an animation's frames)
     /// into pieces for a Slurm job array or a Kubernetes Indexed Job, and
     /// merge them exactly (see docs/farm.md).
@@ -120,6 +125,7 @@ where
         Command::Render(a) => render::run(&a),
         Command::Composite(a) => composite::run(&a),
         Command::Merge(a) => merge::run(&a),
+        Command::Denoise(a) => denoise::run(&a),
         Command::Farm(c) => farm::run(c),
         Command::Tonemap(a) => tonemap::run(&a),
         Command::Info(a) => info::run(&a),

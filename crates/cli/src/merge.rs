@@ -29,6 +29,10 @@ pub struct MergeArgs {
     /// PNG tone mapping: a filmic curve (ACES fit) instead of a plain clamp.
     #[arg(long)]
     pub filmic: bool,
+    /// Denoising of the merged image (never of the parts: the exact merge
+    /// comes first).
+    #[command(flatten)]
+    pub denoise: crate::denoise::DenoiseFlags,
 }
 
 /// Runs `plsr merge`.
@@ -66,7 +70,8 @@ pub fn run_in_sequence(a: &MergeArgs, exposure: &mut SequenceExposure) -> Result
         parts.push((path.clone(), Part::read_exr(path)?));
     }
     let (sums, spp) = merge_parts(&parts)?;
-    let film = sums.develop(spp);
+    let mut film = sums.develop(spp);
+    let denoise_note = a.denoise.apply(&mut film, &a.output)?;
     let mut outputs = OutputSet::new();
     film.stage_exr(&mut outputs, &a.output)?;
     let mut png_note = String::new();
@@ -77,7 +82,7 @@ pub fn run_in_sequence(a: &MergeArgs, exposure: &mut SequenceExposure) -> Result
     }
     outputs.commit()?;
     eprintln!(
-        "merged {} parts into {}×{} at {} spp → {}{png_note}",
+        "merged {} parts into {}×{} at {} spp{denoise_note} → {}{png_note}",
         parts.len(),
         film.width,
         film.height,

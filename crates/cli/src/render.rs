@@ -97,6 +97,8 @@ pub struct RenderArgs {
     /// rule). All are unbiased; they differ in noise.
     #[arg(long, value_parser = ["spatial", "power", "uniform"])]
     pub light_picking: Option<String>,
+    #[command(flatten)]
+    pub denoise: crate::denoise::DenoiseFlags,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
@@ -129,6 +131,12 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             "--tile-size {}: must be between 1 and {MAX_TILE_SIZE} pixels",
             a.tile_size
         )));
+    }
+    if a.denoise.denoise && (a.samples.is_some() || a.crop.is_some() || a.resume) {
+        return Err(Error::invalid_argument(
+            "--denoise with a part (--samples, --crop or --resume): parts are merged exactly, \
+             then denoised: `plsr merge PARTS… -o OUT.exr --denoise`",
+        ));
     }
     let contents = plsr::scene::file::load_contents_with(&a.scene, &a.params.options())?;
     for n in &contents.notes {
@@ -537,6 +545,7 @@ fn render_one(
     bar.finish_and_clear();
     // Both outputs are written first and replace their targets together.
     let mut outputs = OutputSet::new();
+    let mut denoise_note = String::new();
     let film = match part {
         Some(info) => {
             // A part: the window's sums, exactly, and what merging checks.
@@ -559,7 +568,8 @@ fn render_one(
                 .develop(part.info.sample_end - part.info.sample_start)
         }
         None => {
-            let film = sums.develop(job.spp);
+            let mut film = sums.develop(job.spp);
+            denoise_note = a.denoise.apply(&mut film, output)?;
             film.stage_exr(&mut outputs, output)?;
             film
         }
@@ -572,7 +582,7 @@ fn render_one(
     }
     outputs.commit()?;
     eprintln!(
-        "rendered {}{}×{} at {} spp in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s on {} threads{} → {}{}",
+        "rendered {}{}×{} at {} spp in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s on {} threads{}{denoise_note} → {}{}",
         frame.map(|f| format!("frame {f}, ")).unwrap_or_default(),
         film.width,
         film.height,

@@ -2,8 +2,8 @@
 //! normal of the first non-specular hit) in, the clean image out, as Intel
 //! Open Image Denoise's "RT" filter computes it with its base networks.
 //!
-//! 1. The colour is scaled (HDR: [`crate::autoexposure`]; LDR: by 1),
-//!    NaN set to 0, clamped to [0, ∞) (HDR) or [0, 1] (LDR) and encoded
+//! 1. Images with NaN or infinite values are refused. The colour is
+//!    scaled (HDR: [`crate::autoexposure`]; LDR: by 1), clamped to [0, ∞) (HDR) or [0, 1] (LDR) and encoded
 //!    ([`crate::transfer`]); the albedo is clamped to [0, 1]; the normal
 //!    to [−1, 1] and mapped to [0, 1].
 //! 2. The channels (colour, albedo, normal) go into the network's input,
@@ -55,6 +55,15 @@ pub enum FilterError {
         /// The colour's height.
         height: usize,
     },
+    /// Pixels that are NaN or infinite: the network would spread them (OIDN
+    /// reads NaN as 0 and infinity as the largest float; plsr refuses).
+    #[error("{what}: {count} pixels are NaN or infinite")]
+    NonFinite {
+        /// Which image.
+        what: &'static str,
+        /// How many pixels have a value that is not finite.
+        count: usize,
+    },
     /// A normal without an albedo (OIDN's networks take none).
     #[error("a normal image needs an albedo image too")]
     NormalWithoutAlbedo,
@@ -90,6 +99,7 @@ pub fn denoise(
                     height: h,
                 });
             }
+            check_finite(what, image.pixels)?;
         }
     }
     let guides = match (albedo, normal) {
@@ -140,6 +150,13 @@ pub fn prefilter(aux: Image, kind: Aux) -> Result<Vec<[f32; 3]>, FilterError> {
             height: h,
         });
     }
+    check_finite(
+        match kind {
+            Aux::Albedo => "albedo",
+            Aux::Normal => "normal",
+        },
+        aux.pixels,
+    )?;
     let (set, encoding) = match kind {
         Aux::Albedo => (
             weights::albedo_prefilter(),
@@ -159,6 +176,19 @@ pub fn prefilter(aux: Image, kind: Aux) -> Result<Vec<[f32; 3]>, FilterError> {
         ),
     };
     run(set, &encoding, &[Some(aux), None, None], w, h)
+}
+
+/// Refuses `pixels` if any value is NaN or infinite.
+fn check_finite(what: &'static str, pixels: &[[f32; 3]]) -> Result<(), FilterError> {
+    let count = pixels
+        .iter()
+        .filter(|p| !p.iter().all(|v| v.is_finite()))
+        .count();
+    if count == 0 {
+        Ok(())
+    } else {
+        Err(FilterError::NonFinite { what, count })
+    }
 }
 
 /// Runs the network of `set` over `images` (`w × h`), tile by tile.

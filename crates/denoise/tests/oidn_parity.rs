@@ -132,7 +132,10 @@ fn check_prefilter(reference: &str, noisy: &str, kind: Aux) {
     let worst = largest(&ours, &theirs);
     eprintln!("{reference}: largest difference {worst:.2e}");
     assert!(worst < 1e-4, "{reference}: a value differs by {worst:.2e}");
-    assert!(largest(&ours, &input) > 0.1, "{reference}: nothing was filtered");
+    assert!(
+        largest(&ours, &input) > 0.1,
+        "{reference}: nothing was filtered"
+    );
 }
 
 #[test]

@@ -95,6 +95,10 @@ pub struct PieceArgs {
 pub struct FarmMergeArgs {
     /// The plan (OUTDIR/farm.toml).
     pub plan: PathBuf,
+    /// Denoising of each merged image (after the exact merge of its
+    /// pieces, never per piece).
+    #[command(flatten)]
+    pub denoise: crate::denoise::DenoiseFlags,
 }
 
 /// Arguments of `plsr farm status`.
@@ -320,6 +324,7 @@ fn piece(a: &PieceArgs) -> Result<()> {
         scalar: false,
         light_picking: None,
         resume: false,
+        denoise: Default::default(),
         quiet: true,
     });
     if rendered.is_err() {
@@ -380,6 +385,7 @@ fn merge(a: &FarmMergeArgs) -> Result<()> {
                 png,
                 exposure: None,
                 filmic: false,
+                denoise: a.denoise.clone(),
             },
             &mut exposure,
         )?;

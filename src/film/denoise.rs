@@ -1,0 +1,110 @@
+//! Denoising a film: its colour layer through plsr's denoiser (Intel Open
+//! Image Denoise's RT network, `plsr-denoise`), guided by the film's own
+//! albedo and normal layers. The noisy colour is kept as the `noisy` layer
+//! (`noisy.R/G/B` in the EXR); the variance layer stays that of the noisy
+//! mean. Denoising is biased: renders meant for statistics, fits or
+//! metrics against ground truth stay undenoised (docs/denoising.md).
+
+use super::Film;
+use crate::error::Result;
+use glam::Vec3;
+use plsr_denoise::{Aux, Image, Options};
+
+/// Which layers guide the denoiser, and whether they are prefiltered.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DenoiseSettings {
+    /// Use the albedo layer.
+    pub albedo: bool,
+    /// Use the normal layer (only with the albedo).
+    pub normal: bool,
+    /// Clean the albedo and normal layers with their own networks first
+    /// (three networks instead of one: slower, better where the first hit
+    /// varies within a pixel).
+    pub prefilter: bool,
+}
+
+impl Default for DenoiseSettings {
+    /// Albedo and normal, not prefiltered.
+    fn default() -> DenoiseSettings {
+        DenoiseSettings {
+            albedo: true,
+            normal: true,
+            prefilter: false,
+        }
+    }
+}
+
+/// What a denoising did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DenoiseReport {
+    /// The guides used: "colour", "colour + albedo", "colour + albedo +
+    /// normal", with "(prefiltered)" when they were.
+    pub guides: String,
+    /// Wall time, seconds.
+    pub seconds: f64,
+}
+
+fn image_of(pixels: &[[f32; 3]], width: usize, height: usize) -> Image<'_> {
+    Image {
+        pixels,
+        width,
+        height,
+    }
+}
+
+fn as_arrays(v: &[Vec3]) -> Vec<[f32; 3]> {
+    v.iter().map(|c| c.to_array()).collect()
+}
+
+impl Film {
+    /// Denoises the colour layer in place, keeping the noisy colour as the
+    /// `noisy` layer. A film denoised before is denoised again from its
+    /// noisy layer. Refuses colour, albedo or normal values that are NaN
+    /// or infinite, naming how many pixels have them.
+    pub fn denoise(&mut self, settings: &DenoiseSettings) -> Result<DenoiseReport> {
+        let start = std::time::Instant::now();
+        let (w, h) = (self.width as usize, self.height as usize);
+        let color = as_arrays(self.noisy.as_deref().unwrap_or(&self.color));
+        let mut albedo = settings.albedo.then(|| as_arrays(&self.albedo));
+        let mut normal = (settings.albedo && settings.normal).then(|| as_arrays(&self.normal));
+        let result = (|| {
+            if settings.prefilter {
+                if let Some(a) = albedo.take() {
+                    albedo = Some(plsr_denoise::prefilter(image_of(&a, w, h), Aux::Albedo)?);
+                }
+                if let Some(n) = normal.take() {
+                    normal = Some(plsr_denoise::prefilter(image_of(&n, w, h), Aux::Normal)?);
+                }
+            }
+            plsr_denoise::denoise(
+                image_of(&color, w, h),
+                albedo.as_deref().map(|p| image_of(p, w, h)),
+                normal.as_deref().map(|p| image_of(p, w, h)),
+                &Options {
+                    hdr: true,
+                    clean_aux: settings.prefilter,
+                    input_scale: None,
+                },
+            )
+        })();
+        let denoised: Vec<Vec3> = result?.into_iter().map(Vec3::from_array).collect();
+        let noisy = std::mem::replace(&mut self.color, denoised);
+        if self.noisy.is_none() {
+            self.noisy = Some(noisy);
+        }
+        let mut guides = String::from("colour");
+        if albedo.is_some() {
+            guides.push_str(" + albedo");
+        }
+        if normal.is_some() {
+            guides.push_str(" + normal");
+        }
+        if settings.prefilter && albedo.is_some() {
+            guides.push_str(" (prefiltered)");
+        }
+        Ok(DenoiseReport {
+            guides,
+            seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+}
