@@ -65,7 +65,16 @@ impl Film {
         let start = std::time::Instant::now();
         let (w, h) = (self.width as usize, self.height as usize);
         let color = as_arrays(self.noisy.as_deref().unwrap_or(&self.color));
-        let mut albedo = settings.albedo.then(|| as_arrays(&self.albedo));
+        // Where camera rays miss the scene the film's albedo is 0, but the
+        // sky is seen as it is: its guide is 1 (colour ÷ albedo = radiance,
+        // as on a surface), for the part of each pixel the sky covers.
+        let mut albedo = settings.albedo.then(|| {
+            self.albedo
+                .iter()
+                .zip(&self.alpha)
+                .map(|(a, alpha)| (*a + Vec3::splat(1.0 - alpha.clamp(0.0, 1.0))).to_array())
+                .collect::<Vec<_>>()
+        });
         let mut normal = (settings.albedo && settings.normal).then(|| as_arrays(&self.normal));
         let result = (|| {
             if settings.prefilter {

@@ -6,6 +6,7 @@ mod bsdf;
 mod cameras;
 mod composite;
 mod curves;
+mod denoising;
 mod determinism;
 mod embree_layer;
 mod environment;

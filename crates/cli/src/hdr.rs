@@ -22,7 +22,8 @@ pub enum HdrCommand {
     /// equirectangular panorama at a position and write bracketed 8-bit
     /// photos through a camera response, with noise, clipping and EXIF
     /// exposure data (and the rendered truth as truth.exr), ready for
-    /// `plsr hdr merge`.
+    /// `plsr hdr merge`. The panorama is never denoised: a capture's noise
+    /// is a camera's, and denoising would bias the light it measures.
     Capture(HdrCaptureArgs),
 }
 

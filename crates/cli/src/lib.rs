@@ -70,7 +70,8 @@ pub enum Command {
     /// render` also reads such XML directly (see docs/scene-format.md).
     Import(import::ImportArgs),
     /// Fit the real surfaces' materials (and lights' brightness) to the
-    /// scene's photos by differentiable rendering and Adam.
+    /// scene's photos by differentiable rendering and Adam. Its renders
+    /// stay unbiased (never denoised): the fit's gradients need them so.
     Fit(fit::FitArgs),
     /// Score an image against a reference as the paper does (CW-SSIM) and
     /// by SSIM, PSNR and RMSE, over a crop and a mask (see docs/metrics.md).

@@ -486,4 +486,121 @@ mod tests {
             }
         }
     }
+
+    type Pixels = Vec<[f32; 3]>;
+
+    /// A noisy test image of `w × h` pixels, with its albedo and normal.
+    fn noisy(w: usize, h: usize) -> (Pixels, Pixels, Pixels) {
+        let mut state = 0x2545_f491u32;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state as f32 / u32::MAX as f32
+        };
+        let color = (0..w * h).map(|_| [next() * 2.0, next(), next()]).collect();
+        let albedo = (0..w * h)
+            .map(|i| if i % w < w / 2 { [0.2; 3] } else { [0.8; 3] })
+            .collect();
+        let normal = vec![[0.0, 0.0, 1.0]; w * h];
+        (color, albedo, normal)
+    }
+
+    fn image(pixels: &[[f32; 3]], width: usize, height: usize) -> Image<'_> {
+        Image {
+            pixels,
+            width,
+            height,
+        }
+    }
+
+    const HDR: Options = Options {
+        hdr: true,
+        clean_aux: false,
+        input_scale: None,
+    };
+
+    #[test]
+    fn the_output_is_the_same_for_any_thread_count() {
+        // Wide enough for several bands per layer.
+        let (w, h) = (150, 40);
+        let (c, a, n) = noisy(w, h);
+        let run = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| {
+                    denoise(
+                        image(&c, w, h),
+                        Some(image(&a, w, h)),
+                        Some(image(&n, w, h)),
+                        &HDR,
+                    )
+                    .unwrap()
+                })
+        };
+        let one = run(1);
+        assert_eq!(one, run(2));
+        assert_eq!(one, run(5));
+    }
+
+    #[test]
+    fn images_smaller_than_the_network_are_padded() {
+        for (w, h) in [(1, 1), (2, 3), (17, 1), (1, 33)] {
+            let (c, a, n) = noisy(w, h);
+            let out = denoise(
+                image(&c, w, h),
+                Some(image(&a, w, h)),
+                Some(image(&n, w, h)),
+                &HDR,
+            )
+            .unwrap();
+            assert_eq!(out.len(), w * h);
+            assert!(out.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+        }
+    }
+
+    #[test]
+    fn nan_and_infinite_pixels_are_refused_with_their_count() {
+        let (w, h) = (8, 4);
+        let (mut c, mut a, n) = noisy(w, h);
+        c[3][1] = f32::NAN;
+        c[9] = [f32::INFINITY, 0.0, f32::NAN];
+        c[10][2] = f32::NEG_INFINITY;
+        let got = denoise(image(&c, w, h), None, None, &HDR);
+        assert_eq!(
+            got,
+            Err(FilterError::NonFinite {
+                what: "color",
+                count: 3
+            })
+        );
+        assert_eq!(
+            got.unwrap_err().to_string(),
+            "color: 3 pixels are NaN or infinite"
+        );
+        let (c, _, _) = noisy(w, h);
+        a[0][0] = f32::NAN;
+        let got = denoise(
+            image(&c, w, h),
+            Some(image(&a, w, h)),
+            Some(image(&n, w, h)),
+            &HDR,
+        );
+        assert_eq!(
+            got,
+            Err(FilterError::NonFinite {
+                what: "albedo",
+                count: 1
+            })
+        );
+        assert_eq!(
+            prefilter(image(&a, w, h), Aux::Albedo),
+            Err(FilterError::NonFinite {
+                what: "albedo",
+                count: 1
+            })
+        );
+    }
 }

@@ -13,6 +13,7 @@ mod bench_peers;
 mod c_hosts;
 mod closed_stdout;
 mod composite;
+mod denoising;
 mod farm;
 mod fuzz_plans;
 mod fuzz_regressions;
