@@ -104,24 +104,18 @@ typedef struct {
   uint32_t threads;
 } plsr_composite_settings;
 
-// How to estimate a gradient. Added in 0.5.0.
+// How [`plsr_denoise`] filters a host's buffers. Added in 0.5.0.
 typedef struct {
-  // Samples per pixel (of the primal render and of the gradient pass each).
-  uint32_t spp;
-  // Seed; the gradient pass uses `seed + 1`.
-  uint64_t seed;
-  // Worker threads; 0: all cores.
-  uint32_t threads;
-  // 1: hide the scene's virtual shapes (fitting the real surfaces to a
-  // photo of them); 0: render everything.
-  uint32_t hide_virtual;
-} plsr_gradient_settings;
-
-// Progress callback: `done` of `total` tiles are finished. Return `true` to
-// go on, `false` to cancel the render (it then fails with
-// `PLSR_ERR_CANCELLED`). Called from the rendering threads, never two
-// calls at a time.
-typedef bool (*plsr_progress_fn)(void *user_data, uint32_t done, uint32_t total);
+  // 1: the colour is HDR (linear radiance, any magnitude); 0: LDR, in
+  // [0, 1].
+  uint32_t hdr;
+  // 1: the albedo and normal are noise-free (or prefiltered); 0: they
+  // are noisy, as a render's first hits are.
+  uint32_t clean_aux;
+  // 1: clean the albedo and normal with their own networks first (then
+  // `clean_aux` is implied); three networks instead of one.
+  uint32_t prefilter;
+} plsr_denoise_settings;
 
 // What to render of a scene, for [`plsr_render_with_settings`].
 typedef struct {
@@ -135,6 +129,25 @@ typedef struct {
   // `[sample_start, sample_start + spp)` of every pixel.
   uint32_t sample_start;
 } plsr_render_settings;
+
+// Progress callback: `done` of `total` tiles are finished. Return `true` to
+// go on, `false` to cancel the render (it then fails with
+// `PLSR_ERR_CANCELLED`). Called from the rendering threads, never two
+// calls at a time.
+typedef bool (*plsr_progress_fn)(void *user_data, uint32_t done, uint32_t total);
+
+// How to estimate a gradient. Added in 0.5.0.
+typedef struct {
+  // Samples per pixel (of the primal render and of the gradient pass each).
+  uint32_t spp;
+  // Seed; the gradient pass uses `seed + 1`.
+  uint64_t seed;
+  // Worker threads; 0: all cores.
+  uint32_t threads;
+  // 1: hide the scene's virtual shapes (fitting the real surfaces to a
+  // photo of them); 0: render everything.
+  uint32_t hide_virtual;
+} plsr_gradient_settings;
 
 // One parametric light source `l = (n, g, a, c, b)` (paper section 3;
 // units of the PLS file format: metres, degrees, linear RGB).
@@ -211,6 +224,46 @@ plsr_result plsr_composite(const plsr_scene *scene,
                            const plsr_composite_settings *settings,
                            plsr_image **out,
                            float *exposure_out);
+
+// Denoises a host's image: `color` (and optionally `albedo`, and
+// `normal` with it) are `width·height·3` floats each, RGB (normals XYZ in
+// [−1, 1], any space), row-major from the top row; the result goes to
+// `output` (`width·height·3` floats; it may be `color` itself).
+// `settings` may be `NULL` (HDR, noisy guides, no prefilter). Values that
+// are NaN or infinite are refused (`PLSR_ERR_INPUT`, naming how many
+// pixels have them); images smaller than the network's 16×16 are padded.
+// `threads` workers (0: all cores); the output does not depend on it.
+// Added in 0.5.0.
+plsr_result plsr_denoise(uint32_t width,
+                         uint32_t height,
+                         const float *color,
+                         const float *albedo,
+                         const float *normal,
+                         const plsr_denoise_settings *settings,
+                         uint32_t threads,
+                         float *output);
+
+// Denoises a rendered image guided by its albedo and normal layers, into
+// a new image `*out` (whose EXR keeps the noisy colour as `noisy.R/G/B`).
+// `prefilter` non-zero cleans the guides first. `threads` workers (0:
+// all cores). Added in 0.5.0.
+plsr_result plsr_image_denoise(const plsr_image *image,
+                               uint32_t prefilter,
+                               uint32_t threads,
+                               plsr_image **out);
+
+// Renders `scene` as [`crate::plsr_render_with_settings`] does (with the
+// scene's own settings when `settings` is `NULL`), then denoises the
+// image guided by its albedo and normal layers (`prefilter` non-zero:
+// the guides cleaned first). The image's EXR keeps the noisy colour as
+// `noisy.R/G/B`. Added in 0.5.0.
+plsr_result plsr_render_denoised(const plsr_scene *scene,
+                                 const plsr_render_settings *settings,
+                                 uint32_t prefilter,
+                                 uint32_t threads,
+                                 plsr_progress_fn progress,
+                                 void *user_data,
+                                 plsr_image **out);
 
 // Selects the parameters of `scene` that `patterns` name (`count` C
 // strings such as `"wall.reflectance"`, `"*.roughness"`, `"lamp.b"`; with

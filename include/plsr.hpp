@@ -89,12 +89,29 @@ public:
     void save_png(const std::string &path, float exposure_ev = 0.0f, bool filmic = false) const {
         check(plsr_image_save_png(h_.get(), path.c_str(), exposure_ev, filmic ? 1u : 0u));
     }
+    /// This image denoised, guided by its albedo and normal layers
+    /// (`prefilter`: the guides cleaned first); its EXR keeps the noisy
+    /// colour as noisy.R/G/B.
+    Image denoised(bool prefilter = false, uint32_t threads = 0) const {
+        plsr_image *img = nullptr;
+        check(plsr_image_denoise(h_.get(), prefilter ? 1u : 0u, threads, &img));
+        return Image(img);
+    }
     const plsr_image *get() const noexcept { return h_.get(); }
 
 private:
     detail::Handle<plsr_image, plsr_image_free> h_;
     uint32_t width_ = 0, height_ = 0;
 };
+
+/// Denoises a host's float RGB buffers (width·height·3 each; `albedo` and
+/// `normal` may be null, `normal` only with `albedo`); `output` may be
+/// `color`. See plsr_denoise.
+inline void denoise(uint32_t width, uint32_t height, const float *color, const float *albedo,
+                    const float *normal, float *output,
+                    plsr_denoise_settings settings = {1, 0, 0}, uint32_t threads = 0) {
+    check(plsr_denoise(width, height, color, albedo, normal, &settings, threads, output));
+}
 
 /// A scene ready to render; may be rendered from several threads at once.
 class Scene {
@@ -111,6 +128,15 @@ public:
                  void *user_data = nullptr) const {
         plsr_image *img = nullptr;
         check(plsr_render(h_.get(), threads, progress, user_data, &img));
+        return Image(img);
+    }
+    /// Renders as `render` does, then denoises the image (see
+    /// Image::denoised).
+    Image render_denoised(uint32_t threads = 0, bool prefilter = false,
+                          plsr_progress_fn progress = nullptr, void *user_data = nullptr) const {
+        plsr_image *img = nullptr;
+        check(plsr_render_denoised(h_.get(), nullptr, prefilter ? 1u : 0u, threads, progress,
+                                   user_data, &img));
         return Image(img);
     }
     /// Composites the scene's virtual objects into a camera frame of

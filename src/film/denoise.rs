@@ -56,7 +56,42 @@ fn as_arrays(v: &[Vec3]) -> Vec<[f32; 3]> {
     v.iter().map(|c| c.to_array()).collect()
 }
 
+/// What the denoiser is given for a film: its (noisy) colour and the
+/// guides the settings ask for, each `width × height` RGB pixels.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DenoiseGuides {
+    /// The colour: the `noisy` layer if the film was denoised before.
+    pub color: Vec<[f32; 3]>,
+    /// The albedo guide: the albedo layer, plus 1 for the fraction of each
+    /// pixel where camera rays missed the scene.
+    pub albedo: Option<Vec<[f32; 3]>>,
+    /// The normal layer.
+    pub normal: Option<Vec<[f32; 3]>>,
+}
+
 impl Film {
+    /// The denoiser's inputs for this film (as [`Film::denoise`] makes
+    /// them, and as a peer denoiser should be given them).
+    pub fn denoise_guides(&self, settings: &DenoiseSettings) -> DenoiseGuides {
+        let color = as_arrays(self.noisy.as_deref().unwrap_or(&self.color));
+        // Where camera rays miss the scene the film's albedo is 0, but the
+        // sky is seen as it is: its guide is 1 (colour ÷ albedo = radiance,
+        // as on a surface), for the part of each pixel the sky covers.
+        let albedo = settings.albedo.then(|| {
+            self.albedo
+                .iter()
+                .zip(&self.alpha)
+                .map(|(a, alpha)| (*a + Vec3::splat(1.0 - alpha.clamp(0.0, 1.0))).to_array())
+                .collect::<Vec<_>>()
+        });
+        let normal = (settings.albedo && settings.normal).then(|| as_arrays(&self.normal));
+        DenoiseGuides {
+            color,
+            albedo,
+            normal,
+        }
+    }
+
     /// Denoises the colour layer in place, keeping the noisy colour as the
     /// `noisy` layer. A film denoised before is denoised again from its
     /// noisy layer. Refuses colour, albedo or normal values that are NaN
@@ -64,18 +99,11 @@ impl Film {
     pub fn denoise(&mut self, settings: &DenoiseSettings) -> Result<DenoiseReport> {
         let start = std::time::Instant::now();
         let (w, h) = (self.width as usize, self.height as usize);
-        let color = as_arrays(self.noisy.as_deref().unwrap_or(&self.color));
-        // Where camera rays miss the scene the film's albedo is 0, but the
-        // sky is seen as it is: its guide is 1 (colour ÷ albedo = radiance,
-        // as on a surface), for the part of each pixel the sky covers.
-        let mut albedo = settings.albedo.then(|| {
-            self.albedo
-                .iter()
-                .zip(&self.alpha)
-                .map(|(a, alpha)| (*a + Vec3::splat(1.0 - alpha.clamp(0.0, 1.0))).to_array())
-                .collect::<Vec<_>>()
-        });
-        let mut normal = (settings.albedo && settings.normal).then(|| as_arrays(&self.normal));
+        let DenoiseGuides {
+            color,
+            mut albedo,
+            mut normal,
+        } = self.denoise_guides(settings);
         let result = (|| {
             if settings.prefilter {
                 if let Some(a) = albedo.take() {

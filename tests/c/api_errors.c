@@ -312,6 +312,44 @@ int main(int argc, char **argv) {
     EXPECT(plsr_parameters_free(params), PLSR_ERR_INVALID_HANDLE, "not a live handle");
     EXPECT(plsr_scene_free(fs), PLSR_OK, NULL);
 
+
+    /* Denoising a host's own buffers: the defaults (HDR, noisy guides),
+     * in place, a normal without an albedo, NaN pixels, sizes below the
+     * network's 16×16 (padded). */
+    {
+        enum { DW = 5, DH = 3, DN = DW * DH * 3 };
+        float color[DN], albedo[DN], normal[DN], out[DN];
+        for (int i = 0; i < DN; ++i) {
+            color[i] = 0.5f + 0.4f * (float)((i * 37) % 11) / 11.0f;
+            albedo[i] = 0.5f;
+            normal[i] = (i % 3 == 2) ? 1.0f : 0.0f;
+        }
+        EXPECT(plsr_denoise(DW, DH, color, albedo, normal, NULL, 1, out), PLSR_OK, NULL);
+        for (int i = 0; i < DN; ++i)
+            if (!(out[i] >= 0.0f && out[i] < 10.0f)) {
+                fprintf(stderr, "denoised value %d: %g\n", i, out[i]);
+                failures++;
+                break;
+            }
+        float in_place[DN];
+        memcpy(in_place, color, sizeof color);
+        EXPECT(plsr_denoise(DW, DH, in_place, albedo, normal, NULL, 2, in_place), PLSR_OK, NULL);
+        if (memcmp(in_place, out, sizeof out) != 0) {
+            fprintf(stderr, "denoising in place or on 2 threads changed the output\n");
+            failures++;
+        }
+        plsr_denoise_settings ds = {1, 1, 0};
+        EXPECT(plsr_denoise(DW, DH, color, NULL, normal, &ds, 0, out), PLSR_ERR_INVALID_ARGUMENT, "needs `albedo`");
+        EXPECT(plsr_denoise(0, DH, color, NULL, NULL, &ds, 0, out), PLSR_ERR_INVALID_ARGUMENT, "width");
+        EXPECT(plsr_denoise(DW, DH, NULL, NULL, NULL, &ds, 0, out), PLSR_ERR_NULL_ARGUMENT, "color");
+        EXPECT(plsr_denoise(DW, DH, color, NULL, NULL, &ds, 0, NULL), PLSR_ERR_NULL_ARGUMENT, "output");
+        color[4] = NAN;
+        color[7] = INFINITY;
+        EXPECT(plsr_denoise(DW, DH, color, albedo, normal, NULL, 0, out), PLSR_ERR_INPUT, "2 pixels are NaN or infinite");
+        EXPECT(plsr_image_denoise(NULL, 0, 0, NULL), PLSR_ERR_NULL_ARGUMENT, "image");
+        EXPECT(plsr_render_denoised(NULL, NULL, 0, 0, NULL, NULL, NULL), PLSR_ERR_NULL_ARGUMENT, "scene");
+    }
+
     if (failures) {
         fprintf(stderr, "%d failure(s)\n", failures);
         return 1;

@@ -13,7 +13,7 @@ use std::sync::Mutex;
 /// A rendered image (opaque): RGBA floats plus the film's layers.
 #[allow(non_camel_case_types)]
 pub struct plsr_image {
-    film: Film,
+    pub(crate) film: Film,
     rgba: Vec<f32>,
 }
 
@@ -136,6 +136,18 @@ fn render_into(
     if out.is_null() {
         return Err(FfiError::null("out"));
     }
+    let film = render_film(s, job, threads, progress, user_data)?;
+    write_out(out, new_handle(plsr_image::from_film(film)), "out")
+}
+
+/// Renders `job` of `s`, reporting progress to the host's callback.
+pub(crate) fn render_film(
+    s: &plsr_scene,
+    job: &RenderJob,
+    threads: u32,
+    progress: plsr_progress_fn,
+    user_data: *mut c_void,
+) -> Result<Film, FfiError> {
     let options = RenderOptions {
         threads: (threads > 0).then_some(threads as usize),
         ..Default::default()
@@ -151,21 +163,12 @@ fn render_into(
         }
     };
     let (film, _) = render(&s.scene, job, &options, &callback)?;
-    let rgba = film
-        .color
-        .iter()
-        .zip(&film.alpha)
-        .flat_map(|(c, a)| [c.x, c.y, c.z, *a])
-        .collect();
-    write_out(out, new_handle(plsr_image { film, rgba }), "out")
+    Ok(film)
 }
 
 impl plsr_image {
-    /// A composite as an image: the composite as colour, the matte as alpha.
-    pub(crate) fn from_composite(c: &plsr_apps::composite::Composite) -> plsr_image {
-        let mut film = Film::new(c.width, c.height);
-        film.color = c.color.clone();
-        film.alpha = c.matte.clone();
+    /// An image of a film: its colour and coverage as RGBA.
+    pub(crate) fn from_film(film: Film) -> plsr_image {
         let rgba = film
             .color
             .iter()
@@ -173,6 +176,14 @@ impl plsr_image {
             .flat_map(|(c, a)| [c.x, c.y, c.z, *a])
             .collect();
         plsr_image { film, rgba }
+    }
+
+    /// A composite as an image: the composite as colour, the matte as alpha.
+    pub(crate) fn from_composite(c: &plsr_apps::composite::Composite) -> plsr_image {
+        let mut film = Film::new(c.width, c.height);
+        film.color = c.color.clone();
+        film.alpha = c.matte.clone();
+        plsr_image::from_film(film)
     }
 }
 

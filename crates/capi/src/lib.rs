@@ -27,6 +27,7 @@
 //! degrees for angles, linear RGB, row-major 4×4 matrices.
 
 mod composite;
+mod denoise;
 mod fit;
 mod hdr;
 mod image;
@@ -34,6 +35,7 @@ mod pls;
 mod scene;
 
 pub use composite::*;
+pub use denoise::*;
 pub use fit::*;
 pub use hdr::*;
 pub use image::*;

@@ -13,6 +13,7 @@
 mod compare;
 mod composite;
 mod core;
+mod denoise;
 mod farm;
 mod fit;
 mod hdr;
@@ -38,8 +39,11 @@ pub struct BenchArgs {
     /// `peers` (plsr against Mitsuba 3 on a glossy scene lit by an HDR sky,
     /// the Cornell box, the PLS room and Mitsuba's material preview: samples/s, error at equal spp and
     /// time to equal error). `farm` (one render of the Cornell box against
-    /// the same render in `--parts` parts plus `plsr merge`).
-    #[arg(default_value = "core", value_parser = ["core", "pls", "materials", "hdr", "composite", "fit", "compare", "peers", "farm"])]
+    /// the same render in `--parts` parts plus `plsr merge`). `denoise`
+    /// (plsr's denoiser against Intel Open Image Denoise's, pyoidn, on the
+    /// same 1920×1080 render, and the memory of denoising a 8192×4096
+    /// panorama).
+    #[arg(default_value = "core", value_parser = ["core", "pls", "materials", "hdr", "composite", "fit", "compare", "peers", "farm", "denoise"])]
     pub suite: String,
     /// Image size for `plsr bench hdr` and the panorama of `plsr bench
     /// compare`, WIDTHxHEIGHT.
@@ -103,6 +107,17 @@ pub struct BenchArgs {
     /// Parts of `plsr bench farm` (they must divide its spp).
     #[arg(long, default_value_t = 8)]
     pub parts: u32,
+    /// Image size of `plsr bench denoise`, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1920x1080")]
+    pub denoise_size: String,
+    /// Panorama size of `plsr bench denoise`'s memory measurement,
+    /// WIDTHxHEIGHT, or `none`.
+    #[arg(long, default_value = "8192x4096")]
+    pub denoise_panorama: String,
+    /// The memory measurement alone, at this size (the child process of
+    /// `plsr bench denoise`).
+    #[arg(long, hide = true)]
+    pub denoise_probe: Option<String>,
     /// Skip the peer (Embree's pathtracer; OpenCV for `hdr`).
     #[arg(long)]
     pub no_peer: bool,
@@ -113,6 +128,16 @@ pub fn run(a: BenchArgs) -> Result<()> {
     match a.suite.as_str() {
         "pls" => pls::run(a.threads),
         "materials" => materials::run(a.threads).map(|_| ()),
+        "denoise" => denoise::run(&denoise::DenoiseBenchOptions {
+            threads: a.threads,
+            python: (!a.no_peer).then_some(a.python),
+            size: parse_size(&a.denoise_size)?,
+            panorama: match a.denoise_panorama.as_str() {
+                "none" => None,
+                s => Some(parse_size(s)?),
+            },
+            probe: a.denoise_probe.as_deref().map(parse_size).transpose()?,
+        }),
         "farm" => farm::run(a.threads, a.size, a.spp.unwrap_or(256), a.parts).map(|_| ()),
         "composite" => composite::run(a.threads).map(|_| ()),
         "fit" => fit::run(&fit::FitBenchOptions {
@@ -160,11 +185,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
 
 /// Parses `WIDTHxHEIGHT` (both at least 16).
 fn parse_size(s: &str) -> Result<(usize, usize)> {
-    let bad = || {
-        Error::invalid_argument(format!(
-            "--hdr-size {s:?}: expected WIDTHxHEIGHT, e.g. 6720x3360"
-        ))
-    };
+    let bad = || Error::invalid_argument(format!("{s:?}: expected WIDTHxHEIGHT, e.g. 6720x3360"));
     let (w, h) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
     let w: usize = w.trim().parse().map_err(|_| bad())?;
     let h: usize = h.trim().parse().map_err(|_| bad())?;
