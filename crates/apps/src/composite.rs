@@ -464,6 +464,10 @@ pub struct CompositeOptions {
     pub seed: Option<u64>,
     /// How to run the renders.
     pub render: plsr::render::RenderOptions,
+    /// Denoise both renders (with and without the virtual objects), each
+    /// guided by its own layers, before the difference is taken; `None`:
+    /// unbiased.
+    pub denoise: Option<plsr::film::denoise::DenoiseSettings>,
 }
 
 impl Default for CompositeOptions {
@@ -473,6 +477,7 @@ impl Default for CompositeOptions {
             spp: None,
             seed: None,
             render: Default::default(),
+            denoise: None,
         }
     }
 }
@@ -486,6 +491,8 @@ pub struct CompositeReport {
     pub render_seconds: f64,
     /// Camera samples of both renders.
     pub samples: u64,
+    /// Wall-clock seconds of denoising both renders (0 when not asked).
+    pub denoise_seconds: f64,
 }
 
 /// Composites the virtual objects of a scene file into its `[photo]`:
@@ -596,6 +603,7 @@ pub fn composite_built(
         fit: None,
         render_seconds: 0.0,
         samples: 0,
+        denoise_seconds: 0.0,
     };
     for (i, job) in jobs.iter().enumerate() {
         let step = |done: usize, total: usize| progress(i * total + done, 2 * total);
@@ -605,8 +613,22 @@ pub fn composite_built(
         sums.push(s);
     }
     let matte = matte(&sums[0]);
-    let with = sums[0].develop(job.spp).color;
-    let without = sums[1].develop(job.spp).color;
+    let [mut with, mut without] = [&sums[0], &sums[1]].map(|s| s.develop(job.spp));
+    if let Some(settings) = &options.denoise {
+        // Both renders, not their difference (the network takes no
+        // negative values), each from the same guides: those of the render
+        // with the virtual objects. The renders share their samples, so
+        // where the scenes agree the denoiser sees the same input twice
+        // and the difference stays 0; where they differ (shadows,
+        // reflections) it sees the same surfaces, lit otherwise.
+        without.albedo.clone_from(&with.albedo);
+        without.normal.clone_from(&with.normal);
+        without.alpha.clone_from(&with.alpha);
+        for film in [&mut with, &mut without] {
+            report.denoise_seconds += film.denoise(settings)?.seconds;
+        }
+    }
+    let (with, without) = (with.color, without.color);
     let k = match exposure {
         Some(k) => k,
         None => {

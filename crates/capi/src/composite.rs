@@ -89,6 +89,7 @@ pub extern "C" fn plsr_composite(
                 threads: (c.threads > 0).then_some(c.threads as usize),
                 ..Default::default()
             },
+            denoise: None,
         };
         let (result, _) = composite_built(&s.scene, &photo, exposure, &options, &|_, _| true)?;
         if !exposure_out.is_null() {

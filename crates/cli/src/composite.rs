@@ -32,6 +32,10 @@ pub struct CompositeArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Denoising of both renders (with and without the virtual objects)
+    /// before their difference is taken.
+    #[command(flatten)]
+    pub denoise: crate::denoise::DenoiseFlags,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
@@ -74,6 +78,13 @@ pub fn run(a: &CompositeArgs) -> Result<()> {
             threads: a.threads,
             ..Default::default()
         },
+        denoise: a
+            .denoise
+            .denoise
+            .then(|| plsr::film::denoise::DenoiseSettings {
+                prefilter: a.denoise.denoise_prefilter,
+                ..Default::default()
+            }),
     };
     let bar = progress_bar(
         a.quiet,
@@ -100,11 +111,16 @@ pub fn run(a: &CompositeArgs) -> Result<()> {
         None => format!("exposure k = {} (from the scene)", result.k),
     };
     eprintln!(
-        "composited {}×{} ({:?}) in {:.2} s of rendering, {exposure} → {}{}",
+        "composited {}×{} ({:?}) in {:.2} s of rendering{}, {exposure} → {}{}",
         result.width,
         result.height,
         a.mode,
         report.render_seconds,
+        if a.denoise.denoise {
+            format!(" and {:.2} s of denoising", report.denoise_seconds)
+        } else {
+            String::new()
+        },
         a.output.display(),
         a.png
             .as_ref()

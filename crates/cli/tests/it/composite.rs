@@ -435,3 +435,101 @@ fn the_demo_composites_through_its_recovered_curve() {
     assert!(fit.k > 0.0 && fit.used > fit.considered / 2, "{fit:?}");
     assert!(result.matte.iter().filter(|&&a| a == 1.0).count() > 1000);
 }
+
+/// The room lit by a sphere light instead of the point light (soft,
+/// noisy shadows), at 96×64.
+fn soft_room(sphere: &str, photo: &str) -> String {
+    room(sphere, photo)
+        .replace("resolution = [48, 32]", "resolution = [96, 64]")
+        .replace(
+            "[[lights]]\ntype = \"point\"\nposition = [1.5, -1, 3]\nintensity = [6, 6, 6]",
+            "[[materials]]\nname = \"lamp\"\ntype = \"diffuse\"\nreflectance = [0, 0, 0]\n\n\
+             [[shapes]]\ntype = \"sphere\"\nmaterial = \"lamp\"\ncenter = [1.5, -1, 3]\n\
+             radius = 0.6\nemission = [5.3, 5.3, 5.3]",
+        )
+}
+
+#[test]
+fn denoising_both_renders_keeps_the_shadow_s_mean() {
+    // The sphere's soft shadow in `difference` = k·(W − O): at 1024 spp
+    // unbiased (the reference), and at 16 spp with and without denoising
+    // both renders.
+    let dir = tempfile::tempdir().unwrap();
+    let text = soft_room("virtual = true", "").replace("spp = 256", "spp = 1024");
+    assert!(text.contains("emission"));
+    let photo = render_text(dir.path(), "photo.toml", &text, true);
+    photo
+        .write_png(
+            &dir.path().join("without.png"),
+            ToneMap {
+                exposure: 0.0,
+                filmic: false,
+            },
+        )
+        .unwrap();
+    let path = dir.path().join("ar.toml");
+    std::fs::write(
+        &path,
+        soft_room(
+            "virtual = true",
+            "[photo]\nfile = \"without.png\"\nexposure = 1\n",
+        ),
+    )
+    .unwrap();
+    let run = |spp: u32, seed: u64, denoise: bool| {
+        let contents = plsr::scene::file::load_contents(&path).unwrap();
+        let options = CompositeOptions {
+            spp: Some(spp),
+            seed: Some(seed),
+            denoise: denoise.then(Default::default),
+            ..Default::default()
+        };
+        composite_scene(&path, contents, &options, &|_, _| true)
+            .unwrap()
+            .0
+    };
+    let reference = run(1024, 11, false);
+    // Shadow pixels: outside the matte (one pixel clear of it), darkened
+    // by more than 10 % in the reference.
+    let (w, h) = (96i32, 64i32);
+    let lum = |v: Vec3| f64::from(v.x + v.y + v.z);
+    let shadow: Vec<usize> = (0..(w * h) as usize)
+        .filter(|&i| {
+            let (x, y) = (i as i32 % w, i as i32 / w);
+            let clear = (-1..=1).all(|dy| {
+                (-1..=1).all(|dx| {
+                    let (u, v) = (x + dx, y + dy);
+                    !(0..w).contains(&u)
+                        || !(0..h).contains(&v)
+                        || reference.matte[(v * w + u) as usize] == 0.0
+                })
+            });
+            let before = lum(reference.color[i] - reference.difference[i]);
+            clear && lum(reference.difference[i]) < -0.1 * before
+        })
+        .collect();
+    assert!(shadow.len() > 50, "a shadow of {} pixels", shadow.len());
+    let mean = |c: &plsr_apps::composite::Composite| {
+        shadow.iter().map(|&i| lum(c.difference[i])).sum::<f64>() / shadow.len() as f64
+    };
+    let error = |c: &plsr_apps::composite::Composite| {
+        shadow
+            .iter()
+            .map(|&i| (lum(c.difference[i]) - lum(reference.difference[i])).powi(2))
+            .sum::<f64>()
+            / shadow.len() as f64
+    };
+    let (noisy, denoised) = (run(16, 3, false), run(16, 3, true));
+    let (r, n, d) = (mean(&reference), mean(&noisy), mean(&denoised));
+    eprintln!(
+        "shadow of {} pixels, mean difference: reference {r:.4}, 16 spp {n:.4}, denoised {d:.4}; \
+         squared error per pixel {:.2e} noisy, {:.2e} denoised",
+        shadow.len(),
+        error(&noisy),
+        error(&denoised)
+    );
+    assert!((d - r).abs() < 0.03 * r.abs(), "denoised {d} vs {r}");
+    assert!(error(&denoised) < error(&noisy));
+    // The matte is the render's, untouched by denoising.
+    assert_eq!(denoised.matte, noisy.matte);
+}
