@@ -756,3 +756,64 @@ pub(super) fn render_samples(
         trace_pass(&pass, &mut wf, pixels, rays);
     }
 }
+
+/// What the denoiser's guides see along one camera ray (see
+/// [`super::guides`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum GuideHit {
+    /// The first hit is not a delta surface: its albedo and normal, as the
+    /// film's layers record them.
+    First(Vec3, Vec3),
+    /// The first hit is smooth glass: the albedo and normal of the first
+    /// surface behind it that is not.
+    Through(Vec3, Vec3),
+    /// Through glass to the sky.
+    Sky,
+    /// Nothing: the camera ray missed, or the chain of glass was too long.
+    Lost,
+}
+
+/// How many delta surfaces a guide ray passes through at most.
+const GUIDE_CHAIN: usize = 16;
+
+/// Follows `ray` through smooth glass (refracted, or reflected where the
+/// reflection is total) to the first surface that is not a delta; rays
+/// meet only the shapes `mask` shows.
+pub(crate) fn guide_hit(scene: &Scene, mut ray: Ray, mask: u32) -> GuideHit {
+    for bounce in 0..GUIDE_CHAIN {
+        let mut rh = [RayHit::masked(ray, mask)];
+        scene.accel().intersect_each(&mut rh);
+        let Some(hit) = rh[0].hit() else {
+            return if bounce == 0 {
+                GuideHit::Lost
+            } else {
+                GuideHit::Sky
+            };
+        };
+        let on = scene.mesh_hit(&hit);
+        let hit = on.world(hit);
+        let material = &scene.materials()[on.mesh.material as usize];
+        let surface = SurfacePoint::new(on, &hit, material);
+        let at = SurfaceHit::new(scene, on, &ray, &hit, surface);
+        if !at.bsdf.is_delta() {
+            let (albedo, normal) = (at.bsdf.albedo(), at.aov_normal());
+            return if bounce == 0 {
+                GuideHit::First(albedo, normal)
+            } else {
+                GuideHit::Through(albedo, normal)
+            };
+        }
+        // The transmitted direction: a choice number above any Fresnel
+        // reflectance short of total reflection.
+        let frame = at.frame();
+        let Some(bs) = at
+            .bsdf
+            .sample(frame.to_local(at.wo), 1.0 - f32::EPSILON, Vec2::splat(0.5))
+        else {
+            return GuideHit::Lost;
+        };
+        let wi = frame.to_world(bs.wi);
+        ray = Ray::new(spawn_origin(at.p, at.n, ray_epsilon(at.p), wi), wi);
+    }
+    GuideHit::Lost
+}

@@ -32,11 +32,13 @@
 //! `general.rs` is the general wavefront, [`soa`] the kernel, `steps.rs`
 //! the steps both take alike (the camera sample, the shading point, the
 //! MIS weights, Russian roulette), `spawn.rs` where rays start and end, and
-//! [`gradient`] the differentiable mode. The general integrator and the
+//! [`gradient`] the differentiable mode, [`guides`] the denoiser's guides
+//! behind glass. The general integrator and the
 //! kernel do not import each other.
 
 mod general;
 pub mod gradient;
+pub mod guides;
 pub mod soa;
 mod spawn;
 mod split_lobes;

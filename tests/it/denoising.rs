@@ -196,3 +196,78 @@ material = "white"
     );
     assert!(mse(&film.color) < noisy / 4.0);
 }
+
+/// A smooth glass sphere in front of a red wall, seen head on.
+const GLASS: &str = r#"
+[render]
+spp = 8
+max_depth = 8
+seed = 1
+
+[camera]
+position = [0, 0, 4]
+look_at = [0, 0, 0]
+up = [0, 1, 0]
+vfov = 40
+resolution = [32, 32]
+
+[environment]
+radiance = [1, 1, 1]
+
+[[materials]]
+name = "glass"
+type = "dielectric"
+ior = 1.5
+
+[[materials]]
+name = "red"
+type = "diffuse"
+reflectance = [0.8, 0.1, 0.1]
+
+[[shapes]]
+type = "sphere"
+material = "glass"
+radius = 0.8
+
+[[shapes]]
+type = "rectangle"
+material = "red"
+transform = { scale = 10, translate = [0, 0, -2] }
+"#;
+
+#[test]
+fn the_guides_see_through_smooth_glass() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, GLASS).unwrap();
+    let scene = Scene::load(&path).unwrap();
+    let job = scene.default_job();
+    let (mut film, _) = render(&scene, &job, &RenderOptions::default(), &|_, _| true).unwrap();
+    let centre = film.index(16, 16);
+    let corner = film.index(1, 1);
+    let before = film.clone();
+    // The render's layers record the glass at the centre.
+    assert!(before.albedo[centre].y > 0.5, "{}", before.albedo[centre]);
+    plsr::integrator::guides::see_through_glass(&scene, &job, &mut film);
+    // Behind the glass: the red wall, facing the camera.
+    let a = film.albedo[centre];
+    assert!(
+        (a - glam::Vec3::new(0.8, 0.1, 0.1)).abs().max_element() < 1e-4,
+        "{a}"
+    );
+    assert!(film.normal[centre].z > 0.99, "{}", film.normal[centre]);
+    // Where the camera sees the wall directly nothing changes, bit for bit;
+    // nor does the colour.
+    assert_eq!(film.albedo[corner], before.albedo[corner]);
+    assert_eq!(film.normal[corner], before.normal[corner]);
+    assert_eq!(film.color, before.color);
+    // Without glass, the pass changes nothing.
+    let plain = GLASS.replace("type = \"dielectric\"\nior = 1.5", "type = \"diffuse\"");
+    std::fs::write(&path, plain).unwrap();
+    let scene = Scene::load(&path).unwrap();
+    let (mut film, _) = render(&scene, &job, &RenderOptions::default(), &|_, _| true).unwrap();
+    let before = film.clone();
+    plsr::integrator::guides::see_through_glass(&scene, &job, &mut film);
+    assert_eq!(film.albedo, before.albedo);
+    assert_eq!(film.normal, before.normal);
+}

@@ -621,6 +621,7 @@ pub fn composite_built(
         // where the scenes agree the denoiser sees the same input twice
         // and the difference stays 0; where they differ (shadows,
         // reflections) it sees the same surfaces, lit otherwise.
+        plsr::integrator::guides::see_through_glass(scene, &jobs[0], &mut with);
         without.albedo.clone_from(&with.albedo);
         without.normal.clone_from(&with.normal);
         without.alpha.clone_from(&with.alpha);

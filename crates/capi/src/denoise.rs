@@ -203,6 +203,9 @@ pub extern "C" fn plsr_render_denoised(
             job_arg(r.spp, r.max_depth, r.seed, r.sample_start)?
         };
         let mut film = render_film(s, &job, threads, progress, user_data)?;
+        on_threads(threads, || {
+            plsr::integrator::guides::see_through_glass(&s.scene, &job, &mut film)
+        })?;
         denoise_film(&mut film, prefilter, threads)?;
         write_out(out, new_handle(plsr_image::from_film(film)), "out")
     })

@@ -27,6 +27,22 @@ pub struct DenoiseFlags {
 }
 
 impl DenoiseFlags {
+    /// Denoises `film`, a whole render of `job` of `scene`, if asked: its
+    /// albedo and normal layers are first traced through smooth glass
+    /// ([`plsr::integrator::guides`]); a note for the summary line.
+    pub fn apply_to_render(
+        &self,
+        film: &mut Film,
+        scene: &plsr::scene::Scene,
+        job: &plsr::job::RenderJob,
+        source: &Path,
+    ) -> Result<String> {
+        if self.denoise {
+            plsr::integrator::guides::see_through_glass(scene, job, film);
+        }
+        self.apply(film, source)
+    }
+
     /// Denoises `film` if asked; a note for the command's summary line
     /// (", denoised (colour + albedo + normal) in 4.9 s") or nothing.
     /// `source` names the image in errors.

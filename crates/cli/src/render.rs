@@ -569,7 +569,7 @@ fn render_one(
         }
         None => {
             let mut film = sums.develop(job.spp);
-            denoise_note = a.denoise.apply(&mut film, output)?;
+            denoise_note = a.denoise.apply_to_render(&mut film, scene, job, output)?;
             film.stage_exr(&mut outputs, output)?;
             film
         }
