@@ -271,3 +271,190 @@ fn the_guides_see_through_smooth_glass() {
     assert_eq!(film.albedo, before.albedo);
     assert_eq!(film.normal, before.normal);
 }
+
+/// The renders whose denoising is compared with Intel's OIDN: name, scene,
+/// spp, size. The composite's two renders (with and without its virtual
+/// objects) are both denoised from the guides of the first, as `plsr
+/// composite --denoise` does.
+const PARITY_CASES: &[(&str, &str, u32, (u32, u32))] = &[
+    (
+        "cornell-16",
+        "assets/scenes/cornell/cornell.toml",
+        16,
+        (160, 120),
+    ),
+    (
+        "cornell-64",
+        "assets/scenes/cornell/cornell.toml",
+        64,
+        (160, 120),
+    ),
+    (
+        "cornell-256",
+        "assets/scenes/cornell/cornell.toml",
+        256,
+        (160, 120),
+    ),
+    (
+        "cornell-odd-16",
+        "assets/scenes/cornell/cornell.toml",
+        16,
+        (517, 389),
+    ),
+    ("glossy-16", "tests/data/denoise/glossy.toml", 16, (160, 80)),
+    ("glossy-64", "tests/data/denoise/glossy.toml", 64, (160, 80)),
+    (
+        "pls-room-16",
+        "assets/scenes/pls-room/pls-room.toml",
+        16,
+        (160, 120),
+    ),
+    (
+        "composite-with-16",
+        "assets/scenes/ar-demo/ar-demo.toml",
+        16,
+        (160, 120),
+    ),
+    (
+        "composite-without-16",
+        "assets/scenes/ar-demo/ar-demo.toml",
+        16,
+        (160, 120),
+    ),
+];
+
+const PARITY_DIR: &str = "tests/fixtures/denoise";
+
+fn write_f16_gz(path: &std::path::Path, pixels: &[[f32; 3]]) {
+    use std::io::Write;
+    let mut gz = flate2::write::GzEncoder::new(
+        std::fs::File::create(path).unwrap(),
+        flate2::Compression::best(),
+    );
+    for v in pixels.iter().flatten() {
+        gz.write_all(&exr::prelude::f16::from_f32(*v).to_le_bytes())
+            .unwrap();
+    }
+    gz.finish().unwrap();
+}
+
+fn read_f16_gz(path: &std::path::Path) -> Vec<[f32; 3]> {
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    flate2::read::GzDecoder::new(std::fs::File::open(path).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e} (made by scripts/oidn_render_fixtures.py)",
+            path.display()
+        )
+    }))
+    .read_to_end(&mut bytes)
+    .unwrap();
+    bytes
+        .chunks_exact(6)
+        .map(|b| {
+            let h = |i: usize| exr::prelude::f16::from_le_bytes([b[i], b[i + 1]]).to_f32();
+            [h(0), h(2), h(4)]
+        })
+        .collect()
+}
+
+/// Renders the inputs of [`PARITY_CASES`] (colour, albedo and normal as
+/// plsr's denoiser is given them, in half floats) into
+/// `tests/fixtures/denoise/`, for `scripts/oidn_render_fixtures.py` to
+/// filter with OIDN: `cargo test --test it write_denoise_fixtures --
+/// --ignored`.
+#[test]
+#[ignore = "writes the fixtures; run by hand, then scripts/oidn_render_fixtures.py"]
+fn write_denoise_fixtures() {
+    use plsr::job::RenderJob;
+    let dir = std::path::Path::new(PARITY_DIR);
+    std::fs::create_dir_all(dir).unwrap();
+    let mut list = String::new();
+    let mut composite_guides = None;
+    for &(name, file, spp, (w, h)) in PARITY_CASES {
+        let mut description = plsr::scene::file::load_contents(std::path::Path::new(file))
+            .unwrap()
+            .description;
+        description.camera = description.camera.with_resolution(w, h).unwrap();
+        let scene = Scene::build(description).unwrap();
+        let job = RenderJob {
+            spp,
+            hide_virtual: name.starts_with("composite-without"),
+            ..scene.default_job()
+        };
+        let (mut film, _) = render(&scene, &job, &RenderOptions::default(), &|_, _| true).unwrap();
+        if name.starts_with("composite-with-") {
+            plsr::integrator::guides::see_through_glass(&scene, &job, &mut film);
+            composite_guides = Some((film.albedo.clone(), film.normal.clone(), film.alpha.clone()));
+        } else if name.starts_with("composite-without") {
+            let (a, n, alpha) = composite_guides
+                .clone()
+                .expect("the with-render comes first");
+            (film.albedo, film.normal, film.alpha) = (a, n, alpha);
+        } else {
+            plsr::integrator::guides::see_through_glass(&scene, &job, &mut film);
+        }
+        let guides = film.denoise_guides(&DenoiseSettings::default());
+        write_f16_gz(&dir.join(format!("{name}.color.f16.gz")), &guides.color);
+        write_f16_gz(
+            &dir.join(format!("{name}.albedo.f16.gz")),
+            guides.albedo.as_ref().unwrap(),
+        );
+        write_f16_gz(
+            &dir.join(format!("{name}.normal.f16.gz")),
+            guides.normal.as_ref().unwrap(),
+        );
+        list.push_str(&format!("{name} {w} {h}\n"));
+    }
+    std::fs::write(dir.join("cases.txt"), list).unwrap();
+}
+
+#[test]
+fn renders_are_denoised_as_oidn_denoises_them() {
+    let dir = std::path::Path::new(PARITY_DIR);
+    let cases = std::fs::read_to_string(dir.join("cases.txt")).unwrap();
+    assert_eq!(cases.lines().count(), PARITY_CASES.len());
+    let tone = |v: f32| (f64::from(v.max(0.0)) / (1.0 + f64::from(v.max(0.0)))).powf(1.0 / 2.2);
+    for line in cases.lines() {
+        let mut fields = line.split_whitespace();
+        let name = fields.next().unwrap();
+        let w: usize = fields.next().unwrap().parse().unwrap();
+        let h: usize = fields.next().unwrap().parse().unwrap();
+        let read = |what: &str| read_f16_gz(&dir.join(format!("{name}.{what}.f16.gz")));
+        let (color, albedo, normal, theirs) =
+            (read("color"), read("albedo"), read("normal"), read("oidn"));
+        assert_eq!(color.len(), w * h, "{name}");
+        let image = |pixels| plsr_denoise::Image {
+            pixels,
+            width: w,
+            height: h,
+        };
+        let ours = plsr_denoise::denoise(
+            image(&color),
+            Some(image(&albedo)),
+            Some(image(&normal)),
+            &plsr_denoise::Options {
+                hdr: true,
+                clean_aux: false,
+                input_scale: None,
+            },
+        )
+        .unwrap();
+        let squared = |a: &[[f32; 3]], b: &[[f32; 3]]| {
+            a.iter()
+                .zip(b)
+                .flat_map(|(p, q)| (0..3).map(move |c| (tone(p[c]) - tone(q[c])).powi(2)))
+                .sum::<f64>()
+                / (a.len() * 3) as f64
+        };
+        let psnr = 10.0 * (1.0 / squared(&ours, &theirs).max(1e-30)).log10();
+        let noisy_psnr = 10.0 * (1.0 / squared(&color, &theirs).max(1e-30)).log10();
+        eprintln!("{name} ({w}×{h}): PSNR {psnr:.1} dB against OIDN (the noisy input: {noisy_psnr:.1} dB)");
+        assert!(psnr >= 45.0, "{name}: {psnr:.1} dB");
+        // Not vacuous: the input itself is far from OIDN's output.
+        assert!(
+            psnr > noisy_psnr + 20.0,
+            "{name}: the input is {noisy_psnr:.1} dB"
+        );
+    }
+}
