@@ -20,6 +20,7 @@ mod hdr;
 mod hdr_memorial;
 mod materials;
 mod peers;
+mod peers_denoised;
 mod pls;
 
 use crate::error::{Error, Result};
@@ -107,6 +108,11 @@ pub struct BenchArgs {
     /// Parts of `plsr bench farm` (they must divide its spp).
     #[arg(long, default_value_t = 8)]
     pub parts: u32,
+    /// Python with Blender's `bpy` 4.5 for `plsr bench peers`: adds Cycles
+    /// with and without OIDN, and plsr with and without its denoiser, on
+    /// the Cornell box and the glossy scene.
+    #[arg(long, value_name = "PYTHON")]
+    pub blender_python: Option<PathBuf>,
     /// Image size of `plsr bench denoise`, WIDTHxHEIGHT.
     #[arg(long, default_value = "1920x1080")]
     pub denoise_size: String,
@@ -154,6 +160,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
             dir: a.peers_dir,
             only: a.scenes,
             seeds: a.seeds,
+            blender_python: a.blender_python,
         }),
         "compare" => compare::run(&compare::CompareBenchOptions {
             threads: a.threads,

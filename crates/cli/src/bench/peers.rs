@@ -72,15 +72,18 @@ pub struct PeersBenchOptions {
     /// Timed renders per renderer and scene (seeds 1 to `seeds`): each
     /// time is their best, each relMSE their mean.
     pub seeds: u32,
+    /// The Python with Blender's `bpy` (`None`: no Cycles, no denoised
+    /// comparison).
+    pub blender_python: Option<PathBuf>,
 }
 
 /// One scene of the suite, as both renderers get it.
-struct PeerScene {
-    name: &'static str,
+pub(super) struct PeerScene {
+    pub(super) name: &'static str,
     /// plsr's scene file.
     plsr: PathBuf,
     /// Mitsuba's scene file.
-    mitsuba: PathBuf,
+    pub(super) mitsuba: PathBuf,
     /// Whether Mitsuba's lights only approximate plsr's.
     approximate: bool,
 }
@@ -90,7 +93,7 @@ fn io_err(file: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
 }
 
 /// Writes a text file whole or not at all.
-fn write(path: &Path, text: &str) -> Result<()> {
+pub(super) fn write(path: &Path, text: &str) -> Result<()> {
     plsr::atomic_write::write_atomically(path, |w| {
         use std::io::Write as _;
         w.write_all(text.as_bytes()).map_err(io_err(path))
@@ -614,7 +617,12 @@ fn mean_rel_mse_by_object(
     sum.iter().map(|s| s / images.len().max(1) as f64).collect()
 }
 
-fn mean(image: &[glam::Vec3]) -> f64 {
+/// The relMSE of `image` against `reference` (see [`rel_mse_by_object`]).
+pub(super) fn rel_mse(image: &[glam::Vec3], reference: &Film) -> f64 {
+    rel_mse_by_object(image, reference, &[]).iter().sum()
+}
+
+pub(super) fn mean(image: &[glam::Vec3]) -> f64 {
     image.iter().map(|c| (c.x + c.y + c.z) as f64).sum::<f64>() / (3 * image.len()) as f64
 }
 
@@ -701,7 +709,7 @@ impl Measured {
 
 /// Reads Mitsuba's raw float32 RGB images: one or more `width × height`
 /// frames, one after the other.
-fn read_raw(path: &Path, width: u32, height: u32) -> Result<Vec<Vec<glam::Vec3>>> {
+pub(super) fn read_raw(path: &Path, width: u32, height: u32) -> Result<Vec<Vec<glam::Vec3>>> {
     let bytes = std::fs::read(path).map_err(io_err(path))?;
     let frame = (width * height) as usize * 12;
     if bytes.is_empty() || bytes.len() % frame != 0 {
@@ -908,8 +916,9 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
     let mut plsr_results = Vec::new();
     let mut prepared = Vec::new();
     let mut runs = MitsubaRuns::default();
+    let mut denoised = DenoisedRuns::default();
     for scene in &mut scenes {
-        let (measured, p) = bench.measure(scene, &mut runs)?;
+        let (measured, p) = bench.measure(scene, &mut runs, &mut denoised)?;
         prepared.push(p);
         plsr_results.push(measured);
     }
@@ -930,6 +939,14 @@ pub fn run(o: &PeersBenchOptions) -> Result<()> {
             print_raw_tracing(&scenes, &plsr_results, m);
         }
         other => print_plsr_only(&scenes, &plsr_results, other),
+    }
+    if o.blender_python.is_some() {
+        match &denoised.failure {
+            None => super::peers_denoised::print(&denoised.rows, threads),
+            Some(why) => println!(
+                "\nCycles: not measured ({why}); install it with `python3.11 -m venv VENV && VENV/bin/pip install 'bpy==4.5.*'` and pass --blender-python VENV/bin/python"
+            ),
+        }
     }
     println!("\nscenes, references and images: {}", dir.display());
     Ok(())
@@ -991,6 +1008,13 @@ struct MitsubaRuns {
     version: String,
 }
 
+/// The denoised comparison's rows so far, or why Cycles could not run.
+#[derive(Default)]
+struct DenoisedRuns {
+    rows: Vec<super::peers_denoised::Row>,
+    failure: Option<String>,
+}
+
 /// What every scene of a run shares.
 struct Bench<'a> {
     o: &'a PeersBenchOptions,
@@ -1011,6 +1035,7 @@ impl Bench<'_> {
         &self,
         scene: &mut PeerScene,
         mitsuba: &mut MitsubaRuns,
+        denoised: &mut DenoisedRuns,
     ) -> Result<(Measured, Prepared)> {
         let o = self.o;
         println!("{}:", scene.name);
@@ -1083,6 +1108,24 @@ impl Bench<'_> {
                     );
                 }
                 Err(why) => mitsuba.failure = Some(why),
+            }
+        }
+        // The denoised comparison, on the scenes Cycles reads as plsr does.
+        let for_cycles = matches!(scene.name, "cornell" | "glossy-env");
+        if let (Some(python), None, true) = (&o.blender_python, &denoised.failure, for_cycles) {
+            match super::peers_denoised::measure(
+                python,
+                self.threads,
+                self.seeds,
+                self.dir,
+                scene,
+                &built,
+                &description,
+                &self.options,
+                &reference,
+            ) {
+                Ok(row) => denoised.rows.push(row),
+                Err(why) => denoised.failure = Some(why),
             }
         }
         Ok((measured, (size.0, size.1, reference, objects)))
