@@ -246,14 +246,17 @@ plsr_result plsr_denoise(uint32_t width,
 // Denoises a rendered image guided by its albedo and normal layers, into
 // a new image `*out` (whose EXR keeps the noisy colour as `noisy.R/G/B`).
 // `prefilter` non-zero cleans the guides first. `threads` workers (0:
-// all cores). Added in 0.5.0.
+// all cores). The guides are the image's first-hit layers
+// (`plsr_render_denoised` traces them through smooth glass). A composite
+// (`plsr_composite`) has no guide layers and is refused. Added in 0.5.0.
 plsr_result plsr_image_denoise(const plsr_image *image,
                                uint32_t prefilter,
                                uint32_t threads,
                                plsr_image **out);
 
 // Renders `scene` as [`crate::plsr_render_with_settings`] does (with the
-// scene's own settings when `settings` is `NULL`), then denoises the
+// scene's own settings when `settings` is `NULL`; `sample_start` must be
+// 0), then denoises the
 // image guided by its albedo and normal layers (`prefilter` non-zero:
 // the guides cleaned first). The image's EXR keeps the noisy colour as
 // `noisy.R/G/B`. Added in 0.5.0.

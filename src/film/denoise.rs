@@ -11,7 +11,7 @@ use glam::Vec3;
 use plsr_denoise::{Aux, Image, Options};
 
 /// Which layers guide the denoiser, and whether they are prefiltered.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DenoiseSettings {
     /// Use the albedo layer.
     pub albedo: bool,
@@ -21,6 +21,10 @@ pub struct DenoiseSettings {
     /// (three networks instead of one: slower, better where the first hit
     /// varies within a pixel).
     pub prefilter: bool,
+    /// The colour's scale for the network; `None`: its autoexposure (a
+    /// key of 0.18 over the image's geometric-mean luminance). Films to be
+    /// compared after denoising (a composite's two renders) share one.
+    pub input_scale: Option<f32>,
 }
 
 impl Default for DenoiseSettings {
@@ -30,6 +34,7 @@ impl Default for DenoiseSettings {
             albedo: true,
             normal: true,
             prefilter: false,
+            input_scale: None,
         }
     }
 }
@@ -62,11 +67,19 @@ fn as_arrays(v: &[Vec3]) -> Vec<[f32; 3]> {
 pub struct DenoiseGuides {
     /// The colour: the `noisy` layer if the film was denoised before.
     pub color: Vec<[f32; 3]>,
-    /// The albedo guide: the albedo layer, plus 1 for the fraction of each
-    /// pixel where camera rays missed the scene.
+    /// The albedo guide: the albedo layer (the mean over the samples that
+    /// hit) weighted by the coverage, plus 1 for the fraction of each pixel
+    /// where camera rays missed the scene: `α·albedo + (1 − α)`.
     pub albedo: Option<Vec<[f32; 3]>>,
     /// The normal layer.
     pub normal: Option<Vec<[f32; 3]>>,
+}
+
+/// The input scale the denoiser's autoexposure gives `film`'s (noisy)
+/// colour: 0.18 over its geometric-mean luminance.
+pub fn input_scale(film: &Film) -> f32 {
+    let color = as_arrays(film.noisy.as_deref().unwrap_or(&film.color));
+    plsr_denoise::autoexposure::input_scale(&color, film.width as usize, film.height as usize)
 }
 
 impl Film {
@@ -81,7 +94,10 @@ impl Film {
             self.albedo
                 .iter()
                 .zip(&self.alpha)
-                .map(|(a, alpha)| (*a + Vec3::splat(1.0 - alpha.clamp(0.0, 1.0))).to_array())
+                .map(|(a, alpha)| {
+                    let alpha = alpha.clamp(0.0, 1.0);
+                    (*a * alpha + Vec3::splat(1.0 - alpha)).to_array()
+                })
                 .collect::<Vec<_>>()
         });
         let normal = (settings.albedo && settings.normal).then(|| as_arrays(&self.normal));
@@ -120,7 +136,7 @@ impl Film {
                 &Options {
                     hdr: true,
                     clean_aux: settings.prefilter,
-                    input_scale: None,
+                    input_scale: settings.input_scale,
                 },
             )
         })();

@@ -116,6 +116,7 @@ fn denoising_a_lit_plane_keeps_its_mean_and_its_edge() {
             / truth.len() as f64
     };
     let noisy_error = rel_mse(&film.color);
+    let noisy_color = film.color.clone();
     let report = film.denoise(&DenoiseSettings::default()).unwrap();
     assert_eq!(report.guides, "colour + albedo + normal");
     let denoised_error = rel_mse(&film.color);
@@ -128,7 +129,7 @@ fn denoising_a_lit_plane_keeps_its_mean_and_its_edge() {
     assert!(((mean(&film.color) - truth_mean) / truth_mean).abs() < 0.01);
     assert!(denoised_error < noisy_error / 10.0);
     // The noisy colour is kept, unchanged.
-    assert!(((mean(film.noisy.as_ref().unwrap()) - truth_mean) / truth_mean).abs() < 0.05);
+    assert_eq!(film.noisy.as_ref(), Some(&noisy_color));
     // The step from albedo 0.2 to 0.8 lies between columns 31 and 32 (at
     // x = 32 in pixel units): find, row by row, where the albedo the
     // denoised image implies crosses 0.5 between pixel centres.
@@ -423,7 +424,14 @@ fn renders_are_denoised_as_oidn_denoises_them() {
         let read = |what: &str| read_f16_gz(&dir.join(format!("{name}.{what}.f16.gz")));
         let (color, albedo, normal, theirs) =
             (read("color"), read("albedo"), read("normal"), read("oidn"));
-        assert_eq!(color.len(), w * h, "{name}");
+        for (what, image) in [
+            ("color", &color),
+            ("albedo", &albedo),
+            ("normal", &normal),
+            ("oidn", &theirs),
+        ] {
+            assert_eq!(image.len(), w * h, "{name}.{what}");
+        }
         let image = |pixels| plsr_denoise::Image {
             pixels,
             width: w,
@@ -450,7 +458,9 @@ fn renders_are_denoised_as_oidn_denoises_them() {
         let psnr = 10.0 * (1.0 / squared(&ours, &theirs).max(1e-30)).log10();
         let noisy_psnr = 10.0 * (1.0 / squared(&color, &theirs).max(1e-30)).log10();
         eprintln!("{name} ({w}×{h}): PSNR {psnr:.1} dB against OIDN (the noisy input: {noisy_psnr:.1} dB)");
-        assert!(psnr >= 45.0, "{name}: {psnr:.1} dB");
+        // The issue asks for 45 dB; the same network on the same input
+        // gives about 90 (the fixtures' half floats bound it).
+        assert!(psnr >= 85.0, "{name}: {psnr:.1} dB");
         // Not vacuous: the input itself is far from OIDN's output.
         assert!(
             psnr > noisy_psnr + 20.0,

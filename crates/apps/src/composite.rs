@@ -464,9 +464,9 @@ pub struct CompositeOptions {
     pub seed: Option<u64>,
     /// How to run the renders.
     pub render: plsr::render::RenderOptions,
-    /// Denoise both renders (with and without the virtual objects), each
-    /// guided by its own layers, before the difference is taken; `None`:
-    /// unbiased.
+    /// Denoise both renders (with and without the virtual objects), both
+    /// guided by the layers of the render with the objects and at its input
+    /// scale, before the difference is taken; `None`: unbiased.
     pub denoise: Option<plsr::film::denoise::DenoiseSettings>,
 }
 
@@ -625,8 +625,18 @@ pub fn composite_built(
         without.albedo.clone_from(&with.albedo);
         without.normal.clone_from(&with.normal);
         without.alpha.clone_from(&with.alpha);
+        // One input scale for both (that of the render with the objects):
+        // the network must see equal pixels where the renders agree.
+        let settings = plsr::film::denoise::DenoiseSettings {
+            input_scale: Some(
+                settings
+                    .input_scale
+                    .unwrap_or_else(|| plsr::film::denoise::input_scale(&with)),
+            ),
+            ..*settings
+        };
         for film in [&mut with, &mut without] {
-            report.denoise_seconds += film.denoise(settings)?.seconds;
+            report.denoise_seconds += film.denoise(&settings)?.seconds;
         }
     }
     let (with, without) = (with.color, without.color);

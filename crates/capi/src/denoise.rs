@@ -85,6 +85,9 @@ pub extern "C" fn plsr_denoise(
             )));
         }
         let n = pixels as usize * 3;
+        if output.is_null() {
+            return Err(FfiError::null("output"));
+        }
         let s = if settings.is_null() {
             plsr_denoise_settings {
                 hdr: 1,
@@ -148,7 +151,9 @@ pub extern "C" fn plsr_denoise(
 /// Denoises a rendered image guided by its albedo and normal layers, into
 /// a new image `*out` (whose EXR keeps the noisy colour as `noisy.R/G/B`).
 /// `prefilter` non-zero cleans the guides first. `threads` workers (0:
-/// all cores). Added in 0.5.0.
+/// all cores). The guides are the image's first-hit layers
+/// (`plsr_render_denoised` traces them through smooth glass). A composite
+/// (`plsr_composite`) has no guide layers and is refused. Added in 0.5.0.
 #[no_mangle]
 pub extern "C" fn plsr_image_denoise(
     image: *const plsr_image,
@@ -160,6 +165,11 @@ pub extern "C" fn plsr_image_denoise(
         let img = handle_ref(image, "image")?;
         if out.is_null() {
             return Err(FfiError::null("out"));
+        }
+        if img.film.spp == 0 {
+            return Err(FfiError::invalid(
+                "`image` is not a render (a composite has no albedo and normal layers to guide the denoiser)",
+            ));
         }
         let mut film = img.film.clone();
         denoise_film(&mut film, prefilter, threads)?;
@@ -177,7 +187,8 @@ fn denoise_film(film: &mut Film, prefilter: u32, threads: u32) -> Result<(), Ffi
 }
 
 /// Renders `scene` as [`crate::plsr_render_with_settings`] does (with the
-/// scene's own settings when `settings` is `NULL`), then denoises the
+/// scene's own settings when `settings` is `NULL`; `sample_start` must be
+/// 0), then denoises the
 /// image guided by its albedo and normal layers (`prefilter` non-zero:
 /// the guides cleaned first). The image's EXR keeps the noisy colour as
 /// `noisy.R/G/B`. Added in 0.5.0.
@@ -200,6 +211,12 @@ pub extern "C" fn plsr_render_denoised(
             s.scene.default_job()
         } else {
             let r = slice_arg(settings, 1, "settings")?[0];
+            if r.sample_start != 0 {
+                return Err(FfiError::invalid(format!(
+                    "`sample_start` = {}: a part of a render is denoised only once merged; render from sample 0",
+                    r.sample_start
+                )));
+            }
             job_arg(r.spp, r.max_depth, r.seed, r.sample_start)?
         };
         let mut film = render_film(s, &job, threads, progress, user_data)?;

@@ -15,8 +15,10 @@ use std::path::{Path, PathBuf};
 pub struct DenoiseFlags {
     /// Denoise the image (Intel Open Image Denoise's network, run by plsr)
     /// guided by its albedo and normal layers. The EXR keeps the noisy
-    /// colour as its `noisy.R/G/B` layer. Denoising is biased: leave it
-    /// off for renders compared against ground truth.
+    /// colour as its `noisy.R/G/B` layer. `render` and `composite` first
+    /// trace the guides through smooth glass; `merge` has no scene and uses
+    /// the first hit's layers. Denoising is biased: leave it off for
+    /// renders compared against ground truth.
     #[arg(long)]
     pub denoise: bool,
     /// With --denoise: clean the albedo and normal layers with their own
@@ -35,18 +37,18 @@ impl DenoiseFlags {
         film: &mut Film,
         scene: &plsr::scene::Scene,
         job: &plsr::job::RenderJob,
-        source: &Path,
     ) -> Result<String> {
         if self.denoise {
             plsr::integrator::guides::see_through_glass(scene, job, film);
         }
-        self.apply(film, source)
+        self.apply(film, None)
     }
 
     /// Denoises `film` if asked; a note for the command's summary line
     /// (", denoised (colour + albedo + normal) in 4.9 s") or nothing.
-    /// `source` names the image in errors.
-    pub fn apply(&self, film: &mut Film, source: &Path) -> Result<String> {
+    /// `source` names the file the image came from, for errors; `None`: a
+    /// render or merge of this run.
+    pub fn apply(&self, film: &mut Film, source: Option<&Path>) -> Result<String> {
         if !self.denoise {
             return Ok(String::new());
         }
@@ -59,10 +61,17 @@ impl DenoiseFlags {
 }
 
 /// Denoises `film` (from `source`, named in errors); the summary's note.
-fn denoise_film(film: &mut Film, settings: &DenoiseSettings, source: &Path) -> Result<String> {
-    let report = film.denoise(settings).map_err(|e| match e {
-        plsr::Error::Denoise(fault) => Error::input(source, "", fault.to_string()),
-        other => other.into(),
+fn denoise_film(
+    film: &mut Film,
+    settings: &DenoiseSettings,
+    source: Option<&Path>,
+) -> Result<String> {
+    let report = film.denoise(settings).map_err(|e| match (e, source) {
+        (plsr::Error::Denoise(fault), Some(file)) => Error::input(file, "", fault.to_string()),
+        (plsr::Error::Denoise(fault), None) => {
+            Error::invalid_argument(format!("cannot denoise the image: {fault}"))
+        }
+        (other, _) => other.into(),
     })?;
     Ok(format!(
         ", denoised ({}) in {:.1} s",
@@ -88,7 +97,7 @@ pub struct DenoiseArgs {
     pub png: Option<PathBuf>,
     /// Clean the albedo and normal layers with their own networks first
     /// (about three times the time; for layers that are noisy themselves).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "color_only")]
     pub prefilter: bool,
     /// Ignore the albedo and normal layers: denoise the colour alone.
     #[arg(long)]
@@ -144,12 +153,18 @@ pub fn run(a: &DenoiseArgs) -> Result<()> {
             a.input.display()
         );
     }
+    if albedo && !has_channels(&a.input, &["A"])? {
+        // Without a coverage layer every pixel counts as covered (the
+        // albedo guide of a sky is 1 only where coverage says so).
+        film.alpha.fill(1.0);
+    }
     let settings = DenoiseSettings {
         albedo,
         normal,
         prefilter: a.prefilter,
+        input_scale: None,
     };
-    let note = denoise_film(&mut film, &settings, &a.input)?;
+    let note = denoise_film(&mut film, &settings, Some(&a.input))?;
     let mut outputs = OutputSet::new();
     film.stage_exr(&mut outputs, &a.output)?;
     let mut png_note = String::new();

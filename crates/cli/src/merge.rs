@@ -71,7 +71,7 @@ pub fn run_in_sequence(a: &MergeArgs, exposure: &mut SequenceExposure) -> Result
     }
     let (sums, spp) = merge_parts(&parts)?;
     let mut film = sums.develop(spp);
-    let denoise_note = a.denoise.apply(&mut film, &a.output)?;
+    let denoise_note = a.denoise.apply(&mut film, None)?;
     let mut outputs = OutputSet::new();
     film.stage_exr(&mut outputs, &a.output)?;
     let mut png_note = String::new();

@@ -569,7 +569,26 @@ fn render_one(
         }
         None => {
             let mut film = sums.develop(job.spp);
-            denoise_note = a.denoise.apply_to_render(&mut film, scene, job, output)?;
+            let noisy = a.denoise.denoise.then(|| film.clone());
+            if let Err(e) = a
+                .denoise
+                .apply_to_render(&mut film, scene, job)
+                .map(|note| {
+                    denoise_note = note;
+                })
+            {
+                // Nothing is lost: the render is written undenoised.
+                if let Some(noisy) = noisy {
+                    let mut kept = OutputSet::new();
+                    noisy.stage_exr(&mut kept, output)?;
+                    kept.commit()?;
+                    eprintln!(
+                        "note: the render was written undenoised to {}",
+                        output.display()
+                    );
+                }
+                return Err(e);
+            }
             film.stage_exr(&mut outputs, output)?;
             film
         }

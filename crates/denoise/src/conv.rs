@@ -103,8 +103,7 @@ impl Conv3x3 {
         let k = self.inputs * 9;
         let rows_per_band = (BAND_PIXELS / w).max(1);
         let mut out = Planes::zeros(self.outputs, h, w);
-        let bands = Bands::of(&mut out, rows_per_band);
-        bands.for_each(|y0, y1, write| {
+        Bands::of(&mut out, rows_per_band).for_each(|y0, y1, write| {
             let n = (y1 - y0) * w;
             with_scratch(k * n, self.outputs * n, |patch, product| {
                 patches(parts, y0, y1, patch);
@@ -133,8 +132,9 @@ pub(crate) struct Bands<'a> {
 }
 
 // SAFETY: `Bands` hands each band's writer only the rows of its own band
-// (checked in `for_each`), so threads never write the same value, and the
-// planes are borrowed mutably for `'a`, so nothing else reads them meanwhile.
+// (checked in `for_each`), so threads never write the same value; the
+// planes are borrowed mutably for `'a`, so nothing else reads them
+// meanwhile; and `for_each` consumes the `Bands`, so it runs once.
 unsafe impl Sync for Bands<'_> {}
 
 impl<'a> Bands<'a> {
@@ -155,35 +155,37 @@ impl<'a> Bands<'a> {
     /// `values[i]` at pixel `offset + i·stride` (a pixel index is
     /// row · width + column) of plane `channel`; every such pixel must lie
     /// within the band's rows.
-    pub(crate) fn for_each<F>(&self, f: F)
+    pub(crate) fn for_each<F>(self, f: F)
     where
         F: Fn(usize, usize, &dyn Fn(usize, usize, usize, &[f32])) + Sync,
     {
+        // The closure borrows the whole `Bands` (which is `Sync`), not its
+        // raw pointer alone.
+        let this = &self;
         let plane = self.height * self.width;
         (0..self.height.div_ceil(self.rows))
             .into_par_iter()
             .for_each(|band| {
-                let y0 = band * self.rows;
-                let y1 = (y0 + self.rows).min(self.height);
-                let (lo, hi) = (y0 * self.width, y1 * self.width);
+                let y0 = band * this.rows;
+                let y1 = (y0 + this.rows).min(this.height);
+                let (lo, hi) = (y0 * this.width, y1 * this.width);
                 let write = |channel: usize, offset: usize, stride: usize, values: &[f32]| {
                     if values.is_empty() {
                         return;
                     }
-                    let last = offset + (values.len() - 1) * stride;
-                    assert!(
-                        offset >= lo
-                            && last < hi
-                            && stride > 0
-                            && channel * plane + last < self.len
-                    );
+                    let last = (values.len() - 1)
+                        .checked_mul(stride)
+                        .and_then(|span| span.checked_add(offset))
+                        .filter(|&last| stride > 0 && offset >= lo && last < hi)
+                        .expect("a band writes only its own rows");
+                    assert!(channel * plane + last < this.len);
                     let base = channel * plane + offset;
                     for (i, v) in values.iter().enumerate() {
                         // SAFETY: every index from `base` to `channel · plane
                         // + last` lies in this band's rows of plane `channel`
                         // (asserted above), which no other band writes, and
                         // within the planes' values.
-                        unsafe { *self.data.add(base + i * stride) = *v };
+                        unsafe { *this.data.add(base + i * stride) = *v };
                     }
                 };
                 f(y0, y1, &write)

@@ -71,6 +71,7 @@ fn check(reference: &str, color: &str, albedo: bool, normal: bool, hdr: bool, cl
     )
     .unwrap();
     let (_, _, theirs) = read_pfm(reference);
+    assert_eq!(theirs.len(), ours.len(), "{reference}");
     let psnr = psnr_tonemapped(&ours, &theirs);
     let worst = ours
         .iter()
@@ -123,6 +124,7 @@ fn check_prefilter(reference: &str, noisy: &str, kind: Aux) {
     )
     .unwrap();
     let (_, _, theirs) = read_pfm(reference);
+    assert_eq!(theirs.len(), ours.len(), "{reference}");
     let largest = |a: &[[f32; 3]], b: &[[f32; 3]]| {
         a.iter()
             .zip(b)

@@ -374,6 +374,17 @@ fn a_denoised_render_is_the_render_denoised_whatever_the_threads() {
     )
     .unwrap();
     assert_eq!(out, want.concat());
+    // A part is denoised only once merged.
+    let part = plsr_render_settings {
+        sample_start: 4,
+        ..settings
+    };
+    let mut refused = none();
+    assert_eq!(
+        plsr_render_denoised(scene, &part, 0, 0, None, null, &mut refused),
+        PLSR_ERR_INVALID_ARGUMENT
+    );
+    assert!(refused.is_null());
     for img in [noisy, denoised, direct] {
         assert_eq!(plsr_image_free(img), PLSR_OK);
     }

@@ -529,7 +529,5 @@ fn denoising_both_renders_keeps_the_shadow_s_mean() {
         error(&denoised)
     );
     assert!((d - r).abs() < 0.03 * r.abs(), "denoised {d} vs {r}");
-    assert!(error(&denoised) < error(&noisy));
-    // The matte is the render's, untouched by denoising.
-    assert_eq!(denoised.matte, noisy.matte);
+    assert!(error(&denoised) < error(&noisy) / 2.0);
 }

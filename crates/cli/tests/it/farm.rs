@@ -716,4 +716,10 @@ fn a_plan_keeps_a_mitsuba_scenes_d_parameters() {
     assert!(ok, "{e}");
     let film = Film::read_exr(&out.join("image.exr")).unwrap();
     assert_eq!(film.spp, 8);
+    // Denoised after the exact merge: the noisy colour is the merge's.
+    let (ok, e) = plsr(&["farm", "merge", &plan_s, "--denoise"]);
+    assert!(ok && e.contains("at 8 spp, denoised"), "{e}");
+    let denoised = Film::read_exr(&out.join("image.exr")).unwrap();
+    assert_eq!(denoised.noisy.as_ref(), Some(&film.color));
+    assert_ne!(denoised.color, film.color);
 }
