@@ -8,7 +8,7 @@
 use super::Film;
 use crate::error::Result;
 use glam::Vec3;
-use plsr_denoise::{Aux, Image, Options};
+use plsr_denoise::{Image, Options};
 
 /// Which layers guide the denoiser, and whether they are prefiltered.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -47,14 +47,6 @@ pub struct DenoiseReport {
     pub guides: String,
     /// Wall time, seconds.
     pub seconds: f64,
-}
-
-fn image_of(pixels: &[[f32; 3]], width: usize, height: usize) -> Image<'_> {
-    Image {
-        pixels,
-        width,
-        height,
-    }
 }
 
 fn as_arrays(v: &[Vec3]) -> Vec<[f32; 3]> {
@@ -117,29 +109,24 @@ impl Film {
         let (w, h) = (self.width as usize, self.height as usize);
         let DenoiseGuides {
             color,
-            mut albedo,
-            mut normal,
+            albedo,
+            normal,
         } = self.denoise_guides(settings);
-        let result = (|| {
-            if settings.prefilter {
-                if let Some(a) = albedo.take() {
-                    albedo = Some(plsr_denoise::prefilter(image_of(&a, w, h), Aux::Albedo)?);
-                }
-                if let Some(n) = normal.take() {
-                    normal = Some(plsr_denoise::prefilter(image_of(&n, w, h), Aux::Normal)?);
-                }
-            }
-            plsr_denoise::denoise(
-                image_of(&color, w, h),
-                albedo.as_deref().map(|p| image_of(p, w, h)),
-                normal.as_deref().map(|p| image_of(p, w, h)),
-                &Options {
-                    hdr: true,
-                    clean_aux: settings.prefilter,
-                    input_scale: settings.input_scale,
-                },
-            )
-        })();
+        let filter = if settings.prefilter {
+            plsr_denoise::denoise_prefiltered
+        } else {
+            plsr_denoise::denoise
+        };
+        let result = filter(
+            Image::new(&color, w, h),
+            albedo.as_deref().map(|p| Image::new(p, w, h)),
+            normal.as_deref().map(|p| Image::new(p, w, h)),
+            &Options {
+                hdr: true,
+                clean_aux: false,
+                input_scale: settings.input_scale,
+            },
+        );
         let denoised: Vec<Vec3> = result?.into_iter().map(Vec3::from_array).collect();
         let noisy = std::mem::replace(&mut self.color, denoised);
         if self.noisy.is_none() {

@@ -39,14 +39,6 @@ fn denoise_error(e: plsr_denoise::FilterError) -> FfiError {
     FfiError::new(crate::PLSR_ERR_INPUT, format!("cannot denoise: {e}"))
 }
 
-fn image_of(pixels: &[[f32; 3]], width: usize, height: usize) -> plsr_denoise::Image<'_> {
-    plsr_denoise::Image {
-        pixels,
-        width,
-        height,
-    }
-}
-
 /// Runs `f` on a pool of `threads` workers (0: all cores).
 fn on_threads<T>(threads: u32, f: impl FnOnce() -> T + Send) -> Result<T, FfiError>
 where
@@ -112,29 +104,18 @@ pub extern "C" fn plsr_denoise(
             .transpose()?;
         let (w, h) = (width as usize, height as usize);
         let result = on_threads(threads, || {
-            let mut albedo = albedo;
-            let mut normal = normal;
-            if s.prefilter != 0 {
-                if let Some(a) = albedo.take() {
-                    albedo = Some(plsr_denoise::prefilter(
-                        image_of(&a, w, h),
-                        plsr_denoise::Aux::Albedo,
-                    )?);
-                }
-                if let Some(nrm) = normal.take() {
-                    normal = Some(plsr_denoise::prefilter(
-                        image_of(&nrm, w, h),
-                        plsr_denoise::Aux::Normal,
-                    )?);
-                }
-            }
-            plsr_denoise::denoise(
-                image_of(&color, w, h),
-                albedo.as_deref().map(|p| image_of(p, w, h)),
-                normal.as_deref().map(|p| image_of(p, w, h)),
+            let filter = if s.prefilter != 0 {
+                plsr_denoise::denoise_prefiltered
+            } else {
+                plsr_denoise::denoise
+            };
+            filter(
+                plsr_denoise::Image::new(&color, w, h),
+                albedo.as_deref().map(|p| plsr_denoise::Image::new(p, w, h)),
+                normal.as_deref().map(|p| plsr_denoise::Image::new(p, w, h)),
                 &plsr_denoise::Options {
                     hdr: s.hdr != 0,
-                    clean_aux: s.clean_aux != 0 || s.prefilter != 0,
+                    clean_aux: s.clean_aux != 0,
                     input_scale: None,
                 },
             )

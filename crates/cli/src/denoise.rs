@@ -124,13 +124,7 @@ fn has_channels(path: &Path, names: &[&str]) -> Result<bool> {
 
 /// Runs `plsr denoise`.
 pub fn run(a: &DenoiseArgs) -> Result<()> {
-    crate::render::check_output("-o", &a.output, "exr", "OpenEXR")?;
-    if let Some(p) = &a.png {
-        crate::render::check_output("--png", p, "png", "PNG")?;
-        if same_file(p, &a.output) {
-            return Err(Error::output(p.clone(), "--png names the same file as -o"));
-        }
-    }
+    crate::render::check_exr_and_png(&a.output, a.png.as_ref())?;
     for out in std::iter::once(&a.output).chain(&a.png) {
         if same_file(out, &a.input) {
             return Err(Error::output(

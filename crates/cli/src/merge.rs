@@ -44,13 +44,7 @@ pub fn run(a: &MergeArgs) -> Result<()> {
 /// Runs `plsr merge` as one image of a sequence (a frame of a camera path
 /// that `plsr farm merge` merges), whose PNG exposure `exposure` keeps.
 pub fn run_in_sequence(a: &MergeArgs, exposure: &mut SequenceExposure) -> Result<()> {
-    crate::render::check_output("-o", &a.output, "exr", "OpenEXR")?;
-    if let Some(p) = &a.png {
-        crate::render::check_output("--png", p, "png", "PNG")?;
-        if same_file(p, &a.output) {
-            return Err(Error::output(p.clone(), "--png names the same file as -o"));
-        }
-    }
+    crate::render::check_exr_and_png(&a.output, a.png.as_ref())?;
     for out in std::iter::once(&a.output).chain(&a.png) {
         if let Some(part) = a.parts.iter().find(|p| same_file(out, p)) {
             return Err(Error::output(

@@ -122,6 +122,19 @@ pub(crate) fn check_output(flag: &str, path: &Path, extension: &str, format: &st
     check_extension(path, extension, format).map_err(|m| fail(format!("{flag}: {m}")))
 }
 
+/// Checks the outputs `-o OUT.exr` and `--png OUT.png` of a command that
+/// writes an image (see [`check_output`]), and that they are two files.
+pub(crate) fn check_exr_and_png(output: &Path, png: Option<&PathBuf>) -> Result<()> {
+    check_output("-o", output, "exr", "OpenEXR")?;
+    if let Some(p) = png {
+        check_output("--png", p, "png", "PNG")?;
+        if same_file(p, output) {
+            return Err(Error::output(p.clone(), "--png names the same file as -o"));
+        }
+    }
+    Ok(())
+}
+
 /// Runs `plsr render`.
 pub fn run(a: &RenderArgs) -> Result<()> {
     // Options are checked as strictly as scene files, before any work.
@@ -489,13 +502,7 @@ fn check_outputs(
     png: Option<&PathBuf>,
     inputs: &[PathBuf],
 ) -> Result<()> {
-    check_output("-o", output, "exr", "OpenEXR")?;
-    if let Some(p) = png {
-        check_output("--png", p, "png", "PNG")?;
-        if same_file(p, output) {
-            return Err(Error::output(p.clone(), "--png names the same file as -o"));
-        }
-    }
+    check_exr_and_png(output, png)?;
     for out in std::iter::once(output).chain(png.map(|p| p.as_path())) {
         if same_file(out, &a.scene) {
             return Err(Error::output(

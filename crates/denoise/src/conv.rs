@@ -193,6 +193,23 @@ impl<'a> Bands<'a> {
     }
 }
 
+/// `dst[x] = src[x + dx]` for `dx` in −1..=1 (slices of one length), 0
+/// where that falls outside `src`: a row of a 3×3 window's column.
+pub(crate) fn copy_shifted(dst: &mut [f32], src: &[f32], dx: isize) {
+    let w = dst.len();
+    match dx {
+        -1 => {
+            dst[0] = 0.0;
+            dst[1..].copy_from_slice(&src[..w - 1]);
+        }
+        0 => dst.copy_from_slice(src),
+        _ => {
+            dst[..w - 1].copy_from_slice(&src[1..]);
+            dst[w - 1] = 0.0;
+        }
+    }
+}
+
 /// Writes into `m` the patch matrix of rows `y0..y1`: row
 /// `(c·3 + ky)·3 + kx` holds, for each output pixel of the band, input
 /// channel `c` at offset `(ky − 1, kx − 1)`, zero outside the image. Every
@@ -215,17 +232,7 @@ fn patches(parts: &[&Planes], y0: usize, y1: usize, m: &mut [f32]) {
                             continue;
                         }
                         let src = &plane[sy as usize * w..(sy as usize + 1) * w];
-                        match kx {
-                            0 => {
-                                dst[0] = 0.0;
-                                dst[1..].copy_from_slice(&src[..w - 1]);
-                            }
-                            1 => dst.copy_from_slice(src),
-                            _ => {
-                                dst[..w - 1].copy_from_slice(&src[1..]);
-                                dst[w - 1] = 0.0;
-                            }
-                        }
+                        copy_shifted(dst, src, kx as isize - 1);
                     }
                 }
             }

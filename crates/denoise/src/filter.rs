@@ -27,6 +27,17 @@ pub struct Image<'a> {
     pub height: usize,
 }
 
+impl<'a> Image<'a> {
+    /// The image of `pixels`, `width × height`, from the top row.
+    pub fn new(pixels: &'a [[f32; 3]], width: usize, height: usize) -> Image<'a> {
+        Image {
+            pixels,
+            width,
+            height,
+        }
+    }
+}
+
 /// How to filter.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Options {
@@ -176,6 +187,42 @@ pub fn prefilter(aux: Image, kind: Aux) -> Result<Vec<[f32; 3]>, FilterError> {
         ),
     };
     run(set, &encoding, &[Some(aux), None, None], w, h)
+}
+
+/// [`denoise`] after the albedo and normal are cleaned by [`prefilter`],
+/// with the weights for clean guides (`clean_aux` is implied): three
+/// networks instead of one.
+pub fn denoise_prefiltered(
+    color: Image,
+    albedo: Option<Image>,
+    normal: Option<Image>,
+    options: &Options,
+) -> Result<Vec<[f32; 3]>, FilterError> {
+    if normal.is_some() && albedo.is_none() {
+        return Err(FilterError::NormalWithoutAlbedo);
+    }
+    let albedo = albedo
+        .map(|a| prefilter(a, Aux::Albedo).map(|p| (p, a.width, a.height)))
+        .transpose()?;
+    let normal = normal
+        .map(|n| prefilter(n, Aux::Normal).map(|p| (p, n.width, n.height)))
+        .transpose()?;
+    fn image((pixels, width, height): &(Vec<[f32; 3]>, usize, usize)) -> Image<'_> {
+        Image {
+            pixels,
+            width: *width,
+            height: *height,
+        }
+    }
+    denoise(
+        color,
+        albedo.as_ref().map(image),
+        normal.as_ref().map(image),
+        &Options {
+            clean_aux: true,
+            ..*options
+        },
+    )
 }
 
 /// Refuses `pixels` if any value is NaN or infinite.
@@ -601,6 +648,37 @@ mod tests {
                 what: "albedo",
                 count: 1
             })
+        );
+    }
+
+    #[test]
+    fn prefiltered_denoising_is_the_prefilters_then_the_clean_guide_weights() {
+        let (w, h) = (24, 18);
+        let (c, a, n) = noisy(w, h);
+        let got = denoise_prefiltered(
+            image(&c, w, h),
+            Some(image(&a, w, h)),
+            Some(image(&n, w, h)),
+            &HDR,
+        )
+        .unwrap();
+        let a2 = prefilter(image(&a, w, h), Aux::Albedo).unwrap();
+        let n2 = prefilter(image(&n, w, h), Aux::Normal).unwrap();
+        let clean = Options {
+            clean_aux: true,
+            ..HDR
+        };
+        let want = denoise(
+            image(&c, w, h),
+            Some(image(&a2, w, h)),
+            Some(image(&n2, w, h)),
+            &clean,
+        )
+        .unwrap();
+        assert_eq!(got, want);
+        assert_eq!(
+            denoise_prefiltered(image(&c, w, h), None, Some(image(&n, w, h)), &HDR),
+            Err(FilterError::NormalWithoutAlbedo)
         );
     }
 }

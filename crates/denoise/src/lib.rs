@@ -19,4 +19,4 @@ pub mod unet;
 pub mod upconv;
 pub mod weights;
 
-pub use filter::{denoise, prefilter, Aux, FilterError, Image, Options};
+pub use filter::{denoise, denoise_prefiltered, prefilter, Aux, FilterError, Image, Options};

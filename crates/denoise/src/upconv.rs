@@ -11,7 +11,7 @@
 //! removes a quarter of the work. Zero padding carries over exactly: a row
 //! outside the upsampled image is a row outside `low`.
 
-use crate::conv::{matmul, with_scratch, Bands, Conv3x3, BAND_PIXELS};
+use crate::conv::{copy_shifted, matmul, with_scratch, Bands, Conv3x3, BAND_PIXELS};
 use crate::planes::Planes;
 
 /// Which 3×3 taps (`k` in 0..3) fall on each of the two `low` rows or
@@ -135,17 +135,7 @@ fn patches(
                         continue;
                     }
                     let src = &plane[sy as usize * wl..(sy as usize + 1) * wl];
-                    match ox {
-                        -1 => {
-                            dst[0] = 0.0;
-                            dst[1..].copy_from_slice(&src[..wl - 1]);
-                        }
-                        0 => dst.copy_from_slice(src),
-                        _ => {
-                            dst[..wl - 1].copy_from_slice(&src[1..]);
-                            dst[wl - 1] = 0.0;
-                        }
-                    }
+                    copy_shifted(dst, src, ox);
                 }
             }
         }
