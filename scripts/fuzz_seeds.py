@@ -174,6 +174,17 @@ def response():
     put("response_csv", "gamma.csv", rows.encode())
 
 
+def calibration():
+    """OpenCV, ROS and COLMAP calibrations (a model: cameras.txt, NUL, images.txt)."""
+    base = f"{ROOT}/tests/fixtures/calibration"
+    for p in sorted(glob.glob(f"{base}/opencv/*.yaml") + glob.glob(f"{base}/opencv/*.json")):
+        if not p.endswith("_points.json"):
+            put("calibration", os.path.basename(p), read(p))
+    put("calibration", "checkerboard.yaml", read(f"{base}/checkerboard/calibration.yaml"))
+    put("calibration", "colmap.model",
+        read(f"{base}/colmap/cameras.txt") + b"\x00" + read(f"{base}/colmap/images.txt")[:8192])
+
+
 def farm_plan():
     plsr = os.path.join(ROOT, "target", "debug", "plsr")
     scene = os.path.join(ROOT, "tests", "data", "cornell-64.toml")
@@ -238,7 +249,8 @@ for name in ["NO", "RLE", "ZIPS", "ZIP", "PIZ", "PXR24", "B44", "B44A", "DWAA"]:
 
 def main():
     shutil.rmtree(SEEDS, ignore_errors=True)
-    for make in (scenes, mitsuba, gltf, obj, ply, serialized, pls, response, farm_plan, images):
+    for make in (scenes, mitsuba, gltf, obj, ply, serialized, pls, response, calibration, farm_plan,
+                 images):
         make()
     for t in sorted(os.listdir(SEEDS)):
         n = len(os.listdir(os.path.join(SEEDS, t)))

@@ -9,6 +9,8 @@
 //! | [`ThinLensCamera`] | a perspective camera with a real aperture: depth of field | as the pinhole, plus `aperture_radius` and `focus_distance` (scene units, metres in the paper's data) |
 //! | [`EquirectCamera`] | a 360° panorama, every direction, in the latitude–longitude layout of [`crate::equirect`] | the pose only |
 //! | [`DualFisheyeCamera`] | a 360° camera as it records: two back-to-back equidistant fisheye circles side by side | `fov` of each lens (degrees, 180 to 360) |
+//! | [`OrthographicCamera`] | parallel rays | the view's width and height (scene units) |
+//! | [`CalibratedCamera`] | a real camera as a calibration describes it: off-centre principal point, lens distortion ([`crate::calibrated_camera`]) | `fx`, `fy`, `cx`, `cy`, `skew` (pixels), `distortion` and its `coefficients` |
 //!
 //! **Image coordinates.** Pixel `(x, y)` covers `[x, x+1) × [y, y+1)` with
 //! `x` to the right and `y` downwards; a film position is a continuous pixel
@@ -66,6 +68,7 @@
 //! ```
 
 use crate::accel::Ray;
+pub use crate::calibrated_camera::{CalibratedCamera, Intrinsics};
 use crate::equirect::{equirect_direction, equirect_uv, SphereFrame};
 use crate::warp::square_to_disk_concentric;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
@@ -101,6 +104,9 @@ pub enum CameraError {
     BadViewSize(f32),
     /// A position beyond [`MAX_COORDINATE`](crate::accel::MAX_COORDINATE).
     TooFar(Vec3),
+    /// A calibrated camera's focal length that is not positive, or a
+    /// principal point or skew that is not finite (the key, the value).
+    BadIntrinsic(&'static str, f64),
 }
 
 impl std::fmt::Display for CameraError {
@@ -134,6 +140,12 @@ impl std::fmt::Display for CameraError {
             }
             CameraError::BadViewSize(v) => {
                 write!(f, "must be a positive number of scene units, got {v}")
+            }
+            CameraError::BadIntrinsic(key, v) if key.starts_with('f') => {
+                write!(f, "{key} must be a positive number of pixels, got {v}")
+            }
+            CameraError::BadIntrinsic(key, v) => {
+                write!(f, "{key} must be a finite number of pixels, got {v}")
             }
         }
     }
@@ -693,6 +705,8 @@ pub enum Camera {
     DualFisheye(DualFisheyeCamera),
     /// Parallel projection.
     Orthographic(OrthographicCamera),
+    /// A real camera's calibration: intrinsics and lens distortion.
+    Calibrated(CalibratedCamera),
 }
 
 impl From<PinholeCamera> for Camera {
@@ -711,6 +725,7 @@ impl Camera {
             Camera::Equirect(c) => &c.pose,
             Camera::DualFisheye(c) => &c.pose,
             Camera::Orthographic(c) => &c.pose,
+            Camera::Calibrated(c) => &c.pose,
         }
     }
 
@@ -724,6 +739,7 @@ impl Camera {
             Camera::Equirect(c) => c.pose = pose,
             Camera::DualFisheye(c) => c.pose = pose,
             Camera::Orthographic(c) => c.pose = pose,
+            Camera::Calibrated(c) => c.pose = pose,
         }
         c
     }
@@ -743,6 +759,7 @@ impl Camera {
             Camera::Equirect(c) => c.width,
             Camera::DualFisheye(c) => c.width,
             Camera::Orthographic(c) => c.width,
+            Camera::Calibrated(c) => c.width,
         }
     }
 
@@ -755,6 +772,7 @@ impl Camera {
             Camera::Equirect(c) => c.height,
             Camera::DualFisheye(c) => c.height,
             Camera::Orthographic(c) => c.height,
+            Camera::Calibrated(c) => c.height,
         }
     }
 
@@ -766,6 +784,7 @@ impl Camera {
             Camera::Equirect(_) => "equirectangular",
             Camera::DualFisheye(_) => "dual_fisheye",
             Camera::Orthographic(_) => "orthographic",
+            Camera::Calibrated(_) => "calibrated",
         }
     }
 
@@ -789,6 +808,7 @@ impl Camera {
             Camera::Equirect(c) => Some(c.generate_ray(film)),
             Camera::DualFisheye(c) => c.generate_ray(film),
             Camera::Orthographic(c) => Some(c.generate_ray(film)),
+            Camera::Calibrated(c) => c.generate_ray(film),
         }
     }
 
@@ -802,6 +822,7 @@ impl Camera {
             Camera::Equirect(c) => c.project(p),
             Camera::DualFisheye(c) => c.project(p),
             Camera::Orthographic(c) => c.project(p),
+            Camera::Calibrated(c) => c.project(p),
         }
     }
 
@@ -811,9 +832,10 @@ impl Camera {
     #[inline]
     pub fn depth(&self, dir: Vec3, t: f32) -> f32 {
         match self {
-            Camera::Pinhole(_) | Camera::ThinLens(_) | Camera::Orthographic(_) => {
-                t * dir.dot(self.pose().forward)
-            }
+            Camera::Pinhole(_)
+            | Camera::ThinLens(_)
+            | Camera::Orthographic(_)
+            | Camera::Calibrated(_) => t * dir.dot(self.pose().forward),
             Camera::Equirect(_) | Camera::DualFisheye(_) => t,
         }
     }
@@ -847,6 +869,7 @@ impl Camera {
                 view_height: c.view_width * height as f32 / width as f32,
                 ..c.clone()
             }),
+            Camera::Calibrated(c) => Camera::Calibrated(c.with_resolution(width, height)?),
         })
     }
 }

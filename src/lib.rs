@@ -31,6 +31,8 @@ pub use plsr_base::{atomic_write, color, input, memory, rng, text, threads};
 
 pub mod accel;
 pub mod bsdf;
+pub mod calibrated_camera;
+pub mod calibration;
 pub mod camera;
 pub mod camera_path;
 pub mod elementary;
@@ -40,6 +42,7 @@ pub mod film;
 pub mod filter;
 pub mod integrator;
 pub mod job;
+pub mod lens_distortion;
 pub mod light;
 pub mod material;
 pub mod prefetch;

@@ -3,6 +3,7 @@
 //! kernel against the general integrator, determinism, scene files.
 
 mod bsdf;
+mod calibration;
 mod cameras;
 mod composite;
 mod curves;

@@ -4,12 +4,16 @@
 //! noise, 8 bits) as three brackets; `plsr hdr merge --curve` recovers the
 //! camera's response from them, and the middle bracket becomes the photo.
 //!
+//! The same camera also photographs the room with a real sphere where the
+//! virtual one goes (`real-object.png`), to score the composite against
+//! (`plsr compare`).
+//!
 //! It then composites the sphere into the photo and writes the figure of
 //! `docs/compositing.md` (`docs/img/compositing.png`): photo, matte,
 //! difference layer (grey is no change, darker is shadow), composite.
 //!
 //! ```sh
-//! cargo run --release -p plsr-apps --example ar_demo   # writes photo.png, curve.csv, the figure
+//! cargo run --release -p plsr-apps --example ar_demo   # photo.png, real-object.png, curve.csv, the figure
 //! ```
 
 use plsr::render::{render, RenderJob, RenderOptions};
@@ -53,11 +57,34 @@ fn main() -> Result<()> {
     merge(&brackets, &work.join("room.exr"), &options, &|_, _, _| {})?;
     std::fs::copy(&brackets[1], dir.join("photo.png"))
         .map_err(|source| Error::io(dir.join("photo.png"), source))?;
+    // The same camera's photo of the room with a real sphere where the
+    // virtual one goes: what a composite is scored against.
+    let job = RenderJob {
+        hide_virtual: false,
+        ..job
+    };
+    eprintln!("rendering the room with a real sphere at {} spp…", job.spp);
+    let (film, _) = render(&scene, &job, &RenderOptions::default(), &|_, _| true)?;
+    let real = work.join("real");
+    std::fs::create_dir_all(&real).map_err(|source| Error::io(real.clone(), source))?;
+    let shots = write_brackets(
+        &plsr_apps::capture::FilmRadiance(&film),
+        &CameraModel::default(),
+        &[1.0],
+        &real,
+        &BracketOptions {
+            extension: "png".into(),
+            ..Default::default()
+        },
+    )?;
+    std::fs::copy(&shots[0], dir.join("real-object.png"))
+        .map_err(|source| Error::io(dir.join("real-object.png"), source))?;
     let _ = std::fs::remove_dir_all(&work);
     figure(dir)?;
     eprintln!(
-        "wrote {} and {}",
+        "wrote {}, {} and {}",
         dir.join("photo.png").display(),
+        dir.join("real-object.png").display(),
         dir.join("curve.csv").display()
     );
     Ok(())

@@ -10,8 +10,15 @@
 //! `k` (`P ≈ k·O` where nothing virtual is) and the virtual objects'
 //! coverage `α` of each pixel (the matte, from the camera samples):
 //!
-//! - `differential`: `C = α·k·W + (1 − α)·(P + k·(W − O))`: shadows darken
-//!   and inter-reflections brighten the photo's real surfaces;
+//! - `differential` (the default): `C = α·k·W + (1 − α)·B` with, per
+//!   channel, `B = P·W/O` where the objects darken the surface (`W < O`:
+//!   shadows) and `B = P + k·(W − O)` where they brighten it (light they
+//!   reflect). A shadow scales the photo's own colour, so its hue stays the
+//!   photo's, whatever the proxy's albedo got wrong;
+//! - `additive`: `B = max(P + k·(W − O), 0)`, Debevec's original. Where the
+//!   proxy is brighter than the photo, a shadow subtracts more than the
+//!   photo has in some channel, and the clamp shifts the hue (cyan or black
+//!   specks in contact shadows);
 //! - `superimpose`: `C = α·k·W + (1 − α)·P`: the paper's plain cut-out.
 //!
 //! Where no path of a pixel meets a virtual object, `W` and `O` are equal
@@ -30,23 +37,38 @@ use std::path::Path;
 /// How the rendered objects join the photo.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
-    /// The objects, and what they change about the real surfaces (shadows,
-    /// reflected light): `photo + k·(with − without)` outside the matte.
+    /// The objects, and what they change about the real surfaces: shadows
+    /// scale the photo by `with / without`, reflected light adds
+    /// `k·(with − without)`, outside the matte.
     Differential,
+    /// Debevec's additive differential: `photo + k·(with − without)`,
+    /// clamped at 0, outside the matte.
+    Additive,
     /// The objects pasted over the photo (the paper's cut-out).
     Superimpose,
 }
 
 /// A compositing mode's name that is not one of plsr's.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown mode `{0}` (known: differential, superimpose)")]
+#[error("unknown mode `{0}` (known: differential, additive, superimpose)")]
 pub struct UnknownMode(pub String);
+
+impl std::fmt::Display for Mode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Mode::Differential => "differential",
+            Mode::Additive => "additive",
+            Mode::Superimpose => "superimpose",
+        })
+    }
+}
 
 impl std::str::FromStr for Mode {
     type Err = UnknownMode;
     fn from_str(s: &str) -> std::result::Result<Mode, UnknownMode> {
         match s {
             "differential" => Ok(Mode::Differential),
+            "additive" => Ok(Mode::Additive),
             "superimpose" => Ok(Mode::Superimpose),
             other => Err(UnknownMode(other.into())),
         }
@@ -361,6 +383,24 @@ pub fn matte(with: &FilmSums) -> Vec<f32> {
     out
 }
 
+/// The differential background of one pixel, per channel: the photo
+/// scaled by `with / without` where the objects darken it, `photo + d`
+/// (`d = k·(with − without)`) where they brighten it.
+#[inline]
+fn shadowed(photo: Vec3, with: Vec3, without: Vec3, d: Vec3) -> Vec3 {
+    let mut out = Vec3::ZERO;
+    for c in 0..3 {
+        out[c] = if d[c] >= 0.0 {
+            photo[c] + d[c]
+        } else if without[c] > 0.0 {
+            photo[c] * (with[c] / without[c]).clamp(0.0, 1.0)
+        } else {
+            (photo[c] + d[c]).max(0.0)
+        };
+    }
+    out
+}
+
 /// Composites: `with` and `without` are the developed renders' colours,
 /// `matte` the coverage, `k` the exposure (see the module docs).
 pub fn composite(
@@ -379,7 +419,8 @@ pub fn composite(
         let a = matte[i];
         let d = (with[i] - without[i]) * k;
         let background = match mode {
-            Mode::Differential => (p + d).max(Vec3::ZERO),
+            Mode::Differential => shadowed(p, with[i], without[i], d),
+            Mode::Additive => (p + d).max(Vec3::ZERO),
             Mode::Superimpose => p,
         };
         // Exactly the photo where nothing virtual is: no rounding from
@@ -442,6 +483,23 @@ impl Composite {
                 transfer.encode8(1, c.y),
                 transfer.encode8(2, c.z),
             ]);
+        }
+        outputs.stage(path, |w| {
+            img.write_to(w, image::ImageFormat::Png)
+                .map_err(|e| Error::output(path.to_path_buf(), e.to_string()))
+        })
+    }
+}
+
+impl Composite {
+    /// Stages the matte as an 8-bit grey PNG (the virtual objects' coverage,
+    /// 255 where they cover the whole pixel): a mask for `plsr compare`.
+    pub fn stage_matte_png(&self, outputs: &mut OutputSet, path: &Path) -> Result<()> {
+        plsr_base::atomic_write::check_extension(path, "png", "PNG")
+            .map_err(|message| Error::output(path.to_path_buf(), message.to_string()))?;
+        let mut img = image::GrayImage::new(self.width, self.height);
+        for (px, &a) in img.pixels_mut().zip(&self.matte) {
+            *px = image::Luma([(a.clamp(0.0, 1.0) * 255.0).round() as u8]);
         }
         outputs.stage(path, |w| {
             img.write_to(w, image::ImageFormat::Png)

@@ -13,8 +13,10 @@ use plsr_apps::composite::{composite_built, CompositeOptions, Mode, Photo, Trans
 #[derive(Debug, Clone, Copy)]
 #[allow(non_camel_case_types)]
 pub struct plsr_composite_settings {
-    /// 0: differential (the objects, their shadows and reflected light);
-    /// 1: superimpose (the objects pasted over the photo).
+    /// 0: differential (the objects; their shadows scale the photo's
+    /// colour, the light they reflect is added); 1: superimpose (the
+    /// objects pasted over the photo); 2: additive (Debevec's original
+    /// differential, clamped at 0).
     pub mode: u32,
     /// How the photo's 8-bit values map to linear radiance: 0 sRGB, 1 linear.
     pub response: u32,
@@ -59,7 +61,8 @@ pub extern "C" fn plsr_composite(
         let mode = match c.mode {
             0 => Mode::Differential,
             1 => Mode::Superimpose,
-            m => return Err(FfiError::invalid(format!("`mode` {m}: 0 or 1"))),
+            2 => Mode::Additive,
+            m => return Err(FfiError::invalid(format!("`mode` {m}: 0, 1 or 2"))),
         };
         let transfer = match c.response {
             0 => Transfer::Srgb,

@@ -14,10 +14,12 @@ pub struct CompareArgs {
     pub reference: PathBuf,
     /// The image to score (e.g. the composite with the virtual object).
     pub test: PathBuf,
-    /// A mask image of the same size (pixels above 0.5 are in): the pixel
-    /// metrics average over it, and `--crop auto` crops to it.
-    #[arg(long, value_name = "MASK")]
-    pub mask: Option<PathBuf>,
+    /// A mask image of the same size (pixels above 0.5 are in), with the
+    /// channel to read after a colon: `--mask matte.png`, `--mask
+    /// composite.exr:A` (a composite's matte). The pixel metrics average
+    /// over it, and `--crop auto` crops to it.
+    #[arg(long, value_name = "MASK[:CHANNEL]")]
+    pub mask: Option<String>,
     /// `auto` (the mask's bounding box grown by 16 pixels, at least 64
     /// pixels a side) or `X,Y,W,H` in pixels; default: the whole image.
     #[arg(long, value_name = "auto|X,Y,W,H")]
@@ -90,8 +92,17 @@ pub fn run(a: &CompareArgs) -> Result<()> {
     if let Some(p) = &a.map {
         let output_error = |message: String| Error::output(p.clone(), message);
         check_extension(p, "png", "PNG").map_err(|m| output_error(format!("--map: {m}")))?;
-        let inputs = [Some(&a.reference), Some(&a.test), a.mask.as_ref()];
-        if let Some(input) = inputs.into_iter().flatten().find(|i| same_file(p, i)) {
+        let mask_path = a
+            .mask
+            .as_deref()
+            .map(|m| plsr_metrics::MaskSource::parse(m).path);
+        let inputs = [Some(&a.reference), Some(&a.test), mask_path.as_ref()];
+        let clash = inputs
+            .into_iter()
+            .flatten()
+            .find(|i| same_file(p, i))
+            .cloned();
+        if let Some(input) = clash {
             return Err(output_error(format!(
                 "--map names the input {}; it would be overwritten",
                 input.display()
@@ -113,7 +124,8 @@ pub fn run(a: &CompareArgs) -> Result<()> {
             ..Default::default()
         },
     };
-    let report = compare_files(&a.reference, &a.test, a.mask.as_deref(), crop, &options)?;
+    let mask = a.mask.as_deref().map(plsr_metrics::MaskSource::parse);
+    let report = compare_files(&a.reference, &a.test, mask.as_ref(), crop, &options)?;
     if let Some(p) = &a.map {
         let mut out = OutputSet::new();
         let map = plsr_metrics::flip_map(&report.reference, &report.test, &options.flip)?;

@@ -19,8 +19,10 @@ pub struct CompositeArgs {
     /// Also write an 8-bit PNG encoded through the photo's response.
     #[arg(long, value_name = "OUT.png")]
     pub png: Option<PathBuf>,
-    /// `differential` (objects, their shadows and reflected light) or
-    /// `superimpose` (objects pasted over the photo).
+    /// `differential` (objects, their shadows scaling the photo's colour
+    /// and the light they reflect added), `additive` (Debevec's original:
+    /// the render's change added, clamped at 0, which can shift a shadow's
+    /// hue) or `superimpose` (objects pasted over the photo).
     #[arg(long, default_value = "differential")]
     pub mode: Mode,
     /// Samples per pixel of each render (default: the scene's render.spp).
@@ -29,6 +31,10 @@ pub struct CompositeArgs {
     /// Random seed (default: the scene's render.seed).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Also write the matte (the virtual objects' coverage) as an 8-bit grey
+    /// PNG: the mask to score the composite with (`plsr compare --mask`).
+    #[arg(long, value_name = "MATTE.png")]
+    pub matte: Option<PathBuf>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -52,11 +58,20 @@ pub fn run(a: &CompositeArgs) -> Result<()> {
             return Err(output_error(p, "--png names the same file as -o".into()));
         }
     }
+    if let Some(m) = &a.matte {
+        check_extension(m, "png", "PNG").map_err(|e| output_error(m, format!("--matte: {e}")))?;
+        if same_file(m, &a.output) || a.png.as_ref().is_some_and(|p| same_file(m, p)) {
+            return Err(output_error(
+                m,
+                "--matte names the same file as another output".into(),
+            ));
+        }
+    }
     if a.spp == Some(0) {
         return Err(Error::invalid_argument("--spp must be at least 1"));
     }
     let contents = plsr::scene::file::load_contents(&a.scene)?;
-    for out in std::iter::once(&a.output).chain(&a.png) {
+    for out in std::iter::once(&a.output).chain(&a.png).chain(&a.matte) {
         if let Some(input) = std::iter::once(&a.scene)
             .chain(&contents.inputs)
             .find(|i| same_file(out, i))
@@ -102,6 +117,9 @@ pub fn run(a: &CompositeArgs) -> Result<()> {
     if let Some(p) = &a.png {
         result.stage_png(&mut outputs, p, &transfer)?;
     }
+    if let Some(m) = &a.matte {
+        result.stage_matte_png(&mut outputs, m)?;
+    }
     outputs.commit()?;
     let exposure = match report.fit {
         Some(f) => format!(
@@ -111,7 +129,7 @@ pub fn run(a: &CompositeArgs) -> Result<()> {
         None => format!("exposure k = {} (from the scene)", result.k),
     };
     eprintln!(
-        "composited {}×{} ({:?}) in {:.2} s of rendering{}, {exposure} → {}{}",
+        "composited {}×{} ({}) in {:.2} s of rendering{}, {exposure} → {}{}",
         result.width,
         result.height,
         a.mode,

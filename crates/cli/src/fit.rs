@@ -132,6 +132,18 @@ pub fn run(a: &FitArgs) -> Result<()> {
         }
     }
     drop(contents);
+    // The outputs' folder is made (before the fit, so that a folder that
+    // cannot be made fails at once, not after minutes of fitting).
+    for out in [&a.output, &loss_csv, &loss_png] {
+        if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| {
+                output_error(
+                    out,
+                    format!("cannot make its folder {}: {e}", dir.display()),
+                )
+            })?;
+        }
+    }
     let options = FitOptions {
         iterations: a.iterations,
         learning_rate: a.lr,

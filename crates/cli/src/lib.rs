@@ -22,6 +22,7 @@ pub mod progress;
 pub mod render;
 pub mod scene_params;
 pub mod tonemap;
+pub mod undistort;
 
 use crate::error::Result;
 use clap::{Parser, Subcommand};
@@ -67,8 +68,13 @@ pub enum Command {
     /// Print what an OpenEXR file holds: size, channels, header attributes.
     Info(info::InfoArgs),
     /// Translate a Mitsuba 3 XML scene into a plsr scene file (TOML); `plsr
-    /// render` also reads such XML directly (see docs/scene-format.md).
+    /// render` also reads such XML directly (see docs/scene-format.md). Or
+    /// import a camera calibration (OpenCV, ROS, COLMAP) as the scene's
+    /// [camera] (see docs/calibration.md).
     Import(import::ImportArgs),
+    /// Resample a photo into the ideal pinhole image of its calibrated
+    /// camera (OpenCV's undistort; see docs/calibration.md).
+    Undistort(undistort::UndistortArgs),
     /// Fit the real surfaces' materials (and lights' brightness) to the
     /// scene's photos by differentiable rendering and Adam. Its renders
     /// stay unbiased (never denoised): the fit's gradients need them so.
@@ -131,6 +137,7 @@ where
         Command::Tonemap(a) => tonemap::run(&a),
         Command::Info(a) => info::run(&a),
         Command::Import(a) => import::run(&a),
+        Command::Undistort(a) => undistort::run(&a),
         Command::Fit(a) => fit::run(&a),
         Command::Compare(a) => compare::run(&a),
         Command::Bench(a) => bench::run(a),

@@ -7,6 +7,7 @@
 //! end in a value that holds its invariants, or in an error that is not
 //! empty and names the file it is about (docs/fuzzing.md).
 
+pub mod calibration;
 pub mod capi_scene;
 /// What the targets share: the work folder, its fixtures, clean errors.
 pub mod common;
@@ -24,6 +25,7 @@ pub mod scene_toml;
 
 /// The targets, by name (the files of fuzz/fuzz_targets/).
 pub const TARGETS: &[&str] = &[
+    "calibration",
     "capi_scene",
     "farm_plan",
     "gltf",
@@ -41,6 +43,7 @@ pub const TARGETS: &[&str] = &[
 /// Runs target `name`'s check on `data`; `false` for an unknown name.
 pub fn check(name: &str, data: &[u8]) -> bool {
     match name {
+        "calibration" => calibration::check(data),
         "capi_scene" => capi_scene::check(data),
         "farm_plan" => farm_plan::check(data),
         "gltf" => gltf::check(data),

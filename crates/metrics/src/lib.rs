@@ -176,7 +176,7 @@ pub fn grey_of(display: &[f32]) -> Vec<f64> {
         .collect()
 }
 
-/// A mask read from an image file: a pixel is in where its first channel
+/// A mask read from an image file: a pixel is in where its chosen channel
 /// exceeds one half.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Mask {
@@ -188,22 +188,121 @@ pub struct Mask {
     pub inside: Vec<bool>,
 }
 
+/// A mask file and the channel to read from it (`matte.png`,
+/// `composite.exr:A`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MaskSource {
+    /// The image file.
+    pub path: std::path::PathBuf,
+    /// The channel's name (an OpenEXR channel such as `A` or `mask.Y`; for
+    /// other formats `R`, `G`, `B` or `A`), or `None` for a grey mask.
+    pub channel: Option<String>,
+}
+
+impl MaskSource {
+    /// Reads `PATH[:CHANNEL]`: a file that exists is taken whole; otherwise
+    /// the text after the last `:` names the channel.
+    pub fn parse(text: &str) -> MaskSource {
+        let whole = Path::new(text);
+        match text.rsplit_once(':') {
+            Some((path, channel))
+                if !whole.exists()
+                    && !path.is_empty()
+                    && !channel.is_empty()
+                    && !channel.contains('/') =>
+            {
+                MaskSource {
+                    path: path.into(),
+                    channel: Some(channel.into()),
+                }
+            }
+            _ => MaskSource {
+                path: whole.to_path_buf(),
+                channel: None,
+            },
+        }
+    }
+}
+
 impl Mask {
-    /// Reads a mask image (any format OpenImageIO reads).
+    /// Reads a grey mask image (any format OpenImageIO reads; colour
+    /// channels must be equal, so that an image with a matte in one channel
+    /// is not read by another).
     pub fn load(path: &Path) -> Result<Mask> {
-        let (info, data) = plsr_hdr::oiio::read_image_f32(path)?;
-        let c = info.channels.max(1);
-        let inside: Vec<bool> = data.chunks_exact(c).map(|p| p[0] > 0.5).collect();
+        Mask::load_source(&MaskSource {
+            path: path.to_path_buf(),
+            channel: None,
+        })
+    }
+
+    /// Reads the mask `source` names.
+    pub fn load_source(source: &MaskSource) -> Result<Mask> {
+        let path = source.path.as_path();
+        let is_exr = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+        let (width, height, values) = match (&source.channel, is_exr) {
+            (Some(name), true) => exr_channel(path, name)?,
+            (channel, _) => {
+                let (info, data) = plsr_hdr::oiio::read_image_f32(path)?;
+                let c = info.channels.max(1);
+                let index = match channel.as_deref() {
+                    None => {
+                        let colour = c.min(3);
+                        if colour > 1
+                            && data
+                                .chunks_exact(c)
+                                .any(|p| p[..colour].iter().any(|&v| v != p[0]))
+                        {
+                            return Err(Error::input(
+                                path,
+                                "",
+                                format!(
+                                    "{c} channels that differ: name the mask's channel \
+                                     (`{}:A` for a composite's matte)",
+                                    path.display()
+                                ),
+                            ));
+                        }
+                        0
+                    }
+                    Some(name) => {
+                        let index = ["R", "G", "B", "A"]
+                            .iter()
+                            .position(|n| n.eq_ignore_ascii_case(name))
+                            .filter(|&i| i < c)
+                            .ok_or_else(|| {
+                                Error::input(
+                                    path,
+                                    name,
+                                    format!(
+                                        "no such channel: the image has {}",
+                                        ["R", "G", "B", "A"][..c.min(4)].join(", ")
+                                    ),
+                                )
+                            })?;
+                        if c == 1 {
+                            0
+                        } else {
+                            index
+                        }
+                    }
+                };
+                let values = data.chunks_exact(c).map(|p| p[index]).collect();
+                (info.width, info.height, values)
+            }
+        };
+        let inside: Vec<bool> = values.iter().map(|&v| v > 0.5).collect();
         if !inside.iter().any(|&b| b) {
             return Err(Error::input(
                 path,
-                "",
+                source.channel.as_deref().unwrap_or(""),
                 "the mask is empty (no pixel above 0.5)",
             ));
         }
         Ok(Mask {
-            width: info.width,
-            height: info.height,
+            width,
+            height,
             inside,
         })
     }
@@ -404,12 +503,39 @@ pub struct Report {
     pub test: MetricImage,
 }
 
+/// One channel of an OpenEXR file's first layer, by name.
+fn exr_channel(path: &Path, name: &str) -> Result<(usize, usize, Vec<f32>)> {
+    match plsr_base::exr_header::header_fault(path) {
+        Ok(Some(fault)) => return Err(Error::input(path, "dataWindow", fault)),
+        Ok(None) => {}
+        Err(source) => return Err(Error::io(path.to_path_buf(), source)),
+    }
+    let image = exr::prelude::read_first_flat_layer_from_file(path)
+        .map_err(|e| Error::input(path, "", format!("cannot read EXR: {e}")))?;
+    let layer = image.layer_data;
+    let size = layer.size;
+    let channels = &layer.channel_data.list;
+    let channel = channels
+        .iter()
+        .find(|c| c.name.to_string() == name)
+        .ok_or_else(|| {
+            let names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
+            Error::input(
+                path,
+                name,
+                format!("no such channel: the image has {}", names.join(", ")),
+            )
+        })?;
+    let values = channel.sample_data.values_as_f32().collect();
+    Ok((size.width(), size.height(), values))
+}
+
 /// Reads `reference`, `test` and the optional `mask`, checks their sizes,
 /// crops them and scores `test` against `reference`.
 pub fn compare_files(
     reference: &Path,
     test: &Path,
-    mask: Option<&Path>,
+    mask: Option<&MaskSource>,
     crop: CropSpec,
     options: &CompareOptions,
 ) -> Result<Report> {
@@ -430,8 +556,9 @@ pub fn compare_files(
         ));
     }
     let mask = match mask {
-        Some(p) => {
-            let m = Mask::load(p)?;
+        Some(source) => {
+            let m = Mask::load_source(source)?;
+            let p = &source.path;
             if (m.width, m.height) != (a.width, a.height) {
                 return Err(Error::input(
                     p,

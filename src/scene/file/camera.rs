@@ -3,12 +3,14 @@
 use super::keys::key_names;
 use super::Builder;
 use crate::camera::{
-    fov_from_focal_length, preset as camera_preset, Camera, CameraError, CameraPreset,
-    DualFisheyeCamera, EquirectCamera, Fov, OrthographicCamera, PinholeCamera, Pose,
-    ThinLensCamera, DEFAULT_FISHEYE_FOV_DEG, DEFAULT_SENSOR_HEIGHT_MM, PRESETS,
+    fov_from_focal_length, preset as camera_preset, CalibratedCamera, Camera, CameraError,
+    CameraPreset, DualFisheyeCamera, EquirectCamera, Fov, Intrinsics, OrthographicCamera,
+    PinholeCamera, Pose, ThinLensCamera, DEFAULT_FISHEYE_FOV_DEG, DEFAULT_SENSOR_HEIGHT_MM,
+    PRESETS,
 };
 use crate::camera_path::{CameraPath, CameraPathError, PathKey, MAX_FRAME};
 use crate::error::Result;
+use crate::lens_distortion::LensDistortion;
 use glam::Vec3;
 use serde::Deserialize;
 
@@ -80,6 +82,20 @@ struct OrthoKeys {
     view_height: Option<f32>,
 }
 
+/// The keys of a `calibrated` camera: intrinsics (pixels, OpenCV's
+/// convention) and the lens's distortion.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CalibratedKeys {
+    fx: Option<f64>,
+    fy: Option<f64>,
+    cx: Option<f64>,
+    cy: Option<f64>,
+    skew: Option<f64>,
+    distortion: Option<String>,
+    coefficients: Option<Vec<f64>>,
+}
+
 /// The keys of an `equirectangular` camera: none of its own.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -94,6 +110,14 @@ const CAMERA_KEYS: [&str; 6] = [
     "resolution",
     "path",
 ];
+
+/// The type-specific keys of a camera, one of which is read.
+type CameraTypeKeys = (
+    Option<LensKeys>,
+    Option<FisheyeKeys>,
+    Option<OrthoKeys>,
+    Option<CalibratedKeys>,
+);
 
 fn pinhole() -> String {
     "pinhole".into()
@@ -114,18 +138,24 @@ impl Builder<'_> {
         &self,
         c: &CameraSection,
     ) -> Result<(Camera, Option<&'static CameraPreset>)> {
-        const TYPES: &str = "pinhole, thin_lens, equirectangular, dual_fisheye, orthographic";
+        const TYPES: &str =
+            "pinhole, thin_lens, equirectangular, dual_fisheye, orthographic, calibrated";
         let kind = c.kind.as_str();
         if !matches!(
             kind,
-            "pinhole" | "thin_lens" | "equirectangular" | "dual_fisheye" | "orthographic"
+            "pinhole"
+                | "thin_lens"
+                | "equirectangular"
+                | "dual_fisheye"
+                | "orthographic"
+                | "calibrated"
         ) {
             return Err(self.err(
                 "camera.type",
                 format!("unknown camera type `{kind}` (known: {TYPES})"),
             ));
         }
-        let (lens, fisheye, ortho) = self.camera_type_keys(c, kind)?;
+        let (lens, fisheye, ortho, calibrated) = self.camera_type_keys(c, kind)?;
         let preset = self.camera_preset_named(lens.as_ref())?;
         let pose = self.camera_pose(c)?;
         let (w, h) = self.camera_size(c, preset)?;
@@ -149,6 +179,10 @@ impl Builder<'_> {
                         .map_err(|e| self.err(camera_field(&e, "camera"), e.to_string()))?,
                 )
             }
+            "calibrated" => {
+                let keys = calibrated.expect("calibrated cameras read their keys");
+                Camera::Calibrated(self.calibrated_camera(&keys, pose, (w, h))?)
+            }
             "dual_fisheye" => {
                 let fov = fisheye.and_then(|f| f.fov);
                 let fov = self.finite("camera.fov", fov.unwrap_or(DEFAULT_FISHEYE_FOV_DEG))?;
@@ -168,16 +202,13 @@ impl Builder<'_> {
     /// The keys of the camera's type: a perspective camera's lens, a dual
     /// fisheye's field of view (a key of another type is "not used"; any
     /// other key unknown).
-    fn camera_type_keys(
-        &self,
-        c: &CameraSection,
-        kind: &str,
-    ) -> Result<(Option<LensKeys>, Option<FisheyeKeys>, Option<OrthoKeys>)> {
+    fn camera_type_keys(&self, c: &CameraSection, kind: &str) -> Result<CameraTypeKeys> {
         let unknown = |key: &str| {
             let mut all = CAMERA_KEYS.to_vec();
             all.extend(key_names::<LensKeys>());
             all.extend(key_names::<FisheyeKeys>());
             all.extend(key_names::<OrthoKeys>());
+            all.extend(key_names::<CalibratedKeys>());
             if all.contains(&key) {
                 format!("not used by cameras of type `{kind}`")
             } else {
@@ -205,20 +236,85 @@ impl Builder<'_> {
                         }
                     }
                 }
-                (Some(lens), None, None)
+                (Some(lens), None, None, None)
             }
             "dual_fisheye" => {
                 let fisheye: FisheyeKeys = self.typed_keys("camera", &c.keys, unknown)?;
-                (None, Some(fisheye), None)
+                (None, Some(fisheye), None, None)
             }
             "orthographic" => {
                 let ortho: OrthoKeys = self.typed_keys("camera", &c.keys, unknown)?;
-                (None, None, Some(ortho))
+                (None, None, Some(ortho), None)
+            }
+            "calibrated" => {
+                let keys: CalibratedKeys = self.typed_keys("camera", &c.keys, unknown)?;
+                (None, None, None, Some(keys))
             }
             _ => {
                 let _: EquirectKeys = self.typed_keys("camera", &c.keys, unknown)?;
-                (None, None, None)
+                (None, None, None, None)
             }
+        })
+    }
+
+    /// A calibrated camera: `fx` and `fy` are required, the principal point
+    /// defaults to the image's centre, the skew to 0, the distortion to none.
+    fn calibrated_camera(
+        &self,
+        k: &CalibratedKeys,
+        pose: Pose,
+        (w, h): (u32, u32),
+    ) -> Result<CalibratedCamera> {
+        let get = |name: &str, v: Option<f64>, default: Option<f64>| -> Result<f64> {
+            let field = format!("camera.{name}");
+            match v.or(default) {
+                Some(x) if x.is_finite() => Ok(x),
+                Some(x) => Err(self.err(field, format!("must be a finite number, got {x}"))),
+                None => Err(self.err(
+                    field,
+                    "required for a calibrated camera (pixels: the focal length times the \
+                     pixels per unit of sensor, as a calibration gives it)",
+                )),
+            }
+        };
+        let intrinsics = Intrinsics {
+            fx: get("fx", k.fx, None)?,
+            fy: get("fy", k.fy, None)?,
+            cx: get("cx", k.cx, Some(w as f64 / 2.0 - 0.5))?,
+            cy: get("cy", k.cy, Some(h as f64 / 2.0 - 0.5))?,
+            skew: get("skew", k.skew, Some(0.0))?,
+        };
+        let coefficients = k.coefficients.as_deref().unwrap_or(&[]);
+        let distortion = match k.distortion.as_deref().unwrap_or("none") {
+            "none" if coefficients.is_empty() => LensDistortion::None,
+            "none" => {
+                return Err(self.err(
+                    "camera.coefficients",
+                    "given with distortion = \"none\": name the model \
+                     (distortion = \"brown_conrady\" or \"fisheye\")",
+                ))
+            }
+            "brown_conrady" => LensDistortion::brown_conrady(coefficients)
+                .map_err(|e| self.err("camera.coefficients", e.to_string()))?,
+            "fisheye" => LensDistortion::fisheye(coefficients)
+                .map_err(|e| self.err("camera.coefficients", e.to_string()))?,
+            other => {
+                return Err(self.err(
+                    "camera.distortion",
+                    format!(
+                        "unknown distortion model `{other}` (known: none, brown_conrady \
+                         (OpenCV's default, rational and thin-prism models), fisheye (OpenCV's \
+                         cv::fisheye))"
+                    ),
+                ))
+            }
+        };
+        CalibratedCamera::new(pose, w, h, intrinsics, distortion).map_err(|e| {
+            let field = match &e {
+                CameraError::BadIntrinsic(key, _) => format!("camera.{key}"),
+                _ => "camera".to_string(),
+            };
+            self.err(field, e.to_string())
         })
     }
 

@@ -206,6 +206,13 @@ fn refuse_defines(path: &Path, options: &crate::scene::mitsuba::Options) -> Resu
     }
 }
 
+/// [`load_contents`] of a TOML scene's text as if it were the file `path`
+/// (the files it names are found from `path`'s folder): to check a scene
+/// before it is written.
+pub fn load_contents_from_text(path: &Path, text: &str) -> Result<SceneFileContents> {
+    from_text(path, text, false)
+}
+
 /// [`load_contents`] of a scene file's text (TOML, or JSON if `is_json`).
 fn from_text(path: &Path, text: &str, is_json: bool) -> Result<SceneFileContents> {
     let parsed: SceneFile = if is_json {

@@ -646,6 +646,10 @@ impl<'a> Run<'a> {
         let o = object.name();
         let truth = self.photos.join(format!("{o}-{p}.png"));
         let mask = self.composites.join(format!("mask-{o}-{p}.png"));
+        let mask_source = plsr_metrics::MaskSource {
+            path: mask.clone(),
+            channel: None,
+        };
         let mut scored = Vec::new();
         for method in [Method::Pls, Method::Panorama] {
             let png = self.composite(object, position, method, panorama, &mask)?;
@@ -656,8 +660,13 @@ impl<'a> Run<'a> {
             self.photos.join(format!("{o}-{p}-second.png")),
         ));
         for (method, test) in scored {
-            let report =
-                compare_files(&truth, &test, Some(&mask), CropSpec::Auto, compare_options)?;
+            let report = compare_files(
+                &truth,
+                &test,
+                Some(&mask_source),
+                CropSpec::Auto,
+                compare_options,
+            )?;
             let score = |metric: Metric| {
                 report
                     .scores

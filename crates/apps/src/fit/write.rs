@@ -270,20 +270,63 @@ pub struct FittedFiles {
     pub pls: Vec<(PathBuf, String)>,
 }
 
-/// The path of `target` as the fitted scene at `out` should name it:
-/// unchanged when both scene files are in the same folder, else absolute.
+/// The path `original` (relative to the scene's folder) as the fitted scene
+/// in `out_dir` should name it: unchanged when both scenes are in one
+/// folder or it is absolute, else relative to `out_dir` (absolute where
+/// the two share nothing but the root). `out_dir` need not exist yet.
 fn path_from(out_dir: &Path, scene_dir: &Path, original: &str) -> Option<String> {
-    let same = std::fs::canonicalize(out_dir).ok()? == std::fs::canonicalize(scene_dir).ok()?;
-    if same || Path::new(original).is_absolute() {
+    if Path::new(original).is_absolute() {
         return None;
     }
-    let abs = std::fs::canonicalize(scene_dir.join(original)).ok()?;
-    Some(abs.to_string_lossy().into_owned())
+    let out_abs = absolute_dir(out_dir)?;
+    let scene_abs = std::fs::canonicalize(scene_dir).ok()?;
+    if out_abs == scene_abs {
+        return None;
+    }
+    let target = std::fs::canonicalize(scene_abs.join(original))
+        .unwrap_or_else(|_| scene_abs.join(original));
+    let common = out_abs
+        .components()
+        .zip(target.components())
+        .take_while(|(a, b)| a == b)
+        .count();
+    if common <= 1 {
+        return Some(target.to_string_lossy().into_owned());
+    }
+    let mut rel = PathBuf::new();
+    for _ in out_abs.components().skip(common) {
+        rel.push("..");
+    }
+    for c in target.components().skip(common) {
+        rel.push(c);
+    }
+    Some(rel.to_string_lossy().replace('\\', "/"))
+}
+
+/// `dir` made absolute through its nearest existing ancestor (symbolic
+/// links resolved there), the rest appended as given.
+fn absolute_dir(dir: &Path) -> Option<PathBuf> {
+    let mut existing = dir.to_path_buf();
+    let mut rest = Vec::new();
+    loop {
+        if let Ok(abs) = std::fs::canonicalize(&existing) {
+            let mut out = abs;
+            for part in rest.iter().rev() {
+                out.push(part);
+            }
+            return Some(out);
+        }
+        rest.push(existing.file_name()?.to_os_string());
+        existing = match existing.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+    }
 }
 
 /// The fitted scene: `scene_path`'s text with every parameter's value in
-/// its field, the relative paths it names made absolute when `out` is in
-/// another folder, and PLS files with fitted `b` or `c` copied beside `out`
+/// its field, the relative paths it names rewritten relative to `out`'s
+/// folder when that is another, and PLS files with fitted `b` or `c` copied beside `out`
 /// (`OUT-STEM.pls-N.EXT`) with the fitted values.
 pub fn fitted_files(
     scene_path: &Path,
@@ -407,7 +450,7 @@ pub fn fitted_files(
             NewValue::Text(name),
         ));
     }
-    // Other relative paths keep pointing at the same files.
+    // Other relative paths keep naming the same files from the new folder.
     let fitted_pls: Vec<usize> = pls_edits.iter().map(|(t, _)| *t).collect();
     for (segs, original) in relative_paths(&doc) {
         if matches!(segs.as_slice(), [Seg::Key(k), Seg::Index(t), _] if k == "pls" && fitted_pls.contains(t))

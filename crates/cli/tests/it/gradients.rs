@@ -755,7 +755,8 @@ fn plsr_fit_writes_the_fitted_scene_and_the_loss_curve() {
         "{fitted_text}"
     );
     // The lamp's brightness went into a fitted copy of its PLS file, which
-    // the fitted scene names; paths into the scene's folder became absolute.
+    // the fitted scene names; paths into the scene's folder are rewritten
+    // relative to the fitted scene's folder.
     assert!(
         fitted_text.contains("file = \"fitted.pls-0.toml\""),
         "{fitted_text}"
@@ -766,18 +767,35 @@ fn plsr_fit_writes_the_fitted_scene_and_the_loss_curve() {
         "{pls}"
     );
     assert!(
-        fitted_text.contains(
-            &dir.path()
-                .join("photo.exr")
-                .canonicalize()
-                .unwrap()
-                .display()
-                .to_string()
-        ),
+        fitted_text.contains("file = \"../photo.exr\""),
         "{fitted_text}"
     );
-    // The fitted scene loads and renders.
+    // The fitted scene loads and renders, and fits again into another
+    // folder (which the output's folder is made for).
     Scene::load(&fitted).unwrap();
+    let again = dir.path().join("again").join("deeper").join("fitted.toml");
+    let o = run(&[
+        "fit",
+        fitted.to_str().unwrap(),
+        "-o",
+        again.to_str().unwrap(),
+        "--iterations",
+        "2",
+        "--param",
+        "wall.*",
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let again_text = std::fs::read_to_string(&again).unwrap();
+    assert!(
+        again_text.contains("file = \"../../photo.exr\""),
+        "{again_text}"
+    );
+    assert!(
+        again_text.contains("file = \"../../out/fitted.pls-0.toml\""),
+        "{again_text}"
+    );
+    Scene::load(&again).unwrap();
     let csv = std::fs::read_to_string(out_dir.join("fitted.loss.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 9, "{csv}");
     assert!(csv.starts_with("iteration,loss\n0,"));

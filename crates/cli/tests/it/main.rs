@@ -11,6 +11,7 @@ mod bad_options;
 mod bad_output;
 mod bench_peers;
 mod c_hosts;
+mod calibration;
 mod closed_stdout;
 mod composite;
 mod denoising;

@@ -147,7 +147,10 @@ fn auto_crop_is_the_masks_box_with_a_margin_and_the_mask_restricts_pixel_metrics
     let report = compare_files(
         &f.join("photo.png"),
         &f.join("composite.png"),
-        Some(&f.join("mask.png")),
+        Some(&plsr_metrics::MaskSource {
+            path: f.join("mask.png"),
+            channel: None,
+        }),
         CropSpec::Auto,
         &options,
     )
@@ -337,4 +340,51 @@ fn bad_compare_input_is_a_clear_error_with_status_1_and_no_output() {
         assert!(stderr.contains(want), "{args:?}: {stderr}");
     }
     assert!(!map.exists(), "no map is written when the comparison fails");
+}
+
+/// `--mask FILE:CHANNEL`: a matte in one channel of an EXR (as a
+/// composite's `A`) masks as the same matte in a grey PNG does; without a
+/// channel, an image whose channels differ is refused with the spelling
+/// that names one, and an unknown channel lists those the file has.
+#[test]
+fn a_mask_is_read_from_the_channel_named() {
+    let f = fixtures();
+    let dir = tempfile::tempdir().unwrap();
+    let mask = image::open(f.join("mask.png")).unwrap().to_luma8();
+    let (w, h) = mask.dimensions();
+    // R, G, B: a gradient; A: the mask.
+    let mut film = plsr::film::Film::new(w, h);
+    for (i, p) in mask.pixels().enumerate() {
+        film.color[i] = glam::Vec3::new(i as f32 / (w * h) as f32, 0.3, 0.9);
+        film.alpha[i] = p[0] as f32 / 255.0;
+    }
+    let exr = dir.path().join("matte.exr");
+    film.write_exr(&exr).unwrap();
+    let run = |mask: &str| {
+        let o = plsr()
+            .args([
+                "compare", "--metric", "rmse", "--crop", "auto", "--json", "--mask", mask,
+            ])
+            .arg(f.join("photo.png"))
+            .arg(f.join("composite.png"))
+            .output()
+            .unwrap();
+        (
+            o.status.success(),
+            String::from_utf8_lossy(&o.stdout).into_owned(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    let (ok, from_png, err) = run(f.join("mask.png").to_str().unwrap());
+    assert!(ok, "{err}");
+    let (ok, from_exr, err) = run(&format!("{}:A", exr.display()));
+    assert!(ok, "{err}");
+    assert_eq!(from_png, from_exr);
+    let (ok, _, err) = run(exr.to_str().unwrap());
+    assert!(!ok && err.contains("matte.exr:A"), "{err}");
+    let (ok, _, err) = run(&format!("{}:Q", exr.display()));
+    assert!(
+        !ok && err.contains("no such channel") && err.contains("Q"),
+        "{err}"
+    );
 }
