@@ -91,8 +91,10 @@ typedef struct plsr_scene_builder plsr_scene_builder;
 
 // How to composite, for [`plsr_composite`]. Added in 0.4.0.
 typedef struct {
-  // 0: differential (the objects, their shadows and reflected light);
-  // 1: superimpose (the objects pasted over the photo).
+  // 0: differential (the objects; their shadows scale the photo's
+  // colour, the light they reflect is added); 1: superimpose (the
+  // objects pasted over the photo); 2: additive (Debevec's original
+  // differential, clamped at 0).
   uint32_t mode;
   // How the photo's 8-bit values map to linear radiance: 0 sRGB, 1 linear.
   uint32_t response;
