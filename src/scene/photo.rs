@@ -25,6 +25,30 @@ pub struct PhotoSpec {
     /// The factor `k` with `photo ≈ k · render` in linear radiance; `None`:
     /// fit it (`exposure = "auto"`).
     pub exposure: Option<f32>,
+    /// What in the photo has a known brightness, so that a fitted exposure
+    /// cannot trade against fitted albedos or lights (`reference`).
+    pub reference: Option<ScaleReference>,
+}
+
+/// Something in a photo whose brightness is known: it pins the scale when
+/// the exposure is fitted with albedos or lights (`plsr fit`).
+#[derive(Debug, Clone, PartialEq)]
+pub enum ScaleReference {
+    /// A patch of known reflectance (a grey card): the shape of that name,
+    /// whose material is diffuse and is not fitted.
+    Card {
+        /// The shape's name.
+        shape: String,
+        /// Its reflectance (0 to 1, the same in every channel); `None`: as
+        /// the scene's material says.
+        reflectance: Option<f32>,
+    },
+    /// A light of measured brightness seen in the photo: the emitting shape
+    /// (or PLS light) of that name, not fitted.
+    Light {
+        /// The light's name.
+        name: String,
+    },
 }
 
 /// A `[[views]]` entry: another photo of the scene, with the camera that

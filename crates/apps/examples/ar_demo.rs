@@ -14,6 +14,7 @@
 //!
 //! ```sh
 //! cargo run --release -p plsr-apps --example ar_demo   # photo.png, real-object.png, curve.csv, the figure
+//! cargo run --release -p plsr-apps --example ar_demo -- --figure-only
 //! ```
 
 use plsr::render::{render, RenderJob, RenderOptions};
@@ -27,6 +28,10 @@ use std::path::Path;
 
 fn main() -> Result<()> {
     let dir = Path::new("assets/scenes/ar-demo");
+    // `-- --figure-only`: the figure from the photo already there.
+    if std::env::args().any(|a| a == "--figure-only") {
+        return figure(dir);
+    }
     let scene = Scene::load(&dir.join("ar-demo.toml"))?;
     // The real room: the sphere hidden; other samples than the composite's.
     let job = RenderJob {

@@ -142,6 +142,9 @@ pub struct Photo {
     pub radiance: Vec<Vec3>,
     /// How the photo's values map to linear radiance and back.
     pub transfer: Transfer,
+    /// The radiance of the top code per channel, where the camera clips
+    /// (integer images); `None` for float images, which do not clip.
+    pub clip: Option<Vec3>,
 }
 
 impl Photo {
@@ -235,11 +238,19 @@ impl Photo {
                 ),
             ));
         }
+        let clip = (levels > 0).then(|| {
+            Vec3::new(
+                transfer.decode(0, levels - 1, levels),
+                transfer.decode(1, levels - 1, levels),
+                transfer.decode(2, levels - 1, levels),
+            )
+        });
         Ok(Photo {
             width: w as u32,
             height: h as u32,
             radiance,
             transfer,
+            clip,
         })
     }
 }
@@ -275,11 +286,17 @@ impl Photo {
                 )
             })
             .collect();
+        let clip = Some(Vec3::new(
+            transfer.decode(0, 255, 256),
+            transfer.decode(1, 255, 256),
+            transfer.decode(2, 255, 256),
+        ));
         Ok(Photo {
             width,
             height,
             radiance,
             transfer,
+            clip,
         })
     }
 }

@@ -2,7 +2,7 @@
 
 use super::Builder;
 use crate::error::Result;
-use crate::scene::photo::{PhotoResponse, PhotoSpec};
+use crate::scene::photo::{PhotoResponse, PhotoSpec, ScaleReference};
 use serde::Deserialize;
 use std::path::PathBuf;
 
@@ -12,6 +12,17 @@ pub(super) struct PhotoSection {
     pub(super) file: PathBuf,
     pub(super) response: Option<String>,
     pub(super) exposure: Option<toml::Value>,
+    pub(super) reference: Option<ReferenceSection>,
+}
+
+/// `[photo] reference`: a grey card (`shape`, `reflectance`) or a light
+/// (`light`) of known brightness.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct ReferenceSection {
+    shape: Option<String>,
+    reflectance: Option<f32>,
+    light: Option<String>,
 }
 
 impl Builder<'_> {
@@ -55,10 +66,45 @@ impl Builder<'_> {
                 }
             }
         };
+        let reference = match &p.reference {
+            None => None,
+            Some(r) => Some(match (&r.shape, &r.light) {
+                (Some(shape), None) => ScaleReference::Card {
+                    shape: shape.clone(),
+                    reflectance: match r.reflectance {
+                        None => None,
+                        Some(x) if x > 0.0 && x <= 1.0 => Some(x),
+                        Some(x) => {
+                            return Err(self.err(
+                                "photo.reference.reflectance",
+                                format!("must be in (0, 1], got {x}"),
+                            ))
+                        }
+                    },
+                },
+                (None, Some(name)) if r.reflectance.is_none() => {
+                    ScaleReference::Light { name: name.clone() }
+                }
+                (None, Some(_)) => {
+                    return Err(self.err(
+                        "photo.reference.reflectance",
+                        "is for a card (`shape`), not a light",
+                    ))
+                }
+                _ => {
+                    return Err(self.err(
+                        "photo.reference",
+                        "give either `shape` (a grey card, with its `reflectance`) or `light` \
+                         (a light of measured brightness seen in the photo)",
+                    ))
+                }
+            }),
+        };
         Ok(PhotoSpec {
             file,
             response,
             exposure,
+            reference,
         })
     }
 }

@@ -101,6 +101,16 @@ pub struct View {
     pub target: Vec<Vec3>,
     /// Which pixels count in the loss.
     pub mask: Vec<bool>,
+    /// Whether the exposure is fitted with the parameters (`exposure =
+    /// "auto"`): each iteration scales `target` by the factor that fits
+    /// the render best, so the loss is the least over the exposure.
+    pub fitted_exposure: bool,
+    /// The exposure `k` the target was divided by (`P / k`); with a fitted
+    /// exposure, the last iteration's scale is [`View::scale`].
+    pub k: f32,
+    /// The last scale of `target` a fitted exposure found (1 otherwise):
+    /// the exposure is then `k / scale`.
+    pub scale: f64,
 }
 
 impl View {
@@ -132,7 +142,15 @@ impl View {
             target: photo.radiance.iter().map(|p| *p / k).collect(),
             camera,
             mask,
+            fitted_exposure: false,
+            k,
+            scale: 1.0,
         })
+    }
+
+    /// The exposure now: `k / scale`.
+    pub fn exposure(&self) -> f64 {
+        self.k as f64 / self.scale
     }
 
     /// Pixels in the loss.
@@ -181,10 +199,47 @@ pub fn squared_error_gradient(
     map: &GradientMap,
     target: &[Vec3],
     mask: &[bool],
-    (primal, gradient_job): (&RenderJob, &RenderJob),
+    jobs: (&RenderJob, &RenderJob),
     options: &RenderOptions,
     terms: f64,
 ) -> Result<(f64, Vec<f64>)> {
+    squared_error_gradient_scaled(scene, map, target, mask, false, jobs, options, terms)
+        .map(|(loss, gradient, _)| (loss, gradient))
+}
+
+/// The scale `s` minimising `Σ_{p ∈ mask} |I_p − s·T_p|²`: the exposure
+/// fitted to the render `I` (1 where the target is black).
+fn best_scale(image: &[Vec3], target: &[Vec3], mask: &[bool]) -> f64 {
+    let (mut it, mut tt) = (0.0f64, 0.0f64);
+    for ((i, t), m) in image.iter().zip(target).zip(mask) {
+        if *m {
+            it += i.as_dvec3().dot(t.as_dvec3());
+            tt += t.as_dvec3().dot(t.as_dvec3());
+        }
+    }
+    if tt > 0.0 && it > 0.0 {
+        it / tt
+    } else {
+        1.0
+    }
+}
+
+/// [`squared_error_gradient`], with the target first scaled by the factor
+/// that fits the primal render best when `fit_scale` (the exposure fitted
+/// with the parameters: the gradient of the loss at its least over the
+/// scale is the partial gradient there, the envelope theorem). Returns
+/// the scale too.
+#[allow(clippy::too_many_arguments)]
+fn squared_error_gradient_scaled(
+    scene: &Scene,
+    map: &GradientMap,
+    target: &[Vec3],
+    mask: &[bool],
+    fit_scale: bool,
+    (primal, gradient_job): (&RenderJob, &RenderJob),
+    options: &RenderOptions,
+    terms: f64,
+) -> Result<(f64, Vec<f64>, f64)> {
     let n = (scene.camera().width() * scene.camera().height()) as usize;
     if target.len() != n || mask.len() != n {
         return Err(Error::invalid_argument(format!(
@@ -194,17 +249,23 @@ pub fn squared_error_gradient(
         )));
     }
     let (sums, _) = render_sums(scene, primal, options, &|_, _| true)?;
+    let means = sums.means();
+    let scale = if fit_scale {
+        best_scale(&means, target, mask)
+    } else {
+        1.0
+    };
     let mut loss = 0.0;
     let mut adjoint = vec![Vec3::ZERO; n];
-    for (i, mean) in sums.means().into_iter().enumerate() {
+    for (i, mean) in means.into_iter().enumerate() {
         if mask[i] {
-            let d = mean - target[i];
+            let d = mean - target[i] * scale as f32;
             loss += d.as_dvec3().dot(d.as_dvec3());
             adjoint[i] = d * (2.0 / terms as f32);
         }
     }
     let r = render_gradient(scene, gradient_job, options, map, &adjoint, false)?;
-    Ok((loss / terms, r.gradient))
+    Ok((loss / terms, r.gradient, scale))
 }
 
 /// Projected Adam over a flat vector of numbers.
@@ -372,10 +433,14 @@ impl Fit {
         let mut total = 0.0;
         for v in 0..self.views.len() {
             let image = self.render_view(v, seed)?;
-            let view = &self.views[v];
+            let view = &mut self.views[v];
+            if view.fitted_exposure {
+                view.scale = best_scale(&image, &view.target, &view.mask);
+            }
+            let scale = view.scale as f32;
             for (i, (c, t)) in image.iter().zip(&view.target).enumerate() {
                 if view.mask[i] {
-                    let d = (*c - *t).as_dvec3();
+                    let d = (*c - *t * scale).as_dvec3();
                     total += d.dot(d);
                 }
             }
@@ -395,15 +460,17 @@ impl Fit {
         for v in 0..self.views.len() {
             self.scene.set_camera(self.views[v].camera.clone());
             let view = &self.views[v];
-            let (l, g) = squared_error_gradient(
+            let (l, g, scale) = squared_error_gradient_scaled(
                 &self.scene,
                 &map,
                 &view.target,
                 &view.mask,
+                view.fitted_exposure,
                 (&primal, &gradient_job),
                 &options,
                 terms,
             )?;
+            self.views[v].scale = scale;
             loss += l;
             for (a, b) in gradient.iter_mut().zip(&g) {
                 *a += b;
@@ -509,7 +576,8 @@ impl Fit {
     /// Warnings about parameters no photo pixel saw (their gradient was
     /// zero at every iteration, so they kept their value).
     pub fn warnings(&self) -> Vec<String> {
-        self.params
+        let mut out: Vec<String> = self
+            .params
             .iter()
             .filter(|p| (0..p.value.len()).all(|k| !self.seen[p.slot as usize + k]))
             .map(|p| {
@@ -518,7 +586,15 @@ impl Fit {
                     p.name
                 )
             })
-            .collect()
+            .collect();
+        for v in self.views.iter().filter(|v| v.fitted_exposure) {
+            out.push(format!(
+                "{}: exposure fitted with the parameters: k = {:.6}",
+                v.label,
+                v.exposure()
+            ));
+        }
+        out
     }
 }
 
@@ -574,6 +650,7 @@ pub fn fit_scene_file(
         contents.photo,
         contents.views,
         fits_lights,
+        &params,
         options,
         &mut warnings,
     )?;
@@ -667,14 +744,17 @@ fn window_lights(scene: &Scene, windows: &[String]) -> Result<Vec<(String, usize
 }
 
 /// The views to fit against: the scene file's `[photo]` (through the
-/// scene's camera) and `[[views]]`, each with its exposure (an `"auto"`
-/// one fitted here, with a warning).
+/// scene's camera) and `[[views]]`, each with its exposure: an `"auto"`
+/// one is fitted with the parameters, and needs a `reference` to pin the
+/// scale when albedos or lights are fitted too.
+#[allow(clippy::too_many_arguments)]
 fn load_views(
     path: &std::path::Path,
     scene: &mut Scene,
     photo: Option<plsr::scene::photo::PhotoSpec>,
     view_specs: Vec<plsr::scene::photo::ViewSpec>,
     fits_lights: bool,
+    params: &[Parameter],
     options: &FitOptions,
     warnings: &mut Vec<String>,
 ) -> Result<Vec<View>> {
@@ -698,25 +778,224 @@ fn load_views(
         let label = format!("{field} ({})", spec.file.display());
         let k = match spec.exposure {
             Some(k) => k,
-            None if fits_lights => {
+            None => auto_exposure(scene, &camera, &photo, options, &label)?,
+        };
+        let mut view = View::new(scene, &label, camera, &photo, k)?;
+        if spec.exposure.is_none() {
+            view.fitted_exposure = true;
+            let pin = pin_scale(path, scene, &mut view, &photo, &spec, &field, params)?;
+            if pin.is_none() && (fits_lights || params.iter().any(scales_radiance)) {
                 return Err(Error::input(
                     path,
                     format!("{field}.exposure"),
-                    "is \"auto\", but light parameters are being fitted: their brightness and \
-                     the exposure cannot both be found; give the photo's exposure as a number",
-                ))
-            }
-            None => {
-                let k = auto_exposure(scene, &camera, &photo, options, &label)?;
-                warnings.push(format!(
-                    "{label}: exposure \"auto\" fitted once at the starting values: k = {k:.6}"
+                    "is \"auto\", but albedos or lights are fitted too: the exposure trades \
+                     against them and nothing pins the scale. Give what is known: a grey card in \
+                     view (`reference = { shape = \"card\", reflectance = 0.18 }`), a light of \
+                     measured brightness in view (`reference = { light = \"lamp\" }`), or the \
+                     exposure as a number",
                 ));
-                k
             }
-        };
-        views.push(View::new(scene, &label, camera, &photo, k)?);
+            warnings.push(match pin {
+                Some(pin) => format!(
+                    "{label}: exposure fitted with the parameters, its scale pinned by {pin}"
+                ),
+                None => format!(
+                    "{label}: exposure fitted with the parameters (no albedo or light is fitted)"
+                ),
+            });
+        }
+        views.push(view);
     }
     Ok(views)
+}
+
+/// Whether a parameter scales the light the photo records (an albedo, a
+/// light's brightness or colour, the environment's scale): such a
+/// parameter trades against a fitted exposure.
+fn scales_radiance(p: &Parameter) -> bool {
+    matches!(
+        p.field,
+        "reflectance" | "base_color" | "b" | "c" | "intensity" | "emission" | "scale"
+    )
+}
+
+/// Pixels of `view` whose camera rays through four points all meet one of
+/// `meshes` (visible surfaces only).
+fn pixels_on(scene: &Scene, camera: &Camera, meshes: &[usize]) -> Vec<bool> {
+    let (w, h) = (camera.width(), camera.height());
+    let offsets = [
+        Vec2::new(0.25, 0.25),
+        Vec2::new(0.75, 0.25),
+        Vec2::new(0.25, 0.75),
+        Vec2::new(0.75, 0.75),
+    ];
+    let mut out = vec![false; (w * h) as usize];
+    for y in 0..h {
+        for x in 0..w {
+            out[(y * w + x) as usize] = offsets.iter().all(|o| {
+                let film = Vec2::new(x as f32, y as f32) + *o;
+                let Some(ray) = camera.generate_ray(film, Vec2::splat(0.5)) else {
+                    return false;
+                };
+                let mut rh = [RayHit::masked(ray, REAL_MASK)];
+                scene.accel().intersect_each(&mut rh);
+                rh[0]
+                    .hit()
+                    .is_some_and(|hit| meshes.contains(&(hit.geom_id as usize)))
+            });
+        }
+    }
+    out
+}
+
+/// Fewest pixels of a reference that pin the scale.
+const MIN_REFERENCE_PIXELS: usize = 8;
+
+/// Checks the photo's `reference` (a grey card or a light of known
+/// brightness) and makes it count in the view: a card's reflectance is
+/// set, a light's pixels join the loss. Returns what pins the scale, for
+/// the report; `None` without a reference.
+fn pin_scale(
+    path: &std::path::Path,
+    scene: &mut Scene,
+    view: &mut View,
+    photo: &Photo,
+    spec: &plsr::scene::photo::PhotoSpec,
+    field: &str,
+    params: &[Parameter],
+) -> Result<Option<String>> {
+    use plsr::scene::photo::ScaleReference;
+    let Some(reference) = &spec.reference else {
+        return Ok(None);
+    };
+    let at = format!("{field}.reference");
+    let meshes_named = |name: &str| -> Vec<usize> {
+        (0..scene.meshes().len())
+            .filter(|&m| scene.meshes()[m].name == name)
+            .collect()
+    };
+    match reference {
+        ScaleReference::Card { shape, reflectance } => {
+            let meshes = meshes_named(shape);
+            let Some(&first) = meshes.first() else {
+                return Err(Error::input(
+                    path,
+                    format!("{at}.shape"),
+                    format!("no shape named `{shape}`"),
+                ));
+            };
+            let material = scene.meshes()[first].material as usize;
+            let material_name = scene.materials()[material].name.clone();
+            if params.iter().any(|p| p.owner == Owner::Material(material)) {
+                return Err(Error::input(
+                    path,
+                    format!("{at}.shape"),
+                    format!(
+                        "the card's material `{material_name}` is being fitted: a reference is \
+                         known, not fitted (leave it out of --param)"
+                    ),
+                ));
+            }
+            if let Some(r) = reflectance {
+                let shared = (0..scene.meshes().len()).any(|m| {
+                    scene.meshes()[m].material as usize == material && !meshes.contains(&m)
+                });
+                let selected =
+                    params::select(scene, &[format!("{material_name}.reflectance")], 1.0);
+                let param = match selected {
+                    Ok(mut p) if p.len() == 1 && !shared => p.remove(0),
+                    _ => return Err(Error::input(
+                        path,
+                        format!("{at}.reflectance"),
+                        format!(
+                            "the card's material `{material_name}` must be a `diffuse` material \
+                                 of its own for its reflectance to be set"
+                        ),
+                    )),
+                };
+                params::apply(scene, &param, &[*r, *r, *r])?;
+            }
+            let seen = pixels_on(scene, &view.camera, &meshes);
+            let n = seen
+                .iter()
+                .zip(&view.mask)
+                .filter(|(a, b)| **a && **b)
+                .count();
+            if n < MIN_REFERENCE_PIXELS {
+                return Err(Error::input(
+                    path,
+                    format!("{at}.shape"),
+                    format!("the card `{shape}` covers {n} pixels of the photo: at least {MIN_REFERENCE_PIXELS} are needed"),
+                ));
+            }
+            let r = match reflectance {
+                Some(r) => format!("reflectance {r}"),
+                None => format!("the material `{material_name}`"),
+            };
+            Ok(Some(format!("the grey card `{shape}` ({r}, {n} pixels)")))
+        }
+        ScaleReference::Light { name } => {
+            let meshes: Vec<usize> = meshes_named(name)
+                .into_iter()
+                .filter(|&m| scene.mesh_lights(m).is_some() || scene.meshes()[m].pls.is_some())
+                .collect();
+            if meshes.is_empty() {
+                return Err(Error::input(
+                    path,
+                    format!("{at}.light"),
+                    format!("no emitting shape or PLS light named `{name}`"),
+                ));
+            }
+            if params.iter().any(|p| match p.owner {
+                Owner::Shape(m) | Owner::Pls { mesh: m, .. } => meshes.contains(&m),
+                _ => false,
+            }) {
+                return Err(Error::input(
+                    path,
+                    format!("{at}.light"),
+                    format!(
+                        "the light `{name}` is being fitted: a reference is measured, not fitted"
+                    ),
+                ));
+            }
+            let seen = pixels_on(scene, &view.camera, &meshes);
+            let n = seen.iter().filter(|s| **s).count();
+            if n < MIN_REFERENCE_PIXELS {
+                return Err(Error::input(
+                    path,
+                    format!("{at}.light"),
+                    format!("the light `{name}` covers {n} pixels of the photo: at least {MIN_REFERENCE_PIXELS} are needed"),
+                ));
+            }
+            // A clipped light says nothing of its brightness (float photos
+            // do not clip).
+            let clipped = match photo.clip {
+                None => 0,
+                Some(top) => seen
+                    .iter()
+                    .zip(&photo.radiance)
+                    .filter(|(s, p)| **s && p.cmpge(top * 0.999).any())
+                    .count(),
+            };
+            if clipped * 4 > n {
+                return Err(Error::input(
+                    path,
+                    format!("{at}.light"),
+                    format!(
+                        "the light `{name}` is clipped in the photo ({clipped} of its {n} pixels at \
+                         the top code): its brightness cannot be read; use an HDR photo or a \
+                         shorter exposure"
+                    ),
+                ));
+            }
+            for (m, s) in view.mask.iter_mut().zip(&seen) {
+                *m |= *s;
+            }
+            Ok(Some(format!(
+                "the light `{name}`'s measured brightness ({n} pixels)"
+            )))
+        }
+    }
 }
 
 /// The windows fitted: each light's name and what its search found.

@@ -579,6 +579,119 @@ fn a_fit_recovers_albedos_roughness_and_light_brightness() {
     );
 }
 
+/// The recovery room with a glowing panel on the back wall (seen by the
+/// camera, of known brightness), photographed at twice the render's
+/// radiance (`k = 2`); the guess has its albedos 30 % off, the exposure
+/// `"auto"` and `reference` as given.
+fn write_scale_room(dir: &Path, reference: &str) -> PathBuf {
+    let panel = "[[shapes]]\nname = \"panel\"\ntype = \"rectangle\"\nemission = [3, 3, 3]\n\
+        transform = { scale = 0.25, rotate = { axis = [1, 0, 0], angle = 90 }, translate = [0.5, 1.49, 1.2] }\n";
+    let truth_text = format!(
+        "{}\n{panel}",
+        recovery_room([0.6, 0.45, 0.3], 0.3, [0.25, 0.55, 0.4], "")
+    );
+    let truth = dir.join("truth.toml");
+    std::fs::write(&truth, truth_text).unwrap();
+    std::fs::write(dir.join("lamp.toml"), LAMP).unwrap();
+    let scene = Scene::load(&truth).unwrap();
+    let (mut film, _) =
+        plsr::render::render(&scene, &job(&scene, 1024, 77), &options(2), &|_, _| true).unwrap();
+    for c in film.color.iter_mut() {
+        *c *= 2.0;
+    }
+    film.write_exr(&dir.join("photo.exr")).unwrap();
+    let photo = format!(
+        "[photo]\nfile = \"photo.exr\"\nresponse = \"linear\"\nexposure = \"auto\"\n{reference}"
+    );
+    let guess = dir.join("guess.toml");
+    let text = format!(
+        "{}\n{panel}",
+        recovery_room([0.42, 0.315, 0.21], 0.3, [0.325, 0.715, 0.52], &photo)
+    );
+    std::fs::write(&guess, text).unwrap();
+    guess
+}
+
+/// The issue's point 3: albedos 30 % off and the exposure fitted with
+/// them, the scale pinned by a grey card of known reflectance, or by a
+/// light of measured brightness in view: the albedos come back within
+/// 0.02 and the exposure near 2. With nothing to pin it, the fit refuses.
+#[test]
+fn an_exposure_fitted_with_the_albedos_is_pinned_by_a_card_or_a_light() {
+    for reference in [
+        "reference = { shape = \"card\", reflectance = 0.8 }",
+        "reference = { light = \"panel\" }",
+    ] {
+        let dir = tempdir();
+        let guess = write_scale_room(dir.path(), reference);
+        let options = FitOptions {
+            params: vec!["floor.base_color".into(), "wall.reflectance".into()],
+            threads: Some(2),
+            iterations: 120,
+            ..FitOptions::default()
+        };
+        let out = dir.path().join("fitted.toml");
+        let outcome = fit_scene_file(&guess, &out, &options, &mut |_, _| true).unwrap();
+        for w in &outcome.warnings {
+            eprintln!("{reference}: {w}");
+        }
+        assert!(
+            outcome.warnings.iter().any(|w| w.contains("pinned by")),
+            "{:?}",
+            outcome.warnings
+        );
+        let k: f64 = outcome
+            .warnings
+            .iter()
+            .find_map(|w| w.split("k = ").nth(1))
+            .and_then(|k| k.trim().parse().ok())
+            .unwrap();
+        eprintln!("{reference}: k = {k}");
+        assert!((k / 2.0 - 1.0).abs() < 0.03, "exposure {k} vs 2");
+        for (name, want) in [
+            ("floor.base_color", [0.6, 0.45, 0.3]),
+            ("wall.reflectance", [0.25, 0.55, 0.4]),
+        ] {
+            let p = outcome.parameters.iter().find(|p| p.name == name).unwrap();
+            eprintln!("{reference}: {name} {:?} → {:?}", p.initial, p.value);
+            for (got, want) in p.value.iter().zip(want) {
+                assert!(
+                    (got - want).abs() <= 0.02,
+                    "{reference}: {name} {got} vs {want}"
+                );
+            }
+        }
+    }
+    // Nothing pins the scale: refused, saying what would.
+    let dir = tempdir();
+    let guess = write_scale_room(dir.path(), "");
+    let options = FitOptions {
+        params: vec!["wall.reflectance".into()],
+        iterations: 2,
+        ..FitOptions::default()
+    };
+    let e = fit_scene_file(&guess, &dir.path().join("f.toml"), &options, &mut |_, _| {
+        true
+    })
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("photo.exposure") && e.contains("grey card"),
+        "{e}"
+    );
+    // A reference that is fitted is refused.
+    let guess = write_scale_room(dir.path(), "reference = { shape = \"wall\" }");
+    let e = fit_scene_file(&guess, &dir.path().join("f.toml"), &options, &mut |_, _| {
+        true
+    })
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("photo.reference.shape") && e.contains("being fitted"),
+        "{e}"
+    );
+}
+
 // ---------------------------------------------------------------------------
 // Degenerate input
 
