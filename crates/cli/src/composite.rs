@@ -38,6 +38,17 @@ pub struct CompositeArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Composite frames A to B−1 of a video (A..=B includes B): `{frame}`
+    /// in the [photo] file names each frame's photo, and in -o, --png and
+    /// --matte each frame's outputs. Each frame's camera is the [[views]]
+    /// entry whose photo is that frame's (as `plsr import` writes a COLMAP
+    /// model), else the camera path's pose, else the scene's camera.
+    #[arg(long, value_name = "A..B")]
+    pub frames: Option<String>,
+    /// With --frames: fit an "auto" exposure for every frame (default: fit
+    /// it on the first frame and keep it, so the video does not flicker).
+    #[arg(long, requires = "frames")]
+    pub refit_exposure: bool,
     /// Denoising of both renders (with and without the virtual objects)
     /// before their difference is taken.
     #[command(flatten)]
@@ -110,6 +121,12 @@ pub fn run(a: &CompositeArgs) -> Result<()> {
         bar.set_position(done as u64);
         true
     };
+    if let Some(frames) = &a.frames {
+        let frames = crate::render::parse_frames(frames)?;
+        let done = run_frames(a, contents, frames, &options, &progress);
+        bar.finish_and_clear();
+        return done;
+    }
     let (result, transfer, report) = composite_scene(&a.scene, contents, &options, &progress)?;
     bar.finish_and_clear();
     let mut outputs = OutputSet::new();
@@ -145,5 +162,124 @@ pub fn run(a: &CompositeArgs) -> Result<()> {
             .map(|p| format!(", {}", p.display()))
             .unwrap_or_default()
     );
+    Ok(())
+}
+
+/// `plsr composite --frames`: one composite per frame, into that frame's
+/// photo through that frame's camera, on one built scene.
+fn run_frames(
+    a: &CompositeArgs,
+    contents: plsr::scene::file::SceneFileContents,
+    frames: std::ops::RangeInclusive<u32>,
+    options: &CompositeOptions,
+    progress: &(dyn Fn(usize, usize) -> bool + Sync),
+) -> Result<()> {
+    use crate::render::frame_path;
+    let spec = contents.photo.clone().ok_or_else(|| {
+        Error::input(
+            &a.scene,
+            "photo",
+            "required for compositing: a [photo] table",
+        )
+    })?;
+    let field = "{frame}";
+    let many = frames.start() != frames.end();
+    for (flag, path) in std::iter::once(("-o", &a.output))
+        .chain(a.png.iter().map(|p| ("--png", p)))
+        .chain(a.matte.iter().map(|p| ("--matte", p)))
+    {
+        if many && !path.to_string_lossy().contains(field) {
+            return Err(Error::output(
+                path.clone(),
+                format!(
+                    "{flag}: --frames writes one file per frame: the name must contain {field}"
+                ),
+            ));
+        }
+    }
+    if !spec.file.to_string_lossy().contains(field) {
+        return Err(Error::input(
+            &a.scene,
+            "photo.file",
+            format!("--frames: the photo's name must contain {field}, which each frame's number replaces"),
+        ));
+    }
+    let views = contents.views.clone();
+    let path = contents.camera_path.clone();
+    let base_camera = contents.description.camera.clone();
+    if !contents.description.meshes.iter().any(|m| m.is_virtual) {
+        return Err(Error::input(
+            &a.scene,
+            "shapes",
+            "no shape is virtual: mark the objects to insert with `virtual = true`",
+        ));
+    }
+    let mut scene = plsr::scene::Scene::build(contents.description)?;
+    let mut kept: Option<f32> = spec.exposure;
+    for frame in frames {
+        let photo_file = frame_path(&spec.file, Some(frame));
+        let camera = match views.iter().find(|v| v.photo.file == photo_file) {
+            Some(v) => v.camera.clone(),
+            None => match &path {
+                Some(p) => base_camera.with_pose(p.pose_at(frame).map_err(|e| {
+                    Error::input(&a.scene, "camera.path", format!("frame {frame}: {e}"))
+                })?),
+                None => base_camera.clone(),
+            },
+        };
+        scene.set_camera(camera);
+        let frame_spec = plsr::scene::photo::PhotoSpec {
+            file: photo_file.clone(),
+            ..spec.clone()
+        };
+        let photo = plsr_apps::composite::Photo::load(&frame_spec)?;
+        let (cw, ch) = (scene.camera().width(), scene.camera().height());
+        if (photo.width, photo.height) != (cw, ch) {
+            return Err(Error::input(
+                &photo_file,
+                "",
+                format!(
+                    "{}×{} pixels but frame {frame}'s camera renders {cw}×{ch}",
+                    photo.width, photo.height
+                ),
+            ));
+        }
+        let exposure = if a.refit_exposure {
+            spec.exposure
+        } else {
+            kept
+        };
+        let (result, report) =
+            plsr_apps::composite::composite_built(&scene, &photo, exposure, options, progress)?;
+        kept.get_or_insert(result.k);
+        let (output, png, matte) = (
+            frame_path(&a.output, Some(frame)),
+            a.png.as_ref().map(|p| frame_path(p, Some(frame))),
+            a.matte.as_ref().map(|p| frame_path(p, Some(frame))),
+        );
+        let mut outputs = OutputSet::new();
+        result.stage_exr(&mut outputs, &output)?;
+        if let Some(p) = &png {
+            result.stage_png(&mut outputs, p, &photo.transfer)?;
+        }
+        if let Some(m) = &matte {
+            result.stage_matte_png(&mut outputs, m)?;
+        }
+        outputs.commit()?;
+        let how = match report.fit {
+            Some(_) => "fitted",
+            None if spec.exposure.is_none() => "kept from the first frame",
+            None => "from the scene",
+        };
+        eprintln!(
+            "frame {frame}: composited {}×{} ({}) in {:.2} s, exposure k = {:.5} ({how}) → {}",
+            result.width,
+            result.height,
+            a.mode,
+            report.render_seconds,
+            result.k,
+            output.display()
+        );
+    }
     Ok(())
 }

@@ -904,14 +904,16 @@ fn pin_scale(
                     params::select(scene, &[format!("{material_name}.reflectance")], 1.0);
                 let param = match selected {
                     Ok(mut p) if p.len() == 1 && !shared => p.remove(0),
-                    _ => return Err(Error::input(
-                        path,
-                        format!("{at}.reflectance"),
-                        format!(
+                    _ => {
+                        return Err(Error::input(
+                            path,
+                            format!("{at}.reflectance"),
+                            format!(
                             "the card's material `{material_name}` must be a `diffuse` material \
                                  of its own for its reflectance to be set"
                         ),
-                    )),
+                        ))
+                    }
                 };
                 params::apply(scene, &param, &[*r, *r, *r])?;
             }

@@ -629,3 +629,96 @@ fn shadows_keep_the_photos_hue_when_the_proxy_colour_is_wrong() {
         "{measured:?}"
     );
 }
+
+/// Point 7: a video. Two frames of a camera path, each with its own photo
+/// (`{frame}` in the names), the second photo a stop brighter: the
+/// exposure fitted on the first frame is kept (no flicker), or fitted per
+/// frame with --refit-exposure; each frame is seen from its own pose.
+#[test]
+fn a_video_composites_each_frame_through_its_camera() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = "[[camera.path]]\nframe = 0\nposition = [0, -4, 3]\nlook_at = [0, 0, 0.3]\n\
+                [[camera.path]]\nframe = 2\nposition = [1.5, -3.5, 2.5]\nlook_at = [0, 0, 0.3]\n";
+    let with_path = |photo: &str| {
+        room("virtual = true", photo).replace(
+            "resolution = [48, 32]",
+            &format!("resolution = [48, 32]\n{path}"),
+        )
+    };
+    // The photos: the room without the sphere from each frame's pose.
+    let text = with_path("");
+    std::fs::write(dir.path().join("video.toml"), &text).unwrap();
+    let contents = plsr::scene::file::load_contents(&dir.path().join("video.toml")).unwrap();
+    let camera_path = contents.camera_path.clone().unwrap();
+    let base = contents.description.camera.clone();
+    let mut scene = Scene::build(contents.description).unwrap();
+    for frame in 0..2u32 {
+        scene.set_camera(base.with_pose(camera_path.pose_at(frame).unwrap()));
+        let job = RenderJob {
+            hide_virtual: true,
+            spp: 256,
+            seed: 99,
+            ..scene.default_job()
+        };
+        let (film, _) = render(&scene, &job, &RenderOptions::default(), &|_, _| true).unwrap();
+        let tone = ToneMap {
+            exposure: frame as f32,
+            filmic: false,
+        };
+        film.write_png(&dir.path().join(format!("photo-{frame:04}.png")), tone)
+            .unwrap();
+    }
+    std::fs::write(
+        dir.path().join("video.toml"),
+        with_path("[photo]\nfile = \"photo-{frame}.png\"\n"),
+    )
+    .unwrap();
+    let run = |extra: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
+            .current_dir(dir.path())
+            .args([
+                "composite",
+                "video.toml",
+                "--frames",
+                "0..2",
+                "-o",
+                "c-{frame}.exr",
+                "--spp",
+                "16",
+                "-q",
+            ])
+            .args(extra)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{stderr}");
+        let k: Vec<f64> = stderr
+            .lines()
+            .filter_map(|l| l.split("exposure k = ").nth(1))
+            .map(|t| t.split(' ').next().unwrap().parse().unwrap())
+            .collect();
+        (k, stderr)
+    };
+    let (kept, stderr) = run(&[]);
+    assert_eq!(kept.len(), 2, "{stderr}");
+    assert_eq!(kept[0], kept[1], "{stderr}");
+    assert!(stderr.contains("kept from the first frame"), "{stderr}");
+    let (refit, stderr) = run(&["--refit-exposure"]);
+    assert!((refit[1] / refit[0] - 2.0).abs() < 0.05, "{stderr}");
+    // Each frame from its own pose: the sphere is elsewhere in the image.
+    let a0 = exr_channel(&dir.path().join("c-0000.exr"), "A");
+    let a1 = exr_channel(&dir.path().join("c-0001.exr"), "A");
+    assert!(a0.iter().any(|&a| a > 0.5) && a1.iter().any(|&a| a > 0.5));
+    assert_ne!(a0, a1);
+    // Output names without {frame} are refused before any work.
+    let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .current_dir(dir.path())
+        .args(["composite", "video.toml", "--frames", "0..2", "-o", "c.exr"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("{frame}"),
+        "{stderr}"
+    );
+}
