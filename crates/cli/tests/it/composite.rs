@@ -710,6 +710,23 @@ fn a_video_composites_each_frame_through_its_camera() {
     let a1 = exr_channel(&dir.path().join("c-0001.exr"), "A");
     assert!(a0.iter().any(|&a| a > 0.5) && a1.iter().any(|&a| a > 0.5));
     assert_ne!(a0, a1);
+    // A [[views]] entry naming frame 1's photo gives that frame its camera
+    // (here frame 0's pose): the two mattes are then the same.
+    let view =
+        "[[views]]\ncamera = { position = [0, -4, 3], look_at = [0, 0, 0.3], up = [0, 0, 1], \
+                vfov = 40, resolution = [48, 32] }\nphoto = { file = \"photo-0001.png\" }\n";
+    std::fs::write(
+        dir.path().join("video.toml"),
+        format!(
+            "{}\n{view}",
+            with_path("[photo]\nfile = \"photo-{frame}.png\"\n")
+        ),
+    )
+    .unwrap();
+    run(&[]);
+    let a0 = exr_channel(&dir.path().join("c-0000.exr"), "A");
+    let a1 = exr_channel(&dir.path().join("c-0001.exr"), "A");
+    assert_eq!(a0, a1);
     // Output names without {frame} are refused before any work.
     let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
         .current_dir(dir.path())
