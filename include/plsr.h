@@ -515,6 +515,29 @@ plsr_result plsr_scene_builder_set_camera(plsr_scene_builder *builder,
                                           uint32_t width,
                                           uint32_t height);
 
+// Sets a calibrated camera (a real camera's intrinsics and lens
+// distortion, as OpenCV, COLMAP, ARKit or ARCore give them; see
+// docs/calibration.md):
+//
+// - `to_world`: 16 floats, the row-major 4×4 camera-to-world matrix in the
+//   OpenCV convention (columns: image right, image down, view direction,
+//   position). An OpenGL-style matrix (looking down −Z, +Y up) becomes one
+//   by negating its second and third columns.
+// - `intrinsics`: 5 doubles, `fx, fy, cx, cy, skew` in pixels, in OpenCV's
+//   pixel convention (the top-left pixel's centre is (0, 0)).
+// - `distortion`: 0 none, 1 Brown–Conrady (OpenCV's default model), 2
+//   fisheye (`cv::fisheye`); `coefficients`: `count` doubles in OpenCV's
+//   order (4, 5, 8 or 12 for Brown–Conrady, 4 for fisheye; 0 for none).
+// - `width × height`: the image the intrinsics are for.
+plsr_result plsr_scene_builder_set_calibrated_camera(plsr_scene_builder *builder,
+                                                     const float *to_world,
+                                                     const double *intrinsics,
+                                                     uint32_t distortion,
+                                                     const double *coefficients,
+                                                     size_t count,
+                                                     uint32_t width,
+                                                     uint32_t height);
+
 // Sets samples per pixel (≥ 1), the maximum number of scattering events
 // (≥ 1) and the seed.
 plsr_result plsr_scene_builder_set_render(plsr_scene_builder *builder,

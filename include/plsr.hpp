@@ -202,6 +202,17 @@ public:
         check(plsr_scene_builder_set_camera(h_.get(), position.data(), look_at.data(), up.data(),
                                             vfov_deg, width, height));
     }
+    /// A calibrated camera: `to_world` row-major (OpenCV axes), intrinsics
+    /// {fx, fy, cx, cy, skew} in pixels, `distortion` 0 none, 1
+    /// Brown–Conrady, 2 fisheye, with its coefficients in OpenCV's order.
+    void set_calibrated_camera(const std::array<float, 16> &to_world,
+                               const std::array<double, 5> &intrinsics, uint32_t distortion,
+                               const std::vector<double> &coefficients, uint32_t width,
+                               uint32_t height) {
+        check(plsr_scene_builder_set_calibrated_camera(
+            h_.get(), to_world.data(), intrinsics.data(), distortion, coefficients.data(),
+            coefficients.size(), width, height));
+    }
     void set_render(uint32_t spp, uint32_t max_depth, uint64_t seed) {
         check(plsr_scene_builder_set_render(h_.get(), spp, max_depth, seed));
     }

@@ -133,6 +133,22 @@ int main(int argc, char **argv) {
     EXPECT(plsr_scene_builder_set_camera(b, eye, at, up, 200.0f, 8, 8), PLSR_ERR_INVALID_ARGUMENT, "field of view");
     EXPECT(plsr_scene_builder_set_camera(b, eye, at, up, 40.0f, 0, 8), PLSR_ERR_INVALID_ARGUMENT, "resolution");
     EXPECT(plsr_scene_builder_set_render(b, 0, 4, 1), PLSR_ERR_INVALID_ARGUMENT, "spp");
+    /* A calibrated camera: OpenCV axes (right, down, forward) looking along +y from eye. */
+    const float to_world[16] = {1, 0, 0, 0, 0, 0, 1, -3, 0, -1, 0, 1, 0, 0, 0, 1};
+    const float scaled[16] = {2, 0, 0, 0, 0, 0, 1, -3, 0, -1, 0, 1, 0, 0, 0, 1};
+    const double intr[5] = {8, 8, 3.5, 3.5, 0}, bad_k[5] = {-8, 8, 3.5, 3.5, 0};
+    const double d[5] = {-0.2, 0.05, 0.001, 0, 0.01}, tilted[14] = {0};
+    EXPECT(plsr_scene_builder_set_calibrated_camera(b, scaled, intr, 1, d, 5, 8, 8), PLSR_ERR_INVALID_ARGUMENT, "to_world");
+    EXPECT(plsr_scene_builder_set_calibrated_camera(b, to_world, bad_k, 1, d, 5, 8, 8), PLSR_ERR_INVALID_ARGUMENT, "fx");
+    EXPECT(plsr_scene_builder_set_calibrated_camera(b, to_world, intr, 1, tilted, 14, 8, 8), PLSR_ERR_INVALID_ARGUMENT, "tilted");
+    EXPECT(plsr_scene_builder_set_calibrated_camera(b, to_world, intr, 2, d, 5, 8, 8), PLSR_ERR_INVALID_ARGUMENT, "fisheye");
+    EXPECT(plsr_scene_builder_set_calibrated_camera(b, to_world, intr, 3, d, 0, 8, 8), PLSR_ERR_INVALID_ARGUMENT, "distortion");
+    EXPECT(plsr_scene_builder_set_calibrated_camera(b, to_world, intr, 1, NULL, 5, 8, 8), PLSR_ERR_NULL_ARGUMENT, "coefficients");
+    EXPECT(plsr_scene_builder_set_calibrated_camera(b, to_world, intr, 1, d, 5, 8, 8), PLSR_OK, NULL);
+    EXPECT(plsr_scene_builder_set_render(b, 2, 4, 1), PLSR_OK, NULL);
+    EXPECT(plsr_scene_builder_build(b, &s2), PLSR_OK, NULL);
+    plsr_scene_free(s2);
+    s2 = NULL;
     EXPECT(plsr_scene_builder_set_camera(b, eye, at, up, 40.0f, 8, 8), PLSR_OK, NULL);
     EXPECT(plsr_scene_builder_set_render(b, 2, 4, 1), PLSR_OK, NULL);
     EXPECT(plsr_scene_builder_build(b, &s2), PLSR_OK, NULL);

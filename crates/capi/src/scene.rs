@@ -8,6 +8,7 @@ use glam::Vec3;
 use plsr::bsdf::{Bsdf, PrincipledParams};
 use plsr::camera::PinholeCamera;
 use plsr::job::RenderJob;
+use plsr::lens_distortion::LensDistortion;
 use plsr::light::{EnvironmentLight, PointLight};
 use plsr::material::Material;
 use plsr::scene::{Emission, Mesh, Scene, SceneDescription};
@@ -375,6 +376,81 @@ pub extern "C" fn plsr_scene_builder_set_camera(
             return Err(FfiError::invalid("camera: at most 65536 pixels a side"));
         }
         b.camera = Some(camera.into());
+        Ok(())
+    })
+}
+
+/// Sets a calibrated camera (a real camera's intrinsics and lens
+/// distortion, as OpenCV, COLMAP, ARKit or ARCore give them; see
+/// docs/calibration.md):
+///
+/// - `to_world`: 16 floats, the row-major 4×4 camera-to-world matrix in the
+///   OpenCV convention (columns: image right, image down, view direction,
+///   position). An OpenGL-style matrix (looking down −Z, +Y up) becomes one
+///   by negating its second and third columns.
+/// - `intrinsics`: 5 doubles, `fx, fy, cx, cy, skew` in pixels, in OpenCV's
+///   pixel convention (the top-left pixel's centre is (0, 0)).
+/// - `distortion`: 0 none, 1 Brown–Conrady (OpenCV's default model), 2
+///   fisheye (`cv::fisheye`); `coefficients`: `count` doubles in OpenCV's
+///   order (4, 5, 8 or 12 for Brown–Conrady, 4 for fisheye; 0 for none).
+/// - `width × height`: the image the intrinsics are for.
+#[no_mangle]
+pub extern "C" fn plsr_scene_builder_set_calibrated_camera(
+    builder: *mut plsr_scene_builder,
+    to_world: *const f32,
+    intrinsics: *const f64,
+    distortion: u32,
+    coefficients: *const f64,
+    count: usize,
+    width: u32,
+    height: u32,
+) -> plsr_result {
+    boundary(|| {
+        let b = handle_mut(builder, "builder")?;
+        let m = slice_arg(to_world, 16, "to_world")?;
+        let mut rows = [[0.0f32; 4]; 4];
+        for (i, row) in rows.iter_mut().enumerate() {
+            row.copy_from_slice(&m[4 * i..4 * i + 4]);
+        }
+        let pose = plsr::camera::Pose::from_matrix(rows)
+            .map_err(|e| FfiError::invalid(format!("`to_world`: {e}")))?;
+        let k = slice_arg(intrinsics, 5, "intrinsics")?;
+        let coefficients = if count > 64 {
+            return Err(FfiError::invalid(format!(
+                "`count` {count}: too many coefficients (4 to 12)"
+            )));
+        } else {
+            slice_arg(coefficients, count, "coefficients")?
+        };
+        let lens = match distortion {
+            0 if coefficients.is_empty() => Ok(LensDistortion::None),
+            0 => {
+                return Err(FfiError::invalid(
+                    "`distortion` 0 (none) takes no coefficients",
+                ))
+            }
+            1 => LensDistortion::brown_conrady(coefficients),
+            2 => LensDistortion::fisheye(coefficients),
+            d => {
+                return Err(FfiError::invalid(format!(
+                    "`distortion` {d}: 0 (none), 1 (Brown–Conrady) or 2 (fisheye)"
+                )))
+            }
+        }
+        .map_err(|e| FfiError::invalid(format!("`coefficients`: {e}")))?;
+        if width > 1 << 16 || height > 1 << 16 {
+            return Err(FfiError::invalid("camera: at most 65536 pixels a side"));
+        }
+        let intrinsics = plsr::camera::Intrinsics {
+            fx: k[0],
+            fy: k[1],
+            cx: k[2],
+            cy: k[3],
+            skew: k[4],
+        };
+        let camera = plsr::camera::CalibratedCamera::new(pose, width, height, intrinsics, lens)
+            .map_err(|e| FfiError::invalid(format!("camera: {e}")))?;
+        b.camera = Some(plsr::camera::Camera::Calibrated(camera));
         Ok(())
     })
 }
