@@ -28,13 +28,12 @@ use super::{
     CameraModel, PosedImage,
 };
 use crate::calibrated_camera::Intrinsics;
-use crate::camera::Pose;
 use crate::error::{Error, Result};
 use crate::lens_distortion::LensDistortion;
 use plsr_base::Vocabulary;
 use std::collections::HashMap;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Largest model file read, bytes (images.txt with every 2-D point of a
 /// large reconstruction).
@@ -73,12 +72,12 @@ pub fn read_model(path: &Path) -> Result<Calibration> {
             },
         ));
     }
-    let cameras_text = read_text(&cameras_path)?;
+    let cameras_text = super::read_text(&cameras_path, MAX_FILE_BYTES, "a COLMAP model file")?;
     let (ids, cameras) = parse_cameras(&cameras_text)
         .map_err(|(line, fault)| Error::input(&cameras_path, line_field(line), fault))?;
     let images_path = dir.join("images.txt");
     let images = if images_path.is_file() {
-        let text = read_text(&images_path)?;
+        let text = super::read_text(&images_path, MAX_FILE_BYTES, "a COLMAP model file")?;
         parse_images(&text, &ids)
             .map_err(|(line, fault)| Error::input(&images_path, line_field(line), fault))?
     } else {
@@ -93,22 +92,6 @@ pub fn read_model(path: &Path) -> Result<Calibration> {
 
 fn line_field(line: usize) -> String {
     format!("line {line}")
-}
-
-fn read_text(path: &PathBuf) -> Result<String> {
-    crate::input::check_input_file(path)?;
-    let size = std::fs::metadata(path)
-        .map_err(|source| Error::io(path.clone(), source))?
-        .len();
-    if size > MAX_FILE_BYTES {
-        return Err(Error::input(
-            path,
-            "",
-            format!("{size} bytes: too large a model"),
-        ));
-    }
-    let bytes = std::fs::read(path).map_err(|source| Error::io(path.clone(), source))?;
-    String::from_utf8(bytes).map_err(|_| Error::input(path, "", "not UTF-8 text"))
 }
 
 /// A fault: the 1-based line and what is wrong there.
@@ -368,15 +351,6 @@ pub fn write_images(images: &[PosedImage]) -> String {
         );
     }
     out
-}
-
-/// The pose of `name` in a model, if it has that image.
-pub fn pose_of<'a>(calibration: &'a Calibration, name: &str) -> Option<&'a Pose> {
-    calibration
-        .images
-        .iter()
-        .find(|i| i.name == name)
-        .map(|i| &i.pose)
 }
 
 #[cfg(test)]

@@ -110,6 +110,26 @@ pub fn read(path: &Path, fisheye: bool) -> Result<Calibration> {
     }
 }
 
+/// The text of a calibration file of at most `max_bytes` (checked before
+/// it is read), refused naming the file when larger or not UTF-8; `what`
+/// says what the file should be.
+fn read_text(path: &Path, max_bytes: u64, what: &str) -> Result<String> {
+    use crate::error::Error;
+    crate::input::check_input_file(path)?;
+    let size = std::fs::metadata(path)
+        .map_err(|source| Error::io(path.to_path_buf(), source))?
+        .len();
+    if size > max_bytes {
+        return Err(Error::input(
+            path,
+            "",
+            format!("{size} bytes: larger than {what} can be ({max_bytes} bytes at most)"),
+        ));
+    }
+    let bytes = std::fs::read(path).map_err(|source| Error::io(path.to_path_buf(), source))?;
+    String::from_utf8(bytes).map_err(|_| Error::input(path, "", format!("not UTF-8 text ({what})")))
+}
+
 /// The rotation matrix (rows) of a unit quaternion `(w, x, y, z)`.
 pub fn quaternion_matrix(q: [f64; 4]) -> [[f64; 3]; 3] {
     let [w, x, y, z] = q;

@@ -32,20 +32,7 @@ const MAX_FILE_BYTES: u64 = 64 << 20;
 /// Reads an OpenCV or ROS calibration file; `fisheye` forces the fisheye
 /// model when the file does not name its model.
 pub fn read(path: &Path, fisheye: bool) -> Result<Calibration> {
-    crate::input::check_input_file(path)?;
-    let size = std::fs::metadata(path)
-        .map_err(|source| Error::io(path.to_path_buf(), source))?
-        .len();
-    if size > MAX_FILE_BYTES {
-        return Err(Error::input(
-            path,
-            "",
-            format!("{size} bytes: larger than any calibration ({MAX_FILE_BYTES} bytes at most)"),
-        ));
-    }
-    let bytes = std::fs::read(path).map_err(|source| Error::io(path.to_path_buf(), source))?;
-    let text = String::from_utf8(bytes)
-        .map_err(|_| Error::input(path, "", "not UTF-8 text (a YAML or JSON calibration)"))?;
+    let text = super::read_text(path, MAX_FILE_BYTES, "a YAML or JSON calibration")?;
     parse(&text, fisheye).map_err(|(field, fault)| Error::input(path, field, fault))
 }
 

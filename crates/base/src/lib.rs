@@ -12,6 +12,7 @@ pub mod error;
 pub mod exr_header;
 pub mod input;
 pub mod memory;
+pub mod paths;
 pub mod rng;
 pub mod text;
 pub mod threads;

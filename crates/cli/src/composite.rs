@@ -205,6 +205,7 @@ fn run_frames(
         ));
     }
     let views = contents.views.clone();
+    let inputs = contents.inputs.clone();
     let path = contents.camera_path.clone();
     let base_camera = contents.description.camera.clone();
     if !contents.description.meshes.iter().any(|m| m.is_virtual) {
@@ -244,6 +245,26 @@ fn run_frames(
                 ),
             ));
         }
+        let (output, png, matte) = (
+            frame_path(&a.output, Some(frame)),
+            a.png.as_ref().map(|p| frame_path(p, Some(frame))),
+            a.matte.as_ref().map(|p| frame_path(p, Some(frame))),
+        );
+        // No frame's output may replace its photo or a file the scene reads.
+        for out in std::iter::once(&output).chain(&png).chain(&matte) {
+            if let Some(input) = std::iter::once(&photo_file)
+                .chain(&inputs)
+                .find(|i| same_file(out, i))
+            {
+                return Err(Error::output(
+                    out.clone(),
+                    format!(
+                        "frame {frame}: is {}, an input: it would be overwritten",
+                        input.display()
+                    ),
+                ));
+            }
+        }
         let exposure = if a.refit_exposure {
             spec.exposure
         } else {
@@ -252,11 +273,6 @@ fn run_frames(
         let (result, report) =
             plsr_apps::composite::composite_built(&scene, &photo, exposure, options, progress)?;
         kept.get_or_insert(result.k);
-        let (output, png, matte) = (
-            frame_path(&a.output, Some(frame)),
-            a.png.as_ref().map(|p| frame_path(p, Some(frame))),
-            a.matte.as_ref().map(|p| frame_path(p, Some(frame))),
-        );
         let mut outputs = OutputSet::new();
         result.stage_exr(&mut outputs, &output)?;
         if let Some(p) = &png {

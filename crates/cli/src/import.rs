@@ -104,17 +104,7 @@ pub fn run(a: &ImportArgs) -> Result<()> {
     for n in &translation.notes {
         eprintln!("note: {n}");
     }
-    match &a.output {
-        Some(out) => {
-            write_atomically(out, |w| {
-                w.write_all(translation.toml.as_bytes())
-                    .map_err(|source| Error::io(out.clone(), source))
-            })?;
-            eprintln!("wrote {}", out.display());
-        }
-        None => print!("{}", translation.toml),
-    }
-    Ok(())
+    write_or_print(a.output.as_ref(), &translation.toml)
 }
 
 /// Whether `path` names a calibration rather than a Mitsuba scene.
@@ -137,6 +127,10 @@ fn import_calibration(a: &ImportArgs) -> Result<()> {
         return Err(Error::invalid_argument(
             "-D and --anim-time are for Mitsuba scenes and glTF, not camera calibrations",
         ));
+    }
+    if let Some(out) = &a.output {
+        check_extension(out, "toml", "a plsr scene (TOML)")
+            .map_err(|m| Error::invalid_argument(format!("-o {}: {m}", out.display())))?;
     }
     let calibration = plsr::calibration::read(&a.input, c.fisheye)?;
     let base = match &c.scene {
@@ -178,7 +172,16 @@ fn import_calibration(a: &ImportArgs) -> Result<()> {
                 )));
             }
         }
-        plsr::scene::file::load_contents_from_text(scene, &toml)?;
+        let contents = plsr::scene::file::load_contents_from_text(scene, &toml)?;
+        if let Some(out) = &a.output {
+            if let Some(input) = contents.inputs.iter().find(|i| same_file(out, i)) {
+                return Err(Error::invalid_argument(format!(
+                    "-o {}: would replace {}, which the scene reads",
+                    out.display(),
+                    input.display()
+                )));
+            }
+        }
     }
     let cameras = calibration.cameras.len();
     let images = calibration.images.len();
@@ -199,23 +202,29 @@ fn import_calibration(a: &ImportArgs) -> Result<()> {
         summary.push_str(&format!(", reprojection error {e:.3} px"));
     }
     eprintln!("calibration: {summary}");
-    match &a.output {
+    if let Some(out) = &a.output {
+        if same_file(out, &a.input) || c.scene.as_ref().is_some_and(|s| same_file(out, s)) {
+            return Err(Error::invalid_argument(format!(
+                "-o {}: would replace the calibration or the scene it reads",
+                out.display()
+            )));
+        }
+    }
+    write_or_print(a.output.as_ref(), &toml)
+}
+
+/// Writes `text` to `out` (all at once), or prints it when no output is
+/// given.
+fn write_or_print(out: Option<&PathBuf>, text: &str) -> Result<()> {
+    match out {
         Some(out) => {
-            check_extension(out, "toml", "a plsr scene (TOML)")
-                .map_err(|m| Error::invalid_argument(format!("-o {}: {m}", out.display())))?;
-            if same_file(out, &a.input) || c.scene.as_ref().is_some_and(|s| same_file(out, s)) {
-                return Err(Error::invalid_argument(format!(
-                    "-o {}: would replace the calibration or the scene it reads",
-                    out.display()
-                )));
-            }
             write_atomically(out, |w| {
-                w.write_all(toml.as_bytes())
+                w.write_all(text.as_bytes())
                     .map_err(|source| Error::io(out.clone(), source))
             })?;
             eprintln!("wrote {}", out.display());
         }
-        None => print!("{toml}"),
+        None => print!("{text}"),
     }
     Ok(())
 }

@@ -38,9 +38,9 @@ pub struct UndistortArgs {
 /// Runs `plsr undistort`.
 pub fn run(a: &UndistortArgs) -> Result<()> {
     plsr::input::check_input_file(&a.input)?;
-    if same_file(&a.output, &a.input) {
+    if same_file(&a.output, &a.input) || same_file(&a.output, &a.calibration) {
         return Err(Error::invalid_argument(format!(
-            "-o {}: would replace the photo",
+            "-o {}: would replace the photo or the calibration",
             a.output.display()
         )));
     }

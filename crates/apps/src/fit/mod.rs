@@ -162,6 +162,14 @@ impl View {
 /// The default mask of a camera: pixels whose rays through four points of
 /// the pixel (lens centre) all meet a real surface that does not emit.
 pub fn surface_mask(scene: &Scene, camera: &Camera) -> Vec<bool> {
+    pixels_where(scene, camera, |m| {
+        scene.mesh_lights(m).is_none() && scene.meshes()[m].pls.is_none()
+    })
+}
+
+/// Pixels whose camera rays through four points of the pixel (lens
+/// centre) all meet a real mesh for which `meets(mesh index)` holds.
+fn pixels_where(scene: &Scene, camera: &Camera, meets: impl Fn(usize) -> bool) -> Vec<bool> {
     let (w, h) = (camera.width(), camera.height());
     let mut mask = vec![false; (w * h) as usize];
     let offsets = [
@@ -179,10 +187,7 @@ pub fn surface_mask(scene: &Scene, camera: &Camera) -> Vec<bool> {
                 };
                 let mut rh = [RayHit::masked(ray, REAL_MASK)];
                 scene.accel().intersect_each(&mut rh);
-                rh[0].hit().is_some_and(|hit| {
-                    let m = hit.geom_id as usize;
-                    scene.mesh_lights(m).is_none() && scene.meshes()[m].pls.is_none()
-                })
+                rh[0].hit().is_some_and(|hit| meets(hit.geom_id as usize))
             });
             mask[(y * w + x) as usize] = all;
         }
@@ -819,35 +824,6 @@ fn scales_radiance(p: &Parameter) -> bool {
     )
 }
 
-/// Pixels of `view` whose camera rays through four points all meet one of
-/// `meshes` (visible surfaces only).
-fn pixels_on(scene: &Scene, camera: &Camera, meshes: &[usize]) -> Vec<bool> {
-    let (w, h) = (camera.width(), camera.height());
-    let offsets = [
-        Vec2::new(0.25, 0.25),
-        Vec2::new(0.75, 0.25),
-        Vec2::new(0.25, 0.75),
-        Vec2::new(0.75, 0.75),
-    ];
-    let mut out = vec![false; (w * h) as usize];
-    for y in 0..h {
-        for x in 0..w {
-            out[(y * w + x) as usize] = offsets.iter().all(|o| {
-                let film = Vec2::new(x as f32, y as f32) + *o;
-                let Some(ray) = camera.generate_ray(film, Vec2::splat(0.5)) else {
-                    return false;
-                };
-                let mut rh = [RayHit::masked(ray, REAL_MASK)];
-                scene.accel().intersect_each(&mut rh);
-                rh[0]
-                    .hit()
-                    .is_some_and(|hit| meshes.contains(&(hit.geom_id as usize)))
-            });
-        }
-    }
-    out
-}
-
 /// Fewest pixels of a reference that pin the scale.
 const MIN_REFERENCE_PIXELS: usize = 8;
 
@@ -917,7 +893,7 @@ fn pin_scale(
                 };
                 params::apply(scene, &param, &[*r, *r, *r])?;
             }
-            let seen = pixels_on(scene, &view.camera, &meshes);
+            let seen = pixels_where(scene, &view.camera, |m| meshes.contains(&m));
             let n = seen
                 .iter()
                 .zip(&view.mask)
@@ -960,7 +936,7 @@ fn pin_scale(
                     ),
                 ));
             }
-            let seen = pixels_on(scene, &view.camera, &meshes);
+            let seen = pixels_where(scene, &view.camera, |m| meshes.contains(&m));
             let n = seen.iter().filter(|s| **s).count();
             if n < MIN_REFERENCE_PIXELS {
                 return Err(Error::input(

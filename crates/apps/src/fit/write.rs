@@ -285,21 +285,7 @@ fn path_from(out_dir: &Path, scene_dir: &Path, original: &str) -> Option<String>
     }
     let target = std::fs::canonicalize(scene_abs.join(original))
         .unwrap_or_else(|_| scene_abs.join(original));
-    let common = out_abs
-        .components()
-        .zip(target.components())
-        .take_while(|(a, b)| a == b)
-        .count();
-    if common <= 1 {
-        return Some(target.to_string_lossy().into_owned());
-    }
-    let mut rel = PathBuf::new();
-    for _ in out_abs.components().skip(common) {
-        rel.push("..");
-    }
-    for c in target.components().skip(common) {
-        rel.push(c);
-    }
+    let rel = plsr_base::paths::relative_between(&out_abs, &target);
     Some(rel.to_string_lossy().replace('\\', "/"))
 }
 

@@ -326,22 +326,7 @@ pub fn relative_path(from: &Path, to: &Path) -> Result<PathBuf> {
     let abs =
         |p: &Path| std::fs::canonicalize(p).map_err(|source| Error::io(p.to_path_buf(), source));
     let (from, to) = (abs(from)?, abs(to)?);
-    let common = from
-        .components()
-        .zip(to.components())
-        .take_while(|(a, b)| a == b)
-        .count();
-    if common <= 1 {
-        return Ok(to);
-    }
-    let mut rel = PathBuf::new();
-    for _ in from.components().skip(common) {
-        rel.push("..");
-    }
-    for c in to.components().skip(common) {
-        rel.push(c);
-    }
-    Ok(rel)
+    Ok(plsr_base::paths::relative_between(&from, &to))
 }
 
 #[cfg(test)]

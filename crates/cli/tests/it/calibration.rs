@@ -6,22 +6,10 @@
 
 use plsr::camera::Camera;
 use std::path::Path;
-use std::process::Command;
 
 const FIXTURES: &str = "tests/fixtures/calibration";
 
-/// Runs `plsr ARGS`: (success, stdout, stderr).
-fn plsr(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
+use crate::plsr;
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()

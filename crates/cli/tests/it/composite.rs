@@ -737,5 +737,28 @@ fn a_video_composites_each_frame_through_its_camera() {
     assert!(
         !out.status.success() && stderr.contains("{frame}"),
         "{stderr}"
+    ); // Nor may a frame's output replace that frame's photo.
+    let before = std::fs::read(dir.path().join("photo-0000.png")).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .current_dir(dir.path())
+        .args([
+            "composite",
+            "video.toml",
+            "--frames",
+            "0..2",
+            "-o",
+            "c-{frame}.exr",
+        ])
+        .args(["--png", "photo-{frame}.png", "-q"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("overwritten"),
+        "{stderr}"
+    );
+    assert_eq!(
+        std::fs::read(dir.path().join("photo-0000.png")).unwrap(),
+        before
     );
 }

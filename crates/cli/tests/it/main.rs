@@ -5,6 +5,19 @@
 
 plsr_testkit::run_from_the_repository_root!();
 
+/// Runs `plsr ARGS`: (success, stdout, stderr).
+pub(crate) fn plsr(args: &[&str]) -> (bool, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
 mod bad_input;
 mod bad_meshes;
 mod bad_options;

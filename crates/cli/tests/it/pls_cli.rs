@@ -1,19 +1,8 @@
 //! `plsr pls check | mesh | transform` end to end.
 
 use std::path::Path;
-use std::process::Command;
 
-fn plsr(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+use crate::plsr;
 
 #[test]
 fn check_prints_a_table_of_the_lights() {

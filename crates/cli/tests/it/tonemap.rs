@@ -8,19 +8,8 @@ use common::scenes::cornell_64;
 use glam::Vec3;
 use plsr::film::{auto_exposure_stops, Film};
 use std::path::Path;
-use std::process::Command;
 
-fn plsr(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
+use crate::plsr;
 
 /// A 64×32 image: a horizontal gradient over two decades of radiance,
 /// times `scale`, with a small light 1000× brighter in one corner.
