@@ -4,7 +4,7 @@
 use crate::error::{Error, Result};
 use crate::film::{Film, FilmSums};
 use crate::integrator::gradient::{gradient_tile, GradientMap, TileGradient};
-use crate::integrator::{render_tile, Isa, RayStats, SoaScene, Tile};
+use crate::integrator::{render_tile, render_tile_pair, Isa, RayStats, SoaScene, Tile};
 pub use crate::job::RenderJob;
 use crate::scene::Scene;
 pub use crate::threads::thread_pool;
@@ -210,6 +210,42 @@ pub fn render_window_sums(
     window: Option<Tile>,
     progress: &(dyn Fn(usize, usize) -> bool + Sync),
 ) -> Result<(FilmSums, RenderStats)> {
+    let (sums, _, stats) = render_tiles(scene, job, options, window, false, progress)?;
+    Ok((sums, stats))
+}
+
+/// Compositing's pair of renders of the whole image: `job` with the
+/// virtual objects and without them, each film's sums bit for bit those
+/// of [`render_sums`] with `hide_virtual` false and true, in one
+/// wavefront that traces a path once until it meets a virtual object
+/// ([`crate::integrator::render_tile_pair`]). The stats count both
+/// renders' samples and rays.
+pub fn render_pair_sums(
+    scene: &Scene,
+    job: &RenderJob,
+    options: &RenderOptions,
+    progress: &(dyn Fn(usize, usize) -> bool + Sync),
+) -> Result<(FilmSums, FilmSums, RenderStats)> {
+    if job.hide_virtual {
+        return Err(Error::invalid_argument(
+            "a paired render shows the virtual objects in its first film (hide_virtual is false)",
+        ));
+    }
+    let (with, without, stats) = render_tiles(scene, job, options, None, true, progress)?;
+    let without = without.expect("a paired render returns both films");
+    Ok((with, without, stats))
+}
+
+/// [`render_window_sums`], and with `paired` the film without the virtual
+/// objects too ([`render_pair_sums`]).
+fn render_tiles(
+    scene: &Scene,
+    job: &RenderJob,
+    options: &RenderOptions,
+    window: Option<Tile>,
+    paired: bool,
+    progress: &(dyn Fn(usize, usize) -> bool + Sync),
+) -> Result<(FilmSums, Option<FilmSums>, RenderStats)> {
     job.validate()
         .map_err(|e| Error::invalid_argument(format!("render: {e}")))?;
     if options.tile_size == 0 || options.tile_size > MAX_TILE_SIZE {
@@ -269,12 +305,9 @@ pub fn render_window_sums(
     let pool = thread_pool(options.threads)?;
     let done = AtomicUsize::new(0);
     let cancelled = AtomicBool::new(false);
-    let film = Mutex::new(FilmSums::new(
-        width,
-        height,
-        job.sample_start,
-        *scene.film(),
-    ));
+    let new_film = || FilmSums::new(width, height, job.sample_start, *scene.film());
+    let film = Mutex::new(new_film());
+    let film_o = Mutex::new(paired.then(new_film));
     let rays = Mutex::new(RayStats::default());
     let start = Instant::now();
     pool.install(|| {
@@ -282,7 +315,16 @@ pub fn render_window_sums(
             if cancelled.load(Ordering::Relaxed) {
                 return;
             }
-            let r = render_tile(scene, job, kernel.as_ref().map(|k| (k, isa)), tile);
+            let kernel = kernel.as_ref().map(|k| (k, isa));
+            let r = if paired {
+                let (r, pixels_o) = render_tile_pair(scene, job, kernel, tile);
+                if let Some(film_o) = film_o.lock().unwrap_or_else(|e| e.into_inner()).as_mut() {
+                    film_o.add_tile(r.tile, &pixels_o);
+                }
+                r
+            } else {
+                render_tile(scene, job, kernel, tile)
+            };
             // Each tile covers its own pixels, so the order in which tiles
             // are folded in does not change the sums.
             film.lock()
@@ -299,14 +341,17 @@ pub fn render_window_sums(
         return Err(Error::cancelled());
     }
     let seconds = start.elapsed().as_secs_f64();
+    let renders = if paired { 2 } else { 1 };
     let stats = RenderStats {
         seconds,
-        samples: window.width as u64 * window.height as u64 * job.spp as u64,
+        samples: renders * window.width as u64 * window.height as u64 * job.spp as u64,
         rays: rays.into_inner().unwrap_or_else(|e| e.into_inner()),
         threads: pool.current_num_threads(),
         vectorised: kernel.is_some().then_some(isa),
     };
-    Ok((film.into_inner().unwrap_or_else(|e| e.into_inner()), stats))
+    let film = film.into_inner().unwrap_or_else(|e| e.into_inner());
+    let film_o = film_o.into_inner().unwrap_or_else(|e| e.into_inner());
+    Ok((film, film_o, stats))
 }
 
 /// What a gradient pass ([`render_gradient`]) returns.

@@ -93,10 +93,69 @@ pub fn render_tile(
                 sample: s,
                 first: s == first_sample,
             };
-            soa::trace_pass(isa, &pass, &mut lanes, &mut pixels, &mut rays);
+            soa::trace_pass(isa, &pass, &mut lanes, &mut pixels, &mut rays, None);
         }
         return TileResult { tile, pixels, rays };
     }
     general::render_samples(scene, job, tile, &mut pixels, &mut rays);
     TileResult { tile, pixels, rays }
+}
+
+/// Renders compositing's pair of renders of `tile`: the job with the
+/// virtual objects (the result's `pixels`) and without them (the second
+/// value), each pixel's sums bit for bit those of [`render_tile`] with
+/// `hide_virtual` false and true. With `kernel`, in one wavefront whose
+/// paths are traced once until they meet a virtual object (see
+/// `soa/paired.rs`; `rays` counts both renders' rays, `forked`,
+/// `o_rays` and `shadow_again` what the pair cost); without, as two renders.
+///
+/// # Panics
+/// If the job hides the virtual objects.
+pub fn render_tile_pair(
+    scene: &Scene,
+    job: &RenderJob,
+    kernel: Option<(&SoaScene, Isa)>,
+    tile: Tile,
+) -> (TileResult, Vec<PixelSums>) {
+    assert!(
+        !job.hide_virtual,
+        "a paired render's job shows the virtual objects"
+    );
+    let Some((kernel, isa)) = kernel else {
+        let hidden = RenderJob {
+            hide_virtual: true,
+            ..*job
+        };
+        let mut with = render_tile(scene, job, None, tile);
+        let without = render_tile(scene, &hidden, None, tile);
+        with.rays.add(&without.rays);
+        return (with, without.pixels);
+    };
+    let samples = job.samples();
+    let n = (tile.width * tile.height) as usize;
+    let empty = PixelSums {
+        samples: job.spp,
+        ..Default::default()
+    };
+    let (mut pixels, mut pixels_o) = (vec![empty; n], vec![empty; n]);
+    let mut rays = RayStats::default();
+    let first_sample = samples.start;
+    let mut lanes = soa::SoaLanes::default();
+    let mut paired = soa::PairedLanes::default();
+    for s in samples {
+        let pass = soa::TilePass {
+            kernel,
+            scene,
+            job,
+            tile,
+            sample: s,
+            first: s == first_sample,
+        };
+        let pair = soa::PairPass {
+            lanes: &mut paired,
+            pixels: &mut pixels_o,
+        };
+        soa::trace_pass(isa, &pass, &mut lanes, &mut pixels, &mut rays, Some(pair));
+    }
+    (TileResult { tile, pixels, rays }, pixels_o)
 }

@@ -107,6 +107,17 @@ pub struct RayStats {
     /// rest of a render's CPU time is shading and bookkeeping). Timed per
     /// batch of a wavefront, so the clock costs nothing measurable.
     pub trace_nanos: u64,
+    /// Compositing's paired render (see
+    /// [`render_tile_pair`](super::render_tile_pair)): paths that met a
+    /// virtual object and were forked.
+    pub forked: u64,
+    /// Closest-hit rays traced for forked paths without the virtual objects
+    /// (their camera and continuation rays, counted in `camera`/`bounce`
+    /// too only for the continuations).
+    pub o_rays: u64,
+    /// Shadow rays of shared paths asked again without the virtual objects
+    /// (blocked, and their segment meets a virtual object's bounds).
+    pub shadow_again: u64,
 }
 
 impl RayStats {
@@ -121,6 +132,9 @@ impl RayStats {
         self.bounce += o.bounce;
         self.shadow += o.shadow;
         self.trace_nanos += o.trace_nanos;
+        self.forked += o.forked;
+        self.o_rays += o.o_rays;
+        self.shadow_again += o.shadow_again;
     }
 }
 

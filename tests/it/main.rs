@@ -17,6 +17,7 @@ mod gltf_import;
 mod instancing;
 mod materials;
 mod mitsuba_parity;
+mod paired_render;
 mod plastic;
 mod pls;
 mod pls_render;

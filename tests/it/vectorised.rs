@@ -10,9 +10,9 @@ use plsr::scene::{file::load, Scene};
 use std::path::Path;
 
 /// A scene and what to render of it.
-struct Case {
-    scene: Scene,
-    job: RenderJob,
+pub(crate) struct Case {
+    pub(crate) scene: Scene,
+    pub(crate) job: RenderJob,
 }
 
 impl Case {
@@ -31,7 +31,7 @@ fn embree_demo(size: u32, spp: u32) -> Case {
 
 /// Loads a scene written to a temporary file; `OBJ` in `text` stands for
 /// the absolute path of Embree's Cornell box.
-fn scene_from(name: &str, text: &str) -> Case {
+pub(crate) fn scene_from(name: &str, text: &str) -> Case {
     let obj =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/cornell/embree_cornell_box.obj");
     // The scene is built once loaded: its file may go with the folder.
@@ -185,7 +185,7 @@ fn assert_same(what: &str, general: &Film, fast: &Film) {
 }
 
 /// The instruction sets this CPU can run.
-fn isas() -> Vec<Isa> {
+pub(crate) fn isas() -> Vec<Isa> {
     [Isa::Baseline, Isa::Avx2, Isa::Avx512]
         .into_iter()
         .filter(|i| i.is_available())

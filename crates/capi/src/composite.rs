@@ -6,7 +6,7 @@ use super::{
     boundary, handle_ref, new_handle, plsr_result, plsr_scene, slice_arg, write_out, FfiError,
 };
 use plsr::render::RenderOptions;
-use plsr_apps::composite::{composite_built, CompositeOptions, Mode, Photo, Transfer};
+use plsr_apps::composite::{composite_built, CompositeOptions, Mode, Photo, Retrace, Transfer};
 
 /// How to composite, for [`plsr_composite`]. Added in 0.4.0.
 #[repr(C)]
@@ -93,6 +93,7 @@ pub extern "C" fn plsr_composite(
                 ..Default::default()
             },
             denoise: None,
+            retrace: Retrace::Touched,
         };
         let (result, _) = composite_built(&s.scene, &photo, exposure, &options, &|_, _| true)?;
         if !exposure_out.is_null() {

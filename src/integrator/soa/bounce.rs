@@ -6,15 +6,20 @@ use super::*;
 
 /// One tile pass; inlined into each instruction-set variant of
 /// [`trace_pass`], which names its instruction set `T` (for the material
-/// kinds' passes, which are not inlined).
+/// kinds' passes, which are not inlined). With `pair`, the pass renders
+/// compositing's pair of renders at once (see `paired.rs`): `pixels` gets
+/// the render with the virtual objects, the pair's pixels the one without
+/// them.
 #[inline(always)]
 pub(super) fn trace_pass_body<T: InstructionSet>(
     pass: &TilePass,
     lanes: &mut SoaLanes,
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
+    mut pair: Option<PairPass>,
 ) {
-    let (kernel, scene) = (pass.kernel, pass.scene);
+    let scene = pass.scene;
+    lanes.paired = pair.is_some();
 
     // Camera rays: vectorised for a pinhole camera with the box filter,
     // otherwise one by one through the general code's camera and filter.
@@ -32,66 +37,144 @@ pub(super) fn trace_pass_body<T: InstructionSet>(
     lanes.rays.set_mask(pass.job.ray_mask());
     lanes.shadow.set_mask(pass.job.ray_mask());
     stats.camera += n as u64;
-    let clock = Instant::now();
-    scene.accel().intersect_batch(&mut lanes.rays, true);
-    stats.trace_nanos += clock.elapsed().as_nanos() as u64;
-    if kernel.any_textured || kernel.any_smooth || kernel.any_anisotropic {
-        lane_surfaces(kernel, scene, lanes);
+    if let Some(pair) = pair.as_mut() {
+        start_shared(lanes, pair);
     }
+    trace_next(pass, lanes, pair.as_mut(), stats, true);
 
     // The camera vertex's auxiliary layers.
-    camera_vertex_layers(pass, lanes, pixels);
+    camera_vertex_layers(pass, lanes, pixels, None);
+    if let Some(pair) = pair.as_mut() {
+        camera_vertex_layers(pass, lanes, pair.pixels, Some(&lanes.shared));
+        camera_vertex_layers(pass, &pair.lanes.o, pair.pixels, None);
+    }
 
-    let max_depth = pass.job.max_depth;
+    let mut depth = 0;
+    loop {
+        let pixels_o = pair.as_mut().map(|p| &mut *p.pixels);
+        let mut going = bounce::<T>(pass, lanes, depth, pixels, pixels_o, stats);
+        if let Some(pair) = pair.as_mut() {
+            going |= bounce::<T>(pass, &mut pair.lanes.o, depth, pair.pixels, None, stats);
+        }
+        if !going {
+            break;
+        }
+        trace_next(pass, lanes, pair.as_mut(), stats, false);
+        depth += 1;
+    }
+}
+
+/// One bounce of the paths in `lanes` at `depth` scattering events: the
+/// emission their rays found, then (below the maximum depth) a light sample
+/// and the next ray; ended paths are retired (with `pixels_o`, a paired
+/// render's shared paths into those pixels too). Returns whether any path
+/// goes on; if none does, every path has been retired and `lanes` is empty.
+#[inline(always)]
+pub(super) fn bounce<T: InstructionSet>(
+    pass: &TilePass,
+    lanes: &mut SoaLanes,
+    depth: u32,
+    pixels: &mut [PixelSums],
+    pixels_o: Option<&mut [PixelSums]>,
+    stats: &mut RayStats,
+) -> bool {
+    let (kernel, scene) = (pass.kernel, pass.scene);
+    if lanes.rays.is_empty() {
+        return false;
+    }
     // Emission is only found on emitting triangles and in the environment
     // (and only then are the previous points and densities its MIS weight
     // needs kept).
     let has_emitters = kernel.triangle_lights || kernel.environment.is_some();
-    let mut depth = 0;
-    while !lanes.rays.is_empty() {
-        if has_emitters {
-            add_emission(kernel, scene, lanes, depth);
-        }
-        if depth >= max_depth {
-            break;
-        }
-        let n = lanes.rays.len();
-        let uniform = Uniform {
-            // The ray after the last light sample can only find a light.
-            continue_paths: depth + 1 < max_depth || scene.has_hittable_lights(),
-            roulette: depth + 1 >= pass.job.rr_depth,
-        };
-        pick_lights(kernel, scene, lanes);
-        shade_lanes::<T>(kernel, lanes, uniform);
-
-        let shadow_tfar = lanes.shadow.tfar.as_slice();
-        stats.shadow += shadow_tfar.iter().filter(|&&t| t > 0.0).count() as u64;
-        let clock = Instant::now();
-        scene.accel().occluded_batch(&mut lanes.shadow, false);
-        stats.trace_nanos += clock.elapsed().as_nanos() as u64;
-        let live = add_unoccluded(lanes);
-        stats.bounce += live as u64;
-
-        // Retire finished paths; compact once enough lanes are idle.
-        if live == 0 {
-            break;
-        }
-        if live * 3 <= n * 2 {
-            retire(lanes, &lanes.ended, scene, pixels);
-            lanes.retain(has_emitters);
-        }
-        let clock = Instant::now();
-        scene.accel().intersect_batch(&mut lanes.rays, false);
-        stats.trace_nanos += clock.elapsed().as_nanos() as u64;
-        if kernel.any_textured || kernel.any_smooth || kernel.any_anisotropic {
-            lane_surfaces(kernel, scene, lanes);
-        }
-        depth += 1;
+    if has_emitters {
+        add_emission(kernel, scene, lanes, depth);
     }
-    // Every path still in a lane has ended now.
-    lanes.ended.clear();
-    lanes.ended.extend(0..lanes.rays.len() as u32);
-    retire(lanes, &lanes.ended, scene, pixels);
+    let retire_all = |lanes: &mut SoaLanes, pixels: &mut [PixelSums], pixels_o| {
+        lanes.ended.clear();
+        lanes.ended.extend(0..lanes.rays.len() as u32);
+        retire(lanes, &lanes.ended, scene, pixels, pixels_o);
+        lanes.kept.clear();
+        lanes.retain(false);
+    };
+    if depth >= pass.job.max_depth {
+        retire_all(lanes, pixels, pixels_o);
+        return false;
+    }
+    let n = lanes.rays.len();
+    let uniform = Uniform {
+        // The ray after the last light sample can only find a light.
+        continue_paths: depth + 1 < pass.job.max_depth || scene.has_hittable_lights(),
+        roulette: depth + 1 >= pass.job.rr_depth,
+    };
+    pick_lights(kernel, scene, lanes);
+    shade_lanes::<T>(kernel, lanes, uniform);
+
+    let shadow_tfar = lanes.shadow.tfar.as_slice();
+    stats.shadow += shadow_tfar.iter().filter(|&&t| t > 0.0).count() as u64;
+    if lanes.paired {
+        lanes.shadow_before.clear();
+        lanes.shadow_before.extend_from_slice(shadow_tfar);
+    }
+    let clock = Instant::now();
+    scene.accel().occluded_batch(&mut lanes.shadow, false);
+    if lanes.paired {
+        stats.shadow_again += requery_shadows(kernel, scene, lanes) as u64;
+    }
+    stats.trace_nanos += clock.elapsed().as_nanos() as u64;
+    let live = add_unoccluded(lanes);
+    stats.bounce += live as u64;
+
+    // Retire finished paths; compact once enough lanes are idle.
+    if live == 0 {
+        retire_all(lanes, pixels, pixels_o);
+        return false;
+    }
+    if live * 3 <= n * 2 {
+        retire(lanes, &lanes.ended, scene, pixels, pixels_o);
+        lanes.retain(has_emitters);
+    }
+    true
+}
+
+/// Traces the lanes' next rays (`coherent` for camera rays) and looks up
+/// their surfaces; with `pair`, forks the shared paths whose ray met a
+/// virtual object, then traces the pair's O-only lanes (new forks
+/// included) without the virtual objects.
+#[inline(always)]
+pub(super) fn trace_next(
+    pass: &TilePass,
+    lanes: &mut SoaLanes,
+    pair: Option<&mut PairPass>,
+    stats: &mut RayStats,
+    coherent: bool,
+) {
+    let (kernel, scene) = (pass.kernel, pass.scene);
+    if lanes.paired {
+        lanes.tfar_before.clear();
+        lanes
+            .tfar_before
+            .extend_from_slice(lanes.rays.tfar.as_slice());
+    }
+    let clock = Instant::now();
+    scene.accel().intersect_batch(&mut lanes.rays, coherent);
+    stats.trace_nanos += clock.elapsed().as_nanos() as u64;
+    let surfaces = kernel.any_textured || kernel.any_smooth || kernel.any_anisotropic;
+    if surfaces {
+        lane_surfaces(kernel, scene, lanes);
+    }
+    if let Some(pair) = pair {
+        let o = &mut pair.lanes.o;
+        stats.forked += fork_virtual_hits(kernel, lanes, o) as u64;
+        o.rays.set_mask(REAL_MASK);
+        o.shadow.set_mask(REAL_MASK);
+        stats.o_rays += o.rays.tfar.as_slice().iter().filter(|&&t| t > 0.0).count() as u64;
+        let clock = Instant::now();
+        scene.accel().intersect_batch(&mut o.rays, coherent);
+        stats.trace_nanos += clock.elapsed().as_nanos() as u64;
+        if surfaces {
+            lane_surfaces(kernel, scene, o);
+        }
+    }
 }
 
 /// Adds the emission that the lanes' rays found on emitting triangles or,
@@ -249,9 +332,15 @@ pub(super) fn lane_surfaces(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLan
 /// Adds the camera vertex's auxiliary layers (hit count, depth, normal,
 /// albedo, and on the first pass the object id) to the pixels, as the
 /// general integrator does at a path's first hit: per-lane values in
-/// vectorised chunks, then the sums lane by lane.
+/// vectorised chunks, then the sums lane by lane; with `only`, for the
+/// lanes it marks only.
 #[inline(always)]
-pub(super) fn camera_vertex_layers(pass: &TilePass, lanes: &SoaLanes, pixels: &mut [PixelSums]) {
+pub(super) fn camera_vertex_layers(
+    pass: &TilePass,
+    lanes: &SoaLanes,
+    pixels: &mut [PixelSums],
+    only: Option<&[bool]>,
+) {
     let rays = &lanes.rays;
     let n = rays.len();
     let last = pass.kernel.albedo[0].len() - 1;
@@ -301,7 +390,7 @@ pub(super) fn camera_vertex_layers(pass: &TilePass, lanes: &SoaLanes, pixels: &m
             depth[k] = pass.scene.camera().depth(d, t[k]);
         }
         for k in 0..(n - start).min(W) {
-            if geom[k] == INVALID_ID {
+            if geom[k] == INVALID_ID || only.is_some_and(|only| !only[start + k]) {
                 continue;
             }
             let g = (geom[k] as usize).min(last);
@@ -486,6 +575,22 @@ pub(super) fn add_unoccluded(lanes: &mut SoaLanes) -> usize {
                 };
             }
             store(&mut lanes.radiance[c], start, &radiance);
+        }
+        if lanes.paired {
+            // The render without the virtual objects: its own verdicts.
+            let open = load(&lanes.open_o, start);
+            for c in 0..3 {
+                let mut radiance = load(&lanes.radiance_o[c], start);
+                let pending = load(&lanes.pending[c], start);
+                for k in 0..W {
+                    radiance[k] = if open[k] {
+                        radiance[k] + pending[k]
+                    } else {
+                        radiance[k]
+                    };
+                }
+                store(&mut lanes.radiance_o[c], start, &radiance);
+            }
         }
         for k in 0..(n - start).min(W) {
             // Branch-free too: whether a path goes on is unpredictable.

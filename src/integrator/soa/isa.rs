@@ -59,29 +59,31 @@ impl Isa {
 /// for AVX-512, for AVX2 and for the baseline instruction set; `isa` picks
 /// one, or the baseline where the CPU lacks it. Every variant gives the same
 /// result: no instruction set changes how an operation rounds, and Rust
-/// fuses no multiply-add by itself.
+/// fuses no multiply-add by itself. With `pair`, the pass renders
+/// compositing's pair of renders (see [`PairPass`]).
 pub fn trace_pass(
     isa: Isa,
     pass: &TilePass,
     lanes: &mut SoaLanes,
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
+    pair: Option<PairPass>,
 ) {
     #[cfg(target_arch = "x86_64")]
     {
         if isa == Isa::Avx512 && isa.is_available() {
             // SAFETY: the CPU has the features `trace_pass_avx512` is
             // compiled for (checked just above).
-            return unsafe { trace_pass_avx512(pass, lanes, pixels, stats) };
+            return unsafe { trace_pass_avx512(pass, lanes, pixels, stats, pair) };
         }
         if isa == Isa::Avx2 && isa.is_available() {
             // SAFETY: the CPU has the features `trace_pass_avx2` is compiled
             // for (checked just above).
-            return unsafe { trace_pass_avx2(pass, lanes, pixels, stats) };
+            return unsafe { trace_pass_avx2(pass, lanes, pixels, stats, pair) };
         }
     }
     let _ = isa;
-    trace_pass_body::<Baseline>(pass, lanes, pixels, stats)
+    trace_pass_body::<Baseline>(pass, lanes, pixels, stats, pair)
 }
 
 /// [`trace_pass_body`] compiled for AVX-512 (16 lanes per instruction).
@@ -92,8 +94,9 @@ pub(super) unsafe fn trace_pass_avx512(
     lanes: &mut SoaLanes,
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
+    pair: Option<PairPass>,
 ) {
-    trace_pass_body::<Avx512>(pass, lanes, pixels, stats)
+    trace_pass_body::<Avx512>(pass, lanes, pixels, stats, pair)
 }
 
 /// [`trace_pass_body`] compiled for AVX2 (8 lanes per instruction). `fma`
@@ -105,8 +108,9 @@ pub(super) unsafe fn trace_pass_avx2(
     lanes: &mut SoaLanes,
     pixels: &mut [PixelSums],
     stats: &mut RayStats,
+    pair: Option<PairPass>,
 ) {
-    trace_pass_body::<Avx2>(pass, lanes, pixels, stats)
+    trace_pass_body::<Avx2>(pass, lanes, pixels, stats, pair)
 }
 
 /// An instruction set the kernel's passes are compiled for, as a type: each

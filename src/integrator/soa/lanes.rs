@@ -62,6 +62,27 @@ pub struct SoaLanes {
     pub(super) kept: Vec<u32>,
     /// Lanes whose paths have ended, ascending (rebuilt every bounce).
     pub(super) ended: Vec<u32>,
+    /// Whether these lanes carry compositing's pair of renders (see
+    /// `paired.rs`): the render with the virtual objects, and for the paths
+    /// that have met none so far (`shared`), the render without them too,
+    /// whose radiance is `radiance_o`. The fields below are kept only then.
+    pub(super) paired: bool,
+    /// Whether each path has met no virtual object yet: its path is the same
+    /// in both renders, but for what its shadow rays find.
+    pub(super) shared: Vec<bool>,
+    /// Each path's radiance in the render without the virtual objects (read
+    /// only where `shared`).
+    pub(super) radiance_o: [Vec<f32>; 3],
+    /// Whether each shadow ray reaches its light in the render without the
+    /// virtual objects (rebuilt every bounce).
+    pub(super) open_o: Vec<bool>,
+    /// Scratch of the paired render: the rays' `tfar` before a closest-hit
+    /// query, the shadow rays' before an occlusion query, and the shadow
+    /// rays asked again without the virtual objects, with their lanes.
+    pub(super) tfar_before: Vec<f32>,
+    pub(super) shadow_before: Vec<f32>,
+    pub(super) requery: RayBatch,
+    pub(super) requery_lanes: Vec<u32>,
 }
 
 impl SoaLanes {
@@ -96,6 +117,13 @@ impl SoaLanes {
             self.env_wi[c].resize(n, 0.0);
             self.env_radiance[c].resize(n, 0.0);
         }
+        if self.paired {
+            self.shared.resize(n, false);
+            self.open_o.resize(n, false);
+            for c in 0..3 {
+                self.radiance_o[c].resize(n, 0.0);
+            }
+        }
     }
 
     /// The scattering vertex lane `i`'s ray left from, after `depth`
@@ -122,6 +150,13 @@ impl SoaLanes {
         let add = beta * le * weight;
         for c in 0..3 {
             self.radiance[c][i] += add[c];
+        }
+        // A shared path finds the same emission in both renders (a W-only
+        // path's `radiance_o` is never read).
+        if self.paired {
+            for c in 0..3 {
+                self.radiance_o[c][i] += add[c];
+            }
         }
     }
 
@@ -162,6 +197,12 @@ impl SoaLanes {
             gather_lanes(&mut self.beta[c], kept);
             gather_lanes(&mut self.radiance[c], kept);
         }
+        if self.paired {
+            gather_lanes(&mut self.shared, kept);
+            for c in 0..3 {
+                gather_lanes(&mut self.radiance_o[c], kept);
+            }
+        }
         if emitters {
             gather_lanes(&mut self.prev_pdf, kept);
             for c in 0..3 {
@@ -174,9 +215,17 @@ impl SoaLanes {
 }
 
 /// Adds the radiance of the paths of `ended` (lane indices) to their
-/// pixels, as the general integrator retires a path.
+/// pixels, as the general integrator retires a path; with `pixels_o` (a
+/// paired render's main lanes), each shared path's `radiance_o` to its
+/// pixel there too.
 #[inline(always)]
-pub(super) fn retire(lanes: &SoaLanes, ended: &[u32], scene: &Scene, pixels: &mut [PixelSums]) {
+pub(super) fn retire(
+    lanes: &SoaLanes,
+    ended: &[u32],
+    scene: &Scene,
+    pixels: &mut [PixelSums],
+    mut pixels_o: Option<&mut [PixelSums]>,
+) {
     let response = scene.film().response();
     for &i in ended {
         let i = i as usize;
@@ -186,6 +235,16 @@ pub(super) fn retire(lanes: &SoaLanes, ended: &[u32], scene: &Scene, pixels: &mu
             lanes.radiance[2][i],
         );
         pixels[lanes.pixel[i] as usize].add_radiance(response.apply(radiance));
+        if let Some(pixels_o) = pixels_o.as_deref_mut() {
+            if lanes.shared[i] {
+                let radiance = Vec3::new(
+                    lanes.radiance_o[0][i],
+                    lanes.radiance_o[1][i],
+                    lanes.radiance_o[2][i],
+                );
+                pixels_o[lanes.pixel[i] as usize].add_radiance(response.apply(radiance));
+            }
+        }
     }
 }
 

@@ -45,7 +45,7 @@ use super::steps::{
     camera_sample, emission_weight, environment_weight, roulette, roulette_spins,
     shading_normal_towards, sides_agree, PrevVertex, RayStats, SurfacePoint,
 };
-use crate::accel::{gather_lanes, RayBatch, INVALID_ID};
+use crate::accel::{gather_lanes, RayBatch, INVALID_ID, REAL_MASK};
 use crate::bsdf::albedo::EnergyTables;
 use crate::bsdf::models::KnownAlbedos;
 use crate::bsdf::{
@@ -78,6 +78,7 @@ mod lambert;
 mod lane_bsdf;
 mod lanes;
 mod lights;
+mod paired;
 mod passes;
 mod principled;
 mod shade;
@@ -98,6 +99,7 @@ use lambert::*;
 use lane_bsdf::*;
 use lanes::*;
 use lights::*;
+use paired::*;
 use passes::*;
 use principled::*;
 use shade::*;
@@ -106,4 +108,5 @@ use tables::*;
 
 pub use isa::{trace_pass, Isa};
 pub use lanes::{SoaLanes, TilePass};
+pub use paired::{PairPass, PairedLanes};
 pub use tables::SoaScene;

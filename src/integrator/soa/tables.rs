@@ -66,6 +66,10 @@ pub struct SoaScene {
     /// into a photograph; counted in the compositing matte), with one extra
     /// `false`.
     pub(super) is_virtual: Vec<bool>,
+    /// The virtual objects' bounds, padded ([`padded_box`]): one box per
+    /// virtual mesh, or their union when there are more than 16 (for the
+    /// paired render's shadow rays, see `paired.rs`).
+    pub(super) virtual_bounds: Vec<(Vec3, Vec3)>,
     /// Whether each geometry's material is anisotropic
     /// ([`crate::material::Material::is_anisotropic`]: its lanes need a
     /// tangent), with one extra
@@ -219,6 +223,31 @@ impl SoaScene {
         smooth.push(false);
         anisotropic.push(false);
         is_virtual.push(false);
+        let mut virtual_bounds: Vec<(Vec3, Vec3)> = scene
+            .meshes()
+            .iter()
+            .filter(|m| m.is_virtual && !m.positions.is_empty())
+            .map(|m| {
+                let lo = m.positions.iter().fold(Vec3::INFINITY, |a, &p| a.min(p));
+                let hi = m
+                    .positions
+                    .iter()
+                    .fold(Vec3::NEG_INFINITY, |a, &p| a.max(p));
+                (lo, hi)
+            })
+            .collect();
+        if virtual_bounds.len() > 16 {
+            let union = virtual_bounds
+                .iter()
+                .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), &(lo, hi)| {
+                    (l.min(lo), h.max(hi))
+                });
+            virtual_bounds = vec![union];
+        }
+        let virtual_bounds = virtual_bounds
+            .into_iter()
+            .map(|(lo, hi)| padded_box(lo, hi))
+            .collect();
         let lights = scene.lights();
         // One light picked the same way everywhere: the same for every lane.
         let single_light = match lights.lights.as_slice() {
@@ -263,6 +292,7 @@ impl SoaScene {
             any_anisotropic: anisotropic.contains(&true),
             anisotropic,
             is_virtual,
+            virtual_bounds,
             single_light,
             light_table,
             environment: scene.environment_index(),

@@ -7,7 +7,7 @@ use glam::Vec3;
 use plsr::film::{Film, ToneMap};
 use plsr::render::{render, RenderJob, RenderOptions};
 use plsr::scene::Scene;
-use plsr_apps::composite::{composite_scene, fit_exposure, CompositeOptions, Mode};
+use plsr_apps::composite::{composite_scene, fit_exposure, CompositeOptions, Mode, Retrace};
 use std::path::Path;
 use std::process::Command;
 
@@ -434,6 +434,48 @@ fn the_demo_composites_through_its_recovered_curve() {
     let fit = report.fit.expect("the demo fits its exposure");
     assert!(fit.k > 0.0 && fit.used > fit.considered / 2, "{fit:?}");
     assert!(result.matte.iter().filter(|&&a| a == 1.0).count() > 1000);
+}
+
+#[test]
+fn tracing_the_pair_together_composites_as_two_renders_do() {
+    // The demo's composite with the render without the virtual objects
+    // made alongside the one with them (forked paths) and as a second
+    // whole render: the same composite, matte, difference and fitted
+    // exposure, bit for bit.
+    let path = Path::new("assets/scenes/ar-demo/ar-demo.toml");
+    let run = |retrace| {
+        let contents = plsr::scene::file::load_contents(path).unwrap();
+        let options = CompositeOptions {
+            spp: Some(2),
+            retrace,
+            ..Default::default()
+        };
+        let (result, _, report) = composite_scene(path, contents, &options, &|_, _| true).unwrap();
+        (result, report)
+    };
+    let (paired, report) = run(Retrace::Touched);
+    let (apart, apart_report) = run(Retrace::All);
+    let bits = |v: &[Vec3]| -> Vec<u32> {
+        v.iter()
+            .flat_map(|c| c.to_array().map(f32::to_bits))
+            .collect()
+    };
+    assert!(bits(&paired.color) == bits(&apart.color), "the composite");
+    assert!(
+        bits(&paired.difference) == bits(&apart.difference),
+        "the difference"
+    );
+    assert!(paired.matte == apart.matte, "the matte");
+    assert_eq!(paired.k.to_bits(), apart.k.to_bits(), "the exposure");
+    assert_eq!(report.samples, apart_report.samples);
+    // Some paths met the ball, not most.
+    let paths = report.samples / 2;
+    assert!(
+        report.rays.forked > 0 && report.rays.forked < paths / 2,
+        "{:?} of {paths} paths forked",
+        report.rays.forked
+    );
+    assert_eq!(apart_report.rays.forked, 0);
 }
 
 /// The room lit by a sphere light instead of the point light (soft,
