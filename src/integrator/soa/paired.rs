@@ -108,13 +108,28 @@ pub(super) fn fork_virtual_hits(
 pub(super) fn requery_shadows(kernel: &SoaScene, scene: &Scene, lanes: &mut SoaLanes) -> usize {
     let n = lanes.shadow.len();
     lanes.requery_lanes.clear();
-    for i in 0..n {
-        let after = lanes.shadow.tfar.as_slice()[i];
-        let open = after > 0.0;
-        lanes.open_o[i] = open;
-        if !open && lanes.shared[i] && lanes.shadow_before[i] > 0.0 {
+    for start in (0..n).step_by(W) {
+        // Which lanes are candidates, for a chunk at once: most are not.
+        let after = load(lanes.shadow.tfar.as_slice(), start);
+        let before = load(&lanes.shadow_before, start);
+        let shared = load(&lanes.shared, start);
+        let mut open = [false; W];
+        let mut candidate = [false; W];
+        for k in 0..W {
+            open[k] = after[k] > 0.0;
+            candidate[k] = !open[k] & shared[k] & (before[k] > 0.0);
+        }
+        store(&mut lanes.open_o, start, &open);
+        if !candidate.contains(&true) {
+            continue;
+        }
+        for k in 0..(n - start).min(W) {
+            if !candidate[k] {
+                continue;
+            }
+            let i = start + k;
             let ray = Ray {
-                tfar: lanes.shadow_before[i],
+                tfar: before[k],
                 ..lanes.shadow.ray(i)
             };
             if kernel
