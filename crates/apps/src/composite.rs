@@ -593,7 +593,8 @@ pub struct CompositeReport {
 /// Composites the virtual objects of a scene file into its `[photo]`:
 /// renders with and without them (same seed, one Embree scene), fits or
 /// takes the exposure, and blends (see the module docs). `progress(done,
-/// total)` counts the tiles of both renders; returning `false` cancels.
+/// total)` counts the tiles (of both renders, when they are made apart);
+/// returning `false` cancels.
 pub fn composite_scene(
     scene_file: &Path,
     contents: plsr::scene::file::SceneFileContents,

@@ -15,7 +15,8 @@
 //! lookups of rays that leave the scene are taken for all lanes at once,
 //! with the batched lookups the general integrator uses); virtual objects
 //! (compositing) included: the job's ray mask on every ray, and their
-//! coverage counted in the matte.
+//! coverage counted in the matte; a composite's renders with and without
+//! them are made at once, a path forking where it meets one (`paired.rs`).
 //!
 //! It computes what the general integrator ([`super::render_tile`])
 //! computes, in the same floating-point operations in the same order, with

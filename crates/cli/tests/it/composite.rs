@@ -478,6 +478,25 @@ fn tracing_the_pair_together_composites_as_two_renders_do() {
     assert_eq!(apart_report.rays.forked, 0);
 }
 
+#[test]
+fn two_renders_on_the_command_line_write_the_same_composite() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "assets/scenes/ar-demo/ar-demo.toml";
+    let mut outputs = Vec::new();
+    for (name, extra) in [("paired", None), ("apart", Some("--two-renders"))] {
+        let exr = dir.path().join(format!("{name}.exr"));
+        let exr_arg = exr.to_str().unwrap();
+        let mut args = vec!["composite", scene, "-o", exr_arg, "--spp", "1", "-q"];
+        args.extend(extra);
+        let (ok, _, err) = crate::plsr(&args);
+        assert!(ok, "{err}");
+        // Only the default says how many paths it traced apart.
+        assert_eq!(err.contains("traced apart"), extra.is_none(), "{err}");
+        outputs.push(std::fs::read(&exr).unwrap());
+    }
+    assert!(outputs[0] == outputs[1], "the two EXRs differ");
+}
+
 /// The room lit by a sphere light instead of the point light (soft,
 /// noisy shadows), at 96×64.
 fn soft_room(sphere: &str, photo: &str) -> String {
