@@ -71,34 +71,62 @@ pub fn render_tile(
     kernel: Option<(&SoaScene, Isa)>,
     tile: Tile,
 ) -> TileResult {
-    let samples = job.samples();
-    let n = (tile.width * tile.height) as usize;
-    let mut pixels = vec![
-        PixelSums {
-            samples: job.spp,
-            ..Default::default()
-        };
-        n
-    ];
+    let mut pixels = empty_sums(job, tile);
     let mut rays = RayStats::default();
-    let first_sample = samples.start;
-    if let Some((kernel, isa)) = kernel {
-        let mut lanes = soa::SoaLanes::default();
-        for s in samples {
-            let pass = soa::TilePass {
-                kernel,
-                scene,
-                job,
-                tile,
-                sample: s,
-                first: s == first_sample,
-            };
-            soa::trace_pass(isa, &pass, &mut lanes, &mut pixels, &mut rays, None);
-        }
-        return TileResult { tile, pixels, rays };
+    match kernel {
+        Some((kernel, isa)) => kernel_passes(
+            scene,
+            job,
+            (kernel, isa),
+            tile,
+            &mut pixels,
+            &mut rays,
+            None,
+        ),
+        None => general::render_samples(scene, job, tile, &mut pixels, &mut rays),
     }
-    general::render_samples(scene, job, tile, &mut pixels, &mut rays);
     TileResult { tile, pixels, rays }
+}
+
+/// A tile's sums before its first sample.
+fn empty_sums(job: &RenderJob, tile: Tile) -> Vec<PixelSums> {
+    let empty = PixelSums {
+        samples: job.spp,
+        ..Default::default()
+    };
+    vec![empty; (tile.width * tile.height) as usize]
+}
+
+/// The job's samples of `tile` by the vectorised kernel, one pass per
+/// sample in order; with `pixels_o`, paired (see [`render_tile_pair`]).
+fn kernel_passes(
+    scene: &Scene,
+    job: &RenderJob,
+    (kernel, isa): (&SoaScene, Isa),
+    tile: Tile,
+    pixels: &mut [PixelSums],
+    rays: &mut RayStats,
+    mut pixels_o: Option<&mut [PixelSums]>,
+) {
+    let samples = job.samples();
+    let first_sample = samples.start;
+    let mut lanes = soa::SoaLanes::default();
+    let mut paired = soa::PairedLanes::default();
+    for s in samples {
+        let pass = soa::TilePass {
+            kernel,
+            scene,
+            job,
+            tile,
+            sample: s,
+            first: s == first_sample,
+        };
+        let pair = pixels_o.as_deref_mut().map(|pixels| soa::PairPass {
+            lanes: &mut paired,
+            pixels,
+        });
+        soa::trace_pass(isa, &pass, &mut lanes, pixels, rays, pair);
+    }
 }
 
 /// Renders compositing's pair of renders of `tile`: the job with the
@@ -131,31 +159,16 @@ pub fn render_tile_pair(
         with.rays.add(&without.rays);
         return (with, without.pixels);
     };
-    let samples = job.samples();
-    let n = (tile.width * tile.height) as usize;
-    let empty = PixelSums {
-        samples: job.spp,
-        ..Default::default()
-    };
-    let (mut pixels, mut pixels_o) = (vec![empty; n], vec![empty; n]);
+    let (mut pixels, mut pixels_o) = (empty_sums(job, tile), empty_sums(job, tile));
     let mut rays = RayStats::default();
-    let first_sample = samples.start;
-    let mut lanes = soa::SoaLanes::default();
-    let mut paired = soa::PairedLanes::default();
-    for s in samples {
-        let pass = soa::TilePass {
-            kernel,
-            scene,
-            job,
-            tile,
-            sample: s,
-            first: s == first_sample,
-        };
-        let pair = soa::PairPass {
-            lanes: &mut paired,
-            pixels: &mut pixels_o,
-        };
-        soa::trace_pass(isa, &pass, &mut lanes, &mut pixels, &mut rays, Some(pair));
-    }
+    kernel_passes(
+        scene,
+        job,
+        (kernel, isa),
+        tile,
+        &mut pixels,
+        &mut rays,
+        Some(&mut pixels_o),
+    );
     (TileResult { tile, pixels, rays }, pixels_o)
 }
