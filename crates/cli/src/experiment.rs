@@ -11,7 +11,8 @@ use std::path::PathBuf;
 pub enum ExperimentCommand {
     /// The paper's Table 4 on a synthetic room: a flashlight and a ceiling
     /// lamp modelled as real fixtures, photographed as ground truth; their
-    /// PLS lights derived from the geometry; an HDR panorama captured and
+    /// PLS lights derived from the geometry, and PLS lights and albedos
+    /// fitted from the photos; an HDR panorama captured and
     /// merged; the bunny and a metal ball composited with each lighting at
     /// two positions and scored by CW-SSIM, LPIPS and FLIP against photos
     /// of the real objects (see docs/paper-experiment.md).
@@ -27,7 +28,7 @@ pub struct PaperArgs {
     #[arg(short, long, value_name = "DIR")]
     pub output: Option<PathBuf>,
     /// Run the whole pipeline small (under two minutes on two cores)
-    /// instead of the full experiment (about 15 minutes).
+    /// instead of the full experiment (about 13 minutes plus the fit from photos, not yet timed at full size).
     #[arg(long)]
     pub quick: bool,
     /// The Stanford bunny's OBJ file.

@@ -155,6 +155,7 @@ pub fn run(a: &FitArgs) -> Result<()> {
         window_direction: a.window_direction,
         window_size: a.window_size,
         window_shape: a.window_shape,
+        window_evaluations: None,
     };
     let bar = progress_bar(
         a.quiet,

@@ -12,11 +12,15 @@
 //!    ([`crate::capture`], the paper's ten exposures) and merged
 //!    ([`plsr_hdr::merge`]), which also recovers the camera's response
 //!    curve; the photos are read through that curve.
+//!    **Fitted from photos** (`Run::fit_from_photos`): the PLS lights'
+//!    windows and brightness and the room's albedos are also fitted
+//!    ([`crate::fit`]) to the two photos without objects, from guesses.
 //! 3. **Insertion.** Each object is composited ([`crate::composite`],
-//!    differential rendering) into the photo without objects, lit once by
-//!    the PLS lights (with the whole room as the proxy) and once by the
-//!    panorama as an infinitely distant environment (with the floor and
-//!    table as the proxy).
+//!    differential rendering) into the photo without objects, lit by the
+//!    measured PLS lights and by the fitted ones (with the whole room as the
+//!    proxy, the fitted albedos for the fitted lights) and by the panorama
+//!    as an infinitely distant environment (with the floor and table as the
+//!    proxy).
 //! 4. **Scores.** Each composite is scored against the photo with the real
 //!    object by CW-SSIM, LPIPS and FLIP over the object's crop
 //!    ([`CropSpec::Auto`]: the matte's bounding box plus a margin).
@@ -30,7 +34,10 @@
 use crate::capture::{capture, CaptureOptions, PAPER_EXPOSURES};
 use crate::composite::{composite_scene, CompositeOptions};
 use crate::error::{Error, Result};
-use crate::experiment::paper_room::{Lighting, Object, PaperRoom, SceneSpec, Surroundings};
+use crate::experiment::paper_room::{
+    FitPhotos, Lighting, Object, PaperRoom, SceneSpec, Surroundings,
+};
+use crate::fit::{fit_scene_file, FitOptions, FitOutcome};
 use glam::Vec3;
 use plsr::film::Film;
 use plsr::render::{render, RenderOptions};
@@ -56,10 +63,18 @@ pub struct Settings {
     pub panorama_size: (u32, u32),
     /// Samples per pixel of the panorama.
     pub panorama_spp: u32,
+    /// Samples per pixel of the fit's renders (its window search renders
+    /// at 4×).
+    pub fit_spp: u32,
+    /// Adam iterations of the fit.
+    pub fit_iterations: u32,
+    /// The most renders the fit's window search makes per light and pass.
+    pub fit_window_evaluations: u32,
 }
 
 impl Settings {
-    /// The full experiment (about 13 minutes on two cores).
+    /// The full experiment (about 13 minutes on two cores before the fit from
+    /// photos was added; not yet timed with it).
     pub fn full() -> Settings {
         Settings {
             resolution: (256, 192),
@@ -67,10 +82,13 @@ impl Settings {
             composite_spp: 512,
             panorama_size: (512, 256),
             panorama_spp: 256,
+            fit_spp: 4,
+            fit_iterations: 100,
+            fit_window_evaluations: 80,
         }
     }
 
-    /// The whole pipeline, small (well under two minutes on two cores).
+    /// The whole pipeline, small (about 100 s on two cores).
     pub fn quick() -> Settings {
         Settings {
             resolution: (192, 144),
@@ -78,6 +96,9 @@ impl Settings {
             composite_spp: 32,
             panorama_size: (128, 64),
             panorama_spp: 32,
+            fit_spp: 1,
+            fit_iterations: 40,
+            fit_window_evaluations: 40,
         }
     }
 }
@@ -99,8 +120,11 @@ pub struct PaperOptions {
 /// How an object was lit in a row of the table.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Method {
-    /// The PLS lights derived from the fixtures.
+    /// The PLS lights derived from the fixtures' geometry ("measured").
     Pls,
+    /// The PLS lights' windows and brightness, and the room's albedos,
+    /// fitted from the photos without objects.
+    Fitted,
     /// The HDR panorama as an infinitely distant environment.
     Panorama,
     /// Not composited: a second photo of the real object (other samples
@@ -109,13 +133,19 @@ pub enum Method {
 }
 
 impl Method {
-    /// All three, in the table's order.
-    pub const ALL: [Method; 3] = [Method::Pls, Method::Panorama, Method::NoiseFloor];
+    /// All four, in the table's order.
+    pub const ALL: [Method; 4] = [
+        Method::Pls,
+        Method::Fitted,
+        Method::Panorama,
+        Method::NoiseFloor,
+    ];
 
     /// Its name in tables and file names.
     pub fn name(self) -> &'static str {
         match self {
             Method::Pls => "pls",
+            Method::Fitted => "fitted",
             Method::Panorama => "panorama",
             Method::NoiseFloor => "noise-floor",
         }
@@ -124,7 +154,8 @@ impl Method {
     /// Its label in the table.
     pub fn label(self) -> &'static str {
         match self {
-            Method::Pls => "PLS",
+            Method::Pls => "PLS, measured",
+            Method::Fitted => "PLS, fitted from photos",
             Method::Panorama => "panorama",
             Method::NoiseFloor => "noise floor (2nd photo)",
         }
@@ -157,6 +188,8 @@ pub struct PaperResults {
     pub rows: Vec<Row>,
     /// The derived PLS lights' windows: name, `a` and `w` in degrees.
     pub windows: Vec<(String, f32, f32)>,
+    /// What the fit from photos found.
+    pub fit: FitFromPhotos,
     /// Wall-clock seconds of the whole run.
     pub seconds: f64,
 }
@@ -227,9 +260,20 @@ impl PaperResults {
             .iter()
             .map(|(n, a, w)| serde_json::json!({"light": n, "a": a, "penumbra": w}))
             .collect();
+        let fit = serde_json::json!({
+            "lights": self.fit.lights.iter().map(|(n, a, w, b)| {
+                serde_json::json!({"light": n, "a": a, "penumbra": w, "b": b})
+            }).collect::<Vec<_>>(),
+            "albedos": self.fit.albedos.iter().map(|(n, v)| {
+                serde_json::json!({"material": n, "reflectance": v})
+            }).collect::<Vec<_>>(),
+            "loss": [self.fit.loss.0, self.fit.loss.1],
+            "seconds": self.fit.seconds,
+        });
         let v = serde_json::json!({
             "rows": rows,
             "pls_windows": windows,
+            "fit_from_photos": fit,
             "seconds": self.seconds,
         });
         serde_json::to_string_pretty(&v).expect("JSON of numbers and strings")
@@ -248,6 +292,8 @@ const SEED_EMPTY: u64 = 1;
 const SEED_TRUTH: u64 = 2;
 const SEED_SECOND: u64 = 3;
 const SEED_COMPOSITE: u64 = 4;
+/// The fit's base seed.
+const SEED_FIT: u64 = 5;
 
 /// Runs the experiment into the new folder `options.out`; `log` receives
 /// one line per step. On failure nothing is left behind.
@@ -314,6 +360,10 @@ fn run_in(
     // 2. The panorama, captured where the flashlight's beam does not reach.
     let panorama = run.capture_panorama()?;
 
+    // 2b. The PLS lights' windows and the room's albedos, fitted from the
+    // photos without objects (read through the panorama's curve).
+    let fit = run.fit_from_photos(&panorama)?;
+
     // 3 and 4. Composites and scores.
     let compare_options = CompareOptions {
         metrics: vec![Metric::CwSsim, Metric::Lpips, Metric::Flip],
@@ -330,6 +380,7 @@ fn run_in(
     let results = PaperResults {
         rows,
         windows,
+        fit,
         seconds: start.elapsed().as_secs_f64(),
     };
     run.write_results(&results)?;
@@ -368,6 +419,28 @@ struct Run<'a> {
     log: &'a (dyn Fn(&str) + Sync),
     /// Noise seed of the last photo taken (each photo takes the next).
     camera_seed: u64,
+    /// The fit's loss curves.
+    fit_dir: PathBuf,
+    /// Each position's photo exposure time (seconds), once photographed.
+    exposures: [f64; 2],
+    /// What the fit from photos found, once fitted.
+    fitted: Option<FitFromPhotos>,
+}
+
+/// What the fit from photos found (see `Run::fit_from_photos`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitFromPhotos {
+    /// Each fitted PLS light: its name, window `a` and soft edge `w`
+    /// (degrees) and brightness `b` (in the photos' units: the panorama's).
+    pub lights: Vec<(String, f32, f32, f32)>,
+    /// The fitted albedos, by material name.
+    pub albedos: Vec<(String, [f32; 3])>,
+    /// The loss before and after the fit.
+    pub loss: (f64, f64),
+    /// Wall-clock seconds of the fit.
+    pub seconds: f64,
+    /// The fitted PLS file, as the scenes folder names it.
+    pls: PathBuf,
 }
 
 /// The merged panorama and how the 360° camera was oriented.
@@ -406,6 +479,9 @@ impl<'a> Run<'a> {
             composites: dir.join("composites"),
             log,
             camera_seed: 100,
+            fit_dir: dir.join("fit"),
+            exposures: [f64::NAN; 2],
+            fitted: None,
         }
     }
 
@@ -417,6 +493,7 @@ impl<'a> Run<'a> {
             &self.photos,
             &self.panorama_dir,
             &self.composites,
+            &self.fit_dir,
         ] {
             mkdir(d)?;
         }
@@ -457,6 +534,8 @@ impl<'a> Run<'a> {
             lighting: Lighting::Fixtures,
             objects: Vec::new(),
             photo: None,
+            albedos: Vec::new(),
+            fit_photos: None,
         }
     }
 
@@ -520,6 +599,7 @@ impl<'a> Run<'a> {
         )?;
         let film = self.render_file(&path)?;
         let t = exposure_time(&film);
+        self.exposures[position] = t;
         let empty = self.photos.join(format!("empty-{p}.png"));
         self.photograph(&film, t, &empty)?;
         for object in Object::ALL {
@@ -624,6 +704,172 @@ impl<'a> Run<'a> {
         })
     }
 
+    /// Step 2b: fits the PLS lights and the room's albedos to the two
+    /// photos without objects, as a user with only those photos, the
+    /// fixtures' outlines and the panorama's response curve would:
+    /// - the photos are read through the panorama's curve and divided by
+    ///   their exposure times, which puts them in the panorama's units;
+    /// - the lights start from guessed windows (flashlight 15° and 10°,
+    ///   lamp 60° and 30°) and brightness 1; their outlines and directions
+    ///   are the fixtures' (measured geometry);
+    /// - the walls, table, bookcase and cabinet start grey (0.5); the floor
+    ///   keeps its known albedo (it pins the split between albedo and
+    ///   brightness, as a grey card would); the ceiling, which neither
+    ///   camera sees, keeps its guess.
+    ///
+    /// Two passes: the windows (each light's search renders the other at
+    /// its current brightness), then the windows again and Adam on both
+    /// brightnesses and the four albedos. Writes `scenes/fit.toml`, the
+    /// fitted scenes and PLS files, and the loss curves into `fit/`.
+    fn fit_from_photos(&mut self, panorama: &Panorama) -> Result<FitFromPhotos> {
+        let step = Instant::now();
+        let mut guess = self.room.pls();
+        for light in &mut guess.lights {
+            let (a, w) = match light.name.as_deref() {
+                Some("flashlight") => (15.0, 10.0),
+                _ => (60.0, 30.0),
+            };
+            (light.a_deg, light.penumbra_deg, light.b) = (a, w, 1.0);
+        }
+        let guess_file = self.scenes.join("guess.pls.toml");
+        write_text(
+            &guess_file,
+            &plsr::light::pls::file::to_string(&guess, &guess_file)?,
+        )?;
+        let fitted_materials = ["wall", "table", "bookcase", "cabinet"];
+        let albedos = fitted_materials
+            .iter()
+            .chain(&["ceiling"])
+            .map(|name| (name.to_string(), [0.5; 3]))
+            .collect();
+        let photos = (0..2)
+            .map(|position| {
+                let photo = self.photos.join(format!("empty-{}.png", position + 1));
+                (position, self.rel(&photo), self.exposures[position])
+            })
+            .collect();
+        let settings = self.settings;
+        let scene = self.write_scene(
+            "fit.toml",
+            &SceneSpec {
+                lighting: Lighting::Pls("guess.pls.toml".into()),
+                albedos,
+                fit_photos: Some(FitPhotos {
+                    curve: self.rel(&panorama.curve),
+                    photos,
+                }),
+                ..self.spec(
+                    "The room to fit to the photos without objects: guessed windows and albedos."
+                        .into(),
+                    0,
+                    settings.fit_spp,
+                    SEED_FIT,
+                )
+            },
+        )?;
+        let base = FitOptions {
+            iterations: settings.fit_iterations,
+            spp: settings.fit_spp,
+            seed: SEED_FIT,
+            threads: self.threads,
+            windows: vec!["flashlight".into(), "lamp".into()],
+            window_evaluations: Some(settings.fit_window_evaluations),
+            ..Default::default()
+        };
+        let windows_only = self.scenes.join("fit-windows.toml");
+        let first = self.fit_pass(&scene, &windows_only, "windows", &base)?;
+        let fitted_scene = self.scenes.join("fitted.toml");
+        let params = fitted_materials
+            .iter()
+            .map(|m| format!("{m}.reflectance"))
+            .chain(["flashlight.b".into(), "lamp.b".into()])
+            .collect();
+        let second = self.fit_pass(
+            &windows_only,
+            &fitted_scene,
+            "fitted",
+            &FitOptions { params, ..base },
+        )?;
+        let value = |owner: &str, field: &str| {
+            second
+                .parameters
+                .iter()
+                .find(|p| p.field == field && p.name == format!("{owner}.{field}"))
+                .map(|p| p.value.clone())
+        };
+        let lights = second
+            .windows
+            .iter()
+            .map(|(name, w)| {
+                let b = value(name, "b").map_or(w.b, |v| v[0]);
+                (name.clone(), w.a_deg, w.penumbra_deg, b)
+            })
+            .collect();
+        let albedos = fitted_materials
+            .iter()
+            .filter_map(|m| {
+                let v = value(m, "reflectance")?;
+                Some((m.to_string(), [v[0], v[1], v[2]]))
+            })
+            .collect();
+        let pls = second
+            .fitted
+            .pls
+            .first()
+            .and_then(|(path, _)| path.file_name())
+            .map(PathBuf::from)
+            .ok_or_else(|| Error::invalid_argument("the fit wrote no PLS file"))?;
+        let fit = FitFromPhotos {
+            lights,
+            albedos,
+            loss: (
+                first.losses.first().copied().unwrap_or(f64::NAN),
+                second.losses.last().copied().unwrap_or(f64::NAN),
+            ),
+            seconds: step.elapsed().as_secs_f64(),
+            pls,
+        };
+        for (name, a, w, b) in &fit.lights {
+            (self.log)(&format!(
+                "fitted the {name}'s PLS light from the photos: a = {a:.2}°, soft edge w = {w:.2}°, b = {b:.4}"
+            ));
+        }
+        (self.log)(&format!(
+            "fitted {} from the photos without objects: loss {:.3e} → {:.3e}, {:.1} s",
+            fit.albedos
+                .iter()
+                .map(|(n, v)| format!("{n} [{:.2}, {:.2}, {:.2}]", v[0], v[1], v[2]))
+                .collect::<Vec<_>>()
+                .join(", "),
+            fit.loss.0,
+            fit.loss.1,
+            fit.seconds
+        ));
+        self.fitted = Some(fit.clone());
+        Ok(fit)
+    }
+
+    /// One pass of the fit: `scene` fitted into `out`, its loss curve
+    /// written into `fit/NAME.loss.csv` and `.png`.
+    fn fit_pass(
+        &self,
+        scene: &Path,
+        out: &Path,
+        name: &str,
+        options: &FitOptions,
+    ) -> Result<FitOutcome> {
+        let outcome = fit_scene_file(scene, out, options, &mut |_, _| true)?;
+        let mut inputs = file::load_contents(scene)?.inputs;
+        inputs.push(scene.to_path_buf());
+        outcome.write(
+            out,
+            &self.fit_dir.join(format!("{name}.loss.csv")),
+            &self.fit_dir.join(format!("{name}.loss.png")),
+            &inputs,
+        )?;
+        Ok(outcome)
+    }
+
     /// A path inside the run as written into a scene file (relative to
     /// the scenes' folder).
     fn rel(&self, p: &Path) -> PathBuf {
@@ -651,7 +897,7 @@ impl<'a> Run<'a> {
             channel: None,
         };
         let mut scored = Vec::new();
-        for method in [Method::Pls, Method::Panorama] {
+        for method in [Method::Pls, Method::Fitted, Method::Panorama] {
             let png = self.composite(object, position, method, panorama, &mask)?;
             scored.push((method, png));
         }
@@ -693,8 +939,9 @@ impl<'a> Run<'a> {
             format!("{} CW-SSIM {:.4} LPIPS {:.4}", m.label(), r.cwssim, r.lpips)
         };
         (self.log)(&format!(
-            "{o} at position {p}: {}; {}; {}; {:.1} s",
+            "{o} at position {p}: {}; {}; {}; {}; {:.1} s",
             line(Method::Pls),
+            line(Method::Fitted),
             line(Method::Panorama),
             line(Method::NoiseFloor),
             step.elapsed().as_secs_f64()
@@ -715,8 +962,17 @@ impl<'a> Run<'a> {
     ) -> Result<PathBuf> {
         let p = position + 1;
         let o = object.name();
+        let mut albedos = Vec::new();
         let (surroundings, lighting) = match method {
             Method::Pls => (Surroundings::Room, Lighting::Pls("lights.pls.toml".into())),
+            Method::Fitted => {
+                let fitted = self
+                    .fitted
+                    .as_ref()
+                    .expect("the fit runs before the composites");
+                albedos = fitted.albedos.clone();
+                (Surroundings::Room, Lighting::Pls(fitted.pls.clone()))
+            }
             _ => (
                 Surroundings::Local,
                 Lighting::Panorama {
@@ -732,6 +988,7 @@ impl<'a> Run<'a> {
             &SceneSpec {
                 surroundings,
                 lighting,
+                albedos,
                 objects: vec![(object, position, true)],
                 photo: Some((
                     self.rel(&self.photos.join(format!("empty-{p}.png"))),
@@ -778,7 +1035,7 @@ impl<'a> Run<'a> {
         write_text(
             &dir.join("results.md"),
             &format!(
-                "# plsr experiment paper\n\n{}\nPhotos {}×{} at {} spp; composites at {} spp; panorama {}×{} at {} spp. {:.0} s.\n",
+                "# plsr experiment paper\n\n{}\nPhotos {}×{} at {} spp; composites at {} spp; panorama {}×{} at {} spp; fit from photos at {} spp, {} iterations ({:.0} s). {:.0} s.\n",
                 results.table(),
                 settings.resolution.0,
                 settings.resolution.1,
@@ -787,6 +1044,9 @@ impl<'a> Run<'a> {
                 settings.panorama_size.0,
                 settings.panorama_size.1,
                 settings.panorama_spp,
+                settings.fit_spp,
+                settings.fit_iterations,
+                results.fit.seconds,
                 results.seconds
             ),
         )
@@ -821,8 +1081,9 @@ fn write_mask(matte: &[f32], width: u32, height: u32, path: &Path) -> Result<()>
 const FIGURE_ROW: u32 = 160;
 
 /// `figure.png`: one row per object and position, in the table's order;
-/// columns: the photo of the real object, the PLS composite, the panorama
-/// composite, each the crop that was scored, scaled to one height.
+/// columns: the photo of the real object, the composites lit by the
+/// measured PLS lights, by the ones fitted from photos and by the
+/// panorama, each the crop that was scored, scaled to one height.
 fn figure(dir: &Path, results: &PaperResults) -> Result<()> {
     let gap = 4;
     let mut tiles: Vec<Vec<image::RgbImage>> = Vec::new();
@@ -837,6 +1098,7 @@ fn figure(dir: &Path, results: &PaperResults) -> Result<()> {
             for file in [
                 dir.join("photos").join(format!("{o}-{p}.png")),
                 dir.join("composites").join(format!("pls-{o}-{p}.png")),
+                dir.join("composites").join(format!("fitted-{o}-{p}.png")),
                 dir.join("composites").join(format!("panorama-{o}-{p}.png")),
             ] {
                 let img = MetricImage::load(&file)?.crop(row.crop);

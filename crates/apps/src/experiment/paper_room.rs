@@ -102,6 +102,23 @@ pub struct SceneSpec {
     pub objects: Vec<(Object, usize, bool)>,
     /// The photo to composite into and its response curve (CSV).
     pub photo: Option<(PathBuf, PathBuf)>,
+    /// Reflectances that replace the room's own, by material name (the
+    /// albedos fitted from photos, or the fit's starting guesses).
+    pub albedos: Vec<(String, [f32; 3])>,
+    /// Photos to fit the scene to (instead of `photo`).
+    pub fit_photos: Option<FitPhotos>,
+}
+
+/// The photos a fit compares its renders with: the first is the scene's
+/// `[photo]` (taken by the spec's camera), the others `[[views]]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitPhotos {
+    /// The response curve (CSV) all photos are read through.
+    pub curve: PathBuf,
+    /// Each photo: the camera that took it (0 or 1), its file and its
+    /// exposure `k` (the exposure time: the photo divided by it is in the
+    /// panorama's units).
+    pub photos: Vec<(usize, PathBuf, f64)>,
 }
 
 /// Longest path the experiment traces (bounces after the camera ray).
@@ -282,6 +299,38 @@ impl PaperRoom {
                 q(curve)
             );
         }
+        if let Some(fit) = &spec.fit_photos {
+            for (i, (camera, photo, k)) in fit.photos.iter().enumerate() {
+                let (file, curve) = (q(photo), q(&fit.curve));
+                if i == 0 {
+                    assert_eq!(*camera, spec.camera, "the first photo is the camera's");
+                    let _ = writeln!(
+                        s,
+                        "[photo]\nfile = {file}\nresponse = {curve}\nexposure = {k}\n"
+                    );
+                    continue;
+                }
+                let photo = format!("file = {file}, response = {curve}, exposure = {k}");
+                let (pos, look, vfov) = self.cameras[*camera];
+                let _ = writeln!(
+                    s,
+                    "[[views]]\ncamera = {{ position = {}, look_at = {}, up = [0, 0, 1], vfov = {vfov}, resolution = [{}, {}] }}\nphoto = {{ {photo} }}\n",
+                    vec3(pos),
+                    vec3(look),
+                    spec.resolution.0,
+                    spec.resolution.1
+                );
+            }
+        }
+        let albedo = |name: &str, own: &'static str| -> String {
+            match spec.albedos.iter().find(|(n, _)| n == name) {
+                Some((_, rgb)) => format!(
+                    "type = \"diffuse\"\nreflectance = [{}, {}, {}]",
+                    rgb[0], rgb[1], rgb[2]
+                ),
+                None => own.to_string(),
+            }
+        };
         for (name, body) in [
             ("floor", "type = \"diffuse\"\nreflectance = [0.42, 0.33, 0.24]"),
             ("wall", "type = \"diffuse\"\nreflectance = [0.72, 0.71, 0.68]"),
@@ -296,6 +345,7 @@ impl PaperRoom {
                 "type = \"principled\"\nbase_color = [0.92, 0.92, 0.95]\nmetallic = 1\nroughness = 0.3",
             ),
         ] {
+            let body = albedo(name, body);
             let _ = writeln!(s, "[[materials]]\nname = \"{name}\"\n{body}\n");
         }
         let mut shape = |name: &str, file: &str, material: &str, extra: &str| {
@@ -421,6 +471,8 @@ impl PaperRoom {
             lighting: Lighting::Fixtures,
             objects: Vec::new(),
             photo: None,
+            albedos: Vec::new(),
+            fit_photos: None,
         };
         write_file(&dir.join("room.toml"), &self.scene_text(&room))
     }
@@ -494,6 +546,8 @@ mod tests {
             },
             objects: vec![(Object::Bunny, 0, true), (Object::Ball, 1, false)],
             photo: Some((PathBuf::from("photo.png"), PathBuf::from("curve.csv"))),
+            albedos: Vec::new(),
+            fit_photos: None,
         };
         let text = room.scene_text(&spec);
         let v: toml::Value = toml::from_str(&text).unwrap();
@@ -502,5 +556,62 @@ mod tests {
         assert_eq!(v["environment"]["file"].as_str(), Some("p.exr"));
         assert_eq!(v["shapes"][2]["virtual"].as_bool(), Some(true));
         assert_eq!(v["photo"]["response"].as_str(), Some("curve.csv"));
+    }
+
+    #[test]
+    fn a_fit_scene_names_its_photos_their_exposures_and_the_guessed_albedos() {
+        let room = PaperRoom::new();
+        let spec = SceneSpec {
+            title: "fit".into(),
+            meshes: PathBuf::from("meshes"),
+            bunny: PathBuf::from("b.obj"),
+            camera: 0,
+            resolution: (32, 24),
+            spp: 1,
+            seed: 5,
+            surroundings: Surroundings::Room,
+            lighting: Lighting::Pls("guess.pls.toml".into()),
+            objects: Vec::new(),
+            photo: None,
+            albedos: vec![("wall".into(), [0.5, 0.5, 0.5])],
+            fit_photos: Some(FitPhotos {
+                curve: PathBuf::from("../panorama/curve.csv"),
+                photos: vec![
+                    (0, PathBuf::from("../photos/empty-1.png"), 0.25),
+                    (1, PathBuf::from("../photos/empty-2.png"), 0.125),
+                ],
+            }),
+        };
+        let v: toml::Value = toml::from_str(&room.scene_text(&spec)).unwrap();
+        assert_eq!(v["photo"]["file"].as_str(), Some("../photos/empty-1.png"));
+        assert_eq!(v["photo"]["exposure"].as_float(), Some(0.25));
+        assert_eq!(
+            v["photo"]["response"].as_str(),
+            Some("../panorama/curve.csv")
+        );
+        let views = v["views"].as_array().unwrap();
+        assert_eq!(views.len(), 1);
+        assert_eq!(views[0]["photo"]["exposure"].as_float(), Some(0.125));
+        assert_eq!(
+            views[0]["camera"]["resolution"].as_array().unwrap().len(),
+            2
+        );
+        let (position, _, vfov) = room.cameras[1];
+        let fov = &views[0]["camera"]["vfov"];
+        let fov = fov.as_float().or(fov.as_integer().map(|i| i as f64));
+        assert_eq!(fov, Some(vfov as f64));
+        let x = views[0]["camera"]["position"][0].as_float().unwrap();
+        assert!((x - position.x as f64).abs() < 1e-6, "{x}");
+        let material = |name: &str| {
+            v["materials"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|m| m["name"].as_str() == Some(name))
+                .unwrap()
+                .clone()
+        };
+        assert_eq!(material("wall")["reflectance"][0].as_float(), Some(0.5));
+        assert_eq!(material("floor")["reflectance"][0].as_float(), Some(0.42));
     }
 }

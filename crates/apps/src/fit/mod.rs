@@ -70,6 +70,10 @@ pub struct FitOptions {
     /// its axis length and its four half-widths `d` on their own
     /// (includes the size).
     pub window_shape: bool,
+    /// The most renders the window search makes per light; `None`: 80,
+    /// 160 when it turns or scales the lights, 400 when it fits their
+    /// shape.
+    pub window_evaluations: Option<u32>,
 }
 
 impl Default for FitOptions {
@@ -85,6 +89,7 @@ impl Default for FitOptions {
             window_direction: false,
             window_size: false,
             window_shape: false,
+            window_evaluations: None,
         }
     }
 }
@@ -1035,13 +1040,15 @@ fn window_options(options: &FitOptions, rebuilds: bool) -> light::WindowFitOptio
         fit_size: options.window_size,
         fit_shape: options.window_shape,
         fit_penumbra: !(options.window_size || options.window_shape),
-        max_evaluations: if options.window_shape {
-            400
-        } else if rebuilds {
-            160
-        } else {
-            80
-        },
+        max_evaluations: options
+            .window_evaluations
+            .unwrap_or(if options.window_shape {
+                400
+            } else if rebuilds {
+                160
+            } else {
+                80
+            }),
     }
 }
 

@@ -215,7 +215,7 @@ fn the_quick_experiment_runs_and_pls_beats_the_panorama_in_the_flashlights_beam(
         threads: None,
     };
     let results = run(&options, &|line| eprintln!("{line}")).unwrap();
-    assert_eq!(results.rows.len(), 12);
+    assert_eq!(results.rows.len(), 16);
     for r in &results.rows {
         assert!(
             r.cwssim.is_finite() && r.lpips.is_finite() && r.flip.is_finite(),
@@ -231,7 +231,30 @@ fn the_quick_experiment_runs_and_pls_beats_the_panorama_in_the_flashlights_beam(
             object.name()
         );
     }
+    // The lights and albedos fitted from the photos without objects light
+    // the objects better than the panorama in the beam too, and the fit
+    // found the flashlight's beam edge near the measured one (16.2°).
+    for object in Object::ALL {
+        let fitted = results.row(object, 0, Method::Fitted).unwrap();
+        let panorama = results.row(object, 0, Method::Panorama).unwrap();
+        assert!(
+            fitted.cwssim > panorama.cwssim && fitted.lpips < panorama.lpips,
+            "{}: fitted {fitted:?}, panorama {panorama:?}",
+            object.name()
+        );
+    }
+    let fit = &results.fit;
+    assert!(fit.loss.1 < fit.loss.0, "{fit:?}");
+    assert_eq!(fit.lights.len(), 2, "{fit:?}");
+    assert_eq!(fit.albedos.len(), 4, "{fit:?}");
+    let (_, a, w, _) = fit.lights.iter().find(|l| l.0 == "flashlight").unwrap();
+    assert!((10.0..=25.0).contains(&(a + w / 2.0)), "{fit:?}");
     for f in [
+        "scenes/fit.toml",
+        "scenes/fitted.toml",
+        "scenes/fitted.pls-0.toml",
+        "fit/fitted.loss.csv",
+        "composites/fitted-bunny-1.png",
         "results.md",
         "results.json",
         "figure.png",
@@ -245,7 +268,13 @@ fn the_quick_experiment_runs_and_pls_beats_the_panorama_in_the_flashlights_beam(
     }
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
-    assert_eq!(json["rows"].as_array().unwrap().len(), 12);
+    assert_eq!(json["rows"].as_array().unwrap().len(), 16);
+    assert_eq!(
+        json["fit_from_photos"]["albedos"].as_array().unwrap().len(),
+        4
+    );
+    // The fitted scene is runnable as it is.
+    Scene::build(file::load(&out.join("scenes/fitted.toml")).unwrap()).unwrap();
     // The scene files written are runnable as they are: they name their
     // photo, curve and panorama relative to themselves.
     let contents = file::load_contents(&out.join("scenes/panorama-ball-2.toml")).unwrap();
