@@ -78,7 +78,8 @@ pub struct SoaLanes {
     pub(super) open_o: Vec<bool>,
     /// Scratch of the paired render: the rays' `tfar` before a closest-hit
     /// query, the shadow rays' before an occlusion query, and the shadow
-    /// rays asked again without the virtual objects, with their lanes.
+    /// rays asked again without the virtual objects, with their lanes (the
+    /// lanes also list the forks of `fork_virtual_hits`).
     pub(super) tfar_before: Vec<f32>,
     pub(super) shadow_before: Vec<f32>,
     pub(super) requery: RayBatch,

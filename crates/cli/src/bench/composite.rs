@@ -129,8 +129,10 @@ pub fn run(threads: Option<usize>) -> Result<f64> {
     for m in std::iter::once(&room).chain(&ar) {
         let r = &m.rays;
         // The paired render counts the rays of both renders; those of the
-        // render with the objects are the whole minus the O-only lanes'.
-        let with_rays = (r.camera + r.bounce - r.o_rays) as f64;
+        // render with the objects are the whole minus the O-only lanes'
+        // continuations (`o_rays` also counts each fork's first ray, which
+        // `camera` and `bounce` do not).
+        let with_rays = (r.camera + r.bounce + r.forked - r.o_rays) as f64;
         println!(
             "| {} | {:.1} % | {:.1} % | {:.2} % |",
             m.name,

@@ -798,7 +798,8 @@ fn a_video_composites_each_frame_through_its_camera() {
     assert!(
         !out.status.success() && stderr.contains("{frame}"),
         "{stderr}"
-    ); // Nor may a frame's output replace that frame's photo.
+    );
+    // Nor may a frame's output replace that frame's photo.
     let before = std::fs::read(dir.path().join("photo-0000.png")).unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
         .current_dir(dir.path())
