@@ -61,6 +61,10 @@ fn every_invalid_parameter_is_named() {
     expect_invalid(|l| l.n = Vec3::new(f32::NAN, 0.0, 1.0), "n");
     expect_invalid(|l| l.g.e1.y = f32::INFINITY, "e1");
     expect_invalid(|l| l.g.d[2] = f32::NAN, "d[2]");
+    // Finite, but beyond where Embree places vertices (found by fuzzing).
+    expect_invalid(|l| l.g.e1.y = 2.56e14, "e1");
+    expect_invalid(|l| l.g.e2.x = -6e11, "e2");
+    expect_invalid(|l| l.g.d[3] = 6e11, "d[3]");
     expect_invalid(|l| l.b = f32::NAN, "b");
     expect_invalid(|l| l.n = Vec3::ZERO, "n");
     expect_invalid(|l| l.g.e2 = l.g.e1, "e2");
@@ -72,12 +76,35 @@ fn every_invalid_parameter_is_named() {
     expect_invalid(|l| l.g.d = [0.0; 4], "d");
     expect_invalid(|l| l.c = Vec3::new(0.1, -0.2, 0.3), "c");
     expect_invalid(|l| l.b = -1.0, "b");
+    // Each finite, but b·c overflows f32 (found by fuzzing).
+    expect_invalid(
+        |l| {
+            l.b = 1e30;
+            l.c = Vec3::new(1e30, 0.2, 0.4);
+        },
+        "b",
+    );
     expect_invalid(|l| l.a_deg = 0.0, "a");
     expect_invalid(|l| l.a_deg = 90.5, "a");
     // 90° exactly is allowed: a hemispherical emitter.
     let mut l = lamp();
     l.a_deg = 90.0;
     l.validate(0).unwrap();
+}
+
+/// The brightest light plsr accepts, spread over a tessellation of almost
+/// no area, still has a finite radiance (eq. 12).
+#[test]
+fn the_brightest_light_has_finite_radiance_on_any_area() {
+    let mut l = flashlight();
+    l.c = Vec3::ONE;
+    l.b = plsr::light::pls::MAX_BRIGHTNESS;
+    l.validate(0).unwrap();
+    for area in [1.0, 1e-10, 1e-30, f32::MIN_POSITIVE] {
+        let r = l.radiance(BrightnessMode::Intensity, area);
+        assert!(r.is_finite() && r.min_element() > 0.0, "{area}: {r}");
+    }
+    assert!(l.radiance(BrightnessMode::Radiance, 1.0).is_finite());
 }
 
 #[test]

@@ -52,6 +52,17 @@ pub const DEFAULT_NF: u32 = 32;
 /// below it the radiance `b·c/A` (eq. 12) is out of reach of `f32`.
 pub const MIN_AREA: f32 = 1e-10;
 
+/// How far from the origin a light's axis ends and widths may reach
+/// (metres): half of what Embree places (`accel::MAX_COORDINATE`), so every
+/// vertex of the emitter stays within it.
+pub const MAX_EXTENT: f32 = 0.5 * crate::accel::MAX_COORDINATE;
+
+/// The largest brightness `b·max(c)` a light may have: the radiance in
+/// [`BrightnessMode::Radiance`] (W·m⁻²·sr⁻¹), the intensity in
+/// [`BrightnessMode::Intensity`]. Spread over at least [`MIN_AREA`] it stays
+/// within `f32` (eq. 12); the Sun's radiance is about 2·10⁷.
+pub const MAX_BRIGHTNESS: f32 = 1e20;
+
 /// Factor of the circle approximation: `d2 = d3 = 1.35·r` (the paper, sec. 3).
 pub const CIRCLE_FACTOR: f32 = 1.35;
 
@@ -166,6 +177,26 @@ impl Pls {
         finite3("c", self.c)?;
         finite("b", self.b)?;
 
+        // The emitter's vertices lie within |e| + max(d) of the origin; keep
+        // them where Embree can place them (accel::MAX_COORDINATE).
+        for (name, e) in [("e1", self.g.e1), ("e2", self.g.e2)] {
+            if e.abs().max_element() > MAX_EXTENT {
+                return Err(err(
+                    name,
+                    format!(
+                        "must lie within ±{MAX_EXTENT:e} m of the origin on each axis, got {e}"
+                    ),
+                ));
+            }
+        }
+        for (k, d) in self.g.d.iter().enumerate() {
+            if *d > MAX_EXTENT {
+                return Err(err(
+                    &format!("d[{k}]"),
+                    format!("must be at most {MAX_EXTENT:e} m, got {d}"),
+                ));
+            }
+        }
         let n_len = self.n.length();
         if n_len == 0.0 {
             return Err(err("n", "must not be the zero vector".into()));
@@ -232,6 +263,16 @@ impl Pls {
         if self.b < 0.0 {
             return Err(err("b", format!("must not be negative, got {}", self.b)));
         }
+        let brightness = f64::from(self.b) * f64::from(self.c.max_element());
+        if brightness > f64::from(MAX_BRIGHTNESS) {
+            return Err(err(
+                "b",
+                format!(
+                    "b × the largest channel of c is {brightness:e}, above the largest plsr \
+                     renders ({MAX_BRIGHTNESS:e}): the radiance would overflow"
+                ),
+            ));
+        }
         if !(self.a_deg > 0.0 && self.a_deg <= 90.0) {
             return Err(err(
                 "a",
@@ -274,8 +315,11 @@ impl Pls {
     pub fn radiance(&self, mode: BrightnessMode, area: f32) -> Vec3 {
         match mode {
             BrightnessMode::Intensity => {
+                // A coarse tessellation of a sliver can have far less area
+                // than the outline; below MIN_AREA the quotient could
+                // overflow, so it is taken at MIN_AREA.
                 if area > 0.0 {
-                    self.c * (self.b / area)
+                    self.c * (self.b / area.max(MIN_AREA))
                 } else {
                     Vec3::ZERO
                 }
