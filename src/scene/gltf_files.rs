@@ -239,6 +239,31 @@ impl GltfAsset {
             .into())
         };
         // Animations (found by fuzzing: a scalar output read as rotations).
+        // The glTF crate validates no channel's target: an unknown path or
+        // a node out of range would panic where it is read.
+        let nodes = self.doc.nodes().len();
+        for (a, animation) in self.doc.as_json().animations.iter().enumerate() {
+            for (c, channel) in animation.channels.iter().enumerate() {
+                let field = format!("animations[{a}].channels[{c}].target");
+                if !matches!(
+                    channel.target.path,
+                    gltf::json::validation::Checked::Valid(_)
+                ) {
+                    return Err(format!(
+                        "{field}.path: not a glTF animation path (translation, rotation, scale \
+                         or weights)"
+                    )
+                    .into());
+                }
+                if channel.target.node.value() >= nodes {
+                    return Err(format!(
+                        "{field}.node {} is out of range: the file has {nodes} nodes",
+                        channel.target.node.value()
+                    )
+                    .into());
+                }
+            }
+        }
         for animation in self.doc.animations() {
             for (c, channel) in animation.channels().enumerate() {
                 use gltf::animation::Property as P;

@@ -106,12 +106,29 @@ pub fn sort_attributes(file: &mut std::fs::File) -> std::io::Result<()> {
 ///   for the header's size, so a 1 KiB file claiming 30000×30000 pixels
 ///   would otherwise cost gigabytes before its data is found missing.
 ///
-/// Files this does not recognise pass: the reader's own checks apply.
+/// - a single-part header that does not parse within the file.
+///
+/// Other files this does not recognise pass: the reader's own checks apply.
 pub fn header_fault(path: &std::path::Path) -> std::io::Result<Option<String>> {
     let mut file = std::fs::File::open(path)?;
     let file_len = file.metadata()?.len();
     let head = head_of(&mut file)?;
     let Some((attributes, _)) = attributes(&head) else {
+        // A single-part header that does not parse although the whole file
+        // was read is malformed. Readers may still take attributes from it
+        // (found by fuzzing: past an attribute whose size runs beyond the
+        // file, the `exr` crate found a data window of 2·10⁸ pixels).
+        let read_whole = (head.len() as u64) < HEAD_BYTES;
+        let single_part = head.len() >= 8
+            && head[..4] == MAGIC
+            && u32::from_le_bytes([head[4], head[5], head[6], head[7]]) & MULTI_PART == 0;
+        if read_whole && single_part {
+            return Ok(Some(
+                "the header does not parse: an attribute runs past the end of the file, or the \
+                 header never ends"
+                    .into(),
+            ));
+        }
         return Ok(None);
     };
     // A header may name an attribute twice (found by fuzzing: a second,
@@ -276,8 +293,17 @@ mod tests {
         // Multi-part files and what is not OpenEXR are left to the reader.
         assert_eq!(fault(&header([7, 5, 0, 0], 2 | MULTI_PART)), None);
         assert_eq!(fault(b"not an image"), None);
-        // A header cut short is not read past its end.
-        let h = header([7, 5, 0, 0], 2);
-        assert_eq!(fault(&h[..h.len() - 6]), None);
+        // A header cut short is not read past its end, and is a fault.
+        let h = header([0, 0, 7, 5], 2);
+        let f = fault(&h[..h.len() - 6]).unwrap();
+        assert!(f.contains("does not parse"), "{f}");
+        // Found by fuzzing: an attribute whose size runs past the file,
+        // with a wide data window after it that a reader may take.
+        let mut h = header([0, 0, 7, 5], 2);
+        h.pop();
+        h.extend_from_slice(b"displayWindo\0\0");
+        h.extend_from_slice(&65536i32.to_le_bytes());
+        h.extend_from_slice(&header([0, 0, 33_554_439, 5], 2)[8..]);
+        assert!(fault(&h).unwrap().contains("does not parse"));
     }
 }

@@ -303,10 +303,15 @@ impl Builder<'_> {
                     Some(_) => format!("shapes[{index}].transform"),
                     None => format!("shapes[{index}]"),
                 };
+                // The mesh file the vertex comes from, if any.
+                let of_file = match s.keys.get("file").and_then(|f| f.as_str()) {
+                    Some(f) => format!(" of {}", self.base.join(f).display()),
+                    None => String::new(),
+                };
                 return Err(self.err(
                     field,
                     format!(
-                        "mesh `{}`: vertex {v} lands at {p}, beyond ±{:e} scene units \
+                        "mesh `{}`{of_file}: vertex {v} lands at {p}, beyond ±{:e} scene units \
                          (plsr's coordinate limit): scale the shape or its transform down",
                         m.name,
                         crate::accel::MAX_COORDINATE
