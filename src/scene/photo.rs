@@ -22,12 +22,48 @@ pub struct PhotoSpec {
     pub file: PathBuf,
     /// How its values map to linear radiance.
     pub response: PhotoResponse,
-    /// The factor `k` with `photo ≈ k · render` in linear radiance; `None`:
-    /// fit it (`exposure = "auto"`).
-    pub exposure: Option<f32>,
+    /// The factor `k` with `photo ≈ k · render` in linear radiance, or how
+    /// to find it.
+    pub exposure: PhotoExposure,
     /// What in the photo has a known brightness, so that a fitted exposure
     /// cannot trade against fitted albedos or lights (`reference`).
     pub reference: Option<ScaleReference>,
+}
+
+/// How a photo's exposure `k` (`photo ≈ k · render`, linear) is found.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PhotoExposure {
+    /// Fitted to the photo (`exposure = "auto"`, the default).
+    Auto,
+    /// Given (`exposure = 0.25`).
+    Factor(f32),
+    /// From the photo's EXIF exposure time, f-number and ISO against the
+    /// settings of the merged panorama the render's units come from
+    /// (`exposure = "exif"`).
+    Exif(ExifUnits),
+}
+
+impl PhotoExposure {
+    /// The factor when it is given as a number.
+    pub fn factor(&self) -> Option<f32> {
+        match self {
+            PhotoExposure::Factor(k) => Some(*k),
+            _ => None,
+        }
+    }
+}
+
+/// Where a render's units come from for `exposure = "exif"`: a panorama
+/// merged by `plsr hdr merge`, whose header keeps its brackets' exposure
+/// times, f-numbers, ISO and any absolute calibration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExifUnits {
+    /// The merged panorama (OpenEXR).
+    pub panorama: PathBuf,
+    /// How much brighter the render is than the panorama's units: the
+    /// `[environment] scale` when the units come from the scene's
+    /// environment map, else 1.
+    pub scale: f32,
 }
 
 /// Something in a photo whose brightness is known: it pins the scale when

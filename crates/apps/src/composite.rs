@@ -27,7 +27,7 @@
 use crate::error::{Error, Result};
 use glam::Vec3;
 use plsr::film::FilmSums;
-use plsr::scene::photo::{PhotoResponse, PhotoSpec};
+use plsr::scene::photo::{PhotoExposure, PhotoResponse, PhotoSpec};
 use plsr_base::atomic_write::OutputSet;
 use plsr_base::Vocabulary;
 use plsr_hdr::oiio::{ImageReader, PixelType};
@@ -145,6 +145,12 @@ pub struct Photo {
     /// The radiance of the top code per channel, where the camera clips
     /// (integer images); `None` for float images, which do not clip.
     pub clip: Option<Vec3>,
+    /// The exposure `k` (photo ≈ k · render) the scene gives, as a number
+    /// or through the photo's EXIF; `None`: fit it.
+    pub exposure: Option<f32>,
+    /// Where a given exposure comes from, for summaries (`exposure =
+    /// "exif"`: the EXIF settings it was worked out from).
+    pub exposure_source: Option<String>,
 }
 
 impl Photo {
@@ -154,6 +160,14 @@ impl Photo {
         let transfer = Transfer::of(&spec.response)?;
         let path = &spec.file;
         let mut reader = ImageReader::open(path)?;
+        let (exposure, exposure_source) = match &spec.exposure {
+            PhotoExposure::Auto => (None, None),
+            PhotoExposure::Factor(k) => (Some(*k), None),
+            PhotoExposure::Exif(units) => {
+                let e = crate::exif_exposure::exif_exposure(path, &reader.exif(), units)?;
+                (Some(e.k), Some(e.description))
+            }
+        };
         let info = reader.info().clone();
         let (w, h, ch) = (info.width, info.height, info.channels);
         let levels = match info.format {
@@ -251,6 +265,8 @@ impl Photo {
             radiance,
             transfer,
             clip,
+            exposure,
+            exposure_source,
         })
     }
 }
@@ -297,6 +313,8 @@ impl Photo {
             radiance,
             transfer,
             clip,
+            exposure: None,
+            exposure_source: None,
         })
     }
 }
@@ -575,7 +593,7 @@ pub enum Retrace {
 }
 
 /// What a composite did.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct CompositeReport {
     /// The exposure fit, when the scene asked for `auto`.
     pub fit: Option<ExposureFit>,
@@ -588,6 +606,9 @@ pub struct CompositeReport {
     /// Rays of both renders; with [`Retrace::Touched`], how many paths
     /// forked and what their render without the objects traced.
     pub rays: plsr::integrator::RayStats,
+    /// Where a given exposure came from (`exposure = "exif"`: the EXIF
+    /// settings); `None` for a number or a fit.
+    pub exposure_source: Option<String>,
 }
 
 /// Composites the virtual objects of a scene file into its `[photo]`:
@@ -635,14 +656,15 @@ pub fn composite_scene(
             ),
         ));
     }
-    let (result, report) = composite_built(&scene, &photo, spec.exposure, options, progress)
+    let (result, mut report) = composite_built(&scene, &photo, photo.exposure, options, progress)
         .map_err(|e| match e {
-            // The fit's failure is about the scene's `photo.exposure`.
-            Error::Base(plsr_base::Error::InvalidArgument(m)) if m.starts_with(FIT_FAILED) => {
-                Error::input(scene_file, "photo.exposure", m)
-            }
-            other => other,
-        })?;
+        // The fit's failure is about the scene's `photo.exposure`.
+        Error::Base(plsr_base::Error::InvalidArgument(m)) if m.starts_with(FIT_FAILED) => {
+            Error::input(scene_file, "photo.exposure", m)
+        }
+        other => other,
+    })?;
+    report.exposure_source = photo.exposure_source;
     Ok((result, photo.transfer, report))
 }
 
@@ -701,6 +723,7 @@ pub fn composite_built(
         samples: 0,
         denoise_seconds: 0.0,
         rays: Default::default(),
+        exposure_source: None,
     };
     match options.retrace {
         Retrace::Touched => {

@@ -153,7 +153,10 @@ pub fn run(a: &CompositeArgs) -> Result<()> {
             "exposure k = {:.5} fitted on {} of {} pixels (relative RMS residual {:.3})",
             f.k, f.used, f.considered, f.relative_rms
         ),
-        None => format!("exposure k = {} (from the scene)", result.k),
+        None => match &report.exposure_source {
+            Some(source) => format!("exposure k = {:.5} (from {source})", result.k),
+            None => format!("exposure k = {} (from the scene)", result.k),
+        },
     };
     let paths = report.samples / 2;
     let forked = if a.two_renders || paths == 0 {
@@ -235,7 +238,8 @@ fn run_frames(
         ));
     }
     let mut scene = plsr::scene::Scene::build(contents.description)?;
-    let mut kept: Option<f32> = spec.exposure;
+    // The exposure fitted on the first frame, kept for the others.
+    let mut kept: Option<f32> = None;
     for frame in frames {
         let photo_file = frame_path(&spec.file, Some(frame));
         let camera = match views.iter().find(|v| v.photo.file == photo_file) {
@@ -284,10 +288,12 @@ fn run_frames(
                 ));
             }
         }
-        let exposure = if a.refit_exposure {
-            spec.exposure
-        } else {
-            kept
+        // A given exposure (a number, or each frame's EXIF) holds; else
+        // the first frame's fit, unless asked to fit every frame.
+        let exposure = match photo.exposure {
+            Some(k) => Some(k),
+            None if a.refit_exposure => None,
+            None => kept,
         };
         let (result, report) =
             plsr_apps::composite::composite_built(&scene, &photo, exposure, options, progress)?;
@@ -301,10 +307,11 @@ fn run_frames(
             result.stage_matte_png(&mut outputs, m)?;
         }
         outputs.commit()?;
-        let how = match report.fit {
-            Some(_) => "fitted",
-            None if spec.exposure.is_none() => "kept from the first frame",
-            None => "from the scene",
+        let how = match (&report.fit, &photo.exposure_source) {
+            (Some(_), _) => "fitted".to_string(),
+            (None, Some(source)) => format!("from {source}"),
+            (None, None) if photo.exposure.is_none() => "kept from the first frame".to_string(),
+            (None, None) => "from the scene".to_string(),
         };
         eprintln!(
             "frame {frame}: composited {}×{} ({}) in {:.2} s, exposure k = {:.5} ({how}) → {}",

@@ -256,8 +256,14 @@ fn from_text(path: &Path, text: &str, is_json: bool) -> Result<SceneFileContents
         inputs: RefCell::new(Vec::new()),
         notes: RefCell::new(Vec::new()),
     };
+    // `exposure = "exif"` finds the render's units in the environment map.
+    let environment = parsed.environment.as_ref().and_then(|e| {
+        e.file
+            .as_ref()
+            .map(|f| (base.join(f), e.scale.unwrap_or(1.0)))
+    });
     let photo = match &parsed.photo {
-        Some(p) => Some(builder.photo(p)?),
+        Some(p) => Some(builder.photo(p, environment.clone())?),
         None => None,
     };
     let mut views = Vec::with_capacity(parsed.views.len());
@@ -282,7 +288,9 @@ fn from_text(path: &Path, text: &str, is_json: bool) -> Result<SceneFileContents
             ));
         }
         let (camera, _) = builder.camera(&v.camera).map_err(within)?;
-        let photo = builder.photo(&v.photo).map_err(within)?;
+        let photo = builder
+            .photo(&v.photo, environment.clone())
+            .map_err(within)?;
         views.push(crate::scene::photo::ViewSpec { camera, photo });
     }
     let camera_path = builder.camera_path(&parsed.camera)?;

@@ -786,12 +786,15 @@ fn load_views(
     for (field, camera, spec) in specs {
         let photo = Photo::load(&spec)?;
         let label = format!("{field} ({})", spec.file.display());
-        let k = match spec.exposure {
+        let k = match photo.exposure {
             Some(k) => k,
             None => auto_exposure(scene, &camera, &photo, options, &label)?,
         };
+        if let Some(source) = &photo.exposure_source {
+            warnings.push(format!("{label}: exposure k = {k:.5} from {source}"));
+        }
         let mut view = View::new(scene, &label, camera, &photo, k)?;
-        if spec.exposure.is_none() {
+        if photo.exposure.is_none() {
             view.fitted_exposure = true;
             let pin = pin_scale(path, scene, &mut view, &photo, &spec, &field, params)?;
             if pin.is_none() && (fits_lights || params.iter().any(scales_radiance)) {

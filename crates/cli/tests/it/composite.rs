@@ -59,7 +59,7 @@ subdivisions = 3
 SPHERE
 "#;
 
-fn room(sphere: &str, photo: &str) -> String {
+pub(crate) fn room(sphere: &str, photo: &str) -> String {
     ROOM.replace("SPHERE", sphere).replace("PHOTO", photo)
 }
 

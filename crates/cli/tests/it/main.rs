@@ -28,6 +28,7 @@ mod calibration;
 mod closed_stdout;
 mod composite;
 mod denoising;
+mod exif_exposure;
 mod farm;
 mod fuzz_plans;
 mod fuzz_regressions;
