@@ -5,13 +5,17 @@
 
 SHELL := /bin/bash
 CARGO ?= cargo
-DEB_PACKAGES := libembree-dev libopenimageio-dev libclang-dev clang pkg-config valgrind cmake slurm-wlm munge
+# What building plsr needs (`make demo`, `build`, `install`, `paper`, `bench`).
+DEB_PACKAGES := libembree-dev libopenimageio-dev libclang-dev clang pkg-config
+# What the tests need besides: valgrind and cmake for the C hosts, Slurm
+# and munge for the farm's single-node cluster (`make test`, `fuzz`).
+DEB_TEST_PACKAGES := valgrind cmake slurm-wlm munge
 # Embree's own pathtracer, the peer of `plsr bench` (optional at run time).
 DEB_BENCH_PACKAGES := embree-tools
 DEMO_SCENE := assets/scenes/pls-room/pls-room.toml
 OUT := out
 
-.PHONY: demo test paper fuzz fuzz-coverage deps bench-deps bench build fmt clippy install-deps-if-missing header install uninstall
+.PHONY: demo test paper fuzz fuzz-coverage deps test-deps bench-deps bench build fmt clippy install-deps-if-missing header install uninstall
 
 demo: deps
 	$(CARGO) build --release
@@ -22,14 +26,15 @@ demo: deps
 # Then every fuzz target runs for FUZZ_TEST_SECONDS from its seeds, with
 # a fixed libFuzzer seed (docs/fuzzing.md).
 FUZZ_TEST_SECONDS ?= 20
-test: deps
+test: test-deps
 	$(CARGO) test --workspace --no-fail-fast
 	PLSR_FUZZ_ARGS=-seed=1 bash scripts/fuzz.sh all $(FUZZ_TEST_SECONDS)
 
 # The paper's experiment redone on a synthetic room (docs/paper-experiment.md):
-# ground-truth photos, PLS lights and an HDR panorama, composites, CW-SSIM,
-# LPIPS and FLIP; about 12 minutes on two cores. Writes $(OUT)/paper/
-# (results.md, results.json, figure.png), replacing an earlier run.
+# ground-truth photos, PLS lights (measured, and fitted from the photos) and
+# an HDR panorama, composites, CW-SSIM, LPIPS and FLIP; about 25 minutes on
+# two cores. Writes $(OUT)/paper/ (results.md, results.json, figure.png),
+# replacing an earlier run.
 # `plsr experiment paper --quick` runs it small (and is part of `make test`).
 paper: deps
 	$(CARGO) build --release
@@ -40,7 +45,7 @@ paper: deps
 # seeds, more cases (FUZZ_CASES per parser). Failures are shrunk and their seeds kept in
 # tests/it/fuzz_parsers.proptest-regressions.
 FUZZ_CASES ?= 20000
-fuzz: deps
+fuzz: test-deps
 	PLSR_FUZZ_SEED=random PLSR_FUZZ_CASES=$(FUZZ_CASES) PLSR_FUZZ_TRACE=$(CURDIR)/target/fuzz-case.txt \
 		$(CARGO) test -p plsr --test it fuzz_parsers:: -- --nocapture
 
@@ -48,7 +53,7 @@ fuzz: deps
 # of fuzz/ for FUZZ_SECONDS each, from the committed seeds and the corpus
 # earlier runs kept (target/fuzz/corpus/); prints coverage and executions.
 FUZZ_SECONDS ?= 300
-fuzz-coverage: deps
+fuzz-coverage: test-deps
 	bash scripts/fuzz.sh all $(FUZZ_SECONDS)
 
 build: deps
@@ -62,6 +67,9 @@ bench: deps bench-deps
 # when something must be installed).
 deps:
 	@bash scripts/install-deps.sh $(DEB_PACKAGES)
+
+test-deps:
+	@bash scripts/install-deps.sh $(DEB_PACKAGES) $(DEB_TEST_PACKAGES)
 
 bench-deps:
 	@bash scripts/install-deps.sh $(DEB_BENCH_PACKAGES)

@@ -28,7 +28,7 @@ pub struct PaperArgs {
     #[arg(short, long, value_name = "DIR")]
     pub output: Option<PathBuf>,
     /// Run the whole pipeline small (under two minutes on two cores)
-    /// instead of the full experiment (about 13 minutes plus the fit from photos, not yet timed at full size).
+    /// instead of the full experiment (about 25 minutes, 8 of them the fit from photos).
     #[arg(long)]
     pub quick: bool,
     /// The Stanford bunny's OBJ file.

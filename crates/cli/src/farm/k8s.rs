@@ -306,7 +306,10 @@ fn merge_job(a: &K8sArgs, name: &str, plan_in_pod: &str) -> String {
     )
 }
 
-/// The script that runs both Jobs in order.
+/// The script that runs both Jobs in order. It waits for each Job to
+/// complete or fail (`kubectl wait` alone waits for one condition, so a
+/// failed Job would hold it until its timeout); a failure prints the logs
+/// of the Job's failed pods and exits with status 1.
 fn run_script(a: &K8sArgs, name: &str, dir: &Path) -> String {
     let ns = a
         .namespace
@@ -315,16 +318,56 @@ fn run_script(a: &K8sArgs, name: &str, dir: &Path) -> String {
         .unwrap_or_default();
     let file = |f: &str| shell_quote(&dir.join(f).to_string_lossy());
     format!(
-        "#!/bin/sh\n\
-         # Written by `plsr farm k8s` (docs/farm.md): renders the pieces, waits for\n\
-         # them, merges. Run it again after a failure: the Jobs are replaced and\n\
-         # only the pieces not rendered yet are rendered.\n\
-         set -eu\n\
-         kubectl{ns} delete job {name}-render {name}-merge --ignore-not-found\n\
-         kubectl{ns} apply -f {render}\n\
-         kubectl{ns} wait --for=condition=complete --timeout=${{PLSR_TIMEOUT:-168h}} job/{name}-render\n\
-         kubectl{ns} apply -f {merge}\n\
-         kubectl{ns} wait --for=condition=complete --timeout=${{PLSR_TIMEOUT:-168h}} job/{name}-merge\n",
+        r#"#!/bin/sh
+# Written by `plsr farm k8s` (docs/farm.md): renders the pieces, waits for
+# them, merges. Run it again after a failure: the Jobs are replaced and
+# only the pieces not rendered yet are rendered.
+# PLSR_TIMEOUT: how long to wait for each Job (seconds, or with s, m, h or
+# d; default 168h). PLSR_POLL_SECONDS: how often to look (default 10).
+set -eu
+
+timeout_seconds() {{
+    t="${{PLSR_TIMEOUT:-168h}}"
+    case "$t" in
+        *d) echo $(( ${{t%d}} * 86400 )) ;;
+        *h) echo $(( ${{t%h}} * 3600 )) ;;
+        *m) echo $(( ${{t%m}} * 60 )) ;;
+        *s) echo "${{t%s}}" ;;
+        *) echo "$t" ;;
+    esac
+}}
+
+# Waits until Job $1 is complete; if it fails or the timeout passes, prints
+# the logs of its failed pods and exits 1.
+wait_for_job() {{
+    deadline=$(( $(date +%s) + $(timeout_seconds) ))
+    while :; do
+        state=$(kubectl{ns} get job "$1" -o 'jsonpath={{range .status.conditions[?(@.status=="True")]}}{{.type}} {{end}}')
+        case " $state " in
+            *" Complete "*) return 0 ;;
+            *" Failed "*)
+                echo "run-k8s.sh: job $1 failed; the logs of its failed pods follow" >&2
+                for pod in $(kubectl{ns} get pods -l job-name="$1" --field-selector=status.phase=Failed -o 'jsonpath={{.items[*].metadata.name}}'); do
+                    echo "--- pod $pod" >&2
+                    kubectl{ns} logs "$pod" --all-containers --tail=200 >&2 || true
+                done
+                exit 1 ;;
+        esac
+        if [ "$(date +%s)" -ge "$deadline" ]; then
+            echo "run-k8s.sh: job $1 neither completed nor failed within ${{PLSR_TIMEOUT:-168h}}" >&2
+            exit 1
+        fi
+        sleep "${{PLSR_POLL_SECONDS:-10}}"
+    done
+}}
+
+kubectl{ns} delete job {name}-render {name}-merge --ignore-not-found
+kubectl{ns} apply -f {render}
+wait_for_job {name}-render
+kubectl{ns} apply -f {merge}
+wait_for_job {name}-merge
+echo "run-k8s.sh: rendered and merged"
+"#,
         render = file(RENDER_JOB),
         merge = file(MERGE_JOB),
     )

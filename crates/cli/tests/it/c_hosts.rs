@@ -288,7 +288,7 @@ fn cpp_host_is_clean_under_valgrind() {
 }
 
 /// Fails, rather than skips, when a tool the packaging tests need is
-/// missing: all of them are in the Makefile's DEB_PACKAGES.
+/// missing: all of them are in the Makefile's DEB_PACKAGES or DEB_TEST_PACKAGES.
 fn require(tool: &str, package: &str) {
     let found = Command::new(tool)
         .arg("--version")
@@ -296,8 +296,8 @@ fn require(tool: &str, package: &str) {
         .is_ok_and(|o| o.status.success());
     assert!(
         found,
-        "this test needs `{tool}`, which is not installed: `make deps` installs it \
-         (Debian package {package}, listed in the Makefile's DEB_PACKAGES)"
+        "this test needs `{tool}`, which is not installed: `make test-deps` installs it \
+         (Debian package {package}, listed in the Makefile's DEB_PACKAGES or DEB_TEST_PACKAGES)"
     );
 }
 

@@ -332,6 +332,103 @@ fn run_as_pod(
     )
 }
 
+/// Writes the Kubernetes files of a small job into a new volume; returns
+/// the volume and the output folder.
+fn k8s_files() -> (tempfile::TempDir, std::path::PathBuf) {
+    let volume = tempfile::tempdir().unwrap();
+    let root = std::fs::canonicalize(volume.path()).unwrap();
+    let anim = scene_with_camera(&root, PATH_CAMERA);
+    let out = root.join("renders/shot");
+    let (ok, err) = plsr(&[
+        "farm",
+        "k8s",
+        anim.to_str().unwrap(),
+        "--parts",
+        "2",
+        "--spp",
+        "6",
+        "-o",
+        out.to_str().unwrap(),
+        "--image",
+        "registry.example.com/plsr:0.2",
+        "--claim",
+        "render-data",
+        "--volume-root",
+        root.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    (volume, out)
+}
+
+/// Runs `run-k8s.sh` against a stub `kubectl` that reports every Job in
+/// the state `job_state` (a condition type) and one failed pod with a log;
+/// returns (success, stderr, the stub's log of its calls).
+fn run_k8s_with_stub(out: &Path, job_state: &str, timeout: &str) -> (bool, String, String) {
+    let bin = out.join("stub-bin");
+    std::fs::create_dir_all(&bin).unwrap();
+    let calls = out.join("kubectl-calls.txt");
+    let stub = format!(
+        r#"#!/bin/sh
+echo "$*" >> '{calls}'
+case "$*" in
+    "get job "*) printf '{job_state} ' ;;
+    "get pods "*) printf 'plsr-shot-render-0-abcde' ;;
+    "logs plsr-shot-render-0-abcde "*) echo "plsr: error: out of memory (stub log)" ;;
+esac
+exit 0
+"#,
+        calls = calls.display()
+    );
+    let kubectl = bin.join("kubectl");
+    std::fs::write(&kubectl, stub).unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&kubectl, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let path = format!("{}:{}", bin.display(), std::env::var("PATH").unwrap());
+    let run = std::process::Command::new("sh")
+        .arg(out.join("run-k8s.sh"))
+        .env("PATH", path)
+        .env("PLSR_POLL_SECONDS", "0")
+        .env("PLSR_TIMEOUT", timeout)
+        .output()
+        .unwrap();
+    (
+        run.status.success(),
+        String::from_utf8_lossy(&run.stderr).into_owned(),
+        std::fs::read_to_string(&calls).unwrap_or_default(),
+    )
+}
+
+/// A failed render Job ends `run-k8s.sh` at once, with status 1 and the
+/// failed pod's log, and no merge is applied; a complete one goes on to
+/// the merge; a Job that never ends is given up after the timeout.
+#[test]
+fn run_k8s_stops_on_a_failed_job_and_shows_its_pods_logs() {
+    let (_volume, out) = k8s_files();
+    let (ok, stderr, calls) = run_k8s_with_stub(&out, "Failed", "168h");
+    assert!(!ok, "{stderr}");
+    assert!(
+        stderr.contains("job plsr-shot-render failed")
+            && stderr.contains("--- pod plsr-shot-render-0-abcde")
+            && stderr.contains("out of memory (stub log)"),
+        "{stderr}"
+    );
+    assert!(!calls.contains("merge-job.yaml"), "{calls}");
+
+    std::fs::remove_file(out.join("kubectl-calls.txt")).unwrap();
+    let (ok, stderr, calls) = run_k8s_with_stub(&out, "Complete", "168h");
+    assert!(ok, "{stderr}");
+    assert!(calls.contains("merge-job.yaml"), "{calls}");
+    assert!(calls.contains("get job plsr-shot-merge"), "{calls}");
+
+    // Neither condition: the wait ends at the timeout, not in a week.
+    let (ok, stderr, _) = run_k8s_with_stub(&out, "Suspended", "1s");
+    assert!(!ok, "{stderr}");
+    assert!(
+        stderr.contains("neither completed nor failed within 1s"),
+        "{stderr}"
+    );
+}
+
 #[test]
 fn kubernetes_manifests_are_indexed_jobs_whose_pods_render_the_pieces() {
     let volume = tempfile::tempdir().unwrap();
@@ -420,9 +517,9 @@ fn kubernetes_manifests_are_indexed_jobs_whose_pods_render_the_pieces() {
     let script = std::fs::read_to_string(out.join("run-k8s.sh")).unwrap();
     let order: Vec<usize> = [
         "apply -f ",
-        "wait --for=condition=complete --timeout=${PLSR_TIMEOUT:-168h} job/plsr-shot-render",
+        "wait_for_job plsr-shot-render",
         "merge-job.yaml",
-        "job/plsr-shot-merge",
+        "wait_for_job plsr-shot-merge",
     ]
     .iter()
     .map(|w| {

@@ -4,7 +4,7 @@
 //! the merged image equals the single-machine render, and submitting again
 //! after a piece is lost re-runs that piece alone.
 //!
-//! Needs Debian's `slurm-wlm` and `munge` (`make deps` installs them). If
+//! Needs Debian's `slurm-wlm` and `munge` (`make test-deps` installs them). If
 //! they are missing or the daemons do not start, the test fails and says
 //! why, with the daemons' logs: it never skips.
 
@@ -39,7 +39,7 @@ fn program(name: &str) -> PathBuf {
     }
     panic!(
         "{name} is not installed: this test runs a real Slurm cluster and needs Debian's \
-         slurm-wlm and munge packages (`make deps` installs them)"
+         slurm-wlm and munge packages (`make test-deps` installs them)"
     );
 }
 
