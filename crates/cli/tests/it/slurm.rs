@@ -1,6 +1,6 @@
 //! A real Slurm run of `plsr farm slurm`: a single-node cluster (munged,
 //! slurmctld and slurmd on this machine, configured in a temporary folder
-//! and stopped afterwards) runs the 4-task render array and the merge job;
+//! by `scripts/slurm-single-node.sh` and stopped afterwards) runs the 4-task render array and the merge job;
 //! the merged image equals the single-machine render, and submitting again
 //! after a piece is lost re-runs that piece alone.
 //!
@@ -22,7 +22,6 @@ const SCENE: &str = "tests/data/cornell-64.toml";
 struct Cluster {
     dir: PathBuf,
     conf: PathBuf,
-    munged_pid: PathBuf,
 }
 
 /// The program `name`, looked up on PATH and in the sbin folders.
@@ -43,152 +42,44 @@ fn program(name: &str) -> PathBuf {
     );
 }
 
-/// A TCP port nobody listens on now.
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
 fn read(p: &Path) -> String {
     std::fs::read_to_string(p).unwrap_or_else(|e| format!("(cannot read {}: {e})", p.display()))
 }
 
 impl Cluster {
+    /// Starts a cluster with `scripts/slurm-single-node.sh`, the script
+    /// docs/farm.md offers users, so that the test keeps it working.
     fn start() -> Cluster {
-        let (munged, slurmctld, slurmd) =
-            (program("munged"), program("slurmctld"), program("slurmd"));
+        program("munged");
+        program("slurmctld");
         program("sbatch");
         let dir = tempfile::Builder::new()
             .prefix("plsr-slurm-")
             .tempdir()
             .unwrap()
             .keep();
-        let d = |name: &str| dir.join(name);
-        for sub in ["state", "spool", "munge", "munge-key"] {
-            std::fs::create_dir_all(d(sub)).unwrap();
-        }
-        // munged wants its socket's folders searchable by everyone, and its
-        // key in a folder of its owner's alone.
-        use std::os::unix::fs::PermissionsExt;
-        let mode = |p: PathBuf, m: u32| {
-            std::fs::set_permissions(p, std::fs::Permissions::from_mode(m)).unwrap()
-        };
-        mode(dir.clone(), 0o755);
-        mode(d("munge"), 0o755);
-        mode(d("munge-key"), 0o700);
-        // Munge's shared key: 1 KiB of random bytes, readable by its owner only.
-        let key = d("munge-key/munge.key");
-        let mut bytes = vec![0u8; 1024];
-        std::fs::File::open("/dev/urandom")
-            .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut bytes))
-            .unwrap();
-        std::fs::write(&key, &bytes).unwrap();
-        std::fs::set_permissions(&key, std::fs::Permissions::from_mode(0o400)).unwrap();
-        let socket = d("munge/munge.socket");
         let cluster = Cluster {
-            conf: d("slurm.conf"),
-            munged_pid: d("munge/munged.pid"),
+            conf: dir.join("slurm.conf"),
             dir: dir.clone(),
         };
-        let out = Command::new(&munged)
-            .arg("--key-file")
-            .arg(&key)
-            .arg("--socket")
-            .arg(&socket)
-            .arg("--pid-file")
-            .arg(&cluster.munged_pid)
-            .arg("--log-file")
-            .arg(d("munge/munged.log"))
-            .arg("--seed-file")
-            .arg(d("munge/munged.seed"))
+        let out = Command::new("bash")
+            .arg("scripts/slurm-single-node.sh")
+            .arg("start")
+            .arg(&dir)
             .output()
             .unwrap();
         if !out.status.success() {
             cluster.fail(&format!(
-                "munged did not start: {}",
+                "scripts/slurm-single-node.sh start failed ({}): {}",
+                out.status,
                 String::from_utf8_lossy(&out.stderr)
             ));
         }
-        // The short host name, as slurmd finds its own node by it.
-        let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
-            .expect("the host name (/proc/sys/kernel/hostname)")
-            .trim()
-            .split('.')
-            .next()
-            .unwrap()
-            .to_string();
-        let user = String::from_utf8(Command::new("id").arg("-un").output().unwrap().stdout)
-            .unwrap()
-            .trim()
-            .to_string();
-        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
-        let conf = format!(
-            "ClusterName=plsrtest\n\
-             SlurmctldHost={host}(127.0.0.1)\n\
-             SlurmUser={user}\n\
-             SlurmctldPort={ctld}\n\
-             SlurmdPort={slurmd_port}\n\
-             AuthType=auth/munge\n\
-             AuthInfo=socket={socket}\n\
-             CredType=cred/munge\n\
-             StateSaveLocation={state}\n\
-             SlurmdSpoolDir={spool}\n\
-             SlurmctldPidFile={dir}/slurmctld.pid\n\
-             SlurmdPidFile={dir}/slurmd.pid\n\
-             SlurmctldLogFile={dir}/slurmctld.log\n\
-             SlurmdLogFile={dir}/slurmd.log\n\
-             ProctrackType=proctrack/linuxproc\n\
-             TaskPlugin=task/none\n\
-             SelectType=select/cons_tres\n\
-             SelectTypeParameters=CR_CPU\n\
-             ReturnToService=2\n\
-             MpiDefault=none\n\
-             JobAcctGatherType=jobacct_gather/none\n\
-             SchedulerParameters=sched_interval=1\n\
-             NodeName={host} NodeAddr=127.0.0.1 CPUs={cpus} State=UNKNOWN\n\
-             PartitionName=debug Nodes={host} Default=YES MaxTime=INFINITE State=UP\n",
-            ctld = free_port(),
-            slurmd_port = free_port(),
-            socket = socket.display(),
-            state = d("state").display(),
-            spool = d("spool").display(),
-            dir = dir.display(),
+        let said = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            said.contains(&format!("export SLURM_CONF={}", cluster.conf.display())),
+            "{said}"
         );
-        std::fs::write(&cluster.conf, conf).unwrap();
-        for (daemon, args) in [(&slurmctld, vec!["-i"]), (&slurmd, vec![])] {
-            let out = Command::new(daemon)
-                .args(args)
-                .env("SLURM_CONF", &cluster.conf)
-                .output()
-                .unwrap();
-            if !out.status.success() {
-                cluster.fail(&format!(
-                    "{} did not start ({}): {}",
-                    daemon.display(),
-                    out.status,
-                    String::from_utf8_lossy(&out.stderr)
-                ));
-            }
-        }
-        // Ready when the node is idle.
-        let start = Instant::now();
-        loop {
-            let out = cluster.slurm("sinfo", &["-h", "-o", "%t"]);
-            let state = String::from_utf8_lossy(&out.stdout).trim().to_string();
-            if out.status.success() && state == "idle" {
-                break;
-            }
-            if start.elapsed() > Duration::from_secs(60) {
-                cluster.fail(&format!(
-                    "the node did not become idle in 60 s (sinfo: {state:?}, {})",
-                    String::from_utf8_lossy(&out.stderr).trim()
-                ));
-            }
-            std::thread::sleep(Duration::from_millis(250));
-        }
         cluster
     }
 
@@ -240,17 +131,11 @@ impl Cluster {
 
 impl Drop for Cluster {
     fn drop(&mut self) {
-        let _ = self.slurm("scontrol", &["shutdown"]);
-        std::thread::sleep(Duration::from_millis(500));
-        for pid_file in [
-            self.dir.join("slurmctld.pid"),
-            self.dir.join("slurmd.pid"),
-            self.munged_pid.clone(),
-        ] {
-            if let Ok(pid) = std::fs::read_to_string(&pid_file) {
-                let _ = Command::new("kill").arg(pid.trim()).output();
-            }
-        }
+        let _ = Command::new("bash")
+            .arg("scripts/slurm-single-node.sh")
+            .arg("stop")
+            .arg(&self.dir)
+            .output();
         let _ = std::fs::remove_dir_all(&self.dir);
     }
 }
