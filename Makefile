@@ -32,7 +32,7 @@ test: test-deps
 
 # The paper's experiment redone on a synthetic room (docs/paper-experiment.md):
 # ground-truth photos, PLS lights (measured, and fitted from the photos) and
-# an HDR panorama, composites, CW-SSIM, LPIPS and FLIP; about 25 minutes on
+# an HDR panorama, composites, CW-SSIM, LPIPS and FLIP; about 20 minutes on
 # two cores. Writes $(OUT)/paper/ (results.md, results.json, figure.png),
 # replacing an earlier run.
 # `plsr experiment paper --quick` runs it small (and is part of `make test`).

@@ -421,7 +421,7 @@ def run_one(name, model, args, out):
     cam = json.loads(Path(job["result"]).read_text())
     scene = out / f"{name}.toml"
     scene.write_text(plsr_scene(model, args.env, cam, size, args.spp, args.max_depth))
-    p, p_s, p_mb = timed([str(args.plsr), "render", str(scene), "-q",
+    p, p_s, p_mb = timed([str(args.plsr), "render", str(scene),
                           "-o", str(out / f"{name}.plsr.exr")])
     if p.returncode != 0:
         raise RuntimeError(f"plsr failed on {name}:\n{p.stderr[-2000:]}")

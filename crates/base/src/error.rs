@@ -34,7 +34,8 @@ pub enum Error {
         /// What went wrong.
         message: String,
     },
-    /// A value passed through the API is invalid.
+    /// A value passed through the API is invalid; the message is a whole
+    /// sentence (shown as it is, without a prefix naming the variant).
     InvalidArgument(String),
     /// Long work (a render, a fit) was cancelled by its progress callback.
     Cancelled,
@@ -71,7 +72,7 @@ impl fmt::Display for Error {
             }
             Error::Io { file, source } => write!(f, "{}: {source}", file.display()),
             Error::Output { file, message } => write!(f, "{}: {message}", file.display()),
-            Error::InvalidArgument(m) => write!(f, "invalid argument: {m}"),
+            Error::InvalidArgument(m) => write!(f, "{m}"),
             Error::Cancelled => write!(f, "render cancelled"),
         }
     }

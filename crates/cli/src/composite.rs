@@ -167,7 +167,7 @@ pub fn run(a: &CompositeArgs) -> Result<()> {
             100.0 * report.rays.forked as f64 / paths as f64
         )
     };
-    eprintln!(
+    crate::note!(
         "composited {}×{} ({}) in {:.2} s of rendering{forked}{}, {exposure} → {}{}",
         result.width,
         result.height,
@@ -313,7 +313,7 @@ fn run_frames(
             (None, None) if photo.exposure.is_none() => "kept from the first frame".to_string(),
             (None, None) => "from the scene".to_string(),
         };
-        eprintln!(
+        crate::note!(
             "frame {frame}: composited {}×{} ({}) in {:.2} s, exposure k = {:.5} ({how}) → {}",
             result.width,
             result.height,

@@ -137,12 +137,12 @@ pub fn run(a: &DenoiseArgs) -> Result<()> {
     let albedo = !a.color_only && has_channels(&a.input, &["albedo.R", "albedo.G", "albedo.B"])?;
     let normal = albedo && has_channels(&a.input, &["normal.X", "normal.Y", "normal.Z"])?;
     if !a.color_only && !albedo {
-        eprintln!(
+        crate::note!(
             "note: {} has no albedo.R/G/B layer: denoising the colour alone (a render's albedo and normal layers make it sharper)",
             a.input.display()
         );
     } else if !a.color_only && !normal {
-        eprintln!(
+        crate::note!(
             "note: {} has no normal.X/Y/Z layer: denoising with the albedo alone",
             a.input.display()
         );
@@ -169,7 +169,7 @@ pub fn run(a: &DenoiseArgs) -> Result<()> {
         png_note = format!(", {} ({:+.2} stops)", p.display(), tone.exposure);
     }
     outputs.commit()?;
-    eprintln!(
+    crate::note!(
         "{}×{}{note} → {}{png_note}",
         film.width,
         film.height,

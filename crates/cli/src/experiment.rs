@@ -28,7 +28,7 @@ pub struct PaperArgs {
     #[arg(short, long, value_name = "DIR")]
     pub output: Option<PathBuf>,
     /// Run the whole pipeline small (under two minutes on two cores)
-    /// instead of the full experiment (about 25 minutes, 8 of them the fit from photos).
+    /// instead of the full experiment (about 20 minutes, 6 of them the fit from photos).
     #[arg(long)]
     pub quick: bool,
     /// The Stanford bunny's OBJ file.
@@ -57,7 +57,7 @@ pub fn run(command: ExperimentCommand) -> Result<()> {
 fn paper(a: &PaperArgs) -> Result<()> {
     if let Some(dir) = &a.write_scenes {
         PaperRoom::new().write_assets(dir, &a.bunny)?;
-        eprintln!("wrote the paper-room into {}", dir.display());
+        crate::note!("wrote the paper-room into {}", dir.display());
         return Ok(());
     }
     let out = a.output.clone().unwrap_or_else(|| {
@@ -77,9 +77,9 @@ fn paper(a: &PaperArgs) -> Result<()> {
         },
         threads: a.threads,
     };
-    let results = run_paper(&options, &|line| eprintln!("{line}"))?;
+    let results = run_paper(&options, &|line| crate::note!("{line}"))?;
     println!("{}", results.table());
-    eprintln!(
+    crate::note!(
         "wrote {} (results.md, results.json, figure.png) in {:.0} s",
         out.display(),
         results.seconds

@@ -162,6 +162,9 @@ pub fn run(a: &FitArgs) -> Result<()> {
         "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} iterations, {msg} (eta {eta})",
     );
     bar.set_length(a.iterations as u64);
+    // Until the first iteration reports its loss (window searches come
+    // first when asked).
+    bar.set_message("rendering the first iteration");
     let mut first = None;
     let mut progress = |it: &plsr_apps::fit::Iteration, _: &[plsr_apps::fit::Parameter]| {
         first.get_or_insert(it.loss);
@@ -176,7 +179,7 @@ pub fn run(a: &FitArgs) -> Result<()> {
         eprintln!("warning: {w}");
     }
     for (name, w) in &outcome.windows {
-        eprintln!(
+        crate::note!(
             "window of {name}: n = [{:.4}, {:.4}, {:.4}], a = {:.3}°, penumbra = {:.3}°, size ×{:.3}, b = {:.5} ({} renders, loss {:.4e})",
             w.n.x, w.n.y, w.n.z, w.a_deg, w.penumbra_deg, w.size, w.b, w.evaluations, w.loss
         );
@@ -190,7 +193,7 @@ pub fn run(a: &FitArgs) -> Result<()> {
         }
     };
     for p in &outcome.parameters {
-        eprintln!("  {:<32} {} → {}", p.name, fmt(&p.initial), fmt(&p.value));
+        crate::note!("  {:<32} {} → {}", p.name, fmt(&p.initial), fmt(&p.value));
     }
     let (l0, l1) = (
         outcome.losses.first().copied().unwrap_or(0.0),
@@ -203,7 +206,7 @@ pub fn run(a: &FitArgs) -> Result<()> {
         loss_png.display()
     );
     if outcome.losses.len() > 1 {
-        eprintln!(
+        crate::note!(
             "fitted {} parameters on {} pixels in {} iterations ({:.3} s each): loss {l0:.4e} → {l1:.4e} ({:.1}× lower) → {outputs}",
             outcome.parameters.len(),
             outcome.pixels,
@@ -213,7 +216,7 @@ pub fn run(a: &FitArgs) -> Result<()> {
         );
     } else {
         // Only windows were searched: no Adam iterations.
-        eprintln!(
+        crate::note!(
             "fitted the windows of {} lights on {} pixels: loss {l1:.4e} → {outputs}",
             outcome.windows.len(),
             outcome.pixels

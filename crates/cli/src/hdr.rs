@@ -74,7 +74,8 @@ pub struct HdrCaptureArgs {
 /// Arguments of `plsr hdr merge`.
 #[derive(Debug, clap::Args)]
 pub struct HdrMergeArgs {
-    /// The bracketed images (at least two, same size).
+    /// The bracketed images (at least two, same size), or a folder: every
+    /// image in it (by extension), in name order.
     #[arg(required = true, value_name = "IMG")]
     pub images: Vec<PathBuf>,
     /// Output: OpenEXR (.exr), Radiance HDR (.hdr) or 32-bit float TIFF (.tif).
@@ -443,7 +444,8 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
         bar.set_length(total);
         bar.set_position(done);
     };
-    let summary = merge(&a.images, &a.output, &options, &progress);
+    let images = bracket_files(&a.images)?;
+    let summary = merge(&images, &a.output, &options, &progress);
     bar.finish_and_clear();
     let s = summary?;
     for w in &s.warnings {
@@ -457,7 +459,7 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
         plsr_hdr::oiio::PixelType::U16 => format!("16-bit ({} significant)", s.bits),
         _ => "float".to_string(),
     };
-    eprintln!(
+    crate::note!(
         "merged {} brackets ({}×{}, {depth}, {}) in {:.2} s{peak} → {}",
         s.brackets.len(),
         s.width,
@@ -467,13 +469,13 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
         a.output.display()
     );
     if s.camera_raw {
-        eprintln!(
+        crate::note!(
             "  camera raw: merged as linear data (each file's black and white levels and as-shot \
              white balance, through LibRaw)"
         );
     }
     if s.saturated_values > 0 || s.dark_values > 0 {
-        eprintln!(
+        crate::note!(
             "  {} channel value(s) clipped in every bracket (took the shortest exposure's estimate), {} dark in every bracket (took the longest's)",
             s.saturated_values, s.dark_values
         );
@@ -484,13 +486,13 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
             .iter()
             .map(|b| format!("{},{}", b.shift.0, b.shift.1))
             .collect();
-        eprintln!(
+        crate::note!(
             "  alignment shifts (dx,dy, shortest exposure first): {}",
             shifts.join(" ")
         );
     }
     if let Some((reference, f)) = &s.deghost {
-        eprintln!(
+        crate::note!(
             "  deghosting: {:.1} % of the image left out some bracket that disagreed with the \
              best-exposed one, {}",
             100.0 * f,
@@ -498,25 +500,73 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
         );
     }
     if let Some([x0, y0, x1, y1]) = s.crop {
-        eprintln!(
+        crate::note!(
             "  cropped to {x0},{y0},{x1},{y1} (X0,Y0,X1,Y1 of the brackets' frame), the area every \
              bracket covers; --crop-to-common no keeps the whole frame"
         );
     }
     match &s.calibration {
-        Some((scale, source)) => eprintln!(
+        Some((scale, source)) => crate::note!(
             "  absolute radiance, W/(m²·sr): relative values × {scale:.6e} ({source})"
         ),
-        None => eprintln!(
+        None => crate::note!(
             "  relative radiance (calibrate with --exif-calibration, --grey-card or --known-luminance)"
         ),
     }
     if let Some(c) = &a.curve {
-        eprintln!(
+        crate::note!(
             "  response curve → {}, {}",
             c.display(),
             c.with_extension("png").display()
         );
     }
     Ok(())
+}
+
+/// The extensions of the images a folder given to `plsr hdr merge` is
+/// searched for (camera raw formats besides).
+const IMAGE_EXTENSIONS: [&str; 9] = [
+    "jpg", "jpeg", "png", "tif", "tiff", "exr", "hdr", "pfm", "dng",
+];
+
+/// The bracket files: each path given, with a folder replaced by the
+/// images in it (by extension, in name order; files of other kinds are
+/// left out). A folder without images is an error naming it.
+fn bracket_files(given: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    for path in given {
+        if !path.is_dir() {
+            files.push(path.clone());
+            continue;
+        }
+        let entries = std::fs::read_dir(path).map_err(|e| Error::io(path.clone(), e))?;
+        let mut images = Vec::new();
+        for entry in entries {
+            let entry = entry.map_err(|e| Error::io(path.clone(), e))?;
+            let file = entry.path();
+            let ext = file
+                .extension()
+                .map(|e| e.to_string_lossy().to_ascii_lowercase())
+                .unwrap_or_default();
+            if file.is_file()
+                && (IMAGE_EXTENSIONS.contains(&ext.as_str())
+                    || plsr_hdr::oiio::is_camera_raw(&file))
+            {
+                images.push(file);
+            }
+        }
+        if images.is_empty() {
+            return Err(Error::input(
+                path,
+                "",
+                format!(
+                    "is a folder without images ({} or camera raw files)",
+                    IMAGE_EXTENSIONS.join(", ")
+                ),
+            ));
+        }
+        images.sort();
+        files.extend(images);
+    }
+    Ok(files)
 }

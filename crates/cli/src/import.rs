@@ -102,7 +102,7 @@ pub fn run(a: &ImportArgs) -> Result<()> {
         None => plsr::scene::mitsuba::translate_with(&a.input, &text, &a.params.options())?,
     };
     for n in &translation.notes {
-        eprintln!("note: {n}");
+        crate::note!("note: {n}");
     }
     write_or_print(a.output.as_ref(), &translation.toml)
 }
@@ -201,7 +201,7 @@ fn import_calibration(a: &ImportArgs) -> Result<()> {
     if let Some(e) = calibration.reprojection_error {
         summary.push_str(&format!(", reprojection error {e:.3} px"));
     }
-    eprintln!("calibration: {summary}");
+    crate::note!("calibration: {summary}");
     if let Some(out) = &a.output {
         if same_file(out, &a.input) || c.scene.as_ref().is_some_and(|s| same_file(out, s)) {
             return Err(Error::invalid_argument(format!(
@@ -222,7 +222,7 @@ fn write_or_print(out: Option<&PathBuf>, text: &str) -> Result<()> {
                 w.write_all(text.as_bytes())
                     .map_err(|source| Error::io(out.clone(), source))
             })?;
-            eprintln!("wrote {}", out.display());
+            crate::note!("wrote {}", out.display());
         }
         None => print!("{text}"),
     }

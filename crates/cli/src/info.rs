@@ -28,6 +28,48 @@ fn value(v: &AttributeValue) -> String {
     }
 }
 
+/// The longest attribute value printed whole (characters).
+const LONGEST_VALUE: usize = 160;
+
+/// An attribute's value as `plsr info` prints it: a response curve
+/// (`plsr:response_curve`, one line of numbers per channel) summarised by
+/// its size and range, any other value longer than [`LONGEST_VALUE`] cut
+/// with its length said.
+fn shown(key: &str, value: &str) -> String {
+    if key == "plsr:response_curve" {
+        let text = value.trim_matches('"');
+        let rows: Vec<Vec<f64>> = text
+            .split("\\n")
+            .flat_map(|r| r.split('\n'))
+            .map(|r| {
+                r.split_whitespace()
+                    .filter_map(|x| x.parse().ok())
+                    .collect()
+            })
+            .filter(|r: &Vec<f64>| !r.is_empty())
+            .collect();
+        if let Some(first) = rows.first() {
+            let all = rows.iter().flatten();
+            let (lo, hi) = all.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+                (lo.min(x), hi.max(x))
+            });
+            return format!(
+                "{} channel{} × {} levels, values {lo:.4} to {hi:.4} (`plsr hdr merge --curve` \
+                 writes the whole curve as CSV)",
+                rows.len(),
+                if rows.len() == 1 { "" } else { "s" },
+                first.len()
+            );
+        }
+    }
+    let chars = value.chars().count();
+    if chars <= LONGEST_VALUE {
+        return value.to_string();
+    }
+    let head: String = value.chars().take(LONGEST_VALUE - 40).collect();
+    format!("{head}… ({chars} characters in all)")
+}
+
 /// What `plsr info` says of a Radiance HDR or TIFF file: its size,
 /// channels and pixel type, and the exposure its metadata states.
 fn run_other(path: &std::path::Path) -> Result<()> {
@@ -133,7 +175,7 @@ pub fn run(a: &InfoArgs) -> Result<()> {
         if !attributes.is_empty() {
             println!("  attributes:");
             for (k, v) in attributes {
-                println!("    {k} = {v}");
+                println!("    {k} = {}", shown(&k, &v));
             }
         }
     }

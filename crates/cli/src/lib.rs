@@ -20,6 +20,7 @@ pub mod merge;
 pub mod pls;
 pub mod progress;
 pub mod render;
+pub mod say;
 pub mod scene_params;
 pub mod tonemap;
 pub mod undistort;
@@ -116,7 +117,8 @@ where
     I: IntoIterator<Item = T>,
     T: Into<OsString> + Clone,
 {
-    let cli = match Cli::try_parse_from(args) {
+    let args: Vec<OsString> = args.into_iter().map(Into::into).collect();
+    let cli = match Cli::try_parse_from(args.iter().cloned()) {
         Ok(c) => c,
         Err(e) => {
             // --help and --version print and succeed; usage errors print and fail.
@@ -128,6 +130,15 @@ where
             });
         }
     };
+    // Every command's `--quiet` (`-q`) also silences its summaries; clap
+    // accepted the flag, so the command has it. Arguments after `--` are
+    // not flags.
+    say::set_quiet(
+        args.iter()
+            .skip(1)
+            .take_while(|a| *a != "--")
+            .any(|a| a == "--quiet" || a == "-q"),
+    );
     match cli.command {
         Command::Render(a) => render::run(&a),
         Command::Composite(a) => composite::run(&a),

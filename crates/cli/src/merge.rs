@@ -75,7 +75,7 @@ pub fn run_in_sequence(a: &MergeArgs, exposure: &mut SequenceExposure) -> Result
         png_note = format!(", {} ({:+.2} stops)", p.display(), tone.exposure);
     }
     outputs.commit()?;
-    eprintln!(
+    crate::note!(
         "merged {} parts into {}×{} at {} spp{denoise_note} → {}{png_note}",
         parts.len(),
         film.width,

@@ -82,7 +82,7 @@ pub fn run(command: PlsCommand) -> Result<()> {
             )?;
             let lighting = file::load(&file)?;
             file::save(&lighting.transform(&m), &output)?;
-            eprintln!(
+            crate::note!(
                 "transformed {} light(s) from {} → {}",
                 lighting.lights.len(),
                 file.display(),
@@ -142,7 +142,7 @@ fn check(path: &Path, nf: u32) -> Result<()> {
 fn mesh(path: &Path, output: &Path, nf: u32) -> Result<()> {
     let lighting = file::load(path)?;
     file::save_obj(&lighting, nf, output)?;
-    eprintln!(
+    crate::note!(
         "wrote {} light(s) at Nf = {nf} → {}",
         lighting.lights.len(),
         output.display()

@@ -153,7 +153,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     }
     let contents = plsr::scene::file::load_contents_with(&a.scene, &a.params.options())?;
     for n in &contents.notes {
-        eprintln!("note: {n}");
+        crate::note!("note: {n}");
     }
     let inputs = contents.inputs;
     let frames = frames_asked(a, contents.camera_path.as_ref())?;
@@ -376,7 +376,7 @@ impl FramesRun<'_> {
             let old = resumed_part(output, (width, height))?;
             let have = old.info.sample_end;
             if have >= job.spp {
-                eprintln!(
+                crate::note!(
                     "{} holds {have} samples already (asked for {}): nothing to render",
                     output.display(),
                     job.spp
@@ -589,7 +589,7 @@ fn render_one(
                     let mut kept = OutputSet::new();
                     noisy.stage_exr(&mut kept, output)?;
                     kept.commit()?;
-                    eprintln!(
+                    crate::note!(
                         "note: the render was written undenoised to {}",
                         output.display()
                     );
@@ -607,7 +607,7 @@ fn render_one(
         png_note = format!(", {} ({:+.2} stops)", p.display(), tone.exposure);
     }
     outputs.commit()?;
-    eprintln!(
+    crate::note!(
         "rendered {}{}×{} at {} spp in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s on {} threads{}{denoise_note} → {}{}",
         frame.map(|f| format!("frame {f}, ")).unwrap_or_default(),
         film.width,

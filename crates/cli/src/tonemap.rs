@@ -134,7 +134,7 @@ pub fn run(a: &TonemapArgs) -> Result<()> {
     let mut outputs = OutputSet::new();
     film.stage_png(&mut outputs, &a.output, tone)?;
     outputs.commit()?;
-    eprintln!(
+    crate::note!(
         "{}×{} at {:+.2} stops{} → {}",
         film.width,
         film.height,

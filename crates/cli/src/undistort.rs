@@ -68,7 +68,7 @@ pub fn run(a: &UndistortArgs) -> Result<()> {
         &[],
         &out,
     )?;
-    eprintln!(
+    crate::note!(
         "undistorted {} ({}×{}, {} lens) into {}: render it with the same [camera] and \
          distortion = \"none\"",
         a.input.display(),

@@ -251,7 +251,9 @@ pub(crate) fn plsr_merge(
         .arg("-o")
         .arg(out)
         .args(args)
-        .arg("--quiet");
+        // Not --quiet: the summary line says the peak memory. Progress
+        // goes nowhere.
+        .env("PLSR_PROGRESS", "none");
     if let Some(n) = threads {
         cmd.args(["--threads", &n.to_string()]);
     }

@@ -136,7 +136,7 @@ pub fn run(a: &K8sArgs) -> Result<()> {
     if a.plan.quiet {
         return Ok(());
     }
-    eprintln!(
+    crate::note!(
         "wrote {} ({} pieces), {} and {}; run: sh {}",
         files[0].0.display(),
         plan.piece_count(),

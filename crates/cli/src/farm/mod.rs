@@ -220,7 +220,7 @@ pub fn make_plan(a: &PlanArgs, writes: &[&str]) -> Result<(FarmPlan, PathBuf, Pa
     if plan_file.exists() {
         if let Ok(old) = FarmPlan::read(&plan_file) {
             if old != plan && !a.quiet {
-                eprintln!(
+                crate::note!(
                     "replacing the plan in {} (its pieces that no longer fit are rendered again)",
                     dir.display()
                 );
@@ -280,7 +280,7 @@ fn piece(a: &PieceArgs) -> Result<()> {
     // The scene is read for the check only when there is a part to check.
     if !a.force && output.is_file() && DoneCheck::new(&plan, &dir)?.is_done(&plan, &dir, &piece) {
         if !a.quiet {
-            eprintln!(
+            crate::note!(
                 "piece {index} is done already ({}); nothing to render",
                 output.display()
             );
@@ -292,7 +292,7 @@ fn piece(a: &PieceArgs) -> Result<()> {
         None => Vec::new(),
     };
     if !a.quiet {
-        eprintln!(
+        crate::note!(
             "piece {index} of {}: {}samples {}..{}",
             plan.piece_count(),
             piece

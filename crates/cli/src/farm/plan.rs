@@ -172,6 +172,17 @@ impl FarmPlan {
         frames * u64::from(self.parts)
     }
 
+    /// The samples of one part, as a message says it: `16 spp` when the
+    /// parts are equal, `16–17 spp` when they are not.
+    pub fn part_spp(&self) -> String {
+        let low = self.spp / self.parts;
+        if self.spp.is_multiple_of(self.parts) {
+            format!("{low} spp")
+        } else {
+            format!("{low}–{} spp", low + 1)
+        }
+    }
+
     /// How many pieces: frames × parts.
     pub fn piece_count(&self) -> u32 {
         self.piece_count_u64() as u32
@@ -344,6 +355,13 @@ mod tests {
             defines: Vec::new(),
             time: None,
         }
+    }
+
+    #[test]
+    fn a_part_s_samples_are_said_as_a_range_when_unequal() {
+        assert_eq!(plan(64, 4, None).part_spp(), "16 spp");
+        assert_eq!(plan(66, 4, None).part_spp(), "16–17 spp");
+        assert_eq!(plan(3, 3, None).part_spp(), "1 spp");
     }
 
     #[test]

@@ -89,8 +89,8 @@ pub fn run(a: &SlurmArgs) -> Result<()> {
     let pieces = plan.piece_count();
     let quiet = a.plan.quiet;
     if !quiet {
-        eprintln!(
-            "wrote {} ({} pieces: {} frame{} × {} parts of {} spp) and {}",
+        crate::note!(
+            "wrote {} ({} pieces: {} frame{} × {} parts of {}, {} spp in all) and {}",
             render.display(),
             pieces,
             plan.frame_list().len(),
@@ -100,13 +100,14 @@ pub fn run(a: &SlurmArgs) -> Result<()> {
                 "s"
             },
             plan.parts,
+            plan.part_spp(),
             plan.spp,
             merge.display()
         );
     }
     if !a.submit {
         if !quiet {
-            eprintln!(
+            crate::note!(
             "submit with: plsr farm slurm … --submit, or\n  \
              id=$(sbatch --parsable {}) && sbatch --dependency=afterok:$id --kill-on-invalid-dep=yes {}",
             shell_quote(&render.to_string_lossy()),
@@ -119,13 +120,13 @@ pub fn run(a: &SlurmArgs) -> Result<()> {
     let mut merge_args = vec!["--parsable".to_string()];
     if missing.is_empty() {
         if !quiet {
-            eprintln!("every piece is done: submitting the merge alone");
+            crate::note!("every piece is done: submitting the merge alone");
         }
     } else {
         let throttle = a.max_running.map(|n| format!("%{n}")).unwrap_or_default();
         let array = format!("--array={}{throttle}", index_list(&missing));
         if missing.len() < pieces as usize && !quiet {
-            eprintln!(
+            crate::note!(
                 "{} of {pieces} pieces are done: submitting the other {} ({array})",
                 pieces as usize - missing.len(),
                 missing.len()

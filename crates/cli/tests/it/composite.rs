@@ -146,15 +146,7 @@ fn composite_cli(dir: &Path, exposure: &str, mode: &str) -> (image::RgbImage, St
     std::fs::write(dir.join("ar.toml"), room("virtual = true", &photo)).unwrap();
     let output = Command::new(env!("CARGO_BIN_EXE_plsr"))
         .current_dir(dir)
-        .args([
-            "composite",
-            "ar.toml",
-            "-o",
-            "c.exr",
-            "--png",
-            "c.png",
-            "--quiet",
-        ])
+        .args(["composite", "ar.toml", "-o", "c.exr", "--png", "c.png"])
         .args(["--mode", mode, "--spp", "1024"])
         .output()
         .unwrap();
@@ -486,7 +478,7 @@ fn two_renders_on_the_command_line_write_the_same_composite() {
     for (name, extra) in [("paired", None), ("apart", Some("--two-renders"))] {
         let exr = dir.path().join(format!("{name}.exr"));
         let exr_arg = exr.to_str().unwrap();
-        let mut args = vec!["composite", scene, "-o", exr_arg, "--spp", "1", "-q"];
+        let mut args = vec!["composite", scene, "-o", exr_arg, "--spp", "1"];
         args.extend(extra);
         let (ok, _, err) = crate::plsr(&args);
         assert!(ok, "{err}");
@@ -746,7 +738,6 @@ fn a_video_composites_each_frame_through_its_camera() {
                 "c-{frame}.exr",
                 "--spp",
                 "16",
-                "-q",
             ])
             .args(extra)
             .output()
@@ -811,7 +802,7 @@ fn a_video_composites_each_frame_through_its_camera() {
             "-o",
             "c-{frame}.exr",
         ])
-        .args(["--png", "photo-{frame}.png", "-q"])
+        .args(["--png", "photo-{frame}.png"])
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);

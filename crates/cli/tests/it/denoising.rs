@@ -34,7 +34,7 @@ fn render_denoise_keeps_the_noisy_colour_and_equals_plsr_denoise() {
         dir.path().join("flagged.exr"),
         dir.path().join("command.exr"),
     );
-    let base = ["render", SCENE, "--spp", "8", "-q"];
+    let base = ["render", SCENE, "--spp", "8"];
     let (ok, err) = plsr(&[&base[..], &["-o", s(&plain)]].concat());
     assert!(ok, "{err}");
     let (ok, err) = plsr(&[&base[..], &["-o", s(&flagged), "--denoise"]].concat());
@@ -137,15 +137,7 @@ fn parts_are_denoised_only_once_merged() {
     );
     assert!(!part("a.exr").exists());
     for (name, range) in [("a.exr", "0..4"), ("b.exr", "4..8")] {
-        let (ok, err) = plsr(&[
-            "render",
-            SCENE,
-            "--samples",
-            range,
-            "-o",
-            s(&part(name)),
-            "-q",
-        ]);
+        let (ok, err) = plsr(&["render", SCENE, "--samples", range, "-o", s(&part(name))]);
         assert!(ok, "{err}");
     }
     let (a, b) = (part("a.exr"), part("b.exr"));

@@ -16,7 +16,6 @@ const SCENE: &str = "tests/data/cornell-64.toml";
 fn plsr(args: &[&str]) -> (bool, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
         .args(args)
-        .arg("--quiet")
         .output()
         .unwrap();
     (

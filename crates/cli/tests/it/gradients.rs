@@ -853,7 +853,6 @@ fn plsr_fit_writes_the_fitted_scene_and_the_loss_curve() {
         "wall.*",
         "--param",
         "lamp.b",
-        "-q",
     ]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
@@ -896,7 +895,6 @@ fn plsr_fit_writes_the_fitted_scene_and_the_loss_curve() {
         "2",
         "--param",
         "wall.*",
-        "-q",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let again_text = std::fs::read_to_string(&again).unwrap();
@@ -920,7 +918,6 @@ fn plsr_fit_writes_the_fitted_scene_and_the_loss_curve() {
         guess.to_str().unwrap(),
         "-o",
         guess.to_str().unwrap(),
-        "-q",
     ]);
     assert_eq!(o.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&o.stderr);

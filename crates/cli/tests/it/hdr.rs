@@ -699,7 +699,6 @@ fn cli_merges_and_writes_the_curve() {
         "--curve".as_ref(),
         curve.as_os_str(),
         "--half".as_ref(),
-        "--quiet".as_ref(),
     ]);
     let output = plsr(&args);
     let stderr = String::from_utf8_lossy(&output.stderr);
@@ -708,6 +707,52 @@ fn cli_merges_and_writes_the_curve() {
     let r = ImageReader::open(&out).unwrap();
     assert_eq!(r.info().format, PixelType::Half);
     assert!(curve.exists() && dir.path().join("curve.png").exists());
+    // `plsr info` summarises the curve the header keeps, and no line runs on.
+    let info = plsr(&["info".as_ref(), out.as_os_str()]);
+    let stdout = String::from_utf8_lossy(&info.stdout);
+    assert!(info.status.success(), "{stdout}");
+    let line = stdout
+        .lines()
+        .find(|l| l.contains("plsr:response_curve"))
+        .unwrap_or_else(|| panic!("{stdout}"));
+    assert!(
+        line.contains("= 3 channels × 256 levels, values 0."),
+        "{line}"
+    );
+    assert!(stdout.lines().all(|l| l.chars().count() < 250), "{stdout}");
+}
+
+/// A folder stands for the images in it, in name order: the merge is the
+/// one of the files given one by one, byte for byte. Other files in the
+/// folder are left out; a folder without images is refused.
+#[test]
+fn cli_merges_every_image_of_a_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let brackets = dir.path().join("brackets");
+    std::fs::create_dir(&brackets).unwrap();
+    let files = small_brackets(&brackets, 4, true);
+    std::fs::write(brackets.join("notes.txt"), "shot on a tripod").unwrap();
+    let merge_to = |inputs: &[&std::ffi::OsStr], out: &Path| {
+        let mut args: Vec<&std::ffi::OsStr> = vec!["hdr".as_ref(), "merge".as_ref()];
+        args.extend(inputs);
+        args.extend(["-o".as_ref(), out.as_os_str()]);
+        let output = plsr(&args);
+        let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+        assert!(output.status.success(), "{stderr}");
+        assert!(stderr.contains("merged 4 brackets"), "{stderr}");
+        std::fs::read(out).unwrap()
+    };
+    let one_by_one: Vec<&std::ffi::OsStr> = files.iter().map(|f| f.as_os_str()).collect();
+    let a = merge_to(&one_by_one, &dir.path().join("a.exr"));
+    let b = merge_to(&[brackets.as_os_str()], &dir.path().join("b.exr"));
+    assert!(a == b, "the folder's merge differs");
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    let e = expect_merge_error(dir.path(), &[empty], &[]);
+    assert!(
+        e.contains("empty") && e.contains("folder without images"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -778,7 +823,6 @@ fn cli_rejects_missing_exposure_times() {
         out.as_os_str(),
         "--exposures".as_ref(),
         "1/30,1/15,1/8".as_ref(),
-        "--quiet".as_ref(),
     ]);
     let output = plsr(&args);
     assert!(
@@ -926,7 +970,6 @@ intensity = [10, 10, 10]
         exr.to_str().unwrap(),
         "--png",
         png.to_str().unwrap(),
-        "-q",
     ]);
     assert!(!render.contains(oiio), "{render}");
     assert!(exr.is_file() && png.is_file());
@@ -1173,7 +1216,7 @@ fn a_written_curve_read_back_merges_the_same_panorama() {
     // The command line, from a copy of the brackets' curve.
     let out = dir.path().join("cli.exr");
     let o = Command::new(env!("CARGO_BIN_EXE_plsr"))
-        .args(["hdr", "merge", "--quiet", "--response-curve"])
+        .args(["hdr", "merge", "--response-curve"])
         .arg(&csv)
         .args(&files)
         .arg("-o")
@@ -1278,7 +1321,7 @@ fn grey_card_calibration_from_the_command_line() {
     let out = dir.path().join("card.exr");
     let mut args: Vec<std::ffi::OsString> = vec!["hdr".into(), "merge".into()];
     args.extend(files.iter().map(|f| f.clone().into_os_string()));
-    args.extend(["-o".into(), out.clone().into_os_string(), "--quiet".into()]);
+    args.extend(["-o".into(), out.clone().into_os_string()]);
     let mut good = args.clone();
     good.extend([
         "--grey-card".into(),

@@ -41,6 +41,7 @@ mod metrics;
 mod mitsuba_import;
 mod mitsuba_structure;
 mod pls_cli;
+mod progress_lines;
 mod slurm;
 mod tonemap;
 mod under_faults;

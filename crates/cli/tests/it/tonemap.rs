@@ -144,7 +144,6 @@ fn render_takes_auto_exposure_and_info_lists_an_exr() {
         "0..2",
         "--exposure",
         "auto",
-        "-q",
     ]);
     assert!(ok, "{err}");
     let (mean, _) = png_stats(&png);
@@ -203,7 +202,6 @@ fn default_png_exposure_is_the_scenes_or_auto() {
             png.to_str().unwrap(),
             "--spp",
             "4",
-            "-q",
         ];
         if let Some(e) = exposure {
             args.extend(["--exposure", e]);
@@ -257,7 +255,6 @@ fn default_png_exposure_is_the_scenes_or_auto() {
         part.to_str().unwrap(),
         "--samples",
         "0..4",
-        "-q",
     ]);
     assert!(ok, "{err}");
     let merged_png = d.join("merged.png");
@@ -295,7 +292,6 @@ fn a_sequence_keeps_the_first_frames_exposure() {
         "0..=3",
         "--spp",
         "2",
-        "-q",
     ]);
     assert!(ok, "{err}");
     let stops = reported_stops(&err);
