@@ -52,9 +52,10 @@ pub struct FitArgs {
     /// circle light comes out as an explicit outline.
     #[arg(long)]
     pub window_shape: bool,
-    /// Random seed.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    /// Random seed (default: the scene's `[render] seed`, as `render` and
+    /// `composite` use it).
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// The loss curve as CSV (default: FITTED.loss.csv beside -o).
     #[arg(long, value_name = "LOSS.csv")]
     pub loss_csv: Option<PathBuf>,

@@ -770,7 +770,7 @@ impl<'a> Run<'a> {
         let base = FitOptions {
             iterations: settings.fit_iterations,
             spp: settings.fit_spp,
-            seed: SEED_FIT,
+            seed: Some(SEED_FIT),
             threads: self.threads,
             windows: vec!["flashlight".into(), "lamp".into()],
             window_evaluations: Some(settings.fit_window_evaluations),

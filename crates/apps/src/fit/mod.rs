@@ -50,8 +50,10 @@ pub struct FitOptions {
     /// Samples per pixel of each render (the primal and the gradient each).
     pub spp: u32,
     /// Base seed; iteration `i` renders its primal with `seed + 2i` and its
-    /// gradient with `seed + 2i + 1`.
-    pub seed: u64,
+    /// gradient with `seed + 2i + 1`. `None`: the scene file's `[render]
+    /// seed` in [`fit_scene_file`] (as `render` and `composite` use it), 0
+    /// elsewhere.
+    pub seed: Option<u64>,
     /// Patterns selecting the parameters (see [`params`]); empty: the
     /// paper's choice.
     pub params: Vec<String>,
@@ -76,13 +78,20 @@ pub struct FitOptions {
     pub window_evaluations: Option<u32>,
 }
 
+impl FitOptions {
+    /// The base seed: [`FitOptions::seed`] or 0.
+    pub fn base_seed(&self) -> u64 {
+        self.seed.unwrap_or(0)
+    }
+}
+
 impl Default for FitOptions {
     fn default() -> Self {
         FitOptions {
             iterations: 100,
             learning_rate: 0.05,
             spp: 16,
-            seed: 0,
+            seed: None,
             params: Vec::new(),
             threads: None,
             windows: Vec::new(),
@@ -493,7 +502,7 @@ impl Fit {
     /// projected Adam step. A gradient that is not finite is an error.
     pub fn step(&mut self, index: u32) -> Result<Iteration> {
         let start = Instant::now();
-        let seed = self.options.seed.wrapping_add(2 * index as u64);
+        let seed = self.options.base_seed().wrapping_add(2 * index as u64);
         let (loss, gradient) = self.loss_and_gradient(seed)?;
         if let Some(i) = gradient.iter().position(|g| !g.is_finite()) {
             let p = self
@@ -639,6 +648,11 @@ pub fn fit_scene_file(
     progress: &mut dyn FnMut(&Iteration, &[Parameter]) -> bool,
 ) -> Result<FitOutcome> {
     let contents = plsr::scene::file::load_contents(path)?;
+    // One rule for seeds: the scene's, unless given.
+    let options = &FitOptions {
+        seed: Some(options.seed.unwrap_or(contents.description.job.seed)),
+        ..options.clone()
+    };
     // A direction or size search rebuilds the scene from its description.
     let rebuilds = options.window_direction || options.window_size || options.window_shape;
     let description =
@@ -1037,7 +1051,7 @@ fn fit_windows(
 fn window_options(options: &FitOptions, rebuilds: bool) -> light::WindowFitOptions {
     light::WindowFitOptions {
         spp: 4 * options.spp,
-        seed: options.seed ^ 0x9e37,
+        seed: options.base_seed() ^ 0x9e37,
         threads: options.threads,
         fit_direction: options.window_direction,
         fit_size: options.window_size,
@@ -1133,7 +1147,7 @@ fn run_adam(
         }
     }
     fit.finish()?;
-    losses.push(fit.loss(options.seed.wrapping_add(2 * options.iterations as u64))?);
+    losses.push(fit.loss(options.base_seed().wrapping_add(2 * options.iterations as u64))?);
     Ok((fit, losses, seconds))
 }
 
@@ -1161,7 +1175,7 @@ fn auto_exposure(
         spp: options.spp.max(16),
         sample_start: 0,
         max_depth: scene.default_job().max_depth,
-        seed: options.seed ^ 0x5eed,
+        seed: options.base_seed() ^ 0x5eed,
         hide_virtual: true,
         ..Default::default()
     };
