@@ -548,6 +548,20 @@ fn render_one(
         bar.set_position(done as u64);
         true
     };
+    // A crop's PNG takes the exposure of the whole frame, so that crops
+    // of one image match: an `auto` exposure is found on a preview of the
+    // whole frame at a few samples, and kept.
+    let mut whole_frame_note = "";
+    if window.is_some() && png.is_some() && exposure.auto_pending(scene.film()) {
+        let preview = RenderJob {
+            spp: job.spp.min(CROP_PREVIEW_SPP),
+            sample_start: 0,
+            ..*job
+        };
+        let (sums, _) = render_window_sums(scene, &preview, options, None, &|_, _| true)?;
+        exposure.tone_map(&sums.develop(preview.spp), a.filmic);
+        whole_frame_note = ", the whole frame's";
+    }
     let (sums, stats) = render_window_sums(scene, job, options, window, &progress)?;
     bar.finish_and_clear();
     // Both outputs are written first and replace their targets together.
@@ -604,7 +618,11 @@ fn render_one(
     if let Some(p) = png {
         let tone = exposure.tone_map(&film, a.filmic);
         film.stage_png(&mut outputs, p, tone)?;
-        png_note = format!(", {} ({:+.2} stops)", p.display(), tone.exposure);
+        png_note = format!(
+            ", {} ({:+.2} stops{whole_frame_note})",
+            p.display(),
+            tone.exposure
+        );
     }
     outputs.commit()?;
     crate::note!(
@@ -688,6 +706,10 @@ fn parse_resolution(s: &str) -> Result<(u32, u32)> {
     };
     Ok((parse(w)?, parse(h)?))
 }
+
+/// Samples per pixel of the whole-frame preview that sets a crop's `auto`
+/// PNG exposure (fewer when the render has fewer).
+const CROP_PREVIEW_SPP: u32 = 16;
 
 /// `--crop X0,Y0,X1,Y1`: a non-empty window inside the `width × height` image.
 fn parse_crop(s: &str, width: u32, height: u32) -> Result<Tile> {

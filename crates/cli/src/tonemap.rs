@@ -104,6 +104,18 @@ impl SequenceExposure {
         }
     }
 
+    /// Whether the next image would be exposed `auto` (asked, or the
+    /// default of a scene with film `settings`) and no exposure is chosen
+    /// yet.
+    pub fn auto_pending(&self, settings: &FilmSettings) -> bool {
+        self.chosen.is_none()
+            && matches!(
+                self.asked
+                    .unwrap_or_else(|| Exposure::scene_default(settings)),
+                Exposure::Auto
+            )
+    }
+
     /// The tone mapping of the next image of the sequence, `film`.
     pub fn tone_map(&mut self, film: &Film, filmic: bool) -> ToneMap {
         let exposure = match self.chosen {

@@ -346,3 +346,51 @@ fn an_exr_whose_data_window_is_inverted_is_refused_not_read_as_another_size() {
     }
     assert!(!png.exists());
 }
+
+/// A crop's PNG takes the exposure of the whole frame (from a preview of
+/// it), not its own: crops of one image match. Here a crop of the dark
+/// floor corner would otherwise be exposed about a stop brighter.
+#[test]
+fn a_crop_s_png_takes_the_whole_frame_s_exposure() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = cornell_64(d, "c.toml", None, "");
+    let stops_of = |extra: &[&str], name: &str| -> (f32, String) {
+        let exr = d.join(format!("{name}.exr"));
+        let png = d.join(format!("{name}.png"));
+        let mut args = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            exr.to_str().unwrap(),
+            "--png",
+            png.to_str().unwrap(),
+            "--spp",
+            "64",
+        ];
+        args.extend(extra);
+        let (ok, _, err) = plsr(&args);
+        assert!(ok, "{err}");
+        let (_, rest) = err.rsplit_once(".png (").unwrap_or_else(|| panic!("{err}"));
+        let stops: f32 = rest
+            .split(" stops")
+            .next()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or_else(|| panic!("{err}"));
+        (stops, err)
+    };
+    let (whole, _) = stops_of(&[], "whole");
+    let (crop, err) = stops_of(&["--crop", "0,40,24,64"], "crop");
+    assert!(err.contains("stops, the whole frame's)"), "{err}");
+    eprintln!("whole frame {whole:+.3} stops, crop {crop:+.3} stops");
+    assert!((crop - whole).abs() < 0.15, "{crop} vs {whole}");
+    // The crop's own auto exposure differs: the test is not vacuous.
+    let film = Film::read_exr(&d.join("whole.exr")).unwrap();
+    let w = film.width as usize;
+    let window: Vec<Vec3> = (40..64)
+        .flat_map(|y| (0..24).map(move |x| (x, y)))
+        .map(|(x, y)| film.color[y * w + x])
+        .collect();
+    let own = auto_exposure_stops(&window);
+    assert!((own - whole).abs() > 0.3, "own {own} vs whole {whole}");
+}
