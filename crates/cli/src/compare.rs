@@ -21,8 +21,9 @@ pub struct CompareArgs {
     #[arg(long, value_name = "MASK[:CHANNEL]")]
     pub mask: Option<String>,
     /// `auto` (the mask's bounding box grown by 16 pixels, at least 64
-    /// pixels a side) or `X,Y,W,H` in pixels; default: the whole image.
-    #[arg(long, value_name = "auto|X,Y,W,H")]
+    /// pixels a side) or the corners `X0,Y0,X1,Y1` in pixels (columns
+    /// X0..X1, rows Y0..Y1, as `render --crop`); default: the whole image.
+    #[arg(long, value_name = "auto|X0,Y0,X1,Y1")]
     pub crop: Option<String>,
     /// Comma-separated metrics: cwssim, lpips, ssim, psnr, rmse, flip
     /// (default: all).
@@ -61,14 +62,15 @@ fn parse_crop(text: Option<&str>) -> Result<CropSpec> {
     if text == "auto" {
         return Ok(CropSpec::Auto);
     }
-    let parts: Vec<&str> = text.split(',').collect();
-    let numbers: Option<Vec<usize>> = parts.iter().map(|p| p.trim().parse().ok()).collect();
-    match numbers.as_deref() {
-        Some(&[x, y, w, h]) => Ok(CropSpec::Window(Crop { x, y, w, h })),
-        _ => Err(Error::invalid_argument(format!(
-            "--crop {text}: expected `auto` or four whole numbers X,Y,W,H"
-        ))),
-    }
+    // The images' size is known only once they are read, which checks
+    // the window against it.
+    let [x0, y0, x1, y1] = crate::pixel_args::parse_rect("--crop", text, None)?.map(|v| v as usize);
+    Ok(CropSpec::Window(Crop {
+        x: x0,
+        y: y0,
+        w: x1 - x0,
+        h: y1 - y0,
+    }))
 }
 
 /// Runs `plsr compare`.
@@ -142,7 +144,7 @@ pub fn run(a: &CompareArgs) -> Result<()> {
         let doc = serde_json::json!({
             "reference": a.reference.display().to_string(),
             "test": a.test.display().to_string(),
-            "crop": [c.x, c.y, c.w, c.h],
+            "crop": [c.x, c.y, c.x + c.w, c.y + c.h],
             "pixels": report.pixels,
             "scores": scores,
         });
@@ -153,7 +155,11 @@ pub fn run(a: &CompareArgs) -> Result<()> {
     } else {
         println!(
             "crop {},{},{},{} ({} pixels compared)",
-            c.x, c.y, c.w, c.h, report.pixels
+            c.x,
+            c.y,
+            c.x + c.w,
+            c.y + c.h,
+            report.pixels
         );
         for s in &report.scores {
             println!("{:<8} {:.6}", s.metric.name(), s.value);

@@ -44,8 +44,8 @@ pub struct HdrCaptureArgs {
     /// Centre column direction `X,Y,Z` (default: the scene camera's view).
     #[arg(long, value_name = "X,Y,Z")]
     pub forward: Option<String>,
-    /// Panorama size `WxH` (the Theta Z1 records 6720x3360).
-    #[arg(long, default_value = "512x256")]
+    /// Panorama size `W,H` in pixels (the Theta Z1 records 6720,3360).
+    #[arg(long, default_value = "512,256", value_name = "W,H")]
     pub size: String,
     /// Samples per pixel (default: the scene's).
     #[arg(long)]
@@ -185,14 +185,10 @@ fn calibration_window(flag: &str, s: &str, with_value: bool) -> Result<([usize; 
         None if !with_value => (s, 1.0),
         _ => return Err(bad()),
     };
-    let v: Vec<usize> = window
-        .split(',')
-        .map(|x| x.trim().parse::<usize>())
-        .collect::<std::result::Result<_, _>>()
-        .map_err(|_| bad())?;
-    let [x0, y0, x1, y1] = v[..] else {
-        return Err(bad());
-    };
+    // The image's size is known only when merging, which checks the
+    // window against it.
+    let [x0, y0, x1, y1] =
+        crate::pixel_args::parse_rect(flag, window, None)?.map(|v| v as usize);
     if !(value.is_finite() && value > 0.0) {
         return Err(Error::invalid_argument(format!(
             "{flag} `{s}`: the value must be positive"
@@ -278,14 +274,7 @@ fn triple(flag: &str, s: &str) -> Result<glam::Vec3> {
 fn capture_command(a: &HdrCaptureArgs) -> Result<()> {
     use plsr_apps::capture::{capture, CaptureOptions, PAPER_EXPOSURES};
     use plsr_hdr::synth::CameraModel;
-    let size = a
-        .size
-        .split_once(['x', 'X'])
-        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
-        .filter(|&(w, h)| w > 0 && h > 0 && w <= 1 << 15 && h <= 1 << 15)
-        .ok_or_else(|| {
-            Error::invalid_argument(format!("--size: expected WxH, got `{}`", a.size))
-        })?;
+    let size = crate::pixel_args::parse_size("--size", &a.size, 1 << 15)?;
     let exposures = match a.exposures.trim() {
         "auto" => None,
         "paper" => Some(PAPER_EXPOSURES.to_vec()),

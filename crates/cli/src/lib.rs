@@ -17,6 +17,7 @@ pub mod import;
 pub mod info;
 pub mod linear_image;
 pub mod merge;
+pub mod pixel_args;
 pub mod pls;
 pub mod progress;
 pub mod render;

@@ -693,18 +693,7 @@ fn parse_samples(s: &str) -> Result<(u32, u32)> {
 
 /// `--resolution W,H`: a width and height of 1 to 65 536 pixels.
 fn parse_resolution(s: &str) -> Result<(u32, u32)> {
-    let bad = |why: &str| Error::invalid_argument(format!("--resolution {s}: {why}"));
-    let (w, h) = s
-        .split_once([',', 'x'])
-        .ok_or_else(|| bad("expected W,H, e.g. 1920,1080"))?;
-    let parse = |x: &str| {
-        x.trim()
-            .parse::<u32>()
-            .ok()
-            .filter(|v| (1..=1 << 16).contains(v))
-            .ok_or_else(|| bad(&format!("{x:?} is not a size from 1 to 65536 pixels")))
-    };
-    Ok((parse(w)?, parse(h)?))
+    crate::pixel_args::parse_size("--resolution", s, 1 << 16)
 }
 
 /// Samples per pixel of the whole-frame preview that sets a crop's `auto`
@@ -713,28 +702,7 @@ const CROP_PREVIEW_SPP: u32 = 16;
 
 /// `--crop X0,Y0,X1,Y1`: a non-empty window inside the `width × height` image.
 fn parse_crop(s: &str, width: u32, height: u32) -> Result<Tile> {
-    let bad = |why: String| Error::invalid_argument(format!("--crop {s}: {why}"));
-    let v: Vec<u32> = s
-        .split(',')
-        .map(|x| {
-            x.trim()
-                .parse::<u32>()
-                .map_err(|_| bad(format!("{x:?} is not a pixel coordinate")))
-        })
-        .collect::<Result<_>>()?;
-    let [x0, y0, x1, y1] = v[..] else {
-        return Err(bad("expected X0,Y0,X1,Y1".into()));
-    };
-    if x0 >= x1 || y0 >= y1 {
-        return Err(bad(
-            "the window is empty (X0 < X1 and Y0 < Y1 needed)".into()
-        ));
-    }
-    if x1 > width || y1 > height {
-        return Err(bad(format!(
-            "the window reaches past the {width}×{height} image"
-        )));
-    }
+    let [x0, y0, x1, y1] = crate::pixel_args::parse_rect("--crop", s, Some((width, height)))?;
     Ok(Tile {
         x0,
         y0,

@@ -591,8 +591,13 @@ pub fn compare_files(
         CropSpec::Window(c) => {
             if c.w == 0 || c.h == 0 || c.x + c.w > a.width || c.y + c.h > a.height {
                 return Err(Error::invalid_argument(format!(
-                    "--crop {},{},{},{} is not inside the {}×{} image",
-                    c.x, c.y, c.w, c.h, a.width, a.height
+                    "--crop {},{},{},{} (corners) is not inside the {}×{} image",
+                    c.x,
+                    c.y,
+                    c.x + c.w,
+                    c.y + c.h,
+                    a.width,
+                    a.height
                 )));
             }
             c

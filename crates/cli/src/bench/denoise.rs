@@ -181,7 +181,7 @@ pub fn run(o: &DenoiseBenchOptions) -> Result<()> {
     if let Some((pw, ph)) = o.panorama {
         println!();
         let mut probe = Command::new(&exe);
-        probe.args(["bench", "denoise", "--denoise-probe", &format!("{pw}x{ph}")]);
+        probe.args(["bench", "denoise", "--denoise-probe", &format!("{pw},{ph}")]);
         if let Some(t) = o.threads {
             probe.args(["--threads", &t.to_string()]);
         }

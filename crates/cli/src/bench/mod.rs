@@ -47,8 +47,8 @@ pub struct BenchArgs {
     #[arg(default_value = "core", value_parser = ["core", "pls", "materials", "hdr", "composite", "fit", "compare", "peers", "farm", "denoise"])]
     pub suite: String,
     /// Image size for `plsr bench hdr` and the panorama of `plsr bench
-    /// compare`, WIDTHxHEIGHT.
-    #[arg(long, default_value = "6720x3360")]
+    /// compare`, `W,H` in pixels.
+    #[arg(long, default_value = "6720,3360", value_name = "W,H")]
     pub hdr_size: String,
     /// Folder for the brackets of `plsr bench hdr` (kept afterwards; reused
     /// if it already holds them). Default: a temporary folder, removed.
@@ -113,12 +113,12 @@ pub struct BenchArgs {
     /// the Cornell box and the glossy scene.
     #[arg(long, value_name = "PYTHON")]
     pub blender_python: Option<PathBuf>,
-    /// Image size of `plsr bench denoise`, WIDTHxHEIGHT.
-    #[arg(long, default_value = "1920x1080")]
+    /// Image size of `plsr bench denoise`, `W,H` in pixels.
+    #[arg(long, default_value = "1920,1080", value_name = "W,H")]
     pub denoise_size: String,
-    /// Panorama size of `plsr bench denoise`'s memory measurement,
-    /// WIDTHxHEIGHT, or `none`.
-    #[arg(long, default_value = "8192x4096")]
+    /// Panorama size of `plsr bench denoise`'s memory measurement, `W,H`
+    /// in pixels, or `none`.
+    #[arg(long, default_value = "8192,4096", value_name = "W,H|none")]
     pub denoise_panorama: String,
     /// The memory measurement alone, at this size (the child process of
     /// `plsr bench denoise`).
@@ -137,12 +137,16 @@ pub fn run(a: BenchArgs) -> Result<()> {
         "denoise" => denoise::run(&denoise::DenoiseBenchOptions {
             threads: a.threads,
             python: (!a.no_peer).then_some(a.python),
-            size: parse_size(&a.denoise_size)?,
+            size: parse_size("--denoise-size", &a.denoise_size)?,
             panorama: match a.denoise_panorama.as_str() {
                 "none" => None,
-                s => Some(parse_size(s)?),
+                s => Some(parse_size("--denoise-panorama", s)?),
             },
-            probe: a.denoise_probe.as_deref().map(parse_size).transpose()?,
+            probe: a
+                .denoise_probe
+                .as_deref()
+                .map(|s| parse_size("--denoise-probe", s))
+                .transpose()?,
         }),
         "farm" => farm::run(a.threads, a.size, a.spp.unwrap_or(256), a.parts).map(|_| ()),
         "composite" => composite::run(a.threads).map(|_| ()),
@@ -165,10 +169,10 @@ pub fn run(a: BenchArgs) -> Result<()> {
         "compare" => compare::run(&compare::CompareBenchOptions {
             threads: a.threads,
             python: (!a.no_peer).then_some(a.python),
-            panorama: parse_size(&a.hdr_size)?,
+            panorama: parse_size("--hdr-size", &a.hdr_size)?,
         }),
         "hdr" => {
-            let (width, height) = parse_size(&a.hdr_size)?;
+            let (width, height) = parse_size("--hdr-size", &a.hdr_size)?;
             hdr::run(&hdr::HdrBenchOptions {
                 width,
                 height,
@@ -190,16 +194,15 @@ pub fn run(a: BenchArgs) -> Result<()> {
     }
 }
 
-/// Parses `WIDTHxHEIGHT` (both at least 16).
-fn parse_size(s: &str) -> Result<(usize, usize)> {
-    let bad = || Error::invalid_argument(format!("{s:?}: expected WIDTHxHEIGHT, e.g. 6720x3360"));
-    let (w, h) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
-    let w: usize = w.trim().parse().map_err(|_| bad())?;
-    let h: usize = h.trim().parse().map_err(|_| bad())?;
+/// Parses a size `W,H` (both at least 16; `flag` names it in errors).
+fn parse_size(flag: &str, s: &str) -> Result<(usize, usize)> {
+    let (w, h) = crate::pixel_args::parse_size(flag, s, 1 << 17)?;
     if w < 16 || h < 16 {
-        return Err(bad());
+        return Err(Error::invalid_argument(format!(
+            "{flag} {s}: at least 16 pixels a side"
+        )));
     }
-    Ok((w, h))
+    Ok((w as usize, h as usize))
 }
 
 /// A fresh temporary folder for suite `suite`'s files (the caller removes

@@ -105,6 +105,12 @@ fn nf_has_one_range_everywhere() {
 fn resolution_overrides_the_scene_and_is_checked() {
     refused(&["--resolution", "0,8"], "--resolution 0,8", "not a size");
     refused(&["--resolution", "8"], "--resolution 8", "expected W,H");
+    // One spelling of sizes: W,H, and the other is refused with it.
+    refused(
+        &["--resolution", "640x480"],
+        "--resolution 640x480",
+        "sizes are written W,H in plsr: --resolution 640,480",
+    );
     refused(
         &["--resolution", "70000,8"],
         "--resolution",

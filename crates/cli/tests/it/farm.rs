@@ -196,7 +196,12 @@ fn bad_sets_of_parts_are_refused_naming_the_file() {
         ),
         (vec!["--crop", "0,0,65,10"], "reaches past the 64×64 image"),
         (vec!["--crop", "3,0,3,10"], "empty"),
-        (vec!["--crop", "1,2,3"], "expected X0,Y0,X1,Y1"),
+        (vec!["--crop", "1,2,3"], "expected the corners X0,Y0,X1,Y1"),
+        // An origin and a size: the corners are said.
+        (
+            vec!["--crop", "10,5,30x20"],
+            "by their corners X0,Y0,X1,Y1 in plsr: --crop 10,5,40,25",
+        ),
     ] {
         let o = d.join("bad.exr");
         let mut full = vec!["render", SCENE, "-o", o.to_str().unwrap()];

@@ -73,7 +73,7 @@ fn capture_and_merge(dir: &Path, extra: &[&str]) -> (Film, Film, usize, String) 
         "-o",
         out.to_str().unwrap(),
         "--size",
-        "128x64",
+        "128,64",
     ];
     args.extend(extra);
     let o = plsr(&args);

@@ -226,8 +226,8 @@ fn plsr_compare_prints_scores_as_text_and_json_and_writes_a_map() {
     assert_eq!(
         [img.width() as u64, img.height() as u64],
         [
-            doc["crop"][2].as_u64().unwrap(),
-            doc["crop"][3].as_u64().unwrap()
+            doc["crop"][2].as_u64().unwrap() - doc["crop"][0].as_u64().unwrap(),
+            doc["crop"][3].as_u64().unwrap() - doc["crop"][1].as_u64().unwrap()
         ]
     );
     let text = plsr()
@@ -283,7 +283,7 @@ fn bad_compare_input_is_a_clear_error_with_status_1_and_no_output() {
                 f.join("photo.png").into(),
                 f.join("blur.png").into(),
                 "--crop".into(),
-                "100,100,100,100".into(),
+                "100,100,200,200".into(),
             ],
             "is not inside the 160×120 image",
         ),
