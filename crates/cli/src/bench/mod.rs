@@ -130,7 +130,8 @@ pub struct BenchArgs {
 }
 
 /// Runs one bench suite.
-pub fn run(a: BenchArgs) -> Result<()> {
+pub fn run(mut a: BenchArgs) -> Result<()> {
+    enter_repository(&mut a)?;
     match a.suite.as_str() {
         "pls" => pls::run(a.threads),
         "materials" => materials::run(a.threads).map(|_| ()),
@@ -192,6 +193,49 @@ pub fn run(a: BenchArgs) -> Result<()> {
             threads: a.threads,
         }),
     }
+}
+
+/// Works from plsr's repository, whose scenes and assets the benchmarks
+/// use: the current folder if it holds `assets/scenes`, else the first
+/// folder above the running program that does (a build inside the
+/// repository: `target/release/plsr`). Paths given relative to the
+/// current folder are made absolute first: inputs that exist here, and the
+/// output folders.
+fn enter_repository(a: &mut BenchArgs) -> Result<()> {
+    let marker = |dir: &std::path::Path| dir.join("assets/scenes").is_dir();
+    let here = std::env::current_dir().map_err(|source| Error::io(".", source))?;
+    if marker(&here) {
+        return Ok(());
+    }
+    let exe = std::env::current_exe().map_err(|source| Error::io("plsr", source))?;
+    let Some(root) = exe.ancestors().skip(1).find(|d| marker(d)) else {
+        return Err(Error::invalid_argument(format!(
+            "plsr bench uses the scenes and assets of plsr's repository (assets/scenes), which \
+             neither {} nor the folders above {} hold: run it from the repository, or run a \
+             plsr built inside it",
+            here.display(),
+            exe.display()
+        )));
+    };
+    let absolute_if_here = |p: &mut PathBuf| {
+        if p.is_relative() && here.join(&*p).exists() {
+            *p = here.join(&*p);
+        }
+    };
+    for p in [&mut a.scene, &mut a.python, &mut a.pathtracer, &mut a.ecs] {
+        absolute_if_here(p);
+    }
+    for p in [&mut a.hdr_memorial, &mut a.blender_python].into_iter().flatten() {
+        absolute_if_here(p);
+    }
+    for p in std::iter::once(&mut a.peers_dir).chain(a.hdr_dir.as_mut()) {
+        if p.is_relative() {
+            *p = here.join(&*p);
+        }
+    }
+    std::env::set_current_dir(root).map_err(|source| Error::io(root, source))?;
+    crate::note!("plsr bench: working from the repository at {}", root.display());
+    Ok(())
 }
 
 /// Parses a size `W,H` (both at least 16; `flag` names it in errors).

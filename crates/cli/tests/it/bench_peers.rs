@@ -116,3 +116,36 @@ echo '{{"mitsuba_version":"stand-in","variant":"test","scenes":[{{"name":"'"$nam
         assert!((ratio - mean / peer_rate).abs() < 0.01, "{row}");
     }
 }
+
+/// Run from outside the repository, `plsr bench` works from the repository
+/// above the program (and says so); a program outside any repository says
+/// what it needs instead of failing on a missing `assets/…` file.
+#[cfg(unix)]
+#[test]
+fn bench_finds_the_repository_from_anywhere_or_says_it_needs_it() {
+    let elsewhere = tempfile::tempdir().unwrap();
+    // A size the hdr suite refuses: the run ends right after finding the
+    // repository.
+    let out = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .current_dir(elsewhere.path())
+        .args(["bench", "hdr", "--hdr-size", "8,8"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("working from the repository at"), "{stderr}");
+    assert!(stderr.contains("--hdr-size 8,8: at least 16 pixels a side"), "{stderr}");
+    // A copy of the program outside any repository.
+    let copy = elsewhere.path().join("plsr");
+    std::fs::copy(env!("CARGO_BIN_EXE_plsr"), &copy).unwrap();
+    let out = Command::new(&copy)
+        .current_dir(elsewhere.path())
+        .args(["bench", "pls"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("uses the scenes and assets of plsr's repository"),
+        "{stderr}"
+    );
+}
