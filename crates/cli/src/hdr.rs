@@ -187,8 +187,7 @@ fn calibration_window(flag: &str, s: &str, with_value: bool) -> Result<([usize; 
     };
     // The image's size is known only when merging, which checks the
     // window against it.
-    let [x0, y0, x1, y1] =
-        crate::pixel_args::parse_rect(flag, window, None)?.map(|v| v as usize);
+    let [x0, y0, x1, y1] = crate::pixel_args::parse_rect(flag, window, None)?.map(|v| v as usize);
     if !(value.is_finite() && value > 0.0) {
         return Err(Error::invalid_argument(format!(
             "{flag} `{s}`: the value must be positive"

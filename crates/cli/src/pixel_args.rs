@@ -84,9 +84,17 @@ mod tests {
 
     #[test]
     fn sizes_are_w_comma_h_and_wxh_is_refused_with_the_right_spelling() {
-        assert_eq!(parse_size("--size", "512,256", 1 << 15).unwrap(), (512, 256));
-        let e = parse_size("--size", "512x256", 1 << 15).unwrap_err().to_string();
-        assert!(e.ends_with("sizes are written W,H in plsr: --size 512,256"), "{e}");
+        assert_eq!(
+            parse_size("--size", "512,256", 1 << 15).unwrap(),
+            (512, 256)
+        );
+        let e = parse_size("--size", "512x256", 1 << 15)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.ends_with("sizes are written W,H in plsr: --size 512,256"),
+            "{e}"
+        );
         assert!(parse_size("--size", "0,5", 10).is_err());
         assert!(parse_size("--size", "11,5", 10).is_err());
         assert!(parse_size("--size", "5", 10).is_err());
@@ -98,11 +106,20 @@ mod tests {
             parse_rect("--crop", "10,20,50,60", Some((64, 64))).unwrap(),
             [10, 20, 50, 60]
         );
-        let e = parse_rect("--crop", "10,20,40x40", None).unwrap_err().to_string();
-        assert!(e.ends_with("corners X0,Y0,X1,Y1 in plsr: --crop 10,20,50,60"), "{e}");
-        let e = parse_rect("--crop", "50,20,40,40", None).unwrap_err().to_string();
+        let e = parse_rect("--crop", "10,20,40x40", None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.ends_with("corners X0,Y0,X1,Y1 in plsr: --crop 10,20,50,60"),
+            "{e}"
+        );
+        let e = parse_rect("--crop", "50,20,40,40", None)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("X,Y,X+W,Y+H"), "{e}");
-        let e = parse_rect("--crop", "0,0,65,10", Some((64, 64))).unwrap_err().to_string();
+        let e = parse_rect("--crop", "0,0,65,10", Some((64, 64)))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("reaches past the 64×64 image"), "{e}");
         assert!(parse_rect("--crop", "1,2,3", None).is_err());
     }

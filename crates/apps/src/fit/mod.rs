@@ -1147,7 +1147,13 @@ fn run_adam(
         }
     }
     fit.finish()?;
-    losses.push(fit.loss(options.base_seed().wrapping_add(2 * options.iterations as u64))?);
+    losses.push(
+        fit.loss(
+            options
+                .base_seed()
+                .wrapping_add(2 * options.iterations as u64),
+        )?,
+    );
     Ok((fit, losses, seconds))
 }
 

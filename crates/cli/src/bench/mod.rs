@@ -225,7 +225,10 @@ fn enter_repository(a: &mut BenchArgs) -> Result<()> {
     for p in [&mut a.scene, &mut a.python, &mut a.pathtracer, &mut a.ecs] {
         absolute_if_here(p);
     }
-    for p in [&mut a.hdr_memorial, &mut a.blender_python].into_iter().flatten() {
+    for p in [&mut a.hdr_memorial, &mut a.blender_python]
+        .into_iter()
+        .flatten()
+    {
         absolute_if_here(p);
     }
     for p in std::iter::once(&mut a.peers_dir).chain(a.hdr_dir.as_mut()) {
@@ -234,7 +237,10 @@ fn enter_repository(a: &mut BenchArgs) -> Result<()> {
         }
     }
     std::env::set_current_dir(root).map_err(|source| Error::io(root, source))?;
-    crate::note!("plsr bench: working from the repository at {}", root.display());
+    crate::note!(
+        "plsr bench: working from the repository at {}",
+        root.display()
+    );
     Ok(())
 }
 

@@ -132,8 +132,14 @@ fn bench_finds_the_repository_from_anywhere_or_says_it_needs_it() {
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(stderr.contains("working from the repository at"), "{stderr}");
-    assert!(stderr.contains("--hdr-size 8,8: at least 16 pixels a side"), "{stderr}");
+    assert!(
+        stderr.contains("working from the repository at"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("--hdr-size 8,8: at least 16 pixels a side"),
+        "{stderr}"
+    );
     // A copy of the program outside any repository.
     let copy = elsewhere.path().join("plsr");
     std::fs::copy(env!("CARGO_BIN_EXE_plsr"), &copy).unwrap();
