@@ -432,7 +432,13 @@ fn merge_command(a: &HdrMergeArgs) -> Result<()> {
         bar.set_length(total);
         bar.set_position(done);
     };
-    let images = bracket_files(&a.images)?;
+    // A folder's listing leaves out what this merge writes (an earlier
+    // run's output and curve plot in the brackets' folder).
+    let mut outputs = vec![a.output.clone()];
+    if let Some(c) = &a.curve {
+        outputs.extend([c.clone(), c.with_extension("png")]);
+    }
+    let images = bracket_files(&a.images, &outputs)?;
     let summary = merge(&images, &a.output, &options, &progress);
     bar.finish_and_clear();
     let s = summary?;
@@ -518,9 +524,10 @@ const IMAGE_EXTENSIONS: [&str; 9] = [
 ];
 
 /// The bracket files: each path given, with a folder replaced by the
-/// images in it (by extension, in name order; files of other kinds are
-/// left out). A folder without images is an error naming it.
-fn bracket_files(given: &[PathBuf]) -> Result<Vec<PathBuf>> {
+/// images in it (by extension, in name order; files of other kinds and
+/// the merge's own `outputs` are left out). A folder without images is an
+/// error naming it.
+fn bracket_files(given: &[PathBuf], outputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     for path in given {
         if !path.is_dir() {
@@ -536,10 +543,12 @@ fn bracket_files(given: &[PathBuf]) -> Result<Vec<PathBuf>> {
                 .extension()
                 .map(|e| e.to_string_lossy().to_ascii_lowercase())
                 .unwrap_or_default();
-            if file.is_file()
-                && (IMAGE_EXTENSIONS.contains(&ext.as_str())
-                    || plsr_hdr::oiio::is_camera_raw(&file))
-            {
+            let image =
+                IMAGE_EXTENSIONS.contains(&ext.as_str()) || plsr_hdr::oiio::is_camera_raw(&file);
+            let written_here = outputs
+                .iter()
+                .any(|o| plsr::atomic_write::same_file(&file, o));
+            if file.is_file() && image && !written_here {
                 images.push(file);
             }
         }

@@ -336,14 +336,15 @@ fn run_as_pod(
     )
 }
 
-/// Writes the Kubernetes files of a small job into a new volume; returns
-/// the volume and the output folder.
-fn k8s_files() -> (tempfile::TempDir, std::path::PathBuf) {
+/// Writes the Kubernetes files of a small job (2 parts of 6 spp, and
+/// `extra` options) into a new volume; returns the volume, its canonical
+/// root, the scene and the output folder.
+fn k8s_files(extra: &[&str]) -> (tempfile::TempDir, PathBuf, PathBuf, PathBuf) {
     let volume = tempfile::tempdir().unwrap();
     let root = std::fs::canonicalize(volume.path()).unwrap();
     let anim = scene_with_camera(&root, PATH_CAMERA);
     let out = root.join("renders/shot");
-    let (ok, err) = plsr(&[
+    let mut args = vec![
         "farm",
         "k8s",
         anim.to_str().unwrap(),
@@ -359,9 +360,11 @@ fn k8s_files() -> (tempfile::TempDir, std::path::PathBuf) {
         "render-data",
         "--volume-root",
         root.to_str().unwrap(),
-    ]);
+    ];
+    args.extend(extra);
+    let (ok, err) = plsr(&args);
     assert!(ok, "{err}");
-    (volume, out)
+    (volume, root, anim, out)
 }
 
 /// Runs `run-k8s.sh` against a stub `kubectl` that reports every Job in
@@ -407,7 +410,7 @@ exit 0
 /// the merge; a Job that never ends is given up after the timeout.
 #[test]
 fn run_k8s_stops_on_a_failed_job_and_shows_its_pods_logs() {
-    let (_volume, out) = k8s_files();
+    let (_volume, _, _, out) = k8s_files(&[]);
     let (ok, stderr, calls) = run_k8s_with_stub(&out, "Failed", "168h");
     assert!(!ok, "{stderr}");
     assert!(
@@ -435,36 +438,9 @@ fn run_k8s_stops_on_a_failed_job_and_shows_its_pods_logs() {
 
 #[test]
 fn kubernetes_manifests_are_indexed_jobs_whose_pods_render_the_pieces() {
-    let volume = tempfile::tempdir().unwrap();
-    let root = std::fs::canonicalize(volume.path()).unwrap();
-    let anim = scene_with_camera(&root, PATH_CAMERA);
-    let out = root.join("renders/shot");
-    let (ok, err) = plsr(&[
-        "farm",
-        "k8s",
-        anim.to_str().unwrap(),
-        "--parts",
-        "2",
-        "--spp",
-        "6",
-        "--frames",
-        "3..5",
-        "-o",
-        out.to_str().unwrap(),
-        "--image",
-        "registry.example.com/plsr:0.2",
-        "--claim",
-        "render-data",
-        "--volume-root",
-        root.to_str().unwrap(),
-        "--mount",
-        "/mnt/vol",
-        "--cpus",
-        "2",
-        "--memory",
-        "2Gi",
+    let (_volume, root, anim, out) = k8s_files(&[
+        "--frames", "3..5", "--mount", "/mnt/vol", "--cpus", "2", "--memory", "2Gi",
     ]);
-    assert!(ok, "{err}");
     let yaml = |name: &str| -> serde_yaml::Value {
         serde_yaml::from_str(&std::fs::read_to_string(out.join(name)).unwrap()).unwrap()
     };

@@ -746,6 +746,11 @@ fn cli_merges_every_image_of_a_folder() {
     let a = merge_to(&one_by_one, &dir.path().join("a.exr"));
     let b = merge_to(&[brackets.as_os_str()], &dir.path().join("b.exr"));
     assert!(a == b, "the folder's merge differs");
+    // Written into the folder and merged again: the earlier output is not
+    // taken for a bracket.
+    let inside = brackets.join("pano.exr");
+    assert!(merge_to(&[brackets.as_os_str()], &inside) == a);
+    assert!(merge_to(&[brackets.as_os_str()], &inside) == a);
     let empty = dir.path().join("empty");
     std::fs::create_dir(&empty).unwrap();
     let e = expect_merge_error(dir.path(), &[empty], &[]);
