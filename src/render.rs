@@ -4,7 +4,9 @@
 use crate::error::{Error, Result};
 use crate::film::{Film, FilmSums};
 use crate::integrator::gradient::{gradient_tile, GradientMap, TileGradient};
-use crate::integrator::{render_tile, render_tile_pair, Isa, RayStats, SoaScene, Tile};
+use crate::integrator::{
+    continue_tile, render_tile, render_tile_pair, Isa, RayStats, SoaScene, Tile,
+};
 pub use crate::job::RenderJob;
 use crate::scene::Scene;
 pub use crate::threads::thread_pool;
@@ -127,7 +129,10 @@ pub fn memory_needed(width: u32, height: u32, tile_size: u32, threads: usize) ->
     let pixels = width as u64 * height as u64;
     let sums = std::mem::size_of::<crate::film::PixelSums>() as u64;
     let film = 4 * 3 * 4 + 3 * 4;
-    let exr = 16 * 4;
+    // The image's 16 channels of 4 bytes, and the sums a render keeps
+    // beside them: seven 64-bit sums, three counts and seven 32-bit sums,
+    // with a 64-bit scratch copy while they are cut into words.
+    let exr = 16 * 4 + 7 * 8 + 3 * 4 + 7 * 4 + 8;
     let tile = (tile_size as u64 * tile_size as u64).min(pixels);
     pixels * (sums + film + exr) + tile * (sums + PATH_STATE_BYTES) * threads as u64
 }
@@ -210,7 +215,43 @@ pub fn render_window_sums(
     window: Option<Tile>,
     progress: &(dyn Fn(usize, usize) -> bool + Sync),
 ) -> Result<(FilmSums, RenderStats)> {
-    let (sums, _, stats) = render_tiles(scene, job, options, window, false, progress)?;
+    let (sums, _, stats) = render_tiles(scene, job, options, window, None, progress)?;
+    Ok((sums, stats))
+}
+
+/// Resumes a render: adds the samples of `job` (which must start where
+/// `previous` ends) to `previous`, the sums of the samples before them over
+/// the whole image (or the scene's crop window), each pixel's samples one
+/// by one in sample order as one render adds them
+/// ([`crate::integrator::continue_tile`]): the sums are bit for bit those
+/// of one render of all the samples. The stats count the new samples.
+pub fn continue_sums(
+    scene: &Scene,
+    job: &RenderJob,
+    options: &RenderOptions,
+    previous: &FilmSums,
+    progress: &(dyn Fn(usize, usize) -> bool + Sync),
+) -> Result<(FilmSums, RenderStats)> {
+    let cam = scene.camera();
+    if (previous.width(), previous.height()) != (cam.width(), cam.height())
+        || previous.settings() != *scene.film()
+    {
+        return Err(Error::invalid_argument(format!(
+            "cannot resume a {}×{} render as the {}×{} image of another film",
+            previous.width(),
+            previous.height(),
+            cam.width(),
+            cam.height()
+        )));
+    }
+    let (sums, _, stats) = render_tiles(
+        scene,
+        job,
+        options,
+        None,
+        Some(Previous::Sums(previous)),
+        progress,
+    )?;
     Ok((sums, stats))
 }
 
@@ -231,21 +272,38 @@ pub fn render_pair_sums(
             "a paired render shows the virtual objects in its first film (hide_virtual is false)",
         ));
     }
-    let (with, without, stats) = render_tiles(scene, job, options, None, true, progress)?;
+    let (with, without, stats) =
+        render_tiles(scene, job, options, None, Some(Previous::Paired), progress)?;
     let without = without.expect("a paired render returns both films");
     Ok((with, without, stats))
 }
 
-/// [`render_window_sums`], and with `paired` the film without the virtual
-/// objects too ([`render_pair_sums`]).
+/// What [`render_tiles`] does besides rendering the job's samples afresh.
+#[derive(Clone, Copy)]
+enum Previous<'a> {
+    /// Render the film without the virtual objects too
+    /// ([`render_pair_sums`]).
+    Paired,
+    /// Add the samples to these sums ([`continue_sums`]).
+    Sums(&'a FilmSums),
+}
+
+/// [`render_window_sums`]; with [`Previous::Paired`] the film without the
+/// virtual objects too ([`render_pair_sums`]); with [`Previous::Sums`],
+/// continuing those sums ([`continue_sums`]).
 fn render_tiles(
     scene: &Scene,
     job: &RenderJob,
     options: &RenderOptions,
     window: Option<Tile>,
-    paired: bool,
+    previous: Option<Previous>,
     progress: &(dyn Fn(usize, usize) -> bool + Sync),
 ) -> Result<(FilmSums, Option<FilmSums>, RenderStats)> {
+    let paired = matches!(previous, Some(Previous::Paired));
+    let start_sums = match previous {
+        Some(Previous::Sums(sums)) => Some(sums),
+        _ => None,
+    };
     job.validate()
         .map_err(|e| Error::invalid_argument(format!("render: {e}")))?;
     if options.tile_size == 0 || options.tile_size > MAX_TILE_SIZE {
@@ -305,7 +363,8 @@ fn render_tiles(
     let pool = thread_pool(options.threads)?;
     let done = AtomicUsize::new(0);
     let cancelled = AtomicBool::new(false);
-    let new_film = || FilmSums::new(width, height, job.sample_start, *scene.film());
+    let first_sample = start_sums.map_or(job.sample_start, |s| s.sample_start());
+    let new_film = || FilmSums::new(width, height, first_sample, *scene.film());
     let film = Mutex::new(new_film());
     let film_o = Mutex::new(paired.then(new_film));
     let rays = Mutex::new(RayStats::default());
@@ -322,6 +381,8 @@ fn render_tiles(
                     film_o.add_tile(r.tile, &pixels_o);
                 }
                 r
+            } else if let Some(sums) = start_sums {
+                continue_tile(scene, job, kernel, tile, sums.tile_pixels(tile))
             } else {
                 render_tile(scene, job, kernel, tile)
             };

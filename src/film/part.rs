@@ -8,10 +8,19 @@
 //! ([`FilmSums::merge`]), windows are stitched.
 //!
 //! Exact sums: the path tracer accumulates in `f64`, which EXR cannot
-//! store, so each `f64` sum is written as two 32-bit unsigned channels
-//! holding its bit pattern (`part.sum.R.hi`, `part.sum.R.lo`, …); counts
-//! are 32-bit unsigned channels and the `f32` sums (normals, albedos)
-//! float channels, so a part read back holds exactly what was rendered.
+//! store, so each `f64` sum is written as its bit pattern cut into four
+//! 16-bit words, each in a 16-bit (`half`) channel, least significant
+//! first (`part.sum.R.w0` … `part.sum.R.w3`): words compress far better
+//! than the two 32-bit halves older parts used (`part.sum.R.hi`,
+//! `part.sum.R.lo`, still read), since a sum of `f32` samples leaves the
+//! low words mostly zero and the top word (sign, exponent) varies slowly.
+//! Counts are 32-bit unsigned channels and the `f32` sums (normals,
+//! albedos) float channels, so a part read back holds exactly what was
+//! rendered.
+//!
+//! A plain `plsr render` writes the same sums beside its image (a part of
+//! the whole image holding samples `0..N`, ZIP-compressed), so that
+//! `--resume` can add samples to any render ([`Part::stage_exr_beside`]).
 //!
 //! Header attributes (text): `plsrPartScene` (the scene's hash, 16 hex
 //! digits), `plsrPartImage` (`W H`), `plsrPartWindow` (`x0 y0 x1 y1`, the
@@ -144,22 +153,39 @@ impl Part {
     }
 
     /// Writes the part into `outputs` as `path` (an OpenEXR file: the
-    /// piece's developed layers, its exact sums and the header).
+    /// piece's developed layers, its exact sums and the header),
+    /// uncompressed: parts are written and read once, on the way to the
+    /// merge, and compression would cost more than the disk.
     pub fn stage_exr(&self, outputs: &mut OutputSet, path: &Path) -> Result<()> {
         let spp = self.info.sample_end - self.info.sample_start;
         let film = self.sums.develop(spp);
+        self.stage_exr_beside(&film, outputs, path, false)
+    }
+
+    /// Writes `film`'s layers (the image a plain render shows, denoised or
+    /// not) with the part's exact sums and header into `outputs` as
+    /// `path`; `compressed`: losslessly (ZIP), for a file that is kept.
+    pub fn stage_exr_beside(
+        &self,
+        film: &super::Film,
+        outputs: &mut OutputSet,
+        path: &Path,
+        compressed: bool,
+    ) -> Result<()> {
         let pixels = self.sums.pixels();
         let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
         let mut f64_channels = |name: &str, get: &dyn Fn(&PixelSums) -> f64| {
             let bits: Vec<u64> = pixels.iter().map(|p| get(p).to_bits()).collect();
-            channels.push(AnyChannel::new(
-                format!("part.{name}.hi").as_str(),
-                FlatSamples::U32(bits.iter().map(|b| (b >> 32) as u32).collect()),
-            ));
-            channels.push(AnyChannel::new(
-                format!("part.{name}.lo").as_str(),
-                FlatSamples::U32(bits.iter().map(|&b| b as u32).collect()),
-            ));
+            for word in 0..4 {
+                channels.push(AnyChannel::new(
+                    format!("part.{name}.w{word}").as_str(),
+                    FlatSamples::F16(
+                        bits.iter()
+                            .map(|b| exrp::f16::from_bits((b >> (16 * word)) as u16))
+                            .collect(),
+                    ),
+                ));
+            }
         };
         for (c, n) in ["R", "G", "B"].iter().enumerate() {
             f64_channels(&format!("sum.{n}"), &|p| p.sum[c]);
@@ -205,15 +231,12 @@ impl Part {
             ),
             text(SAMPLES, format!("{} {}", i.sample_start, i.sample_end)),
         ];
-        // Uncompressed: parts are written and read once, on the way to the
-        // merge, and compression would cost more than the disk.
-        film.stage_exr_with(
-            outputs,
-            path,
-            channels,
-            attributes,
-            exrp::Encoding::UNCOMPRESSED,
-        )
+        let encoding = if compressed {
+            exrp::Encoding::SMALL_LOSSLESS
+        } else {
+            exrp::Encoding::UNCOMPRESSED
+        };
+        film.stage_exr_with(outputs, path, channels, attributes, encoding)
     }
 
     /// Reads a part written by [`Part::stage_exr`]; a file that is not one
@@ -227,8 +250,9 @@ impl Part {
                 return Err(Error::input(
                     path,
                     key,
-                    "missing from the header: not a part of a render (render pieces with \
-                     `plsr render --samples START..END` or `--crop X0,Y0,X1,Y1`)",
+                    "missing from the header: the file holds no render sums (a part of \
+                     `plsr render --samples START..END` or `--crop X0,Y0,X1,Y1` has them, and \
+                     so does a plain render unless written with --no-resume-data)",
                 ));
             };
             let text = t.to_string();
@@ -299,16 +323,33 @@ impl Part {
                 _ => Err(Error::input(path, name, "expected 32-bit float samples")),
             }
         };
+        let words = |name: &str| -> Result<&Vec<exrp::f16>> {
+            match channel(name)? {
+                FlatSamples::F16(v) => Ok(v),
+                _ => Err(Error::input(path, name, "expected 16-bit samples")),
+            }
+        };
         let f64s = |name: &str| -> Result<Vec<f64>> {
-            let (hi, lo) = (
-                u32s(&format!("part.{name}.hi"))?,
-                u32s(&format!("part.{name}.lo"))?,
-            );
-            Ok(hi
-                .iter()
-                .zip(lo)
-                .map(|(&h, &l)| f64::from_bits((h as u64) << 32 | l as u64))
-                .collect())
+            if channel(&format!("part.{name}.hi")).is_ok() {
+                // The layout of older parts: two 32-bit halves.
+                let (hi, lo) = (
+                    u32s(&format!("part.{name}.hi"))?,
+                    u32s(&format!("part.{name}.lo"))?,
+                );
+                return Ok(hi
+                    .iter()
+                    .zip(lo)
+                    .map(|(&h, &l)| f64::from_bits((h as u64) << 32 | l as u64))
+                    .collect());
+            }
+            let mut bits = vec![0u64; width as usize * height as usize];
+            for word in 0..4 {
+                let w = words(&format!("part.{name}.w{word}"))?;
+                for (b, v) in bits.iter_mut().zip(w) {
+                    *b |= (v.to_bits() as u64) << (16 * word);
+                }
+            }
+            Ok(bits.into_iter().map(f64::from_bits).collect())
         };
         let n = width as usize * height as usize;
         let mut pixels = vec![PixelSums::default(); n];
@@ -534,6 +575,7 @@ pub fn merge_parts(parts: &[(PathBuf, Part)]) -> Result<(FilmSums, u32)> {
 mod tests {
     use super::*;
     use crate::film::FilmSettings;
+    use glam::DVec3;
 
     /// A part of an 8×6 window of a `image`-sized image.
     fn part(image: (u32, u32)) -> (PathBuf, Part) {
@@ -552,6 +594,158 @@ mod tests {
         };
         let sums = FilmSums::new(8, 6, 0, FilmSettings::default());
         (PathBuf::from("part.exr"), Part { info, sums })
+    }
+
+    /// Sums with awkward bit patterns (every word set, subnormals, −0,
+    /// the largest finite value) in every pixel of a 5×3 part.
+    fn awkward_part() -> Part {
+        let patterns = [
+            0x7fef_ffff_ffff_ffff_u64,
+            0x0000_0000_0000_0001,
+            0x8000_0000_0000_0000,
+            0x3ff0_0000_0000_0001,
+            0x7c00_7e00_fc00_ffff, // words that are half infinities and NaNs
+            0x4059_0000_0000_0000,
+        ];
+        let pixels = (0..15u64)
+            .map(|i| {
+                let f = |k: u64| f64::from_bits(patterns[((i + k) % 6) as usize]);
+                PixelSums {
+                    sum: DVec3::new(f(0), f(1), f(2)),
+                    sum_sq: DVec3::new(f(3), f(4), f(5)),
+                    depth: f(i),
+                    samples: 9,
+                    hits: (i % 10) as u32,
+                    virtual_hits: (i % 3) as u32,
+                    normal: glam::Vec3::new(0.5, -0.25, i as f32),
+                    albedo: glam::Vec3::splat(1.0 / (i + 1) as f32),
+                    object_id: i as f32 - 1.0,
+                }
+            })
+            .collect();
+        let info = PartInfo {
+            scene_hash: 0xfeed_beef,
+            image: (5, 3),
+            window: Tile {
+                x0: 0,
+                y0: 0,
+                width: 5,
+                height: 3,
+            },
+            sample_start: 0,
+            sample_end: 9,
+        };
+        Part {
+            info,
+            sums: FilmSums::from_pixels(5, 3, 0, pixels, FilmSettings::default()),
+        }
+    }
+
+    fn assert_same_sums(a: &Part, b: &Part) {
+        assert_eq!(a.info, b.info);
+        for (p, q) in a.sums.pixels().iter().zip(b.sums.pixels()) {
+            for c in 0..3 {
+                assert_eq!(p.sum[c].to_bits(), q.sum[c].to_bits());
+                assert_eq!(p.sum_sq[c].to_bits(), q.sum_sq[c].to_bits());
+            }
+            assert_eq!(p.depth.to_bits(), q.depth.to_bits());
+            assert_eq!(
+                (p.samples, p.hits, p.virtual_hits, p.object_id),
+                (q.samples, q.hits, q.virtual_hits, q.object_id)
+            );
+            assert_eq!((p.normal, p.albedo), (q.normal, q.albedo));
+        }
+    }
+
+    #[test]
+    fn sums_come_back_bit_for_bit_from_parts_and_compressed_renders() {
+        let part = awkward_part();
+        let dir = tempfile::tempdir().unwrap();
+        for compressed in [false, true] {
+            let path = dir.path().join(format!("p{compressed}.exr"));
+            let mut outputs = OutputSet::new();
+            let film = part.sums.develop(9);
+            part.stage_exr_beside(&film, &mut outputs, &path, compressed)
+                .unwrap();
+            outputs.commit().unwrap();
+            assert_same_sums(&part, &Part::read_exr(&path).unwrap());
+        }
+    }
+
+    #[test]
+    fn parts_of_the_older_layout_are_read() {
+        // Each f64 sum as two 32-bit halves, as plsr wrote parts before.
+        let part = awkward_part();
+        let pixels = part.sums.pixels();
+        let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
+        let mut f64_channels = |name: &str, get: &dyn Fn(&PixelSums) -> f64| {
+            for (half, shift) in [("hi", 32), ("lo", 0)] {
+                channels.push(AnyChannel::new(
+                    format!("part.{name}.{half}").as_str(),
+                    FlatSamples::U32(
+                        pixels
+                            .iter()
+                            .map(|p| (get(p).to_bits() >> shift) as u32)
+                            .collect(),
+                    ),
+                ));
+            }
+        };
+        for (c, n) in ["R", "G", "B"].iter().enumerate() {
+            f64_channels(&format!("sum.{n}"), &|p| p.sum[c]);
+            f64_channels(&format!("sum_sq.{n}"), &|p| p.sum_sq[c]);
+        }
+        f64_channels("depth", &|p| p.depth);
+        let u32s =
+            |get: &dyn Fn(&PixelSums) -> u32| FlatSamples::U32(pixels.iter().map(get).collect());
+        let f32s =
+            |get: &dyn Fn(&PixelSums) -> f32| FlatSamples::F32(pixels.iter().map(get).collect());
+        channels.push(AnyChannel::new("part.samples", u32s(&|p| p.samples)));
+        channels.push(AnyChannel::new("part.hits", u32s(&|p| p.hits)));
+        channels.push(AnyChannel::new(
+            "part.virtual_hits",
+            u32s(&|p| p.virtual_hits),
+        ));
+        channels.push(AnyChannel::new("part.object_id", f32s(&|p| p.object_id)));
+        for (c, n) in ["X", "Y", "Z"].iter().enumerate() {
+            channels.push(AnyChannel::new(
+                format!("part.normal.{n}").as_str(),
+                f32s(&|p| p.normal[c]),
+            ));
+        }
+        for (c, n) in ["R", "G", "B"].iter().enumerate() {
+            channels.push(AnyChannel::new(
+                format!("part.albedo.{n}").as_str(),
+                f32s(&|p| p.albedo[c]),
+            ));
+        }
+        let text = |k: &str, v: &str| {
+            (
+                exrp::Text::from(k),
+                exrp::AttributeValue::Text(exrp::Text::from(v)),
+            )
+        };
+        let attributes = vec![
+            text(SCENE, "00000000feedbeef"),
+            text(IMAGE, "5 3"),
+            text(WINDOW, "0 0 5 3"),
+            text(SAMPLES, "0 9"),
+        ];
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("old.exr");
+        let mut outputs = OutputSet::new();
+        part.sums
+            .develop(9)
+            .stage_exr_with(
+                &mut outputs,
+                &path,
+                channels,
+                attributes,
+                exrp::Encoding::UNCOMPRESSED,
+            )
+            .unwrap();
+        outputs.commit().unwrap();
+        assert_same_sums(&part, &Part::read_exr(&path).unwrap());
     }
 
     #[test]

@@ -150,6 +150,22 @@ impl FilmSums {
         }
     }
 
+    /// Index of the first sample these sums hold.
+    pub fn sample_start(&self) -> u32 {
+        self.sample_start
+    }
+
+    /// A copy of the sums of the pixels of `tile` (row-major within it),
+    /// which must lie inside the image.
+    pub fn tile_pixels(&self, tile: Tile) -> Vec<PixelSums> {
+        let mut out = Vec::with_capacity((tile.width * tile.height) as usize);
+        for y in tile.y0..tile.y0 + tile.height {
+            let row = y as usize * self.width as usize + tile.x0 as usize;
+            out.extend_from_slice(&self.pixels[row..row + tile.width as usize]);
+        }
+        out
+    }
+
     /// Every pixel's sums, row-major.
     pub fn pixels(&self) -> &[PixelSums] {
         &self.pixels

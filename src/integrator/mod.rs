@@ -71,7 +71,46 @@ pub fn render_tile(
     kernel: Option<(&SoaScene, Isa)>,
     tile: Tile,
 ) -> TileResult {
-    let mut pixels = empty_sums(job, tile);
+    trace_tile(scene, job, kernel, tile, empty_sums(job, tile))
+}
+
+/// [`render_tile`] continuing `previous`, the tile's sums of the samples
+/// before the job's (row-major within the tile): each pixel's new samples
+/// are added to them one by one in sample order, as one render of all the
+/// samples adds them, so that the sums are bit for bit those of that one
+/// render (a resumed render, not a merge of two). The object id stays that
+/// of the earlier samples.
+pub fn continue_tile(
+    scene: &Scene,
+    job: &RenderJob,
+    kernel: Option<(&SoaScene, Isa)>,
+    tile: Tile,
+    mut previous: Vec<PixelSums>,
+) -> TileResult {
+    assert_eq!(previous.len(), (tile.width * tile.height) as usize);
+    let ids: Vec<f32> = previous.iter().map(|p| p.object_id).collect();
+    let had: Vec<bool> = previous.iter().map(|p| p.samples > 0).collect();
+    for p in &mut previous {
+        p.samples += job.spp;
+    }
+    let mut result = trace_tile(scene, job, kernel, tile, previous);
+    for ((p, id), had) in result.pixels.iter_mut().zip(ids).zip(had) {
+        if had {
+            p.object_id = id;
+        }
+    }
+    result
+}
+
+/// Adds the job's samples of `tile` to `pixels` (whose counts already
+/// include them).
+fn trace_tile(
+    scene: &Scene,
+    job: &RenderJob,
+    kernel: Option<(&SoaScene, Isa)>,
+    tile: Tile,
+    mut pixels: Vec<PixelSums>,
+) -> TileResult {
     let mut rays = RayStats::default();
     match kernel {
         Some((kernel, isa)) => kernel_passes(

@@ -114,3 +114,64 @@ fn pieces_of_a_sample_range_merge_into_the_whole() {
     let (c, _) = render(&scene, &piece(0, 3), &o, &|_, _| true).unwrap();
     assert_ne!(a.color, c.color);
 }
+
+/// A render resumed from the sums of its first samples
+/// ([`plsr::render::continue_sums`]) holds bit for bit the sums of one
+/// render of all of them, with the general integrator and the vectorised
+/// kernel, whatever the tiling of either run.
+#[test]
+fn a_resumed_render_holds_the_sums_of_one_render() {
+    use plsr::render::{continue_sums, render_sums};
+    let scene = cornell();
+    let all = RenderJob {
+        spp: 13,
+        ..scene.default_job()
+    };
+    let first = RenderJob { spp: 5, ..all };
+    let rest = RenderJob {
+        sample_start: 5,
+        spp: 8,
+        ..all
+    };
+    let bits = |s: &plsr::film::FilmSums| -> Vec<u64> {
+        s.pixels()
+            .iter()
+            .flat_map(|p| {
+                let mut v: Vec<u64> = p.sum.to_array().iter().map(|x| x.to_bits()).collect();
+                v.extend(p.sum_sq.to_array().iter().map(|x| x.to_bits()));
+                v.push(p.depth.to_bits());
+                v.extend(p.normal.to_array().iter().map(|x| x.to_bits() as u64));
+                v.extend(p.albedo.to_array().iter().map(|x| x.to_bits() as u64));
+                v.extend([
+                    p.samples as u64,
+                    p.hits as u64,
+                    p.virtual_hits as u64,
+                    p.object_id.to_bits() as u64,
+                ]);
+                v
+            })
+            .collect()
+    };
+    for vectorised in [false, true] {
+        let o = |tile_size| RenderOptions {
+            tile_size,
+            vectorised,
+            ..Default::default()
+        };
+        let one = render_sums(&scene, &all, &o(16), &|_, _| true).unwrap().0;
+        let start = render_sums(&scene, &first, &o(16), &|_, _| true).unwrap().0;
+        let resumed = continue_sums(&scene, &rest, &o(7), &start, &|_, _| true)
+            .unwrap()
+            .0;
+        assert_eq!(resumed.sample_start(), 0);
+        assert!(
+            bits(&resumed) == bits(&one),
+            "vectorised {vectorised}: the resumed sums differ"
+        );
+        // Merging the two pieces instead adds in another order.
+        let mut merged = start.clone();
+        let piece = render_sums(&scene, &rest, &o(16), &|_, _| true).unwrap().0;
+        merged.merge(&piece).unwrap();
+        assert!(bits(&merged) != bits(&one), "the check cannot tell");
+    }
+}

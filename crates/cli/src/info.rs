@@ -130,9 +130,14 @@ pub fn run(a: &InfoArgs) -> Result<()> {
             if h.deep { ", deep" } else { "" },
             h.compression
         );
-        let channels: Vec<String> = h
+        // The exact sums of a part or a resumable render (`part.*`) are
+        // counted, not listed: they are not for looking at.
+        let (sums, image): (Vec<_>, Vec<_>) = h
             .channels
             .list
+            .iter()
+            .partition(|c| c.name.to_string().starts_with("part."));
+        let channels: Vec<String> = image
             .iter()
             .map(|c| {
                 let t = match c.sample_type {
@@ -144,6 +149,12 @@ pub fn run(a: &InfoArgs) -> Result<()> {
             })
             .collect();
         println!("  {} channels: {}", channels.len(), channels.join(", "));
+        if !sums.is_empty() {
+            println!(
+                "  and {} channels part.* of the render's exact sums, for `plsr merge` and `--resume`",
+                sums.len()
+            );
+        }
         let mut attributes: Vec<(String, String)> = h
             .shared_attributes
             .other

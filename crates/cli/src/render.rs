@@ -4,12 +4,14 @@ use crate::error::{Error, Result};
 use crate::progress::progress_bar;
 use crate::tonemap::{Exposure, SequenceExposure};
 use plsr::atomic_write::{check_extension, same_file, OutputSet};
-use plsr::film::part::{merge_parts, scene_files_hasher, Part, PartInfo, StableHasher};
+use plsr::film::part::{scene_files_hasher, Part, PartInfo, StableHasher};
 use plsr::film::Tile;
 use plsr::job::RenderJob;
 use plsr::job::{JobError, MAX_DEPTH, MAX_SPP};
 use plsr::light::LightPicking;
-use plsr::render::{render_window_sums, RenderOptions, DEFAULT_TILE_SIZE, MAX_TILE_SIZE};
+use plsr::render::{
+    continue_sums, render_window_sums, RenderOptions, DEFAULT_TILE_SIZE, MAX_TILE_SIZE,
+};
 use plsr::scene::Scene;
 use plsr_base::Vocabulary;
 use std::path::{Path, PathBuf};
@@ -34,13 +36,18 @@ pub struct RenderArgs {
     /// that `plsr merge` combines with the others (see docs/farm.md).
     #[arg(long, value_name = "START..END")]
     pub samples: Option<String>,
-    /// Add samples to -o instead of starting over: if -o is a part of this
-    /// scene (same files and settings) holding samples 0..N, render samples
-    /// N..SPP (--spp, or the scene's) and write the part of all of them;
-    /// if -o does not exist, render 0..SPP as a part. A render stopped or
-    /// too noisy continues where it ended (see docs/farm.md).
+    /// Add samples to -o instead of starting over: if -o is a render of
+    /// this scene (same files and settings) holding samples 0..N, render
+    /// samples N..SPP (--spp, or the scene's) and write the image of all of
+    /// them, bit for bit what one render of 0..SPP writes; if -o does not
+    /// exist, render 0..SPP. Every render keeps what resuming needs unless
+    /// written with --no-resume-data (see docs/farm.md).
     #[arg(long, conflicts_with_all = ["samples", "crop"])]
     pub resume: bool,
+    /// Write the image's layers only, without the exact per-pixel sums that
+    /// --resume continues from (a file about 2.5× smaller).
+    #[arg(long, conflicts_with_all = ["samples", "crop", "resume"])]
+    pub no_resume_data: bool,
     /// Render only the window of columns [X0, X1) and rows [Y0, Y1), as a
     /// part that `plsr merge` stitches with the others (see docs/farm.md).
     #[arg(long, value_name = "X0,Y0,X1,Y1")]
@@ -145,9 +152,9 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             a.tile_size
         )));
     }
-    if a.denoise.denoise && (a.samples.is_some() || a.crop.is_some() || a.resume) {
+    if a.denoise.denoise && (a.samples.is_some() || a.crop.is_some()) {
         return Err(Error::invalid_argument(
-            "--denoise with a part (--samples, --crop or --resume): parts are merged exactly, \
+            "--denoise with a part (--samples or --crop): parts are merged exactly, \
              then denoised: `plsr merge PARTS… -o OUT.exr --denoise`",
         ));
     }
@@ -158,7 +165,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     let inputs = contents.inputs;
     let frames = frames_asked(a, contents.camera_path.as_ref())?;
     let outputs_of = outputs_of_frames(a, &frames, &inputs)?;
-    let mut scene = build_scene(a, contents.description)?;
+    let (mut scene, picking_changed) = build_scene(a, contents.description)?;
     let (job, window) = job_and_window(a, &scene)?;
     let options = RenderOptions {
         threads: a.threads,
@@ -173,13 +180,18 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         .map_err(|m| Error::input(&a.scene, "camera.resolution", m.to_string()))?;
     let mut files = vec![a.scene.clone()];
     files.extend(inputs.iter().cloned());
-    let parts = a.samples.is_some() || window.is_some() || a.resume;
-    let files_hasher = if parts {
+    let parts = a.samples.is_some() || window.is_some();
+    // Parts, and plain renders unless told otherwise, keep their sums.
+    let keeps_sums = parts || !a.no_resume_data;
+    let files_hasher = if keeps_sums {
         let mut h = scene_files_hasher(&files)?;
         // A Mitsuba scene's -D parameters and a glTF's --anim-time are part of
-        // the scene.
+        // the scene, and so is a light picking chosen on the command line.
         for field in a.params.hash_fields() {
             h.field(field.as_bytes());
+        }
+        if let Some(p) = picking_changed {
+            h.field(format!("--light-picking {}", p.name()).as_bytes());
         }
         h
     } else {
@@ -193,6 +205,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         size: (scene.camera().width(), scene.camera().height()),
         window,
         parts,
+        keeps_sums,
         files_hasher,
         options,
     };
@@ -258,8 +271,12 @@ fn outputs_of_frames(
     Ok(outputs_of)
 }
 
-/// The scene at `--resolution`, with `--light-picking`.
-fn build_scene(a: &RenderArgs, mut description: plsr::scene::SceneDescription) -> Result<Scene> {
+/// The scene at `--resolution`, with `--light-picking`, and the picking
+/// if `--light-picking` changed it (which the parts' scene hash records).
+fn build_scene(
+    a: &RenderArgs,
+    mut description: plsr::scene::SceneDescription,
+) -> Result<(Scene, Option<LightPicking>)> {
     if let Some(r) = &a.resolution {
         let (w, h) = parse_resolution(r)?;
         description.camera = description
@@ -268,22 +285,15 @@ fn build_scene(a: &RenderArgs, mut description: plsr::scene::SceneDescription) -
             .map_err(|e| Error::invalid_argument(format!("--resolution {r}: {e}")))?;
     }
     let mut scene = Scene::build(description)?;
-    let picking = a.light_picking.as_deref().and_then(LightPicking::from_name);
-    if let Some(picking) = picking.filter(|&p| p != scene.light_picking()) {
-        // A part's identity (its scene hash) does not record a picking
-        // chosen on the command line, so parts rendered both ways could be
-        // merged unnoticed; the scene file's `[render] light_picking` is
-        // part of the hash.
-        if a.samples.is_some() || a.resume {
-            return Err(Error::invalid_argument(format!(
-                "--light-picking {} renders whole images only (not with --samples or --resume); \
-                 for parts, set `light_picking` in the scene's [render] section",
-                picking.name()
-            )));
-        }
+    let picking = a
+        .light_picking
+        .as_deref()
+        .and_then(LightPicking::from_name)
+        .filter(|&p| p != scene.light_picking());
+    if let Some(picking) = picking {
         scene.set_light_picking(picking);
     }
-    Ok(scene)
+    Ok((scene, picking))
 }
 
 /// The scene's job with the command line's overrides, checked, and the
@@ -343,8 +353,11 @@ struct FramesRun<'a> {
     size: (u32, u32),
     /// The `--crop` window.
     window: Option<Tile>,
-    /// Whether the outputs are parts (`--samples`, `--crop`, `--resume`).
+    /// Whether the outputs are parts (`--samples`, `--crop`).
     parts: bool,
+    /// Whether the outputs keep their exact sums (parts, and plain renders
+    /// but with `--no-resume-data`).
+    keeps_sums: bool,
     /// The scene files' hash, for the parts' identity.
     files_hasher: StableHasher,
     /// How to render.
@@ -372,8 +385,9 @@ impl FramesRun<'_> {
         let (width, height) = self.size;
         // Resuming: the samples the output holds already, and the rest.
         let mut job = self.job;
+        let scene_hash = part_hash(self.files_hasher, &job, frame);
         let previous = if a.resume && output.exists() {
-            let old = resumed_part(output, (width, height))?;
+            let old = resumed_part(output, (width, height), scene_hash)?;
             let have = old.info.sample_end;
             if have >= job.spp {
                 crate::note!(
@@ -389,8 +403,8 @@ impl FramesRun<'_> {
         } else {
             None
         };
-        let part = self.parts.then(|| PartInfo {
-            scene_hash: part_hash(self.files_hasher, &job, frame),
+        let part = self.keeps_sums.then(|| PartInfo {
+            scene_hash,
             image: (width, height),
             window: self.window.unwrap_or(Tile {
                 x0: 0,
@@ -406,7 +420,7 @@ impl FramesRun<'_> {
             scene,
             &job,
             &self.options,
-            (self.window, part, previous),
+            (self.window, self.parts, part, previous),
             (output, png),
             frame,
             exposure,
@@ -414,10 +428,21 @@ impl FramesRun<'_> {
     }
 }
 
-/// The part `--resume` continues: the output, which must hold samples
-/// 0..N of the whole image.
-fn resumed_part(output: &Path, (width, height): (u32, u32)) -> Result<Part> {
+/// The render `--resume` continues: the output, which must hold the sums
+/// of samples 0..N of the whole image (a plain render, or a part of them).
+fn resumed_part(output: &Path, (width, height): (u32, u32), scene_hash: u64) -> Result<Part> {
     let old = Part::read_exr(output)?;
+    if old.info.scene_hash != scene_hash {
+        return Err(Error::input(
+            output,
+            "plsrPartScene",
+            format!(
+                "scene hash {:016x} differs from this render's {scene_hash:016x}: the file is a \
+                 render of another scene, or of other settings (seed, depths, -D, --light-picking)",
+                old.info.scene_hash
+            ),
+        ));
+    }
     let full = old.info.window
         == Tile {
             x0: 0,
@@ -429,7 +454,19 @@ fn resumed_part(output: &Path, (width, height): (u32, u32)) -> Result<Part> {
         return Err(Error::input(
             output,
             "",
-            "--resume continues a part of the whole image holding samples 0..N",
+            format!(
+                "--resume continues a render of the whole image holding samples 0..N; this \
+                 file is a part of samples {}..{} of the window x {}..{}, y {}..{} of a {}×{} image \
+                 (merge the parts with `plsr merge`)",
+                old.info.sample_start,
+                old.info.sample_end,
+                old.info.window.x0,
+                old.info.window.x0 + old.info.window.width,
+                old.info.window.y0,
+                old.info.window.y0 + old.info.window.height,
+                old.info.image.0,
+                old.info.image.1
+            ),
         ));
     }
     Ok(old)
@@ -534,7 +571,7 @@ fn render_one(
     scene: &Scene,
     job: &RenderJob,
     options: &RenderOptions,
-    (window, part, previous): (Option<Tile>, Option<PartInfo>, Option<Part>),
+    (window, is_part, part, previous): (Option<Tile>, bool, Option<PartInfo>, Option<Part>),
     (output, png): (&Path, Option<&PathBuf>),
     frame: Option<u32>,
     exposure: &mut SequenceExposure,
@@ -562,38 +599,49 @@ fn render_one(
         exposure.tone_map(&sums.develop(preview.spp), a.filmic);
         whole_frame_note = ", the whole frame's";
     }
-    let (sums, stats) = render_window_sums(scene, job, options, window, &progress)?;
+    // Resumed: the new samples are added to the old sums one by one, as
+    // one render of all of them adds them.
+    let (sums, stats) = match &previous {
+        Some(old) => continue_sums(scene, job, options, &old.sums, &progress)?,
+        None => render_window_sums(scene, job, options, window, &progress)?,
+    };
     bar.finish_and_clear();
+    let spp = job.sample_start + job.spp;
     // Both outputs are written first and replace their targets together.
     let mut outputs = OutputSet::new();
     let mut denoise_note = String::new();
     let film = match part {
-        Some(info) => {
+        Some(info) if is_part => {
             // A part: the window's sums, exactly, and what merging checks.
-            let mut part = Part::from_render(info, &sums);
-            if let Some(old) = previous {
-                // Resumed: the old samples and the new ones, as one part.
-                let info = PartInfo {
-                    sample_start: old.info.sample_start,
-                    ..part.info
-                };
-                let new_name = PathBuf::from(format!(
-                    "(samples {}..{} rendered now)",
-                    part.info.sample_start, part.info.sample_end
-                ));
-                let (merged, _) = merge_parts(&[(output.to_path_buf(), old), (new_name, part)])?;
-                part = Part::from_render(info, &merged);
-            }
+            let part = Part::from_render(info, &sums);
             part.stage_exr(&mut outputs, output)?;
             part.sums
                 .develop(part.info.sample_end - part.info.sample_start)
         }
-        None => {
-            let mut film = sums.develop(job.spp);
+        _ => {
+            let mut film = sums.develop(spp);
+            // The image, and the sums `--resume` continues from.
+            let stage = |film: &plsr::film::Film, outputs: &mut OutputSet| match part {
+                Some(info) => Part::from_render(
+                    PartInfo {
+                        sample_start: 0,
+                        ..info
+                    },
+                    &sums,
+                )
+                .stage_exr_beside(film, outputs, output, true),
+                None => film.stage_exr(outputs, output),
+            };
             let noisy = a.denoise.denoise.then(|| film.clone());
+            // The guides of all the samples, as one render would take them.
+            let whole_job = RenderJob {
+                sample_start: 0,
+                spp,
+                ..*job
+            };
             if let Err(e) = a
                 .denoise
-                .apply_to_render(&mut film, scene, job)
+                .apply_to_render(&mut film, scene, &whole_job)
                 .map(|note| {
                     denoise_note = note;
                 })
@@ -601,7 +649,7 @@ fn render_one(
                 // Nothing is lost: the render is written undenoised.
                 if let Some(noisy) = noisy {
                     let mut kept = OutputSet::new();
-                    noisy.stage_exr(&mut kept, output)?;
+                    stage(&noisy, &mut kept)?;
                     kept.commit()?;
                     crate::note!(
                         "note: the render was written undenoised to {}",
@@ -610,7 +658,7 @@ fn render_one(
                 }
                 return Err(e);
             }
-            film.stage_exr(&mut outputs, output)?;
+            stage(&film, &mut outputs)?;
             film
         }
     };
@@ -625,12 +673,15 @@ fn render_one(
         );
     }
     outputs.commit()?;
+    let samples = match &previous {
+        Some(_) => format!("{} new samples, {} in all,", job.spp, spp),
+        None => format!("at {spp} spp"),
+    };
     crate::note!(
-        "rendered {}{}×{} at {} spp in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s on {} threads{}{denoise_note} → {}{}",
+        "rendered {}{}×{} {samples} in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s on {} threads{}{denoise_note} → {}{}",
         frame.map(|f| format!("frame {f}, ")).unwrap_or_default(),
         film.width,
         film.height,
-        film.spp,
         stats.seconds,
         stats.msamples_per_s(),
         stats.mrays_per_s(),

@@ -324,6 +324,7 @@ fn piece(a: &PieceArgs) -> Result<()> {
         scalar: false,
         light_picking: None,
         resume: false,
+        no_resume_data: false,
         denoise: Default::default(),
         quiet: true,
     });

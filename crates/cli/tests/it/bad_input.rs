@@ -278,7 +278,7 @@ fn a_zero_environment_up_is_blamed_on_up() {
 
 #[test]
 fn an_image_larger_than_memory_is_refused_before_allocating() {
-    // 2^32 pixels: about 880 GiB of film, more than any test machine has.
+    // 2^32 pixels: about 1.3 TiB of film, more than any test machine has.
     let e = expect_error(
         &format!(
             "{}\n[[shapes]]\ntype = \"sphere\"\n",
@@ -287,7 +287,7 @@ fn an_image_larger_than_memory_is_refused_before_allocating() {
         &[],
     );
     assert!(
-        e.contains("camera.resolution") && e.contains("GiB of memory") && e.contains("available"),
+        e.contains("camera.resolution") && e.contains("iB of memory") && e.contains("available"),
         "{e}"
     );
 }

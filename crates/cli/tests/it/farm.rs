@@ -139,7 +139,18 @@ fn bad_sets_of_parts_are_refused_naming_the_file() {
         &["--samples", "0..8", "--crop", "0,0,64,32"],
     );
     let plain = d.join("plain.exr");
-    assert!(plsr(&["render", SCENE, "-o", plain.to_str().unwrap(), "--spp", "2"]).0);
+    assert!(
+        plsr(&[
+            "render",
+            SCENE,
+            "-o",
+            plain.to_str().unwrap(),
+            "--spp",
+            "2",
+            "--no-resume-data"
+        ])
+        .0
+    );
     let truncated = d.join("truncated.exr");
     let bytes = std::fs::read(&b).unwrap();
     std::fs::write(&truncated, &bytes[..bytes.len() * 2 / 3]).unwrap();
@@ -166,7 +177,12 @@ fn bad_sets_of_parts_are_refused_naming_the_file() {
             // is found before any pixel is read.
             "cannot be in a file of",
         ),
-        ("a plain render", vec![&a, &plain], &plain, "not a part"),
+        (
+            "a render without its sums",
+            vec![&a, &plain],
+            &plain,
+            "no render sums",
+        ),
         (
             "a missing window",
             vec![&window],
@@ -670,89 +686,99 @@ fn bad_farm_requests_are_refused() {
     assert!(!d.join("out").join("parts").exists(), "{err}");
 }
 
+/// `--resume` continues any render: the samples it adds are accumulated
+/// onto the file's exact sums as one render accumulates them, so that the
+/// resumed file is byte for byte the file one render of all the samples
+/// writes (denoised too); files it cannot continue are refused and kept.
 #[test]
-fn resume_adds_samples_to_a_part() {
+fn resume_continues_any_render_into_the_file_of_one_render() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let out = d.join("resumed.exr");
     let o = out.to_str().unwrap();
-    let (ok, err) = plsr(&[
-        "render",
-        SCENE,
-        "-o",
-        o,
-        "--resume",
-        "--spp",
-        "4",
-        "--max-depth",
-        "3",
-    ]);
+    let render = |o: &str, extra: &[&str]| {
+        let mut args = vec!["render", SCENE, "-o", o, "--max-depth", "3"];
+        args.extend_from_slice(extra);
+        plsr(&args)
+    };
+    // A plain render of 4 samples, resumed to 16.
+    let (ok, err) = render(o, &["--spp", "4"]);
     assert!(ok, "{err}");
-    let (ok, err) = plsr(&[
-        "render",
-        SCENE,
-        "-o",
-        o,
-        "--resume",
-        "--spp",
-        "16",
-        "--max-depth",
-        "3",
-    ]);
-    assert!(ok, "{err}");
+    let (ok, err) = render(o, &["--resume", "--spp", "16"]);
+    assert!(ok && err.contains("12 new samples, 16 in all"), "{err}");
     let whole = part(d, "whole.exr", &["--spp", "16"]);
-    let resumed = Film::read_exr(&out).unwrap();
-    assert_eq!(resumed.spp, 16);
-    assert_close("resumed", &Film::read_exr(&whole).unwrap(), &resumed, 1e-6);
-    // Nothing left to do, then a plain render and other settings refused.
-    let (ok, err) = plsr(&[
-        "render",
-        SCENE,
-        "-o",
-        o,
-        "--resume",
-        "--spp",
-        "16",
-        "--max-depth",
-        "3",
-    ]);
-    assert!(ok && err.contains("holds 16 samples already"), "{err}");
-    let w = whole.to_str().unwrap();
-    let (ok, err) = plsr(&[
-        "render",
-        SCENE,
-        "-o",
-        w,
-        "--resume",
-        "--spp",
-        "32",
-        "--max-depth",
-        "3",
-    ]);
-    assert!(
-        !ok && err.contains("whole.exr") && err.contains("not a part"),
-        "{err}"
-    );
-    let (ok, err) = plsr(&[
-        "render",
-        SCENE,
-        "-o",
-        o,
-        "--resume",
-        "--spp",
-        "32",
-        "--max-depth",
-        "4",
-    ]);
-    assert!(
-        !ok && err.contains("resumed.exr") && err.contains("scene hash"),
-        "{err}"
-    );
     assert_eq!(
-        Film::read_exr(&out).unwrap().spp,
-        16,
-        "the refused resume left it"
+        std::fs::read(&out).unwrap(),
+        std::fs::read(&whole).unwrap(),
+        "the resumed file differs from one render's"
     );
+    // Nothing left to do.
+    let (ok, err) = render(o, &["--resume", "--spp", "16"]);
+    assert!(ok && err.contains("holds 16 samples already"), "{err}");
+    // A part of samples 0..N (as older versions wrote) continues too.
+    let old_part = part(d, "old-part.exr", &["--samples", "0..4"]);
+    let (ok, err) = render(old_part.to_str().unwrap(), &["--resume", "--spp", "16"]);
+    assert!(ok, "{err}");
+    assert_eq!(
+        std::fs::read(&old_part).unwrap(),
+        std::fs::read(&whole).unwrap()
+    );
+    // Denoised: the merged sums denoised with the guides of all samples.
+    let denoised = d.join("denoised.exr");
+    let dn = denoised.to_str().unwrap();
+    assert!(render(dn, &["--spp", "4", "--denoise"]).0);
+    let (ok, err) = render(dn, &["--resume", "--spp", "16", "--denoise"]);
+    assert!(ok, "{err}");
+    let denoised_whole = part(d, "denoised-whole.exr", &["--spp", "16", "--denoise"]);
+    assert_eq!(
+        std::fs::read(&denoised).unwrap(),
+        std::fs::read(&denoised_whole).unwrap(),
+        "the resumed denoised file differs from one render's"
+    );
+    // Refused, the file left as it was: a render without its sums, a part
+    // that is not samples 0..N of the whole image, other settings.
+    let small = part(d, "small.exr", &["--spp", "4", "--no-resume-data"]);
+    let later = part(d, "later.exr", &["--samples", "4..8"]);
+    let before = std::fs::read(&out).unwrap();
+    for (file, extra, says) in [
+        (&small, vec!["--spp", "8"], "no render sums"),
+        (
+            &later,
+            vec!["--spp", "16"],
+            "a part of samples 4..8 of the window x 0..64, y 0..64",
+        ),
+        (&out, vec!["--spp", "32", "--rr-depth", "2"], "scene hash"),
+        (&out, vec!["--spp", "32", "--seed", "9"], "scene hash"),
+    ] {
+        let kept = std::fs::read(file).unwrap();
+        let mut args = vec!["--resume"];
+        args.extend_from_slice(&extra);
+        let (ok, err) = render(file.to_str().unwrap(), &args);
+        let name = file.file_name().unwrap().to_str().unwrap();
+        assert!(!ok && err.contains(name) && err.contains(says), "{err}");
+        assert_eq!(std::fs::read(file).unwrap(), kept, "{name} was changed");
+    }
+    assert_eq!(std::fs::read(&out).unwrap(), before);
+}
+
+/// A render keeps its sums in a file about 2.3 times the size of the
+/// image alone (`--no-resume-data`), not the 6 times of an uncompressed
+/// part of the same samples.
+#[test]
+fn the_sums_a_render_keeps_cost_little_more_than_twice_the_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let size =
+        |name: &str, extra: &[&str]| std::fs::metadata(part(d, name, extra)).unwrap().len() as f64;
+    let image = size("image.exr", &["--spp", "16", "--no-resume-data"]);
+    let with_sums = size("sums.exr", &["--spp", "16"]);
+    let part = size("part.exr", &["--samples", "0..16"]);
+    let (ratio, part_ratio) = (with_sums / image, part / image);
+    eprintln!(
+        "image {image} B, with sums {with_sums} B ({ratio:.2}×), part {part} B ({part_ratio:.2}×)"
+    );
+    assert!(ratio < 2.8, "the sums made the file {ratio:.2}× larger");
+    assert!(part_ratio > 4.0, "{part_ratio:.2}");
 }
 
 /// A Mitsuba scene's `-D` parameters go into the plan: every piece reads
