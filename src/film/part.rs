@@ -158,7 +158,7 @@ impl Part {
     /// merge, and compression would cost more than the disk.
     pub fn stage_exr(&self, outputs: &mut OutputSet, path: &Path) -> Result<()> {
         let spp = self.info.sample_end - self.info.sample_start;
-        let film = self.sums.develop(spp);
+        let film = self.sums.develop_all(spp);
         self.stage_exr_beside(&film, outputs, path, false)
     }
 
@@ -532,7 +532,22 @@ pub fn merge_parts(parts: &[(PathBuf, Part)]) -> Result<(FilmSums, u32)> {
             ),
         ));
     }
-    // The windows must cover every pixel once.
+    // The windows must cover every pixel once: of the image, or of the
+    // film's crop window if it has one.
+    let required = match first.sums.settings().crop {
+        Some(c) if c.x0 + c.width <= width && c.y0 + c.height <= height => Tile {
+            x0: c.x0,
+            y0: c.y0,
+            width: c.width,
+            height: c.height,
+        },
+        _ => Tile {
+            x0: 0,
+            y0: 0,
+            width,
+            height,
+        },
+    };
     let mut owner: Vec<Option<&Path>> = vec![None; width as usize * height as usize];
     for (w, list) in &windows {
         let file = list[0].0.as_path();
@@ -553,8 +568,10 @@ pub fn merge_parts(parts: &[(PathBuf, Part)]) -> Result<(FilmSums, u32)> {
             }
         }
     }
-    if let Some(i) = owner.iter().position(|o| o.is_none()) {
-        let (x, y) = (i as u32 % width, i as u32 / width);
+    let uncovered = (required.y0..required.y0 + required.height)
+        .flat_map(|y| (required.x0..required.x0 + required.width).map(move |x| (x, y)))
+        .find(|&(x, y)| owner[y as usize * width as usize + x as usize].is_none());
+    if let Some((x, y)) = uncovered {
         return Err(Error::invalid_argument(format!(
             "no part covers pixel ({x}, {y}) of the {width}×{height} image: a window is missing"
         )));

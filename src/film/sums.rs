@@ -253,13 +253,24 @@ impl FilmSums {
         let crop = self
             .settings
             .crop
-            .filter(|c| c.x0 + c.width <= self.width && c.y0 + c.height <= self.height)
-            .unwrap_or(crate::film::Crop {
-                x0: 0,
-                y0: 0,
-                width: self.width,
-                height: self.height,
-            });
+            .filter(|c| c.x0 + c.width <= self.width && c.y0 + c.height <= self.height);
+        self.develop_window(spp, crop)
+    }
+
+    /// [`FilmSums::develop`] of every pixel, whatever the settings' crop
+    /// window: for the sums of a window already cut out (a part's).
+    pub fn develop_all(&self, spp: u32) -> Film {
+        self.develop_window(spp, None)
+    }
+
+    /// The image of the pixels of `crop` (all for `None`).
+    fn develop_window(&self, spp: u32, crop: Option<crate::film::Crop>) -> Film {
+        let crop = crop.unwrap_or(crate::film::Crop {
+            x0: 0,
+            y0: 0,
+            width: self.width,
+            height: self.height,
+        });
         let mut film = Film::new(crop.width, crop.height);
         film.spp = spp;
         film.settings = self.settings;

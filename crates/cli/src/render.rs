@@ -5,7 +5,7 @@ use crate::progress::progress_bar;
 use crate::tonemap::{Exposure, SequenceExposure};
 use plsr::atomic_write::{check_extension, same_file, OutputSet};
 use plsr::film::part::{scene_files_hasher, Part, PartInfo, StableHasher};
-use plsr::film::Tile;
+use plsr::film::{FilmSums, Tile};
 use plsr::job::RenderJob;
 use plsr::job::{JobError, MAX_DEPTH, MAX_SPP};
 use plsr::light::LightPicking;
@@ -386,8 +386,24 @@ impl FramesRun<'_> {
         // Resuming: the samples the output holds already, and the rest.
         let mut job = self.job;
         let scene_hash = part_hash(self.files_hasher, &job, frame);
+        // What a render keeps the sums of: the `--crop` window, or the
+        // film's crop window, or the whole image.
+        let window = self.window.unwrap_or(match scene.film().crop {
+            Some(c) => Tile {
+                x0: c.x0,
+                y0: c.y0,
+                width: c.width,
+                height: c.height,
+            },
+            None => Tile {
+                x0: 0,
+                y0: 0,
+                width,
+                height,
+            },
+        });
         let previous = if a.resume && output.exists() {
-            let old = resumed_part(output, (width, height), scene_hash)?;
+            let old = resumed_part(output, (width, height), window, scene_hash)?;
             let have = old.info.sample_end;
             if have >= job.spp {
                 crate::note!(
@@ -406,12 +422,7 @@ impl FramesRun<'_> {
         let part = self.keeps_sums.then(|| PartInfo {
             scene_hash,
             image: (width, height),
-            window: self.window.unwrap_or(Tile {
-                x0: 0,
-                y0: 0,
-                width,
-                height,
-            }),
+            window,
             sample_start: job.sample_start,
             sample_end: job.sample_start + job.spp,
         });
@@ -430,7 +441,12 @@ impl FramesRun<'_> {
 
 /// The render `--resume` continues: the output, which must hold the sums
 /// of samples 0..N of the whole image (a plain render, or a part of them).
-fn resumed_part(output: &Path, (width, height): (u32, u32), scene_hash: u64) -> Result<Part> {
+fn resumed_part(
+    output: &Path,
+    (width, height): (u32, u32),
+    window: Tile,
+    scene_hash: u64,
+) -> Result<Part> {
     let old = Part::read_exr(output)?;
     if old.info.scene_hash != scene_hash {
         return Err(Error::input(
@@ -443,19 +459,14 @@ fn resumed_part(output: &Path, (width, height): (u32, u32), scene_hash: u64) -> 
             ),
         ));
     }
-    let full = old.info.window
-        == Tile {
-            x0: 0,
-            y0: 0,
-            width,
-            height,
-        };
-    if old.info.sample_start != 0 || !full || old.info.image != (width, height) {
+    if old.info.sample_start != 0 || old.info.window != window || old.info.image != (width, height)
+    {
         return Err(Error::input(
             output,
             "",
             format!(
-                "--resume continues a render of the whole image holding samples 0..N; this \
+                "--resume continues a render of the whole image (or of the film's crop window) holding \
+                 samples 0..N; this \
                  file is a part of samples {}..{} of the window x {}..{}, y {}..{} of a {}×{} image \
                  (merge the parts with `plsr merge`)",
                 old.info.sample_start,
@@ -602,7 +613,12 @@ fn render_one(
     // Resumed: the new samples are added to the old sums one by one, as
     // one render of all of them adds them.
     let (sums, stats) = match &previous {
-        Some(old) => continue_sums(scene, job, options, &old.sums, &progress)?,
+        Some(old) => {
+            let (width, height) = old.info.image;
+            let mut full = FilmSums::new(width, height, 0, old.sums.settings());
+            full.add_tile(old.info.window, old.sums.pixels());
+            continue_sums(scene, job, options, &full, &progress)?
+        }
         None => render_window_sums(scene, job, options, window, &progress)?,
     };
     bar.finish_and_clear();

@@ -761,6 +761,74 @@ fn resume_continues_any_render_into_the_file_of_one_render() {
     assert_eq!(std::fs::read(&out).unwrap(), before);
 }
 
+/// Resuming works frame by frame along a camera path, and on a film with
+/// a crop window (whose render keeps the window's sums, and whose parts
+/// merge into the window).
+#[test]
+fn frames_and_film_crop_windows_resume_into_one_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let anim = scene_with_camera(d, PATH_CAMERA);
+    let run = |pattern: &str, extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            anim.to_str().unwrap(),
+            "-o",
+            pattern,
+            "--frames",
+            "3..5",
+            "--max-depth",
+            "3",
+        ];
+        args.extend_from_slice(extra);
+        let (ok, err) = plsr(&args);
+        assert!(ok, "{err}");
+        err
+    };
+    let resumed = d.join("r-{frame}.exr");
+    let one = d.join("o-{frame}.exr");
+    run(resumed.to_str().unwrap(), &["--spp", "3"]);
+    let err = run(resumed.to_str().unwrap(), &["--spp", "7", "--resume"]);
+    assert_eq!(err.matches("4 new samples, 7 in all").count(), 2, "{err}");
+    run(one.to_str().unwrap(), &["--spp", "7"]);
+    for f in ["0003", "0004"] {
+        let name = |p: &str| d.join(format!("{p}-{f}.exr"));
+        assert_eq!(
+            std::fs::read(name("r")).unwrap(),
+            std::fs::read(name("o")).unwrap(),
+            "frame {f}"
+        );
+    }
+
+    let cropped =
+        common::scenes::cornell_64(d, "crop.toml", None, "\n[film]\ncrop = [8, 4, 40, 60]\n");
+    let c = cropped.to_str().unwrap();
+    let out = d.join("crop.exr");
+    let o = out.to_str().unwrap();
+    assert!(plsr(&["render", c, "-o", o, "--spp", "3"]).0);
+    let (ok, err) = plsr(&["render", c, "-o", o, "--spp", "7", "--resume"]);
+    assert!(ok, "{err}");
+    let once = d.join("crop-once.exr");
+    assert!(plsr(&["render", c, "-o", once.to_str().unwrap(), "--spp", "7"]).0);
+    assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&once).unwrap());
+    let image = Film::read_exr(&out).unwrap();
+    assert_eq!((image.width, image.height), (32, 56));
+    // Its parts hold the window and merge into it.
+    let (a, b, merged) = (d.join("ca.exr"), d.join("cb.exr"), d.join("cm.exr"));
+    for (p, range) in [(&a, "0..3"), (&b, "3..7")] {
+        let (ok, err) = plsr(&["render", c, "-o", p.to_str().unwrap(), "--samples", range]);
+        assert!(ok, "{err}");
+    }
+    let (ok, err) = merge(&[&a, &b], &merged);
+    assert!(ok, "{err}");
+    assert_close(
+        "merged window",
+        &image,
+        &Film::read_exr(&merged).unwrap(),
+        1e-6,
+    );
+}
+
 /// A render keeps its sums in a file about 2.3 times the size of the
 /// image alone (`--no-resume-data`), not the 6 times of an uncompressed
 /// part of the same samples.
