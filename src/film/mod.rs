@@ -49,6 +49,7 @@ use plsr_base::Vocabulary;
 use std::fs::File;
 use std::io::BufWriter;
 pub mod denoise;
+mod exact_sums;
 pub mod part;
 pub mod radiance;
 mod sums;

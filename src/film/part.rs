@@ -8,12 +8,11 @@
 //! ([`FilmSums::merge`]), windows are stitched.
 //!
 //! Exact sums: the path tracer accumulates in `f64`, which EXR cannot
-//! store, so each `f64` sum is written as its bit pattern cut into four
-//! 16-bit words, each in a 16-bit (`half`) channel, least significant
-//! first (`part.sum.R.w0` … `part.sum.R.w3`): words compress far better
-//! than the two 32-bit halves older parts used (`part.sum.R.hi`,
-//! `part.sum.R.lo`, still read), since a sum of `f32` samples leaves the
-//! low words mostly zero and the top word (sign, exponent) varies slowly.
+//! store. Each `f64` sum is written as its difference from a prediction
+//! made from the image layers in the same file, cut into four 16-bit words
+//! (see [`super::exact_sums`]: exact by construction, and compact once
+//! compressed); parts of older versions, with each sum's bits in two
+//! 32-bit channels (`part.sum.R.hi`, `part.sum.R.lo`), are still read.
 //! Counts are 32-bit unsigned channels and the `f32` sums (normals,
 //! albedos) float channels, so a part read back holds exactly what was
 //! rendered.
@@ -27,7 +26,7 @@
 //! window's columns `[x0, x1)` and rows `[y0, y1)`), `plsrPartSamples`
 //! (`start end`).
 
-use super::{FilmSums, PixelSums, Tile};
+use super::{exact_sums, FilmSums, PixelSums, Tile};
 use crate::atomic_write::OutputSet;
 use crate::error::{Error, Result};
 use exr::prelude::{self as exrp, AnyChannel, FlatSamples};
@@ -173,25 +172,19 @@ impl Part {
         compressed: bool,
     ) -> Result<()> {
         let pixels = self.sums.pixels();
-        let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
-        let mut f64_channels = |name: &str, get: &dyn Fn(&PixelSums) -> f64| {
-            let bits: Vec<u64> = pixels.iter().map(|p| get(p).to_bits()).collect();
-            for word in 0..4 {
-                channels.push(AnyChannel::new(
-                    format!("part.{name}.w{word}").as_str(),
-                    FlatSamples::F16(
-                        bits.iter()
-                            .map(|b| exrp::f16::from_bits((b >> (16 * word)) as u16))
-                            .collect(),
-                    ),
-                ));
-            }
-        };
-        for (c, n) in ["R", "G", "B"].iter().enumerate() {
-            f64_channels(&format!("sum.{n}"), &|p| p.sum[c]);
-            f64_channels(&format!("sum_sq.{n}"), &|p| p.sum_sq[c]);
+        if (film.width, film.height) != (self.sums.width(), self.sums.height()) {
+            return Err(Error::output(
+                path,
+                format!(
+                    "the image is {}×{} pixels but the sums beside it {}×{}",
+                    film.width,
+                    film.height,
+                    self.sums.width(),
+                    self.sums.height()
+                ),
+            ));
         }
-        f64_channels("depth", &|p| p.depth);
+        let mut channels = exact_sums::encode(pixels, &exact_sums::Guide::of_film(film));
         let mut u32_channel = |name: &str, get: &dyn Fn(&PixelSums) -> u32| {
             channels.push(AnyChannel::new(
                 format!("part.{name}").as_str(),
@@ -329,39 +322,26 @@ impl Part {
                 _ => Err(Error::input(path, name, "expected 16-bit samples")),
             }
         };
-        let f64s = |name: &str| -> Result<Vec<f64>> {
-            if channel(&format!("part.{name}.hi")).is_ok() {
-                // The layout of older parts: two 32-bit halves.
-                let (hi, lo) = (
-                    u32s(&format!("part.{name}.hi"))?,
-                    u32s(&format!("part.{name}.lo"))?,
-                );
-                return Ok(hi
-                    .iter()
-                    .zip(lo)
-                    .map(|(&h, &l)| f64::from_bits((h as u64) << 32 | l as u64))
-                    .collect());
-            }
-            let mut bits = vec![0u64; width as usize * height as usize];
-            for word in 0..4 {
-                let w = words(&format!("part.{name}.w{word}"))?;
-                for (b, v) in bits.iter_mut().zip(w) {
-                    *b |= (v.to_bits() as u64) << (16 * word);
-                }
-            }
-            Ok(bits.into_iter().map(f64::from_bits).collect())
-        };
         let n = width as usize * height as usize;
         let mut pixels = vec![PixelSums::default(); n];
+        // The counts and the f32 sums first: the f64 sums' predictions
+        // need the counts.
+        let (samples, hits, virtual_hits) = (
+            u32s("part.samples")?,
+            u32s("part.hits")?,
+            u32s("part.virtual_hits")?,
+        );
+        let object_id = f32s("part.object_id")?;
+        for i in 0..n {
+            let p = &mut pixels[i];
+            p.samples = samples[i];
+            p.hits = hits[i];
+            p.virtual_hits = virtual_hits[i];
+            p.object_id = object_id[i];
+        }
         for (c, name) in ["R", "G", "B"].iter().enumerate() {
-            let (sum, sum_sq) = (
-                f64s(&format!("sum.{name}"))?,
-                f64s(&format!("sum_sq.{name}"))?,
-            );
             let albedo = f32s(&format!("part.albedo.{name}"))?;
             for i in 0..n {
-                pixels[i].sum[c] = sum[i];
-                pixels[i].sum_sq[c] = sum_sq[i];
                 pixels[i].albedo[c] = albedo[i];
             }
         }
@@ -371,20 +351,52 @@ impl Part {
                 pixels[i].normal[c] = normal[i];
             }
         }
-        let depth = f64s("depth")?;
-        let (samples, hits, virtual_hits) = (
-            u32s("part.samples")?,
-            u32s("part.hits")?,
-            u32s("part.virtual_hits")?,
-        );
-        let object_id = f32s("part.object_id")?;
-        for i in 0..n {
-            let p = &mut pixels[i];
-            p.depth = depth[i];
-            p.samples = samples[i];
-            p.hits = hits[i];
-            p.virtual_hits = virtual_hits[i];
-            p.object_id = object_id[i];
+        if channel("part.sum.R.hi").is_ok() {
+            // The layout of older parts: each f64 as two 32-bit halves.
+            for (k, name) in exact_sums::NAMES.iter().enumerate() {
+                let (hi, lo) = (
+                    u32s(&format!("part.{name}.hi"))?,
+                    u32s(&format!("part.{name}.lo"))?,
+                );
+                for (i, p) in pixels.iter_mut().enumerate() {
+                    let x = f64::from_bits((hi[i] as u64) << 32 | lo[i] as u64);
+                    match k {
+                        0..=2 => p.sum[k] = x,
+                        3..=5 => p.sum_sq[k - 3] = x,
+                        _ => p.depth = x,
+                    }
+                }
+            }
+        } else {
+            // Differences from predictions made from the image layers.
+            let mean_layer = |c: &str| {
+                let noisy = format!("noisy.{c}");
+                f32s(if channel(&noisy).is_ok() { &noisy } else { c })
+            };
+            let guide = exact_sums::Guide {
+                mean: [
+                    mean_layer("R")?.clone(),
+                    mean_layer("G")?.clone(),
+                    mean_layer("B")?.clone(),
+                ],
+                variance: [
+                    f32s("variance.R")?.clone(),
+                    f32s("variance.G")?.clone(),
+                    f32s("variance.B")?.clone(),
+                ],
+                depth: f32s("Z")?.clone(),
+            };
+            let mut stored = Vec::with_capacity(7);
+            for name in exact_sums::NAMES {
+                let mut w = Vec::with_capacity(4);
+                for word in 0..4 {
+                    w.push(words(&format!("part.{name}.r{word}"))?);
+                }
+                stored.push([w[0], w[1], w[2], w[3]]);
+            }
+            let stored: [[&Vec<exrp::f16>; 4]; 7] =
+                stored.try_into().expect("seven sums of four words");
+            exact_sums::decode(&mut pixels, &guide, &stored, u32s("part.raw")?);
         }
         let settings = super::settings_from_header(&layer.attributes);
         Ok(Part {

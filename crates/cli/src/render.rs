@@ -45,7 +45,7 @@ pub struct RenderArgs {
     #[arg(long, conflicts_with_all = ["samples", "crop"])]
     pub resume: bool,
     /// Write the image's layers only, without the exact per-pixel sums that
-    /// --resume continues from (a file about 2.5× smaller).
+    /// --resume continues from (a file about 40 % smaller).
     #[arg(long, conflicts_with_all = ["samples", "crop", "resume"])]
     pub no_resume_data: bool,
     /// Render only the window of columns [X0, X1) and rows [Y0, Y1), as a

@@ -829,11 +829,11 @@ fn frames_and_film_crop_windows_resume_into_one_render() {
     );
 }
 
-/// A render keeps its sums in a file about 2.3 times the size of the
-/// image alone (`--no-resume-data`), not the 6 times of an uncompressed
-/// part of the same samples.
+/// A render keeps its sums in a file under twice the size of the image
+/// alone (`--no-resume-data`; 1.77× here), not the 5 times of an
+/// uncompressed part of the same samples.
 #[test]
-fn the_sums_a_render_keeps_cost_little_more_than_twice_the_image() {
+fn the_sums_a_render_keeps_cost_less_than_the_image() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let size =
@@ -845,7 +845,7 @@ fn the_sums_a_render_keeps_cost_little_more_than_twice_the_image() {
     eprintln!(
         "image {image} B, with sums {with_sums} B ({ratio:.2}×), part {part} B ({part_ratio:.2}×)"
     );
-    assert!(ratio < 2.8, "the sums made the file {ratio:.2}× larger");
+    assert!(ratio < 2.0, "the sums made the file {ratio:.2}× larger");
     assert!(part_ratio > 4.0, "{part_ratio:.2}");
 }
 

@@ -152,7 +152,7 @@ fn render_takes_auto_exposure_and_info_lists_an_exr() {
     assert!(ok, "{err}");
     for want in [
         "64×64 pixels",
-        "and 38 channels part.* of the render's exact sums",
+        "and 39 channels part.* of the render's exact sums",
         "R (float)",
         "plsrPartSamples = \"0 2\"",
         "plsrSpp = 2",
