@@ -459,16 +459,25 @@ fn resumed_part(
             ),
         ));
     }
-    if old.info.sample_start != 0 || old.info.window != window || old.info.image != (width, height)
-    {
+    if old.info.image != (width, height) {
+        return Err(Error::input(
+            output,
+            "plsrPartImage",
+            format!(
+                "the file is a {}×{} image, this render {width}×{height} (--resolution or the \
+                 scene's camera.resolution changed)",
+                old.info.image.0, old.info.image.1
+            ),
+        ));
+    }
+    if old.info.sample_start != 0 || old.info.window != window {
         return Err(Error::input(
             output,
             "",
             format!(
-                "--resume continues a render of the whole image (or of the film's crop window) holding \
-                 samples 0..N; this \
-                 file is a part of samples {}..{} of the window x {}..{}, y {}..{} of a {}×{} image \
-                 (merge the parts with `plsr merge`)",
+                "--resume continues a render of the whole image (or of the film's crop window) \
+                 holding samples 0..N; this file is a part of samples {}..{} of the window \
+                 x {}..{}, y {}..{} of a {}×{} image (merge the parts with `plsr merge`)",
                 old.info.sample_start,
                 old.info.sample_end,
                 old.info.window.x0,
@@ -612,11 +621,13 @@ fn render_one(
     }
     // Resumed: the new samples are added to the old sums one by one, as
     // one render of all of them adds them.
-    let (sums, stats) = match &previous {
+    let resumed = previous.is_some();
+    let (sums, stats) = match previous {
         Some(old) => {
             let (width, height) = old.info.image;
             let mut full = FilmSums::new(width, height, 0, old.sums.settings());
             full.add_tile(old.info.window, old.sums.pixels());
+            drop(old);
             continue_sums(scene, job, options, &full, &progress)?
         }
         None => render_window_sums(scene, job, options, window, &progress)?,
@@ -689,9 +700,10 @@ fn render_one(
         );
     }
     outputs.commit()?;
-    let samples = match &previous {
-        Some(_) => format!("{} new samples, {} in all,", job.spp, spp),
-        None => format!("at {spp} spp"),
+    let samples = if resumed {
+        format!("{} new samples, {} in all,", job.spp, spp)
+    } else {
+        format!("at {spp} spp")
     };
     crate::note!(
         "rendered {}{}×{} {samples} in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s on {} threads{}{denoise_note} → {}{}",

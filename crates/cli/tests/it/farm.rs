@@ -749,6 +749,11 @@ fn resume_continues_any_render_into_the_file_of_one_render() {
         ),
         (&out, vec!["--spp", "32", "--rr-depth", "2"], "scene hash"),
         (&out, vec!["--spp", "32", "--seed", "9"], "scene hash"),
+        (
+            &out,
+            vec!["--spp", "32", "--resolution", "32,32"],
+            "plsrPartImage: the file is a 64×64 image, this render 32×32",
+        ),
     ] {
         let kept = std::fs::read(file).unwrap();
         let mut args = vec!["--resume"];
