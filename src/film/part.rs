@@ -412,6 +412,26 @@ impl Part {
     }
 }
 
+/// The window of a `size` image that a render with film `settings` fills:
+/// the film's crop window if it has one (inside the image), else the whole
+/// image. Parts must cover it, and a render keeps its sums.
+pub fn image_window(settings: super::FilmSettings, (width, height): (u32, u32)) -> Tile {
+    match settings.crop {
+        Some(c) if c.x0 + c.width <= width && c.y0 + c.height <= height => Tile {
+            x0: c.x0,
+            y0: c.y0,
+            width: c.width,
+            height: c.height,
+        },
+        _ => Tile {
+            x0: 0,
+            y0: 0,
+            width,
+            height,
+        },
+    }
+}
+
 /// Combines parts (each with the file it came from, for messages) into the
 /// sums of the whole image and their number of samples per pixel: the
 /// parts must be pieces of one scene (same hash, image size and film
@@ -546,20 +566,7 @@ pub fn merge_parts(parts: &[(PathBuf, Part)]) -> Result<(FilmSums, u32)> {
     }
     // The windows must cover every pixel once: of the image, or of the
     // film's crop window if it has one.
-    let required = match first.sums.settings().crop {
-        Some(c) if c.x0 + c.width <= width && c.y0 + c.height <= height => Tile {
-            x0: c.x0,
-            y0: c.y0,
-            width: c.width,
-            height: c.height,
-        },
-        _ => Tile {
-            x0: 0,
-            y0: 0,
-            width,
-            height,
-        },
-    };
+    let required = image_window(first.sums.settings(), (width, height));
     let mut owner: Vec<Option<&Path>> = vec![None; width as usize * height as usize];
     for (w, list) in &windows {
         let file = list[0].0.as_path();

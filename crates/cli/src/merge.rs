@@ -1,10 +1,11 @@
 //! `plsr merge`: combines the parts of a render (`plsr render --samples` or
-//! `--crop`) into the image one render of their union gives.
+//! `--crop`) into the image one render of their union gives, with the
+//! merged sums beside it (so that it can be resumed).
 
 use crate::error::{Error, Result};
 use crate::tonemap::{Exposure, SequenceExposure};
 use plsr::atomic_write::{same_file, OutputSet};
-use plsr::film::part::{merge_parts, Part};
+use plsr::film::part::{image_window, merge_parts, Part, PartInfo};
 use plsr_base::Vocabulary;
 use std::path::PathBuf;
 
@@ -33,6 +34,10 @@ pub struct MergeArgs {
     /// comes first).
     #[command(flatten)]
     pub denoise: crate::denoise::DenoiseFlags,
+    /// Write the image's layers only, without the merged exact sums that
+    /// `plsr render --resume` continues from (a file about 40 % smaller).
+    #[arg(long)]
+    pub no_resume_data: bool,
 }
 
 /// Runs `plsr merge`.
@@ -67,7 +72,22 @@ pub fn run_in_sequence(a: &MergeArgs, exposure: &mut SequenceExposure) -> Result
     let mut film = sums.develop(spp);
     let denoise_note = a.denoise.apply(&mut film, None)?;
     let mut outputs = OutputSet::new();
-    film.stage_exr(&mut outputs, &a.output)?;
+    if a.no_resume_data {
+        film.stage_exr(&mut outputs, &a.output)?;
+    } else {
+        // The merged sums beside the image, as a render keeps them: the
+        // merged image can be resumed (`plsr render --resume`) or merged
+        // again.
+        let first = &parts[0].1.info;
+        let info = PartInfo {
+            scene_hash: first.scene_hash,
+            image: first.image,
+            window: image_window(sums.settings(), first.image),
+            sample_start: sums.sample_start(),
+            sample_end: sums.sample_start() + spp,
+        };
+        Part::from_render(info, &sums).stage_exr_beside(&film, &mut outputs, &a.output, true)?;
+    }
     let mut png_note = String::new();
     if let Some(p) = &a.png {
         let tone = exposure.tone_map(&film, a.filmic);

@@ -4,7 +4,7 @@ use crate::error::{Error, Result};
 use crate::progress::progress_bar;
 use crate::tonemap::{Exposure, SequenceExposure};
 use plsr::atomic_write::{check_extension, same_file, OutputSet};
-use plsr::film::part::{scene_files_hasher, Part, PartInfo, StableHasher};
+use plsr::film::part::{image_window, scene_files_hasher, Part, PartInfo, StableHasher};
 use plsr::film::{FilmSums, Tile};
 use plsr::job::RenderJob;
 use plsr::job::{JobError, MAX_DEPTH, MAX_SPP};
@@ -388,20 +388,9 @@ impl FramesRun<'_> {
         let scene_hash = part_hash(self.files_hasher, &job, frame);
         // What a render keeps the sums of: the `--crop` window, or the
         // film's crop window, or the whole image.
-        let window = self.window.unwrap_or(match scene.film().crop {
-            Some(c) => Tile {
-                x0: c.x0,
-                y0: c.y0,
-                width: c.width,
-                height: c.height,
-            },
-            None => Tile {
-                x0: 0,
-                y0: 0,
-                width,
-                height,
-            },
-        });
+        let window = self
+            .window
+            .unwrap_or(image_window(*scene.film(), (width, height)));
         let previous = if a.resume && output.exists() {
             let old = resumed_part(output, (width, height), window, scene_hash)?;
             let have = old.info.sample_end;
@@ -411,6 +400,15 @@ impl FramesRun<'_> {
                     output.display(),
                     job.spp
                 );
+                // The PNG asked for is still written, of the file's image.
+                if let Some(p) = png {
+                    let film = plsr::film::Film::read_exr(output)?;
+                    let tone = exposure.tone_map(&film, a.filmic);
+                    let mut outputs = OutputSet::new();
+                    film.stage_png(&mut outputs, p, tone)?;
+                    outputs.commit()?;
+                    crate::note!("{} ({:+.2} stops)", p.display(), tone.exposure);
+                }
                 return Ok(());
             }
             job.sample_start = have;

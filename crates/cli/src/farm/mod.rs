@@ -387,6 +387,7 @@ fn merge(a: &FarmMergeArgs) -> Result<()> {
                 exposure: None,
                 filmic: false,
                 denoise: a.denoise.clone(),
+                no_resume_data: false,
             },
             &mut exposure,
         )?;

@@ -712,9 +712,28 @@ fn resume_continues_any_render_into_the_file_of_one_render() {
         std::fs::read(&whole).unwrap(),
         "the resumed file differs from one render's"
     );
-    // Nothing left to do.
-    let (ok, err) = render(o, &["--resume", "--spp", "16"]);
+    // Nothing left to do, but the PNG asked for is written.
+    let png = d.join("resumed.png");
+    let (ok, err) = render(
+        o,
+        &["--resume", "--spp", "16", "--png", png.to_str().unwrap()],
+    );
     assert!(ok && err.contains("holds 16 samples already"), "{err}");
+    assert!(png.exists(), "{err}");
+    // A merged image keeps the merged sums, and resumes too.
+    let (p0, p1, merged) = (d.join("p0.exr"), d.join("p1.exr"), d.join("merged.exr"));
+    assert!(render(p0.to_str().unwrap(), &["--samples", "0..3"]).0);
+    assert!(render(p1.to_str().unwrap(), &["--samples", "3..8"]).0);
+    let (ok, err) = merge(&[&p0, &p1], &merged);
+    assert!(ok, "{err}");
+    let (ok, err) = render(merged.to_str().unwrap(), &["--resume", "--spp", "16"]);
+    assert!(ok && err.contains("8 new samples, 16 in all"), "{err}");
+    assert_close(
+        "merged, then resumed",
+        &Film::read_exr(&whole).unwrap(),
+        &Film::read_exr(&merged).unwrap(),
+        1e-6,
+    );
     // A part of samples 0..N (as older versions wrote) continues too.
     let old_part = part(d, "old-part.exr", &["--samples", "0..4"]);
     let (ok, err) = render(old_part.to_str().unwrap(), &["--resume", "--spp", "16"]);
