@@ -332,6 +332,26 @@ impl Part {
             u32s("part.virtual_hits")?,
         );
         let object_id = f32s("part.object_id")?;
+        // Counts beyond the part's sample range (a damaged or forged file)
+        // would overflow when added to.
+        let range = sample_end - sample_start;
+        if let Some(i) = (0..n)
+            .find(|&i| samples[i] > range || hits[i] > samples[i] || virtual_hits[i] > samples[i])
+        {
+            return Err(Error::input(
+                path,
+                "part.samples",
+                format!(
+                    "pixel ({}, {}) counts {} samples, {} hits and {} virtual hits: more than \
+                     the part's {range} samples, or more hits than samples",
+                    i as u32 % width,
+                    i as u32 / width,
+                    samples[i],
+                    hits[i],
+                    virtual_hits[i]
+                ),
+            ));
+        }
         for i in 0..n {
             let p = &mut pixels[i];
             p.samples = samples[i];
@@ -706,6 +726,25 @@ mod tests {
             outputs.commit().unwrap();
             assert_same_sums(&part, &Part::read_exr(&path).unwrap());
         }
+    }
+
+    #[test]
+    fn counts_beyond_the_parts_sample_range_are_refused() {
+        // The header says samples 0..5, the pixels count 9.
+        let mut part = awkward_part();
+        part.info.sample_end = 5;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("forged.exr");
+        let mut outputs = OutputSet::new();
+        part.stage_exr(&mut outputs, &path).unwrap();
+        outputs.commit().unwrap();
+        let e = Part::read_exr(&path).unwrap_err().to_string();
+        assert!(
+            e.contains("forged.exr")
+                && e.contains("part.samples")
+                && e.contains("pixel (0, 0) counts 9 samples"),
+            "{e}"
+        );
     }
 
     #[test]

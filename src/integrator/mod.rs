@@ -91,7 +91,7 @@ pub fn continue_tile(
     let ids: Vec<f32> = previous.iter().map(|p| p.object_id).collect();
     let had: Vec<bool> = previous.iter().map(|p| p.samples > 0).collect();
     for p in &mut previous {
-        p.samples += job.spp;
+        p.samples = p.samples.saturating_add(job.spp);
     }
     let mut result = trace_tile(scene, job, kernel, tile, previous);
     for ((p, id), had) in result.pixels.iter_mut().zip(ids).zip(had) {

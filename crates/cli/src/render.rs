@@ -356,7 +356,7 @@ struct FramesRun<'a> {
     /// Whether the outputs are parts (`--samples`, `--crop`).
     parts: bool,
     /// Whether the outputs keep their exact sums (parts, and plain renders
-    /// but with `--no-resume-data`).
+    /// unless `--no-resume-data`).
     keeps_sums: bool,
     /// The scene files' hash, for the parts' identity.
     files_hasher: StableHasher,
