@@ -73,7 +73,65 @@ pub struct Part {
     pub info: PartInfo,
     /// The window's per-pixel sums and counts.
     pub sums: FilmSums,
+    /// What its scene hash was made of, where the writer said (for
+    /// messages that name what differs).
+    pub provenance: Option<Provenance>,
 }
+
+/// What a part's scene hash is made of, kept in its header (`plsrPartFiles`,
+/// `plsrPartSettings`) so that a refusal can say what differs.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Provenance {
+    /// The hash of the scene's files (and of the command line's scene
+    /// options: `-D`, `--anim-time`, `--light-picking`).
+    pub files_hash: u64,
+    /// The render settings in the hash, as `key value` pairs separated by
+    /// spaces (`seed 0 max_depth 8 rr_depth 4 hide_virtual false`).
+    pub settings: String,
+}
+
+impl Provenance {
+    /// What differs between `self` (a file's) and `now` (this run's), in
+    /// words, or `None` if nothing does.
+    pub fn differences(&self, now: &Provenance) -> Option<String> {
+        let pairs = |s: &str| -> Vec<(String, String)> {
+            let words: Vec<&str> = s.split_whitespace().collect();
+            words
+                .chunks(2)
+                .map(|c| (c[0].to_string(), c.get(1).unwrap_or(&"").to_string()))
+                .collect()
+        };
+        let (then, here) = (pairs(&self.settings), pairs(&now.settings));
+        let mut said: Vec<String> = Vec::new();
+        for (key, value) in &here {
+            match then.iter().find(|(k, _)| k == key) {
+                Some((_, old)) if old != value => {
+                    said.push(format!("{key} {old} in the file, {value} now"))
+                }
+                None => said.push(format!("{key} {value} now, none in the file")),
+                _ => {}
+            }
+        }
+        for (key, old) in &then {
+            if !here.iter().any(|(k, _)| k == key) {
+                said.push(format!("{key} {old} in the file, none now"));
+            }
+        }
+        if self.files_hash != now.files_hash {
+            said.push(
+                "the scene file or a file it reads has changed since (or -D, --anim-time or \
+                 --light-picking differ)"
+                    .to_string(),
+            );
+        }
+        (!said.is_empty()).then(|| said.join("; "))
+    }
+}
+
+/// Header attribute: [`Provenance::files_hash`].
+const FILES: &str = "plsrPartFiles";
+/// Header attribute: [`Provenance::settings`].
+const SETTINGS: &str = "plsrPartSettings";
 
 /// FNV-1a, 64 bits: a hash that is the same on every machine and in every
 /// build (unlike `std`'s), for [`scene_hash`].
@@ -148,6 +206,7 @@ impl Part {
                 pixels,
                 full.settings(),
             ),
+            provenance: None,
         }
     }
 
@@ -224,6 +283,11 @@ impl Part {
             ),
             text(SAMPLES, format!("{} {}", i.sample_start, i.sample_end)),
         ];
+        let mut attributes = attributes;
+        if let Some(p) = &self.provenance {
+            attributes.push(text(FILES, format!("{:016x}", p.files_hash)));
+            attributes.push(text(SETTINGS, p.settings.clone()));
+        }
         let encoding = if compressed {
             exrp::Encoding::SMALL_LOSSLESS
         } else {
@@ -419,6 +483,22 @@ impl Part {
             exact_sums::decode(&mut pixels, &guide, &stored, u32s("part.raw")?);
         }
         let settings = super::settings_from_header(&layer.attributes);
+        // Only for messages: a damaged or missing provenance is none.
+        let text_attr = |key: &str| match attrs.get(&exrp::Text::from(key)) {
+            Some(exrp::AttributeValue::Text(t)) => Some(t.to_string()),
+            _ => None,
+        };
+        let provenance = match (text_attr(FILES), text_attr(SETTINGS)) {
+            (Some(f), Some(settings)) => {
+                u64::from_str_radix(&f, 16)
+                    .ok()
+                    .map(|files_hash| Provenance {
+                        files_hash,
+                        settings,
+                    })
+            }
+            _ => None,
+        };
         Ok(Part {
             info: PartInfo {
                 scene_hash,
@@ -428,6 +508,7 @@ impl Part {
                 sample_end,
             },
             sums: FilmSums::from_pixels(width, height, sample_start, pixels, settings),
+            provenance,
         })
     }
 }
@@ -649,7 +730,14 @@ mod tests {
             sample_end: 4,
         };
         let sums = FilmSums::new(8, 6, 0, FilmSettings::default());
-        (PathBuf::from("part.exr"), Part { info, sums })
+        (
+            PathBuf::from("part.exr"),
+            Part {
+                info,
+                sums,
+                provenance: None,
+            },
+        )
     }
 
     /// Sums with awkward bit patterns (every word set, subnormals, −0,
@@ -694,11 +782,16 @@ mod tests {
         Part {
             info,
             sums: FilmSums::from_pixels(5, 3, 0, pixels, FilmSettings::default()),
+            provenance: Some(Provenance {
+                files_hash: 0x0123_4567_89ab_cdef,
+                settings: "seed 3 max_depth 8".into(),
+            }),
         }
     }
 
     fn assert_same_sums(a: &Part, b: &Part) {
         assert_eq!(a.info, b.info);
+        assert_eq!(a.provenance, b.provenance);
         for (p, q) in a.sums.pixels().iter().zip(b.sums.pixels()) {
             for c in 0..3 {
                 assert_eq!(p.sum[c].to_bits(), q.sum[c].to_bits());
@@ -729,6 +822,27 @@ mod tests {
     }
 
     #[test]
+    fn a_provenance_says_what_differs() {
+        let file = Provenance {
+            files_hash: 1,
+            settings: "seed 0 max_depth 8 frame 3".into(),
+        };
+        let same = file.clone();
+        assert_eq!(file.differences(&same), None);
+        let now = Provenance {
+            files_hash: 2,
+            settings: "seed 7 max_depth 8 rr_depth 2".into(),
+        };
+        let said = file.differences(&now).unwrap();
+        assert_eq!(
+            said,
+            "seed 0 in the file, 7 now; rr_depth 2 now, none in the file; frame 3 in the \
+             file, none now; the scene file or a file it reads has changed since (or -D, \
+             --anim-time or --light-picking differ)"
+        );
+    }
+
+    #[test]
     fn counts_beyond_the_parts_sample_range_are_refused() {
         // The header says samples 0..5, the pixels count 9.
         let mut part = awkward_part();
@@ -749,8 +863,10 @@ mod tests {
 
     #[test]
     fn parts_of_the_older_layout_are_read() {
-        // Each f64 sum as two 32-bit halves, as plsr wrote parts before.
-        let part = awkward_part();
+        // Each f64 sum as two 32-bit halves, as plsr wrote parts before
+        // (without a provenance).
+        let mut part = awkward_part();
+        part.provenance = None;
         let pixels = part.sums.pixels();
         let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
         let mut f64_channels = |name: &str, get: &dyn Fn(&PixelSums) -> f64| {

@@ -86,7 +86,11 @@ pub fn run_in_sequence(a: &MergeArgs, exposure: &mut SequenceExposure) -> Result
             sample_start: sums.sample_start(),
             sample_end: sums.sample_start() + spp,
         };
-        Part::from_render(info, &sums).stage_exr_beside(&film, &mut outputs, &a.output, true)?;
+        Part {
+            provenance: parts[0].1.provenance.clone(),
+            ..Part::from_render(info, &sums)
+        }
+        .stage_exr_beside(&film, &mut outputs, &a.output, true)?;
     }
     let mut png_note = String::new();
     if let Some(p) = &a.png {

@@ -4,7 +4,9 @@ use crate::error::{Error, Result};
 use crate::progress::progress_bar;
 use crate::tonemap::{Exposure, SequenceExposure};
 use plsr::atomic_write::{check_extension, same_file, OutputSet};
-use plsr::film::part::{image_window, scene_files_hasher, Part, PartInfo, StableHasher};
+use plsr::film::part::{
+    image_window, scene_files_hasher, Part, PartInfo, Provenance, StableHasher,
+};
 use plsr::film::{FilmSums, Tile};
 use plsr::job::RenderJob;
 use plsr::job::{JobError, MAX_DEPTH, MAX_SPP};
@@ -386,15 +388,25 @@ impl FramesRun<'_> {
         // Resuming: the samples the output holds already, and the rest.
         let mut job = self.job;
         let scene_hash = part_hash(self.files_hasher, &job, frame);
+        let provenance = Provenance {
+            files_hash: self.files_hasher.finish(),
+            settings: job_identity(&job, frame),
+        };
         // What a render keeps the sums of: the `--crop` window, or the
         // film's crop window, or the whole image.
         let window = self
             .window
             .unwrap_or(image_window(*scene.film(), (width, height)));
         let previous = if a.resume && output.exists() {
-            let old = resumed_part(output, (width, height), window, scene_hash)?;
+            let old = resumed_part(output, (width, height), window, (scene_hash, &provenance))?;
             let have = old.info.sample_end;
-            if have >= job.spp {
+            if have >= job.spp && a.denoise.denoise {
+                // Denoised again from the file's sums (with these
+                // settings), nothing rendered.
+                job.sample_start = have;
+                job.spp = 0;
+                Some(old)
+            } else if have >= job.spp {
                 crate::note!(
                     "{} holds {have} samples already (asked for {}): nothing to render",
                     output.display(),
@@ -410,10 +422,11 @@ impl FramesRun<'_> {
                     crate::note!("{} ({:+.2} stops)", p.display(), tone.exposure);
                 }
                 return Ok(());
+            } else {
+                job.sample_start = have;
+                job.spp -= have;
+                Some(old)
             }
-            job.sample_start = have;
-            job.spp -= have;
-            Some(old)
         } else {
             None
         };
@@ -430,6 +443,7 @@ impl FramesRun<'_> {
             &job,
             &self.options,
             (self.window, self.parts, part, previous),
+            &provenance,
             (output, png),
             frame,
             exposure,
@@ -443,16 +457,25 @@ fn resumed_part(
     output: &Path,
     (width, height): (u32, u32),
     window: Tile,
-    scene_hash: u64,
+    (scene_hash, provenance): (u64, &Provenance),
 ) -> Result<Part> {
     let old = Part::read_exr(output)?;
     if old.info.scene_hash != scene_hash {
+        let what = match old
+            .provenance
+            .as_ref()
+            .and_then(|p| p.differences(provenance))
+        {
+            Some(d) => format!("it was rendered otherwise: {d}"),
+            None => "the file is a render of another scene, or of other settings (seed, \
+                     depths, -D, --light-picking)"
+                .to_string(),
+        };
         return Err(Error::input(
             output,
             "plsrPartScene",
             format!(
-                "scene hash {:016x} differs from this render's {scene_hash:016x}: the file is a \
-                 render of another scene, or of other settings (seed, depths, -D, --light-picking)",
+                "scene hash {:016x} differs from this render's {scene_hash:016x}: {what}",
                 old.info.scene_hash
             ),
         ));
@@ -590,6 +613,7 @@ fn render_one(
     job: &RenderJob,
     options: &RenderOptions,
     (window, is_part, part, previous): (Option<Tile>, bool, Option<PartInfo>, Option<Part>),
+    provenance: &Provenance,
     (output, png): (&Path, Option<&PathBuf>),
     frame: Option<u32>,
     exposure: &mut SequenceExposure,
@@ -626,7 +650,12 @@ fn render_one(
             let mut full = FilmSums::new(width, height, 0, old.sums.settings());
             full.add_tile(old.info.window, old.sums.pixels());
             drop(old);
-            continue_sums(scene, job, options, &full, &progress)?
+            if job.spp == 0 {
+                // No new samples (`--resume --denoise` of a complete file).
+                (full, plsr::render::RenderStats::default())
+            } else {
+                continue_sums(scene, job, options, &full, &progress)?
+            }
         }
         None => render_window_sums(scene, job, options, window, &progress)?,
     };
@@ -638,7 +667,10 @@ fn render_one(
     let film = match part {
         Some(info) if is_part => {
             // A part: the window's sums, exactly, and what merging checks.
-            let part = Part::from_render(info, &sums);
+            let part = Part {
+                provenance: Some(provenance.clone()),
+                ..Part::from_render(info, &sums)
+            };
             part.stage_exr(&mut outputs, output)?;
             part.sums
                 .develop(part.info.sample_end - part.info.sample_start)
@@ -647,13 +679,16 @@ fn render_one(
             let mut film = sums.develop(spp);
             // The image, and the sums `--resume` continues from.
             let stage = |film: &plsr::film::Film, outputs: &mut OutputSet| match part {
-                Some(info) => Part::from_render(
-                    PartInfo {
-                        sample_start: 0,
-                        ..info
-                    },
-                    &sums,
-                )
+                Some(info) => Part {
+                    provenance: Some(provenance.clone()),
+                    ..Part::from_render(
+                        PartInfo {
+                            sample_start: 0,
+                            ..info
+                        },
+                        &sums,
+                    )
+                }
                 .stage_exr_beside(film, outputs, output, true),
                 None => film.stage_exr(outputs, output),
             };
@@ -698,13 +733,30 @@ fn render_one(
         );
     }
     outputs.commit()?;
-    let samples = if resumed {
-        format!("{} new samples, {} in all,", job.spp, spp)
+    let samples = if is_part {
+        format!(
+            " samples {}..{} ({} spp)",
+            job.sample_start,
+            job.sample_start + job.spp,
+            job.spp
+        )
+    } else if resumed {
+        format!(", {} new samples, {spp} in all,", job.spp)
     } else {
-        format!("at {spp} spp")
+        format!(" at {spp} spp")
     };
+    if job.spp == 0 {
+        // Nothing rendered: the file's samples, denoised again.
+        crate::note!(
+            "{} holds {spp} samples already: nothing to render{denoise_note} → {}{}",
+            output.display(),
+            output.display(),
+            png_note
+        );
+        return Ok(());
+    }
     crate::note!(
-        "rendered {}{}×{} {samples} in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s on {} threads{}{denoise_note} → {}{}",
+        "rendered {}{}×{}{samples} in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s on {} threads{}{denoise_note} → {}{}",
         frame.map(|f| format!("frame {f}, ")).unwrap_or_default(),
         film.width,
         film.height,

@@ -766,8 +766,17 @@ fn resume_continues_any_render_into_the_file_of_one_render() {
             vec!["--spp", "16"],
             "a part of samples 4..8 of the window x 0..64, y 0..64",
         ),
-        (&out, vec!["--spp", "32", "--rr-depth", "2"], "scene hash"),
-        (&out, vec!["--spp", "32", "--seed", "9"], "scene hash"),
+        (&out, vec!["--spp", "32", "--rr-depth", "2"], "scene hash "),
+        (
+            &out,
+            vec!["--spp", "32", "--seed", "9"],
+            "it was rendered otherwise: seed 0 in the file, 9 now",
+        ),
+        (
+            &out,
+            vec!["--spp", "32", "--rr-depth", "2"],
+            "rr_depth 4 in the file, 2 now",
+        ),
         (
             &out,
             vec!["--spp", "32", "--resolution", "32,32"],
@@ -783,6 +792,27 @@ fn resume_continues_any_render_into_the_file_of_one_render() {
         assert_eq!(std::fs::read(file).unwrap(), kept, "{name} was changed");
     }
     assert_eq!(std::fs::read(&out).unwrap(), before);
+    // A scene file changed since (if only by a comment) is said as such.
+    let edited = common::scenes::cornell_64(d, "edited.toml", None, "");
+    let e = edited.to_str().unwrap();
+    let eo = d.join("edited.exr");
+    assert!(plsr(&["render", e, "-o", eo.to_str().unwrap(), "--spp", "2"]).0);
+    let text = std::fs::read_to_string(&edited).unwrap();
+    std::fs::write(&edited, text + "\n# a comment\n").unwrap();
+    let (ok, err) = plsr(&[
+        "render",
+        e,
+        "-o",
+        eo.to_str().unwrap(),
+        "--spp",
+        "4",
+        "--resume",
+    ]);
+    assert!(
+        !ok && err.contains("edited.exr")
+            && err.contains("the scene file or a file it reads has changed since"),
+        "{err}"
+    );
 }
 
 /// Resuming works frame by frame along a camera path, and on a film with
