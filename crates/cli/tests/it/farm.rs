@@ -766,7 +766,6 @@ fn resume_continues_any_render_into_the_file_of_one_render() {
             vec!["--spp", "16"],
             "a part of samples 4..8 of the window x 0..64, y 0..64",
         ),
-        (&out, vec!["--spp", "32", "--rr-depth", "2"], "scene hash "),
         (
             &out,
             vec!["--spp", "32", "--seed", "9"],
