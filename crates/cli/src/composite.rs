@@ -58,7 +58,7 @@ pub struct CompositeArgs {
     /// before their difference is taken.
     #[command(flatten)]
     pub denoise: crate::denoise::DenoiseFlags,
-    /// No progress bar.
+    /// Print nothing but warnings and errors: no progress, no summary.
     #[arg(short, long)]
     pub quiet: bool,
 }

@@ -65,7 +65,7 @@ pub struct FitArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
-    /// No progress bar.
+    /// Print nothing but warnings and errors: no progress, no summary.
     #[arg(short, long)]
     pub quiet: bool,
 }

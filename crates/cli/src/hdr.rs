@@ -136,7 +136,7 @@ pub struct HdrMergeArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
-    /// No progress bar.
+    /// Print nothing but warnings and errors: no progress, no summary.
     #[arg(short, long)]
     pub quiet: bool,
     /// Absolute units from the EXIF f-number and ISO of the bracket of
@@ -180,14 +180,19 @@ fn calibration_window(flag: &str, s: &str, with_value: bool) -> Result<([usize; 
             }
         ))
     };
-    let (window, value) = match s.split_once('=') {
-        Some((w, v)) if with_value => (w, v.trim().parse::<f64>().map_err(|_| bad())?),
-        None if !with_value => (s, 1.0),
+    let (window, value, rest) = match s.split_once('=') {
+        Some((w, v)) if with_value => (
+            w,
+            v.trim().parse::<f64>().map_err(|_| bad())?,
+            &s[w.len()..],
+        ),
+        None if !with_value => (s, 1.0, ""),
         _ => return Err(bad()),
     };
     // The image's size is known only when merging, which checks the
     // window against it.
-    let [x0, y0, x1, y1] = crate::pixel_args::parse_rect(flag, window, None)?.map(|v| v as usize);
+    let [x0, y0, x1, y1] =
+        crate::pixel_args::parse_rect_before(flag, window, rest, None)?.map(|v| v as usize);
     if !(value.is_finite() && value > 0.0) {
         return Err(Error::invalid_argument(format!(
             "{flag} `{s}`: the value must be positive"

@@ -100,8 +100,11 @@ pub fn run_in_sequence(a: &MergeArgs, exposure: &mut SequenceExposure) -> Result
     }
     outputs.commit()?;
     crate::note!(
-        "merged {} parts into {}×{} at {} spp{denoise_note} → {}{png_note}",
-        parts.len(),
+        "merged {} into {}×{} at {} spp{denoise_note} → {}{png_note}",
+        match parts.len() {
+            1 => "1 part".to_string(),
+            n => format!("{n} parts"),
+        },
         film.width,
         film.height,
         spp,

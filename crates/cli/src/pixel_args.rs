@@ -36,7 +36,19 @@ pub fn parse_size(flag: &str, s: &str, max: u32) -> Result<(u32, u32)> {
 /// Parses `flag`'s rectangle `X0,Y0,X1,Y1` (corners, `X0 < X1`, `Y0 <
 /// Y1`); `within`: the image it must lie in, when known.
 pub fn parse_rect(flag: &str, s: &str, within: Option<(u32, u32)>) -> Result<[u32; 4]> {
-    let bad = |why: String| Error::invalid_argument(format!("{flag} {s}: {why}"));
+    parse_rect_before(flag, s, "", within)
+}
+
+/// [`parse_rect`] of a rectangle that the argument follows with `rest`
+/// (`=100` of `--known-luminance X0,Y0,X1,Y1=100`), which the messages
+/// keep.
+pub fn parse_rect_before(
+    flag: &str,
+    s: &str,
+    rest: &str,
+    within: Option<(u32, u32)>,
+) -> Result<[u32; 4]> {
+    let bad = |why: String| Error::invalid_argument(format!("{flag} {s}{rest}: {why}"));
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
     // An origin and a size, `X,Y,WxH`: say the corners.
     if let [x, y, size] = parts[..] {
@@ -44,7 +56,7 @@ pub fn parse_rect(flag: &str, s: &str, within: Option<(u32, u32)>) -> Result<[u3
         if let (Ok(x), Ok(y), Some((w, h))) = (x.parse::<u32>(), y.parse::<u32>(), sized) {
             if let (Ok(w), Ok(h)) = (w.parse::<u32>(), h.parse::<u32>()) {
                 return Err(bad(format!(
-                    "rectangles are written by their corners X0,Y0,X1,Y1 in plsr: {flag} {x},{y},{},{}",
+                    "rectangles are written by their corners X0,Y0,X1,Y1 in plsr: {flag} {x},{y},{},{}{rest}",
                     x.saturating_add(w),
                     y.saturating_add(h)
                 )));

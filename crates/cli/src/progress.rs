@@ -17,11 +17,30 @@ const LINE_EVERY: Duration = Duration::from_secs(10);
 /// The interval between progress lines: `PLSR_PROGRESS_SECONDS` (a
 /// non-negative number) or [`LINE_EVERY`].
 fn line_every() -> Duration {
-    std::env::var("PLSR_PROGRESS_SECONDS")
-        .ok()
-        .and_then(|s| s.trim().parse::<f64>().ok())
-        .filter(|s| s.is_finite() && *s >= 0.0 && *s < 1e9)
-        .map_or(LINE_EVERY, Duration::from_secs_f64)
+    let Ok(text) = std::env::var("PLSR_PROGRESS_SECONDS") else {
+        return LINE_EVERY;
+    };
+    match text.trim().parse::<f64>() {
+        Ok(s) if s.is_finite() && (0.0..1e9).contains(&s) => Duration::from_secs_f64(s),
+        _ => {
+            warn_once(&format!(
+                "PLSR_PROGRESS_SECONDS={text}: expected a number of seconds (using {})",
+                LINE_EVERY.as_secs()
+            ));
+            LINE_EVERY
+        }
+    }
+}
+
+/// Prints a warning about the progress settings, once per process (a
+/// command may show several bars).
+fn warn_once(message: &str) {
+    static WARNED: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+    let mut warned = WARNED.lock().unwrap_or_else(|p| p.into_inner());
+    if !warned.iter().any(|m| m == message) {
+        eprintln!("plsr: warning: {message}");
+        warned.push(message.to_string());
+    }
 }
 
 /// How progress is shown.
@@ -34,12 +53,24 @@ enum Style {
 
 /// The style `PLSR_PROGRESS` asks for, or the default for this stderr.
 fn style() -> Style {
+    let terminal = std::io::stderr().is_terminal();
+    let default = if terminal { Style::Bar } else { Style::Lines };
     match std::env::var("PLSR_PROGRESS").as_deref() {
-        Ok("bar") => Style::Bar,
+        Ok("bar") if terminal => Style::Bar,
+        Ok("bar") => {
+            warn_once("PLSR_PROGRESS=bar: stderr is not a terminal, where a bar cannot be drawn (using lines)");
+            Style::Lines
+        }
         Ok("lines") => Style::Lines,
         Ok("none") => Style::None,
-        _ if std::io::stderr().is_terminal() => Style::Bar,
-        _ => Style::Lines,
+        Ok(other) => {
+            warn_once(&format!(
+                "PLSR_PROGRESS={other}: expected bar, lines or none (using {})",
+                if terminal { "bar" } else { "lines" }
+            ));
+            default
+        }
+        Err(_) => default,
     }
 }
 
@@ -53,7 +84,7 @@ pub fn progress_bar(quiet: bool, template: &str) -> ProgressBar {
     let (target, template) = match style {
         // A log gets no spinner and no bar: the counts and times say it.
         Style::Lines => (
-            ProgressDrawTarget::term_like_with_hz(Box::new(Lines::new(line_every())), 1),
+            ProgressDrawTarget::term_like_with_hz(Box::new(Lines::new(line_every())), 4),
             template
                 .replace("{spinner} ", "")
                 .replace("{wide_bar} ", ""),
@@ -71,28 +102,30 @@ pub fn progress_bar(quiet: bool, template: &str) -> ProgressBar {
 #[derive(Debug)]
 struct Lines {
     every: Duration,
-    last: Mutex<Instant>,
+    /// When the last line was printed, and what it said.
+    last: Mutex<(Instant, String)>,
 }
 
 impl Lines {
     fn new(every: Duration) -> Lines {
         Lines {
             every,
-            last: Mutex::new(Instant::now()),
+            last: Mutex::new((Instant::now(), String::new())),
         }
     }
 
-    /// The line to print for a draw of `s`, if one is due.
+    /// The line to print for a draw of `s`, if one is due (never the
+    /// same line twice in a row).
     fn due<'a>(&self, s: &'a str) -> Option<&'a str> {
         let s = s.trim_end();
         if s.trim().is_empty() {
             return None;
         }
         let mut last = self.last.lock().unwrap_or_else(|p| p.into_inner());
-        if last.elapsed() < self.every {
+        if last.0.elapsed() < self.every || last.1 == s {
             return None;
         }
-        *last = Instant::now();
+        *last = (Instant::now(), s.to_string());
         Some(s)
     }
 
@@ -153,5 +186,7 @@ mod tests {
             lines.due("[00:00:02] 2/4 tiles"),
             Some("[00:00:02] 2/4 tiles")
         );
+        // A redraw of the same state prints nothing, even with no interval.
+        assert_eq!(lines.due("[00:00:02] 2/4 tiles"), None);
     }
 }

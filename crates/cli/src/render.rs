@@ -108,7 +108,7 @@ pub struct RenderArgs {
     pub light_picking: Option<String>,
     #[command(flatten)]
     pub denoise: crate::denoise::DenoiseFlags,
-    /// No progress bar.
+    /// Print nothing but warnings and errors: no progress, no summary.
     #[arg(short, long)]
     pub quiet: bool,
 }

@@ -75,11 +75,12 @@ pub fn cwssim(a: &GreyImage, b: &GreyImage, options: &CwSsimOptions) -> Result<f
     let most = (smallest.max(1) as f64).log2().floor() as i64 - 2;
     if options.level as i64 > most {
         return Err(Error::invalid_argument(format!(
-            "CW-SSIM: a {}×{} image holds at most {} pyramid levels, {} asked for \
-             (crop less tightly or lower --cwssim-level)",
+            "CW-SSIM: a {}×{} image holds at most {} pyramid level{}, {} asked for \
+             (crop less tightly, lower --cwssim-level, or leave CW-SSIM out with --metric)",
             a.width,
             a.height,
             most.max(0),
+            if most == 1 { "" } else { "s" },
             options.level
         )));
     }

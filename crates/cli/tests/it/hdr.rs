@@ -1352,6 +1352,10 @@ fn grey_card_calibration_from_the_command_line() {
             "Y1 ≤ 32",
         ),
         (vec!["--known-luminance", "1,1,5,5=-3"], "must be positive"),
+        (
+            vec!["--known-luminance", "10,10,20x20=100"],
+            "in plsr: --known-luminance 10,10,30,30=100",
+        ),
         (vec!["--grey-card", "1,1,5,5"], "--illuminance"),
     ] {
         let mut bad = args.clone();

@@ -42,4 +42,27 @@ fn a_log_gets_progress_lines_and_quiet_or_none_silences_them() {
     // The default interval prints nothing for work this short.
     let default = render(dir.path(), &[], &[]);
     assert!(!default.contains("tiles (eta"), "{default}");
+    // No line is printed twice in a row.
+    for pair in progress.windows(2) {
+        assert_ne!(pair[0], pair[1], "{log}");
+    }
+    // Settings that cannot be followed are said once, and the default kept.
+    for (env, says) in [
+        (
+            ("PLSR_PROGRESS", "verbose"),
+            "PLSR_PROGRESS=verbose: expected bar, lines or none (using lines)",
+        ),
+        (
+            ("PLSR_PROGRESS", "bar"),
+            "PLSR_PROGRESS=bar: stderr is not a terminal",
+        ),
+        (
+            ("PLSR_PROGRESS_SECONDS", "abc"),
+            "PLSR_PROGRESS_SECONDS=abc: expected a number of seconds (using 10)",
+        ),
+    ] {
+        let log = render(dir.path(), &[], &[env]);
+        assert_eq!(log.matches(says).count(), 1, "{log}");
+        assert!(log.contains("rendered 64×64"), "{log}");
+    }
 }
