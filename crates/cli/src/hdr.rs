@@ -529,9 +529,9 @@ const IMAGE_EXTENSIONS: [&str; 9] = [
 ];
 
 /// The bracket files: each path given, with a folder replaced by the
-/// images in it (by extension, in name order; files of other kinds and
-/// the merge's own `outputs` are left out). A folder without images is an
-/// error naming it.
+/// images in it (by extension, in name order; files of other kinds, the
+/// merge's own `outputs`, and EXR, HDR and PFM files beside 8- or 16-bit
+/// images are left out). A folder without images is an error naming it.
 fn bracket_files(given: &[PathBuf], outputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     for path in given {
@@ -568,7 +568,27 @@ fn bracket_files(given: &[PathBuf], outputs: &[PathBuf]) -> Result<Vec<PathBuf>>
             ));
         }
         images.sort();
-        files.extend(images);
+        // High-dynamic-range files among low-dynamic-range brackets are a
+        // reference or an earlier merge, not brackets: left out, saying so.
+        let is_hdr = |f: &PathBuf| {
+            f.extension()
+                .map(|e| e.to_string_lossy().to_ascii_lowercase())
+                .is_some_and(|e| ["exr", "hdr", "pfm"].contains(&e.as_str()))
+        };
+        let (hdr, ldr): (Vec<PathBuf>, Vec<PathBuf>) = images.into_iter().partition(is_hdr);
+        if !hdr.is_empty() && !ldr.is_empty() {
+            let names: Vec<String> = hdr.iter().map(|f| f.display().to_string()).collect();
+            crate::note!(
+                "note: left out {}: high-dynamic-range among {} low-dynamic-range brackets \
+                 (name it to merge it)",
+                names.join(", "),
+                ldr.len()
+            );
+            files.extend(ldr);
+        } else {
+            files.extend(hdr);
+            files.extend(ldr);
+        }
     }
     Ok(files)
 }

@@ -751,6 +751,23 @@ fn cli_merges_every_image_of_a_folder() {
     let inside = brackets.join("pano.exr");
     assert!(merge_to(&[brackets.as_os_str()], &inside) == a);
     assert!(merge_to(&[brackets.as_os_str()], &inside) == a);
+    // A high-dynamic-range file among the brackets (a reference, an
+    // earlier merge under another name) is left out, and said.
+    std::fs::copy(&inside, brackets.join("reference.exr")).unwrap();
+    let out = dir.path().join("c.exr");
+    let output = plsr(&[
+        "hdr".as_ref(),
+        "merge".as_ref(),
+        brackets.as_os_str(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        output.status.success() && stderr.contains("left out") && stderr.contains("reference.exr"),
+        "{stderr}"
+    );
+    assert!(std::fs::read(&out).unwrap() == a);
     let empty = dir.path().join("empty");
     std::fs::create_dir(&empty).unwrap();
     let e = expect_merge_error(dir.path(), &[empty], &[]);
