@@ -317,7 +317,23 @@ fn check_scene_format(path: &Path) -> Result<()> {
         Some("a mesh: place it in a scene file's [[shapes]] (type = \"obj\", \"ply\" or \"gltf\")")
     } else if matches!(
         ext.as_str(),
-        "pbrt" | "blend" | "usd" | "usda" | "usdc" | "usdz" | "exr" | "hdr" | "png" | "jpg"
+        "pbrt"
+            | "blend"
+            | "usd"
+            | "usda"
+            | "usdc"
+            | "usdz"
+            | "dae"
+            | "3ds"
+            | "yaml"
+            | "yml"
+            | "exr"
+            | "hdr"
+            | "png"
+            | "jpg"
+            | "jpeg"
+            | "tif"
+            | "tiff"
     ) {
         Some("not a plsr scene file")
     } else {

@@ -310,6 +310,11 @@ fn other_formats_are_unsupported_not_toml_errors() {
         ),
         ("bunny.obj", b"v 0 0 0\n".to_vec(), "a mesh"),
         (
+            "scene.yaml",
+            b"camera:\n  vfov: 40\n".to_vec(),
+            "not a plsr scene file",
+        ),
+        (
             "noise.toml",
             vec![0xff, 0xfe, 0x00, 0x41],
             "not a text file",
