@@ -398,23 +398,50 @@ fn merge(a: &FarmMergeArgs) -> Result<()> {
 /// `plsr farm status`.
 fn status(a: &StatusArgs) -> Result<()> {
     let (plan, dir, _) = read_plan(&a.plan)?;
-    let missing = DoneCheck::new(&plan, &dir)?.missing(&plan, &dir);
-    let total = plan.piece_count();
-    println!(
-        "{} of {total} pieces done{}",
-        total - missing.len() as u32,
-        if missing.is_empty() {
-            String::new()
-        } else {
-            format!("; missing: {}", index_list(&missing))
-        }
-    );
-    let frames = plan.frame_list();
-    let merged = frames
+    let check = DoneCheck::new(&plan, &dir)?;
+    let not_done = check.missing(&plan, &dir);
+    let stale = check.stale(&plan, &dir);
+    let missing: Vec<u32> = not_done
         .iter()
-        .filter(|f| plan.output_paths(&dir, **f).0.is_file())
-        .count();
-    println!("{merged} of {} merged images written", frames.len());
+        .copied()
+        .filter(|i| !stale.contains(i))
+        .collect();
+    let total = plan.piece_count();
+    let mut line = format!("{} of {total} pieces done", total - not_done.len() as u32);
+    if !missing.is_empty() {
+        line += &format!("; missing: {}", index_list(&missing));
+    }
+    if !stale.is_empty() {
+        line += &format!(
+            "; stale (rendered before the scene or its settings changed; `farm piece` renders \
+             them again): {}",
+            index_list(&stale)
+        );
+    }
+    println!("{line}");
+    // A merged image is current when its sums are those of the plan's
+    // samples of the scene as it is now.
+    let frames = plan.frame_list();
+    let (mut current, mut stale_images) = (0, Vec::new());
+    for &frame in &frames {
+        let path = plan.output_paths(&dir, frame).0;
+        if !path.is_file() {
+            continue;
+        }
+        if check.is_current(&path, frame, 0..plan.spp) {
+            current += 1;
+        } else {
+            stale_images.push(path.display().to_string());
+        }
+    }
+    let mut line = format!("{current} of {} merged images written", frames.len());
+    if !stale_images.is_empty() {
+        line += &format!(
+            "; stale (of other pieces, or without the sums that tell): {}",
+            stale_images.join(", ")
+        );
+    }
+    println!("{line}");
     Ok(())
 }
 

@@ -262,6 +262,8 @@ pub struct DoneCheck {
     files_hasher: StableHasher,
     job: plsr::job::RenderJob,
     image: (u32, u32),
+    /// The window a part holds: the image, or the film's crop window.
+    window: plsr::film::Tile,
 }
 
 impl DoneCheck {
@@ -279,34 +281,47 @@ impl DoneCheck {
         for field in params.hash_fields() {
             files_hasher.field(field.as_bytes());
         }
+        let image = (camera.width(), camera.height());
         Ok(DoneCheck {
             files_hasher,
             job: contents.description.job,
-            image: (camera.width(), camera.height()),
+            image,
+            window: plsr::film::part::image_window(contents.description.film, image),
         })
     }
 
     /// Whether piece `p`'s part file is there and is the piece.
     pub fn is_done(&self, plan: &FarmPlan, dir: &Path, p: &Piece) -> bool {
         let path = plan.part_path(dir, p);
-        if !path.is_file() {
-            return false;
-        }
-        let Ok(part) = Part::read_exr(&path) else {
+        path.is_file() && self.is_current(&path, p.frame, p.samples.clone())
+    }
+
+    /// Whether `path` reads as a render of the scene as it is now (its
+    /// files, settings and `frame`) holding `samples` of its window.
+    pub fn is_current(&self, path: &Path, frame: Option<u32>, samples: Range<u32>) -> bool {
+        let Ok(part) = Part::read_exr(path) else {
             return false;
         };
         let i = &part.info;
-        i.scene_hash == part_hash(self.files_hasher, &self.job, p.frame)
+        i.scene_hash == part_hash(self.files_hasher, &self.job, frame)
             && i.image == self.image
-            && i.samples() == p.samples
-            && (i.window.x0, i.window.y0, i.window.width, i.window.height)
-                == (0, 0, self.image.0, self.image.1)
+            && i.samples() == samples
+            && i.window == self.window
     }
 
     /// The indices of the pieces not done.
     pub fn missing(&self, plan: &FarmPlan, dir: &Path) -> Vec<u32> {
         plan.pieces()
             .filter(|p| !self.is_done(plan, dir, p))
+            .map(|p| p.index)
+            .collect()
+    }
+
+    /// Of the pieces not done, those whose part file is there but is not
+    /// the piece (rendered before the scene or its settings changed).
+    pub fn stale(&self, plan: &FarmPlan, dir: &Path) -> Vec<u32> {
+        plan.pieces()
+            .filter(|p| plan.part_path(dir, p).is_file() && !self.is_done(plan, dir, p))
             .map(|p| p.index)
             .collect()
     }

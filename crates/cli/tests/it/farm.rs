@@ -902,6 +902,62 @@ fn the_sums_a_render_keeps_cost_less_than_the_image() {
     assert!(part_ratio > 4.0, "{part_ratio:.2}");
 }
 
+/// `farm status` tells pieces that are missing from pieces that are stale
+/// (rendered before the scene changed), and a merged image that is current
+/// from one that is not.
+#[test]
+fn status_tells_stale_pieces_and_images_from_missing_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = common::scenes::cornell_64(d, "scene.toml", None, "");
+    let out = d.join("farm");
+    let run = |args: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_plsr"))
+            .args(args)
+            .output()
+            .unwrap();
+        let text =
+            String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{args:?}: {text}");
+        text
+    };
+    let plan = out.join("farm.toml");
+    let p = plan.to_str().unwrap();
+    run(&[
+        "farm",
+        "slurm",
+        scene.to_str().unwrap(),
+        "--parts",
+        "3",
+        "--spp",
+        "6",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    run(&["farm", "piece", p, "0"]);
+    run(&["farm", "piece", p, "1"]);
+    let s = run(&["farm", "status", p]);
+    assert!(s.contains("2 of 3 pieces done; missing: 2\n"), "{s}");
+    run(&["farm", "piece", p, "2"]);
+    run(&["farm", "merge", p]);
+    let s = run(&["farm", "status", p]);
+    assert!(
+        s.contains("3 of 3 pieces done\n") && s.contains("1 of 1 merged images written\n"),
+        "{s}"
+    );
+    // The scene changes (by a comment): every piece and the image are stale.
+    let text = std::fs::read_to_string(&scene).unwrap();
+    std::fs::write(&scene, text + "\n# changed\n").unwrap();
+    let s = run(&["farm", "status", p]);
+    assert!(
+        s.contains("0 of 3 pieces done; stale (rendered before the scene or its settings changed")
+            && s.contains("): 0-2")
+            && s.contains("0 of 1 merged images written; stale")
+            && s.contains("image.exr"),
+        "{s}"
+    );
+}
+
 /// A Mitsuba scene's `-D` parameters go into the plan: every piece reads
 /// the scene with them (here `spp`, which sets the plan's samples), status
 /// finds the parts done, and the merge is the image of 8 samples.
