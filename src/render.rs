@@ -232,6 +232,19 @@ pub fn continue_sums(
     previous: &FilmSums,
     progress: &(dyn Fn(usize, usize) -> bool + Sync),
 ) -> Result<(FilmSums, RenderStats)> {
+    continue_window_sums(scene, job, options, None, previous, progress)
+}
+
+/// [`continue_sums`] of the pixels of `window` only (the whole image, or
+/// the scene's crop window, for `None`): a resumed part of a window.
+pub fn continue_window_sums(
+    scene: &Scene,
+    job: &RenderJob,
+    options: &RenderOptions,
+    window: Option<Tile>,
+    previous: &FilmSums,
+    progress: &(dyn Fn(usize, usize) -> bool + Sync),
+) -> Result<(FilmSums, RenderStats)> {
     let cam = scene.camera();
     if (previous.width(), previous.height()) != (cam.width(), cam.height())
         || previous.settings() != *scene.film()
@@ -248,7 +261,7 @@ pub fn continue_sums(
         scene,
         job,
         options,
-        None,
+        window,
         Some(Previous::Sums(previous)),
         progress,
     )?;

@@ -239,10 +239,17 @@ impl std::fmt::Display for WrongExtension {
             wanted,
             got,
         } = self;
-        write!(
-            f,
-            "writes {format}; name the file `.{wanted}` (got `.{got}`)"
-        )
+        if got.is_empty() {
+            write!(
+                f,
+                "writes {format}; name the file `.{wanted}` (it has no extension)"
+            )
+        } else {
+            write!(
+                f,
+                "writes {format}; name the file `.{wanted}` (got `.{got}`)"
+            )
+        }
     }
 }
 

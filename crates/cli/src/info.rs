@@ -123,12 +123,15 @@ pub fn run(a: &InfoArgs) -> Result<()> {
             .as_ref()
             .map(|n| format!(" `{n}`"))
             .unwrap_or_default();
+        let compression = match h.compression {
+            exr::prelude::Compression::Uncompressed => "uncompressed".to_string(),
+            other => format!("{other:?} compression"),
+        };
         println!(
-            "layer {i}{name}: {}×{} pixels{}, {:?} compression",
+            "layer {i}{name}: {}×{} pixels{}, {compression}",
             h.layer_size.0,
             h.layer_size.1,
             if h.deep { ", deep" } else { "" },
-            h.compression
         );
         // The exact sums of a part or a resumable render (`part.*`) are
         // counted, not listed: they are not for looking at.
@@ -154,6 +157,41 @@ pub fn run(a: &InfoArgs) -> Result<()> {
                 "  and {} channels part.* of the render's exact sums, for `plsr merge` and `--resume`",
                 sums.len()
             );
+            // What the sums are of, from the part's header.
+            let attr = |key: &str| {
+                h.own_attributes
+                    .other
+                    .get(&exr::prelude::Text::from(key))
+                    .map(value)
+                    .map(|v| v.trim_matches('"').to_string())
+            };
+            if let (Some(samples), Some(window), Some(image)) = (
+                attr("plsrPartSamples"),
+                attr("plsrPartWindow"),
+                attr("plsrPartImage"),
+            ) {
+                let n =
+                    |s: &str| -> Vec<String> { s.split_whitespace().map(String::from).collect() };
+                let (samples, window, image) = (n(&samples), n(&window), n(&image));
+                if let ([s0, s1], [x0, y0, x1, y1], [w, hh]) =
+                    (&samples[..], &window[..], &image[..])
+                {
+                    let whole = x0 == "0" && y0 == "0" && x1 == w && y1 == hh;
+                    println!(
+                        "  {}: samples {s0}..{s1} of {}",
+                        if s0 == "0" {
+                            "resumable (plsr render --resume)"
+                        } else {
+                            "a part"
+                        },
+                        if whole {
+                            format!("the whole {w}×{hh} image")
+                        } else {
+                            format!("the window {x0},{y0},{x1},{y1} of a {w}×{hh} image")
+                        }
+                    );
+                }
+            }
         }
         let mut attributes: Vec<(String, String)> = h
             .shared_attributes

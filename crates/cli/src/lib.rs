@@ -82,7 +82,8 @@ pub enum Command {
     /// stay unbiased (never denoised): the fit's gradients need them so.
     Fit(fit::FitArgs),
     /// Score an image against a reference as the paper does (CW-SSIM) and
-    /// by SSIM, PSNR and RMSE, over a crop and a mask (see docs/metrics.md).
+    /// by LPIPS, FLIP, SSIM, PSNR and RMSE, over a crop and a mask (see
+    /// docs/metrics.md).
     Compare(compare::CompareArgs),
     /// Measure throughput. `plsr bench` (suite `core`): raw Embree rays, path
     /// tracing, and Embree's own `pathtracer` (Debian's embree-tools) on the

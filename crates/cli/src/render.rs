@@ -12,7 +12,7 @@ use plsr::job::RenderJob;
 use plsr::job::{JobError, MAX_DEPTH, MAX_SPP};
 use plsr::light::LightPicking;
 use plsr::render::{
-    continue_sums, render_window_sums, RenderOptions, DEFAULT_TILE_SIZE, MAX_TILE_SIZE,
+    continue_window_sums, render_window_sums, RenderOptions, DEFAULT_TILE_SIZE, MAX_TILE_SIZE,
 };
 use plsr::scene::Scene;
 use plsr_base::Vocabulary;
@@ -44,7 +44,7 @@ pub struct RenderArgs {
     /// them, bit for bit what one render of 0..SPP writes; if -o does not
     /// exist, render 0..SPP. Every render keeps what resuming needs unless
     /// written with --no-resume-data (see docs/farm.md).
-    #[arg(long, conflicts_with_all = ["samples", "crop"])]
+    #[arg(long, conflicts_with = "samples")]
     pub resume: bool,
     /// Write the image's layers only, without the exact per-pixel sums that
     /// --resume continues from (a file about 40 % smaller).
@@ -497,16 +497,21 @@ fn resumed_part(
             "",
             format!(
                 "--resume continues a render of the whole image (or of the film's crop window) \
-                 holding samples 0..N; this file is a part of samples {}..{} of the window \
-                 x {}..{}, y {}..{} of a {}×{} image (merge the parts with `plsr merge`)",
+                 holding samples 0..N, or with --crop of that window; this file holds samples \
+                 {}..{} of the window {},{},{},{} (X0,Y0,X1,Y1) of a {}×{} image, this render \
+                 the window {},{},{},{} (merge parts with `plsr merge`)",
                 old.info.sample_start,
                 old.info.sample_end,
                 old.info.window.x0,
-                old.info.window.x0 + old.info.window.width,
                 old.info.window.y0,
+                old.info.window.x0 + old.info.window.width,
                 old.info.window.y0 + old.info.window.height,
                 old.info.image.0,
-                old.info.image.1
+                old.info.image.1,
+                window.x0,
+                window.y0,
+                window.x0 + window.width,
+                window.y0 + window.height
             ),
         ));
     }
@@ -654,7 +659,7 @@ fn render_one(
                 // No new samples (`--resume --denoise` of a complete file).
                 (full, plsr::render::RenderStats::default())
             } else {
-                continue_sums(scene, job, options, &full, &progress)?
+                continue_window_sums(scene, job, options, window, &full, &progress)?
             }
         }
         None => render_window_sums(scene, job, options, window, &progress)?,
@@ -666,7 +671,12 @@ fn render_one(
     let mut denoise_note = String::new();
     let film = match part {
         Some(info) if is_part => {
-            // A part: the window's sums, exactly, and what merging checks.
+            // A part: the window's sums, exactly, and what merging checks
+            // (resumed: all its samples from 0).
+            let info = PartInfo {
+                sample_start: if resumed { 0 } else { info.sample_start },
+                ..info
+            };
             let part = Part {
                 provenance: Some(provenance.clone()),
                 ..Part::from_render(info, &sums)
@@ -733,15 +743,15 @@ fn render_one(
         );
     }
     outputs.commit()?;
-    let samples = if is_part {
+    let samples = if resumed {
+        format!(", {} new samples, {spp} in all,", job.spp)
+    } else if is_part {
         format!(
             " samples {}..{} ({} spp)",
             job.sample_start,
             job.sample_start + job.spp,
             job.spp
         )
-    } else if resumed {
-        format!(", {} new samples, {spp} in all,", job.spp)
     } else {
         format!(" at {spp} spp")
     };

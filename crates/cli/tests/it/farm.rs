@@ -764,7 +764,7 @@ fn resume_continues_any_render_into_the_file_of_one_render() {
         (
             &later,
             vec!["--spp", "16"],
-            "a part of samples 4..8 of the window x 0..64, y 0..64",
+            "this file holds samples 4..8 of the window 0,0,64,64 (X0,Y0,X1,Y1) of a 64×64 image",
         ),
         (
             &out,
@@ -866,6 +866,30 @@ fn frames_and_film_crop_windows_resume_into_one_render() {
     assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&once).unwrap());
     let image = Film::read_exr(&out).unwrap();
     assert_eq!((image.width, image.height), (32, 56));
+    // A --crop part resumes too, into the part of all its samples.
+    let (cp, cp_once) = (d.join("cp.exr"), d.join("cp-once.exr"));
+    let crop_part = |p: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            c,
+            "-o",
+            p.to_str().unwrap(),
+            "--crop",
+            "10,8,30,40",
+        ];
+        args.extend_from_slice(extra);
+        let (ok, err) = plsr(&args);
+        assert!(ok, "{err}");
+        err
+    };
+    crop_part(&cp, &["--spp", "3"]);
+    let err = crop_part(&cp, &["--spp", "7", "--resume"]);
+    assert!(err.contains("4 new samples, 7 in all"), "{err}");
+    crop_part(&cp_once, &["--spp", "7"]);
+    assert_eq!(
+        std::fs::read(&cp).unwrap(),
+        std::fs::read(&cp_once).unwrap()
+    );
     // Its parts hold the window and merge into it.
     let (a, b, merged) = (d.join("ca.exr"), d.join("cb.exr"), d.join("cm.exr"));
     for (p, range) in [(&a, "0..3"), (&b, "3..7")] {

@@ -153,6 +153,7 @@ fn render_takes_auto_exposure_and_info_lists_an_exr() {
     for want in [
         "64×64 pixels",
         "and 39 channels part.* of the render's exact sums",
+        "resumable (plsr render --resume): samples 0..2 of the whole 64×64 image",
         "R (float)",
         "plsrPartSamples = \"0 2\"",
         "plsrSpp = 2",
