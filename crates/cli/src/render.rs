@@ -34,8 +34,9 @@ pub struct RenderArgs {
     /// Samples per pixel (overrides the scene's render.spp).
     #[arg(long, conflicts_with = "samples")]
     pub spp: Option<u32>,
-    /// Render only sample indices [START, END) of every pixel, as a part
-    /// that `plsr merge` combines with the others (see docs/farm.md).
+    /// Render only sample indices [START, END) of every pixel (START..=LAST
+    /// includes LAST), as a part that `plsr merge` combines with the others
+    /// (see docs/farm.md).
     #[arg(long, value_name = "START..END")]
     pub samples: Option<String>,
     /// Add samples to -o instead of starting over: if -o is a render of
@@ -812,15 +813,27 @@ fn job_identity(job: &RenderJob, frame: Option<u32>) -> String {
 /// `--samples START..END`: `START < END`.
 fn parse_samples(s: &str) -> Result<(u32, u32)> {
     let bad = |why: &str| Error::invalid_argument(format!("--samples {s}: {why}"));
-    let (a, b) = s
-        .split_once("..")
-        .ok_or_else(|| bad("expected START..END, e.g. 0..64"))?;
+    // START..END (END excluded) or START..=LAST, as --frames.
+    let (a, b, inclusive) = match s.split_once("..=") {
+        Some((a, b)) => (a, b, true),
+        None => {
+            let (a, b) = s
+                .split_once("..")
+                .ok_or_else(|| bad("expected START..END, e.g. 0..64 (or 0..=63)"))?;
+            (a, b, false)
+        }
+    };
     let parse = |x: &str| {
         x.trim()
             .parse::<u32>()
             .map_err(|_| bad(&format!("{x:?} is not a sample index")))
     };
     let (start, end) = (parse(a)?, parse(b)?);
+    let end = if inclusive {
+        end.checked_add(1).ok_or_else(|| bad("LAST is too large"))?
+    } else {
+        end
+    };
     if start >= end {
         return Err(bad("START must be below END"));
     }

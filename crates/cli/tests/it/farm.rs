@@ -1027,3 +1027,13 @@ fn a_plan_keeps_a_mitsuba_scenes_d_parameters() {
     assert_eq!(denoised.noisy.as_ref(), Some(&film.color));
     assert_ne!(denoised.color, film.color);
 }
+
+/// `--samples` takes `START..=LAST` as `--frames` does.
+#[test]
+fn samples_take_an_inclusive_range_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let a = part(d, "a.exr", &["--samples", "2..=5"]);
+    let b = part(d, "b.exr", &["--samples", "2..6"]);
+    assert_eq!(std::fs::read(a).unwrap(), std::fs::read(b).unwrap());
+}
