@@ -22,8 +22,9 @@ pub fn parse_size(flag: &str, s: &str, max: u32) -> Result<(u32, u32)> {
             )));
         }
     }
-    let Some((w, h)) = s.split_once(',') else {
-        return Err(bad("expected W,H, e.g. 1920,1080".into()));
+    let (w, h) = match s.split(',').collect::<Vec<_>>()[..] {
+        [w, h] => (w, h),
+        _ => return Err(bad("expected W,H, e.g. 1920,1080".into())),
     };
     let within = |x: &str| {
         number(x)
@@ -110,6 +111,11 @@ mod tests {
         assert!(parse_size("--size", "0,5", 10).is_err());
         assert!(parse_size("--size", "11,5", 10).is_err());
         assert!(parse_size("--size", "5", 10).is_err());
+        let e = parse_size("--size", "5,6,3", 10).unwrap_err().to_string();
+        assert!(
+            e.ends_with("--size 5,6,3: expected W,H, e.g. 1920,1080"),
+            "{e}"
+        );
     }
 
     #[test]
