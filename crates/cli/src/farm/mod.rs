@@ -60,6 +60,13 @@ pub struct PlanArgs {
     /// batch files, the parts, the logs and the merged images.
     #[arg(short, long, value_name = "OUTDIR")]
     pub output_dir: PathBuf,
+    /// Random seed (default: the scene's render.seed).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Image size in pixels (overrides camera.resolution; the vertical
+    /// field of view is kept).
+    #[arg(long, value_name = "W,H")]
+    pub resolution: Option<String>,
     /// Name of the merged images: NAME.exr, or NAME-NNNN.exr per frame.
     #[arg(long, default_value = "image")]
     pub name: String,
@@ -171,6 +178,13 @@ pub fn make_plan(a: &PlanArgs, writes: &[&str]) -> Result<(FarmPlan, PathBuf, Pa
             .map(|(n, v)| [n.clone(), v.clone()])
             .collect(),
         time: a.params.anim_time,
+        seed: a.seed,
+        resolution: a
+            .resolution
+            .as_deref()
+            .map(|r| crate::pixel_args::parse_size("--resolution", r, 1 << 16))
+            .transpose()?
+            .map(|(w, h)| [w, h]),
     };
     plan.check().map_err(|(field, m)| {
         let flag = match field {
@@ -311,12 +325,12 @@ fn piece(a: &PieceArgs) -> Result<()> {
         spp: None,
         samples: Some(format!("{}..{}", piece.samples.start, piece.samples.end)),
         crop: None,
-        resolution: None,
+        resolution: plan.resolution.map(|[w, h]| format!("{w},{h}")),
         frame: piece.frame,
         frames: None,
         max_depth: None,
         rr_depth: None,
-        seed: None,
+        seed: plan.seed,
         threads: a.threads,
         tile_size: DEFAULT_TILE_SIZE,
         exposure: None,

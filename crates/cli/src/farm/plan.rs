@@ -53,6 +53,13 @@ pub struct FarmPlan {
     /// are shown at.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub time: Option<f32>,
+    /// The random seed, instead of the scene's `[render] seed`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// The image size `[width, height]` in pixels, instead of the scene's
+    /// `camera.resolution` (the vertical field of view is kept).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resolution: Option<[u32; 2]>,
 }
 
 /// One piece of a plan: a sample range of one frame.
@@ -119,6 +126,14 @@ impl FarmPlan {
                     self.spp, self.parts
                 ),
             ));
+        }
+        if let Some([w, h]) = self.resolution {
+            if !(1..=1 << 16).contains(&w) || !(1..=1 << 16).contains(&h) {
+                return Err((
+                    "resolution",
+                    format!("{w}×{h}: each side must be 1 to 65536 pixels"),
+                ));
+            }
         }
         if let Some([a, b]) = self.frames {
             if a > b {
@@ -281,10 +296,17 @@ impl DoneCheck {
         for field in params.hash_fields() {
             files_hasher.field(field.as_bytes());
         }
-        let image = (camera.width(), camera.height());
+        let image = match plan.resolution {
+            Some([w, h]) => (w, h),
+            None => (camera.width(), camera.height()),
+        };
+        let mut job = contents.description.job;
+        if let Some(seed) = plan.seed {
+            job.seed = seed;
+        }
         Ok(DoneCheck {
             files_hasher,
-            job: contents.description.job,
+            job,
             image,
             window: plsr::film::part::image_window(contents.description.film, image),
         })
@@ -369,6 +391,8 @@ mod tests {
             png: false,
             defines: Vec::new(),
             time: None,
+            seed: None,
+            resolution: None,
         }
     }
 

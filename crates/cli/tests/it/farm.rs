@@ -1037,3 +1037,92 @@ fn samples_take_an_inclusive_range_too() {
     let b = part(d, "b.exr", &["--samples", "2..6"]);
     assert_eq!(std::fs::read(a).unwrap(), std::fs::read(b).unwrap());
 }
+
+/// A plan can set the seed and the image size (`farm slurm --seed
+/// --resolution`), as `plsr render` does: its merge is the render of the
+/// scene with them, and status finds its pieces done.
+#[test]
+fn a_plan_sets_the_seed_and_resolution() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("farm");
+    let run = |args: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_plsr"))
+            .args(args)
+            .output()
+            .unwrap();
+        let text =
+            String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{args:?}: {text}");
+        text
+    };
+    run(&[
+        "farm",
+        "slurm",
+        SCENE,
+        "--parts",
+        "2",
+        "--spp",
+        "6",
+        "--seed",
+        "5",
+        "--resolution",
+        "40,30",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let plan = out.join("farm.toml");
+    let text = std::fs::read_to_string(&plan).unwrap();
+    assert!(
+        text.contains("seed = 5") && text.contains("resolution = [40, 30]"),
+        "{text}"
+    );
+    let p = plan.to_str().unwrap();
+    run(&["farm", "piece", p, "0"]);
+    run(&["farm", "piece", p, "1"]);
+    assert!(run(&["farm", "status", p]).contains("2 of 2 pieces done"));
+    run(&["farm", "merge", p]);
+    let one = d.join("one.exr");
+    run(&[
+        "render",
+        SCENE,
+        "-o",
+        one.to_str().unwrap(),
+        "--spp",
+        "6",
+        "--seed",
+        "5",
+        "--resolution",
+        "40,30",
+    ]);
+    let merged = Film::read_exr(&out.join("image.exr")).unwrap();
+    assert_eq!((merged.width, merged.height), (40, 30));
+    assert_close(
+        "farm with seed and size",
+        &Film::read_exr(&one).unwrap(),
+        &merged,
+        1e-6,
+    );
+    // A size out of range is refused before anything is written.
+    let bad = d.join("bad");
+    let o = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .args([
+            "farm",
+            "slurm",
+            SCENE,
+            "--parts",
+            "2",
+            "--resolution",
+            "0,30",
+            "-o",
+        ])
+        .arg(&bad)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("--resolution 0,30"),
+        "{err}"
+    );
+    assert!(!bad.exists());
+}
