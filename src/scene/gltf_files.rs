@@ -368,6 +368,13 @@ impl GltfAsset {
         for a in self.doc.accessors() {
             let field = format!("accessors[{}]", a.index());
             let count = a.count();
+            // Found by fuzzing: the glTF crate's reader computes
+            // `count - 1`; the format asks for at least one element.
+            if count == 0 {
+                return Err(
+                    format!("{field}.count is 0: an accessor has at least one element").into(),
+                );
+            }
             if count > MAX_ACCESSOR_COUNT {
                 return Err(format!(
                     "{field}.count {count} is above plsr's limit of {MAX_ACCESSOR_COUNT}"
