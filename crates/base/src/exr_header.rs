@@ -148,8 +148,16 @@ pub fn header_fault(path: &std::path::Path) -> std::io::Result<Option<String>> {
         .unwrap_or(1);
     let windows = attributes
         .iter()
-        .filter(|a| a.name == b"dataWindow" && a.kind == b"box2i" && a.value.len() == 16);
+        .filter(|a| a.name == b"dataWindow" && a.kind == b"box2i");
     for window in windows {
+        // Found by fuzzing: a box2i of 18 bytes, whose first 16 the `exr`
+        // crate read as a data window of 33,554,440 pixels' width.
+        if window.value.len() != 16 {
+            return Ok(Some(format!(
+                "the header's dataWindow is {} bytes long; a box2i is 16",
+                window.value.len()
+            )));
+        }
         let v = |i: usize| {
             let b = &window.value[4 * i..4 * i + 4];
             i64::from(i32::from_le_bytes([b[0], b[1], b[2], b[3]]))
@@ -305,5 +313,18 @@ mod tests {
         h.extend_from_slice(&65536i32.to_le_bytes());
         h.extend_from_slice(&header([0, 0, 33_554_439, 5], 2)[8..]);
         assert!(fault(&h).unwrap().contains("does not parse"));
+        // Found by fuzzing: a second dataWindow of 18 bytes, whose first
+        // 16 a reader takes as a window 33,554,440 pixels wide.
+        let mut h = rgb_header([0, 0, 7, 5], 3, 600);
+        let end = h.len() - 601; // the header's closing zero
+        let mut wide = b"dataWindow\0box2i\0".to_vec();
+        wide.extend_from_slice(&18i32.to_le_bytes());
+        for v in [0i32, 0, 33_554_439, 5] {
+            wide.extend_from_slice(&v.to_le_bytes());
+        }
+        wide.extend_from_slice(b"di");
+        h.splice(end..end, wide);
+        let f = fault(&h).unwrap();
+        assert!(f.contains("dataWindow is 18 bytes long"), "{f}");
     }
 }
