@@ -547,18 +547,20 @@ fn check_frame(frame: u32, path: &plsr::camera_path::CameraPath) -> Result<()> {
     Ok(())
 }
 
+/// `A..B` or `A..=B` cut at the dots: the two ends, and whether the second
+/// is included (`None` without `..`).
+fn split_range(s: &str) -> Option<(&str, &str, bool)> {
+    match s.split_once("..=") {
+        Some((a, b)) => Some((a, b, true)),
+        None => s.split_once("..").map(|(a, b)| (a, b, false)),
+    }
+}
+
 /// `--frames A..B` (B excluded) or `A..=B` (B included): a non-empty range.
 pub(crate) fn parse_frames(s: &str) -> Result<std::ops::RangeInclusive<u32>> {
     let bad = |why: &str| Error::invalid_argument(format!("--frames {s}: {why}"));
-    let (a, b, inclusive) = match s.split_once("..=") {
-        Some((a, b)) => (a, b, true),
-        None => {
-            let (a, b) = s
-                .split_once("..")
-                .ok_or_else(|| bad("expected A..B (B excluded) or A..=B, e.g. 0..24"))?;
-            (a, b, false)
-        }
-    };
+    let (a, b, inclusive) =
+        split_range(s).ok_or_else(|| bad("expected A..B (B excluded) or A..=B, e.g. 0..24"))?;
     let parse = |x: &str| {
         x.trim()
             .parse::<u32>()
@@ -814,15 +816,8 @@ fn job_identity(job: &RenderJob, frame: Option<u32>) -> String {
 fn parse_samples(s: &str) -> Result<(u32, u32)> {
     let bad = |why: &str| Error::invalid_argument(format!("--samples {s}: {why}"));
     // START..END (END excluded) or START..=LAST, as --frames.
-    let (a, b, inclusive) = match s.split_once("..=") {
-        Some((a, b)) => (a, b, true),
-        None => {
-            let (a, b) = s
-                .split_once("..")
-                .ok_or_else(|| bad("expected START..END, e.g. 0..64 (or 0..=63)"))?;
-            (a, b, false)
-        }
-    };
+    let (a, b, inclusive) =
+        split_range(s).ok_or_else(|| bad("expected START..END, e.g. 0..64 (or 0..=63)"))?;
     let parse = |x: &str| {
         x.trim()
             .parse::<u32>()

@@ -926,6 +926,17 @@ fn the_sums_a_render_keeps_cost_less_than_the_image() {
     assert!(part_ratio > 4.0, "{part_ratio:.2}");
 }
 
+/// Runs `plsr ARGS`, which must succeed; returns stdout and stderr.
+fn run(args: &[&str]) -> String {
+    let o = Command::new(env!("CARGO_BIN_EXE_plsr"))
+        .args(args)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{args:?}: {text}");
+    text
+}
+
 /// `farm status` tells pieces that are missing from pieces that are stale
 /// (rendered before the scene changed), and a merged image that is current
 /// from one that is not.
@@ -935,16 +946,6 @@ fn status_tells_stale_pieces_and_images_from_missing_ones() {
     let d = dir.path();
     let scene = common::scenes::cornell_64(d, "scene.toml", None, "");
     let out = d.join("farm");
-    let run = |args: &[&str]| {
-        let o = Command::new(env!("CARGO_BIN_EXE_plsr"))
-            .args(args)
-            .output()
-            .unwrap();
-        let text =
-            String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
-        assert!(o.status.success(), "{args:?}: {text}");
-        text
-    };
     let plan = out.join("farm.toml");
     let p = plan.to_str().unwrap();
     run(&[
@@ -1046,16 +1047,6 @@ fn a_plan_sets_the_seed_and_resolution() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let out = d.join("farm");
-    let run = |args: &[&str]| {
-        let o = Command::new(env!("CARGO_BIN_EXE_plsr"))
-            .args(args)
-            .output()
-            .unwrap();
-        let text =
-            String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
-        assert!(o.status.success(), "{args:?}: {text}");
-        text
-    };
     run(&[
         "farm",
         "slurm",
